@@ -1,0 +1,1 @@
+"""Input and output: capture folders, result folders, map files."""

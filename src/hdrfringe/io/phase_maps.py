@@ -1,0 +1,102 @@
+"""Writing the phase stage's maps into a result folder (names in docs/phase.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hdrfringe.io.results import write_map_tiff, write_preview_png
+from hdrfringe.phase import PhaseResult
+from hdrfringe.process import FolderPhase
+
+#: (file stem, attribute of PhaseResult, colour map, unit label)
+SET_MAPS: tuple[tuple[str, str, str, str], ...] = (
+    ("wrapped_phase", "wrapped_phase", "twilight", "rad"),
+    ("modulation", "modulation", "magma", "DN"),
+    ("mean_intensity", "mean_intensity", "gray", "DN"),
+    ("data_modulation", "data_modulation", "viridis", "I'/I''"),
+    ("saturation_count", "saturation_count", "inferno", "saturated shifts"),
+)
+
+
+def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> None:
+    for stem, attr, cmap, unit in SET_MAPS:
+        data = getattr(res, attr)
+        name = f"{stem}{suffix}"
+        write_map_tiff(out / f"{name}.tiff", data)
+        kw: dict[str, Any] = {}
+        if stem == "wrapped_phase":
+            kw = {"vmin": 0.0, "vmax": 2 * np.pi}
+        elif stem == "saturation_count":
+            kw = {"vmin": 0.0, "vmax": float(max(1, res.spec.steps if res.spec else 1))}
+        write_preview_png(out / f"{name}.png", data, title=name, cmap=cmap, label=unit, **kw)
+        files += [f"{name}.tiff", f"{name}.png"]
+
+
+def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, Any]:
+    """Write every map of a decoded folder into ``out`` (an existing, empty staging folder).
+
+    One set: ``wrapped_phase.tiff``, ``modulation.tiff``, ``mean_intensity.tiff``,
+    ``data_modulation.tiff``, ``saturation_count.tiff`` (+ PNG previews). Several sets: the same
+    names with ``__<set label>`` appended for every set, and the unsuffixed names for the finest
+    set of the primary family. ``unwrapped_phase.tiff`` and ``absolute_phase.tiff`` belong to the
+    primary family; a second (horizontal) family gets ``_horizontal`` appended.
+    Returns the summary that is also written to ``phase_summary.json``.
+    """
+    files: list[str] = []
+    primary = decoded.primary
+    if len(decoded.sets) == 1:
+        _write_set(out, decoded.set_results[decoded.sets[0].label], "", files)
+    else:
+        for s in decoded.sets:
+            _write_set(out, decoded.set_results[s.label], f"__{s.label}", files)
+        if primary is not None:
+            _write_set(out, decoded.set_results[primary.sets[-1].label], "", files)
+    families = []
+    for i, fam in enumerate(decoded.families):
+        suffix = "" if i == 0 else f"_{fam.orientation}"
+        name = f"unwrapped_phase{suffix}"
+        write_map_tiff(out / f"{name}.tiff", fam.unwrapped_phase)
+        write_preview_png(out / f"{name}.png", fam.unwrapped_phase, title=name, label="rad")
+        files += [f"{name}.tiff", f"{name}.png"]
+        entry: dict[str, Any] = {
+            "orientation": fam.orientation,
+            "sets": [s.label for s in fam.sets],
+            "pitch_px": fam.pitch_px,
+            "unwrapping": fam.method,
+            "unwrapped_phase": f"{name}.tiff",
+        }
+        if fam.absolute_phase is not None:
+            aname = f"absolute_phase{suffix}"
+            write_map_tiff(out / f"{aname}.tiff", fam.absolute_phase)
+            write_preview_png(out / f"{aname}.png", fam.absolute_phase, title=aname, label="rad")
+            files += [f"{aname}.tiff", f"{aname}.png"]
+            entry["absolute_phase"] = f"{aname}.tiff"
+            entry["absolute_method"] = fam.absolute_method
+        families.append(entry)
+    sets = []
+    for s in decoded.sets:
+        r = decoded.set_results[s.label]
+        sets.append({
+            "label": s.label,
+            "pattern": s.spec.pattern,
+            "steps": s.spec.steps,
+            "pitch_px": s.spec.pitch_px,
+            "orientation": s.spec.orientation,
+            "imin": s.spec.imin,
+            "migl": s.spec.migl,
+            "valid_fraction": float(np.mean(r.valid)),
+            "saturated_fraction": float(np.mean(r.saturation_count > 0)),
+        })
+    summary = {
+        "source": source,
+        "sets": sets,
+        "families": families,
+        "notes": decoded.notes,
+        "files": sorted(files),
+    }
+    (out / "phase_summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    return summary

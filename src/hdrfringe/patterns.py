@@ -1,0 +1,351 @@
+"""Fringe patterns for the projector: sinusoidal and triangular N-step, centerline, uniform gray.
+
+All patterns follow the pattern convention of the capture-folder contract. For a projector
+coordinate ``x`` (column for vertical fringes, row for horizontal; pixel centres at integers),
+pitch ``p``, steps ``N`` and shift ``i``::
+
+    g_i(x) = imin + (migl - imin) * (1 + P((x + i*p/N) / p)) / 2
+
+with ``P`` of period 1 peaking at 0: ``cos(2*pi*t)`` for sinusoidal fringes (thesis Eq. 2.1,
+phase shift ``delta_i = 2*pi*i/N``, Eq. 2.3) and ``1 - 4*|t - round(t)|`` for triangular fringes
+(thesis Eq. 2.5 shifted by a quarter pitch; shifts ``(i-1)*T/N``, Eq. 2.7). The gray level sent to
+a projector of bit depth ``Bp`` after gamma pre-compensation (thesis Eq. 2.17) is
+``round((2^Bp - 1) * (g / (2^Bp - 1)) ** (1 / gamma_hat))``.
+
+Frames (:class:`FringeFrame`, :class:`CenterlineFrame`, :class:`UniformFrame`) describe one
+projected image each; they render to arrays and to manifest entries.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hdrfringe.errors import InputError
+
+PatternKind = Literal["sinusoidal", "triangular"]
+Orientation = Literal["vertical", "horizontal"]
+
+PATTERNS: tuple[str, ...] = ("sinusoidal", "triangular")
+ORIENTATIONS: tuple[str, ...] = ("vertical", "horizontal")
+
+
+def fringe_profile(t: ArrayLike, pattern: str) -> NDArray[np.float64]:
+    """Periodic fringe profile ``P(t)`` of period 1, peaking at ``t = 0`` with value +1.
+
+    Parameters
+    ----------
+    t : array_like
+        Position in periods.
+    pattern : {"sinusoidal", "triangular"}
+        ``cos(2*pi*t)`` or the triangle wave ``1 - 4*|t - round(t)|``.
+
+    Returns
+    -------
+    ndarray
+        Values in [-1, 1].
+
+    Examples
+    --------
+    >>> fringe_profile([0.0, 0.25, 0.5], "triangular").tolist()
+    [1.0, 0.0, -1.0]
+    """
+    t = np.asarray(t, dtype=np.float64)
+    if pattern == "sinusoidal":
+        return np.cos(2.0 * np.pi * t)
+    if pattern == "triangular":
+        return 1.0 - 4.0 * np.abs(t - np.round(t))
+    raise InputError(
+        f"unknown fringe pattern {pattern!r}; use one of {', '.join(PATTERNS)}"
+    )
+
+
+@dataclass(frozen=True)
+class FringeSpec:
+    """One phase-shifted fringe set as projected: pattern, steps, pitch, orientation, gray range.
+
+    Parameters
+    ----------
+    pattern : {"sinusoidal", "triangular"}
+    steps : int
+        Number of phase shifts N (N >= 3 sinusoidal, N >= 2 triangular).
+    pitch_px : float
+        Fringe pitch in projector pixels, any positive real number.
+    orientation : {"vertical", "horizontal"}
+        "vertical": the pattern varies along the projector's x axis (columns).
+    imin, migl : float
+        Minimum and maximum input gray level (thesis Eq. 3.8-3.9: ``a = (migl + imin)/2``,
+        ``b = (migl - imin)/2``).
+    """
+
+    pattern: PatternKind = "sinusoidal"
+    steps: int = 3
+    pitch_px: float = 6.0
+    orientation: Orientation = "vertical"
+    imin: float = 40.0
+    migl: float = 255.0
+
+    def __post_init__(self) -> None:
+        if self.pattern not in PATTERNS:
+            raise InputError(
+                f"unknown fringe pattern {self.pattern!r}; use one of {', '.join(PATTERNS)}"
+            )
+        if self.orientation not in ORIENTATIONS:
+            raise InputError(
+                f"unknown orientation {self.orientation!r}; use one of {', '.join(ORIENTATIONS)}"
+            )
+        min_steps = 3 if self.pattern == "sinusoidal" else 2
+        if int(self.steps) != self.steps or self.steps < min_steps:
+            raise InputError(
+                f"{self.pattern} fringes need an integer number of steps >= {min_steps}, "
+                f"got {self.steps}"
+            )
+        if not (math.isfinite(self.pitch_px) and self.pitch_px > 0):
+            raise InputError(f"pitch must be a positive number of projector pixels, got {self.pitch_px}")
+        if not (0 <= self.imin < self.migl):
+            raise InputError(
+                f"need 0 <= imin < migl, got imin={self.imin}, migl={self.migl}; "
+                "lower imin or raise migl"
+            )
+
+    @property
+    def shifts(self) -> NDArray[np.float64]:
+        """Phase shifts in radians, ``2*pi*i/N`` for i = 0..N-1."""
+        return 2.0 * np.pi * np.arange(self.steps) / self.steps
+
+    def with_migl(self, migl: float) -> FringeSpec:
+        """The same set at another maximum input gray level."""
+        return FringeSpec(self.pattern, self.steps, self.pitch_px, self.orientation, self.imin, migl)
+
+    def frames(self) -> list[FringeFrame]:
+        """The N frames of this set, shift 0 first."""
+        return [FringeFrame(self, i) for i in range(self.steps)]
+
+    def label(self) -> str:
+        """A short file-name-safe label, e.g. ``s4_p8_g255``."""
+        pitch = f"{self.pitch_px:g}".replace(".", "p")
+        return (
+            f"{self.pattern[0]}{self.steps}_p{pitch}_{self.orientation[0]}"
+            f"_i{self.imin:g}_g{self.migl:g}"
+        )
+
+
+def fringe_gray(coord: ArrayLike, spec: FringeSpec, shift: int) -> NDArray[np.float64]:
+    """Input gray level ``g_i(x)`` of shift ``i`` at projector coordinate ``x``, before gamma.
+
+    Parameters
+    ----------
+    coord : array_like
+        Projector coordinate along the fringe axis (pixel centres at integers); any real value.
+    spec : FringeSpec
+    shift : int
+        Shift index i in 0..N-1.
+
+    Returns
+    -------
+    ndarray
+        Gray level in [imin, migl] (float).
+    """
+    if not (0 <= shift < spec.steps):
+        raise InputError(f"shift {shift} is outside 0..{spec.steps - 1} for a {spec.steps}-step set")
+    x = np.asarray(coord, dtype=np.float64)
+    t = (x + shift * spec.pitch_px / spec.steps) / spec.pitch_px
+    return spec.imin + (spec.migl - spec.imin) * (1.0 + fringe_profile(t, spec.pattern)) / 2.0
+
+
+def precompensate_gamma(
+    gray: ArrayLike, gamma_hat: float = 1.0, bit_depth: int = 8
+) -> NDArray[np.integer]:
+    """Gray level actually sent to the projector: gamma pre-compensation and rounding (Eq. 2.17).
+
+    ``round((2^Bp - 1) * (g / (2^Bp - 1)) ** (1 / gamma_hat))``; with ``gamma_hat = 1`` this is
+    only the rounding to the projector's integer levels.
+
+    Parameters
+    ----------
+    gray : array_like
+        Desired (linear) gray level in [0, 2^Bp - 1].
+    gamma_hat : float
+        Estimated projector gamma; 1.0 for none.
+    bit_depth : int
+        Projector input bit depth Bp (8 or 16 in practice).
+
+    Returns
+    -------
+    ndarray of uint8 or uint16
+    """
+    if not (math.isfinite(gamma_hat) and gamma_hat > 0):
+        raise InputError(f"gamma pre-compensation must be a positive number, got {gamma_hat}")
+    if bit_depth not in range(1, 17):
+        raise InputError(f"projector bit depth must be 1..16, got {bit_depth}")
+    full = float(2**bit_depth - 1)
+    g = np.clip(np.asarray(gray, dtype=np.float64), 0.0, full)
+    if gamma_hat != 1.0:
+        g = full * (g / full) ** (1.0 / gamma_hat)
+    dtype = np.uint8 if bit_depth <= 8 else np.uint16
+    return np.rint(g).astype(dtype)
+
+
+@dataclass(frozen=True)
+class FringeFrame:
+    """Shift ``shift`` of the fringe set ``spec``."""
+
+    spec: FringeSpec
+    shift: int
+
+    kind: str = field(default="fringe", init=False)
+
+    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
+        """Linear gray level at projector coordinates along the fringe axis."""
+        return fringe_gray(coord, self.spec, self.shift)
+
+    def manifest_entry(self, file: str) -> dict[str, Any]:
+        s = self.spec
+        return {
+            "file": file, "kind": "fringe", "pattern": s.pattern, "steps": int(s.steps),
+            "shift": int(self.shift), "pitch": float(s.pitch_px), "orientation": s.orientation,
+            "imin": _num(s.imin), "migl": _num(s.migl),
+        }
+
+    def default_name(self) -> str:
+        return f"{self.spec.label()}_{self.shift}"
+
+
+@dataclass(frozen=True)
+class CenterlineFrame:
+    """A single bright line at projector coordinate ``position`` on a dark image (Sec. 2.5).
+
+    The line is one projector pixel wide (``width_px``) at gray level ``migl``; the rest is at
+    gray level ``background``.
+    """
+
+    position: float
+    orientation: Orientation = "vertical"
+    migl: float = 255.0
+    width_px: int = 1
+    background: float = 0.0
+
+    kind: str = field(default="centerline", init=False)
+
+    def __post_init__(self) -> None:
+        if self.orientation not in ORIENTATIONS:
+            raise InputError(
+                f"unknown orientation {self.orientation!r}; use one of {', '.join(ORIENTATIONS)}"
+            )
+        if self.width_px < 1:
+            raise InputError(f"centerline width must be >= 1 projector pixel, got {self.width_px}")
+
+    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
+        """Linear gray level at projector coordinates across the line (pixel-exact box)."""
+        x = np.asarray(coord, dtype=np.float64)
+        half = self.width_px / 2.0
+        inside = np.abs(x - self.position) < half
+        return np.where(inside, float(self.migl), float(self.background))
+
+    def manifest_entry(self, file: str) -> dict[str, Any]:
+        return {
+            "file": file, "kind": "centerline", "orientation": self.orientation,
+            "position": _num(self.position), "migl": _num(self.migl),
+        }
+
+    def default_name(self) -> str:
+        return f"centerline_{self.orientation[0]}_{self.position:g}_g{self.migl:g}".replace(".", "p")
+
+
+@dataclass(frozen=True)
+class UniformFrame:
+    """The whole projector at input gray ``level``."""
+
+    level: float
+
+    kind: str = field(default="uniform", init=False)
+
+    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
+        return np.full(np.shape(coord), float(self.level))
+
+    def manifest_entry(self, file: str) -> dict[str, Any]:
+        return {"file": file, "kind": "uniform", "level": _num(self.level)}
+
+    def default_name(self) -> str:
+        return f"gray_{self.level:g}".replace(".", "p")
+
+
+Frame = FringeFrame | CenterlineFrame | UniformFrame
+
+
+def frame_axis(frame: Frame) -> Orientation:
+    """Orientation of the frame's varying axis ("vertical" for a uniform frame)."""
+    if isinstance(frame, UniformFrame):
+        return "vertical"
+    if isinstance(frame, FringeFrame):
+        return frame.spec.orientation
+    return frame.orientation
+
+
+def render_frame(
+    frame: Frame,
+    width: int = 1024,
+    height: int = 768,
+    gamma_hat: float = 1.0,
+    bit_depth: int = 8,
+) -> NDArray[np.integer]:
+    """Projector input image of one frame (what is written to PNG and played).
+
+    Parameters
+    ----------
+    frame : FringeFrame, CenterlineFrame or UniformFrame
+    width, height : int
+        Projector resolution in pixels.
+    gamma_hat : float
+        Gamma pre-compensation exponent (1.0: none). Centerline and uniform frames are
+        pre-compensated too, so that every frame maps linearly to projected light.
+    bit_depth : int
+        Projector input bit depth.
+
+    Returns
+    -------
+    ndarray, shape (height, width), uint8 or uint16
+    """
+    if width < 1 or height < 1:
+        raise InputError(f"projector resolution must be positive, got {width}x{height}")
+    full = 2**bit_depth - 1
+    if isinstance(frame, FringeFrame) and frame.spec.migl > full:
+        raise InputError(
+            f"migl {frame.spec.migl:g} exceeds the projector's maximum {full} at {bit_depth} bits"
+        )
+    axis = frame_axis(frame)
+    n = width if axis == "vertical" else height
+    line = precompensate_gamma(frame.gray(np.arange(n)), gamma_hat, bit_depth)
+    if axis == "vertical":
+        return np.ascontiguousarray(np.broadcast_to(line[None, :], (height, width)))
+    return np.ascontiguousarray(np.broadcast_to(line[:, None], (height, width)))
+
+
+def frame_from_manifest(entry: dict[str, Any]) -> Frame:
+    """Build a frame from a (validated) manifest entry of the capture-folder contract."""
+    kind = entry["kind"]
+    if kind == "fringe":
+        spec = FringeSpec(
+            pattern=entry["pattern"], steps=int(entry["steps"]), pitch_px=float(entry["pitch"]),
+            orientation=entry["orientation"], imin=float(entry["imin"]),
+            migl=float(entry["migl"]),
+        )
+        return FringeFrame(spec, int(entry["shift"]))
+    if kind == "centerline":
+        return CenterlineFrame(
+            position=float(entry["position"]), orientation=entry["orientation"],
+            migl=float(entry["migl"]),
+        )
+    if kind == "uniform":
+        return UniformFrame(float(entry["level"]))
+    raise InputError(f"unknown frame kind {kind!r}; use fringe, centerline or uniform")
+
+
+def _num(v: float) -> float | int:
+    """JSON-friendly number: an int when integral."""
+    f = float(v)
+    return int(f) if f.is_integer() else f

@@ -1,0 +1,389 @@
+"""Wrapped phase, intensity ratio and quality maps from one phase-shifted set.
+
+Conventions (capture-folder contract): the decoded phase is ``phi = 2*pi*x/p (mod 2*pi)`` in
+``[0, 2*pi)``, with ``x`` the projector coordinate seen by the pixel; invalid pixels are NaN.
+
+* Sinusoidal N-step, N >= 3: thesis Eq. 2.2 (Eq. 2.4 is its N = 3 case). With the contract's
+  patterns ``I_k = a + b*cos(phi + delta_k)``, ``delta_k = 2*pi*k/N`` (Eq. 2.1, 2.3, indices from
+  0), ``S = sum I_k sin(delta_k) = -(N/2) b sin(phi)`` and ``C = sum I_k cos(delta_k) =
+  (N/2) b cos(phi)``, so ``phi = atan2(-S, C)``.
+* Triangular 3-step: intensity ratio of thesis Eq. 2.9, rescaled from [0, 2N) to radians.
+* Triangular 2-step: intensity ratio of thesis Eq. 2.8. Two samples half a period apart determine
+  only ``|P|`` and its sign, i.e. the *folded* phase ``min(phi, 2*pi - phi)``; the full phase is
+  recovered by the direction of increase along the fringe axis (see :func:`triangular_2step`).
+
+Quality maps (thesis Sec. 3.3): intensity modulation ``I'`` (Eq. 3.4, estimated as ``b``), average
+intensity ``I''`` (Eq. 3.5, estimated as ``a``), data modulation ``psi = I'/I''`` (Eq. 3.6), and
+the saturation count: the number of shifts at ``2^B - 1``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from hdrfringe.errors import InputError
+from hdrfringe.patterns import FringeSpec, fringe_profile
+
+TWO_PI = 2.0 * np.pi
+
+F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class PhaseResult:
+    """Everything decoded from one phase-shifted set.
+
+    Attributes
+    ----------
+    wrapped_phase : ndarray
+        ``2*pi*x/p mod 2*pi`` in [0, 2*pi); NaN where ``valid`` is False.
+    modulation : ndarray
+        Intensity modulation I' in DN (Eq. 3.4); NaN where invalid.
+    mean_intensity : ndarray
+        Average intensity I'' in DN (Eq. 3.5); NaN where invalid.
+    data_modulation : ndarray
+        psi = I'/I'' (Eq. 3.6); NaN where invalid.
+    saturation_count : ndarray of uint8
+        Number of shifts at ``2^B - 1`` (every pixel, valid or not).
+    valid : ndarray of bool
+        Pixels whose phase is trusted (enough modulation, no rejected saturation, inside mask).
+    spec : FringeSpec or None
+        The set's pattern specification, when known.
+    """
+
+    wrapped_phase: F64
+    modulation: F64
+    mean_intensity: F64
+    data_modulation: F64
+    saturation_count: NDArray[np.uint8]
+    valid: NDArray[np.bool_]
+    spec: FringeSpec | None = None
+
+
+def _as_stack(images: ArrayLike, n_min: int, what: str) -> NDArray:
+    arr = np.asarray(images)
+    if arr.ndim != 3:
+        raise InputError(
+            f"{what}: expected a stack of shape (N, height, width), got shape {arr.shape}"
+        )
+    if arr.shape[0] < n_min:
+        raise InputError(f"{what}: needs at least {n_min} phase-shifted images, got {arr.shape[0]}")
+    if arr.dtype.kind not in "uif":
+        raise InputError(f"{what}: images must be numeric, got dtype {arr.dtype}")
+    return arr
+
+
+def sinusoidal_phase(images: ArrayLike) -> tuple[F64, F64, F64]:
+    """Wrapped phase of a sinusoidal N-step set (thesis Eq. 2.2; Eq. 2.4 for N = 3).
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W)
+        Shift k at index k, ``delta_k = 2*pi*k/N``.
+
+    Returns
+    -------
+    phase : ndarray
+        ``atan2(-S, C)`` wrapped to [0, 2*pi).
+    modulation : ndarray
+        ``I' = (2/N) * sqrt(S^2 + C^2)`` in the images' units (Eq. 3.4).
+    mean_intensity : ndarray
+        ``I'' = mean_k I_k`` (Eq. 3.5).
+
+    Examples
+    --------
+    >>> x = np.linspace(0, 20, 7)
+    >>> imgs = np.stack([100 + 50*np.cos(2*np.pi*x/8 + 2*np.pi*k/4) for k in range(4)])[:, None]
+    >>> phi, b, a = sinusoidal_phase(imgs)
+    >>> bool(np.allclose(phi[0], np.mod(2*np.pi*x/8, 2*np.pi)))
+    True
+    """
+    stack = _as_stack(images, 3, "sinusoidal phase")
+    n = stack.shape[0]
+    delta = TWO_PI * np.arange(n) / n
+    flat = stack.reshape(n, -1).astype(np.float64, copy=False)
+    s = np.sin(delta) @ flat
+    c = np.cos(delta) @ flat
+    phase = np.arctan2(-s, c)
+    phase[phase < 0] += TWO_PI
+    modulation = (2.0 / n) * np.hypot(s, c)
+    mean = flat.mean(axis=0)
+    shape = stack.shape[1:]
+    return phase.reshape(shape), modulation.reshape(shape), mean.reshape(shape)
+
+
+@cache
+def _tri3_region_table() -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
+    """Region index and ratio direction for each ordering of three triangular samples.
+
+    The six regions of one period (length 1/6 each) are told apart by which shift is highest
+    and which lowest. The table is built from the pattern convention itself, by sampling the
+    middle of each region, so it cannot drift from :func:`hdrfringe.patterns.fringe_profile`.
+    Returns arrays indexed by ``3*argmax + argmin``.
+    """
+    region = np.full(9, -1, dtype=np.int8)
+    rising = np.zeros(9, dtype=bool)
+    for k in range(6):
+        t = (k + 0.5) / 6.0
+        f = fringe_profile(t + np.arange(3) / 3.0, "triangular")
+        code = 3 * int(np.argmax(f)) + int(np.argmin(f))
+        region[code] = k
+        # direction of the Eq. 2.9 ratio r0 = (high - med)/(high - low) inside region k
+        t0 = (k + 0.25) / 6.0
+        f0 = np.sort(fringe_profile(t0 + np.arange(3) / 3.0, "triangular"))
+        f1 = np.sort(fringe_profile(t0 + 0.01 + np.arange(3) / 3.0, "triangular"))
+        r_a = (f0[2] - f0[1]) / (f0[2] - f0[0])
+        r_b = (f1[2] - f1[1]) / (f1[2] - f1[0])
+        rising[code] = r_b > r_a
+    return region, rising
+
+
+def triangular_3step(images: ArrayLike) -> tuple[F64, F64, F64]:
+    """Intensity ratio of a triangular 3-step set (thesis Eq. 2.9), in radians.
+
+    Eq. 2.9 gives ``r0 = (I_high - I_med + I_low - I_min) / I_m`` per region. For the triangular
+    wave of three shifts a third of a period apart, ``I_high - I_low = (2/3) I_m`` in every
+    region, and the numerator equals ``I_high - I_med`` scaled likewise, so Eq. 2.9 reduces to
+    ``r0 = (I_high - I_med) / (I_high - I_low)``: it needs neither ``I_min`` nor ``I_m`` from a
+    separate capture, and is insensitive to ambient light and reflectivity. The region (one of
+    2N = 6 per period) follows from which shift is highest and which lowest; the unwrapped ratio
+    ``r = region + r0`` (or ``region + 1 - r0`` on falling regions) runs over [0, 6) and is
+    rescaled to ``phi = 2*pi*r/6``.
+
+    Returns
+    -------
+    phase : ndarray
+        In [0, 2*pi).
+    modulation : ndarray
+        ``I_m / 2 = 0.75 * (I_high - I_low)`` (the triangular counterpart of b, Eq. 2.6).
+    mean_intensity : ndarray
+        ``I_min + I_m / 2``, the wave's mid level, from the fitted wave.
+    """
+    stack = _as_stack(images, 3, "triangular 3-step")
+    if stack.shape[0] != 3:
+        raise InputError(f"triangular 3-step decoding needs exactly 3 images, got {stack.shape[0]}")
+    f = stack.astype(np.float64, copy=False)
+    hi_idx = np.argmax(f, axis=0)
+    lo_idx = np.argmin(f, axis=0)
+    srt = np.sort(f, axis=0)
+    low, med, high = srt[0], srt[1], srt[2]
+    span = high - low
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r0 = (high - med) / span
+    region_tab, rising_tab = _tri3_region_table()
+    code = 3 * hi_idx + lo_idx
+    region = region_tab[code].astype(np.float64)
+    rising = rising_tab[code]
+    ratio = region + np.where(rising, r0, 1.0 - r0)
+    ratio[code == 3 * lo_idx + lo_idx] = np.nan  # flat pixel: all three equal
+    phase = np.mod(TWO_PI * ratio / 6.0, TWO_PI)
+    modulation = 0.75 * span
+    mean = _wave_mid_level(f, phase, modulation, "triangular")
+    return phase, modulation, mean
+
+
+def triangular_2step(
+    images: ArrayLike,
+    *,
+    orientation: str = "vertical",
+    direction: int = 1,
+    envelope_px: int | None = None,
+) -> tuple[F64, F64, F64, F64]:
+    """Intensity ratio of a triangular 2-step set (thesis Eq. 2.8), and the phase it implies.
+
+    With shifts half a period apart, ``I_1 - I_2 = I_m * P(t)`` and ``I_1 + I_2 = 2*I_min + I_m``:
+    two images cannot tell ``t`` from ``-t``. Eq. 2.8, ``r0 = |I_1 - I_2| / I_m``, with the sign
+    of ``I_1 - I_2`` gives ``P(t)`` and hence the **folded phase**
+    ``theta = pi * (1 - P) / 2 = min(phi, 2*pi - phi)`` in [0, pi] (four ratio regions per
+    period, the thesis's wrap of 2N = 4). ``I_m`` is not observable per pixel from two images;
+    it is estimated as the local maximum of ``|I_1 - I_2|`` along the fringe axis over
+    ``envelope_px`` camera pixels (about one fringe period; estimated from the zero crossings
+    when not given), which assumes the modulation varies slowly.
+
+    The full phase follows from the direction in which the projector coordinate grows along the
+    camera's fringe axis: where ``theta`` increases in that direction ``phi = theta``, where it
+    decreases ``phi = 2*pi - theta``. The two branches meet at 0 and pi, so the choice only
+    matters away from the turning points, where the slope is well defined.
+
+    Parameters
+    ----------
+    images : array_like, shape (2, H, W)
+    orientation : {"vertical", "horizontal"}
+        Fringe orientation: "vertical" means the phase grows along camera rows (axis 1).
+    direction : {1, -1}
+        +1 when the projector coordinate increases with the camera column (row for horizontal).
+    envelope_px : int, optional
+        Window for the ``I_m`` envelope, in camera pixels.
+
+    Returns
+    -------
+    phase : ndarray
+        Unfolded phase in [0, 2*pi) (contract convention).
+    folded : ndarray
+        Folded phase in [0, pi] (what Eq. 2.8 alone determines).
+    modulation : ndarray
+        ``I_m / 2``.
+    mean_intensity : ndarray
+        ``(I_1 + I_2) / 2``, which equals ``I_min + I_m/2`` exactly for this pattern.
+    """
+    stack = _as_stack(images, 2, "triangular 2-step")
+    if stack.shape[0] != 2:
+        raise InputError(f"triangular 2-step decoding needs exactly 2 images, got {stack.shape[0]}")
+    if direction not in (1, -1):
+        raise InputError(f"direction must be +1 or -1, got {direction}")
+    axis = 1 if orientation == "vertical" else 0
+    f = stack.astype(np.float64, copy=False)
+    diff = f[0] - f[1]
+    if envelope_px is None:
+        envelope_px = _period_from_zero_crossings(diff, axis)
+    envelope_px = max(3, int(envelope_px))
+    amp = ndimage.maximum_filter1d(np.abs(diff), size=envelope_px, axis=axis, mode="nearest")
+    amp = ndimage.uniform_filter1d(amp, size=envelope_px, axis=axis, mode="nearest")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p = np.clip(diff / amp, -1.0, 1.0)
+    folded = np.pi * (1.0 - p) / 2.0
+    slope = direction * np.gradient(ndimage.uniform_filter1d(folded, 3, axis=axis), axis=axis)
+    phase = np.where(slope >= 0, folded, TWO_PI - folded)
+    phase = np.mod(phase, TWO_PI)
+    return phase, folded, amp / 2.0, f.mean(axis=0)
+
+
+def _period_from_zero_crossings(diff: F64, axis: int) -> int:
+    """Mean fringe period in camera pixels from sign changes of ``I_1 - I_2`` along ``axis``."""
+    sign = np.signbit(diff)
+    changes = np.count_nonzero(np.diff(sign, axis=axis))
+    length = diff.shape[axis] * diff.shape[1 - axis]
+    if changes == 0:
+        return diff.shape[axis]
+    return int(np.ceil(2.0 * length / changes))
+
+
+def _wave_mid_level(f: F64, phase: F64, modulation: F64, pattern: str) -> F64:
+    """Mid level of the captured wave: ``mean_k (I_k - b * P(t + k/N))`` with ``t = phi/2pi``."""
+    n = f.shape[0]
+    t = phase / TWO_PI
+    acc = np.zeros_like(phase)
+    for k in range(n):
+        acc += f[k] - modulation * fringe_profile(t + k / n, pattern)
+    return acc / n
+
+
+def saturation_count(images: ArrayLike, bit_depth: int) -> NDArray[np.uint8]:
+    """Number of images in which each pixel equals ``2^B - 1`` (is saturated).
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W)
+    bit_depth : int
+        Camera bit depth B.
+    """
+    stack = _as_stack(images, 1, "saturation count")
+    full = 2**bit_depth - 1
+    return np.count_nonzero(stack == full, axis=0).astype(np.uint8)
+
+
+def data_modulation(modulation: ArrayLike, mean_intensity: ArrayLike) -> F64:
+    """Data modulation ``psi = I' / I''`` (thesis Eq. 3.6); NaN where ``I'' <= 0``."""
+    b = np.asarray(modulation, dtype=np.float64)
+    a = np.asarray(mean_intensity, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(a > 0, b / a, np.nan)
+
+
+def default_min_modulation(bit_depth: int) -> float:
+    """Default validity threshold on I': 2 DN at 8 bits, scaled with the sensor's full scale.
+
+    With Gaussian read noise sigma, the phase noise of N-step decoding is about
+    ``sqrt(2/N) * sigma / I'``; at ``I' = 2`` DN and sigma = 1 DN that is 0.4-0.6 rad, the point
+    below which the phase carries little more than noise.
+    """
+    return 2.0 * (2**bit_depth - 1) / 255.0
+
+
+def decode_set(
+    images: ArrayLike,
+    spec: FringeSpec,
+    bit_depth: int,
+    *,
+    mask: ArrayLike | None = None,
+    min_modulation: float | None = None,
+    reject_saturated: bool = True,
+    direction: int = 1,
+) -> PhaseResult:
+    """Decode one phase-shifted set into phase and quality maps.
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W)
+        Captured images, shift k at index k.
+    spec : FringeSpec
+        What was projected (pattern and steps choose the algorithm).
+    bit_depth : int
+        Camera bit depth B; values above ``2^B - 1`` are an error.
+    mask : array_like of bool, optional
+        Pixels to decode (True); others are invalid.
+    min_modulation : float, optional
+        Minimum I' in DN for a valid pixel (default :func:`default_min_modulation`).
+    reject_saturated : bool
+        When True (default) a pixel with any saturated shift is invalid: its phase is biased
+        (thesis Ch. 3). When False its phase is kept, so that saturation error can be measured.
+    direction : {1, -1}
+        For triangular 2-step only, see :func:`triangular_2step`.
+
+    Returns
+    -------
+    PhaseResult
+    """
+    stack = _as_stack(images, 2, "decode")
+    n = stack.shape[0]
+    if n != spec.steps:
+        raise InputError(
+            f"the {spec.pattern} {spec.steps}-step set has {n} images; "
+            f"give exactly {spec.steps}, shift 0 first"
+        )
+    full = 2**bit_depth - 1
+    if stack.dtype.kind in "ui":
+        if stack.max(initial=0) > full:
+            raise InputError(
+                f"image values reach {int(stack.max())}, above 2^B - 1 = {full} for bit depth "
+                f"{bit_depth}; set the camera bit depth the data were captured with"
+            )
+    if spec.pattern == "sinusoidal":
+        phase, modulation, mean = sinusoidal_phase(stack)
+    elif spec.steps == 3:
+        phase, modulation, mean = triangular_3step(stack)
+    elif spec.steps == 2:
+        phase, _, modulation, mean = triangular_2step(
+            stack, orientation=spec.orientation, direction=direction
+        )
+    else:
+        raise InputError(
+            f"triangular {spec.steps}-step decoding is not supported; use 2 or 3 steps "
+            "(thesis Eq. 2.8 and 2.9) or a sinusoidal set"
+        )
+    sat = saturation_count(stack, bit_depth)
+    thr = default_min_modulation(bit_depth) if min_modulation is None else float(min_modulation)
+    valid = np.isfinite(phase) & (modulation >= thr)
+    if reject_saturated:
+        valid &= sat == 0
+    if mask is not None:
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != phase.shape:
+            raise InputError(f"mask shape {m.shape} does not match image shape {phase.shape}")
+        valid &= m
+    psi = data_modulation(modulation, mean)
+    nan = np.float64(np.nan)
+    return PhaseResult(
+        wrapped_phase=np.where(valid, phase, nan),
+        modulation=np.where(valid, modulation, nan),
+        mean_intensity=np.where(valid, mean, nan),
+        data_modulation=np.where(valid, psi, nan),
+        saturation_count=sat,
+        valid=valid,
+        spec=spec,
+    )

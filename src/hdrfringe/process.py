@@ -1,0 +1,151 @@
+"""Folder-level decoding: every fringe set of a capture folder to phase maps.
+
+This is the one place that chains the array stages (phase -> unwrap -> absolute phase) for a
+capture folder; the command-line ``phase`` command and later stages call it.
+
+Rules (documented in docs/phase.md):
+
+* Every complete fringe set is decoded (:func:`hdrfringe.phase.decode_set`).
+* Sets that differ only in pitch form a *family* (same orientation, pattern, steps, imin, migl,
+  exposure). The primary family is the vertical one at the highest MIGL (horizontal if there is
+  no vertical set); a horizontal family is processed as well when present.
+* In a family with several pitches, the coarsest is unwrapped spatially unless one period covers
+  the projector (then it needs no unwrapping), and the finer ones temporally, coarse to fine.
+  With one pitch, the phase is unwrapped spatially.
+* The absolute phase ``2*pi*x/p`` comes from a centerline frame of the same orientation
+  (thesis Eq. 2.12-2.13), or directly when the coarsest set spans the projector with one period.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdrfringe.io.captures import CaptureFolder, FringeSet
+from hdrfringe.phase import PhaseResult, decode_set
+from hdrfringe.unwrap import absolute_phase_from_centerline, unwrap_spatial, unwrap_temporal
+
+
+@dataclass
+class FamilyResult:
+    """Unwrapped (and, when possible, absolute) phase of one family of sets."""
+
+    orientation: str
+    pitch_px: float
+    sets: list[FringeSet]
+    unwrapped_phase: NDArray[np.float64]
+    absolute_phase: NDArray[np.float64] | None
+    method: str
+    absolute_method: str | None
+
+
+@dataclass
+class FolderPhase:
+    """Everything :func:`decode_folder` computed."""
+
+    set_results: dict[str, PhaseResult]
+    sets: list[FringeSet]
+    families: list[FamilyResult] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def primary(self) -> FamilyResult | None:
+        return self.families[0] if self.families else None
+
+
+def _family_key(s: FringeSet) -> tuple:
+    sp = s.spec
+    return (sp.orientation, sp.pattern, sp.steps, sp.imin, sp.migl, s.exposure_ms)
+
+
+def group_families(sets: list[FringeSet]) -> list[list[FringeSet]]:
+    """Group sets into families (same everything but pitch), primary family first."""
+    fams: dict[tuple, list[FringeSet]] = {}
+    for s in sets:
+        fams.setdefault(_family_key(s), []).append(s)
+    ordered = sorted(
+        fams.values(),
+        key=lambda f: (f[0].spec.orientation != "vertical", -f[0].spec.migl, f[0].spec.pattern),
+    )
+    out: list[list[FringeSet]] = []
+    seen_orient: set[str] = set()
+    for fam in ordered:
+        o = fam[0].spec.orientation
+        if o in seen_orient:
+            continue
+        seen_orient.add(o)
+        out.append(sorted(fam, key=lambda s: -s.spec.pitch_px))
+    return out
+
+
+def decode_folder(
+    folder: CaptureFolder,
+    *,
+    min_modulation: float | None = None,
+    reject_saturated: bool = True,
+) -> FolderPhase:
+    """Decode every set of a capture folder; unwrap and make absolute where the folder allows.
+
+    Parameters
+    ----------
+    folder : CaptureFolder
+    min_modulation : float, optional
+        Validity threshold on I' in DN (default per bit depth, see
+        :func:`hdrfringe.phase.default_min_modulation`).
+    reject_saturated : bool
+        Invalidate pixels with any saturated shift (default True).
+    """
+    results: dict[str, PhaseResult] = {}
+    for s in folder.sets:
+        results[s.label] = decode_set(
+            folder.set_images(s), s.spec, folder.camera_bit_depth,
+            min_modulation=min_modulation, reject_saturated=reject_saturated,
+        )
+    out = FolderPhase(set_results=results, sets=list(folder.sets))
+    if not folder.sets:
+        out.notes.append("no fringe sets: nothing to decode")
+        return out
+    for fam in group_families(folder.sets):
+        orient = fam[0].spec.orientation
+        coarse = fam[0]
+        extent = None
+        if folder.projector is not None:
+            extent = folder.projector.width if orient == "vertical" else folder.projector.height
+        spans = extent is not None and coarse.spec.pitch_px >= extent
+        coarse_phase = results[coarse.label].wrapped_phase
+        if spans:
+            base = coarse_phase
+            method = "coarse set spans the projector with one period"
+        else:
+            base = unwrap_spatial(coarse_phase)
+            method = "spatial"
+        if len(fam) > 1:
+            phases = [base] + [results[s.label].wrapped_phase for s in fam[1:]]
+            unwrapped = unwrap_temporal(phases, [s.spec.pitch_px for s in fam])
+            method = f"temporal {' -> '.join(f'{s.spec.pitch_px:g}' for s in fam)} px ({method} first)"
+        else:
+            unwrapped = base
+        finest = fam[-1]
+        absolute = None
+        abs_method = None
+        if spans:
+            absolute = unwrapped
+            abs_method = "one-period coarse set"
+        else:
+            lines = [(f, img) for f, img in folder.centerlines() if f.orientation == orient]
+            if lines:
+                frame, img = lines[0]
+                absolute = absolute_phase_from_centerline(
+                    unwrapped, img, frame.position, finest.spec.pitch_px, orient
+                )
+                abs_method = f"centerline at {frame.position:g} px (Eq. 2.12-2.13)"
+            else:
+                out.notes.append(
+                    f"{orient} fringes: no {orient} centerline frame, so no absolute phase"
+                )
+        out.families.append(
+            FamilyResult(orient, finest.spec.pitch_px, fam, unwrapped, absolute, method, abs_method)
+        )
+    return out

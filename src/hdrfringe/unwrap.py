@@ -1,0 +1,784 @@
+"""Phase unwrapping and absolute phase: spatial, temporal, centerline (thesis Sec. 2.4-2.5).
+
+Every function here works on wrapped phase maps in the capture-folder contract's convention:
+``phi = 2*pi*x/p (mod 2*pi)`` in ``[0, 2*pi)``, with ``x`` the projector coordinate seen by the
+pixel, ``p`` the pitch in projector pixels, and NaN for invalid pixels. The unwrapped phases these
+functions return always differ from the wrapped input by an exact integer multiple of ``2*pi``
+at every valid pixel, and are NaN at every invalid one.
+
+- :func:`unwrap_spatial` removes the ``2*pi`` jumps by following neighbouring pixels (thesis
+  Sec. 2.4, Fig. 2.4). Its result is relative: each connected valid region is known only up to
+  its own constant ``2*pi*k``.
+- :func:`unwrap_temporal` (and :func:`unwrap_temporal_levels`) unwraps each pixel on its own from
+  several fringe sets of decreasing pitch; when the coarsest set spans the field with one period
+  the result is absolute.
+- :func:`detect_centerline`, :func:`centerline_phase` (Eq. 2.12) and :func:`absolute_phase`
+  (Eq. 2.13) fix the ``2*pi*k`` of a spatially unwrapped map with a projected centerline;
+  :func:`absolute_phase_from_centerline` chains them.
+
+See docs/unwrapping.md for the rules in full.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+from skimage.restoration import unwrap_phase
+
+from hdrfringe.errors import InputError
+
+__all__ = [
+    "TemporalUnwrapResult",
+    "absolute_phase",
+    "absolute_phase_from_centerline",
+    "centerline_phase",
+    "detect_centerline",
+    "unwrap_spatial",
+    "unwrap_temporal",
+    "unwrap_temporal_levels",
+]
+
+TWO_PI = 2.0 * np.pi
+
+Orientation = Literal["vertical", "horizontal"]
+AbsoluteMethod = Literal["round", "subtract"]
+CenterlineMethod = Literal["gaussian", "centroid"]
+
+# 4-connectivity: the spatial unwrapper only ever compares horizontal and vertical neighbours,
+# so two pixels that touch only at a corner are not connected.
+_FOUR_CONNECTED = ndimage.generate_binary_structure(2, 1)
+
+# scikit-image's unwrapper seeds a random generator; a fixed seed makes the result reproducible.
+_SKIMAGE_SEED = 0
+
+
+# --------------------------------------------------------------------------------------------
+# Validation helpers
+# --------------------------------------------------------------------------------------------
+
+
+def _as_image(a: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = np.asarray(a)
+    if arr.ndim != 2:
+        raise InputError(f"{name} must be a 2-D image, got an array of shape {arr.shape}")
+    if arr.size == 0:
+        raise InputError(f"{name} is empty (shape {arr.shape}); pass an image with pixels")
+    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
+            or arr.dtype == np.bool_):
+        raise InputError(f"{name} must hold real numbers, got dtype {arr.dtype}")
+    return arr.astype(np.float64, copy=True)
+
+
+def _valid_mask(shape: tuple[int, ...], mask: ArrayLike | None, name: str = "mask") -> NDArray:
+    if mask is None:
+        return np.ones(shape, dtype=bool)
+    m = np.asarray(mask)
+    if m.dtype != np.bool_:
+        raise InputError(
+            f"{name} must be a boolean array (True = valid), got dtype {m.dtype}; "
+            f"pass {name}.astype(bool)"
+        )
+    if m.shape != shape:
+        raise InputError(f"{name} has shape {m.shape} but the image has shape {shape}")
+    return m
+
+
+def _check_orientation(orientation: str) -> None:
+    if orientation not in ("vertical", "horizontal"):
+        raise InputError(f"unknown orientation {orientation!r}; use 'vertical' or 'horizontal'")
+
+
+def _finite_scalar(value: float, name: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a real number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{name} must be finite, got {v}")
+    return v
+
+
+# --------------------------------------------------------------------------------------------
+# Spatial unwrapping
+# --------------------------------------------------------------------------------------------
+
+
+def _component_medians(labels: NDArray, values: NDArray, n: int) -> NDArray[np.float64]:
+    """Median of ``values`` per label 1..n (every label present), vectorised with one sort."""
+    order = np.lexsort((values, labels))
+    sorted_vals = values[order]
+    counts = np.bincount(labels, minlength=n + 1)[1:]
+    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    lo = starts + (counts - 1) // 2
+    hi = starts + counts // 2
+    return 0.5 * (sorted_vals[lo] + sorted_vals[hi])
+
+
+def _orders_to_window(anchor: NDArray | float, target: float | None) -> NDArray:
+    """Integer shifts ``k`` putting ``anchor + 2*pi*k`` into the window of ``target``.
+
+    The window is ``[0, 2*pi)`` when ``target`` is None, else ``[target - pi, target + pi)``.
+    """
+    lo = 0.0 if target is None else target - np.pi
+    return -np.floor((np.asarray(anchor) - lo) / TWO_PI)
+
+
+def unwrap_spatial(
+    wrapped: ArrayLike,
+    mask: ArrayLike | None = None,
+    *,
+    reference: tuple[int, int] | None = None,
+    reference_value: float | None = None,
+    min_component_size: int = 1,
+) -> NDArray[np.float64]:
+    """Spatially unwrap a wrapped phase map, one connected valid region at a time (Sec. 2.4).
+
+    The wrapped phase (Eq. 2.4, or any phase decoded to the contract's ``[0, 2*pi)`` convention)
+    is made continuous by adding to every valid pixel the integer multiple of ``2*pi`` that keeps
+    the difference between 4-connected valid neighbours below ``pi``, following the most reliable
+    pixels first (the sorting-by-reliability path-following algorithm of Herraez et al., as
+    implemented by :func:`skimage.restoration.unwrap_phase`). The map is exact wherever the true
+    phase changes by less than ``pi`` between neighbours.
+
+    Parameters
+    ----------
+    wrapped : array_like, shape (H, W)
+        Wrapped phase in radians, nominally in ``[0, 2*pi)``; any real values are accepted and
+        treated modulo ``2*pi``. NaN and +-inf mark invalid pixels.
+    mask : array_like of bool, shape (H, W), optional
+        True where the pixel is valid. Pixels that are False, or not finite in ``wrapped``, are
+        invalid: they never guide the unwrapping and are NaN in the output.
+    reference : (row, col), optional
+        A valid pixel whose region is anchored by that pixel instead of by its median: its
+        unwrapped value is put in ``[0, 2*pi)``, or nearest to ``reference_value`` if given.
+    reference_value : float, optional
+        Target value (radians) for the anchor. With ``reference``: the unwrapped phase at the
+        reference pixel is the value congruent to the wrapped one that lies in
+        ``[reference_value - pi, reference_value + pi)``. Without ``reference``: every region's
+        median is put in that window instead of in ``[0, 2*pi)``.
+    min_component_size : int
+        Connected valid regions with fewer pixels are set to NaN (their offset is meaningless
+        and isolated pixels are usually noise). Default 1: keep every region.
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+        Unwrapped phase; ``result - wrapped`` is an exact multiple of ``2*pi`` at valid pixels,
+        NaN elsewhere.
+
+    Raises
+    ------
+    InputError
+        If ``wrapped`` is not a non-empty 2-D real array, ``mask`` is not a boolean array of the
+        same shape, ``reference`` is outside the image or on an invalid pixel,
+        ``reference_value`` is not finite, or ``min_component_size < 1``.
+
+    Notes
+    -----
+    *Connected regions.* Valid pixels are grouped into 4-connected regions (scipy.ndimage.label)
+    and each region is unwrapped on its own. The ``2*pi*k`` offset between two regions that no
+    path of valid pixels joins is not observable from the spatial data, so each region is
+    anchored independently: by default the median of its unwrapped phase lies in ``[0, 2*pi)``
+    (the first period). A temporal unwrap or a centerline is needed to relate them.
+
+    *Degenerate input.* An image with no valid pixel (all NaN, or an all-False mask) gives an
+    all-NaN result without error; a single valid pixel keeps its wrapped value.
+
+    *NaN.* scikit-image's unwrapper does not return when its input contains NaN, so NaN is
+    never passed to it: invalid pixels are replaced by 0 and masked.
+
+    The result is deterministic (the unwrapper's random generator is seeded).
+
+    Examples
+    --------
+    >>> x = np.linspace(0.0, 40.0, 200)
+    >>> truth = np.tile(x, (3, 1))
+    >>> out = unwrap_spatial(np.mod(truth, 2 * np.pi))
+    >>> bool(np.allclose(out - out[0, 0], truth - truth[0, 0]))
+    True
+    """
+    phase = _as_image(wrapped, "wrapped phase")
+    valid = _valid_mask(phase.shape, mask) & np.isfinite(phase)
+    if int(min_component_size) != min_component_size or min_component_size < 1:
+        raise InputError(f"min_component_size must be an integer >= 1, got {min_component_size}")
+    target = None if reference_value is None else _finite_scalar(reference_value,
+                                                                  "reference_value")
+    ref: tuple[int, int] | None = None
+    if reference is not None:
+        try:
+            r, c = (int(v) for v in reference)
+        except (TypeError, ValueError):
+            raise InputError(f"reference must be a (row, col) pair, got {reference!r}") from None
+        if not (0 <= r < phase.shape[0] and 0 <= c < phase.shape[1]):
+            raise InputError(
+                f"reference pixel {(r, c)} is outside the image of shape {phase.shape}"
+            )
+        if not valid[r, c]:
+            raise InputError(
+                f"reference pixel {(r, c)} is invalid (NaN or masked); choose a valid pixel"
+            )
+        ref = (r, c)
+
+    out = np.full(phase.shape, np.nan)
+    if not valid.any():
+        return out
+
+    labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
+    if min_component_size > 1:
+        sizes = np.bincount(labels.ravel(), minlength=n + 1)
+        small = sizes < min_component_size
+        small[0] = False
+        if small[1:].any():
+            valid &= ~small[labels]
+            if ref is not None and not valid[ref]:
+                raise InputError(
+                    f"reference pixel {ref} lies in a region smaller than min_component_size="
+                    f"{min_component_size}; choose another pixel or a smaller size"
+                )
+            if not valid.any():
+                return out
+            labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
+
+    # Shift to [-pi, pi) as scikit-image documents; NaN/inf replaced and masked (see Notes).
+    centred = np.where(valid, np.mod(phase, TWO_PI) - np.pi, 0.0)
+    with warnings.catch_warnings():
+        # (1, W) and (H, 1) images work but warn about the length-1 dimension.
+        warnings.filterwarnings("ignore", message="Image has a length 1 dimension")
+        raw = unwrap_phase(np.ma.array(centred, mask=~valid), rng=_SKIMAGE_SEED)
+    raw = np.ma.getdata(raw)
+
+    # Integer fringe order of every valid pixel relative to its wrapped value.
+    w = phase[valid]
+    order = np.rint((raw[valid] + np.pi - w) / TWO_PI)
+    lab = labels[valid]
+    unwrapped = w + TWO_PI * order
+
+    shift = _orders_to_window(_component_medians(lab, unwrapped, n), target)
+    out[valid] = unwrapped
+    if ref is not None:
+        shift[labels[ref] - 1] = _orders_to_window(out[ref], target)
+    out[valid] += TWO_PI * shift[lab - 1]
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Temporal (multi-frequency) unwrapping
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TemporalUnwrapResult:
+    """All levels of a hierarchical temporal unwrap (see :func:`unwrap_temporal_levels`).
+
+    Attributes
+    ----------
+    phase : ndarray
+        Unwrapped phase of the finest pitch (the last level), radians.
+    levels : tuple of ndarray
+        Unwrapped phase of every level, coarsest first; ``levels[-1] is phase``.
+    level_residuals : tuple of ndarray
+        For each level k >= 1, the fringe-order consistency residual
+        ``|Phi_{k-1} * p_{k-1}/p_k - Phi_k|`` in radians of level k, in ``[0, pi]``.
+    residual : ndarray
+        Per pixel, the largest of ``level_residuals`` (zeros for a single level). Near ``pi``
+        the fringe order was a coin toss; near 0 it was unambiguous.
+    """
+
+    phase: NDArray[np.float64]
+    levels: tuple[NDArray[np.float64], ...]
+    level_residuals: tuple[NDArray[np.float64], ...]
+    residual: NDArray[np.float64]
+
+
+def unwrap_temporal_levels(
+    wrapped_phases: Sequence[ArrayLike],
+    pitches: Sequence[float],
+    *,
+    coarse_unwrapped: bool = False,
+    max_residual: float | None = None,
+) -> TemporalUnwrapResult:
+    """Hierarchical multi-frequency temporal unwrapping, with every level and a quality map.
+
+    Level 0 (the coarsest pitch ``p_0``) is taken as already continuous: either its wrapped phase
+    spans the field within one period (``coarse_unwrapped=False``: ``Phi_0 = phi_0 mod 2*pi``),
+    or the caller passes an unwrapped phase (``coarse_unwrapped=True``: ``Phi_0 = phi_0``). Each
+    finer level k then takes the fringe order predicted by the level above::
+
+        Phi_k = phi_k + 2*pi * round((Phi_{k-1} * p_{k-1}/p_k - phi_k) / (2*pi))
+
+    since, in the contract's convention, ``Phi_k = 2*pi*x/p_k`` for the same projector coordinate
+    ``x``. The pitch ratios need not be integers. Pixels are independent, so this is exact
+    wherever the scaled coarse phase ``Phi_{k-1} * p_{k-1}/p_k`` is within ``pi`` of the truth,
+    i.e. where the phase error of level k-1 is below ``pi * p_k/p_{k-1}``.
+
+    Parameters
+    ----------
+    wrapped_phases : sequence of array_like
+        Wrapped phase maps (radians, contract convention, NaN invalid), coarsest pitch first,
+        all of the same shape (any number of dimensions).
+    pitches : sequence of float
+        Fringe pitch of each map in projector pixels, strictly decreasing, same length.
+    coarse_unwrapped : bool
+        True if ``wrapped_phases[0]`` is already unwrapped (used as is, not reduced mod 2*pi).
+    max_residual : float, optional
+        Reliability threshold in radians, in ``(0, pi]``. A pixel whose consistency residual
+        (see :class:`TemporalUnwrapResult`) exceeds it at some level is NaN from that level on.
+
+    Returns
+    -------
+    TemporalUnwrapResult
+
+    Raises
+    ------
+    InputError
+        No maps; lengths differ; shapes differ; a pitch not finite and positive; pitches not
+        strictly decreasing; ``max_residual`` outside ``(0, pi]``.
+
+    Notes
+    -----
+    NaN at a pixel in any level makes that pixel NaN in that level and every finer one. With
+    ``coarse_unwrapped=False`` the coarsest pitch must exceed the projector extent seen by the
+    camera with some margin: a pixel whose true ``x`` is near 0 or ``p_0`` can decode to the
+    other end of ``[0, 2*pi)`` and be off by ``p_0/p_k`` fringes.
+    """
+    n = len(wrapped_phases)
+    if n == 0:
+        raise InputError("unwrap_temporal needs at least one wrapped phase map")
+    if len(pitches) != n:
+        raise InputError(
+            f"got {n} wrapped phase maps but {len(pitches)} pitches; pass one pitch per map"
+        )
+    p = [_finite_scalar(v, f"pitches[{i}]") for i, v in enumerate(pitches)]
+    for i, v in enumerate(p):
+        if v <= 0:
+            raise InputError(f"pitches[{i}] = {v:g} is not positive; pitches are in projector px")
+    for i in range(1, n):
+        if not p[i] < p[i - 1]:
+            raise InputError(
+                f"pitches must be strictly decreasing (coarsest first), but pitches[{i - 1}] = "
+                f"{p[i - 1]:g} and pitches[{i}] = {p[i]:g}; sort the maps by decreasing pitch"
+            )
+    maps = [np.asarray(m, dtype=np.float64) for m in wrapped_phases]
+    for i, m in enumerate(maps[1:], start=1):
+        if m.shape != maps[0].shape:
+            raise InputError(
+                f"wrapped phase map {i} has shape {m.shape} but map 0 has shape {maps[0].shape}; "
+                "all maps must come from the same camera pixels"
+            )
+    thr = None
+    if max_residual is not None:
+        thr = _finite_scalar(max_residual, "max_residual")
+        if not 0 < thr <= np.pi:
+            raise InputError(f"max_residual must be in (0, pi] radians, got {thr:g}")
+
+    with np.errstate(invalid="ignore"):
+        current = maps[0].copy() if coarse_unwrapped else np.mod(maps[0], TWO_PI)
+        current[~np.isfinite(current)] = np.nan
+        levels = [current]
+        residuals: list[NDArray[np.float64]] = []
+        for k in range(1, n):
+            phi = maps[k]
+            predicted = current * (p[k - 1] / p[k])
+            current = phi + TWO_PI * np.rint((predicted - phi) / TWO_PI)
+            current[~np.isfinite(current)] = np.nan
+            res = np.abs(predicted - current)
+            if thr is not None:
+                current[res > thr] = np.nan
+            levels.append(current)
+            residuals.append(res)
+        if residuals:
+            worst = np.max(np.stack(residuals), axis=0)
+        else:
+            worst = np.where(np.isnan(current), np.nan, 0.0)
+    return TemporalUnwrapResult(current, tuple(levels), tuple(residuals), worst)
+
+
+def unwrap_temporal(
+    wrapped_phases: Sequence[ArrayLike],
+    pitches: Sequence[float],
+    *,
+    coarse_unwrapped: bool = False,
+    max_residual: float | None = None,
+) -> NDArray[np.float64]:
+    """Unwrapped phase of the finest pitch by hierarchical temporal unwrapping.
+
+    Shorthand for ``unwrap_temporal_levels(...).phase``; see :func:`unwrap_temporal_levels` for
+    the method (``Phi_k = phi_k + 2*pi*round((Phi_{k-1}*p_{k-1}/p_k - phi_k)/(2*pi))``), the
+    parameters and the errors. When the coarsest map spans the field within one period, the
+    result is the absolute phase ``2*pi*x/p`` of the contract, no centerline needed.
+
+    Examples
+    --------
+    >>> x = np.array([3.0, 100.5, 900.25])
+    >>> phis = [np.mod(2 * np.pi * x / p, 2 * np.pi) for p in (1024, 128, 16)]
+    >>> bool(np.allclose(unwrap_temporal(phis, [1024, 128, 16]), 2 * np.pi * x / 16))
+    True
+    """
+    return unwrap_temporal_levels(
+        wrapped_phases, pitches, coarse_unwrapped=coarse_unwrapped, max_residual=max_residual
+    ).phase
+
+
+# --------------------------------------------------------------------------------------------
+# Centerline and absolute phase (Eq. 2.12-2.13)
+# --------------------------------------------------------------------------------------------
+
+
+def _first_index(cond: NDArray, default: int) -> NDArray[np.intp]:
+    """Per row, the first column where ``cond`` holds, else ``default``."""
+    has = cond.any(axis=1)
+    return np.where(has, np.argmax(cond, axis=1), default)
+
+
+def _last_index(cond: NDArray, default: int) -> NDArray[np.intp]:
+    """Per row, the last column where ``cond`` holds, else ``default``."""
+    ncol = cond.shape[1]
+    has = cond.any(axis=1)
+    return np.where(has, ncol - 1 - np.argmax(cond[:, ::-1], axis=1), default)
+
+
+def detect_centerline(
+    image: ArrayLike,
+    orientation: Orientation = "vertical",
+    mask: ArrayLike | None = None,
+    *,
+    min_contrast: float = 0.0,
+    min_snr: float = 6.0,
+    method: CenterlineMethod = "gaussian",
+) -> NDArray[np.float64]:
+    """Sub-pixel position of a projected centerline in a camera image (Sec. 2.5).
+
+    For a vertical line (a bright column, ``CenterlineFrame`` with orientation "vertical") each
+    camera row is searched for the brightest pixel; for a horizontal line each column. Around
+    that peak:
+
+    1. the background is the row's median (robust to the line, to a dark background and to
+       uniform ambient light) and the noise is ``1.4826 * MAD`` of the row;
+    2. the row has no line (NaN) if the peak's contrast above the background is not positive, is
+       below ``min_contrast``, or is below ``min_snr`` times the noise;
+    3. ``method="gaussian"``: a Gaussian through the peak and its two neighbours (a parabola
+       through the logarithms of the background-subtracted values; exact for a Gaussian line
+       profile; a parabola through the raw values if a neighbour is not above the background);
+       ``method="centroid"``: the centroid of ``value - background - contrast/2`` over the
+       contiguous run of pixels above half the contrast. A saturated plateau (two or more
+       neighbouring pixels sharing the maximum value) always uses the centroid.
+
+    Parameters
+    ----------
+    image : array_like, shape (H, W)
+        Camera image of the centerline frame (any real dtype; NaN = invalid).
+    orientation : {"vertical", "horizontal"}
+        Orientation of the projected line: "vertical" returns one column per row,
+        "horizontal" one row per column.
+    mask : array_like of bool, shape (H, W), optional
+        True where the pixel may be used. Masked pixels are ignored.
+    min_contrast : float
+        Minimum peak height above the background, in image units.
+    min_snr : float
+        Minimum peak height above the background in units of the row's robust noise.
+    method : {"gaussian", "centroid"}
+        Sub-pixel estimator, see above.
+
+    Returns
+    -------
+    ndarray of float64
+        Shape (H,) for a vertical line, (W,) for a horizontal one: the sub-pixel column (row)
+        of the line centre, pixel centres at integers; NaN where no line was found, where the
+        peak or its run touches the image edge or a masked pixel.
+
+    Raises
+    ------
+    InputError
+        Bad image, mask, orientation, method or thresholds.
+
+    Notes
+    -----
+    The brightest feature of each row is taken to be the line, so a specular highlight brighter
+    than the line in the same row is mistaken for it; masking such regions avoids that. The
+    estimate is unbiased for a symmetric line profile on a locally constant background.
+    """
+    _check_orientation(orientation)
+    if method not in ("gaussian", "centroid"):
+        raise InputError(f"unknown centerline method {method!r}; use 'gaussian' or 'centroid'")
+    min_contrast = _finite_scalar(min_contrast, "min_contrast")
+    min_snr = _finite_scalar(min_snr, "min_snr")
+    if min_contrast < 0 or min_snr < 0:
+        raise InputError(
+            f"min_contrast and min_snr must be >= 0, got {min_contrast:g} and {min_snr:g}"
+        )
+    a = _as_image(image, "centerline image")
+    valid = _valid_mask(a.shape, mask) & np.isfinite(a)
+    if orientation == "horizontal":
+        a, valid = a.T.copy(), valid.T.copy()
+    nrow, ncol = a.shape
+    rows = np.arange(nrow)
+    cols = np.arange(ncol)[None, :]
+    result = np.full(nrow, np.nan)
+    a[~valid] = np.nan
+    has_any = valid.any(axis=1)
+    if ncol < 3 or not has_any.any():
+        return result
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: nanmedian warns
+        background = np.nanmedian(a, axis=1)
+        noise = 1.4826 * np.nanmedian(np.abs(a - background[:, None]), axis=1)
+    peak_col = np.argmax(np.where(valid, a, -np.inf), axis=1)
+    peak = a[rows, peak_col]
+    contrast = peak - background
+    with np.errstate(invalid="ignore"):
+        found = has_any & (contrast > 0) & (contrast >= min_contrast)
+        found &= contrast >= min_snr * noise
+    found &= (peak_col > 0) & (peak_col < ncol - 1)
+
+    # Plateau: the run of pixels equal to the maximum that starts at the (first) argmax.
+    after = cols > peak_col[:, None]
+    plateau_end = _first_index(after & ~(a == peak[:, None]), ncol)  # exclusive
+    plateau = (plateau_end - peak_col) >= 2
+
+    # Centroid over the contiguous half-contrast run around the peak.
+    rel = a - background[:, None]
+    half = 0.5 * contrast[:, None]
+    with np.errstate(invalid="ignore"):
+        below = ~(rel >= half)  # NaN counts as below: the run stops at invalid pixels
+    run_start = _last_index(below & (cols < peak_col[:, None]), -1) + 1
+    run_end = _first_index(below & after, ncol)  # exclusive
+    in_run = (cols >= run_start[:, None]) & (cols < run_end[:, None])
+    weight = np.where(in_run, rel - half, 0.0)
+    weight = np.nan_to_num(weight, nan=0.0)
+    wsum = weight.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroid = np.where(wsum > 0, (weight * cols).sum(axis=1) / wsum, peak_col.astype(float))
+    run_ok = (run_start > 0) & (run_end < ncol)
+    # Touching a masked pixel: the run stopped at an invalid pixel rather than at the flank.
+    left_nb = np.clip(run_start - 1, 0, ncol - 1)
+    right_nb = np.clip(run_end, 0, ncol - 1)
+    run_ok &= valid[rows, left_nb] & valid[rows, right_nb]
+
+    if method == "centroid":
+        position = centroid
+        ok = found & run_ok
+    else:
+        left_col = np.clip(peak_col - 1, 0, ncol - 1)
+        right_col = np.clip(peak_col + 1, 0, ncol - 1)
+        left = a[rows, left_col]
+        right = a[rows, right_col]
+        lb, cb, rb = left - background, contrast, right - background
+        with np.errstate(invalid="ignore", divide="ignore"):
+            use_log = (lb > 0) & (rb > 0)
+            ll = np.log(np.where(use_log, lb, 1.0))
+            lc = np.log(np.where(cb > 0, cb, 1.0))
+            lr = np.log(np.where(use_log, rb, 1.0))
+            den_g = ll - 2.0 * lc + lr
+            den_p = left - 2.0 * peak + right
+            d_gauss = 0.5 * (ll - lr) / den_g
+            d_parab = 0.5 * (left - right) / den_p
+            offset = np.where(use_log, d_gauss, d_parab)
+        fit_ok = np.isfinite(offset) & np.isfinite(left) & np.isfinite(right)
+        position = np.where(plateau, centroid, peak_col + np.clip(offset, -0.5, 0.5))
+        ok = found & np.where(plateau, run_ok, fit_ok)
+
+    result[ok] = position[ok]
+    return result
+
+
+def centerline_phase(
+    unwrapped: ArrayLike,
+    line_positions: ArrayLike,
+    orientation: Orientation = "vertical",
+    *,
+    statistic: Literal["mean", "median"] = "mean",
+) -> float:
+    """Average unwrapped phase on the centerline, ``phi_c`` of Eq. 2.12.
+
+    For a vertical line, row ``r`` contributes the unwrapped phase at ``(r, line_positions[r])``,
+    linearly interpolated between the two columns around the sub-pixel position (for a
+    horizontal line, column ``c`` contributes the phase at ``(line_positions[c], c)``). Rows with
+    a NaN position, a position outside the image, or a NaN phase at either interpolation node
+    are skipped; ``N_c`` is the number of rows that remain::
+
+        phi_c = (1/N_c) * sum_n phi_n                         (Eq. 2.12)
+
+    Parameters
+    ----------
+    unwrapped : array_like, shape (H, W)
+        Unwrapped phase map (radians, NaN invalid).
+    line_positions : array_like
+        Output of :func:`detect_centerline`: shape (H,) for "vertical", (W,) for "horizontal".
+    orientation : {"vertical", "horizontal"}
+    statistic : {"mean", "median"}
+        "mean" is Eq. 2.12; "median" resists a few wrong line pixels.
+
+    Returns
+    -------
+    float
+        ``phi_c`` in radians.
+
+    Raises
+    ------
+    InputError
+        Shape mismatch, bad orientation or statistic, or no line pixel with a valid phase.
+    """
+    _check_orientation(orientation)
+    if statistic not in ("mean", "median"):
+        raise InputError(f"unknown statistic {statistic!r}; use 'mean' or 'median'")
+    phase = _as_image(unwrapped, "unwrapped phase")
+    if orientation == "horizontal":
+        phase = phase.T
+    pos = np.asarray(line_positions, dtype=np.float64)
+    if pos.shape != (phase.shape[0],):
+        axis = "rows" if orientation == "vertical" else "columns"
+        raise InputError(
+            f"line_positions has shape {pos.shape} but a {orientation} line needs one position "
+            f"per image {axis}: shape ({phase.shape[0]},)"
+        )
+    ncol = phase.shape[1]
+    inside = np.isfinite(pos) & (pos >= 0) & (pos <= ncol - 1)
+    rows = np.flatnonzero(inside)
+    p = pos[rows]
+    c0 = np.floor(p).astype(np.intp)
+    frac = p - c0
+    c1 = np.minimum(c0 + 1, ncol - 1)
+    v0 = phase[rows, c0]
+    v1 = phase[rows, c1]
+    # At an exact integer position only the node itself is used (its neighbour may be NaN).
+    samples = np.where(frac > 0, (1.0 - frac) * v0 + frac * v1, v0)
+    samples = samples[np.isfinite(samples)]
+    if samples.size == 0:
+        raise InputError(
+            "no centerline pixel has a valid unwrapped phase (N_c = 0); check that the line was "
+            "detected and that it crosses the valid part of the phase map"
+        )
+    return float(np.mean(samples) if statistic == "mean" else np.median(samples))
+
+
+def absolute_phase(
+    unwrapped: ArrayLike,
+    phi_c: float,
+    position: float,
+    pitch: float,
+    method: AbsoluteMethod = "round",
+) -> NDArray[np.float64]:
+    """Absolute phase ``2*pi*x/p`` from a relative unwrapped phase and its centerline phase.
+
+    At the centerline the projector coordinate is ``x = position``, so the absolute phase there
+    is ``2*pi*position/p``.
+
+    - ``method="subtract"`` is Eq. 2.13, ``phi_a = phi - phi_c``, shifted by the constant
+      ``2*pi*position/p`` so the result is in the contract's convention::
+
+          phi_abs = phi - phi_c + 2*pi*position/p
+
+      The whole map inherits the error of ``phi_c`` (line detection, interpolation, noise).
+    - ``method="round"`` (default) adds only the multiple of ``2*pi`` nearest to the difference::
+
+          phi_abs = phi + 2*pi * round((2*pi*position/p - phi_c) / (2*pi))
+
+      Since a correctly unwrapped map differs from the absolute phase by an exact ``2*pi*k``,
+      this keeps the phase's own sub-fringe accuracy and the line's error does not enter,
+      provided ``phi_c`` is within ``pi`` (half a period, ``p/2`` projector pixels) of the true
+      phase at the line.
+
+    Parameters
+    ----------
+    unwrapped : array_like
+        Spatially unwrapped phase (radians, NaN invalid), any shape.
+    phi_c : float
+        Centerline phase from :func:`centerline_phase` (Eq. 2.12).
+    position : float
+        Projector coordinate of the centerline (``CenterlineFrame.position``).
+    pitch : float
+        Fringe pitch of the phase map in projector pixels.
+    method : {"round", "subtract"}
+
+    Returns
+    -------
+    ndarray of float64
+        Absolute phase; NaN where ``unwrapped`` is NaN.
+
+    Raises
+    ------
+    InputError
+        Non-finite ``phi_c`` or ``position``, non-positive pitch, unknown method.
+
+    Examples
+    --------
+    >>> x = np.array([[100.0, 130.0, 170.0]])
+    >>> relative = 2 * np.pi * x / 32 - 2 * np.pi * 7          # off by 7 fringes
+    >>> out = absolute_phase(relative, phi_c=relative[0, 1] + 0.3, position=130.0, pitch=32)
+    >>> bool(np.allclose(out, 2 * np.pi * x / 32))
+    True
+    """
+    phi_c = _finite_scalar(phi_c, "phi_c")
+    position = _finite_scalar(position, "position")
+    pitch = _finite_scalar(pitch, "pitch")
+    if pitch <= 0:
+        raise InputError(f"pitch must be a positive number of projector pixels, got {pitch:g}")
+    phase = np.asarray(unwrapped, dtype=np.float64)
+    target = TWO_PI * position / pitch
+    if method == "round":
+        return phase + TWO_PI * np.rint((target - phi_c) / TWO_PI)
+    if method == "subtract":
+        return phase - phi_c + target
+    raise InputError(f"unknown absolute-phase method {method!r}; use 'round' or 'subtract'")
+
+
+def absolute_phase_from_centerline(
+    unwrapped: ArrayLike,
+    centerline_image: ArrayLike,
+    position: float,
+    pitch: float,
+    orientation: Orientation = "vertical",
+    *,
+    mask: ArrayLike | None = None,
+    min_contrast: float = 0.0,
+    min_snr: float = 6.0,
+    line_method: CenterlineMethod = "gaussian",
+    statistic: Literal["mean", "median"] = "mean",
+    method: AbsoluteMethod = "round",
+) -> NDArray[np.float64]:
+    """Absolute phase from an unwrapped phase map and a centerline capture (Eq. 2.12-2.13).
+
+    Chains :func:`detect_centerline` (``orientation``, ``mask``, ``min_contrast``, ``min_snr``,
+    ``line_method``), :func:`centerline_phase` (``statistic``) and :func:`absolute_phase`
+    (``position``, ``pitch``, ``method``); see those for the details.
+
+    Parameters
+    ----------
+    unwrapped : array_like, shape (H, W)
+        Spatially unwrapped phase of the fringe set with pitch ``pitch`` (same orientation as
+        the line).
+    centerline_image : array_like, shape (H, W)
+        Camera image of the centerline frame.
+    position : float
+        Projector coordinate of the line.
+    pitch : float
+        Fringe pitch in projector pixels.
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+
+    Raises
+    ------
+    InputError
+        As the chained functions; in particular when no line pixel with a valid phase is found.
+    """
+    u = np.asarray(unwrapped)
+    c = np.asarray(centerline_image)
+    if u.shape != c.shape:
+        raise InputError(
+            f"centerline image has shape {c.shape} but the unwrapped phase has shape {u.shape}"
+        )
+    line = detect_centerline(
+        c, orientation, mask, min_contrast=min_contrast, min_snr=min_snr, method=line_method
+    )
+    phi_c = centerline_phase(u, line, orientation, statistic=statistic)
+    return absolute_phase(u, phi_c, position, pitch, method=method)
