@@ -7,6 +7,6 @@ try:
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
-from hdrfringe.errors import CaptureFormatError, HdrFringeError, InputError  # noqa: E402
+from hdrfringe.errors import CaptureFormatError, HdrFringeError, InputError
 
 __all__ = ["CaptureFormatError", "HdrFringeError", "InputError", "__version__"]

@@ -65,6 +65,13 @@ class PhaseResult:
     spec: FringeSpec | None = None
 
 
+def wrap_phase(phase: ArrayLike) -> F64:
+    """Wrap to [0, 2*pi) exactly: ``np.mod`` alone can return 2*pi for tiny negative inputs."""
+    out = np.mod(np.asarray(phase, dtype=np.float64), TWO_PI)
+    out[out >= TWO_PI] = 0.0
+    return out
+
+
 def _as_stack(images: ArrayLike, n_min: int, what: str) -> NDArray:
     arr = np.asarray(images)
     if arr.ndim != 3:
@@ -109,8 +116,7 @@ def sinusoidal_phase(images: ArrayLike) -> tuple[F64, F64, F64]:
     flat = stack.reshape(n, -1).astype(np.float64, copy=False)
     s = np.sin(delta) @ flat
     c = np.cos(delta) @ flat
-    phase = np.arctan2(-s, c)
-    phase[phase < 0] += TWO_PI
+    phase = wrap_phase(np.arctan2(-s, c))
     modulation = (2.0 / n) * np.hypot(s, c)
     mean = flat.mean(axis=0)
     shape = stack.shape[1:]
@@ -181,7 +187,7 @@ def triangular_3step(images: ArrayLike) -> tuple[F64, F64, F64]:
     rising = rising_tab[code]
     ratio = region + np.where(rising, r0, 1.0 - r0)
     ratio[code == 3 * lo_idx + lo_idx] = np.nan  # flat pixel: all three equal
-    phase = np.mod(TWO_PI * ratio / 6.0, TWO_PI)
+    phase = wrap_phase(TWO_PI * ratio / 6.0)
     modulation = 0.75 * span
     mean = _wave_mid_level(f, phase, modulation, "triangular")
     return phase, modulation, mean
@@ -248,8 +254,7 @@ def triangular_2step(
         p = np.clip(diff / amp, -1.0, 1.0)
     folded = np.pi * (1.0 - p) / 2.0
     slope = direction * np.gradient(ndimage.uniform_filter1d(folded, 3, axis=axis), axis=axis)
-    phase = np.where(slope >= 0, folded, TWO_PI - folded)
-    phase = np.mod(phase, TWO_PI)
+    phase = wrap_phase(np.where(slope >= 0, folded, TWO_PI - folded))
     return phase, folded, amp / 2.0, f.mean(axis=0)
 
 

@@ -49,7 +49,7 @@ TWO_PI = 2.0 * np.pi
 
 Orientation = Literal["vertical", "horizontal"]
 AbsoluteMethod = Literal["round", "subtract"]
-CenterlineMethod = Literal["gaussian", "centroid"]
+CenterlineMethod = Literal["gaussian", "halfmax"]
 
 # 4-connectivity: the spatial unwrapper only ever compares horizontal and vertical neighbours,
 # so two pixels that touch only at a corner are not connected.
@@ -466,9 +466,10 @@ def detect_centerline(
     3. ``method="gaussian"``: a Gaussian through the peak and its two neighbours (a parabola
        through the logarithms of the background-subtracted values; exact for a Gaussian line
        profile; a parabola through the raw values if a neighbour is not above the background);
-       ``method="centroid"``: the centroid of ``value - background - contrast/2`` over the
-       contiguous run of pixels above half the contrast. A saturated plateau (two or more
-       neighbouring pixels sharing the maximum value) always uses the centroid.
+       ``method="halfmax"``: the midpoint of the two places where the profile crosses half the
+       contrast on either side of the peak (linear interpolation between the pixels around
+       each crossing), suited to wide or flat-topped lines. A saturated plateau (two or more
+       neighbouring pixels sharing the maximum value) always uses "halfmax".
 
     Parameters
     ----------
@@ -483,7 +484,7 @@ def detect_centerline(
         Minimum peak height above the background, in image units.
     min_snr : float
         Minimum peak height above the background in units of the row's robust noise.
-    method : {"gaussian", "centroid"}
+    method : {"gaussian", "halfmax"}
         Sub-pixel estimator, see above.
 
     Returns
@@ -505,8 +506,8 @@ def detect_centerline(
     estimate is unbiased for a symmetric line profile on a locally constant background.
     """
     _check_orientation(orientation)
-    if method not in ("gaussian", "centroid"):
-        raise InputError(f"unknown centerline method {method!r}; use 'gaussian' or 'centroid'")
+    if method not in ("gaussian", "halfmax"):
+        raise InputError(f"unknown centerline method {method!r}; use 'gaussian' or 'halfmax'")
     min_contrast = _finite_scalar(min_contrast, "min_contrast")
     min_snr = _finite_scalar(min_snr, "min_snr")
     if min_contrast < 0 or min_snr < 0:
@@ -543,27 +544,29 @@ def detect_centerline(
     plateau_end = _first_index(after & ~(a == peak[:, None]), ncol)  # exclusive
     plateau = (plateau_end - peak_col) >= 2
 
-    # Centroid over the contiguous half-contrast run around the peak.
+    # Half-contrast crossings: the contiguous run of pixels at or above half the contrast around
+    # the peak, and where the profile crosses that level on each flank (linear interpolation).
     rel = a - background[:, None]
-    half = 0.5 * contrast[:, None]
+    half = 0.5 * contrast
     with np.errstate(invalid="ignore"):
-        below = ~(rel >= half)  # NaN counts as below: the run stops at invalid pixels
-    run_start = _last_index(below & (cols < peak_col[:, None]), -1) + 1
-    run_end = _first_index(below & after, ncol)  # exclusive
-    in_run = (cols >= run_start[:, None]) & (cols < run_end[:, None])
-    weight = np.where(in_run, rel - half, 0.0)
-    weight = np.nan_to_num(weight, nan=0.0)
-    wsum = weight.sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        centroid = np.where(wsum > 0, (weight * cols).sum(axis=1) / wsum, peak_col.astype(float))
+        below = ~(rel >= half[:, None])  # NaN counts as below: the run stops at invalid pixels
+    run_start = _last_index(below & (cols < peak_col[:, None]), -1) + 1  # first in run
+    run_end = _first_index(below & after, ncol)  # first after run
     run_ok = (run_start > 0) & (run_end < ncol)
-    # Touching a masked pixel: the run stopped at an invalid pixel rather than at the flank.
-    left_nb = np.clip(run_start - 1, 0, ncol - 1)
-    right_nb = np.clip(run_end, 0, ncol - 1)
-    run_ok &= valid[rows, left_nb] & valid[rows, right_nb]
+    s_out = np.clip(run_start - 1, 0, ncol - 1)
+    s_in = np.clip(run_start, 0, ncol - 1)
+    e_in = np.clip(run_end - 1, 0, ncol - 1)
+    e_out = np.clip(run_end, 0, ncol - 1)
+    # The run must end at a flank, not at a masked pixel.
+    run_ok &= valid[rows, s_out] & valid[rows, e_out]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        left_x = s_out + (half - rel[rows, s_out]) / (rel[rows, s_in] - rel[rows, s_out])
+        right_x = e_in + (rel[rows, e_in] - half) / (rel[rows, e_in] - rel[rows, e_out])
+    halfmax = 0.5 * (left_x + right_x)
+    run_ok &= np.isfinite(halfmax)
 
-    if method == "centroid":
-        position = centroid
+    if method == "halfmax":
+        position = halfmax
         ok = found & run_ok
     else:
         left_col = np.clip(peak_col - 1, 0, ncol - 1)
@@ -582,7 +585,7 @@ def detect_centerline(
             d_parab = 0.5 * (left - right) / den_p
             offset = np.where(use_log, d_gauss, d_parab)
         fit_ok = np.isfinite(offset) & np.isfinite(left) & np.isfinite(right)
-        position = np.where(plateau, centroid, peak_col + np.clip(offset, -0.5, 0.5))
+        position = np.where(plateau, halfmax, peak_col + np.clip(offset, -0.5, 0.5))
         ok = found & np.where(plateau, run_ok, fit_ok)
 
     result[ok] = position[ok]

@@ -1,0 +1,66 @@
+"""Shared fixtures: synthetic capture folders (analytic fringes, no rig) and the real-data path."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hdrfringe.io.captures import write_capture_folder
+from hdrfringe.patterns import CenterlineFrame, FringeSpec, fringe_gray
+from hdrfringe.rig.base import ProjectorInfo
+
+REALDATA = Path(__file__).resolve().parents[2] / "shared" / "realdata"
+
+
+def realdata_path(*parts: str) -> Path:
+    """Path inside ../shared/realdata; skips the test cleanly when it is absent."""
+    p = REALDATA.joinpath(*parts)
+    if not p.exists():
+        pytest.skip(f"real data not available: {p}")
+    return p
+
+
+def synthetic_set(
+    spec: FringeSpec,
+    shape: tuple[int, int] = (48, 64),
+    *,
+    x0: float = 3.3,
+    slope: float = 0.71,
+    offset: float = 20.0,
+    gain: float = 0.8,
+    bit_depth: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Images of a set seen by an ideal camera: projector x = x0 + slope*col (+ small row term)."""
+    h, w = shape
+    rows, cols = np.mgrid[0:h, 0:w]
+    x = x0 + slope * cols + 0.05 * rows
+    imgs = np.stack([offset + gain * fringe_gray(x, spec, k) for k in range(spec.steps)])
+    full = 2**bit_depth - 1
+    return np.clip(np.rint(imgs), 0, full).astype(np.uint8 if bit_depth <= 8 else np.uint16), x
+
+
+@pytest.fixture
+def capture_folder(tmp_path: Path) -> Path:
+    """A valid 4-step capture folder with a centerline frame."""
+    spec = FringeSpec("sinusoidal", 4, 8.0, "vertical", 40, 255)
+    imgs, x = synthetic_set(spec)
+    # centerline at projector x = 20: a bright column where x is nearest 20
+    line = np.where(np.abs(x - 20.0) < 0.5, 230, 10).astype(np.uint8)
+    frames = [*spec.frames(), CenterlineFrame(20.0, "vertical", 255)]
+    path = tmp_path / "caps"
+    write_capture_folder(
+        path, frames, np.concatenate([imgs, line[None]]), 8,
+        projector=ProjectorInfo(1024, 768, 8, 2.812), scene={"depth_mm": 0.0},
+    )
+    return path
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    """Run the installed command line in a subprocess (as a user would)."""
+    return subprocess.run(
+        [sys.executable, "-m", "hdrfringe.cli", *args], capture_output=True, text=True, timeout=120
+    )

@@ -1,0 +1,142 @@
+"""Bad input: one-line error naming the problem, exit code 2, no traceback, no partial output."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from tests.conftest import run_cli
+
+
+def _edit_manifest(folder: Path, edit: Callable[[dict], None]) -> None:
+    m = json.loads((folder / "manifest.json").read_text())
+    edit(m)
+    (folder / "manifest.json").write_text(json.dumps(m))
+
+
+def _assert_clean_failure(folder: Path, out: Path, *needles: str) -> None:
+    res = run_cli("phase", str(folder), "-o", str(out))
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, res.stderr
+    assert "Traceback" not in res.stderr
+    assert lines[0].startswith("error:")
+    for n in needles:
+        assert n in lines[0], lines[0]
+    assert not out.exists()
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(f".{out.name}.")]
+
+
+def _first_fringe_file(folder: Path) -> str:
+    m = json.loads((folder / "manifest.json").read_text())
+    return next(f["file"] for f in m["frames"] if f["kind"] == "fringe")
+
+
+def test_valid_folder_decodes(capture_folder: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = run_cli("phase", str(capture_folder), "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    for name in ("wrapped_phase", "modulation", "mean_intensity", "data_modulation",
+                 "saturation_count", "unwrapped_phase", "absolute_phase"):
+        assert (out / f"{name}.tiff").is_file()
+        assert (out / f"{name}.png").is_file()
+
+
+def test_missing_manifest(capture_folder: Path, tmp_path: Path) -> None:
+    (capture_folder / "manifest.json").unlink()
+    _assert_clean_failure(capture_folder, tmp_path / "out", "no manifest.json")
+
+
+def test_unknown_field_value(capture_folder: Path, tmp_path: Path) -> None:
+    _edit_manifest(capture_folder, lambda m: m["frames"][0].update(pattern="sawtooth"))
+    _assert_clean_failure(capture_folder, tmp_path / "out", "frame 0", "sawtooth", "use one of")
+
+
+def test_missing_file(capture_folder: Path, tmp_path: Path) -> None:
+    name = _first_fringe_file(capture_folder)
+    (capture_folder / name).unlink()
+    _assert_clean_failure(capture_folder, tmp_path / "out", name, "does not exist")
+
+
+def test_path_leaving_folder(capture_folder: Path, tmp_path: Path) -> None:
+    _edit_manifest(capture_folder, lambda m: m["frames"][1].update(file="../elsewhere/x.png"))
+    _assert_clean_failure(capture_folder, tmp_path / "out", "leaves the capture folder")
+
+
+def test_mixed_image_sizes(capture_folder: Path, tmp_path: Path) -> None:
+    name = _first_fringe_file(capture_folder)
+    iio.imwrite(capture_folder / name, np.zeros((10, 12), np.uint8))
+    _assert_clean_failure(capture_folder, tmp_path / "out", "one size")
+
+
+def test_values_above_bit_depth(capture_folder: Path, tmp_path: Path) -> None:
+    _edit_manifest(capture_folder, lambda m: m["camera"].update(bit_depth=6))
+    _assert_clean_failure(capture_folder, tmp_path / "out", "above 2^B - 1 = 63")
+
+
+def test_set_with_wrong_number_of_shifts(capture_folder: Path, tmp_path: Path) -> None:
+    _edit_manifest(capture_folder, lambda m: m["frames"].pop(2))
+    _assert_clean_failure(capture_folder, tmp_path / "out", "has shifts [0, 1, 3]")
+
+
+def test_truncated_png(capture_folder: Path, tmp_path: Path) -> None:
+    name = _first_fringe_file(capture_folder)
+    data = (capture_folder / name).read_bytes()
+    (capture_folder / name).write_bytes(data[: len(data) // 2])
+    _assert_clean_failure(capture_folder, tmp_path / "out", name, "corrupt or truncated")
+
+
+def test_not_json(capture_folder: Path, tmp_path: Path) -> None:
+    (capture_folder / "manifest.json").write_text("{ not json")
+    _assert_clean_failure(capture_folder, tmp_path / "out", "not valid JSON")
+
+
+def test_rgb_is_converted_to_luma_and_clipping_kept(capture_folder: Path, tmp_path: Path) -> None:
+    """Documented conversion: BT.601 luma; a pixel with any clipped channel counts as saturated."""
+    m = json.loads((capture_folder / "manifest.json").read_text())
+    fringe = [f["file"] for f in m["frames"] if f["kind"] == "fringe"]
+    gray0 = iio.imread(capture_folder / fringe[0])
+    for name in fringe:
+        g = iio.imread(capture_folder / name)
+        rgb = np.stack([g, g, g], axis=-1)
+        iio.imwrite(capture_folder / name, rgb)
+    rgb0 = iio.imread(capture_folder / fringe[0])
+    rgb0[0, 0] = (255, 10, 10)  # one clipped channel
+    iio.imwrite(capture_folder / fringe[0], rgb0)
+    out = tmp_path / "out"
+    res = run_cli("phase", str(capture_folder), "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    import tifffile
+
+    sat = tifffile.imread(out / "saturation_count.tiff")
+    assert sat[0, 0] == 1
+    from hdrfringe.io.captures import read_capture_folder
+
+    caps = read_capture_folder(capture_folder)
+    assert np.allclose(caps.images[0][1:], gray0[1:], atol=1e-3)
+
+
+def test_existing_output_is_kept_without_force(capture_folder: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("precious")
+    res = run_cli("phase", str(capture_folder), "-o", str(out))
+    assert res.returncode == 2 and "--force" in res.stderr
+    assert (out / "keep.txt").read_text() == "precious"
+    res = run_cli("phase", str(capture_folder), "-o", str(out), "--force")
+    assert res.returncode == 0, res.stderr
+    assert not (out / "keep.txt").exists() and (out / "wrapped_phase.tiff").exists()
+
+
+@pytest.mark.parametrize("args", [["patterns", "-o", "{out}", "--steps", "2"],
+                                  ["patterns", "-o", "{out}", "--pitch", "abc"]])
+def test_patterns_bad_options(tmp_path: Path, args: list[str]) -> None:
+    out = tmp_path / "pat"
+    res = run_cli(*[a.format(out=out) for a in args])
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert not out.exists()

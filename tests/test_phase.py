@@ -1,0 +1,139 @@
+"""Phase decoding on analytic fringes: convention, quality maps, saturation count, validity."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hdrfringe.errors import InputError
+from hdrfringe.patterns import FringeSpec, fringe_gray
+from hdrfringe.phase import (
+    data_modulation,
+    decode_set,
+    saturation_count,
+    sinusoidal_phase,
+    triangular_2step,
+    triangular_3step,
+)
+
+TWO_PI = 2 * np.pi
+
+
+def wrap_err(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.abs(np.angle(np.exp(1j * (a - b))))
+
+
+def analytic(spec: FringeSpec, x: np.ndarray, gain: float = 100.0, offset: float = 30.0):
+    return np.stack([offset + gain * fringe_gray(x, spec, k) for k in range(spec.steps)])
+
+
+@given(
+    n=st.integers(3, 12),
+    pitch=st.floats(3.0, 40.0),
+    gain=st.floats(0.05, 300.0),
+    offset=st.floats(0.0, 500.0),
+)
+@settings(max_examples=60, deadline=None)
+def test_sinusoidal_phase_is_exact_for_any_n_pitch_gain(n, pitch, gain, offset) -> None:
+    spec = FringeSpec("sinusoidal", n, pitch)
+    x = np.linspace(-30, 90, 257)[None, :]
+    phi, b, a = sinusoidal_phase(analytic(spec, x, gain, offset))
+    assert np.max(wrap_err(phi, TWO_PI * x / pitch)) < 1e-9
+    assert np.all((phi >= 0) & (phi < TWO_PI))
+    # Eq. 3.4-3.5 on the contract's pattern: b = gain*(migl-imin)/2, a = offset + gain*(migl+imin)/2
+    assert np.allclose(b, gain * (spec.migl - spec.imin) / 2)
+    assert np.allclose(a, offset + gain * (spec.migl + spec.imin) / 2)
+
+
+def test_three_step_closed_form() -> None:
+    """N = 3 of Eq. 2.2 is the closed form of Eq. 2.4, written for shifts 0, 2pi/3, 4pi/3.
+
+    With I_1, I_2, I_3 the shifts 0, 1, 2: S = (sqrt(3)/2)(I_2 - I_3), C = (2I_1 - I_2 - I_3)/2,
+    so phi = atan2(sqrt(3)(I_3 - I_2), 2I_1 - I_2 - I_3). (The thesis prints Eq. 2.4 with the
+    opposite sign, which corresponds to shifts applied the other way; docs/phase.md.)
+    """
+    spec = FringeSpec("sinusoidal", 3, 6.7)
+    x = np.linspace(0, 40, 301)[None, :]
+    i1, i2, i3 = analytic(spec, x)
+    closed = np.arctan2(np.sqrt(3) * (i3 - i2), 2 * i1 - i2 - i3)
+    phi, _, _ = sinusoidal_phase(np.stack([i1, i2, i3]))
+    assert np.max(wrap_err(closed, phi)) < 1e-9
+    assert np.max(wrap_err(phi, TWO_PI * x / 6.7)) < 1e-9
+
+
+@pytest.mark.parametrize("pitch", [6.0, 7.37, 13.1, 21.0])
+def test_triangular_3step_recovers_contract_phase(pitch: float) -> None:
+    spec = FringeSpec("triangular", 3, pitch)
+    x = np.linspace(-10, 100, 1001)[None, :]
+    imgs = analytic(spec, x, 80.0, 12.0)
+    phi, b, a = triangular_3step(imgs)
+    assert np.max(wrap_err(phi, TWO_PI * x / pitch)) < 1e-9
+    assert np.allclose(b, 80.0 * (spec.migl - spec.imin) / 2)  # I_m / 2
+    assert np.allclose(a, 12.0 + 80.0 * (spec.migl + spec.imin) / 2)
+
+
+def test_triangular_2step_folded_and_unfolded_phase() -> None:
+    pitch = 12.3
+    spec = FringeSpec("triangular", 2, pitch)
+    x = np.linspace(0, 120, 1200)[None, :].repeat(3, 0)
+    imgs = analytic(spec, x, 100.0, 5.0)
+    phi, folded, b, _ = triangular_2step(imgs)
+    truth = np.mod(TWO_PI * x / pitch, TWO_PI)
+    # what Eq. 2.8 alone determines: the folded phase min(phi, 2pi - phi)
+    interior = slice(60, -60)
+    f_true = np.minimum(truth, TWO_PI - truth)
+    assert np.max(np.abs(folded - f_true)[:, interior]) < 0.05
+    err = wrap_err(phi, truth)[:, interior]
+    assert np.median(err) < 0.01
+    assert np.max(err) < 0.1  # only near the turning points, where the envelope is sampled
+    assert np.allclose(np.median(b), 100.0 * 215 / 2, rtol=0.02)
+
+
+def test_saturation_count_is_exact() -> None:
+    rng = np.random.default_rng(1)
+    imgs = rng.integers(0, 255, size=(4, 30, 40), dtype=np.uint8)
+    truth = np.zeros((30, 40), dtype=np.uint8)
+    for k in range(4):
+        m = rng.random((30, 40)) < 0.2
+        imgs[k][m] = 255
+        truth += m
+    assert np.array_equal(saturation_count(imgs, 8), truth)
+    # a 12-bit sensor in a 16-bit container saturates at 4095, not 65535
+    imgs12 = imgs.astype(np.uint16) * 16
+    imgs12[imgs == 255] = 4095
+    assert np.array_equal(saturation_count(imgs12, 12), truth)
+
+
+def test_decode_flags_saturated_and_low_modulation_pixels() -> None:
+    spec = FringeSpec("sinusoidal", 4, 8.0)
+    x = np.tile(np.linspace(0, 64, 64), (40, 1))
+    gain = np.full_like(x, 0.9)
+    gain[:10] = 2.0  # these rows clip
+    gain[30:] = 0.005  # these rows have ~0.5 DN modulation
+    imgs = np.stack([np.clip(np.rint(gain * fringe_gray(x, spec, k)), 0, 255) for k in range(4)])
+    imgs = imgs.astype(np.uint8)
+    res = decode_set(imgs, spec, 8)
+    sat = res.saturation_count > 0
+    assert sat[:10].mean() > 0.5 and not sat[10:].any()
+    assert np.array_equal(res.valid, ~sat & (np.arange(40)[:, None] < 30))
+    assert np.all(np.isnan(res.wrapped_phase[~res.valid]))
+    assert np.all(np.isfinite(res.wrapped_phase[res.valid]))
+    kept = decode_set(imgs, spec, 8, reject_saturated=False)
+    assert kept.valid[:10].all()
+    assert np.array_equal(kept.saturation_count, res.saturation_count)
+    psi = data_modulation(res.modulation, res.mean_intensity)
+    assert np.allclose(psi[10:30], res.data_modulation[10:30], equal_nan=True)
+
+
+def test_decode_refuses_wrong_shift_count_and_overrange() -> None:
+    spec = FringeSpec("sinusoidal", 4, 8.0)
+    imgs = np.zeros((3, 5, 5), np.uint16)
+    with pytest.raises(InputError, match="4-step set has 3 images"):
+        decode_set(imgs, spec, 8)
+    imgs = np.full((4, 5, 5), 300, np.uint16)
+    with pytest.raises(InputError, match="above 2"):
+        decode_set(imgs, spec, 8)
+    with pytest.raises(InputError, match="not supported"):
+        decode_set(np.zeros((4, 5, 5)), FringeSpec("triangular", 4, 8.0), 8)
