@@ -53,8 +53,12 @@ def capture_folder(tmp_path: Path) -> Path:
     frames = [*spec.frames(), CenterlineFrame(20.0, "vertical", 255)]
     path = tmp_path / "caps"
     write_capture_folder(
-        path, frames, np.concatenate([imgs, line[None]]), 8,
-        projector=ProjectorInfo(1024, 768, 8, 2.812), scene={"depth_mm": 0.0},
+        path,
+        frames,
+        np.concatenate([imgs, line[None]]),
+        8,
+        projector=ProjectorInfo(1024, 768, 8, 2.812),
+        scene={"depth_mm": 0.0},
     )
     return path
 

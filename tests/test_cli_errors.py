@@ -41,8 +41,15 @@ def test_valid_folder_decodes(capture_folder: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     res = run_cli("phase", str(capture_folder), "-o", str(out))
     assert res.returncode == 0, res.stderr
-    for name in ("wrapped_phase", "modulation", "mean_intensity", "data_modulation",
-                 "saturation_count", "unwrapped_phase", "absolute_phase"):
+    for name in (
+        "wrapped_phase",
+        "modulation",
+        "mean_intensity",
+        "data_modulation",
+        "saturation_count",
+        "unwrapped_phase",
+        "absolute_phase",
+    ):
         assert (out / f"{name}.tiff").is_file()
         assert (out / f"{name}.png").is_file()
 
@@ -133,8 +140,10 @@ def test_existing_output_is_kept_without_force(capture_folder: Path, tmp_path: P
     assert not (out / "keep.txt").exists() and (out / "wrapped_phase.tiff").exists()
 
 
-@pytest.mark.parametrize("args", [["patterns", "-o", "{out}", "--steps", "2"],
-                                  ["patterns", "-o", "{out}", "--pitch", "abc"]])
+@pytest.mark.parametrize(
+    "args",
+    [["patterns", "-o", "{out}", "--steps", "2"], ["patterns", "-o", "{out}", "--pitch", "abc"]],
+)
 def test_patterns_bad_options(tmp_path: Path, args: list[str]) -> None:
     out = tmp_path / "pat"
     res = run_cli(*[a.format(out=out) for a in args])

@@ -56,8 +56,13 @@ def _version_callback(value: bool) -> None:
 @app.callback()
 def main(
     version: Annotated[
-        bool, typer.Option("--version", callback=_version_callback, is_eager=True,
-                           help="Print the version and exit.")
+        bool,
+        typer.Option(
+            "--version",
+            callback=_version_callback,
+            is_eager=True,
+            help="Print the version and exit.",
+        ),
     ] = False,
 ) -> None:
     """hdrfringe: fringe patterns, virtual rig, phase, unwrapping and saturation avoidance."""
@@ -68,8 +73,13 @@ def progress_bar() -> Any:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     return Progress(
-        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-        console=err_console, transient=True, disable=not sys.stderr.isatty(),
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err_console,
+        transient=True,
+        disable=not sys.stderr.isatty(),
     )
 
 
@@ -95,7 +105,9 @@ def _parse_floats(text: str, what: str) -> list[float]:
 @app.command()
 @handle_errors
 def patterns(
-    output: Annotated[Path, typer.Option("-o", "--output", help="Output folder for PNGs + manifest.")],
+    output: Annotated[
+        Path, typer.Option("-o", "--output", help="Output folder for PNGs + manifest.")
+    ],
     pattern: Annotated[str, typer.Option(help="sinusoidal or triangular.")] = "sinusoidal",
     steps: Annotated[int, typer.Option(help="Number of phase shifts N.")] = 3,
     pitch: Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")] = "6",
@@ -105,7 +117,9 @@ def patterns(
     width: Annotated[int, typer.Option(help="Projector width in px.")] = 1024,
     height: Annotated[int, typer.Option(help="Projector height in px.")] = 768,
     bit_depth: Annotated[int, typer.Option(help="Projector input bit depth.")] = 8,
-    gamma: Annotated[float, typer.Option(help="Gamma pre-compensation exponent (1 = none).")] = 2.812,
+    gamma: Annotated[
+        float, typer.Option(help="Gamma pre-compensation exponent (1 = none).")
+    ] = 2.812,
     centerline: Annotated[bool, typer.Option(help="Add the centerline image.")] = True,
     centerline_position: Annotated[
         float | None, typer.Option(help="Centerline projector coordinate (default: middle).")
@@ -133,8 +147,9 @@ def patterns(
         render_frame(f, 1, 1, gamma, bit_depth)
     with progress_bar() as prog:
         task = prog.add_task("writing patterns", total=len(frames))
-        write_pattern_folder(output, frames, projector, force=force,
-                             progress=lambda: prog.advance(task))
+        write_pattern_folder(
+            output, frames, projector, force=force, progress=lambda: prog.advance(task)
+        )
     console.print(f"wrote {len(frames)} pattern images and manifest.json to {output}")
 
 

@@ -59,9 +59,7 @@ def fringe_profile(t: ArrayLike, pattern: str) -> NDArray[np.float64]:
         return np.cos(2.0 * np.pi * t)
     if pattern == "triangular":
         return 1.0 - 4.0 * np.abs(t - np.round(t))
-    raise InputError(
-        f"unknown fringe pattern {pattern!r}; use one of {', '.join(PATTERNS)}"
-    )
+    raise InputError(f"unknown fringe pattern {pattern!r}; use one of {', '.join(PATTERNS)}")
 
 
 @dataclass(frozen=True)
@@ -105,7 +103,9 @@ class FringeSpec:
                 f"got {self.steps}"
             )
         if not (math.isfinite(self.pitch_px) and self.pitch_px > 0):
-            raise InputError(f"pitch must be a positive number of projector pixels, got {self.pitch_px}")
+            raise InputError(
+                f"pitch must be a positive number of projector pixels, got {self.pitch_px}"
+            )
         if not (0 <= self.imin < self.migl):
             raise InputError(
                 f"need 0 <= imin < migl, got imin={self.imin}, migl={self.migl}; "
@@ -119,7 +119,9 @@ class FringeSpec:
 
     def with_migl(self, migl: float) -> FringeSpec:
         """The same set at another maximum input gray level."""
-        return FringeSpec(self.pattern, self.steps, self.pitch_px, self.orientation, self.imin, migl)
+        return FringeSpec(
+            self.pattern, self.steps, self.pitch_px, self.orientation, self.imin, migl
+        )
 
     def frames(self) -> list[FringeFrame]:
         """The N frames of this set, shift 0 first."""
@@ -151,7 +153,9 @@ def fringe_gray(coord: ArrayLike, spec: FringeSpec, shift: int) -> NDArray[np.fl
         Gray level in [imin, migl] (float).
     """
     if not (0 <= shift < spec.steps):
-        raise InputError(f"shift {shift} is outside 0..{spec.steps - 1} for a {spec.steps}-step set")
+        raise InputError(
+            f"shift {shift} is outside 0..{spec.steps - 1} for a {spec.steps}-step set"
+        )
     x = np.asarray(coord, dtype=np.float64)
     t = (x + shift * spec.pitch_px / spec.steps) / spec.pitch_px
     return spec.imin + (spec.migl - spec.imin) * (1.0 + fringe_profile(t, spec.pattern)) / 2.0
@@ -206,9 +210,15 @@ class FringeFrame:
     def manifest_entry(self, file: str) -> dict[str, Any]:
         s = self.spec
         return {
-            "file": file, "kind": "fringe", "pattern": s.pattern, "steps": int(s.steps),
-            "shift": int(self.shift), "pitch": float(s.pitch_px), "orientation": s.orientation,
-            "imin": _num(s.imin), "migl": _num(s.migl),
+            "file": file,
+            "kind": "fringe",
+            "pattern": s.pattern,
+            "steps": int(s.steps),
+            "shift": int(self.shift),
+            "pitch": float(s.pitch_px),
+            "orientation": s.orientation,
+            "imin": _num(s.imin),
+            "migl": _num(s.migl),
         }
 
     def default_name(self) -> str:
@@ -248,12 +258,17 @@ class CenterlineFrame:
 
     def manifest_entry(self, file: str) -> dict[str, Any]:
         return {
-            "file": file, "kind": "centerline", "orientation": self.orientation,
-            "position": _num(self.position), "migl": _num(self.migl),
+            "file": file,
+            "kind": "centerline",
+            "orientation": self.orientation,
+            "position": _num(self.position),
+            "migl": _num(self.migl),
         }
 
     def default_name(self) -> str:
-        return f"centerline_{self.orientation[0]}_{self.position:g}_g{self.migl:g}".replace(".", "p")
+        return f"centerline_{self.orientation[0]}_{self.position:g}_g{self.migl:g}".replace(
+            ".", "p"
+        )
 
 
 @dataclass(frozen=True)
@@ -330,14 +345,18 @@ def frame_from_manifest(entry: dict[str, Any]) -> Frame:
     kind = entry["kind"]
     if kind == "fringe":
         spec = FringeSpec(
-            pattern=entry["pattern"], steps=int(entry["steps"]), pitch_px=float(entry["pitch"]),
-            orientation=entry["orientation"], imin=float(entry["imin"]),
+            pattern=entry["pattern"],
+            steps=int(entry["steps"]),
+            pitch_px=float(entry["pitch"]),
+            orientation=entry["orientation"],
+            imin=float(entry["imin"]),
             migl=float(entry["migl"]),
         )
         return FringeFrame(spec, int(entry["shift"]))
     if kind == "centerline":
         return CenterlineFrame(
-            position=float(entry["position"]), orientation=entry["orientation"],
+            position=float(entry["position"]),
+            orientation=entry["orientation"],
             migl=float(entry["migl"]),
         )
     if kind == "uniform":

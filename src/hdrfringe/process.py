@@ -100,8 +100,11 @@ def decode_folder(
     results: dict[str, PhaseResult] = {}
     for s in folder.sets:
         results[s.label] = decode_set(
-            folder.set_images(s), s.spec, folder.camera_bit_depth,
-            min_modulation=min_modulation, reject_saturated=reject_saturated,
+            folder.set_images(s),
+            s.spec,
+            folder.camera_bit_depth,
+            min_modulation=min_modulation,
+            reject_saturated=reject_saturated,
         )
     out = FolderPhase(set_results=results, sets=list(folder.sets))
     if not folder.sets:
@@ -124,7 +127,9 @@ def decode_folder(
         if len(fam) > 1:
             phases = [base] + [results[s.label].wrapped_phase for s in fam[1:]]
             unwrapped = unwrap_temporal(phases, [s.spec.pitch_px for s in fam])
-            method = f"temporal {' -> '.join(f'{s.spec.pitch_px:g}' for s in fam)} px ({method} first)"
+            method = (
+                f"temporal {' -> '.join(f'{s.spec.pitch_px:g}' for s in fam)} px ({method} first)"
+            )
         else:
             unwrapped = base
         finest = fam[-1]

@@ -139,7 +139,8 @@ def _safe_relpath(file: Any, where: str) -> str:
     norm = posixpath.normpath(file.replace("\\", "/"))
     if posixpath.isabs(norm) or norm == ".." or norm.startswith("../") or ":" in norm.split("/")[0]:
         raise _fail(
-            where, f"file path {file!r} leaves the capture folder",
+            where,
+            f"file path {file!r} leaves the capture folder",
             "image paths must be relative and stay inside the folder",
         )
     if not norm.lower().endswith(IMAGE_SUFFIXES):
@@ -150,7 +151,9 @@ def _safe_relpath(file: Any, where: str) -> str:
 def _validate_frame(entry: Any, index: int) -> dict[str, Any]:
     where = f"manifest frame {index}"
     if not isinstance(entry, dict):
-        raise _fail(where, "is not a JSON object", "each frame must be an object with 'file' and 'kind'")
+        raise _fail(
+            where, "is not a JSON object", "each frame must be an object with 'file' and 'kind'"
+        )
     file = _safe_relpath(_require(entry, "file", where), where)
     where = f"manifest frame {index} ({file})"
     kind = _choice(entry, "kind", where, ("fringe", "centerline", "uniform"))
@@ -166,11 +169,17 @@ def _validate_frame(entry: Any, index: int) -> dict[str, Any]:
         imin = _number(entry, "imin", where)
         migl = _number(entry, "migl", where)
         if not 0 <= imin < migl:
-            raise _fail(where, f"need 0 <= imin < migl, got imin={imin:g}, migl={migl:g}", "fix the manifest")
+            raise _fail(
+                where,
+                f"need 0 <= imin < migl, got imin={imin:g}, migl={migl:g}",
+                "fix the manifest",
+            )
         if "exposure_ms" in entry:
             _number(entry, "exposure_ms", where, positive=True)
         if "set" in entry and not isinstance(entry["set"], str):
-            raise _fail(where, f"field 'set' must be a string label, got {entry['set']!r}", "fix it")
+            raise _fail(
+                where, f"field 'set' must be a string label, got {entry['set']!r}", "fix it"
+            )
     elif kind == "centerline":
         _choice(entry, "orientation", where, ORIENTATIONS)
         _number(entry, "position", where)
@@ -202,12 +211,14 @@ def read_manifest(folder: Path) -> dict[str, Any]:
         raise _fail(where, "top level is not a JSON object", "see docs/capture_format.md")
     if manifest.get("format") != FORMAT_NAME:
         raise _fail(
-            where, f"format is {manifest.get('format')!r}, not {FORMAT_NAME!r}",
+            where,
+            f"format is {manifest.get('format')!r}, not {FORMAT_NAME!r}",
             f'set "format": "{FORMAT_NAME}"',
         )
     if manifest.get("version") != FORMAT_VERSION:
         raise _fail(
-            where, f"unsupported version {manifest.get('version')!r}",
+            where,
+            f"unsupported version {manifest.get('version')!r}",
             f"this hdrfringe reads version {FORMAT_VERSION}",
         )
     camera = _require(manifest, "camera", where)
@@ -392,13 +403,20 @@ def read_capture_folder(path: str | Path) -> CaptureFolder:
     projector = None
     if proj is not None:
         projector = ProjectorInfo(
-            width=int(proj.get("width", 1024)), height=int(proj.get("height", 768)),
+            width=int(proj.get("width", 1024)),
+            height=int(proj.get("height", 768)),
             bit_depth=int(proj.get("bit_depth", 8)),
             gamma_precompensation=float(proj.get("gamma_precompensation", 1.0)),
         )
     return CaptureFolder(
-        path=folder, manifest=manifest, camera_bit_depth=bit_depth, projector=projector,
-        scene=dict(manifest.get("scene", {})), frames=frames, entries=entries, images=stack,
+        path=folder,
+        manifest=manifest,
+        camera_bit_depth=bit_depth,
+        projector=projector,
+        scene=dict(manifest.get("scene", {})),
+        frames=frames,
+        entries=entries,
+        images=stack,
         sets=sets,
     )
 

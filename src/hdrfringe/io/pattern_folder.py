@@ -62,7 +62,10 @@ def write_pattern_folder(
     with staged_output_dir(path, force=force) as tmp:
         for f, name in zip(frames, names, strict=True):
             img = render_frame(
-                f, projector.width, projector.height, projector.gamma_precompensation,
+                f,
+                projector.width,
+                projector.height,
+                projector.gamma_precompensation,
                 projector.bit_depth,
             )
             iio.imwrite(tmp / name, np.asarray(img))

@@ -80,17 +80,19 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     sets = []
     for s in decoded.sets:
         r = decoded.set_results[s.label]
-        sets.append({
-            "label": s.label,
-            "pattern": s.spec.pattern,
-            "steps": s.spec.steps,
-            "pitch_px": s.spec.pitch_px,
-            "orientation": s.spec.orientation,
-            "imin": s.spec.imin,
-            "migl": s.spec.migl,
-            "valid_fraction": float(np.mean(r.valid)),
-            "saturated_fraction": float(np.mean(r.saturation_count > 0)),
-        })
+        sets.append(
+            {
+                "label": s.label,
+                "pattern": s.spec.pattern,
+                "steps": s.spec.steps,
+                "pitch_px": s.spec.pitch_px,
+                "orientation": s.spec.orientation,
+                "imin": s.spec.imin,
+                "migl": s.spec.migl,
+                "valid_fraction": float(np.mean(r.valid)),
+                "saturated_fraction": float(np.mean(r.saturation_count > 0)),
+            }
+        )
     summary = {
         "source": source,
         "sets": sets,

@@ -99,7 +99,9 @@ def write_preview_png(
     fig, ax = plt.subplots(figsize=(6.4, 6.4 * h / w + 0.6), dpi=100)
     cm = matplotlib.colormaps[cmap].copy()
     cm.set_bad("0.5")
-    im = ax.imshow(np.ma.masked_invalid(arr), cmap=cm, vmin=vmin, vmax=vmax, interpolation="nearest")
+    im = ax.imshow(
+        np.ma.masked_invalid(arr), cmap=cm, vmin=vmin, vmax=vmax, interpolation="nearest"
+    )
     ax.set_title(title)
     ax.set_axis_off()
     fig.colorbar(im, ax=ax, label=label, fraction=0.046, pad=0.04)
