@@ -70,8 +70,11 @@ def _as_image(a: ArrayLike, name: str) -> NDArray[np.float64]:
         raise InputError(f"{name} must be a 2-D image, got an array of shape {arr.shape}")
     if arr.size == 0:
         raise InputError(f"{name} is empty (shape {arr.shape}); pass an image with pixels")
-    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
-            or arr.dtype == np.bool_):
+    if not (
+        np.issubdtype(arr.dtype, np.floating)
+        or np.issubdtype(arr.dtype, np.integer)
+        or arr.dtype == np.bool_
+    ):
         raise InputError(f"{name} must hold real numbers, got dtype {arr.dtype}")
     return arr.astype(np.float64, copy=True)
 
@@ -162,7 +165,8 @@ def unwrap_spatial(
         Target value (radians) for the anchor. With ``reference``: the unwrapped phase at the
         reference pixel is the value congruent to the wrapped one that lies in
         ``[reference_value - pi, reference_value + pi)``. Without ``reference``: every region's
-        median is put in that window instead of in ``[0, 2*pi)``.
+        median is put in that window instead of in ``[0, 2*pi)``. (With ``reference``, the
+        other regions keep the default rule: median in ``[0, 2*pi)``.)
     min_component_size : int
         Connected valid regions with fewer pixels are set to NaN (their offset is meaningless
         and isolated pixels are usually noise). Default 1: keep every region.
@@ -208,8 +212,7 @@ def unwrap_spatial(
     valid = _valid_mask(phase.shape, mask) & np.isfinite(phase)
     if int(min_component_size) != min_component_size or min_component_size < 1:
         raise InputError(f"min_component_size must be an integer >= 1, got {min_component_size}")
-    target = None if reference_value is None else _finite_scalar(reference_value,
-                                                                  "reference_value")
+    target = None if reference_value is None else _finite_scalar(reference_value, "reference_value")
     ref: tuple[int, int] | None = None
     if reference is not None:
         try:
@@ -247,6 +250,7 @@ def unwrap_spatial(
             labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
 
     # Shift to [-pi, pi) as scikit-image documents; NaN/inf replaced and masked (see Notes).
+    phase[~valid] = 0.0
     centred = np.where(valid, np.mod(phase, TWO_PI) - np.pi, 0.0)
     with warnings.catch_warnings():
         # (1, W) and (H, 1) images work but warn about the length-1 dimension.
@@ -260,7 +264,9 @@ def unwrap_spatial(
     lab = labels[valid]
     unwrapped = w + TWO_PI * order
 
-    shift = _orders_to_window(_component_medians(lab, unwrapped, n), target)
+    # Regions are anchored by their median; with a reference pixel, `target` is for that pixel.
+    median_target = target if ref is None else None
+    shift = _orders_to_window(_component_medians(lab, unwrapped, n), median_target)
     out[valid] = unwrapped
     if ref is not None:
         shift[labels[ref] - 1] = _orders_to_window(out[ref], target)
