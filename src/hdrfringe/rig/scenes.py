@@ -1,0 +1,487 @@
+"""Scenes for the virtual rig: heightfields ``z = h(X, Y)`` with a reflectivity map.
+
+World coordinates are in millimetres: the reference plane is ``z = 0``, heights are positive
+toward the camera, ``X`` grows to the right of the camera image and ``Y`` toward its top.
+Reflectivities are relative to the thesis's white calibration plate (``r = 1``), the surface on
+which the camera sensitivity and the 0.17 gray level/lux of thesis Fig. 4.14 are defined.
+
+Every scene is a small frozen dataclass with
+
+- ``height(x, y)``: surface height in mm (vectorised);
+- ``reflectivity(x, y)``: diffuse reflectivity ``r(x, y)`` of thesis Eq. 3.2-3.3;
+- ``specular`` and ``shininess``: an optional Blinn-Phong lobe (0 for matte scenes);
+- ``to_manifest()``: a JSON-friendly dict whose keys, apart from ``name``, are the keyword
+  arguments of the constructor registered under ``name`` in :data:`SCENES`.
+
+Flat scenes (plates, the checkerboard) record their surface height as ``depth_mm``, the
+capture-folder field for a flat plate's known depth; freeform scenes record ``base_mm`` instead so
+that no reader mistakes them for a flat plate.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hdrfringe.errors import InputError
+
+__all__ = [
+    "BLACK_PLATE_REFLECTIVITY",
+    "SCENES",
+    "THESIS_CALIBRATION_DEPTHS_MM",
+    "Checkerboard",
+    "FlatPlate",
+    "GlossyDome",
+    "Mask",
+    "Scene",
+    "black_plate",
+    "checkerboard",
+    "glossy",
+    "make_scene",
+    "mask",
+    "plate",
+    "scene_from_manifest",
+    "white_plate",
+]
+
+#: Reflectivity of the black calibration plate and of the checkerboard's black squares, relative
+#: to the white plate. A printed/painted black under projector light, chosen so that the white
+#: checkerboard squares stop saturating around MIGL 70-80 with the black-plate aperture, as in
+#: thesis Sec. 5.2.2 - 5.3 (LPA down to MIGL 70 with imin 40, trade-off MIGL 96).
+BLACK_PLATE_REFLECTIVITY = 0.25
+
+#: The thesis's calibration positions: 2 to 50 mm in 2 mm steps (Sec. 4.1).
+THESIS_CALIBRATION_DEPTHS_MM: tuple[float, ...] = tuple(float(d) for d in range(2, 51, 2))
+
+_GRAD_STEP_MM = 1e-3
+
+
+def _finite(name: str, value: float) -> None:
+    if not math.isfinite(value):
+        raise InputError(f"scene parameter {name} must be a finite number, got {value}")
+
+
+def _depth_ok(name: str, value: float) -> None:
+    _finite(name, value)
+    if not (-500.0 <= value <= 1000.0):
+        raise InputError(
+            f"scene {name} = {value} mm is outside -500..1000 mm; the camera is 1.9 m away, "
+            "use a depth within the measurement volume"
+        )
+
+
+def _reflectivity_ok(name: str, value: float) -> None:
+    _finite(name, value)
+    if value < 0:
+        raise InputError(f"scene {name} must be >= 0, got {value}")
+
+
+class Scene:
+    """Base class of the scenes (see the module docstring for the interface)."""
+
+    name: str
+    specular: float = 0.0
+    shininess: float = 1.0
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:  # pragma: no cover
+        """Surface height in mm above the reference plane at world (x, y) in mm."""
+        raise NotImplementedError
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:  # pragma: no cover
+        """Diffuse reflectivity at world (x, y), relative to the white plate."""
+        raise NotImplementedError
+
+    def gradient(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Surface slopes ``(dh/dx, dh/dy)``, by central differences unless overridden."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        e = _GRAD_STEP_MM
+        gx = (self.height(x + e, y) - self.height(x - e, y)) / (2 * e)
+        gy = (self.height(x, y + e) - self.height(x, y - e)) / (2 * e)
+        return gx, gy
+
+    def specular_strength(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """Blinn-Phong gain ``k_s`` at world (x, y); ``specular`` everywhere by default."""
+        return _full(x, y, self.specular)
+
+    @property
+    def is_flat(self) -> bool:
+        """True for scenes whose surface is one plane parallel to the reference plane."""
+        return False
+
+    def to_manifest(self) -> dict[str, Any]:  # pragma: no cover
+        raise NotImplementedError
+
+
+def _full(x: ArrayLike, y: ArrayLike, value: float) -> NDArray[np.float64]:
+    return np.full(np.broadcast_shapes(np.shape(x), np.shape(y)), float(value))
+
+
+@dataclass(frozen=True)
+class FlatPlate(Scene):
+    """A flat matte plate parallel to the reference plane at ``depth_mm``.
+
+    Parameters
+    ----------
+    depth_mm : float
+        Plate surface height above the reference plane (0: the reference plane itself).
+    reflectivity_value : float
+        Uniform diffuse reflectivity (1.0: the white plate).
+    name : str
+        Registry name ("white_plate", "black_plate" or "plate").
+    """
+
+    depth_mm: float = 0.0
+    reflectivity_value: float = 1.0
+    name: str = "plate"
+
+    def __post_init__(self) -> None:
+        _depth_ok("depth_mm", self.depth_mm)
+        _reflectivity_ok("reflectivity", self.reflectivity_value)
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return _full(x, y, self.depth_mm)
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return _full(x, y, self.reflectivity_value)
+
+    def gradient(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return _full(x, y, 0.0), _full(x, y, 0.0)
+
+    @property
+    def is_flat(self) -> bool:
+        return True
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name, "depth_mm": float(self.depth_mm),
+            "reflectivity": float(self.reflectivity_value),
+        }
+
+
+@dataclass(frozen=True)
+class Checkerboard(Scene):
+    """A black-and-white checkerboard printed on a flat board (thesis Sec. 5.2.2).
+
+    The thesis mounted it on a 1 cm thick board fixed to the reference plane, so its surface
+    sits at ``depth_mm = 10`` with the stage at 0 and at 10..28 mm over its measurement positions.
+
+    Parameters
+    ----------
+    depth_mm : float
+        Height of the printed surface above the reference plane.
+    square_mm : float
+        Side of one square.
+    white_reflectivity, black_reflectivity : float
+        Reflectivities of the two colours (white plate = 1).
+    """
+
+    depth_mm: float = 10.0
+    square_mm: float = 25.0
+    white_reflectivity: float = 0.95
+    black_reflectivity: float = BLACK_PLATE_REFLECTIVITY
+
+    name: ClassVar[str] = "checkerboard"
+
+    def __post_init__(self) -> None:
+        _depth_ok("depth_mm", self.depth_mm)
+        _finite("square_mm", self.square_mm)
+        if self.square_mm <= 0:
+            raise InputError(f"checkerboard square_mm must be > 0, got {self.square_mm}")
+        _reflectivity_ok("white_reflectivity", self.white_reflectivity)
+        _reflectivity_ok("black_reflectivity", self.black_reflectivity)
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return _full(x, y, self.depth_mm)
+
+    def is_white(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
+        """True on white squares; a corner of four squares sits at the origin."""
+        ix = np.floor(np.asarray(x, dtype=np.float64) / self.square_mm).astype(np.int64)
+        iy = np.floor(np.asarray(y, dtype=np.float64) / self.square_mm).astype(np.int64)
+        return (ix + iy) % 2 == 0
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return np.where(
+            self.is_white(x, y), float(self.white_reflectivity), float(self.black_reflectivity)
+        )
+
+    def gradient(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return _full(x, y, 0.0), _full(x, y, 0.0)
+
+    @property
+    def is_flat(self) -> bool:
+        return True
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name, "depth_mm": float(self.depth_mm),
+            "square_mm": float(self.square_mm),
+            "white_reflectivity": float(self.white_reflectivity),
+            "black_reflectivity": float(self.black_reflectivity),
+        }
+
+
+# Face-like mask: (amplitude mm, centre x, centre y, sigma x, sigma y) of Gaussian features on a
+# super-Gaussian base, in mm at scale 1 (x to the viewer's right, y up).
+_MASK_BASE = (34.0, 0.0, 0.0, 55.0, 75.0)  # amplitude, x0, y0, half-width x, half-height y
+_MASK_FEATURES: tuple[tuple[float, float, float, float, float], ...] = (
+    (16.0, 0.0, -2.0, 8.0, 26.0),     # nose ridge
+    (7.0, 0.0, -24.0, 9.0, 8.0),      # nose tip
+    (-9.0, -27.0, 18.0, 13.0, 9.0),   # eye sockets
+    (-9.0, 27.0, 18.0, 13.0, 9.0),
+    (5.0, -28.0, 33.0, 18.0, 6.0),    # brows
+    (5.0, 28.0, 33.0, 18.0, 6.0),
+    (6.0, -34.0, -20.0, 16.0, 16.0),  # cheeks
+    (6.0, 34.0, -20.0, 16.0, 16.0),
+    (4.0, 0.0, -43.0, 17.0, 4.5),     # lips
+    (-2.5, 0.0, -48.0, 14.0, 2.0),    # mouth line
+    (5.0, 0.0, -64.0, 18.0, 10.0),    # chin
+)
+
+
+@dataclass(frozen=True)
+class Mask(Scene):
+    """A smooth face-like freeform surface (a mask), about 60 mm high, on a base plane.
+
+    Built from a super-Gaussian face base (110 x 150 mm at ``scale = 1``) plus Gaussian nose,
+    eye sockets, brows, cheeks, lips and chin; every slope stays moderate (< about 2), so the
+    surface is smooth, fully inside the default field of view and free of projector shadows
+    except where a real mask would have them.
+
+    Parameters
+    ----------
+    base_mm : float
+        Height of the plane the mask rests on.
+    scale : float
+        Lateral and height scale factor.
+    reflectivity_value : float
+        Uniform matte reflectivity (painted plaster).
+    """
+
+    base_mm: float = 0.0
+    scale: float = 1.0
+    reflectivity_value: float = 0.7
+
+    name: ClassVar[str] = "mask"
+
+    def __post_init__(self) -> None:
+        _depth_ok("base_mm", self.base_mm)
+        _finite("scale", self.scale)
+        if not (0.1 <= self.scale <= 2.0):
+            raise InputError(f"mask scale must be in 0.1..2, got {self.scale}")
+        _reflectivity_ok("reflectivity", self.reflectivity_value)
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        s = self.scale
+        x = np.asarray(x, dtype=np.float64) / s
+        y = np.asarray(y, dtype=np.float64) / s
+        amp, x0, y0, wx, wy = _MASK_BASE
+        rho2 = ((x - x0) / wx) ** 2 + ((y - y0) / wy) ** 2
+        envelope = np.exp(-(rho2**2))
+        features = np.zeros(np.broadcast_shapes(x.shape, y.shape))
+        for a, cx, cy, sx, sy in _MASK_FEATURES:
+            features = features + a * np.exp(-0.5 * (((x - cx) / sx) ** 2 + ((y - cy) / sy) ** 2))
+        # the features ride on the face and fade out with it: far from the face the surface is
+        # the base plane
+        return self.base_mm + s * envelope * (amp + features)
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return _full(x, y, self.reflectivity_value)
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name, "base_mm": float(self.base_mm), "scale": float(self.scale),
+            "reflectivity": float(self.reflectivity_value),
+        }
+
+
+@dataclass(frozen=True)
+class GlossyDome(Scene):
+    """A glossy spherical cap (a dome) on a matte base plane; its highlight saturates at MIGL 255.
+
+    The cap, of sphere radius ``radius_mm`` and height ``height_mm``, is centred on the optical
+    axis. Its surface reflects diffusely plus a Blinn-Phong lobe
+    ``specular * max(n.h, 0) ** shininess`` with ``h`` the half vector between the real
+    directions to the projector and to the camera; the highlight therefore sits where the sphere's
+    normal bisects them (about ``radius * sin(angle / 2)`` from the apex, on the projector side)
+    and carries the projected fringes. The base plane is matte.
+
+    Parameters
+    ----------
+    base_mm : float
+        Height of the plane the dome rests on.
+    height_mm : float
+        Cap height above its base (less than the sphere radius).
+    radius_mm : float
+        Sphere radius.
+    reflectivity_value : float
+        Diffuse reflectivity of dome and base.
+    specular : float
+        Peak specular gain of the dome relative to a white diffuse surface.
+    shininess : float
+        Blinn-Phong exponent (larger: smaller, sharper highlight).
+    """
+
+    base_mm: float = 0.0
+    height_mm: float = 30.0
+    radius_mm: float = 100.0
+    reflectivity_value: float = 0.5
+    specular: float = 2.0
+    shininess: float = 200.0
+
+    name: ClassVar[str] = "glossy"
+
+    def __post_init__(self) -> None:
+        _depth_ok("base_mm", self.base_mm)
+        for key in ("height_mm", "radius_mm", "specular", "shininess"):
+            _finite(key, getattr(self, key))
+        if not (0 < self.height_mm < self.radius_mm):
+            raise InputError(
+                f"dome height_mm must be in (0, radius_mm = {self.radius_mm}), got {self.height_mm}"
+            )
+        if self.shininess <= 0 or self.specular < 0:
+            raise InputError(
+                f"dome shininess must be > 0 and specular >= 0, got {self.shininess}, "
+                f"{self.specular}"
+            )
+        _reflectivity_ok("reflectivity", self.reflectivity_value)
+
+    @property
+    def base_radius_mm(self) -> float:
+        """Radius of the cap's footprint on its base plane."""
+        c = self.radius_mm - self.height_mm
+        return math.sqrt(self.radius_mm**2 - c * c)
+
+    def _r2(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        return np.minimum(x * x + y * y, self.base_radius_mm**2)
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        cap = np.sqrt(self.radius_mm**2 - self._r2(x, y)) - (self.radius_mm - self.height_mm)
+        return self.base_mm + cap
+
+    def gradient(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        r2 = x * x + y * y
+        on = r2 < self.base_radius_mm**2
+        root = np.sqrt(np.where(on, self.radius_mm**2 - r2, 1.0))
+        return np.where(on, -x / root, 0.0), np.where(on, -y / root, 0.0)
+
+    def specular_strength(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        return np.where(x * x + y * y < self.base_radius_mm**2, float(self.specular), 0.0)
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return _full(x, y, self.reflectivity_value)
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name, "base_mm": float(self.base_mm),
+            "height_mm": float(self.height_mm), "radius_mm": float(self.radius_mm),
+            "reflectivity": float(self.reflectivity_value), "specular": float(self.specular),
+            "shininess": float(self.shininess),
+        }
+
+
+def plate(depth_mm: float = 0.0, reflectivity: float = 1.0) -> FlatPlate:
+    """A flat plate of any reflectivity at ``depth_mm``."""
+    return FlatPlate(float(depth_mm), float(reflectivity), "plate")
+
+
+def white_plate(depth_mm: float = 0.0, reflectivity: float = 1.0) -> FlatPlate:
+    """The white calibration plate (thesis Ch. 4) at ``depth_mm`` (0: the reference plane)."""
+    return FlatPlate(float(depth_mm), float(reflectivity), "white_plate")
+
+
+def black_plate(
+    depth_mm: float = 0.0, reflectivity: float = BLACK_PLATE_REFLECTIVITY
+) -> FlatPlate:
+    """The black calibration plate (thesis Sec. 5.2.2) at ``depth_mm``."""
+    return FlatPlate(float(depth_mm), float(reflectivity), "black_plate")
+
+
+def checkerboard(
+    depth_mm: float = 10.0,
+    square_mm: float = 25.0,
+    white_reflectivity: float = 0.95,
+    black_reflectivity: float = BLACK_PLATE_REFLECTIVITY,
+) -> Checkerboard:
+    """The black-and-white checkerboard on its 10 mm board (see :class:`Checkerboard`)."""
+    return Checkerboard(
+        float(depth_mm), float(square_mm), float(white_reflectivity), float(black_reflectivity)
+    )
+
+
+def mask(base_mm: float = 0.0, scale: float = 1.0, reflectivity: float = 0.7) -> Mask:
+    """The face-like mask (see :class:`Mask`)."""
+    return Mask(float(base_mm), float(scale), float(reflectivity))
+
+
+def glossy(
+    base_mm: float = 0.0,
+    height_mm: float = 30.0,
+    radius_mm: float = 100.0,
+    reflectivity: float = 0.5,
+    specular: float = 2.0,
+    shininess: float = 200.0,
+) -> GlossyDome:
+    """The glossy dome (see :class:`GlossyDome`)."""
+    return GlossyDome(
+        float(base_mm), float(height_mm), float(radius_mm), float(reflectivity), float(specular),
+        float(shininess),
+    )
+
+
+#: Scene constructors by name, for the command line and for :func:`scene_from_manifest`.
+SCENES: dict[str, Callable[..., Scene]] = {
+    "white_plate": white_plate,
+    "black_plate": black_plate,
+    "plate": plate,
+    "checkerboard": checkerboard,
+    "mask": mask,
+    "glossy": glossy,
+}
+
+
+def make_scene(name: str, **params: Any) -> Scene:
+    """Build the scene registered as ``name`` with keyword ``params``.
+
+    Examples
+    --------
+    >>> make_scene("white_plate", depth_mm=12).to_manifest()
+    {'name': 'white_plate', 'depth_mm': 12.0, 'reflectivity': 1.0}
+    """
+    try:
+        ctor = SCENES[name]
+    except KeyError:
+        raise InputError(
+            f"unknown scene {name!r}; use one of {', '.join(sorted(SCENES))}"
+        ) from None
+    try:
+        return ctor(**params)
+    except TypeError as exc:
+        raise InputError(f"bad parameters for scene {name!r}: {exc}") from None
+
+
+def scene_from_manifest(entry: dict[str, Any]) -> Scene:
+    """Rebuild a scene from its :meth:`Scene.to_manifest` dict (extra keys are an error)."""
+    if "name" not in entry:
+        raise InputError("scene entry has no 'name'; add one of " + ", ".join(sorted(SCENES)))
+    params = {k: v for k, v in entry.items() if k != "name"}
+    return make_scene(str(entry["name"]), **params)
