@@ -134,13 +134,17 @@ def test_pyramid_temporal_unwrap_matches_reference(
     theirs = pyramid_ref[f"unwrap__{orientation}__phase_final"].astype(np.float64)
 
     # (a) our decoding + our unwrapping
-    ours = unwrap_temporal([pyramid_decoded[orientation, f].wrapped_phase for f in PYRAMID_FREQS], pitches)
+    ours = unwrap_temporal(
+        [pyramid_decoded[orientation, f].wrapped_phase for f in PYRAMID_FREQS], pitches
+    )
     agree = np.isfinite(ours[mask]) & (np.abs(ours[mask] - theirs[mask]) < 1e-3)
     assert agree.mean() >= 0.999, agree.mean()  # measured: 100 % (86979 / 86868 px)
 
     # (b) our unwrapping of THEIR wrapped maps (mapped to [0, 2*pi)): the algorithm alone
     phis = [
-        np.mod(pyramid_ref[f"phase__{orientation}__f_{f:03d}__phi_wrapped"].astype(np.float64), TWO_PI)
+        np.mod(
+            pyramid_ref[f"phase__{orientation}__f_{f:03d}__phi_wrapped"].astype(np.float64), TWO_PI
+        )
         for f in PYRAMID_FREQS
     ]
     only_unwrap = unwrap_temporal(phis, pitches)
@@ -383,7 +387,7 @@ def test_checkerboard_saturation_vs_their_masks(
     checker: dict, checker_ref: dict, orientation: str
 ) -> None:
     """Their sat_* masks = ours | max >= 251 | min <= 4: a superset by their thresholds only."""
-    short = orientation[:4] if orientation == "vertical" else "horiz"
+    short = {"vertical": "vert", "horizontal": "horiz"}[orientation]
     for f in CHECKER_FREQS:
         imgs = checker[orientation, f]
         ours = decode_set(imgs, _checker_spec(orientation, f), 8).saturation_count > 0
@@ -402,7 +406,9 @@ def test_checkerboard_sine_offset_and_temporal_unwrap(checker: dict, orientation
         offset the prediction is off by pi/2 at every level (residual > 1 rad almost everywhere).
     """
     res = {
-        f: decode_set(checker[orientation, f], _checker_spec(orientation, f), 8, reject_saturated=False)
+        f: decode_set(
+            checker[orientation, f], _checker_spec(orientation, f), 8, reject_saturated=False
+        )
         for f in CHECKER_FREQS
     }
     for lo in (4, 8, 16):
