@@ -13,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
+import numpy as np
 import typer
 from rich.console import Console
 
@@ -201,6 +202,221 @@ def phase(
     for note in summary["notes"]:
         console.print(f"note: {note}")
     console.print(f"wrote {len(summary['files'])} files to {output}")
+
+
+# ---------------------------------------------------------------------------------------------
+# simulate / modify
+# ---------------------------------------------------------------------------------------------
+
+
+def _scene_params(scene: str, depth_mm: float | None) -> dict[str, Any]:
+    if depth_mm is None:
+        return {}
+    if scene in ("mask", "glossy"):
+        return {"base_mm": depth_mm}
+    return {"depth_mm": depth_mm}
+
+
+@app.command()
+@handle_errors
+def simulate(
+    scene: Annotated[
+        str,
+        typer.Argument(
+            help="white_plate, black_plate, plate, checkerboard, mask or glossy.",
+        ),
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Capture folder to write.")],
+    depth_mm: Annotated[
+        float | None, typer.Option(help="Plate/board depth (mask, glossy: base height) in mm.")
+    ] = None,
+    pattern: Annotated[str, typer.Option(help="sinusoidal or triangular.")] = "sinusoidal",
+    steps: Annotated[int, typer.Option(help="Number of phase shifts N.")] = 4,
+    pitch: Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")] = "8",
+    orientation: Annotated[str, typer.Option(help="vertical, horizontal or both.")] = "vertical",
+    imin: Annotated[float, typer.Option(help="Minimum input gray level.")] = 40.0,
+    migl: Annotated[str, typer.Option(help="MIGL(s), comma-separated.")] = "255",
+    bit_depth: Annotated[int, typer.Option(help="Camera bit depth B (8, 10, 12, 16).")] = 8,
+    ambient_lux: Annotated[float, typer.Option(help="Added ambient light in lux.")] = 0.0,
+    noise: Annotated[float, typer.Option(help="Read noise sigma in 8-bit gray levels.")] = 1.0,
+    shot_noise: Annotated[bool, typer.Option(help="Photon shot noise.")] = True,
+    aperture: Annotated[
+        str, typer.Option(help="white (white plate peaks at 80 %), black (Sec. 5.2.2) or auto.")
+    ] = "auto",
+    gamma: Annotated[float, typer.Option(help="Gamma pre-compensation of the patterns.")] = 2.812,
+    ideal: Annotated[
+        bool, typer.Option(help="Ideal rig: no noise/blur, 16-bit camera and projector.")
+    ] = False,
+    centerline: Annotated[bool, typer.Option(help="Add a centerline frame.")] = True,
+    gray: Annotated[str, typer.Option(help="Uniform gray levels to add, comma-separated.")] = "",
+    add_lux: Annotated[
+        float, typer.Option(help="Eq. 4.1: add uniform light (lux) to the captures.")
+    ] = 0.0,
+    add_dn: Annotated[float, typer.Option(help="Eq. 4.1: add uniform DN to the captures.")] = 0.0,
+    add_noise: Annotated[
+        float, typer.Option(help="Eq. 4.1: add Gaussian noise (sigma, DN) to the captures.")
+    ] = 0.0,
+    seed: Annotated[int, typer.Option(help="Random seed (noise).")] = 0,
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Capture fringe sets of a scene on the virtual rig and write a capture folder."""
+    import dataclasses
+
+    from hdrfringe.errors import InputError
+    from hdrfringe.io.captures import write_capture_folder
+    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec, UniformFrame
+    from hdrfringe.rig.modify import modify_captures
+    from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, make_scene
+    from hdrfringe.rig.simulated import Lighting, SimulatedRig
+
+    check_output_dir(output, force)
+    if orientation not in ("vertical", "horizontal", "both"):
+        raise InputError(f"unknown orientation {orientation!r}; use vertical, horizontal or both")
+    if aperture not in ("auto", "white", "black"):
+        raise InputError(f"unknown aperture {aperture!r}; use auto, white or black")
+    sc = make_scene(scene, **_scene_params(scene, depth_mm))
+    lighting = Lighting(ambient_lux=ambient_lux)
+    if ideal:
+        rig = SimulatedRig.ideal(sc, lighting=lighting, seed=seed)
+    else:
+        rig = SimulatedRig(sc, lighting=lighting, gamma_precompensation=gamma, seed=seed)
+        cam = dataclasses.replace(
+            rig.camera,
+            bit_depth=bit_depth,
+            read_noise_dn8=noise,
+            full_well_e=rig.camera.full_well_e if shot_noise else None,
+        )
+        if aperture == "black" or (aperture == "auto" and scene in ("checkerboard", "black_plate")):
+            cam = cam.with_aperture_for(BLACK_PLATE_REFLECTIVITY)
+        rig = rig.replace(camera=cam)
+    full = 2**rig.projector.bit_depth - 1
+    orients = ["vertical", "horizontal"] if orientation == "both" else [orientation]
+    frames: list[Frame] = []
+    for o in orients:
+        for m in _parse_floats(migl, "--migl"):
+            m_proj = m * full / 255.0 if ideal else m
+            i_proj = imin * full / 255.0 if ideal else imin
+            for p in _parse_floats(pitch, "--pitch"):
+                frames += FringeSpec(pattern, steps, p, o, i_proj, m_proj).frames()  # type: ignore[arg-type]
+        if centerline:
+            extent = rig.projector.width if o == "vertical" else rig.projector.height
+            frames.append(CenterlineFrame(extent // 2, o, full))  # type: ignore[arg-type]
+    if gray:
+        frames += [
+            UniformFrame(g * full / 255.0 if ideal else g) for g in _parse_floats(gray, "--gray")
+        ]
+    with progress_bar() as prog:
+        task = prog.add_task(f"simulating {scene}", total=len(frames))
+        images = []
+        for f in frames:
+            images.append(rig.capture([f])[0])
+            prog.advance(task)
+    stack = np.stack(images)
+    modified = None
+    if add_lux or add_dn or add_noise:
+        stack = modify_captures(
+            stack,
+            rig.camera_bit_depth,
+            add_dn=add_dn,
+            add_lux=add_lux or None,
+            noise_sigma=add_noise,
+            seed=seed,
+        )
+        modified = {
+            "add_lux": add_lux,
+            "add_dn": add_dn,
+            "noise_sigma": add_noise,
+            "equation": "thesis Eq. 4.1",
+        }
+    extra: dict[str, Any] = {"simulator": rig.to_manifest()}
+    if modified:
+        extra["modification"] = modified
+    write_capture_folder(
+        output,
+        frames,
+        stack,
+        rig.camera_bit_depth,
+        projector=rig.projector,
+        scene=sc.to_manifest(),
+        extra=extra,
+        force=force,
+    )
+    sat = float(np.mean((stack == 2**rig.camera_bit_depth - 1).any(axis=0)))
+    console.print(
+        f"wrote {len(frames)} captures of {scene} to {output} "
+        f"({100 * sat:.1f} % of pixels saturated in at least one image)"
+    )
+
+
+@app.command()
+@handle_errors
+def modify(
+    folder: Annotated[Path, typer.Argument(help="Capture folder to modify.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Modified capture folder.")],
+    add_lux: Annotated[float, typer.Option(help="Uniform light to add, in lux.")] = 0.0,
+    add_dn: Annotated[float, typer.Option(help="Uniform intensity to add, in DN.")] = 0.0,
+    noise: Annotated[float, typer.Option(help="Gaussian noise sigma to add, in DN.")] = 0.0,
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Add light and noise to existing captures with clipping at 2^B - 1 (thesis Eq. 4.1)."""
+    from hdrfringe.io.captures import read_capture_folder, write_capture_folder
+    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.rig.modify import modify_captures
+
+    check_output_dir(output, force)
+    caps = read_capture_folder(folder)
+    out = modify_captures(
+        caps.images,
+        caps.camera_bit_depth,
+        add_dn=add_dn,
+        add_lux=add_lux or None,
+        noise_sigma=noise,
+        seed=seed,
+    )
+    extra = {
+        k: v
+        for k, v in caps.manifest.items()
+        if k not in ("format", "version", "camera", "projector", "scene", "frames")
+    }
+    extra["modification"] = {
+        "source": str(folder),
+        "add_lux": add_lux,
+        "add_dn": add_dn,
+        "noise_sigma": noise,
+        "seed": seed,
+        "equation": "thesis Eq. 4.1",
+    }
+    names = [Path(e["file"]).stem for e in caps.entries]
+    write_capture_folder(
+        output,
+        caps.frames,
+        out,
+        caps.camera_bit_depth,
+        projector=caps.projector,
+        scene=caps.scene,
+        names=names,
+        extra=extra,
+        force=force,
+    )
+    sat = float(np.mean((out == 2**caps.camera_bit_depth - 1).any(axis=0)))
+    console.print(f"wrote {len(names)} modified captures to {output} ({100 * sat:.1f} % saturated)")
+
+
+@app.command()
+@handle_errors
+def demo(
+    output: Annotated[Path, typer.Option("-o", "--output", help="Demo output folder.")] = Path(
+        "hdrfringe-demo"
+    ),
+    seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Simulate scenes on the virtual rig, decode them, write maps and plots, print a summary."""
+    from hdrfringe.demo import run_demo
+
+    run_demo(output, seed=seed, force=force, console=console)
 
 
 if __name__ == "__main__":  # pragma: no cover

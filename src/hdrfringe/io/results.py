@@ -97,8 +97,7 @@ def write_preview_png(
         vmax = float(np.percentile(arr[finite], 99.5))
     h, w = arr.shape
     fig, ax = plt.subplots(figsize=(6.4, 6.4 * h / w + 0.6), dpi=100)
-    cm = matplotlib.colormaps[cmap].copy()
-    cm.set_bad("0.5")
+    cm = matplotlib.colormaps[cmap].with_extremes(bad="0.5")
     im = ax.imshow(
         np.ma.masked_invalid(arr), cmap=cm, vmin=vmin, vmax=vmax, interpolation="nearest"
     )
