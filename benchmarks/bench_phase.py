@@ -1,0 +1,242 @@
+"""Benchmark: phase decoding and temporal unwrapping, hdrfringe versus plain numpy.
+
+Run ``.venv/bin/python benchmarks/bench_phase.py`` (or ``make bench``); ``--json PATH`` also
+writes the results as JSON, ``--quick`` uses fewer repeats. See benchmarks/README.md.
+
+What is timed (median of repeated runs, per call):
+
+(a) 4-step sinusoidal set, 648x494 pixels, 8-bit, seeded synthetic with saturation:
+    - ``decode_set``: everything the library computes for a set (phase, modulation, mean,
+      data modulation, saturation count, validity, NaN masking);
+    - ``sinusoidal_phase`` + ``saturation_count``: the same numerical core without the
+      validity bookkeeping;
+    - reference: a straightforward numpy loop over the shifts accumulating S, C (and the sum
+      for the mean) in float64, ``np.arctan2``, ``np.sqrt``, ``(imgs == 255).sum(0)``.
+(b) 3-frequency temporal unwrapping of 648x494 wrapped maps, pitches 1024 px (one period
+    across a 1024 px projector), 128 px and 16 px:
+    - ``unwrap_temporal`` (which also builds the fringe-order residual map);
+    - reference: the same formula ``Phi_k = phi_k + 2*pi*round((Phi_{k-1}*p_{k-1}/p_k -
+      phi_k)/(2*pi))`` written directly.
+
+Before timing, each pair is checked to agree numerically.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import timeit
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from hdrfringe.patterns import FringeSpec, fringe_gray
+from hdrfringe.phase import decode_set, saturation_count, sinusoidal_phase
+from hdrfringe.unwrap import unwrap_temporal
+
+TWO_PI = 2.0 * np.pi
+HEIGHT, WIDTH = 494, 648
+STEPS = 4
+SEED = 20240601
+PITCHES = (1024.0, 128.0, 16.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Synthetic data (seeded)
+# ---------------------------------------------------------------------------------------------
+
+
+def projector_x(rng: np.random.Generator) -> np.ndarray:
+    """Projector x seen by each camera pixel: a tilted plane with a smooth bump, ~10..1010 px."""
+    rows, cols = np.mgrid[0:HEIGHT, 0:WIDTH].astype(np.float64)
+    bump = 25.0 * np.exp(-((cols - 300) ** 2 + (rows - 250) ** 2) / (2 * 80.0**2))
+    return 10.0 + 1.55 * cols + 0.08 * rows + bump + rng.normal(0, 0.01, (HEIGHT, WIDTH))
+
+
+def fringe_set(rng: np.random.Generator) -> tuple[np.ndarray, FringeSpec]:
+    """4-step 8-bit set with camera gain above 1, so bright fringes clip at 255."""
+    spec = FringeSpec("sinusoidal", STEPS, 16.0, "vertical", 40, 255)
+    x = projector_x(rng)
+    # reflectivity varies across the field: some regions clip, most do not
+    gain = 0.75 + 0.40 * np.exp(-(((np.arange(WIDTH) - 450) / 120.0) ** 2))[None, :]
+    imgs = np.stack([5.0 + gain * fringe_gray(x, spec, k) for k in range(STEPS)])
+    imgs += rng.normal(0.0, 1.5, imgs.shape)
+    return np.clip(np.rint(imgs), 0, 255).astype(np.uint8), spec
+
+
+def wrapped_maps(rng: np.random.Generator) -> list[np.ndarray]:
+    """Wrapped phases 2*pi*x/p mod 2*pi with 0.02 rad noise, coarsest first."""
+    x = projector_x(rng)
+    return [
+        np.mod(TWO_PI * x / p + rng.normal(0.0, 0.02, x.shape), TWO_PI).astype(np.float64)
+        for p in PITCHES
+    ]
+
+
+# ---------------------------------------------------------------------------------------------
+# Plain-numpy references
+# ---------------------------------------------------------------------------------------------
+
+
+def reference_phase(imgs: np.ndarray, full: int = 255):
+    """Loop over shifts, float64 accumulators: phase in [0, 2*pi), b, mean, saturation count."""
+    n = imgs.shape[0]
+    s = np.zeros(imgs.shape[1:])
+    c = np.zeros(imgs.shape[1:])
+    total = np.zeros(imgs.shape[1:])
+    for k in range(n):
+        f = imgs[k].astype(np.float64)
+        s += f * np.sin(TWO_PI * k / n)
+        c += f * np.cos(TWO_PI * k / n)
+        total += f
+    phase = np.mod(np.arctan2(-s, c), TWO_PI)
+    modulation = (2.0 / n) * np.sqrt(s * s + c * c)
+    return phase, modulation, total / n, (imgs == full).sum(0)
+
+
+def reference_temporal(maps: list[np.ndarray], pitches: tuple[float, ...]) -> np.ndarray:
+    current = np.mod(maps[0], TWO_PI)
+    for k in range(1, len(maps)):
+        predicted = current * (pitches[k - 1] / pitches[k])
+        current = maps[k] + TWO_PI * np.rint((predicted - maps[k]) / TWO_PI)
+    return current
+
+
+# ---------------------------------------------------------------------------------------------
+# Timing
+# ---------------------------------------------------------------------------------------------
+
+
+def median_time(func: Callable[[], Any], repeat: int) -> float:
+    """Median seconds per call over ``repeat`` timings (each of enough calls to take ~0.2 s)."""
+    timer = timeit.Timer(func)
+    number, _ = timer.autorange()
+    number = max(1, number)
+    times = timer.repeat(repeat=repeat, number=number)
+    return float(np.median(times) / number)
+
+
+def wrapped_abs_diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.abs(np.mod(a - b + np.pi, TWO_PI) - np.pi)
+
+
+def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) -> dict:
+    """Ours and the references must agree before timing them; returns the differences."""
+    phase, b, mean = sinusoidal_phase(imgs)
+    sat = saturation_count(imgs, 8)
+    r_phase, r_b, r_mean, r_sat = reference_phase(imgs)
+    res = decode_set(imgs, spec, 8)
+    out = {
+        "phase_max_abs_diff_rad": float(wrapped_abs_diff(phase, r_phase).max()),
+        "modulation_max_abs_diff_dn": float(np.abs(b - r_b).max()),
+        "mean_max_abs_diff_dn": float(np.abs(mean - r_mean).max()),
+        "saturation_count_equal": bool(np.array_equal(sat, r_sat)),
+        "decode_set_phase_max_abs_diff_rad": float(
+            np.nanmax(wrapped_abs_diff(res.wrapped_phase, r_phase))
+        ),
+        "decode_set_saturation_count_equal": bool(np.array_equal(res.saturation_count, r_sat)),
+    }
+    ours_u = unwrap_temporal(maps, list(PITCHES))
+    ref_u = reference_temporal(maps, PITCHES)
+    out["unwrap_max_abs_diff_rad"] = float(np.abs(ours_u - ref_u).max())
+    ok = (
+        out["phase_max_abs_diff_rad"] < 1e-12
+        and out["modulation_max_abs_diff_dn"] < 1e-9
+        and out["mean_max_abs_diff_dn"] < 1e-9
+        and out["saturation_count_equal"]
+        and out["decode_set_phase_max_abs_diff_rad"] < 1e-12
+        and out["decode_set_saturation_count_equal"]
+        and out["unwrap_max_abs_diff_rad"] < 1e-12
+    )
+    if not ok:
+        raise SystemExit(f"ours and the reference disagree: {out}")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    ap.add_argument("--repeat", type=int, default=15, help="timings per case (median taken)")
+    ap.add_argument("--quick", action="store_true", help="5 repeats (smoke run)")
+    args = ap.parse_args(argv)
+    repeat = 5 if args.quick else args.repeat
+
+    rng = np.random.default_rng(SEED)
+    imgs, spec = fringe_set(rng)
+    maps = wrapped_maps(rng)
+    sat_frac = float(np.mean((imgs == 255).any(axis=0)))
+    agreement = check_agreement(imgs, spec, maps)
+
+    cases = [
+        (
+            "(a) decode_set vs reference",
+            lambda: decode_set(imgs, spec, 8),
+            lambda: reference_phase(imgs),
+        ),
+        (
+            "(a) sinusoidal_phase + saturation_count vs reference",
+            lambda: (sinusoidal_phase(imgs), saturation_count(imgs, 8)),
+            lambda: reference_phase(imgs),
+        ),
+        (
+            "(b) unwrap_temporal (3 freq) vs reference",
+            lambda: unwrap_temporal(maps, list(PITCHES)),
+            lambda: reference_temporal(maps, PITCHES),
+        ),
+    ]
+    rows = []
+    for name, ours, ref in cases:
+        t_ours = median_time(ours, repeat)
+        t_ref = median_time(ref, repeat)
+        rows.append(
+            {
+                "case": name,
+                "ours_ms": 1e3 * t_ours,
+                "reference_ms": 1e3 * t_ref,
+                "ours_over_reference": t_ours / t_ref,
+                "speedup_reference_over_ours": t_ref / t_ours,
+            }
+        )
+
+    print(
+        f"hdrfringe phase benchmark: {STEPS}-step {WIDTH}x{HEIGHT} uint8 "
+        f"({100 * sat_frac:.1f} % of pixels clipped in >= 1 shift); "
+        f"unwrap pitches {', '.join(f'{p:g}' for p in PITCHES)} px"
+    )
+    print(
+        f"python {platform.python_version()}, numpy {np.__version__}, "
+        f"{os.cpu_count()} CPUs, {platform.machine()}; median of {repeat} runs"
+    )
+    print(f"agreement: {agreement}")
+    w = max(len(r["case"]) for r in rows)
+    print(f"\n{'case':<{w}}  {'ours ms':>9}  {'ref ms':>9}  {'ours/ref':>8}  {'ref/ours':>8}")
+    for r in rows:
+        print(
+            f"{r['case']:<{w}}  {r['ours_ms']:9.2f}  {r['reference_ms']:9.2f}  "
+            f"{r['ours_over_reference']:8.2f}  {r['speedup_reference_over_ours']:8.2f}"
+        )
+    if args.json:
+        payload = {
+            "shape": [STEPS, HEIGHT, WIDTH],
+            "dtype": "uint8",
+            "saturated_fraction": sat_frac,
+            "pitches_px": list(PITCHES),
+            "repeat": repeat,
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "cpu_count": os.cpu_count(),
+            "agreement": agreement,
+            "results": rows,
+        }
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(payload, fh, indent=1)
+            fh.write("\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
