@@ -126,7 +126,9 @@ def decode_folder(
             method = "spatial"
         if len(fam) > 1:
             phases = [base] + [results[s.label].wrapped_phase for s in fam[1:]]
-            unwrapped = unwrap_temporal(phases, [s.spec.pitch_px for s in fam])
+            unwrapped = unwrap_temporal(
+                phases, [s.spec.pitch_px for s in fam], coarse_unwrapped=not spans
+            )
             method = (
                 f"temporal {' -> '.join(f'{s.spec.pitch_px:g}' for s in fam)} px ({method} first)"
             )

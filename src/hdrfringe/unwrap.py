@@ -427,9 +427,38 @@ def unwrap_temporal(
     >>> bool(np.allclose(unwrap_temporal(phis, [1024, 128, 16]), 2 * np.pi * x / 16))
     True
     """
-    return unwrap_temporal_levels(
-        wrapped_phases, pitches, coarse_unwrapped=coarse_unwrapped, max_residual=max_residual
-    ).phase
+    if max_residual is not None or len(wrapped_phases) < 2:
+        return unwrap_temporal_levels(
+            wrapped_phases, pitches, coarse_unwrapped=coarse_unwrapped, max_residual=max_residual
+        ).phase
+    # Fast path: the same arithmetic in place, without keeping every level and residual map.
+    # Validation is shared by calling the full version on a one-pixel view of the inputs.
+    maps = [np.asarray(m, dtype=np.float64) for m in wrapped_phases]
+    unwrap_temporal_levels(
+        [m.reshape(-1)[:1] if m.size else m for m in maps],
+        pitches,
+        coarse_unwrapped=coarse_unwrapped,
+    )
+    for i, m in enumerate(maps[1:], start=1):
+        if m.shape != maps[0].shape:
+            raise InputError(
+                f"wrapped phase map {i} has shape {m.shape} but map 0 has shape {maps[0].shape}; "
+                "all maps must come from the same camera pixels"
+            )
+    p = [float(v) for v in pitches]
+    with np.errstate(invalid="ignore"):
+        current = maps[0].copy() if coarse_unwrapped else np.mod(maps[0], TWO_PI)
+        order = np.empty_like(current)
+        for k in range(1, len(maps)):
+            phi = maps[k]
+            current *= p[k - 1] / p[k]  # predicted phase at pitch p_k
+            np.subtract(current, phi, out=order)
+            order /= TWO_PI
+            np.rint(order, out=order)
+            order *= TWO_PI
+            np.add(phi, order, out=current)
+    current[~np.isfinite(current)] = np.nan
+    return current
 
 
 # --------------------------------------------------------------------------------------------
