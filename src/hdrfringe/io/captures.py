@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe.errors import CaptureFormatError, HdrFringeError
-from hdrfringe.io.results import staged_output_dir
+from hdrfringe.io.results import read_map_tiff, staged_output_dir, write_map_tiff
 from hdrfringe.patterns import (
     ORIENTATIONS,
     PATTERNS,
@@ -74,10 +74,23 @@ class CaptureFolder:
     entries: list[dict[str, Any]]
     images: NDArray = field(repr=False)
     sets: list[FringeSet] = field(default_factory=list)
+    maps: dict[str, Path] = field(default_factory=dict)
 
     @property
     def image_shape(self) -> tuple[int, int]:
         return (int(self.images.shape[1]), int(self.images.shape[2]))
+
+    def read_map(self, key: str) -> NDArray | None:
+        """A float map listed in the manifest's ``maps`` (e.g. ``truth_height_mm``), or None."""
+        if key not in self.maps:
+            return None
+        data = read_map_tiff(self.maps[key])
+        if data.shape != self.image_shape:
+            raise CaptureFormatError(
+                f"{self.maps[key]}: map is {data.shape[1]}x{data.shape[0]} but the images are "
+                f"{self.image_shape[1]}x{self.image_shape[0]}; regenerate it"
+            )
+        return data
 
     def set_images(self, fringe_set: FringeSet) -> NDArray:
         """Stack of the set's images, shape (N, H, W), shift 0 first."""
@@ -408,8 +421,25 @@ def read_capture_folder(path: str | Path) -> CaptureFolder:
             bit_depth=int(proj.get("bit_depth", 8)),
             gamma_precompensation=float(proj.get("gamma_precompensation", 1.0)),
         )
+    maps: dict[str, Path] = {}
+    listed = manifest.get("maps", {})
+    if not isinstance(listed, dict):
+        raise _fail(str(folder / "manifest.json"), "'maps' is not an object", "use {name: file}")
+    for key, file in listed.items():
+        rel = (
+            _safe_relpath(file, f"manifest map {key!r}")
+            if str(file).lower().endswith((".tif", ".tiff"))
+            else None
+        )
+        if rel is None or not (folder / rel).is_file():
+            raise CaptureFormatError(
+                f"{folder / 'manifest.json'}: map {key!r} names {file!r}, which is not a TIFF file "
+                "in the folder; fix or remove the 'maps' entry"
+            )
+        maps[key] = folder / rel
     return CaptureFolder(
         path=folder,
+        maps=maps,
         manifest=manifest,
         camera_bit_depth=bit_depth,
         projector=projector,
@@ -431,6 +461,8 @@ def write_capture_folder(
     scene: dict[str, Any] | None = None,
     names: Sequence[str] | None = None,
     extra: dict[str, Any] | None = None,
+    camera_extra: dict[str, Any] | None = None,
+    maps: dict[str, NDArray] | None = None,
     force: bool = False,
 ) -> Path:
     """Write images and their manifest as a capture folder (contract version 1).
@@ -454,6 +486,11 @@ def write_capture_folder(
         File stems; default from each frame's :meth:`default_name`.
     extra : dict, optional
         Additional top-level manifest fields (the contract allows additions).
+    camera_extra : dict, optional
+        Additional ``camera`` fields, e.g. ``focal_px`` and ``standoff_mm``.
+    maps : dict of str to ndarray, optional
+        Extra float maps written beside the images as float32 TIFF ``<key>.tiff`` and listed in
+        the manifest's ``maps`` field, e.g. ``{"truth_height_mm": h}``.
     force : bool
         Replace an existing non-empty folder.
     """
@@ -477,7 +514,7 @@ def write_capture_folder(
     manifest: dict[str, Any] = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
-        "camera": {"bit_depth": int(camera_bit_depth)},
+        "camera": {"bit_depth": int(camera_bit_depth), **(camera_extra or {})},
     }
     if projector is not None:
         manifest["projector"] = (
@@ -487,9 +524,13 @@ def write_capture_folder(
         manifest["scene"] = dict(scene)
     if extra:
         manifest.update(extra)
+    if maps:
+        manifest["maps"] = {k: f"{k}.tiff" for k in maps}
     manifest["frames"] = [f.manifest_entry(f"{s}.png") for f, s in zip(frames, stems, strict=True)]
     with staged_output_dir(path, force=force) as tmp:
         for img, stem in zip(images, stems, strict=True):
             iio.imwrite(tmp / f"{stem}.png", np.rint(img).astype(dtype))
+        for key, data in (maps or {}).items():
+            write_map_tiff(tmp / f"{key}.tiff", data)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return Path(path)
