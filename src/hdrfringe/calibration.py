@@ -1,0 +1,922 @@
+"""Phase-to-height calibration from a flat plate at known depths (thesis Sec. 2.4-2.5, 4.1).
+
+A flat plate is measured at the reference position (depth 0) and at ``J >= 2`` known depths
+``h_j``; for every camera pixel the phase difference to the reference (Eq. 2.10)::
+
+    dphi_j(x, y) = phi_j(x, y) - phi_ref(x, y)
+
+is mapped to height by a per-pixel model fitted by least squares on the height residual:
+
+- ``"linear"``: ``h = K dphi`` (Eq. 2.11), ``K`` by the closed form of Eq. 2.15;
+- ``"rational"``: ``h = dphi / (a + b dphi)``, i.e. ``1/h = a/dphi + b`` (the non-linear
+  models of thesis refs. [61, 62]); exact for any pinhole camera and projector (see
+  ``docs/calibration.md`` for the derivation);
+- ``"poly2"``, ``"poly3"``: ``h = sum_{k=1..order} c_k dphi^k`` (no constant term: the
+  reference plane is height 0 by definition).
+
+Every coefficient map is then filtered with a median filter followed by a mean filter, both on
+a square window of 21 pixels (Sec. 4.1), NaN-aware; a border of ``border_px`` pixels stays
+unfiltered, as in the thesis, and is excluded from every metric (:func:`measurement_mask`).
+
+Phases are in the units of the absolute phase maps (radians for every decoder of
+:mod:`hdrfringe.phase`), depths in millimetres, so ``K`` is in mm/rad. All functions are pure
+numpy/scipy and vectorised over pixels; invalid pixels are NaN throughout.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from hdrfringe.errors import InputError
+from hdrfringe.patterns import FringeSpec
+
+__all__ = [
+    "MODELS",
+    "N_COEFFICIENTS",
+    "Calibration",
+    "ResidualStats",
+    "calibrate",
+    "evaluate_model",
+    "filter_coefficients",
+    "filter_map",
+    "fit_linear_k",
+    "fit_model",
+    "measurement_mask",
+    "phase_difference",
+    "residual_rms",
+]
+
+#: Calibration models by name.
+MODELS: tuple[str, ...] = ("linear", "rational", "poly2", "poly3")
+#: Number of coefficient maps of each model (``linear``: K alone).
+N_COEFFICIENTS: dict[str, int] = {"linear": 1, "rational": 2, "poly2": 2, "poly3": 3}
+
+#: Thesis Sec. 4.1: median then mean filter, square window of 21 pixels, 10 pixel border.
+DEFAULT_WINDOW_PX = 21
+DEFAULT_BORDER_PX = 10
+
+# Determinant below which a per-pixel normal matrix (columns scaled to unit norm, so the
+# determinant lies in [0, 1]) is treated as singular: the pixel gets NaN coefficients.
+_SINGULAR_DET = 1e-13
+# Output rows per block of the sliding-window median (bounds the temporary to ~10 MB).
+_MEDIAN_BLOCK_ROWS = 8
+
+
+def _check_model(model: str) -> str:
+    if model not in MODELS:
+        raise InputError(f"unknown calibration model {model!r}; use one of {', '.join(MODELS)}")
+    return model
+
+
+# --------------------------------------------------------------------------------------------
+# Fitting
+# --------------------------------------------------------------------------------------------
+def phase_difference(phase: ArrayLike, reference_phase: ArrayLike) -> NDArray[np.float64]:
+    """Phase difference to the reference plane, ``dphi = phi - phi_ref`` (Eq. 2.10).
+
+    Parameters
+    ----------
+    phase : array_like, shape (H, W) or (J, H, W)
+        Absolute phase of the object (or of the plate at J positions); NaN = invalid.
+    reference_phase : array_like, shape (H, W)
+        Absolute phase of the reference plane.
+
+    Returns
+    -------
+    ndarray, same shape as ``phase``
+        NaN where either phase is NaN.
+    """
+    phi = np.asarray(phase, dtype=np.float64)
+    ref = np.asarray(reference_phase, dtype=np.float64)
+    if ref.ndim != 2 or phi.ndim not in (2, 3) or phi.shape[-2:] != ref.shape:
+        raise InputError(
+            f"phase map of shape {phi.shape} does not match the reference phase {ref.shape}; "
+            "use maps from the same camera and region of interest"
+        )
+    return phi - ref
+
+
+class _Samples(NamedTuple):
+    """Calibration samples prepared once: NaN-free phase differences and their validity."""
+
+    d: NDArray[np.float64]  # (J, H, W) phase differences, NaN where invalid
+    dz: NDArray[np.float64]  # the same with 0 where invalid
+    ok: NDArray[np.bool_]  # (J, H, W) finite samples
+    count: NDArray[np.intp]  # (H, W) number of finite samples
+    h: NDArray[np.float64]  # (J,) depths in mm
+
+
+def _samples(dphi: ArrayLike, depths: ArrayLike) -> _Samples:
+    """Validate a (J, H, W) stack of phase differences and its (J,) depths."""
+    d = np.asarray(dphi, dtype=np.float64)
+    h = np.asarray(depths, dtype=np.float64)
+    if d.ndim != 3:
+        raise InputError(
+            f"phase differences must be a (positions, height, width) stack, got shape {d.shape}"
+        )
+    if h.ndim != 1 or h.shape[0] != d.shape[0]:
+        raise InputError(
+            f"{h.size} depth(s) for {d.shape[0]} phase map(s); give one depth per plate position"
+        )
+    if not np.all(np.isfinite(h)):
+        raise InputError(f"depths must be finite numbers in mm, got {h.tolist()}")
+    ok = np.isfinite(d)
+    dz = np.where(ok, d, 0.0)
+    return _Samples(d, dz, ok, np.count_nonzero(ok, axis=0), h)
+
+
+def _wsum(weights: NDArray[np.float64], stack: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``sum_j weights[j] * stack[j]`` for a (J,) vector and a (J, H, W) stack (one BLAS call)."""
+    return np.tensordot(weights, stack, axes=1)
+
+
+def _psum(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``sum_j a[j] * b[j]`` over the first axis of two (J, H, W) stacks, no temporary."""
+    return np.einsum("j...,j...->...", a, b)
+
+
+def _linear_k(s: _Samples) -> NDArray[np.float64]:
+    num = _wsum(s.h, s.dz)
+    den = _psum(s.dz, s.dz)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = num / den
+    k[(s.count < 2) | (den == 0)] = np.nan
+    return k
+
+
+def fit_linear_k(dphi: ArrayLike, depths: ArrayLike) -> NDArray[np.float64]:
+    """Phase-to-height map ``K`` of the linear model ``h = K dphi`` (Eq. 2.11, 2.15).
+
+    Per pixel, the least-squares solution over the positions where ``dphi`` is finite::
+
+        K = sum_j dphi_j h_j / sum_j dphi_j^2                                   (Eq. 2.15)
+
+    (Eq. 2.14 of the thesis prints the single-position ratio upside down; Eq. 2.11 and 2.15
+    fix the meaning: ``K`` converts phase to height, mm/rad.)
+
+    Parameters
+    ----------
+    dphi : array_like, shape (J, H, W)
+        Phase differences ``dphi_j`` to the reference plane (Eq. 2.10); NaN = invalid.
+    depths : array_like, shape (J,)
+        Known plate depths ``h_j`` in mm.
+
+    Returns
+    -------
+    ndarray, shape (H, W)
+        ``K`` in mm per phase unit; NaN where fewer than 2 finite samples (or all zero).
+    """
+    return _linear_k(_samples(dphi, depths))
+
+
+def _solve_normal(
+    gram: NDArray[np.float64], rhs: NDArray[np.float64], bad: NDArray[np.bool_]
+) -> NDArray[np.float64]:
+    """Solve per-pixel normal equations ``gram p = rhs``; (H, W, M, M), (H, W, M) -> (M, H, W).
+
+    The system is scaled to a unit diagonal first (equivalent to unit-norm columns), so the
+    determinant lies in [0, 1]; pixels below ``_SINGULAR_DET``, with a zero column or flagged
+    ``bad`` get NaN.
+    """
+    m = gram.shape[-1]
+    diag = np.diagonal(gram, axis1=-2, axis2=-1)
+    bad = bad | ~np.all(diag > 0, axis=-1) | ~np.all(np.isfinite(gram), axis=(-2, -1))
+    scale = np.sqrt(np.where(bad[..., None], 1.0, diag))
+    g = gram / (scale[..., :, None] * scale[..., None, :])
+    r = rhs / scale
+    with np.errstate(invalid="ignore"):
+        bad |= ~(np.linalg.det(g) > _SINGULAR_DET)
+    g[bad] = np.eye(m)
+    r[bad] = 0.0
+    sol = np.linalg.solve(g, r[..., None])[..., 0] / scale
+    out = np.moveaxis(sol, -1, 0)
+    out[:, bad] = np.nan
+    return out
+
+
+def _rational_fit(s: _Samples) -> NDArray[np.float64]:
+    """``a h_j + b h_j dphi_j = dphi_j`` by least squares per pixel; (2, H, W) ``[a, b]``."""
+    h = s.h
+    h2 = h * h
+    shape = s.count.shape
+    gram = np.empty((*shape, 2, 2))
+    rhs = np.empty((*shape, 2))
+    gram[..., 0, 0] = _wsum(h2, s.ok.astype(np.float64))
+    gram[..., 0, 1] = gram[..., 1, 0] = _wsum(h2, s.dz)
+    d2 = s.dz * s.dz
+    gram[..., 1, 1] = _wsum(h2, d2)
+    rhs[..., 0] = _wsum(h, s.dz)
+    rhs[..., 1] = _wsum(h, d2)
+    return _solve_normal(gram, rhs, s.count < 2)
+
+
+def _rational_sse(s: _Samples, coef: NDArray[np.float64]) -> NDArray[np.float64]:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e = s.dz / (coef[0] + coef[1] * s.dz) - s.h[:, None, None]
+    e[~s.ok] = 0.0
+    return _psum(e, e)
+
+
+def _rational_refine(s: _Samples, coef: NDArray[np.float64]) -> NDArray[np.float64]:
+    """One Gauss-Newton step of the rational model on the height residual, kept where it helps.
+
+    The linear solve minimises ``sum (dphi_j - (a + b dphi_j) h_j)^2``, which is the height
+    residual weighted by ``(a + b dphi_j)^2``; the step moves ``(a, b)`` towards the unweighted
+    height least squares (what :func:`residual_rms` reports). It is accepted per pixel only
+    where it does not increase the sum of squared height residuals.
+    """
+    a, b = coef
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        den = a + b * s.dz
+        ja = -s.dz / (den * den)  # d(model)/da; d(model)/db = ja * dphi
+        r = s.h[:, None, None] - s.dz / den
+    use = s.ok & np.isfinite(ja) & np.isfinite(r)
+    ja[~use] = 0.0
+    r[~use] = 0.0
+    shape = s.count.shape
+    gram = np.empty((*shape, 2, 2))
+    rhs = np.empty((*shape, 2))
+    w = ja * ja
+    gram[..., 0, 0] = w.sum(axis=0)
+    w *= s.dz
+    gram[..., 0, 1] = gram[..., 1, 0] = w.sum(axis=0)
+    gram[..., 1, 1] = _psum(w, s.dz)
+    ja *= r
+    rhs[..., 0] = ja.sum(axis=0)
+    rhs[..., 1] = _psum(ja, s.dz)
+    step = _solve_normal(gram, rhs, np.count_nonzero(use, axis=0) < 2)
+    new = coef + np.where(np.isfinite(step), step, 0.0)
+    better = _rational_sse(s, new) <= _rational_sse(s, coef)
+    return np.where(better, new, coef)
+
+
+def _poly_fit(s: _Samples, order: int) -> NDArray[np.float64]:
+    """``h = sum_{k=1..order} c_k dphi^k`` by least squares per pixel; (order, H, W)."""
+    shape = s.count.shape
+    psums = {}
+    p = s.dz.copy()
+    rhs = np.empty((*shape, order))
+    for k in range(1, 2 * order + 1):
+        if k > 1:
+            p *= s.dz
+        psums[k] = p.sum(axis=0)
+        if k <= order:
+            rhs[..., k - 1] = _wsum(s.h, p)
+    gram = np.empty((*shape, order, order))
+    for i in range(order):
+        for j in range(order):
+            gram[..., i, j] = psums[i + j + 2]
+    return _solve_normal(gram, rhs, s.count < max(2, order))
+
+
+def _fit(s: _Samples, model: str, refine: bool) -> NDArray[np.float64]:
+    if model == "linear":
+        return _linear_k(s)[None]
+    if model == "rational":
+        coef = _rational_fit(s)
+        return _rational_refine(s, coef) if refine else coef
+    return _poly_fit(s, int(model[-1]))
+
+
+def fit_model(
+    dphi: ArrayLike, depths: ArrayLike, model: str, *, refine: bool = False
+) -> NDArray[np.float64]:
+    """Fit a calibration model per pixel by least squares.
+
+    ``linear`` and the polynomials minimise the height residual ``sum_j (h(dphi_j) - h_j)^2``
+    exactly (they are linear in their coefficients); ``rational`` minimises it weighted by
+    ``(a + b dphi_j)^2`` unless ``refine``.
+
+    Parameters
+    ----------
+    dphi : array_like, shape (J, H, W)
+        Phase differences to the reference plane (Eq. 2.10); NaN = invalid sample.
+    depths : array_like, shape (J,)
+        Known plate depths in mm.
+    model : {"linear", "rational", "poly2", "poly3"}
+        - ``linear``: ``h = K dphi`` (Eq. 2.11, 2.15); coefficients ``[K]``.
+        - ``rational``: ``h = dphi / (a + b dphi)``; coefficients ``[a, b]``, from the linear
+          system ``a h_j + b h_j dphi_j = dphi_j`` (exact, so noise-free data are recovered to
+          rounding), then, if ``refine``, one Gauss-Newton step on the height residual.
+        - ``poly2``, ``poly3``: ``h = sum_{k=1..order} c_k dphi^k``; coefficients
+          ``[c_1, ..., c_order]``.
+    refine : bool
+        Rational model only: follow the linear solve by one Gauss-Newton step on the height
+        residual (default False: the linear solve already minimises the height residual
+        weighted by ``(a + b dphi_j)^2``, which varies by a few percent over a calibration
+        volume, so the step changes the fit by far less than the noise; see
+        ``docs/calibration.md``).
+
+    Returns
+    -------
+    ndarray, shape (M, H, W)
+        Coefficient maps, M = ``N_COEFFICIENTS[model]``; NaN where a pixel has fewer than
+        ``max(2, M)`` finite samples or a degenerate system.
+    """
+    _check_model(model)
+    return _fit(_samples(dphi, depths), model, refine)
+
+
+def evaluate_model(coefficients: ArrayLike, dphi: ArrayLike, model: str) -> NDArray[np.float64]:
+    """Height in mm from phase differences with a fitted model (Eq. 2.11 for ``linear``).
+
+    Parameters
+    ----------
+    coefficients : array_like, shape (M, H, W)
+        As returned by :func:`fit_model` (``linear``: ``K[None]``).
+    dphi : array_like, shape (H, W) or (J, H, W)
+        Phase differences to the reference plane (Eq. 2.10).
+    model : {"linear", "rational", "poly2", "poly3"}
+
+    Returns
+    -------
+    ndarray, shape of ``dphi``
+        Height in mm; NaN where ``dphi`` or a coefficient is NaN or the model diverges.
+    """
+    _check_model(model)
+    c = np.asarray(coefficients, dtype=np.float64)
+    d = np.asarray(dphi, dtype=np.float64)
+    if c.ndim != 3 or c.shape[0] != N_COEFFICIENTS[model] or d.shape[-2:] != c.shape[1:]:
+        raise InputError(
+            f"{model} coefficients of shape {c.shape} do not fit phase differences of shape "
+            f"{d.shape}; expected ({N_COEFFICIENTS[model]}, H, W) with the same H, W"
+        )
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if model == "linear":
+            out = c[0] * d
+        elif model == "rational":
+            out = d / (c[0] + c[1] * d)
+        else:
+            acc = c[-1] * d
+            for k in range(c.shape[0] - 2, -1, -1):
+                acc = (acc + c[k]) * d
+            out = acc
+    out = np.asarray(out, dtype=np.float64)
+    out[~np.isfinite(out)] = np.nan
+    return out
+
+
+def _residual_rms(
+    s: _Samples, coefficients: NDArray[np.float64], model: str
+) -> NDArray[np.float64]:
+    err = evaluate_model(coefficients, s.d, model)
+    err -= s.h[:, None, None]
+    fin = np.isfinite(err)
+    err[~fin] = 0.0
+    count = np.count_nonzero(fin, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.sqrt(_psum(err, err) / count)
+    out[count == 0] = np.nan
+    return out
+
+
+def residual_rms(
+    coefficients: ArrayLike, dphi: ArrayLike, depths: ArrayLike, model: str
+) -> NDArray[np.float64]:
+    """Per-pixel RMS over the plate positions of ``model height - true depth``, in mm.
+
+    Parameters
+    ----------
+    coefficients : array_like, shape (M, H, W)
+    dphi : array_like, shape (J, H, W)
+    depths : array_like, shape (J,)
+    model : str
+
+    Returns
+    -------
+    ndarray, shape (H, W)
+        RMS over the positions where the model height is finite; NaN where there is none.
+    """
+    return _residual_rms(_samples(dphi, depths), np.asarray(coefficients, np.float64), model)
+
+
+# --------------------------------------------------------------------------------------------
+# Filtering (thesis Sec. 4.1)
+# --------------------------------------------------------------------------------------------
+def measurement_mask(
+    shape: tuple[int, int], border_px: int = DEFAULT_BORDER_PX
+) -> NDArray[np.bool_]:
+    """Pixels used for metrics: the whole image except a ``border_px`` border (Sec. 4.1).
+
+    The border is where the calibration maps stay unfiltered (:func:`filter_map`).
+
+    Parameters
+    ----------
+    shape : (int, int)
+        Image (height, width).
+    border_px : int
+        Border width in pixels, >= 0.
+
+    Returns
+    -------
+    ndarray of bool, shape ``shape``
+        True inside, False on the border.
+    """
+    if len(shape) != 2 or min(shape) < 0:
+        raise InputError(f"image shape must be (height, width), got {tuple(shape)}")
+    b = _check_border(border_px)
+    mask = np.zeros(tuple(int(s) for s in shape), dtype=bool)
+    mask[b : shape[0] - b, b : shape[1] - b] = True
+    return mask
+
+
+def _check_border(border_px: int) -> int:
+    if isinstance(border_px, bool) or int(border_px) != border_px or border_px < 0:
+        raise InputError(f"border must be a whole number of pixels >= 0, got {border_px}")
+    return int(border_px)
+
+
+def _check_window(window_px: int) -> int:
+    if (
+        isinstance(window_px, bool)
+        or int(window_px) != window_px
+        or window_px < 1
+        or window_px % 2 == 0
+    ):
+        raise InputError(
+            f"filter window must be an odd whole number of pixels >= 1 (1: no filtering), "
+            f"got {window_px}; the thesis uses 21"
+        )
+    return int(window_px)
+
+
+def _median_interior(filled: NDArray[np.float64], window: int, border: int) -> NDArray[np.float64]:
+    """Exact ``window`` x ``window`` median at the pixels inside ``border`` (edge padding).
+
+    The values are replaced by their global ranks (int32) so the selection runs on half the
+    bytes of float64; the median of the ranks is the rank of the median, so the result is
+    exactly the median value of each window. About 0.5 s for 648 x 494 at window 21.
+    """
+    rows, cols = filled.shape
+    r = window // 2
+    top, left = border, border
+    out_rows, out_cols = rows - 2 * border, cols - 2 * border
+    padded = np.pad(filled, r, mode="edge")
+    order = np.argsort(padded, axis=None, kind="stable")
+    ranks = np.empty(padded.size, dtype=np.int32)
+    ranks[order] = np.arange(padded.size, dtype=np.int32)
+    ranks = ranks.reshape(padded.shape)
+    values = padded.ravel()[order]
+    views = sliding_window_view(ranks, (window, window))[
+        top : top + out_rows, left : left + out_cols
+    ]
+    med = np.empty((out_rows, out_cols), dtype=np.int32)
+    kth = (window * window) // 2
+    for r0 in range(0, out_rows, _MEDIAN_BLOCK_ROWS):
+        block = views[r0 : r0 + _MEDIAN_BLOCK_ROWS].reshape(-1, window * window)
+        block.partition(kth, axis=1)
+        med[r0 : r0 + _MEDIAN_BLOCK_ROWS] = block[:, kth].reshape(-1, out_cols)
+    return values[med]
+
+
+def filter_map(
+    data: ArrayLike, window_px: int = DEFAULT_WINDOW_PX, border_px: int = DEFAULT_BORDER_PX
+) -> NDArray[np.float64]:
+    """Median filter followed by mean filter, square windows, NaN-aware (thesis Sec. 4.1).
+
+    Both stages change only the pixels at least ``border_px`` from the image edge; the border
+    keeps its input values (the thesis leaves a 10 pixel border unfiltered and excludes it
+    from the RMSE, see :func:`measurement_mask`), and those values take part in the windows of
+    the pixels next to it.
+
+    - Median: invalid (NaN) pixels are first filled with the value of the nearest valid pixel,
+      so a NaN island does not poison its neighbours; pixels outside the image repeat the edge.
+    - Mean: normalised box filter over the valid pixels inside the image only
+      (``sum(valid * x) / sum(valid)`` over the window).
+
+    Invalid pixels stay NaN. A linear ramp is reproduced exactly (to rounding): the median and
+    the mean of a window of a ramp are its centre value.
+
+    Parameters
+    ----------
+    data : array_like, shape (H, W)
+        Map to filter (K, or one coefficient map); NaN = invalid.
+    window_px : int
+        Odd side of the square windows; 21 in the thesis; 1 returns the map unchanged.
+    border_px : int
+        Unfiltered border width; 10 in the thesis (= ``window_px // 2``).
+
+    Returns
+    -------
+    ndarray, shape (H, W), float64
+    """
+    x = np.array(data, dtype=np.float64)
+    if x.ndim != 2:
+        raise InputError(f"filter_map expects a 2-D map, got shape {x.shape}")
+    window = _check_window(window_px)
+    border = _check_border(border_px)
+    valid = np.isfinite(x)
+    rows, cols = x.shape
+    if window == 1 or not valid.any() or rows <= 2 * border or cols <= 2 * border:
+        return x
+    inner = (slice(border, rows - border), slice(border, cols - border))
+    # median stage
+    if valid.all():
+        filled = x
+    else:
+        idx = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
+        filled = x[tuple(idx)]
+    med = x.copy()
+    med[inner] = _median_interior(filled, window, border)
+    med[~valid] = np.nan
+    # mean stage: normalised box filter over valid in-image pixels
+    vf = valid.astype(np.float64)
+    num = ndimage.uniform_filter(np.where(valid, med, 0.0), window, mode="constant", cval=0.0)
+    den = ndimage.uniform_filter(vf, window, mode="constant", cval=0.0)
+    out = med.copy()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out[inner] = num[inner] / den[inner]
+    out[~valid] = np.nan
+    return out
+
+
+def filter_coefficients(
+    coefficients: ArrayLike,
+    window_px: int = DEFAULT_WINDOW_PX,
+    border_px: int = DEFAULT_BORDER_PX,
+) -> NDArray[np.float64]:
+    """:func:`filter_map` applied to each map of an (M, H, W) coefficient stack separately."""
+    c = np.asarray(coefficients, dtype=np.float64)
+    if c.ndim != 3:
+        raise InputError(f"coefficients must be an (M, H, W) stack, got shape {c.shape}")
+    return np.stack([filter_map(m, window_px, border_px) for m in c])
+
+
+# --------------------------------------------------------------------------------------------
+# The calibration object
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ResidualStats:
+    """Summary of a per-pixel residual map over the measurement pixels (mm)."""
+
+    model: str
+    median_mm: float
+    mean_mm: float
+    max_mm: float
+    pixels: int
+
+
+_PROVENANCE_SCALARS = (str, int, float)
+
+
+def _check_provenance(value: Any, where: str = "provenance") -> None:
+    """Provenance must map names to str, int, float, lists of those, or nested such dicts."""
+    if not isinstance(value, Mapping):
+        raise InputError(f"{where} must be a dict, got {type(value).__name__}")
+    for key, item in value.items():
+        if not isinstance(key, str) or not key or "/" in key or key in (".", ".."):
+            raise InputError(
+                f"{where} key {key!r} is not usable as an HDF5 name; use a non-empty string "
+                "without '/'"
+            )
+        path = f"{where}.{key}"
+        if isinstance(item, Mapping):
+            _check_provenance(item, path)
+        elif isinstance(item, bool) or item is None:
+            raise InputError(
+                f"{path} = {item!r}: booleans and None are not stored; use a string or number"
+            )
+        elif isinstance(item, _PROVENANCE_SCALARS):
+            continue
+        elif isinstance(item, (list, tuple)):
+            kinds = {type(v) for v in item}
+            if not (kinds <= {str} or kinds <= {int} or kinds <= {int, float}):
+                raise InputError(
+                    f"{path}: a list must hold only strings or only numbers, got "
+                    f"{sorted(k.__name__ for k in kinds)}"
+                )
+        else:
+            raise InputError(
+                f"{path}: unsupported type {type(item).__name__}; use str, int, float, a list of "
+                "those, or a dict"
+            )
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """A per-pixel phase-to-height calibration and everything needed to reuse it safely.
+
+    Attributes
+    ----------
+    model : {"linear", "rational", "poly2", "poly3"}
+        Model :meth:`height` uses.
+    k_map : ndarray (H, W)
+        Linear phase-to-height map ``K`` (Eq. 2.15) in mm/rad, filtered; always present.
+    coefficients : ndarray (M, H, W) or None
+        Filtered coefficient maps of the non-linear model (see :func:`fit_model`); None for
+        ``linear``.
+    reference_phase : ndarray (H, W)
+        Absolute phase of the reference plane (depth 0), subtracted by :meth:`height`.
+    depths_mm : ndarray (J,)
+        Plate depths used.
+    residual_rms_mm : dict[str, ndarray (H, W) float32]
+        Per model compared, per-pixel RMS over positions of ``model height - depth`` with the
+        filtered maps (what a measurement gets).
+    residual_rms_unfiltered_mm : dict[str, ndarray (H, W) float32]
+        The same with the unfiltered maps (the fit's own residual).
+    filter_window_px, border_px : int
+        Filter window (Sec. 4.1: 21) and unfiltered border excluded from metrics (10).
+    spec : FringeSpec or None
+        Fringe set the calibration was measured with (pattern, steps, pitch, orientation
+        must match a measurement; imin and migl may differ).
+    gamma_precompensation : float or None
+        Projector gamma pre-compensation used (Eq. 2.17).
+    camera_bit_depth : int or None
+    image_shape : (int, int)
+        Camera image (height, width); from ``reference_phase`` when not given.
+    provenance : dict
+        Package version, date, input folders and their content hashes (given by the caller);
+        values are str, int, float, lists of those or nested dicts.
+    """
+
+    model: str
+    k_map: NDArray[np.float64]
+    coefficients: NDArray[np.float64] | None
+    reference_phase: NDArray[np.float64]
+    depths_mm: NDArray[np.float64]
+    residual_rms_mm: dict[str, NDArray[np.float32]] = field(default_factory=dict)
+    residual_rms_unfiltered_mm: dict[str, NDArray[np.float32]] = field(default_factory=dict)
+    filter_window_px: int = DEFAULT_WINDOW_PX
+    border_px: int = DEFAULT_BORDER_PX
+    spec: FringeSpec | None = None
+    gamma_precompensation: float | None = None
+    camera_bit_depth: int | None = None
+    image_shape: tuple[int, int] | None = None
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        _check_model(self.model)
+        ref = np.asarray(self.reference_phase, dtype=np.float64)
+        if ref.ndim != 2:
+            raise InputError(f"reference phase must be a 2-D map, got shape {ref.shape}")
+        shape = (int(ref.shape[0]), int(ref.shape[1]))
+        if self.image_shape is not None and tuple(self.image_shape) != shape:
+            raise InputError(
+                f"image shape {tuple(self.image_shape)} differs from the reference phase {shape}"
+            )
+        k = np.asarray(self.k_map, dtype=np.float64)
+        if k.shape != shape:
+            raise InputError(f"K map of shape {k.shape} differs from the image shape {shape}")
+        coef = self.coefficients
+        if self.model == "linear":
+            if coef is not None:
+                raise InputError("a linear calibration has no extra coefficient maps; pass None")
+        else:
+            if coef is None:
+                raise InputError(f"a {self.model} calibration needs its coefficient maps")
+            coef = np.asarray(coef, dtype=np.float64)
+            want = (N_COEFFICIENTS[self.model], *shape)
+            if coef.shape != want:
+                raise InputError(
+                    f"{self.model} coefficients of shape {coef.shape}, expected {want}"
+                )
+        depths = np.asarray(self.depths_mm, dtype=np.float64)
+        if depths.ndim != 1:
+            raise InputError(f"depths must be a 1-D list, got shape {depths.shape}")
+        for name in ("residual_rms_mm", "residual_rms_unfiltered_mm"):
+            maps = {}
+            for key, val in dict(getattr(self, name)).items():
+                _check_model(key)
+                arr = np.asarray(val, dtype=np.float32)
+                if arr.shape != shape:
+                    raise InputError(f"{name}[{key!r}] of shape {arr.shape}, expected {shape}")
+                maps[key] = arr
+            object.__setattr__(self, name, maps)
+        _check_window(self.filter_window_px)
+        _check_border(self.border_px)
+        if self.spec is not None and not isinstance(self.spec, FringeSpec):
+            raise InputError(f"spec must be a FringeSpec, got {type(self.spec).__name__}")
+        if self.gamma_precompensation is not None:
+            g = float(self.gamma_precompensation)
+            if not (math.isfinite(g) and g > 0):
+                raise InputError(f"gamma pre-compensation must be positive, got {g}")
+            object.__setattr__(self, "gamma_precompensation", g)
+        if self.camera_bit_depth is not None:
+            b = self.camera_bit_depth
+            if isinstance(b, bool) or int(b) != b or not 1 <= b <= 32:
+                raise InputError(f"camera bit depth must be a whole number 1..32, got {b}")
+            object.__setattr__(self, "camera_bit_depth", int(b))
+        _check_provenance(self.provenance)
+        object.__setattr__(self, "reference_phase", ref)
+        object.__setattr__(self, "k_map", k)
+        object.__setattr__(self, "coefficients", coef)
+        object.__setattr__(self, "depths_mm", depths)
+        object.__setattr__(self, "image_shape", shape)
+        object.__setattr__(self, "filter_window_px", int(self.filter_window_px))
+        object.__setattr__(self, "border_px", int(self.border_px))
+        object.__setattr__(self, "provenance", dict(self.provenance))
+
+    @property
+    def model_coefficients(self) -> NDArray[np.float64]:
+        """Coefficient maps of :attr:`model` as (M, H, W) (``K[None]`` for linear)."""
+        if self.coefficients is None:
+            return self.k_map[None]
+        return self.coefficients
+
+    def phase_difference(self, absolute_phase: ArrayLike) -> NDArray[np.float64]:
+        """``dphi = phi - phi_ref`` (Eq. 2.10) for an absolute phase map of this camera."""
+        phi = np.asarray(absolute_phase, dtype=np.float64)
+        if phi.shape != self.image_shape:
+            raise InputError(
+                f"phase map of shape {phi.shape} does not match the calibration's image "
+                f"{self.image_shape}; measure with the calibrated camera and region of interest"
+            )
+        return phase_difference(phi, self.reference_phase)
+
+    def height(self, absolute_phase: ArrayLike) -> NDArray[np.float64]:
+        """Height in mm above the reference plane from an absolute phase map.
+
+        ``h = K (phi - phi_ref)`` (Eq. 2.10-2.11) for the linear model, the fitted model of
+        :func:`evaluate_model` otherwise. NaN where the phase, the reference or the calibration
+        is invalid.
+
+        Parameters
+        ----------
+        absolute_phase : array_like, shape (H, W)
+
+        Returns
+        -------
+        ndarray, shape (H, W)
+        """
+        dphi = self.phase_difference(absolute_phase)
+        return evaluate_model(self.model_coefficients, dphi, self.model)
+
+    def measurement_mask(self) -> NDArray[np.bool_]:
+        """Pixels inside the unfiltered border (those the residual statistics use)."""
+        return measurement_mask(self.image_shape, self.border_px)
+
+    def residual_summary(self, filtered: bool = True) -> dict[str, ResidualStats]:
+        """Per model compared: median, mean and max over measurement pixels of the RMS map."""
+        maps = self.residual_rms_mm if filtered else self.residual_rms_unfiltered_mm
+        mask = self.measurement_mask()
+        out: dict[str, ResidualStats] = {}
+        for name, rms in maps.items():
+            vals = rms[mask].astype(np.float64)
+            vals = vals[np.isfinite(vals)]
+            if vals.size:
+                out[name] = ResidualStats(
+                    name,
+                    float(np.median(vals)),
+                    float(np.mean(vals)),
+                    float(np.max(vals)),
+                    int(vals.size),
+                )
+            else:
+                out[name] = ResidualStats(name, math.nan, math.nan, math.nan, 0)
+        return out
+
+    def describe_residuals(self, filtered: bool = True) -> str:
+        """One line for the CLI, e.g. ``linear: 0.12 mm, rational: 0.004 mm``.
+
+        The numbers are the median over measurement pixels of the per-pixel RMS over the
+        plate positions.
+        """
+        stats = self.residual_summary(filtered)
+        return ", ".join(f"{s.model}: {s.median_mm:.3g} mm" for s in stats.values())
+
+
+def _check_depths(depths: NDArray[np.float64]) -> None:
+    if depths.ndim != 1:
+        raise InputError(f"depths must be a 1-D list of mm, got shape {depths.shape}")
+    if not np.all(np.isfinite(depths)):
+        raise InputError(f"depths must be finite numbers in mm, got {depths.tolist()}")
+    zero = np.flatnonzero(depths == 0)
+    if zero.size:
+        raise InputError(
+            f"plate position {int(zero[0]) + 1} has depth 0 mm, which is the reference plane: "
+            "pass its phase as the reference and leave it out of the calibration positions"
+        )
+    values, counts = np.unique(depths, return_counts=True)
+    dup = values[counts > 1]
+    if dup.size:
+        listed = ", ".join(f"{v:g} mm" for v in dup)
+        raise InputError(
+            f"duplicate calibration depth(s) {listed}; give each plate position once "
+            "(average repeated captures before calibrating)"
+        )
+    if depths.size < 2:
+        only = f" ({depths[0]:g} mm)" if depths.size else ""
+        raise InputError(
+            f"one position only{only}: a calibration needs at least 2 plate positions besides "
+            "the reference (the thesis uses 25, 2..50 mm by 2 mm)"
+        )
+
+
+def calibrate(
+    reference_phase: ArrayLike,
+    phases: ArrayLike,
+    depths_mm: ArrayLike,
+    *,
+    model: str = "linear",
+    window_px: int = DEFAULT_WINDOW_PX,
+    border_px: int = DEFAULT_BORDER_PX,
+    compare: Sequence[str] | None = None,
+    refine: bool = False,
+    spec: FringeSpec | None = None,
+    gamma_precompensation: float | None = None,
+    camera_bit_depth: int | None = None,
+    provenance: Mapping[str, Any] | None = None,
+) -> Calibration:
+    """Calibrate phase to height from a reference plane and plate positions (Sec. 2.5, 4.1).
+
+    Steps: phase differences (Eq. 2.10); linear ``K`` (Eq. 2.15) and, for a non-linear
+    ``model``, its coefficient maps (:func:`fit_model`); every map filtered by
+    :func:`filter_map`; per-pixel residual RMS maps, filtered and unfiltered, for each model in
+    ``compare``.
+
+    Parameters
+    ----------
+    reference_phase : array_like, shape (H, W)
+        Absolute phase of the reference plane (depth 0).
+    phases : array_like, shape (J, H, W)
+        Absolute phases of the plate at ``depths_mm``; NaN = invalid pixel.
+    depths_mm : array_like, shape (J,)
+        Distinct, non-zero plate depths in mm, J >= 2.
+    model : {"linear", "rational", "poly2", "poly3"}
+        Model used by :meth:`Calibration.height`.
+    window_px, border_px : int
+        Median/mean filter window and unfiltered border (thesis: 21 and 10).
+    compare : sequence of str, optional
+        Models whose residual maps are computed (each costs its fit and filtering); default
+        ``linear`` and ``model``. Pass :data:`MODELS` to compare all.
+    refine : bool
+        Gauss-Newton step of the rational model (see :func:`fit_model`).
+    spec, gamma_precompensation, camera_bit_depth, provenance
+        Metadata stored with the calibration (see :class:`Calibration`).
+
+    Returns
+    -------
+    Calibration
+    """
+    _check_model(model)
+    ref = np.asarray(reference_phase, dtype=np.float64)
+    phi = np.asarray(phases, dtype=np.float64)
+    depths = np.asarray(depths_mm, dtype=np.float64)
+    if ref.ndim != 2:
+        raise InputError(f"reference phase must be a 2-D map, got shape {ref.shape}")
+    if phi.ndim == 2:
+        phi = phi[None]
+    if phi.ndim != 3 or phi.shape[1:] != ref.shape:
+        raise InputError(
+            f"plate phases of shape {phi.shape} do not match the reference phase {ref.shape}; "
+            "give a (positions, height, width) stack from the same camera"
+        )
+    if depths.ndim != 1 or depths.size != phi.shape[0]:
+        raise InputError(
+            f"{depths.size} depth(s) for {phi.shape[0]} plate phase map(s); give one depth "
+            "per position"
+        )
+    _check_depths(depths)
+    window = _check_window(window_px)
+    border = _check_border(border_px)
+    if not measurement_mask(ref.shape, border).any():
+        raise InputError(
+            f"a {ref.shape[0]}x{ref.shape[1]} image has no pixel inside a {border} pixel "
+            "border; lower border_px"
+        )
+    models = list(dict.fromkeys(["linear", model] if compare is None else list(compare)))
+    for name in models:
+        _check_model(name)
+        need = N_COEFFICIENTS[name] if name != "linear" else 2
+        if depths.size < need:
+            raise InputError(
+                f"the {name} model needs at least {need} plate positions, got {depths.size}; "
+                "add positions or use a simpler model"
+            )
+    if model not in models:
+        models.append(model)
+
+    samples = _samples(phi - ref, depths)
+    fitted: dict[str, NDArray[np.float64]] = {}
+    filtered: dict[str, NDArray[np.float64]] = {}
+    for name in dict.fromkeys(["linear", *models]):
+        fitted[name] = _fit(samples, name, refine)
+        filtered[name] = filter_coefficients(fitted[name], window, border)
+    res_f: dict[str, NDArray[np.float32]] = {}
+    res_u: dict[str, NDArray[np.float32]] = {}
+    for name in models:
+        res_f[name] = _residual_rms(samples, filtered[name], name).astype(np.float32)
+        res_u[name] = _residual_rms(samples, fitted[name], name).astype(np.float32)
+    return Calibration(
+        model=model,
+        k_map=filtered["linear"][0],
+        coefficients=None if model == "linear" else filtered[model],
+        reference_phase=ref.copy(),
+        depths_mm=depths.copy(),
+        residual_rms_mm=res_f,
+        residual_rms_unfiltered_mm=res_u,
+        filter_window_px=window,
+        border_px=border,
+        spec=spec,
+        gamma_precompensation=gamma_precompensation,
+        camera_bit_depth=camera_bit_depth,
+        provenance=dict(provenance or {}),
+    )

@@ -1,0 +1,454 @@
+"""Calibration files: HDF5 readable from MATLAB, written atomically, checked on use.
+
+Layout (format ``hdrfringe-calibration``, version 1; see ``docs/calibration.md``)::
+
+    /                         attrs: format, version, model, filter_window_px, border_px,
+                                     image_height, image_width, n_positions,
+                                     [camera_bit_depth], [gamma_precompensation]
+    /k_map                    (H, W) float64, mm/rad, filtered linear K (Eq. 2.15)
+    /reference_phase          (H, W) float64, rad
+    /depths_mm                (J,) float64
+    /coefficients             (M, H, W) float64, only for non-linear models
+    /residual_rms_mm/<model>            (H, W) float32, with the filtered maps
+    /residual_rms_unfiltered_mm/<model> (H, W) float32
+    /spec                     attrs: pattern, steps, pitch_px, orientation, imin, migl
+    /provenance               attrs and sub-groups: whatever the caller recorded
+
+Only plain numeric datasets and attributes and fixed-length UTF-8 string attributes are used
+(no compound types, references or variable-length strings), so MATLAB's ``h5read`` and
+``h5readatt`` read everything. MATLAB is column-major: an (H, W) dataset arrives as W x H and an
+(M, H, W) one as W x H x M; ``permute(x, [2 1])`` / ``permute(c, [3 2 1])`` restore the order.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import tempfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hdrfringe.calibration import MODELS, N_COEFFICIENTS, Calibration
+from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
+from hdrfringe.patterns import FringeSpec
+
+__all__ = [
+    "FORMAT_NAME",
+    "FORMAT_VERSION",
+    "CalibrationFileError",
+    "CalibrationMismatchError",
+    "check_compatible",
+    "coefficient_names",
+    "load_calibration",
+    "save_calibration",
+]
+
+FORMAT_NAME = "hdrfringe-calibration"
+FORMAT_VERSION = 1
+
+_COEFFICIENT_NAMES = {
+    "rational": ("a", "b"),
+    "poly2": ("c1", "c2"),
+    "poly3": ("c1", "c2", "c3"),
+}
+_EQUATIONS = {
+    "linear": "h = K .* dphi",
+    "rational": "h = dphi ./ (a + b .* dphi)",
+    "poly2": "h = c1 .* dphi + c2 .* dphi.^2",
+    "poly3": "h = c1 .* dphi + c2 .* dphi.^2 + c3 .* dphi.^3",
+}
+_RESIDUAL_GROUPS = ("residual_rms_mm", "residual_rms_unfiltered_mm")
+_COMPRESSION: dict[str, Any] = {"compression": "gzip", "compression_opts": 4}
+
+
+class CalibrationFileError(HdrFringeError):
+    """A calibration file is missing, unreadable, foreign, of another version or incomplete."""
+
+
+class CalibrationMismatchError(HdrFringeError):
+    """A calibration does not fit a measurement (fringe set, image size or bit depth)."""
+
+
+# --------------------------------------------------------------------------------------------
+# attribute helpers (fixed-length UTF-8 strings, plain numbers)
+# --------------------------------------------------------------------------------------------
+def _set_str(attrs: Any, name: str, value: str) -> None:
+    import h5py
+
+    raw = value.encode("utf-8")
+    n = max(1, len(raw))
+    attrs.create(name, np.array(raw, dtype=f"S{n}"), dtype=h5py.string_dtype("utf-8", n))
+
+
+def _set_str_list(attrs: Any, name: str, values: list[str]) -> None:
+    import h5py
+
+    raw = [v.encode("utf-8") for v in values]
+    n = max([1, *(len(r) for r in raw)])
+    attrs.create(name, np.array(raw, dtype=f"S{n}"), dtype=h5py.string_dtype("utf-8", n))
+
+
+def _get(attrs: Any, name: str, where: str) -> Any:
+    if name not in attrs:
+        raise CalibrationFileError(
+            f"{where}: attribute {name!r} is missing; the file is incomplete, recalibrate"
+        )
+    return _decode(attrs[name])
+
+
+def _decode(value: Any) -> Any:
+    """HDF5 attribute value -> Python str, int, float or list of those."""
+    if isinstance(value, (bytes, np.bytes_)):
+        return bytes(value).decode("utf-8")
+    if isinstance(value, str):
+        return value
+    if isinstance(value, np.ndarray):
+        if value.ndim == 0:
+            return _decode(value[()])
+        return [_decode(v) for v in value.tolist()]
+    if isinstance(value, (np.integer, int)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        return float(value)
+    raise TypeError(f"unsupported attribute type {type(value).__name__}")
+
+
+def _write_tree(group: Any, tree: Mapping[str, Any]) -> None:
+    """Provenance dict -> attributes (str, numbers, lists) and sub-groups (dicts)."""
+    for key, value in tree.items():
+        if isinstance(value, Mapping):
+            _write_tree(group.create_group(key, track_order=True), value)
+        elif isinstance(value, str):
+            _set_str(group.attrs, key, value)
+        elif isinstance(value, (list, tuple)):
+            if value and all(isinstance(v, str) for v in value):
+                _set_str_list(group.attrs, key, list(value))
+            elif all(isinstance(v, int) for v in value) and value:
+                group.attrs.create(key, np.asarray(value, dtype=np.int64))
+            else:
+                group.attrs.create(key, np.asarray(value, dtype=np.float64))
+        elif isinstance(value, int):
+            group.attrs.create(key, np.int64(value))
+        else:
+            group.attrs.create(key, np.float64(value))
+
+
+def _read_tree(group: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key in group.attrs:
+        out[key] = _decode(group.attrs[key])
+    for key, item in group.items():
+        out[key] = _read_tree(item) if hasattr(item, "keys") else _decode(item[()])
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# save
+# --------------------------------------------------------------------------------------------
+def _write(f: Any, cal: Calibration) -> None:
+    attrs = f.attrs
+    _set_str(attrs, "format", FORMAT_NAME)
+    attrs.create("version", np.int64(FORMAT_VERSION))
+    _set_str(attrs, "model", cal.model)
+    _set_str(attrs, "equation", _EQUATIONS[cal.model])
+    attrs.create("filter_window_px", np.int64(cal.filter_window_px))
+    attrs.create("border_px", np.int64(cal.border_px))
+    height, width = cal.image_shape
+    attrs.create("image_height", np.int64(height))
+    attrs.create("image_width", np.int64(width))
+    attrs.create("n_positions", np.int64(cal.depths_mm.size))
+    if cal.camera_bit_depth is not None:
+        attrs.create("camera_bit_depth", np.int64(cal.camera_bit_depth))
+    if cal.gamma_precompensation is not None:
+        attrs.create("gamma_precompensation", np.float64(cal.gamma_precompensation))
+
+    ds = f.create_dataset("k_map", data=cal.k_map, dtype=np.float64, **_COMPRESSION)
+    _set_str(ds.attrs, "units", "mm/rad")
+    _set_str(ds.attrs, "description", "filtered linear phase-to-height map K, h = K .* dphi")
+    ds = f.create_dataset(
+        "reference_phase", data=cal.reference_phase, dtype=np.float64, **_COMPRESSION
+    )
+    _set_str(ds.attrs, "units", "rad")
+    _set_str(ds.attrs, "description", "absolute phase of the reference plane, dphi = phi - this")
+    ds = f.create_dataset("depths_mm", data=cal.depths_mm, dtype=np.float64)
+    _set_str(ds.attrs, "units", "mm")
+    if cal.coefficients is not None:
+        ds = f.create_dataset(
+            "coefficients", data=cal.coefficients, dtype=np.float64, **_COMPRESSION
+        )
+        _set_str_list(ds.attrs, "names", list(_COEFFICIENT_NAMES[cal.model]))
+        _set_str(ds.attrs, "equation", _EQUATIONS[cal.model])
+    for group_name in _RESIDUAL_GROUPS:
+        group = f.create_group(group_name, track_order=True)
+        _set_str(group.attrs, "units", "mm")
+        for model, rms in getattr(cal, group_name).items():
+            group.create_dataset(model, data=rms, dtype=np.float32, **_COMPRESSION)
+    if cal.spec is not None:
+        s = cal.spec
+        group = f.create_group("spec", track_order=True)
+        _set_str(group.attrs, "pattern", s.pattern)
+        group.attrs.create("steps", np.int64(s.steps))
+        group.attrs.create("pitch_px", np.float64(s.pitch_px))
+        _set_str(group.attrs, "orientation", s.orientation)
+        group.attrs.create("imin", np.float64(s.imin))
+        group.attrs.create("migl", np.float64(s.migl))
+    _write_tree(f.create_group("provenance", track_order=True), cal.provenance)
+
+
+def save_calibration(path: str | Path, cal: Calibration, force: bool = False) -> Path:
+    """Write a calibration as HDF5, atomically (temporary file beside ``path``, then rename).
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file (conventionally ``*.h5``); parent folders are created.
+    cal : Calibration
+    force : bool
+        Replace an existing file; without it an existing file raises
+        :class:`~hdrfringe.errors.OutputExistsError`.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    import h5py
+
+    if not isinstance(cal, Calibration):
+        raise InputError(f"expected a Calibration, got {type(cal).__name__}")
+    out = Path(path)
+    if out.is_dir():
+        raise OutputExistsError(f"{out}: is a folder; give a file path for the calibration")
+    if out.exists() and not force:
+        raise OutputExistsError(
+            f"{out}: calibration file exists; pass --force to replace it or choose another path"
+        )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        with h5py.File(tmp, "w", track_order=True) as f:
+            _write(f, cal)
+        os.replace(tmp, out)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# load
+# --------------------------------------------------------------------------------------------
+def _dataset(f: Any, name: str, where: str, ndim: int) -> np.ndarray:
+    import h5py
+
+    item = f.get(name)
+    if not isinstance(item, h5py.Dataset):
+        raise CalibrationFileError(
+            f"{where}: dataset /{name} is missing; the file is incomplete, recalibrate"
+        )
+    arr = item[()]
+    if not isinstance(arr, np.ndarray) or arr.ndim != ndim or arr.dtype.kind != "f":
+        raise CalibrationFileError(
+            f"{where}: dataset /{name} is not a {ndim}-D float array; the file is damaged, "
+            "recalibrate"
+        )
+    return arr
+
+
+def _read(f: Any, where: str) -> Calibration:
+    import h5py
+
+    attrs = f.attrs
+    if "format" not in attrs or _decode(attrs["format"]) != FORMAT_NAME:
+        raise CalibrationFileError(
+            f"{where}: HDF5 file is not an hdrfringe calibration (no format = {FORMAT_NAME!r} "
+            "attribute); give a calibration file written by hdrfringe"
+        )
+    version = _get(attrs, "version", where)
+    if version != FORMAT_VERSION:
+        hint = "upgrade hdrfringe" if isinstance(version, int) and version > 1 else "recalibrate"
+        raise CalibrationFileError(
+            f"{where}: calibration file version {version} is not supported (this hdrfringe "
+            f"reads version {FORMAT_VERSION}); {hint}"
+        )
+    model = _get(attrs, "model", where)
+    if model not in MODELS:
+        raise CalibrationFileError(
+            f"{where}: unknown calibration model {model!r}; upgrade hdrfringe or recalibrate"
+        )
+    k_map = _dataset(f, "k_map", where, 2)
+    reference = _dataset(f, "reference_phase", where, 2)
+    depths = _dataset(f, "depths_mm", where, 1)
+    coefficients = _dataset(f, "coefficients", where, 3) if model != "linear" else None
+    residuals: dict[str, dict[str, np.ndarray]] = {}
+    for group_name in _RESIDUAL_GROUPS:
+        group = f.get(group_name)
+        maps: dict[str, np.ndarray] = {}
+        if isinstance(group, h5py.Group):
+            for name in group:
+                maps[name] = _dataset(group, name, where, 2)
+        residuals[group_name] = maps
+    spec = None
+    if "spec" in f:
+        g = f["spec"].attrs
+        spec = FringeSpec(
+            pattern=_get(g, "pattern", where),
+            steps=int(_get(g, "steps", where)),
+            pitch_px=float(_get(g, "pitch_px", where)),
+            orientation=_get(g, "orientation", where),
+            imin=float(_get(g, "imin", where)),
+            migl=float(_get(g, "migl", where)),
+        )
+    provenance = _read_tree(f["provenance"]) if "provenance" in f else {}
+    return Calibration(
+        model=model,
+        k_map=k_map,
+        coefficients=coefficients,
+        reference_phase=reference,
+        depths_mm=depths,
+        residual_rms_mm=residuals["residual_rms_mm"],
+        residual_rms_unfiltered_mm=residuals["residual_rms_unfiltered_mm"],
+        filter_window_px=int(_get(attrs, "filter_window_px", where)),
+        border_px=int(_get(attrs, "border_px", where)),
+        spec=spec,
+        gamma_precompensation=(
+            float(_decode(attrs["gamma_precompensation"]))
+            if "gamma_precompensation" in attrs
+            else None
+        ),
+        camera_bit_depth=(
+            int(_decode(attrs["camera_bit_depth"])) if "camera_bit_depth" in attrs else None
+        ),
+        image_shape=(
+            int(_get(attrs, "image_height", where)),
+            int(_get(attrs, "image_width", where)),
+        ),
+        provenance=provenance,
+    )
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    """Read a calibration written by :func:`save_calibration`.
+
+    Raises
+    ------
+    CalibrationFileError
+        Missing file, not HDF5 or corrupt, an HDF5 file of something else, an unsupported
+        version, or missing/inconsistent contents; the message says which and what to do.
+    """
+    import h5py
+
+    src = Path(path)
+    if not src.exists():
+        raise CalibrationFileError(
+            f"{src}: calibration file not found; check the path or calibrate first"
+        )
+    if src.is_dir():
+        raise CalibrationFileError(
+            f"{src}: is a folder, not a calibration file; give the .h5 file written by calibrate"
+        )
+    try:
+        f = h5py.File(src, "r")
+    except OSError as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CalibrationFileError(
+            f"{src}: not an HDF5 file or corrupt ({reason}); give a calibration file written "
+            "by hdrfringe or recalibrate"
+        ) from exc
+    try:
+        with f:
+            return _read(f, str(src))
+    except CalibrationFileError:
+        raise
+    except (InputError, KeyError, ValueError, TypeError, OSError, UnicodeDecodeError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CalibrationFileError(
+            f"{src}: calibration file is damaged or inconsistent ({reason}); recalibrate"
+        ) from exc
+
+
+# --------------------------------------------------------------------------------------------
+# compatibility
+# --------------------------------------------------------------------------------------------
+def _fmt(v: Any) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def check_compatible(
+    cal: Calibration,
+    spec: FringeSpec,
+    image_shape: tuple[int, int],
+    camera_bit_depth: int,
+    *,
+    source: str | Path | None = None,
+) -> None:
+    """Refuse a measurement the calibration does not fit.
+
+    Compared: fringe pattern, steps, pitch and orientation (they set the phase-to-height
+    relation and the phase errors the calibration absorbed), image size, camera bit depth.
+    ``imin`` and ``migl`` may differ: the thesis measures at MIGL 105..255 with calibrations
+    taken at MIGL 255 (Sec. 4.1), since the gray range does not change the phase. Fields the
+    calibration does not record (None) are not compared.
+
+    Parameters
+    ----------
+    cal : Calibration
+    spec : FringeSpec
+        Fringe set of the measurement.
+    image_shape : (int, int)
+        Camera image (height, width) of the measurement.
+    camera_bit_depth : int
+    source : str or Path, optional
+        Where the calibration came from, for the message.
+
+    Raises
+    ------
+    CalibrationMismatchError
+        One line listing every difference, then "recalibrate with ... or measure with ...".
+    """
+    diffs: list[tuple[str, str, str]] = []  # (what, calibration value, measurement value)
+    if cal.spec is not None:
+        c = cal.spec
+        for what, cv, mv in (
+            ("pattern", c.pattern, spec.pattern),
+            ("steps", c.steps, spec.steps),
+            ("orientation", c.orientation, spec.orientation),
+        ):
+            if cv != mv:
+                diffs.append((what, _fmt(cv), _fmt(mv)))
+        if not math.isclose(c.pitch_px, spec.pitch_px, rel_tol=1e-9, abs_tol=1e-12):
+            diffs.append(("pitch", f"{c.pitch_px:g} px", f"{spec.pitch_px:g} px"))
+    shape = (int(image_shape[0]), int(image_shape[1]))
+    if cal.image_shape != shape:
+        ch, cw = cal.image_shape
+        diffs.append(("image size", f"{cw}x{ch}", f"{shape[1]}x{shape[0]}"))
+    if cal.camera_bit_depth is not None and cal.camera_bit_depth != int(camera_bit_depth):
+        diffs.append(
+            ("camera bit depth", f"{cal.camera_bit_depth} bits", f"{int(camera_bit_depth)} bits")
+        )
+    if not diffs:
+        return
+    name = f" {source}" if source is not None else ""
+    listed = ", ".join(f"{w} {cv} (calibration) vs {mv} (measurement)" for w, cv, mv in diffs)
+    redo = ", ".join(f"{w} {mv}" for w, _, mv in diffs)
+    keep = ", ".join(f"{w} {cv}" for w, cv, _ in diffs)
+    raise CalibrationMismatchError(
+        f"calibration{name} does not fit this measurement: {listed}; recalibrate with {redo} "
+        f"or measure with {keep}"
+    )
+
+
+def coefficient_names(model: str) -> tuple[str, ...]:
+    """Names of the coefficient maps stored for ``model`` (``("K",)`` for linear)."""
+    if model == "linear":
+        return ("K",)
+    if model not in N_COEFFICIENTS:
+        raise InputError(f"unknown calibration model {model!r}; use one of {', '.join(MODELS)}")
+    return _COEFFICIENT_NAMES[model]
