@@ -256,15 +256,30 @@ def simulate(
     add_noise: Annotated[
         float, typer.Option(help="Eq. 4.1: add Gaussian noise (sigma, DN) to the captures.")
     ] = 0.0,
+    series: Annotated[
+        str | None,
+        typer.Option(
+            help="Depths start:stop:step or a list (mm): one capture folder per depth, "
+            "e.g. 2:50:2 for the thesis's calibration positions."
+        ),
+    ] = None,
+    reference: Annotated[
+        bool, typer.Option(help="With --series, add the reference plane (depth 0).")
+    ] = True,
     seed: Annotated[int, typer.Option(help="Random seed (noise).")] = 0,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
-    """Capture fringe sets of a scene on the virtual rig and write a capture folder."""
+    """Capture fringe sets of a scene on the virtual rig and write a capture folder.
+
+    Every folder also holds the scene's true height map (truth_height_mm.tiff) and the camera
+    geometry, so measurements can report their error. With --series, DIR holds one folder per
+    depth (a calibration series: reference plane + positions).
+    """
     import dataclasses
 
     from hdrfringe.errors import InputError
     from hdrfringe.io.captures import write_capture_folder
-    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.io.results import check_output_dir, staged_output_dir
     from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec, UniformFrame
     from hdrfringe.rig.modify import modify_captures
     from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, make_scene
@@ -275,11 +290,18 @@ def simulate(
         raise InputError(f"unknown orientation {orientation!r}; use vertical, horizontal or both")
     if aperture not in ("auto", "white", "black"):
         raise InputError(f"unknown aperture {aperture!r}; use auto, white or black")
-    sc = make_scene(scene, **_scene_params(scene, depth_mm))
-    lighting = Lighting(ambient_lux=ambient_lux)
-    if ideal:
-        rig = SimulatedRig.ideal(sc, lighting=lighting, seed=seed)
+    if series is not None:
+        depths = _parse_range(series, "--series")
+        if reference and 0.0 not in depths:
+            depths = [0.0, *depths]
     else:
+        depths = [depth_mm]
+    lighting = Lighting(ambient_lux=ambient_lux)
+
+    def make_rig(d: float | None) -> SimulatedRig:
+        sc = make_scene(scene, **_scene_params(scene, d))
+        if ideal:
+            return SimulatedRig.ideal(sc, lighting=lighting, seed=seed)
         rig = SimulatedRig(sc, lighting=lighting, gamma_precompensation=gamma, seed=seed)
         cam = dataclasses.replace(
             rig.camera,
@@ -289,8 +311,11 @@ def simulate(
         )
         if aperture == "black" or (aperture == "auto" and scene in ("checkerboard", "black_plate")):
             cam = cam.with_aperture_for(BLACK_PLATE_REFLECTIVITY)
-        rig = rig.replace(camera=cam)
-    full = 2**rig.projector.bit_depth - 1
+        return rig.replace(camera=cam)
+
+    rigs = [make_rig(d) for d in depths]  # validates every scene before anything is captured
+    rig0 = rigs[0]
+    full = 2**rig0.projector.bit_depth - 1
     orients = ["vertical", "horizontal"] if orientation == "both" else [orientation]
     frames: list[Frame] = []
     for o in orients:
@@ -300,53 +325,82 @@ def simulate(
             for p in _parse_floats(pitch, "--pitch"):
                 frames += FringeSpec(pattern, steps, p, o, i_proj, m_proj).frames()  # type: ignore[arg-type]
         if centerline:
-            extent = rig.projector.width if o == "vertical" else rig.projector.height
+            extent = rig0.projector.width if o == "vertical" else rig0.projector.height
             frames.append(CenterlineFrame(extent // 2, o, full))  # type: ignore[arg-type]
     if gray:
         frames += [
             UniformFrame(g * full / 255.0 if ideal else g) for g in _parse_floats(gray, "--gray")
         ]
-    with progress_bar() as prog:
-        task = prog.add_task(f"simulating {scene}", total=len(frames))
-        images = []
-        for f in frames:
-            images.append(rig.capture([f])[0])
-            prog.advance(task)
-    stack = np.stack(images)
     modified = None
     if add_lux or add_dn or add_noise:
-        stack = modify_captures(
-            stack,
-            rig.camera_bit_depth,
-            add_dn=add_dn,
-            add_lux=add_lux or None,
-            noise_sigma=add_noise,
-            seed=seed,
-        )
         modified = {
             "add_lux": add_lux,
             "add_dn": add_dn,
             "noise_sigma": add_noise,
             "equation": "thesis Eq. 4.1",
         }
-    extra: dict[str, Any] = {"simulator": rig.to_manifest()}
-    if modified:
-        extra["modification"] = modified
-    write_capture_folder(
-        output,
-        frames,
-        stack,
-        rig.camera_bit_depth,
-        projector=rig.projector,
-        scene=sc.to_manifest(),
-        extra=extra,
-        force=force,
-    )
-    sat = float(np.mean((stack == 2**rig.camera_bit_depth - 1).any(axis=0)))
+    sat_fractions = []
+    with staged_output_dir(output, force=force) as tmp, progress_bar() as prog:
+        task = prog.add_task(f"simulating {scene}", total=len(frames) * len(rigs))
+        for d, rig in zip(depths, rigs, strict=True):
+            images = []
+            for f in frames:
+                images.append(rig.capture([f])[0])
+                prog.advance(task)
+            stack = np.stack(images)
+            if modified:
+                stack = modify_captures(
+                    stack,
+                    rig.camera_bit_depth,
+                    add_dn=add_dn,
+                    add_lux=add_lux or None,
+                    noise_sigma=add_noise,
+                    seed=seed,
+                )
+            extra: dict[str, Any] = {"simulator": rig.to_manifest()}
+            if modified:
+                extra["modification"] = modified
+            geom = rig.geometry
+            target = tmp if series is None else tmp / f"{scene}_{(d or 0.0):06.2f}mm"
+            write_capture_folder(
+                target,
+                frames,
+                stack,
+                rig.camera_bit_depth,
+                projector=rig.projector,
+                scene=rig.scene.to_manifest(),
+                extra=extra,
+                camera_extra={
+                    "focal_px": geom.camera_focal_px(rig.image_shape[1]),
+                    "standoff_mm": geom.standoff_mm,
+                },
+                maps={"truth_height_mm": rig.truth().height_mm},
+                force=True,
+            )
+            sat_fractions.append(float(np.mean((stack == 2**rig.camera_bit_depth - 1).any(axis=0))))
+    what = f"{len(rigs)} capture folders" if series is not None else "a capture folder"
     console.print(
-        f"wrote {len(frames)} captures of {scene} to {output} "
-        f"({100 * sat:.1f} % of pixels saturated in at least one image)"
+        f"wrote {what} of {scene} ({len(frames)} images each) to {output}; "
+        f"{100 * max(sat_fractions):.1f} % of pixels saturated in at least one image"
     )
+
+
+def _parse_range(text: str, what: str) -> list[float]:
+    """``start:stop:step`` (stop included) or a comma-separated list."""
+    from hdrfringe.errors import InputError
+
+    if ":" not in text:
+        return _parse_floats(text, what)
+    try:
+        start, stop, step = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise InputError(
+            f"{what}: cannot read {text!r}; use start:stop:step, e.g. 2:50:2"
+        ) from None
+    if step == 0 or (stop - start) / step < 0:
+        raise InputError(f"{what}: {text!r} is an empty range; use e.g. 2:50:2 or 255:60:-5")
+    n = int(np.floor((stop - start) / step + 1e-9)) + 1
+    return [round(start + i * step, 9) for i in range(n)]
 
 
 @app.command()
@@ -417,6 +471,106 @@ def demo(
     from hdrfringe.demo import run_demo
 
     run_demo(output, seed=seed, force=force, console=console)
+
+
+# ---------------------------------------------------------------------------------------------
+# calibrate / measure
+# ---------------------------------------------------------------------------------------------
+
+
+@app.command()
+@handle_errors
+def calibrate(
+    folders: Annotated[
+        list[Path],
+        typer.Argument(
+            help="Flat-plate capture folders (scene.depth_mm; one at 0), or a folder of them."
+        ),
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Calibration file (.h5).")],
+    model: Annotated[
+        str, typer.Option(help="linear (Eq. 2.15), rational (1/h form), poly2 or poly3.")
+    ] = "linear",
+    window: Annotated[int, typer.Option(help="Median and mean filter window, px.")] = 21,
+    border: Annotated[int, typer.Option(help="Unfiltered border excluded from metrics, px.")] = 10,
+    force: Annotated[bool, typer.Option(help="Replace an existing calibration file.")] = False,
+) -> None:
+    """Per-pixel phase-to-height calibration from a plate at known depths (Sec. 2.5, 4.1)."""
+    from hdrfringe.calibration import MODELS
+    from hdrfringe.errors import InputError, OutputExistsError
+    from hdrfringe.io.calibration_file import save_calibration
+    from hdrfringe.measurement import calibrate_folders, expand_capture_dirs
+
+    if model not in MODELS:
+        raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+    if output.exists() and not force:
+        raise OutputExistsError(f"{output}: exists; pass --force to replace it")
+    n = len(expand_capture_dirs(folders))
+    with progress_bar() as prog:
+        task = prog.add_task("decoding plate positions", total=n)
+        cal = calibrate_folders(
+            folders,
+            model=model,
+            window_px=window,
+            border_px=border,
+            progress=lambda: prog.advance(task),
+        )
+    save_calibration(output, cal, force=force)
+    console.print(
+        f"calibrated {len(cal.depths_mm)} positions ({cal.depths_mm.min():g}..."
+        f"{cal.depths_mm.max():g} mm) + reference with {cal.spec.label() if cal.spec else '?'}"
+    )
+    console.print(f"fit residual (median RMS over measurement pixels): {cal.describe_residuals()}")
+    console.print(f"wrote {output}")
+
+
+@app.command()
+@handle_errors
+def measure(
+    folder: Annotated[Path, typer.Argument(help="Capture folder of the part.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")],
+    calibration: Annotated[
+        Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
+    ] = None,
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Height map, point cloud, phase maps and metrics of a capture folder."""
+    import json
+
+    from hdrfringe.io.calibration_file import load_calibration
+    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.phase_maps import write_phase_maps
+    from hdrfringe.io.results import check_output_dir, staged_output_dir
+    from hdrfringe.measurement import calibration_geometry, measure_folder
+    from hdrfringe.outputs import write_height_outputs
+
+    check_output_dir(output, force)
+    cal = load_calibration(calibration) if calibration is not None else None
+    caps = read_capture_folder(folder)
+    result = measure_folder(caps, cal)
+    with staged_output_dir(output, force=force) as tmp:
+        summary = write_phase_maps(tmp, result.decoded, str(folder))
+        notes = list(summary["notes"])
+        if result.height_mm is not None and cal is not None:
+            notes += write_height_outputs(tmp, result.height_mm, calibration_geometry(cal))
+        result.metrics["skipped"] = result.skipped
+        result.metrics["notes"] = notes
+        (tmp / "metrics.json").write_text(
+            json.dumps(result.metrics, indent=1) + "\n", encoding="utf-8"
+        )
+    m = result.metrics
+    if "rmse_mm" in m:
+        console.print(
+            f"height vs {m['truth']}: RMSE {m['rmse_mm']:.4f} mm, bias {m['bias_mm']:+.4f} mm, "
+            f"std {m['std_mm']:.4f} mm over {m['n_pixels']} pixels"
+        )
+    if "valid_fraction" in m:
+        console.print(f"valid {100 * m['valid_fraction']:.1f} % of measurement pixels")
+    for sk in result.skipped:
+        console.print(f"skipped: {sk}")
+    for note in notes:
+        console.print(f"note: {note}")
+    console.print(f"wrote {output}")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,0 +1,240 @@
+"""Folder-level calibration and measurement: capture folders in, calibration and heights out.
+
+* :func:`calibrate_folders`: flat-plate capture folders at known ``scene.depth_mm`` (one at 0, the
+  reference plane) -> absolute phase per folder (centerline or one-period set, docs/phase.md) ->
+  :func:`hdrfringe.calibration.calibrate` (Eq. 2.10, 2.15 and the non-linear models, Sec. 4.1
+  filtering) with provenance (package version, date, input folders and content hashes).
+* :func:`measure_folder`: a capture folder and a calibration -> height (Eq. 2.10-2.11 or the
+  non-linear model), point cloud coordinates, and error metrics when the folder knows its truth
+  (``scene.depth_mm`` or a ``truth_height_mm`` map).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdrfringe import __version__
+from hdrfringe.calibration import Calibration, calibrate
+from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.io.calibration_file import check_compatible
+from hdrfringe.io.captures import CaptureFolder, read_capture_folder
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.process import FolderPhase, decode_folder
+from hdrfringe.reconstruct import CameraGeometry, height_errors
+
+
+def folder_hash(folder: CaptureFolder) -> str:
+    """SHA-256 over the manifest and every image file, in manifest order."""
+    h = hashlib.sha256()
+    h.update((folder.path / "manifest.json").read_bytes())
+    for entry in folder.entries:
+        h.update((folder.path / entry["file"]).read_bytes())
+    return h.hexdigest()
+
+
+def expand_capture_dirs(paths: list[Path]) -> list[Path]:
+    """Capture folders among ``paths``; a folder without a manifest contributes its sub-folders."""
+    out: list[Path] = []
+    for p in paths:
+        if p.is_dir() and not (p / "manifest.json").exists():
+            subs = sorted(d for d in p.iterdir() if (d / "manifest.json").is_file())
+            if subs:
+                out += subs
+                continue
+        out.append(p)
+    return out
+
+
+def absolute_phase_of(folder: CaptureFolder, decoded: FolderPhase) -> tuple[NDArray, FringeSpec]:
+    """Absolute phase of the primary family and the spec of its finest set, or a clear error."""
+    fam = decoded.primary
+    if fam is None:
+        raise CaptureFormatError(f"{folder.path}: no fringe sets; add a complete phase-shifted set")
+    if fam.absolute_phase is None:
+        raise CaptureFormatError(
+            f"{folder.path}: cannot make the phase absolute: add a {fam.orientation} centerline "
+            "frame or a set whose pitch spans the projector (one period)"
+        )
+    return fam.absolute_phase, fam.sets[-1].spec
+
+
+def _same_spec(a: FringeSpec, b: FringeSpec) -> bool:
+    return (a.pattern, a.steps, a.pitch_px, a.orientation) == (
+        b.pattern,
+        b.steps,
+        b.pitch_px,
+        b.orientation,
+    )
+
+
+def calibrate_folders(
+    paths: list[Path],
+    *,
+    model: str = "linear",
+    window_px: int = 21,
+    border_px: int = 10,
+    progress: Any = None,
+) -> Calibration:
+    """Calibrate from flat-plate capture folders (thesis Sec. 2.5, 4.1).
+
+    Every folder must give ``scene.depth_mm``; exactly one is at 0 (the reference plane); depths
+    must be distinct; all must share pattern spec, image size and camera bit depth. Everything
+    is read and checked before any fitting.
+    """
+    folders = [read_capture_folder(p) for p in expand_capture_dirs(paths)]
+    if len(folders) < 3:
+        raise InputError(
+            f"calibration needs the reference plane and at least 2 plate positions, got "
+            f"{len(folders)} folder(s); give more plate positions"
+        )
+    depths = []
+    for f in folders:
+        d = f.scene.get("depth_mm")
+        if d is None:
+            raise CaptureFormatError(
+                f"{f.path}: manifest has no scene.depth_mm; calibration folders must state the "
+                "plate depth (0 for the reference plane)"
+            )
+        depths.append(float(d))
+    refs = [f for f, d in zip(folders, depths, strict=True) if d == 0.0]
+    if not refs:
+        raise InputError(
+            "no reference plane: none of the folders has scene.depth_mm = 0; add the "
+            "reference-plane captures"
+        )
+    if len(refs) > 1:
+        raise InputError(
+            f"several reference planes (depth 0): {', '.join(str(r.path) for r in refs)}; keep one"
+        )
+    seen: dict[float, Path] = {}
+    for f, d in zip(folders, depths, strict=True):
+        if d in seen:
+            raise InputError(
+                f"duplicate depth {d:g} mm in {seen[d]} and {f.path}; each position once"
+            )
+        seen[d] = f.path
+    ref = refs[0]
+    for f in folders[1:] if folders[0] is ref else folders:
+        if f.image_shape != ref.image_shape:
+            raise InputError(
+                f"{f.path}: images are {f.image_shape[1]}x{f.image_shape[0]} but the reference "
+                f"plane's are {ref.image_shape[1]}x{ref.image_shape[0]}; use one camera setting"
+            )
+        if f.camera_bit_depth != ref.camera_bit_depth:
+            raise InputError(
+                f"{f.path}: camera bit depth {f.camera_bit_depth} differs from the reference "
+                f"plane's {ref.camera_bit_depth}"
+            )
+    phases: dict[Path, NDArray] = {}
+    spec0: FringeSpec | None = None
+    for f in folders:
+        phi, spec = absolute_phase_of(f, decode_folder(f))
+        if spec0 is None:
+            spec0 = spec
+        elif not _same_spec(spec, spec0):
+            raise InputError(
+                f"{f.path}: fringes {spec.label()} differ from {spec0.label()} in the other "
+                "folders; calibrate with one pattern, steps, pitch and orientation"
+            )
+        phases[f.path] = phi
+        if progress is not None:
+            progress()
+    assert spec0 is not None
+    order = sorted((d, f) for d, f in zip(depths, folders, strict=True) if f is not ref)
+    geometry = CameraGeometry.from_manifest(ref.manifest.get("camera"))
+    provenance: dict[str, Any] = {
+        "package_version": __version__,
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "inputs": {
+            f"{i:02d}": {"path": str(f.path.resolve()), "depth_mm": d, "sha256": folder_hash(f)}
+            for i, (d, f) in enumerate([(0.0, ref), *order])
+        },
+    }
+    if geometry is not None:
+        provenance["camera_geometry"] = geometry.to_manifest()
+    gamma = ref.projector.gamma_precompensation if ref.projector is not None else 1.0
+    return calibrate(
+        phases[ref.path],
+        np.stack([phases[f.path] for _, f in order]),
+        np.array([d for d, _ in order]),
+        model=model,
+        window_px=window_px,
+        border_px=border_px,
+        spec=spec0,
+        gamma_precompensation=gamma,
+        camera_bit_depth=ref.camera_bit_depth,
+        provenance=provenance,
+    )
+
+
+def calibration_geometry(cal: Calibration) -> CameraGeometry | None:
+    """Camera geometry recorded with a calibration (from its reference-plane folder)."""
+    entry = cal.provenance.get("camera_geometry")
+    return CameraGeometry.from_manifest(entry) if isinstance(entry, dict) else None
+
+
+@dataclass
+class Measurement:
+    """Height and metrics of one capture folder."""
+
+    decoded: FolderPhase
+    height_mm: NDArray[np.float64] | None
+    metrics: dict[str, Any] = field(default_factory=dict)
+    skipped: list[str] = field(default_factory=list)
+
+
+def measure_folder(folder: CaptureFolder, calibration: Calibration | None) -> Measurement:
+    """Decode a folder and, with a calibration, compute its height map and metrics.
+
+    The calibration is refused (one-line error) when its pattern spec, image size or camera bit
+    depth differ from the folder's. Metrics cover the measurement pixels (the calibration's
+    border excluded, thesis Sec. 4.1): valid and saturated fractions always; bias, standard
+    deviation and RMSE against ``truth_height_mm`` (a map in the folder) or ``scene.depth_mm``
+    when the folder gives one.
+    """
+    decoded = decode_folder(folder)
+    fam = decoded.primary
+    skipped: list[str] = []
+    metrics: dict[str, Any] = {"source": str(folder.path)}
+    if fam is not None:
+        finest = decoded.set_results[fam.sets[-1].label]
+        sat = np.zeros(folder.image_shape, bool)
+        for s in fam.sets:
+            sat |= decoded.set_results[s.label].saturation_count > 0
+        metrics["saturated_fraction"] = float(sat.mean())
+        metrics["phase_valid_fraction"] = float(finest.valid.mean())
+    if calibration is None:
+        skipped.append("height (no --calibration given)")
+        return Measurement(decoded, None, metrics, skipped)
+    phi, spec = absolute_phase_of(folder, decoded)
+    check_compatible(
+        calibration, spec, folder.image_shape, folder.camera_bit_depth, source=str(folder.path)
+    )
+    height = calibration.height(phi)
+    inside = calibration.measurement_mask()
+    metrics["model"] = calibration.model
+    metrics["border_px"] = calibration.border_px
+    metrics["valid_fraction"] = float(np.isfinite(height)[inside].mean())
+    if fam is not None:
+        metrics["saturated_fraction_measurement_pixels"] = float(
+            np.mean(
+                np.logical_or.reduce(
+                    [decoded.set_results[s.label].saturation_count > 0 for s in fam.sets]
+                )[inside]
+            )
+        )
+    truth = folder.read_map("truth_height_mm")
+    if truth is not None:
+        metrics["truth"] = "truth_height_mm map"
+        metrics.update(height_errors(height, truth, inside))
+    elif "depth_mm" in folder.scene:
+        metrics["truth"] = f"scene.depth_mm = {float(folder.scene['depth_mm']):g}"
+        metrics.update(height_errors(height, float(folder.scene["depth_mm"]), inside))
+    return Measurement(decoded, height, metrics, skipped)
