@@ -33,6 +33,9 @@ from hdrfringe.reconstruct import CameraGeometry, height_errors
 def folder_hash(folder: CaptureFolder) -> str:
     """SHA-256 over the manifest and every image file, in manifest order."""
     h = hashlib.sha256()
+    if not (folder.path / "manifest.json").is_file():  # in memory: hash what was captured
+        h.update(np.ascontiguousarray(folder.images).tobytes())
+        return h.hexdigest()
     h.update((folder.path / "manifest.json").read_bytes())
     for entry in folder.entries:
         h.update((folder.path / entry["file"]).read_bytes())
@@ -89,6 +92,20 @@ def calibrate_folders(
     is read and checked before any fitting.
     """
     folders = [read_capture_folder(p) for p in expand_capture_dirs(paths)]
+    return calibrate_captures(
+        folders, model=model, window_px=window_px, border_px=border_px, progress=progress
+    )
+
+
+def calibrate_captures(
+    folders: list[CaptureFolder],
+    *,
+    model: str = "linear",
+    window_px: int = 21,
+    border_px: int = 10,
+    progress: Any = None,
+) -> Calibration:
+    """:func:`calibrate_folders` on capture folders already read (or made in memory)."""
     if len(folders) < 3:
         raise InputError(
             f"calibration needs the reference plane and at least 2 plate positions, got "
@@ -113,7 +130,7 @@ def calibrate_folders(
         raise InputError(
             f"several reference planes (depth 0): {', '.join(str(r.path) for r in refs)}; keep one"
         )
-    seen: dict[float, Path] = {}
+    seen: dict[float, Path] = {}  # duplicate depths, named by folder
     for f, d in zip(folders, depths, strict=True):
         if d in seen:
             raise InputError(
@@ -132,7 +149,7 @@ def calibrate_folders(
                 f"{f.path}: camera bit depth {f.camera_bit_depth} differs from the reference "
                 f"plane's {ref.camera_bit_depth}"
             )
-    phases: dict[Path, NDArray] = {}
+    phases: dict[int, NDArray] = {}
     spec0: FringeSpec | None = None
     for f in folders:
         phi, spec = absolute_phase_of(f, decode_folder(f))
@@ -143,11 +160,13 @@ def calibrate_folders(
                 f"{f.path}: fringes {spec.label()} differ from {spec0.label()} in the other "
                 "folders; calibrate with one pattern, steps, pitch and orientation"
             )
-        phases[f.path] = phi
+        phases[id(f)] = phi
         if progress is not None:
             progress()
     assert spec0 is not None
-    order = sorted((d, f) for d, f in zip(depths, folders, strict=True) if f is not ref)
+    order = sorted(
+        ((d, f) for d, f in zip(depths, folders, strict=True) if f is not ref), key=lambda t: t[0]
+    )
     geometry = CameraGeometry.from_manifest(ref.manifest.get("camera"))
     provenance: dict[str, Any] = {
         "package_version": __version__,
@@ -161,8 +180,8 @@ def calibrate_folders(
         provenance["camera_geometry"] = geometry.to_manifest()
     gamma = ref.projector.gamma_precompensation if ref.projector is not None else 1.0
     return calibrate(
-        phases[ref.path],
-        np.stack([phases[f.path] for _, f in order]),
+        phases[id(ref)],
+        np.stack([phases[id(f)] for _, f in order]),
         np.array([d for d, _ in order]),
         model=model,
         window_px=window_px,

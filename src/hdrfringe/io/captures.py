@@ -75,13 +75,66 @@ class CaptureFolder:
     images: NDArray = field(repr=False)
     sets: list[FringeSet] = field(default_factory=list)
     maps: dict[str, Path] = field(default_factory=dict)
+    memory_maps: dict[str, NDArray] = field(default_factory=dict, repr=False)
 
     @property
     def image_shape(self) -> tuple[int, int]:
         return (int(self.images.shape[1]), int(self.images.shape[2]))
 
+    @classmethod
+    def from_arrays(
+        cls,
+        frames: Sequence[Frame],
+        images: NDArray,
+        camera_bit_depth: int,
+        *,
+        projector: ProjectorInfo | None = None,
+        scene: dict[str, Any] | None = None,
+        camera_extra: dict[str, Any] | None = None,
+        truth_height_mm: NDArray | None = None,
+        label: str = "<memory>",
+    ) -> CaptureFolder:
+        """An in-memory capture folder (e.g. straight from a rig), validated like one on disk."""
+        images = np.asarray(images)
+        if images.ndim != 3 or images.shape[0] != len(frames):
+            raise CaptureFormatError(
+                f"{label}: {len(frames)} frames but images of shape {images.shape}; "
+                "give one (H, W) image per frame"
+            )
+        full = 2**camera_bit_depth - 1
+        if images.max(initial=0) > full:
+            raise CaptureFormatError(
+                f"{label}: values reach {images.max()}, above 2^B - 1 = {full}; fix the bit depth"
+            )
+        entries = [f.manifest_entry(f"{i:04d}.png") for i, f in enumerate(frames)]
+        manifest: dict[str, Any] = {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "camera": {"bit_depth": int(camera_bit_depth), **(camera_extra or {})},
+            "scene": dict(scene or {}),
+            "frames": entries,
+        }
+        if projector is not None:
+            manifest["projector"] = projector.to_manifest()
+        folder = cls(
+            path=Path(label),
+            manifest=manifest,
+            camera_bit_depth=int(camera_bit_depth),
+            projector=projector,
+            scene=dict(scene or {}),
+            frames=list(frames),
+            entries=entries,
+            images=images,
+            sets=_group_sets(entries, list(frames)),
+        )
+        if truth_height_mm is not None:
+            folder.memory_maps["truth_height_mm"] = np.asarray(truth_height_mm)
+        return folder
+
     def read_map(self, key: str) -> NDArray | None:
         """A float map listed in the manifest's ``maps`` (e.g. ``truth_height_mm``), or None."""
+        if key in self.memory_maps:
+            return self.memory_maps[key]
         if key not in self.maps:
             return None
         data = read_map_tiff(self.maps[key])
