@@ -53,12 +53,16 @@ class FringeSet:
     frame_indices : tuple of int
         Indices into :attr:`CaptureFolder.frames`, ordered by shift (shift 0 first).
     exposure_ms : float or None
+    gamma_precompensation : float or None
+        Per-set pre-compensation exponent when the frames give one (an hdrfringe addition to
+        the contract); None: the projector's ``gamma_precompensation``.
     """
 
     label: str
     spec: FringeSpec
     frame_indices: tuple[int, ...]
     exposure_ms: float | None = None
+    gamma_precompensation: float | None = None
 
 
 @dataclass
@@ -242,6 +246,8 @@ def _validate_frame(entry: Any, index: int) -> dict[str, Any]:
             )
         if "exposure_ms" in entry:
             _number(entry, "exposure_ms", where, positive=True)
+        if "gamma_precompensation" in entry:
+            _number(entry, "gamma_precompensation", where, positive=True)
         if "set" in entry and not isinstance(entry["set"], str):
             raise _fail(
                 where, f"field 'set' must be a string label, got {entry['set']!r}", "fix it"
@@ -326,7 +332,7 @@ def _group_sets(entries: list[dict[str, Any]], frames: list[Frame]) -> list[Frin
             key = ("label", entry["set"])
         else:
             s = frame.spec
-            key = ("spec", s, entry.get("exposure_ms"))
+            key = ("spec", s, entry.get("exposure_ms"), entry.get("gamma_precompensation"))
         groups.setdefault(key, []).append(i)
     sets: list[FringeSet] = []
     for key, idx in groups.items():
@@ -337,6 +343,9 @@ def _group_sets(entries: list[dict[str, Any]], frames: list[Frame]) -> list[Frin
         exposure = entries[idx[0]].get("exposure_ms")
         if exposure is not None and key[0] == "spec":
             label = f"{label}_e{exposure:g}"
+        gamma = entries[idx[0]].get("gamma_precompensation")
+        if gamma is not None and key[0] == "spec":
+            label = f"{label}_gp{gamma:g}"
         for i in idx:
             f = frames[i]
             assert isinstance(f, FringeFrame)
@@ -352,7 +361,9 @@ def _group_sets(entries: list[dict[str, Any]], frames: list[Frame]) -> list[Frin
                 f"0..{spec.steps - 1} exactly once; add or remove frames"
             )
         ordered = tuple(sorted(idx, key=lambda i: frames[i].shift))  # type: ignore[union-attr]
-        sets.append(FringeSet(label, spec, ordered, exposure))
+        sets.append(
+            FringeSet(label, spec, ordered, exposure, None if gamma is None else float(gamma))
+        )
     return sets
 
 
