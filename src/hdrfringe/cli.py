@@ -543,7 +543,7 @@ def modify(
     extra = {
         k: v
         for k, v in caps.manifest.items()
-        if k not in ("format", "version", "camera", "projector", "scene", "frames")
+        if k not in ("format", "version", "camera", "projector", "scene", "frames", "maps")
     }
     extra["modification"] = {
         "source": str(folder),
@@ -563,6 +563,8 @@ def modify(
         scene=caps.scene,
         names=names,
         extra=extra,
+        camera_extra={k: v for k, v in caps.manifest["camera"].items() if k != "bit_depth"},
+        maps={key: caps.read_map(key) for key in caps.maps},
         force=force,
     )
     sat = float(np.mean((out == 2**caps.camera_bit_depth - 1).any(axis=0)))
