@@ -660,7 +660,9 @@ def measure(
     check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
     caps = read_capture_folder(folder)
-    result = measure_folder(caps, cal)
+    result = measure_folder(
+        caps, cal, calibration_source=None if calibration is None else str(calibration)
+    )
     with staged_output_dir(output, force=force) as tmp:
         summary = write_phase_maps(tmp, result.decoded, str(folder))
         notes = list(summary["notes"])

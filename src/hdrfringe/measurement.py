@@ -209,7 +209,9 @@ class Measurement:
     skipped: list[str] = field(default_factory=list)
 
 
-def measure_folder(folder: CaptureFolder, calibration: Calibration | None) -> Measurement:
+def measure_folder(
+    folder: CaptureFolder, calibration: Calibration | None, *, calibration_source: str | None = None
+) -> Measurement:
     """Decode a folder and, with a calibration, compute its height map and metrics.
 
     The calibration is refused (one-line error) when its pattern spec, image size or camera bit
@@ -234,7 +236,7 @@ def measure_folder(folder: CaptureFolder, calibration: Calibration | None) -> Me
         return Measurement(decoded, None, metrics, skipped)
     phi, spec = absolute_phase_of(folder, decoded)
     check_compatible(
-        calibration, spec, folder.image_shape, folder.camera_bit_depth, source=str(folder.path)
+        calibration, spec, folder.image_shape, folder.camera_bit_depth, source=calibration_source
     )
     height = calibration.height(phi)
     inside = calibration.measurement_mask()

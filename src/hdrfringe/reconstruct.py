@@ -69,7 +69,8 @@ class CameraGeometry:
         if not entry or "focal_px" not in entry or "standoff_mm" not in entry:
             return None
         return cls(
-            float(entry["focal_px"]), float(entry["standoff_mm"]),
+            float(entry["focal_px"]),
+            float(entry["standoff_mm"]),
             None if entry.get("cx") is None else float(entry["cx"]),
             None if entry.get("cy") is None else float(entry["cy"]),
         )
@@ -151,8 +152,14 @@ def height_errors(
     n = int(ok.sum())
     if n == 0:
         nan = float("nan")
-        return {"bias_mm": nan, "std_mm": nan, "rmse_mm": nan, "max_abs_mm": nan,
-                "n_pixels": 0, "valid_fraction": 0.0}
+        return {
+            "bias_mm": nan,
+            "std_mm": nan,
+            "rmse_mm": nan,
+            "max_abs_mm": nan,
+            "n_pixels": 0,
+            "valid_fraction": 0.0,
+        }
     e = err[ok]
     return {
         "bias_mm": float(e.mean()),

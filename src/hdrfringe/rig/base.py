@@ -31,7 +31,9 @@ class ProjectorInfo:
 
     def to_manifest(self) -> dict[str, Any]:
         return {
-            "width": int(self.width), "height": int(self.height), "bit_depth": int(self.bit_depth),
+            "width": int(self.width),
+            "height": int(self.height),
+            "bit_depth": int(self.bit_depth),
             "gamma_precompensation": float(self.gamma_precompensation),
         }
 

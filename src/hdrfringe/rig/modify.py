@@ -96,9 +96,7 @@ def modify_captures(
             f"{int(arr.min())}..{int(arr.max())}; check bit_depth"
         )
     if np.iinfo(arr.dtype).max < full:
-        raise InputError(
-            f"dtype {arr.dtype} cannot hold {bit_depth}-bit values; use uint16 images"
-        )
+        raise InputError(f"dtype {arr.dtype} cannot hold {bit_depth}-bit values; use uint16 images")
     if not (math.isfinite(noise_sigma) and noise_sigma >= 0):
         raise InputError(f"noise_sigma must be a finite number >= 0, got {noise_sigma}")
     d = np.asarray(add_dn, dtype=np.float64)

@@ -163,7 +163,8 @@ class FlatPlate(Scene):
 
     def to_manifest(self) -> dict[str, Any]:
         return {
-            "name": self.name, "depth_mm": float(self.depth_mm),
+            "name": self.name,
+            "depth_mm": float(self.depth_mm),
             "reflectivity": float(self.reflectivity_value),
         }
 
@@ -225,7 +226,8 @@ class Checkerboard(Scene):
 
     def to_manifest(self) -> dict[str, Any]:
         return {
-            "name": self.name, "depth_mm": float(self.depth_mm),
+            "name": self.name,
+            "depth_mm": float(self.depth_mm),
             "square_mm": float(self.square_mm),
             "white_reflectivity": float(self.white_reflectivity),
             "black_reflectivity": float(self.black_reflectivity),
@@ -236,17 +238,17 @@ class Checkerboard(Scene):
 # super-Gaussian base, in mm at scale 1 (x to the viewer's right, y up).
 _MASK_BASE = (34.0, 0.0, 0.0, 55.0, 75.0)  # amplitude, x0, y0, half-width x, half-height y
 _MASK_FEATURES: tuple[tuple[float, float, float, float, float], ...] = (
-    (16.0, 0.0, -2.0, 8.0, 26.0),     # nose ridge
-    (7.0, 0.0, -24.0, 9.0, 8.0),      # nose tip
-    (-9.0, -27.0, 18.0, 13.0, 9.0),   # eye sockets
+    (16.0, 0.0, -2.0, 8.0, 26.0),  # nose ridge
+    (7.0, 0.0, -24.0, 9.0, 8.0),  # nose tip
+    (-9.0, -27.0, 18.0, 13.0, 9.0),  # eye sockets
     (-9.0, 27.0, 18.0, 13.0, 9.0),
-    (5.0, -28.0, 33.0, 18.0, 6.0),    # brows
+    (5.0, -28.0, 33.0, 18.0, 6.0),  # brows
     (5.0, 28.0, 33.0, 18.0, 6.0),
     (6.0, -34.0, -20.0, 16.0, 16.0),  # cheeks
     (6.0, 34.0, -20.0, 16.0, 16.0),
-    (4.0, 0.0, -43.0, 17.0, 4.5),     # lips
-    (-2.5, 0.0, -48.0, 14.0, 2.0),    # mouth line
-    (5.0, 0.0, -64.0, 18.0, 10.0),    # chin
+    (4.0, 0.0, -43.0, 17.0, 4.5),  # lips
+    (-2.5, 0.0, -48.0, 14.0, 2.0),  # mouth line
+    (5.0, 0.0, -64.0, 18.0, 10.0),  # chin
 )
 
 
@@ -301,7 +303,9 @@ class Mask(Scene):
 
     def to_manifest(self) -> dict[str, Any]:
         return {
-            "name": self.name, "base_mm": float(self.base_mm), "scale": float(self.scale),
+            "name": self.name,
+            "base_mm": float(self.base_mm),
+            "scale": float(self.scale),
             "reflectivity": float(self.reflectivity_value),
         }
 
@@ -392,9 +396,12 @@ class GlossyDome(Scene):
 
     def to_manifest(self) -> dict[str, Any]:
         return {
-            "name": self.name, "base_mm": float(self.base_mm),
-            "height_mm": float(self.height_mm), "radius_mm": float(self.radius_mm),
-            "reflectivity": float(self.reflectivity_value), "specular": float(self.specular),
+            "name": self.name,
+            "base_mm": float(self.base_mm),
+            "height_mm": float(self.height_mm),
+            "radius_mm": float(self.radius_mm),
+            "reflectivity": float(self.reflectivity_value),
+            "specular": float(self.specular),
             "shininess": float(self.shininess),
         }
 
@@ -409,9 +416,7 @@ def white_plate(depth_mm: float = 0.0, reflectivity: float = 1.0) -> FlatPlate:
     return FlatPlate(float(depth_mm), float(reflectivity), "white_plate")
 
 
-def black_plate(
-    depth_mm: float = 0.0, reflectivity: float = BLACK_PLATE_REFLECTIVITY
-) -> FlatPlate:
+def black_plate(depth_mm: float = 0.0, reflectivity: float = BLACK_PLATE_REFLECTIVITY) -> FlatPlate:
     """The black calibration plate (thesis Sec. 5.2.2) at ``depth_mm``."""
     return FlatPlate(float(depth_mm), float(reflectivity), "black_plate")
 
@@ -443,7 +448,11 @@ def glossy(
 ) -> GlossyDome:
     """The glossy dome (see :class:`GlossyDome`)."""
     return GlossyDome(
-        float(base_mm), float(height_mm), float(radius_mm), float(reflectivity), float(specular),
+        float(base_mm),
+        float(height_mm),
+        float(radius_mm),
+        float(reflectivity),
+        float(specular),
         float(shininess),
     )
 

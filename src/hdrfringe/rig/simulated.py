@@ -129,16 +129,16 @@ class CameraModel:
     supersample: int = 1
 
     def __post_init__(self) -> None:
-        if int(self.width) != self.width or int(self.height) != self.height or min(
-            self.width, self.height
-        ) < 1:
+        if (
+            int(self.width) != self.width
+            or int(self.height) != self.height
+            or min(self.width, self.height) < 1
+        ):
             raise InputError(
                 f"camera resolution must be positive integers, got {self.width}x{self.height}"
             )
         if self.bit_depth not in _BIT_DEPTHS:
-            raise InputError(
-                f"camera bit depth must be one of {_BIT_DEPTHS}, got {self.bit_depth}"
-            )
+            raise InputError(f"camera bit depth must be one of {_BIT_DEPTHS}, got {self.bit_depth}")
         _check_positive("camera white_level", self.white_level, allow_zero=True)
         _check_positive("camera read_noise_dn8", self.read_noise_dn8, allow_zero=True)
         if self.full_well_e is not None:
@@ -218,9 +218,11 @@ class ProjectorModel:
     model: Literal["pixelated", "continuous"] = "pixelated"
 
     def __post_init__(self) -> None:
-        if int(self.width) != self.width or int(self.height) != self.height or min(
-            self.width, self.height
-        ) < 2:
+        if (
+            int(self.width) != self.width
+            or int(self.height) != self.height
+            or min(self.width, self.height) < 2
+        ):
             raise InputError(
                 f"projector resolution must be integers >= 2, got {self.width}x{self.height}"
             )
@@ -420,7 +422,13 @@ def _trace(
     out["valid"] = np.empty((h, w), dtype=bool)
     for rows in blocks:
         part = _shade(
-            scene, geometry, projector, ax[None, :], ay[rows, None], z[rows], converged[rows],
+            scene,
+            geometry,
+            projector,
+            ax[None, :],
+            ay[rows, None],
+            z[rows],
+            converged[rows],
             zmax if march else None,
         )
         for k, a in part.items():
@@ -548,9 +556,14 @@ def _shade(
         spec = np.zeros_like(z)
 
     return {
-        "u": u, "v": v, "reflectivity": np.broadcast_to(scene.reflectivity(x, y), z.shape),
-        "shading": np.where(lit, shading, 0.0), "specular": np.where(lit, spec, 0.0),
-        "x_mm": x, "y_mm": y, "valid": lit & inside,
+        "u": u,
+        "v": v,
+        "reflectivity": np.broadcast_to(scene.reflectivity(x, y), z.shape),
+        "shading": np.where(lit, shading, 0.0),
+        "specular": np.where(lit, spec, 0.0),
+        "x_mm": x,
+        "y_mm": y,
+        "valid": lit & inside,
     }
 
 
@@ -767,9 +780,13 @@ class SimulatedRig:
     def replace(self, **changes: Any) -> SimulatedRig:
         """A new rig with some constructor arguments changed (e.g. ``scene=white_plate(4)``)."""
         args: dict[str, Any] = {
-            "scene": self.scene, "camera": self.camera, "projector_model": self.projector_model,
-            "geometry": self.geometry, "lighting": self.lighting,
-            "gamma_precompensation": self.gamma_precompensation, "seed": self.seed,
+            "scene": self.scene,
+            "camera": self.camera,
+            "projector_model": self.projector_model,
+            "geometry": self.geometry,
+            "lighting": self.lighting,
+            "gamma_precompensation": self.gamma_precompensation,
+            "seed": self.seed,
         }
         unknown = set(changes) - set(args)
         if unknown:
@@ -791,7 +808,8 @@ class SimulatedRig:
         camera = CameraModel(bit_depth=16, read_noise_dn8=0.0, full_well_e=None, blur_px=0.0)
         projector = ProjectorModel(bit_depth=16, defocus_px=0.0, model="continuous")
         args: dict[str, Any] = {
-            "camera": camera, "projector_model": projector,
+            "camera": camera,
+            "projector_model": projector,
             "gamma_precompensation": projector.gamma,
         }
         args.update(changes)
@@ -831,9 +849,7 @@ class SimulatedRig:
             return self._radiometry
         cam, proj, light = self.camera, self.projector_model, self.lighting
         sub = cam.supersample
-        geo = self.truth() if sub == 1 else _trace(
-            self.scene, self.geometry, cam, proj, sub
-        )
+        geo = self.truth() if sub == 1 else _trace(self.scene, self.geometry, cam, proj, sub)
         alpha = cam.white_dn
         scale8 = cam.full_scale / 255.0 * cam.white_level / REFERENCE_WHITE_LEVEL
         a1 = light.ambient_lux * light.dn_per_lux * scale8
@@ -842,8 +858,12 @@ class SimulatedRig:
         offset = geo.reflectivity * a1 + a2
         sigma = proj.defocus_px
         self._radiometry = _Radiometry(
-            gain=gain, offset=np.broadcast_to(offset, gain.shape).copy(), u=geo.u, v=geo.v,
-            edge_u=_box_edge(geo.u, proj.width, sigma), edge_v=_box_edge(geo.v, proj.height, sigma),
+            gain=gain,
+            offset=np.broadcast_to(offset, gain.shape).copy(),
+            u=geo.u,
+            v=geo.v,
+            edge_u=_box_edge(geo.u, proj.width, sigma),
+            edge_v=_box_edge(geo.v, proj.height, sigma),
             fine_u=_FineLine(proj.width, sigma, geo.u) if sigma > 0 else None,
             fine_v=_FineLine(proj.height, sigma, geo.v) if sigma > 0 else None,
         )
@@ -941,8 +961,14 @@ def simulate_to_folder(
     frames = list(frames)
     images = rig.capture(frames)
     write_capture_folder(
-        path, frames, images, rig.camera_bit_depth, projector=rig.projector,
-        scene=rig.scene.to_manifest(), names=names,
-        extra={"simulator": rig.to_manifest()} if provenance else None, force=force,
+        path,
+        frames,
+        images,
+        rig.camera_bit_depth,
+        projector=rig.projector,
+        scene=rig.scene.to_manifest(),
+        names=names,
+        extra={"simulator": rig.to_manifest()} if provenance else None,
+        force=force,
     )
     return images
