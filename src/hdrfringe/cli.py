@@ -346,7 +346,11 @@ def simulate(
     pitch: Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")] = "8",
     orientation: Annotated[str, typer.Option(help="vertical, horizontal or both.")] = "vertical",
     imin: Annotated[float, typer.Option(help="Minimum input gray level.")] = 40.0,
-    migl: Annotated[str, typer.Option(help="MIGL(s), comma-separated.")] = "255",
+    migl: Annotated[str, typer.Option(help="MIGL(s): comma-separated or start:stop:step.")] = "255",
+    migl_sweep: Annotated[
+        str | None,
+        typer.Option(help="A MIGL sweep start:stop:step (e.g. 255:60:1) for offline strategies."),
+    ] = None,
     bit_depth: Annotated[int, typer.Option(help="Camera bit depth B (8, 10, 12, 16).")] = 8,
     ambient_lux: Annotated[float, typer.Option(help="Added ambient light in lux.")] = 0.0,
     noise: Annotated[float, typer.Option(help="Read noise sigma in 8-bit gray levels.")] = 1.0,
@@ -430,7 +434,7 @@ def simulate(
     orients = ["vertical", "horizontal"] if orientation == "both" else [orientation]
     frames: list[Frame] = []
     for o in orients:
-        for m in _parse_floats(migl, "--migl"):
+        for m in _parse_range(migl_sweep or migl, "--migl"):
             m_proj = m * full / 255.0 if ideal else m
             i_proj = imin * full / 255.0 if ideal else imin
             for p in _parse_floats(pitch, "--pitch"):
@@ -508,7 +512,9 @@ def _parse_range(text: str, what: str) -> list[float]:
         raise InputError(
             f"{what}: cannot read {text!r}; use start:stop:step, e.g. 2:50:2"
         ) from None
-    if step == 0 or (stop - start) / step < 0:
+    if step != 0 and (stop - start) * step < 0:
+        step = -step  # 255:60:1 means downwards
+    if step == 0:
         raise InputError(f"{what}: {text!r} is an empty range; use e.g. 2:50:2 or 255:60:-5")
     n = int(np.floor((stop - start) / step + 1e-9)) + 1
     return [round(start + i * step, 9) for i in range(n)]
@@ -645,9 +651,26 @@ def measure(
     calibration: Annotated[
         Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
     ] = None,
+    method: Annotated[
+        str | None,
+        typer.Option(
+            help="Saturation avoidance on a MIGL-sweep folder: conventional, uniform, lpa."
+        ),
+    ] = None,
+    step: Annotated[float, typer.Option(help="LPA: MIGL step S in gray levels.")] = 5.0,
+    uniform_migl: Annotated[
+        float | None, typer.Option(help="Uniform: the trade-off MIGL (default: automatic).")
+    ] = None,
+    tolerance: Annotated[
+        float, typer.Option(help="Uniform (automatic): saturated fraction allowed.")
+    ] = 0.0,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
-    """Height map, point cloud, phase maps and metrics of a capture folder."""
+    """Height map, point cloud, phase maps and metrics of a capture folder.
+
+    With --method, the folder is a MIGL sweep (hdrfringe simulate --migl-sweep) replayed by the
+    strategy, which builds the composite images that are then measured.
+    """
     import json
 
     from hdrfringe.io.calibration_file import load_calibration
@@ -660,6 +683,16 @@ def measure(
     check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
     caps = read_capture_folder(folder)
+    strategy_results = []
+    if method is not None:
+        from hdrfringe.measurement import composite_folder
+
+        params: dict[str, Any] = {}
+        if method == "lpa":
+            params = {"step": step}
+        elif method == "uniform":
+            params = {"migl": uniform_migl, "tolerance": tolerance}
+        caps, strategy_results = composite_folder(caps, method, **params)
     result = measure_folder(
         caps, cal, calibration_source=None if calibration is None else str(calibration)
     )
@@ -668,6 +701,10 @@ def measure(
         notes = list(summary["notes"])
         if result.height_mm is not None and cal is not None:
             notes += write_height_outputs(tmp, result.height_mm, calibration_geometry(cal))
+        if strategy_results:
+            from hdrfringe.outputs import write_strategy_outputs
+
+            result.metrics.update(write_strategy_outputs(tmp, strategy_results))
         result.metrics["skipped"] = result.skipped
         result.metrics["notes"] = notes
         (tmp / "metrics.json").write_text(

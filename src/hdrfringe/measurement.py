@@ -259,3 +259,69 @@ def measure_folder(
         metrics["truth"] = f"scene.depth_mm = {float(folder.scene['depth_mm']):g}"
         metrics.update(height_errors(height, float(folder.scene["depth_mm"]), inside))
     return Measurement(decoded, height, metrics, skipped)
+
+
+def composite_folder(
+    folder: CaptureFolder, method: str, **params: Any
+) -> tuple[CaptureFolder, list[Any]]:
+    """Run a saturation-avoidance strategy on a replayed capture folder (a MIGL sweep).
+
+    For every pitch of the primary family (vertical first) at the folder's highest MIGL, the
+    strategy (``conventional``, ``uniform`` or ``lpa``; see :mod:`hdrfringe.saturation.strategies`)
+    drives a :class:`~hdrfringe.rig.replay.ReplayRig` over the folder. The returned in-memory
+    folder holds the composite sets (labelled at the highest MIGL), the folder's centerline
+    frames and its ground truth, so :func:`measure_folder` treats it like any capture.
+    """
+    from hdrfringe.patterns import CenterlineFrame, Frame
+    from hdrfringe.process import group_families
+    from hdrfringe.rig.replay import ReplayRig
+    from hdrfringe.saturation import strategies
+
+    runners = {
+        "conventional": strategies.conventional,
+        "uniform": strategies.uniform,
+        "lpa": strategies.lpa,
+    }
+    if method not in runners:
+        raise InputError(
+            f"unknown method {method!r}; use one of {', '.join(runners)}"
+            + (" (dpa is not available yet)" if method == "dpa" else "")
+        )
+    if not folder.sets:
+        raise CaptureFormatError(f"{folder.path}: no fringe sets to run a strategy on")
+    families = group_families(folder.sets)
+    rig = ReplayRig(folder)
+    frames: list[Frame] = []
+    images = []
+    results = []
+    if method == "uniform" and params.get("migl") is None:
+        params = {**params, "candidates": rig.available_migls()}
+    for s in families[0]:
+        res = runners[method](rig, s.spec, **params)
+        results.append(res)
+        frames += s.spec.frames()
+        images.append(res.images)
+    lines = [
+        (f, img)
+        for f, img in folder.centerlines()
+        if f.orientation == families[0][0].spec.orientation
+    ]
+    for f, img in lines[:1]:
+        assert isinstance(f, CenterlineFrame)
+        frames.append(f)
+        images.append(img[None])
+    dtype = np.result_type(*[i.dtype for i in images])
+    stack = np.concatenate([i.astype(dtype, copy=False) for i in images])
+    out = CaptureFolder.from_arrays(
+        frames,
+        stack,
+        folder.camera_bit_depth,
+        projector=folder.projector,
+        scene=folder.scene,
+        camera_extra={
+            k: v for k, v in folder.manifest.get("camera", {}).items() if k != "bit_depth"
+        },
+        truth_height_mm=folder.read_map("truth_height_mm"),
+        label=str(folder.path),
+    )
+    return out, results

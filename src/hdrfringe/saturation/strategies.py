@@ -121,6 +121,7 @@ def uniform(
     migl: float | None = None,
     tolerance: float = 0.0,
     min_migl: float | None = None,
+    candidates: list[float] | None = None,
 ) -> StrategyResult:
     """Non-adaptive uniform adjustment of the MIGL (thesis Ch. 4).
 
@@ -129,7 +130,8 @@ def uniform(
     ``migl`` when given (the trade-off MIGL from :func:`tradeoff_search`), else the highest
     MIGL whose saturated fraction is at most ``tolerance``, found by bisection over integer MIGLs
     between ``min_migl`` and the top (the saturated fraction never increases as the MIGL falls),
-    which needs about log2(range) sets.
+    which needs about log2(range) sets. ``candidates`` restricts the search to given MIGLs (a
+    replayed sweep holds only its own).
 
     Why this automatic rule: saturation biases the phase by far more than the noise a
     moderately lower MIGL adds (thesis Fig. 4.13: the RMSE rises steeply above the trade-off and
@@ -150,17 +152,24 @@ def uniform(
             raise InputError(f"uniform MIGL {migl:g} outside {lo_limit:g}..{spec.migl:g}")
         chosen = float(migl)
     else:
-        lo, hi = int(np.ceil(lo_limit)), int(np.floor(spec.migl)) - 1  # search [lo, hi]
-        best = float(lo)
+        if candidates is None:
+            grid = [float(m) for m in range(int(np.ceil(lo_limit)), int(np.floor(spec.migl)))]
+        else:
+            grid = sorted(float(m) for m in candidates if lo_limit <= m < spec.migl)
+        if not grid:
+            raise InputError(f"uniform: no MIGL to try between {lo_limit:g} and {spec.migl:g}")
+        lo, hi = 0, len(grid) - 1  # bisection over grid indices (ascending MIGL)
+        best = grid[0]
         while lo <= hi:
             mid = (lo + hi + 1) // 2
-            imgs = _capture_set(rig, spec, mid)
-            captured[float(mid)] = imgs
-            order.append(float(mid))
+            m = grid[mid]
+            imgs = _capture_set(rig, spec, m)
+            captured[m] = imgs
+            order.append(m)
             frac = float(1.0 - _unsaturated(imgs, bits).mean())
-            fractions[float(mid)] = frac
+            fractions[m] = frac
             if frac <= tolerance:
-                best = float(mid)
+                best = m
                 lo = mid + 1
             else:
                 hi = mid - 1

@@ -1,0 +1,823 @@
+"""Saturated-intensity estimation and its error correction: the DPA building blocks (thesis 6.1).
+
+The DPA method (thesis Ch. 6) needs, for every pixel saturated at the initial MIGL, the highest
+intensity its N shifts *would* have had without saturation. This module provides:
+
+* :func:`estimate_saturated_eq62`: thesis Eq. 6.2, sinusoidal 4-step with exactly one saturated
+  shift.
+* :func:`estimate_saturated_lsq`: the same by least squares on the sinusoid model, for N steps
+  with up to N - 3 saturated shifts; for N = 4 and one saturated shift it is Eq. 6.2.
+* :func:`true_peak_thesis` (Eq. 6.3) and :func:`true_peak_scaled`: the training "truth" from an
+  LPA step-1 index image, and :func:`unsaturation_migl`, the inverse of the same models.
+* :class:`CorrectionPolynomial` and :func:`train_correction` (Sec. 6.1.2, Eq. 6.4).
+* :func:`training_data_from_rig`: the LPA step-1 sweep on any rig that produces the training data.
+
+Index mapping for Eq. 6.2
+-------------------------
+The thesis numbers the four shifts ``i = 1..4`` with phase shift ``2*pi*i/4``; the capture-folder
+contract numbers them ``k = 0..3`` with shift ``2*pi*k/4``. Shift ``2*pi*4/4 = 2*pi`` is shift 0,
+so thesis ``I_i`` is our ``I_(i mod 4)``: ``I_4 -> I_0`` and ``I_1, I_2, I_3`` keep their
+numbers. For ``I_k = a + b*cos(phi + k*pi/2)``, ``I_k + I_(k+2) = 2a = I_(k+1) + I_(k+3)``, hence
+
+    I_k = I_(k-1) + I_(k+1) - I_(k+2)        (indices mod 4)
+
+which is each line of Eq. 6.2 after the mapping (thesis ``I_1 = I_4 - I_3 + I_2`` is our
+``I_1 = I_0 + I_2 - I_3``). The identity is invariant under any cyclic relabelling, so the mapping
+cannot introduce an error; it is spelled out only so the code can be checked against the thesis.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from numpy.polynomial import Polynomial
+from numpy.typing import ArrayLike, NDArray
+
+from hdrfringe.errors import InputError, OutputExistsError
+from hdrfringe.patterns import FringeSpec
+
+__all__ = [
+    "CORRECTION_FORMAT",
+    "CorrectionPolynomial",
+    "TrainingData",
+    "TruthModel",
+    "correction_samples",
+    "estimate_saturated_eq62",
+    "estimate_saturated_lsq",
+    "fit_unsaturated_sinusoid",
+    "saturation_pattern",
+    "sinusoid_trough",
+    "train_correction",
+    "training_data_from_rig",
+    "true_peak_scaled",
+    "true_peak_thesis",
+    "unsaturation_migl",
+]
+
+F64 = NDArray[np.float64]
+
+#: How an MIGL index converts to a true intensity (and back): see :func:`true_peak_thesis` and
+#: :func:`true_peak_scaled`.
+TruthModel = Literal["scaled", "thesis"]
+TRUTH_MODELS: tuple[str, ...] = ("scaled", "thesis")
+
+#: ``format`` tag of a saved correction polynomial.
+CORRECTION_FORMAT = "hdrfringe-correction-polynomial"
+_CORRECTION_VERSION = 1
+
+#: Largest number of shifts handled (saturation patterns are bit masks).
+_MAX_STEPS = 16
+
+
+# --------------------------------------------------------------------------------------------
+# input checks
+# --------------------------------------------------------------------------------------------
+def _full_scale(bit_depth: int) -> int:
+    if isinstance(bit_depth, bool) or int(bit_depth) != bit_depth or not 1 <= bit_depth <= 16:
+        raise InputError(f"camera bit depth must be an integer 1..16, got {bit_depth!r}")
+    return 2 ** int(bit_depth) - 1
+
+
+def _stack(images: ArrayLike, bit_depth: int, what: str, n_min: int = 3) -> F64:
+    """The images as float64 (N, H, W), checked against the sensor's full scale."""
+    arr = np.asarray(images)
+    if arr.ndim != 3:
+        raise InputError(
+            f"{what}: expected a stack of shape (N, height, width), got shape {arr.shape}; "
+            "stack the phase-shifted images along axis 0"
+        )
+    n = arr.shape[0]
+    if not n_min <= n <= _MAX_STEPS:
+        raise InputError(
+            f"{what}: needs {n_min}..{_MAX_STEPS} phase-shifted images (shift k at index k), "
+            f"got {n}"
+        )
+    if arr.dtype.kind not in "uif":
+        raise InputError(f"{what}: images must be numeric, got dtype {arr.dtype}")
+    full = _full_scale(bit_depth)
+    if arr.dtype.kind in "ui" and arr.size and int(arr.max()) > full:
+        raise InputError(
+            f"{what}: image values reach {int(arr.max())}, above 2^B - 1 = {full} for bit depth "
+            f"{bit_depth}; pass the bit depth the images were captured with"
+        )
+    return arr.astype(np.float64, copy=False)
+
+
+def saturation_pattern(images: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
+    """Saturated samples, (N, H, W) bool: value ``>= 2^B - 1`` (the contract's ``== 2^B - 1``
+    for integer images; float stacks clipped at full scale behave the same)."""
+    stack = _stack(images, bit_depth, "saturation pattern", n_min=1)
+    return stack >= _full_scale(bit_depth)
+
+
+def _design(n: int) -> F64:
+    """Rows ``[1, cos d_k, sin d_k]``, ``d_k = 2*pi*k/N``: ``I_k = a + C cos d_k + S sin d_k``
+    with ``C = b cos(phi)``, ``S = -b sin(phi)``."""
+    d = 2.0 * np.pi * np.arange(n) / n
+    return np.stack([np.ones(n), np.cos(d), np.sin(d)], axis=1)
+
+
+# --------------------------------------------------------------------------------------------
+# Eq. 6.2 and its least-squares generalisation
+# --------------------------------------------------------------------------------------------
+def estimate_saturated_eq62(
+    images: ArrayLike, bit_depth: int, *, return_stack: bool = False
+) -> F64 | tuple[F64, F64]:
+    """Saturated intensity by thesis Eq. 6.2 (sinusoidal 4-step, one saturated shift; Sec. 6.1.1).
+
+    With shift k saturated, ``I_k = I_(k-1) + I_(k+1) - I_(k+2)`` (indices mod 4; the thesis's
+    1-based ``I_4`` is our ``I_0``, see the module docstring).
+
+    Parameters
+    ----------
+    images : array_like, shape (4, H, W)
+        Shift k at index k, ``I_k = a + b cos(phi + 2*pi*k/4)``.
+    bit_depth : int
+        Camera bit depth B; saturated samples equal ``2^B - 1``.
+    return_stack : bool
+        Also return the stack with the saturated sample replaced by its estimate.
+
+    Returns
+    -------
+    peak : ndarray (H, W)
+        Highest true intensity among the four shifts: the maximum of the estimated stack where
+        exactly one shift is saturated, the observed maximum where none is, NaN where two or more
+        are (Eq. 6.2 does not apply).
+    stack : ndarray (4, H, W), only with ``return_stack``
+        Observed samples with the estimate in place of the saturated one; NaN columns where
+        ``peak`` is NaN.
+    """
+    stack = _stack(images, bit_depth, "Eq. 6.2 estimate")
+    if stack.shape[0] != 4:
+        raise InputError(
+            f"Eq. 6.2 is the sinusoidal 4-step case, got {stack.shape[0]} shifts; "
+            "use estimate_saturated_lsq for other N"
+        )
+    sat = stack >= _full_scale(bit_depth)
+    count = sat.sum(axis=0)
+    est = stack.copy()
+    for k in range(4):
+        one = sat[k] & (count == 1)
+        formula = stack[(k - 1) % 4] + stack[(k + 1) % 4] - stack[(k + 2) % 4]
+        est[k][one] = formula[one]
+    est[:, count > 1] = np.nan
+    peak = est.max(axis=0)  # NaN propagates where not estimable
+    return (peak, est) if return_stack else peak
+
+
+def _estimate_lsq(stack: F64, bit_depth: int) -> tuple[F64, F64, NDArray[np.intp]]:
+    """Coefficients ``(a, C, S)`` per pixel (NaN where > N - 3 saturated), the estimated stack,
+    and the saturation count.
+
+    Pixels are grouped by saturation pattern (a bit mask, at most 2^N of them); every group is
+    one small least-squares problem on its unsaturated rows, solved for all its pixels at once
+    with a precomputed pseudo-inverse.
+    """
+    n = stack.shape[0]
+    shape = stack.shape[1:]
+    flat = stack.reshape(n, -1)
+    sat = flat >= _full_scale(bit_depth)
+    codes = np.zeros(flat.shape[1], dtype=np.int64)
+    for k in range(n):
+        codes |= sat[k].astype(np.int64) << k
+    design = _design(n)
+    coef = np.full((3, flat.shape[1]), np.nan)
+    est = flat.copy()
+    patterns, inverse, counts = np.unique(codes, return_inverse=True, return_counts=True)
+    order = np.argsort(inverse, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    for g, code in enumerate(patterns.tolist()):
+        idx = order[starts[g] : starts[g + 1]]
+        bad = np.array([(code >> k) & 1 for k in range(n)], dtype=bool)
+        if bad.sum() > n - 3:
+            est[:, idx] = np.nan
+            continue
+        good = ~bad
+        c = np.linalg.pinv(design[good]) @ flat[good][:, idx]
+        coef[:, idx] = c
+        if bad.any():
+            est[np.ix_(bad, idx)] = design[bad] @ c
+    count = sat.sum(axis=0).reshape(shape)
+    return coef.reshape((3, *shape)), est.reshape(stack.shape), count
+
+
+def estimate_saturated_lsq(
+    images: ArrayLike, bit_depth: int, *, return_stack: bool = False
+) -> F64 | tuple[F64, F64]:
+    """Saturated intensities by least squares on the sinusoid model (generalises Eq. 6.2).
+
+    Thesis Sec. 6.1.1: a sinusoidal pattern with m saturated shifts needs ``3 + m`` shifts. Per
+    pixel, ``a``, ``b cos(phi)``, ``b sin(phi)`` of ``I_k = a + b cos(phi + 2*pi*k/N)`` are fitted
+    to the unsaturated samples (exact with three, least squares with more), and the saturated
+    samples are predicted from the fit. For N = 4 and one saturated shift the three remaining
+    samples determine the sinusoid exactly and the prediction is Eq. 6.2.
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W), 3 <= N <= 16
+        Shift k at index k.
+    bit_depth : int
+        Camera bit depth B.
+    return_stack : bool
+        Also return the estimated stack.
+
+    Returns
+    -------
+    peak : ndarray (H, W)
+        Highest true intensity among the N shifts (observed samples where unsaturated, predicted
+        where saturated); NaN where more than N - 3 shifts are saturated.
+    stack : ndarray (N, H, W), only with ``return_stack``
+        Observed samples with predictions in place of the saturated ones; NaN where not
+        estimable.
+    """
+    stack = _stack(images, bit_depth, "least-squares saturated estimate")
+    _, est, _ = _estimate_lsq(stack, bit_depth)
+    peak = est.max(axis=0)
+    return (peak, est) if return_stack else peak
+
+
+def fit_unsaturated_sinusoid(images: ArrayLike, bit_depth: int) -> tuple[F64, F64, F64]:
+    """Sinusoid fitted to each pixel's unsaturated samples: mean ``a``, amplitude ``b``, phase.
+
+    The phase follows the contract (``I_k = a + b cos(phi + 2*pi*k/N)``, phi in [0, 2*pi)). NaN
+    where more than N - 3 shifts are saturated.
+    """
+    stack = _stack(images, bit_depth, "sinusoid fit")
+    coef, _, _ = _estimate_lsq(stack, bit_depth)
+    a, c, s = coef
+    b = np.hypot(c, s)
+    phi = np.mod(np.arctan2(-s, c), 2.0 * np.pi)
+    return a, b, phi
+
+
+def sinusoid_trough(images: ArrayLike, bit_depth: int) -> F64:
+    """``a - b`` of the sinusoid fitted to the unsaturated samples, in DN.
+
+    Under the linear model ``I = o + s*g`` this is the pixel's intensity at input gray ``imin``
+    (the offset of the MIGL scaling in :func:`true_peak_scaled` and :func:`unsaturation_migl`).
+    Blur lowers ``b`` slightly, so it reads a little high for fine pitches (about 1 % of ``b``
+    at a 20 px pitch on the virtual rig). NaN where more than N - 3 shifts are saturated.
+    """
+    a, b, _ = fit_unsaturated_sinusoid(images, bit_depth)
+    return a - b
+
+
+# --------------------------------------------------------------------------------------------
+# MIGL <-> intensity: the training truth (Eq. 6.3) and its inverse
+# --------------------------------------------------------------------------------------------
+def _index(index_image: ArrayLike) -> F64:
+    idx = np.asarray(index_image, dtype=np.float64)
+    if idx.ndim != 2:
+        raise InputError(f"MIGL index image must be 2-D (H, W), got shape {idx.shape}")
+    return idx
+
+
+def true_peak_thesis(index_image: ArrayLike, bit_depth: int, top_migl: float = 255.0) -> F64:
+    """Thesis Eq. 6.3: ``I** = 2^B - 1 + (top_migl - N(x, y))``.
+
+    The thesis writes ``2^B - 1 + (2^B - 1 - N)`` for an 8-bit camera and projector, where the
+    second ``2^B - 1`` is the initial MIGL, 255. It assumes that one gray level of MIGL moves the
+    peak intensity by one DN, and that the peak is exactly ``2^B - 1`` at ``N``.
+
+    Parameters
+    ----------
+    index_image : array_like (H, W)
+        ``N(x, y)``: the highest MIGL at which all shifts of the pixel are unsaturated (LPA with
+        step 1 from ``top_migl``). Negative or non-finite values mark pixels never unsaturated;
+        they give NaN.
+    """
+    full = _full_scale(bit_depth)
+    idx = _index(index_image)
+    out = full + (float(top_migl) - idx)
+    out[~np.isfinite(idx) | (idx < 0)] = np.nan
+    return out
+
+
+def true_peak_scaled(
+    composite: ArrayLike,
+    index_image: ArrayLike,
+    bit_depth: int,
+    top_migl: float = 255.0,
+    imin: float = 40.0,
+    *,
+    offset: ArrayLike | None = None,
+) -> F64:
+    """Physically scaled training truth: the pixel's own unsaturated peak, scaled to ``top_migl``.
+
+    The pattern is ``g_k = imin + (migl - imin) c_k`` with ``c_k`` in [0, 1] fixed per pixel and
+    shift (blur included), and the camera is linear, ``I = o + s*g``; so every shift obeys
+    ``I_k(m) = A + (I_k(N) - A) (m - imin) / (N - imin)`` with ``A = o + s*imin``, the pixel's
+    intensity at input gray ``imin``. The highest shift at the top MIGL is therefore::
+
+        I** = A + (max_k I_k(N) - A) * (top_migl - imin) / (N - imin)
+
+    It uses the measured unsaturated intensities at ``N`` instead of assuming one DN per gray
+    level and a peak of exactly ``2^B - 1`` there, as Eq. 6.3 does.
+
+    Parameters
+    ----------
+    composite : array_like (N, H, W)
+        The LPA composite: each pixel's shifts captured at its index MIGL (all unsaturated).
+    index_image : array_like (H, W)
+        ``N(x, y)``; negative or non-finite: never unsaturated (NaN out).
+    offset : array_like (H, W), optional
+        ``A`` per pixel, e.g. an image captured under uniform ``imin``. Default: the trough
+        ``a - b`` of the sinusoid fitted to the composite (:func:`sinusoid_trough`).
+    """
+    stack = _stack(composite, bit_depth, "scaled true peak")
+    idx = _index(index_image)
+    if idx.shape != stack.shape[1:]:
+        raise InputError(
+            f"index image shape {idx.shape} does not match the composite's {stack.shape[1:]}"
+        )
+    a0 = sinusoid_trough(stack, bit_depth) if offset is None else _image(offset, idx.shape)
+    peak = stack.max(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = a0 + (peak - a0) * (float(top_migl) - imin) / (idx - imin)
+    out[~np.isfinite(idx) | (idx <= imin)] = np.nan
+    return out
+
+
+def _image(values: ArrayLike, shape: tuple[int, ...]) -> F64:
+    arr = np.asarray(values, dtype=np.float64)
+    try:
+        return np.broadcast_to(arr, shape)
+    except ValueError:
+        raise InputError(
+            f"offset of shape {arr.shape} does not fit images of shape {shape}; "
+            "give one value or one per pixel"
+        ) from None
+
+
+def unsaturation_migl(
+    peak: ArrayLike,
+    capture_migl: float,
+    imin: float,
+    bit_depth: int,
+    *,
+    model: TruthModel = "scaled",
+    offset: ArrayLike | None = None,
+) -> F64:
+    """The (continuous) MIGL at which a pixel with true peak ``peak`` at ``capture_migl`` stops
+    saturating: the inverse of the training truth, so the CDF uses the same model.
+
+    * ``"thesis"``: inverse of Eq. 6.3, ``m = capture_migl - (peak - (2^B - 1))``.
+    * ``"scaled"``: ``m = imin + (capture_migl - imin) (2^B - 1.5 - A) / (peak - A)`` with ``A``
+      the pixel's intensity at input ``imin`` (``offset``, required; e.g.
+      :func:`sinusoid_trough` of the same images). ``2^B - 1.5`` is where the rounded reading
+      drops below full scale. Pixels whose ``A`` alone reaches it, or whose peak is not above
+      ``A``, never unsaturate: ``-inf``.
+
+    The integer MIGL at which the pixel is first unsaturated is ``floor(m)``. NaN in, NaN out.
+    """
+    if model not in TRUTH_MODELS:
+        raise InputError(f"unknown truth model {model!r}; use one of {', '.join(TRUTH_MODELS)}")
+    full = _full_scale(bit_depth)
+    p = np.asarray(peak, dtype=np.float64)
+    if model == "thesis":
+        return float(capture_migl) - (p - full)
+    if offset is None:
+        raise InputError(
+            "the scaled MIGL model needs each pixel's offset A (its intensity at input imin); "
+            "pass offset=sinusoid_trough(images, bit_depth) or use model='thesis'"
+        )
+    a0 = _image(offset, p.shape)
+    thr = full - 0.5
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m = imin + (float(capture_migl) - imin) * (thr - a0) / (p - a0)
+    never = (a0 >= thr) | (p <= a0)
+    m[never & np.isfinite(p) & np.isfinite(a0)] = -np.inf
+    return m
+
+
+# --------------------------------------------------------------------------------------------
+# Sec. 6.1.2: the error-correction polynomial
+# --------------------------------------------------------------------------------------------
+def _rmse(x: F64) -> float:
+    return float(np.sqrt(np.mean(x * x))) if x.size else math.nan
+
+
+@dataclass(frozen=True)
+class CorrectionPolynomial:
+    """Expected error ``eps(estimate)`` of the saturated-intensity estimate (thesis Sec. 6.1.2).
+
+    ``apply`` subtracts it: ``corrected = estimate - eps(estimate)``. The polynomial is evaluated
+    with the estimate clipped to the training ``domain`` (constant extrapolation): a polynomial
+    fitted over a few tens of DN must not be extrapolated to brighter scenes.
+
+    Attributes
+    ----------
+    coefficients : tuple of float
+        Coefficients in the scaled variable (``numpy.polynomial.Polynomial`` convention, lowest
+        degree first), mapping ``domain`` onto ``window``.
+    domain, window : (float, float)
+    order : int
+        Polynomial degree.
+    truth : {"scaled", "thesis"}
+        Which training truth it was fitted to; the CDF must convert with the same model.
+    rmse_before, rmse_after : float
+        RMSE of ``estimate - truth`` on the training pixels before and after correction (Eq. 6.4;
+        the thesis reports 71.05 and 2.99 gray levels).
+    n_samples : int
+        Training pixels.
+    bit_depth : int
+    top_migl, imin : float
+    metadata : dict
+        Anything else worth keeping (rig description, pitch, seed ...), JSON-friendly.
+    """
+
+    coefficients: tuple[float, ...]
+    domain: tuple[float, float]
+    window: tuple[float, float] = (-1.0, 1.0)
+    order: int = 2
+    truth: TruthModel = "scaled"
+    rmse_before: float = math.nan
+    rmse_after: float = math.nan
+    n_samples: int = 0
+    bit_depth: int = 8
+    top_migl: float = 255.0
+    imin: float = 40.0
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def polynomial(self) -> Polynomial:
+        """The error polynomial ``eps`` as a numpy Polynomial (no clipping)."""
+        return Polynomial(self.coefficients, domain=self.domain, window=self.window)
+
+    def error(self, estimate: ArrayLike) -> F64:
+        """Expected error ``eps`` of an estimate (clipped to the training domain)."""
+        e = np.asarray(estimate, dtype=np.float64)
+        return self.polynomial(np.clip(e, *self.domain))
+
+    def apply(self, estimate: ArrayLike) -> F64:
+        """Corrected estimate ``estimate - eps(estimate)``; NaN stays NaN."""
+        e = np.asarray(estimate, dtype=np.float64)
+        return e - self.error(e)
+
+    @classmethod
+    def identity(cls, bit_depth: int = 8) -> CorrectionPolynomial:
+        """No correction (``eps = 0``), for strategies run without training data."""
+        full = float(_full_scale(bit_depth))
+        return cls((0.0,), (full, 2.0 * full), order=0, bit_depth=bit_depth)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "format": CORRECTION_FORMAT,
+            "version": _CORRECTION_VERSION,
+            "coefficients": [float(c) for c in self.coefficients],
+            "domain": [float(d) for d in self.domain],
+            "window": [float(w) for w in self.window],
+            "order": int(self.order),
+            "truth": self.truth,
+            "rmse_before": _json_float(self.rmse_before),
+            "rmse_after": _json_float(self.rmse_after),
+            "n_samples": int(self.n_samples),
+            "bit_depth": int(self.bit_depth),
+            "top_migl": float(self.top_migl),
+            "imin": float(self.imin),
+            "metadata": dict(self.metadata),
+        }
+
+    @classmethod
+    def from_dict(
+        cls, data: Mapping[str, Any], where: str = "correction data"
+    ) -> CorrectionPolynomial:
+        if not isinstance(data, Mapping) or data.get("format") != CORRECTION_FORMAT:
+            raise InputError(
+                f"{where} is not a correction polynomial (format must be {CORRECTION_FORMAT!r}); "
+                "write one with CorrectionPolynomial.save"
+            )
+        if data.get("version") != _CORRECTION_VERSION:
+            raise InputError(
+                f"{where}: unsupported correction-polynomial version {data.get('version')!r}; "
+                f"this hdrfringe reads version {_CORRECTION_VERSION}"
+            )
+        try:
+            coef = tuple(float(c) for c in data["coefficients"])
+            domain = tuple(float(d) for d in data["domain"])
+            window = tuple(float(w) for w in data.get("window", (-1.0, 1.0)))
+            truth = data.get("truth", "scaled")
+            out = cls(
+                coefficients=coef,
+                domain=(domain[0], domain[1]),
+                window=(window[0], window[1]),
+                order=int(data.get("order", len(coef) - 1)),
+                truth=truth,
+                rmse_before=_from_json_float(data.get("rmse_before")),
+                rmse_after=_from_json_float(data.get("rmse_after")),
+                n_samples=int(data.get("n_samples", 0)),
+                bit_depth=int(data.get("bit_depth", 8)),
+                top_migl=float(data.get("top_migl", 255.0)),
+                imin=float(data.get("imin", 40.0)),
+                metadata=dict(data.get("metadata", {})),
+            )
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise InputError(
+                f"{where}: malformed correction polynomial ({exc}); re-create it with "
+                "train_correction and save"
+            ) from None
+        if not coef or len(domain) != 2 or not domain[0] < domain[1] or truth not in TRUTH_MODELS:
+            raise InputError(
+                f"{where}: correction polynomial needs coefficients, a domain [lo, hi] with "
+                f"lo < hi and truth in {TRUTH_MODELS}; re-create it with train_correction"
+            )
+        return out
+
+    def save(self, path: str | Path, *, force: bool = False) -> Path:
+        """Write the polynomial as JSON; refuses to overwrite unless ``force``."""
+        p = Path(path)
+        if p.exists() and not force:
+            raise OutputExistsError(
+                f"correction polynomial {p} already exists; pass force=True to replace it"
+            )
+        p.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
+        return p
+
+    @classmethod
+    def load(cls, path: str | Path) -> CorrectionPolynomial:
+        """Read a polynomial written by :meth:`save`."""
+        p = Path(path)
+        try:
+            data = json.loads(p.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise InputError(
+                f"correction polynomial {p} does not exist; train one with train_correction"
+            ) from None
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise InputError(f"correction polynomial {p} is not valid JSON ({exc})") from None
+        return cls.from_dict(data, where=str(p))
+
+
+def _json_float(x: float) -> float | None:
+    return None if not math.isfinite(x) else float(x)
+
+
+def _from_json_float(x: Any) -> float:
+    return math.nan if x is None else float(x)
+
+
+def correction_samples(
+    index_image: ArrayLike,
+    images_at_top: ArrayLike,
+    bit_depth: int,
+    top_migl: float = 255.0,
+    imin: float = 40.0,
+    *,
+    truth: TruthModel = "scaled",
+    composite: ArrayLike | None = None,
+    offset: ArrayLike | None = None,
+    mask: ArrayLike | None = None,
+) -> tuple[F64, F64]:
+    """Training (or test) pairs ``(estimate, I**)`` over the usable saturated pixels.
+
+    Usable: saturated at ``top_migl`` and estimable there (exactly one saturated shift for
+    N = 4, at most N - 3 in general), with a valid index ``imin < N(x, y) < top_migl``, inside
+    ``mask``. The estimate is :func:`estimate_saturated_lsq` (Eq. 6.2 for N = 4), the truth is
+    :func:`true_peak_scaled` (needs ``composite``) or :func:`true_peak_thesis` (Eq. 6.3).
+    """
+    if truth not in TRUTH_MODELS:
+        raise InputError(f"unknown truth model {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
+    top = _stack(images_at_top, bit_depth, "images at the top MIGL")
+    idx = _index(index_image)
+    if idx.shape != top.shape[1:]:
+        raise InputError(
+            f"index image shape {idx.shape} does not match the images' {top.shape[1:]}"
+        )
+    _, est_stack, count = _estimate_lsq(top, bit_depth)
+    estimate = est_stack.max(axis=0)
+    if truth == "thesis":
+        true = true_peak_thesis(idx, bit_depth, top_migl)
+    else:
+        if composite is None:
+            raise InputError(
+                "the scaled truth needs the LPA composite images (each pixel's shifts at its "
+                "index MIGL); pass composite=... or use truth='thesis'"
+            )
+        true = true_peak_scaled(composite, idx, bit_depth, top_migl, imin, offset=offset)
+    use = (count >= 1) & np.isfinite(estimate) & np.isfinite(true)
+    use &= (idx > imin) & (idx < top_migl)
+    if mask is not None:
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != idx.shape:
+            raise InputError(f"mask shape {m.shape} does not match the images' {idx.shape}")
+        use &= m
+    return estimate[use], true[use]
+
+
+def train_correction(
+    index_image: ArrayLike,
+    images_at_top: ArrayLike,
+    bit_depth: int,
+    top_migl: float = 255.0,
+    imin: float = 40.0,
+    order: int = 2,
+    *,
+    truth: TruthModel = "scaled",
+    composite: ArrayLike | None = None,
+    offset: ArrayLike | None = None,
+    mask: ArrayLike | None = None,
+    metadata: Mapping[str, Any] | None = None,
+) -> CorrectionPolynomial:
+    """Fit the error-correction polynomial of thesis Sec. 6.1.2 (Eq. 6.3-6.4).
+
+    For every usable saturated pixel (see :func:`correction_samples`) the error
+    ``eps = estimate - I**`` (Eq. 6.4) is computed and a polynomial of degree ``order`` is fitted
+    to ``eps(estimate)`` by least squares (``numpy.polynomial.Polynomial.fit``).
+
+    Parameters
+    ----------
+    index_image : array_like (H, W)
+        ``N(x, y)`` from LPA with step 1 down from ``top_migl`` (negative/NaN: never unsaturated).
+    images_at_top : array_like (N, H, W)
+        The set captured at ``top_migl``.
+    bit_depth : int
+        Camera bit depth B.
+    top_migl, imin : float
+        Initial MIGL and the pattern's minimum input gray.
+    order : int
+        Polynomial degree (thesis: "low order"; default 2).
+    truth : {"scaled", "thesis"}
+        Training truth: :func:`true_peak_scaled` (default; needs ``composite``) or Eq. 6.3.
+    composite, offset : array_like, optional
+        LPA composite (N, H, W) and optional per-pixel offset for the scaled truth.
+    mask : array_like (H, W) of bool, optional
+        Pixels allowed in the training set.
+    metadata : mapping, optional
+        Stored with the polynomial.
+    """
+    if isinstance(order, bool) or int(order) != order or not 0 <= order <= 6:
+        raise InputError(f"correction polynomial order must be an integer 0..6, got {order!r}")
+    est, true = correction_samples(
+        index_image,
+        images_at_top,
+        bit_depth,
+        top_migl,
+        imin,
+        truth=truth,
+        composite=composite,
+        offset=offset,
+        mask=mask,
+    )
+    if est.size < order + 2 or np.ptp(est) == 0:
+        raise InputError(
+            f"only {est.size} usable training pixels with distinct estimates for a degree-{order} "
+            "polynomial; capture training data with a large pitch (thesis: 20 px) on a plate "
+            "where the peaks saturate (e.g. 600 lx ambient or a wider aperture)"
+        )
+    eps = est - true
+    poly = Polynomial.fit(est, eps, int(order))
+    domain = (float(poly.domain[0]), float(poly.domain[1]))
+    window = (float(poly.window[0]), float(poly.window[1]))
+    out = CorrectionPolynomial(
+        coefficients=tuple(float(c) for c in poly.coef),
+        domain=domain,
+        window=window,
+        order=int(order),
+        truth=truth,
+        n_samples=int(est.size),
+        bit_depth=int(bit_depth),
+        top_migl=float(top_migl),
+        imin=float(imin),
+        metadata=dict(metadata or {}),
+    )
+    after = out.apply(est) - true
+    return replace(out, rmse_before=_rmse(eps), rmse_after=_rmse(after))
+
+
+# --------------------------------------------------------------------------------------------
+# training data: LPA with step 1 on a rig
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TrainingData:
+    """An LPA step-1 sweep: what :func:`train_correction` needs, plus simulation ground truth.
+
+    Attributes
+    ----------
+    index_image : ndarray (H, W) int32
+        ``N(x, y)``: highest MIGL at which all shifts are unsaturated; -1 if none in the sweep.
+    images_at_top : ndarray (N, H, W)
+        The set at the top MIGL (camera dtype).
+    composite : ndarray (N, H, W)
+        Each pixel's set at its index MIGL (at the lowest MIGL swept where index is -1).
+    expected_at_top : ndarray (N, H, W) or None
+        The rig's noise-free, unclipped signal at the top MIGL, when the rig can tell
+        (``SimulatedRig.expected_signal``): the true saturated intensities.
+    spec : FringeSpec
+        The set at the top MIGL.
+    bit_depth : int
+    sets_captured : int
+    """
+
+    index_image: NDArray[np.int32]
+    images_at_top: NDArray
+    composite: NDArray
+    expected_at_top: F64 | None
+    spec: FringeSpec
+    bit_depth: int
+    sets_captured: int
+
+    def train(
+        self, order: int = 2, *, truth: TruthModel = "scaled", **kwargs: Any
+    ) -> CorrectionPolynomial:
+        """:func:`train_correction` on this sweep."""
+        return train_correction(
+            self.index_image,
+            self.images_at_top,
+            self.bit_depth,
+            self.spec.migl,
+            self.spec.imin,
+            order,
+            truth=truth,
+            composite=self.composite if truth == "scaled" else None,
+            **kwargs,
+        )
+
+    def samples(self, *, truth: TruthModel = "scaled", **kwargs: Any) -> tuple[F64, F64]:
+        """:func:`correction_samples` on this sweep."""
+        return correction_samples(
+            self.index_image,
+            self.images_at_top,
+            self.bit_depth,
+            self.spec.migl,
+            self.spec.imin,
+            truth=truth,
+            composite=self.composite if truth == "scaled" else None,
+            **kwargs,
+        )
+
+
+def training_data_from_rig(
+    rig: Any,
+    spec: FringeSpec | None = None,
+    *,
+    lowest_migl: float | None = None,
+) -> TrainingData:
+    """Capture the training sweep of thesis Sec. 6.1.2 on ``rig``: LPA with a step of 1 gray level.
+
+    Sets are captured at MIGL ``top, top - 1, ...`` until no pixel is saturated or
+    ``lowest_migl`` is reached; ``N(x, y)`` is the first (highest) MIGL at which none of the
+    pixel's shifts is saturated.
+
+    Parameters
+    ----------
+    rig : Rig
+        Anything with ``capture(frames)`` and ``camera_bit_depth``.
+    spec : FringeSpec, optional
+        Sinusoidal set at the top MIGL. Default: the thesis's training set, 4-step, 20 px pitch,
+        vertical, imin 40, MIGL 255.
+    lowest_migl : float, optional
+        Lowest MIGL swept; default ``imin + 1``.
+    """
+    if spec is None:
+        spec = FringeSpec("sinusoidal", 4, 20.0, "vertical", 40.0, 255.0)
+    if not isinstance(spec, FringeSpec) or spec.pattern != "sinusoidal":
+        raise InputError(
+            "training data need a sinusoidal FringeSpec (the estimate is the sinusoid model), "
+            f"got {spec!r}"
+        )
+    top = round(spec.migl)
+    if top != spec.migl:
+        raise InputError(f"the top MIGL must be an integer gray level, got {spec.migl}")
+    low = math.floor(spec.imin) + 1 if lowest_migl is None else math.ceil(lowest_migl)
+    if not spec.imin < low <= top:
+        raise InputError(
+            f"lowest MIGL {low} must be above imin {spec.imin:g} and at most the top MIGL {top}"
+        )
+    bits = int(rig.camera_bit_depth)
+    full = _full_scale(bits)
+    first = rig.capture(spec.frames())
+    composite = first.copy()
+    index = np.full(first.shape[1:], -1, dtype=np.int32)
+    remaining = np.ones(first.shape[1:], dtype=bool)
+    sets = 0
+    m = top
+    images = first
+    while True:
+        sets += 1
+        new = remaining & np.all(images < full, axis=0)
+        index[new] = m
+        composite[:, new] = images[:, new]
+        remaining &= ~new
+        if not remaining.any() or m <= low:
+            break
+        m -= 1
+        images = rig.capture(spec.with_migl(float(m)).frames())
+        composite[:, remaining] = images[:, remaining]
+    expected = None
+    if hasattr(rig, "expected_signal"):
+        expected = np.asarray(rig.expected_signal(spec.frames()), dtype=np.float64)
+    return TrainingData(
+        index_image=index,
+        images_at_top=first,
+        composite=composite,
+        expected_at_top=expected,
+        spec=spec,
+        bit_depth=bits,
+        sets_captured=sets,
+    )
