@@ -25,8 +25,9 @@ TRUE_GAMMA = 2.812  # the virtual projector's gamma (the thesis's estimate)
 
 
 def uniform_captures(precomp: float = 1.0, lux: float = 100.0):
-    rig = SimulatedRig(white_plate(10.0), gamma_precompensation=precomp,
-                       lighting=Lighting(ambient_lux=lux), seed=2)
+    rig = SimulatedRig(
+        white_plate(10.0), gamma_precompensation=precomp, lighting=Lighting(ambient_lux=lux), seed=2
+    )
     levels = np.arange(0, 256, 15.0)
     imgs = rig.capture([UniformFrame(g) for g in levels])
     h, w = rig.image_shape
@@ -66,7 +67,7 @@ def test_fringe_shape_fit_recovers_rig_gamma(steps: int) -> None:
     """Sets pre-distorted with 0.75 and 1.25 (as kamino410 did), or one 4-step set."""
     spec = FringeSpec("sinusoidal", steps, 96.0, "vertical", 0, 255)
     sets = []
-    for gh in ((0.75, 1.25) if steps == 3 else (1.6,)):
+    for gh in (0.75, 1.25) if steps == 3 else (1.6,):
         rig = SimulatedRig(white_plate(5.0), gamma_precompensation=gh, seed=7)
         sets.append((spec, gh, rig.capture(spec.frames())))
     fit = fit_gamma_fringes(sets, camera_bit_depth=8)
@@ -75,8 +76,17 @@ def test_fringe_shape_fit_recovers_rig_gamma(steps: int) -> None:
 
 def test_gamma_cli_on_uniform_folder(tmp_path: Path) -> None:
     caps = tmp_path / "caps"
-    res = run_cli("simulate", "white_plate", "-o", str(caps), "--gamma", "1",
-                  "--gray", ",".join(str(g) for g in range(0, 256, 15)), "--no-centerline")
+    res = run_cli(
+        "simulate",
+        "white_plate",
+        "-o",
+        str(caps),
+        "--gamma",
+        "1",
+        "--gray",
+        ",".join(str(g) for g in range(0, 256, 15)),
+        "--no-centerline",
+    )
     assert res.returncode == 0, res.stderr
     out = tmp_path / "g"
     res = run_cli("gamma", str(caps), "-o", str(out))
@@ -105,12 +115,27 @@ def test_kamino410_gamma_subset(tmp_path: Path) -> None:
             for k, shift in enumerate((2, 0, 1)):
                 name = f"pat{base + 3 * j + k:02d}.png"
                 os.symlink(src / name, caps / name)
-                frames.append({"file": name, "kind": "fringe", "pattern": "sinusoidal",
-                               "steps": 3, "shift": shift, "pitch": 240.0,
-                               "orientation": orient, "imin": 0, "migl": 255,
-                               "gamma_precompensation": gp})
-    manifest = {"format": "hdrfringe-captures", "version": 1, "camera": {"bit_depth": 8},
-                "projector": {"width": 1920, "height": 1080, "bit_depth": 8}, "frames": frames}
+                frames.append(
+                    {
+                        "file": name,
+                        "kind": "fringe",
+                        "pattern": "sinusoidal",
+                        "steps": 3,
+                        "shift": shift,
+                        "pitch": 240.0,
+                        "orientation": orient,
+                        "imin": 0,
+                        "migl": 255,
+                        "gamma_precompensation": gp,
+                    }
+                )
+    manifest = {
+        "format": "hdrfringe-captures",
+        "version": 1,
+        "camera": {"bit_depth": 8},
+        "projector": {"width": 1920, "height": 1080, "bit_depth": 8},
+        "frames": frames,
+    }
     (caps / "manifest.json").write_text(json.dumps(manifest))
     from hdrfringe.io.captures import read_capture_folder
 

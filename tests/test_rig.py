@@ -78,6 +78,7 @@ def wrap_diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 # --- protocol -----------------------------------------------------------------------------------
 
+
 def test_rig_implements_protocol():
     rig = SimulatedRig(white_plate(12.0), camera=small_camera(bit_depth=12))
     assert isinstance(rig, Rig)
@@ -107,6 +108,7 @@ def test_simulate_to_folder_round_trip(tmp_path):
 
 
 # --- determinism --------------------------------------------------------------------------------
+
 
 def test_same_seed_identical_different_seed_differs():
     frames = FringeSpec(steps=3).frames()
@@ -150,6 +152,7 @@ def test_repeated_frame_gets_new_noise_counted_per_frame():
 
 
 # --- geometry -----------------------------------------------------------------------------------
+
 
 def test_plate_projector_shift_matches_pinhole_triangulation():
     """Centre pixel: u(h) = cu + fp h sin(t) / (D - h cos(t)), derived by hand for the layout."""
@@ -245,14 +248,17 @@ def test_lambertian_irradiance_of_a_plate():
 
 # --- radiometry ---------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("scene", [mask(), glossy()], ids=["mask", "glossy"])
 def test_intensity_follows_eq_3_3(scene):
     """Noise off, continuous, no blur, 16-bit: I = a r (S L(u) + a1) + a a2 (+ specular)."""
     gamma, gamma_hat, black = 2.812, 2.2, 0.005
     lighting = Lighting(ambient_lux=100.0, direct_ambient_lux=20.0)
     rig = SimulatedRig.ideal(
-        scene, camera=small_camera(bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0),
-        lighting=lighting, gamma_precompensation=gamma_hat,
+        scene,
+        camera=small_camera(bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0),
+        lighting=lighting,
+        gamma_precompensation=gamma_hat,
     )
     spec = FringeSpec("sinusoidal", 3, 7.3, "vertical", IMIN16, FULL16)
     images = rig.capture(spec.frames()).astype(np.float64)
@@ -265,7 +271,8 @@ def test_intensity_follows_eq_3_3(scene):
         light = black + (1 - black) * (sent / FULL16) ** gamma
         expected = (
             alpha * tr.shading * (tr.reflectivity + tr.specular) * light
-            + tr.reflectivity * 100.0 * ambient_dn + 20.0 * ambient_dn
+            + tr.reflectivity * 100.0 * ambient_dn
+            + 20.0 * ambient_dn
         )
         expected = np.minimum(expected, FULL16)
         err = np.abs(images[k] - expected)[tr.valid]
@@ -275,7 +282,8 @@ def test_intensity_follows_eq_3_3(scene):
 
 def test_pixelated_projector_samples_rendered_image():
     rig = SimulatedRig(
-        mask(), camera=small_camera(bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0),
+        mask(),
+        camera=small_camera(bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0),
         projector_model=ProjectorModel(defocus_px=0.0, black_level=0.0),
     )
     frames = [*FringeSpec(steps=3, pitch_px=5).frames(), CenterlineFrame(512.0)]
@@ -293,8 +301,12 @@ def test_pixelated_projector_samples_rendered_image():
 @pytest.mark.parametrize("pitch", [6.0, 7.3, 13.0])
 def test_ideal_round_trip_phase(steps, pitch):
     for scene in (white_plate(20.0), mask()):
-        rig = SimulatedRig.ideal(scene, camera=CameraModel(
-            width=161, height=121, bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0))
+        rig = SimulatedRig.ideal(
+            scene,
+            camera=CameraModel(
+                width=161, height=121, bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0
+            ),
+        )
         tr = rig.truth()
         for orient, coord in (("vertical", tr.u), ("horizontal", tr.v)):
             spec = FringeSpec("sinusoidal", steps, pitch, orient, IMIN16, FULL16)
@@ -308,8 +320,9 @@ def test_projector_defocus_attenuates_modulation_like_a_gaussian_mtf():
     pitch, sigma = 5.0, 1.0
     spec = FringeSpec("sinusoidal", 8, pitch, "vertical", IMIN16, FULL16)
     sharp = SimulatedRig.ideal(white_plate(10), camera=cam)
-    blurred = sharp.replace(projector_model=ProjectorModel(
-        bit_depth=16, defocus_px=sigma, model="continuous"))
+    blurred = sharp.replace(
+        projector_model=ProjectorModel(bit_depth=16, defocus_px=sigma, model="continuous")
+    )
     a0 = sharp.capture(spec.frames())
     a1 = blurred.capture(spec.frames())
     ratio = nstep_amplitude(a1) / nstep_amplitude(a0)
@@ -321,8 +334,11 @@ def test_projector_defocus_attenuates_modulation_like_a_gaussian_mtf():
 def test_supersampling_keeps_smooth_signals_and_truth_at_pixel_centres():
     cam = small_camera(bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0)
     one = SimulatedRig.ideal(white_plate(10), camera=cam)
-    three = one.replace(camera=small_camera(
-        bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0, supersample=3))
+    three = one.replace(
+        camera=small_camera(
+            bit_depth=16, read_noise_dn8=0, full_well_e=None, blur_px=0, supersample=3
+        )
+    )
     np.testing.assert_array_equal(one.truth().u, three.truth().u)
     a = one.capture([UniformFrame(40000)]).astype(float)
     b = three.capture([UniformFrame(40000)]).astype(float)
@@ -334,6 +350,7 @@ def test_supersampling_keeps_smooth_signals_and_truth_at_pixel_centres():
 
 
 # --- saturation ---------------------------------------------------------------------------------
+
 
 def test_600_lux_saturates_white_plate_peaks_at_migl_255():
     """Default rig = thesis Ch. 4: no saturation in the dark, saturation with 600 lx."""
@@ -414,6 +431,7 @@ def test_migl_above_projector_range_is_rejected():
 
 # --- noise --------------------------------------------------------------------------------------
 
+
 def test_read_noise_std_matches_sigma():
     sigma = 3.0
     rig = SimulatedRig(white_plate(10), camera=small_camera(read_noise_dn8=sigma, full_well_e=None))
@@ -436,6 +454,7 @@ def test_shot_noise_grows_with_signal():
 
 
 # --- scenes -------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_scene_manifest_round_trip(name):
@@ -470,6 +489,7 @@ def test_mask_is_a_freeform_inside_the_field():
 
 
 # --- Eq. 4.1 ------------------------------------------------------------------------------------
+
 
 def test_modify_captures_clips_and_keeps_dtype():
     img8 = np.array([[0, 100, 153, 154, 255]], dtype=np.uint8)

@@ -31,8 +31,10 @@ def ideal_mask_rig() -> SimulatedRig:
 
 @pytest.mark.parametrize(
     ("pattern", "steps", "pitch"),
-    [("sinusoidal", n, p) for n, p in zip(range(3, 9), (6.37, 7.3, 9.81, 13.05, 6.37, 21.7),
-                                           strict=True)]
+    [
+        ("sinusoidal", n, p)
+        for n, p in zip(range(3, 9), (6.37, 7.3, 9.81, 13.05, 6.37, 21.7), strict=True)
+    ]
     + [("triangular", 3, 6.37), ("triangular", 3, 11.3)],
 )
 def test_round_trip_recovers_projector_coordinate(

@@ -40,7 +40,7 @@ from numpy.polynomial import Polynomial
 from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.patterns import FringeSpec
+from hdrfringe.patterns import FringeSpec, UniformFrame
 
 __all__ = [
     "CORRECTION_FORMAT",
@@ -300,8 +300,8 @@ def true_peak_thesis(index_image: ArrayLike, bit_depth: int, top_migl: float = 2
 
 
 def true_peak_scaled(
-    composite: ArrayLike,
-    index_image: ArrayLike,
+    images: ArrayLike,
+    migl_of_images: ArrayLike,
     bit_depth: int,
     top_migl: float = 255.0,
     imin: float = 40.0,
@@ -312,45 +312,51 @@ def true_peak_scaled(
 
     The pattern is ``g_k = imin + (migl - imin) c_k`` with ``c_k`` in [0, 1] fixed per pixel and
     shift (blur included), and the camera is linear, ``I = o + s*g``; so every shift obeys
-    ``I_k(m) = A + (I_k(N) - A) (m - imin) / (N - imin)`` with ``A = o + s*imin``, the pixel's
-    intensity at input gray ``imin``. The highest shift at the top MIGL is therefore::
+    ``I_k(m) = A + (I_k(M) - A) (m - imin) / (M - imin)`` with ``A = o + s*imin``, the pixel's
+    intensity at input gray ``imin``. From a set captured at any MIGL ``M`` where the pixel is
+    unsaturated, the highest shift at the top MIGL is therefore::
 
-        I** = A + (max_k I_k(N) - A) * (top_migl - imin) / (N - imin)
+        I** = A + (max_k I_k(M) - A) * (top_migl - imin) / (M - imin)
 
-    It uses the measured unsaturated intensities at ``N`` instead of assuming one DN per gray
-    level and a peak of exactly ``2^B - 1`` there, as Eq. 6.3 does.
+    Unlike Eq. 6.3 it does not assume one DN per gray level, nor a peak of exactly ``2^B - 1``
+    at ``N(x, y)``. With ``M = N(x, y)`` (the LPA composite) it inherits a selection bias: the
+    sweep stops at the first MIGL whose *noisy* reading is below full scale, so the peak read
+    there is biased low by about one noise standard deviation. A set a few gray levels below
+    ``N``, captured independently, has no such bias (what :func:`training_data_from_rig` keeps).
 
     Parameters
     ----------
-    composite : array_like (N, H, W)
-        The LPA composite: each pixel's shifts captured at its index MIGL (all unsaturated).
-    index_image : array_like (H, W)
-        ``N(x, y)``; negative or non-finite: never unsaturated (NaN out).
+    images : array_like (N, H, W)
+        Each pixel's shifts captured at ``migl_of_images`` (all unsaturated there), e.g. the LPA
+        composite.
+    migl_of_images : array_like (H, W) or float
+        The MIGL each pixel's samples were captured at, e.g. the index image ``N(x, y)``;
+        negative, non-finite or ``<= imin``: NaN out.
     offset : array_like (H, W), optional
         ``A`` per pixel, e.g. an image captured under uniform ``imin``. Default: the trough
-        ``a - b`` of the sinusoid fitted to the composite (:func:`sinusoid_trough`).
+        ``a - b`` of the sinusoid fitted to ``images`` (:func:`sinusoid_trough`; blur makes it
+        read about 1 % of ``b`` high, which biases ``I**`` by about -1 DN on the virtual rig).
     """
-    stack = _stack(composite, bit_depth, "scaled true peak")
-    idx = _index(index_image)
-    if idx.shape != stack.shape[1:]:
-        raise InputError(
-            f"index image shape {idx.shape} does not match the composite's {stack.shape[1:]}"
-        )
-    a0 = sinusoid_trough(stack, bit_depth) if offset is None else _image(offset, idx.shape)
+    stack = _stack(images, bit_depth, "scaled true peak")
+    shape = stack.shape[1:]
+    mig = _image(migl_of_images, shape, "MIGL of the images")
+    a0 = sinusoid_trough(stack, bit_depth) if offset is None else _image(offset, shape)
     peak = stack.max(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = a0 + (peak - a0) * (float(top_migl) - imin) / (idx - imin)
-    out[~np.isfinite(idx) | (idx <= imin)] = np.nan
+        out = a0 + (peak - a0) * (float(top_migl) - imin) / (mig - imin)
+    out[~np.isfinite(mig) | (mig <= imin) | np.any(stack >= _full_scale(bit_depth), axis=0)] = (
+        np.nan
+    )
     return out
 
 
-def _image(values: ArrayLike, shape: tuple[int, ...]) -> F64:
+def _image(values: ArrayLike, shape: tuple[int, ...], what: str = "offset") -> F64:
     arr = np.asarray(values, dtype=np.float64)
     try:
         return np.broadcast_to(arr, shape)
     except ValueError:
         raise InputError(
-            f"offset of shape {arr.shape} does not fit images of shape {shape}; "
+            f"{what} of shape {arr.shape} does not fit images of shape {shape}; "
             "give one value or one per pixel"
         ) from None
 
@@ -570,7 +576,8 @@ def correction_samples(
     imin: float = 40.0,
     *,
     truth: TruthModel = "scaled",
-    composite: ArrayLike | None = None,
+    unsaturated_images: ArrayLike | None = None,
+    unsaturated_migl: ArrayLike | None = None,
     offset: ArrayLike | None = None,
     mask: ArrayLike | None = None,
 ) -> tuple[F64, F64]:
@@ -578,8 +585,10 @@ def correction_samples(
 
     Usable: saturated at ``top_migl`` and estimable there (exactly one saturated shift for
     N = 4, at most N - 3 in general), with a valid index ``imin < N(x, y) < top_migl``, inside
-    ``mask``. The estimate is :func:`estimate_saturated_lsq` (Eq. 6.2 for N = 4), the truth is
-    :func:`true_peak_scaled` (needs ``composite``) or :func:`true_peak_thesis` (Eq. 6.3).
+    ``mask``. The estimate is :func:`estimate_saturated_lsq` (Eq. 6.2 for N = 4). The truth is
+    Eq. 6.3 (:func:`true_peak_thesis`) or :func:`true_peak_scaled` from ``unsaturated_images``
+    captured at ``unsaturated_migl`` (default: the index image, i.e. ``unsaturated_images`` is
+    the LPA composite).
     """
     if truth not in TRUTH_MODELS:
         raise InputError(f"unknown truth model {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
@@ -594,12 +603,13 @@ def correction_samples(
     if truth == "thesis":
         true = true_peak_thesis(idx, bit_depth, top_migl)
     else:
-        if composite is None:
+        if unsaturated_images is None:
             raise InputError(
-                "the scaled truth needs the LPA composite images (each pixel's shifts at its "
-                "index MIGL); pass composite=... or use truth='thesis'"
+                "the scaled truth needs unsaturated images of each pixel (e.g. the LPA composite "
+                "at the index MIGL); pass unsaturated_images=... or use truth='thesis'"
             )
-        true = true_peak_scaled(composite, idx, bit_depth, top_migl, imin, offset=offset)
+        at = idx if unsaturated_migl is None else unsaturated_migl
+        true = true_peak_scaled(unsaturated_images, at, bit_depth, top_migl, imin, offset=offset)
     use = (count >= 1) & np.isfinite(estimate) & np.isfinite(true)
     use &= (idx > imin) & (idx < top_migl)
     if mask is not None:
@@ -619,7 +629,8 @@ def train_correction(
     order: int = 2,
     *,
     truth: TruthModel = "scaled",
-    composite: ArrayLike | None = None,
+    unsaturated_images: ArrayLike | None = None,
+    unsaturated_migl: ArrayLike | None = None,
     offset: ArrayLike | None = None,
     mask: ArrayLike | None = None,
     metadata: Mapping[str, Any] | None = None,
@@ -643,13 +654,15 @@ def train_correction(
     order : int
         Polynomial degree (thesis: "low order"; default 2).
     truth : {"scaled", "thesis"}
-        Training truth: :func:`true_peak_scaled` (default; needs ``composite``) or Eq. 6.3.
-    composite, offset : array_like, optional
-        LPA composite (N, H, W) and optional per-pixel offset for the scaled truth.
+        Training truth: :func:`true_peak_scaled` (default; needs ``unsaturated_images``) or
+        Eq. 6.3 (:func:`true_peak_thesis`).
+    unsaturated_images, unsaturated_migl, offset : array_like, optional
+        For the scaled truth: each pixel's unsaturated set (N, H, W), the MIGL it was captured
+        at (default: ``index_image``), and the pixel's intensity at input ``imin``.
     mask : array_like (H, W) of bool, optional
         Pixels allowed in the training set.
     metadata : mapping, optional
-        Stored with the polynomial.
+        Stored with the polynomial (JSON-friendly values).
     """
     if isinstance(order, bool) or int(order) != order or not 0 <= order <= 6:
         raise InputError(f"correction polynomial order must be an integer 0..6, got {order!r}")
@@ -660,7 +673,8 @@ def train_correction(
         top_migl,
         imin,
         truth=truth,
-        composite=composite,
+        unsaturated_images=unsaturated_images,
+        unsaturated_migl=unsaturated_migl,
         offset=offset,
         mask=mask,
     )
@@ -672,12 +686,10 @@ def train_correction(
         )
     eps = est - true
     poly = Polynomial.fit(est, eps, int(order))
-    domain = (float(poly.domain[0]), float(poly.domain[1]))
-    window = (float(poly.window[0]), float(poly.window[1]))
     out = CorrectionPolynomial(
         coefficients=tuple(float(c) for c in poly.coef),
-        domain=domain,
-        window=window,
+        domain=(float(poly.domain[0]), float(poly.domain[1])),
+        window=(float(poly.window[0]), float(poly.window[1])),
         order=int(order),
         truth=truth,
         n_samples=int(est.size),
@@ -704,7 +716,16 @@ class TrainingData:
     images_at_top : ndarray (N, H, W)
         The set at the top MIGL (camera dtype).
     composite : ndarray (N, H, W)
-        Each pixel's set at its index MIGL (at the lowest MIGL swept where index is -1).
+        The LPA composite: each pixel's set at its index MIGL (at the lowest MIGL swept where
+        the index is -1).
+    reference : ndarray (N, H, W)
+        Each pixel's set at ``reference_migl``, ``margin`` gray levels below its index: an
+        independent capture, free of the composite's selection bias (see
+        :func:`true_peak_scaled`).
+    reference_migl : ndarray (H, W) int32
+        MIGL of ``reference`` per pixel (-1 where not captured).
+    offset : ndarray (H, W) float64 or None
+        Mean of captures under uniform input ``imin`` (the pixel's ``A``), when taken.
     expected_at_top : ndarray (N, H, W) or None
         The rig's noise-free, unclipped signal at the top MIGL, when the rig can tell
         (``SimulatedRig.expected_signal``): the true saturated intensities.
@@ -712,20 +733,65 @@ class TrainingData:
         The set at the top MIGL.
     bit_depth : int
     sets_captured : int
+        Phase-shifted sets captured by the sweep.
     """
 
     index_image: NDArray[np.int32]
     images_at_top: NDArray
     composite: NDArray
+    reference: NDArray
+    reference_migl: NDArray[np.int32]
+    offset: F64 | None
     expected_at_top: F64 | None
     spec: FringeSpec
     bit_depth: int
     sets_captured: int
 
+    def _truth_args(self, truth: str, source: str) -> dict[str, Any]:
+        if truth != "scaled":
+            return {}
+        if source == "reference":
+            mig = self.reference_migl.astype(np.float64)
+            mig[self.reference_migl < 0] = np.nan
+            return {"unsaturated_images": self.reference, "unsaturated_migl": mig}
+        if source == "composite":
+            return {"unsaturated_images": self.composite}
+        raise InputError(f"unknown truth source {source!r}; use 'reference' or 'composite'")
+
+    def samples(
+        self, *, truth: TruthModel = "scaled", source: str = "reference", **kwargs: Any
+    ) -> tuple[F64, F64]:
+        """:func:`correction_samples` on this sweep (``source``: which unsaturated set the
+        scaled truth uses, the independent ``"reference"`` or the ``"composite"``)."""
+        kwargs.setdefault("offset", self.offset)
+        return correction_samples(
+            self.index_image,
+            self.images_at_top,
+            self.bit_depth,
+            self.spec.migl,
+            self.spec.imin,
+            truth=truth,
+            **self._truth_args(truth, source),
+            **kwargs,
+        )
+
     def train(
-        self, order: int = 2, *, truth: TruthModel = "scaled", **kwargs: Any
+        self,
+        order: int = 2,
+        *,
+        truth: TruthModel = "scaled",
+        source: str = "reference",
+        **kwargs: Any,
     ) -> CorrectionPolynomial:
-        """:func:`train_correction` on this sweep."""
+        """:func:`train_correction` on this sweep (see :meth:`samples` for ``source``)."""
+        kwargs.setdefault("offset", self.offset)
+        meta = {
+            "pitch_px": float(self.spec.pitch_px),
+            "steps": int(self.spec.steps),
+            "truth_source": source if truth == "scaled" else "index",
+            "sets_captured": int(self.sets_captured),
+        }
+        meta.update(kwargs.pop("metadata", None) or {})
         return train_correction(
             self.index_image,
             self.images_at_top,
@@ -734,20 +800,8 @@ class TrainingData:
             self.spec.imin,
             order,
             truth=truth,
-            composite=self.composite if truth == "scaled" else None,
-            **kwargs,
-        )
-
-    def samples(self, *, truth: TruthModel = "scaled", **kwargs: Any) -> tuple[F64, F64]:
-        """:func:`correction_samples` on this sweep."""
-        return correction_samples(
-            self.index_image,
-            self.images_at_top,
-            self.bit_depth,
-            self.spec.migl,
-            self.spec.imin,
-            truth=truth,
-            composite=self.composite if truth == "scaled" else None,
+            metadata=meta,
+            **self._truth_args(truth, source),
             **kwargs,
         )
 
@@ -757,12 +811,15 @@ def training_data_from_rig(
     spec: FringeSpec | None = None,
     *,
     lowest_migl: float | None = None,
+    margin: int = 8,
+    offset_captures: int = 4,
 ) -> TrainingData:
     """Capture the training sweep of thesis Sec. 6.1.2 on ``rig``: LPA with a step of 1 gray level.
 
-    Sets are captured at MIGL ``top, top - 1, ...`` until no pixel is saturated or
-    ``lowest_migl`` is reached; ``N(x, y)`` is the first (highest) MIGL at which none of the
-    pixel's shifts is saturated.
+    Sets are captured at MIGL ``top, top - 1, ...``; ``N(x, y)`` is the first (highest) MIGL at
+    which none of the pixel's shifts is saturated. The sweep goes on ``margin`` gray levels below
+    the last pixel's ``N`` so that every pixel also gets an independent unsaturated set at
+    ``N - margin`` (the reference for :func:`true_peak_scaled`), and stops at ``lowest_migl``.
 
     Parameters
     ----------
@@ -773,6 +830,13 @@ def training_data_from_rig(
         vertical, imin 40, MIGL 255.
     lowest_migl : float, optional
         Lowest MIGL swept; default ``imin + 1``.
+    margin : int
+        Gray levels between ``N(x, y)`` and the reference set (0: the reference is the
+        composite). Large enough that noise rarely saturates the peak again: 8 levels lower the
+        peak by about 6 DN on the default virtual rig, three times its noise.
+    offset_captures : int
+        Uniform ``imin`` images averaged into ``offset`` (0: none, the scaled truth then takes
+        the offset from the sinusoid fit).
     """
     if spec is None:
         spec = FringeSpec("sinusoidal", 4, 20.0, "vertical", 40.0, 255.0)
@@ -789,26 +853,36 @@ def training_data_from_rig(
         raise InputError(
             f"lowest MIGL {low} must be above imin {spec.imin:g} and at most the top MIGL {top}"
         )
+    if isinstance(margin, bool) or int(margin) != margin or margin < 0:
+        raise InputError(f"margin must be a non-negative integer of gray levels, got {margin!r}")
     bits = int(rig.camera_bit_depth)
     full = _full_scale(bits)
     first = rig.capture(spec.frames())
+    shape = first.shape[1:]
     composite = first.copy()
-    index = np.full(first.shape[1:], -1, dtype=np.int32)
-    remaining = np.ones(first.shape[1:], dtype=bool)
+    reference = first.copy()
+    index = np.full(shape, -1, dtype=np.int32)
+    ref_migl = np.full(shape, -1, dtype=np.int32)
     sets = 0
     m = top
     images = first
     while True:
         sets += 1
-        new = remaining & np.all(images < full, axis=0)
+        new = (index < 0) & np.all(images < full, axis=0)
         index[new] = m
         composite[:, new] = images[:, new]
-        remaining &= ~new
-        if not remaining.any() or m <= low:
+        due = (index >= 0) & (index - m == margin)
+        reference[:, due] = images[:, due]
+        ref_migl[due] = m
+        if (not (index < 0).any() and not (ref_migl < 0).any()) or m <= low:
             break
         m -= 1
         images = rig.capture(spec.with_migl(float(m)).frames())
-        composite[:, remaining] = images[:, remaining]
+        composite[:, index < 0] = images[:, index < 0]
+    offset = None
+    if offset_captures > 0:
+        uniform = rig.capture([UniformFrame(float(spec.imin))] * int(offset_captures))
+        offset = uniform.astype(np.float64).mean(axis=0)
     expected = None
     if hasattr(rig, "expected_signal"):
         expected = np.asarray(rig.expected_signal(spec.frames()), dtype=np.float64)
@@ -816,6 +890,9 @@ def training_data_from_rig(
         index_image=index,
         images_at_top=first,
         composite=composite,
+        reference=reference,
+        reference_migl=ref_migl,
+        offset=offset,
         expected_at_top=expected,
         spec=spec,
         bit_depth=bits,
