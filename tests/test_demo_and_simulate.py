@@ -20,7 +20,7 @@ def test_demo_runs_and_meets_its_own_numbers(tmp_path: Path) -> None:
         "summary.json",
         "mask_3d.png",
         "calibration_white_plate_linear.h5",
-        "calibration_black_plate_rational.h5",
+        "calibration_white_plate_rational.h5",
         "mask/measurement/height.tiff",
         "mask/measurement/points.ply",
         "mask/measurement/height.png",

@@ -456,15 +456,24 @@ class CorrectionPolynomial:
         """The error polynomial ``eps`` as a numpy Polynomial (no clipping)."""
         return Polynomial(self.coefficients, domain=self.domain, window=self.window)
 
-    def error(self, estimate: ArrayLike) -> F64:
-        """Expected error ``eps`` of an estimate (clipped to the training domain)."""
-        e = np.asarray(estimate, dtype=np.float64)
-        return self.polynomial(np.clip(e, *self.domain))
+    def error(self, estimate: ArrayLike, *, outside: str = "clip") -> F64:
+        """Expected error ``eps`` of an estimate.
 
-    def apply(self, estimate: ArrayLike) -> F64:
-        """Corrected estimate ``estimate - eps(estimate)``; NaN stays NaN."""
+        ``outside`` says what happens beyond the training domain: ``"clip"`` (default) evaluates
+        at the nearest domain end, ``"zero"`` applies no correction there.
+        """
         e = np.asarray(estimate, dtype=np.float64)
-        return e - self.error(e)
+        eps = self.polynomial(np.clip(e, *self.domain))
+        if outside == "zero":
+            return np.where((e < self.domain[0]) | (e > self.domain[1]), 0.0, eps)
+        if outside != "clip":
+            raise InputError(f"outside must be 'clip' or 'zero', got {outside!r}")
+        return eps
+
+    def apply(self, estimate: ArrayLike, *, outside: str = "clip") -> F64:
+        """Corrected estimate ``estimate - eps(estimate)``; NaN stays NaN (see :meth:`error`)."""
+        e = np.asarray(estimate, dtype=np.float64)
+        return e - self.error(e, outside=outside)
 
     @classmethod
     def identity(cls, bit_depth: int = 8) -> CorrectionPolynomial:
@@ -811,7 +820,7 @@ def training_data_from_rig(
     spec: FringeSpec | None = None,
     *,
     lowest_migl: float | None = None,
-    margin: int = 8,
+    margin: int = 10,
     offset_captures: int = 4,
 ) -> TrainingData:
     """Capture the training sweep of thesis Sec. 6.1.2 on ``rig``: LPA with a step of 1 gray level.
@@ -832,8 +841,8 @@ def training_data_from_rig(
         Lowest MIGL swept; default ``imin + 1``.
     margin : int
         Gray levels between ``N(x, y)`` and the reference set (0: the reference is the
-        composite). Large enough that noise rarely saturates the peak again: 8 levels lower the
-        peak by about 6 DN on the default virtual rig, three times its noise.
+        composite). Large enough that noise rarely saturates the peak again: 10 levels lower the
+        peak by 7-8 DN on the default virtual rig, about four times its noise.
     offset_captures : int
         Uniform ``imin`` images averaged into ``offset`` (0: none, the scaled truth then takes
         the offset from the sinusoid fit).
