@@ -210,7 +210,11 @@ class Measurement:
 
 
 def measure_folder(
-    folder: CaptureFolder, calibration: Calibration | None, *, calibration_source: str | None = None
+    folder: CaptureFolder,
+    calibration: Calibration | None,
+    *,
+    calibration_source: str | None = None,
+    reject_saturated: bool = True,
 ) -> Measurement:
     """Decode a folder and, with a calibration, compute its height map and metrics.
 
@@ -220,7 +224,7 @@ def measure_folder(
     deviation and RMSE against ``truth_height_mm`` (a map in the folder) or ``scene.depth_mm``
     when the folder gives one.
     """
-    decoded = decode_folder(folder)
+    decoded = decode_folder(folder, reject_saturated=reject_saturated)
     fam = decoded.primary
     skipped: list[str] = []
     metrics: dict[str, Any] = {"source": str(folder.path)}
@@ -325,3 +329,50 @@ def composite_folder(
         label=str(folder.path),
     )
     return out, results
+
+
+def tradeoff_search(
+    rig: Any,
+    spec: FringeSpec,
+    calibration: Calibration,
+    migls: Any,
+    *,
+    extra_frames: list | None = None,
+) -> dict[str, Any]:
+    """The thesis's uniform trade-off search (Sec. 4.2): sweep the MIGL on a known target.
+
+    For every MIGL a set is captured (with ``extra_frames``, e.g. the centerline, captured once)
+    and measured with the calibration, *keeping* saturated pixels as the thesis did, so that
+    saturation error counts; the RMSE against the target's truth (a ``truth_height_mm`` map or
+    ``scene.depth_mm`` from the rig's scene) is recorded and the MIGL of the lowest RMSE is the
+    trade-off point.
+
+    Returns
+    -------
+    dict
+        ``rmse_mm`` {migl: RMSE}, ``saturated_fraction`` {migl: fraction}, ``best_migl``.
+    """
+    extra = list(extra_frames or [])
+    extra_imgs = rig.capture(extra) if extra else None
+    truth = rig.truth().height_mm if hasattr(rig, "truth") else None
+    scene = rig.scene.to_manifest() if hasattr(rig, "scene") else {}
+    rmse: dict[float, float] = {}
+    sat: dict[float, float] = {}
+    for m in migls:
+        frames = spec.with_migl(float(m)).frames()
+        imgs = rig.capture(frames)
+        if extra_imgs is not None:
+            imgs = np.concatenate([imgs, extra_imgs])
+        folder = CaptureFolder.from_arrays(
+            [*frames, *extra],
+            imgs,
+            rig.camera_bit_depth,
+            projector=rig.projector,
+            scene=scene,
+            truth_height_mm=truth,
+        )
+        res = measure_folder(folder, calibration, reject_saturated=False)
+        rmse[float(m)] = float(res.metrics.get("rmse_mm", np.nan))
+        sat[float(m)] = float(res.metrics.get("saturated_fraction", np.nan))
+    best = min(rmse, key=lambda k: (np.nan_to_num(rmse[k], nan=np.inf), -k))
+    return {"rmse_mm": rmse, "saturated_fraction": sat, "best_migl": best}

@@ -1,0 +1,60 @@
+"""Thesis Ch. 4-5 on the virtual rig: the uniform trade-off under 600 lx, and LPA beside it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hdrfringe.io.captures import CaptureFolder
+from hdrfringe.measurement import calibrate_captures, measure_folder, tradeoff_search
+from hdrfringe.patterns import CenterlineFrame, FringeSpec
+from hdrfringe.rig.scenes import white_plate
+from hdrfringe.rig.simulated import Lighting, SimulatedRig
+from hdrfringe.saturation.strategies import lpa
+from tests.test_measurement import series
+
+SPEC = FringeSpec("sinusoidal", 3, 6.0)  # thesis Table 4.3 / 5.1 conditions
+LINE = [CenterlineFrame(512, "vertical", 255)]
+DEPTHS = (10.0, 26.0, 42.0)
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    # the thesis's linear model, calibrated at 0 lx and MIGL 255 (Sec. 4.1)
+    return calibrate_captures(series(SPEC, noise=True, seed=11), model="linear")
+
+
+def test_white_plate_600_lux_tradeoff_and_lpa(calibration) -> None:
+    no_amb, at_255, at_tradeoff, lpa5, best = [], [], [], [], []
+    for i, d in enumerate(DEPTHS):
+        dark = SimulatedRig(white_plate(d), seed=20 + i)
+        no_amb.append(
+            tradeoff_search(dark, SPEC, calibration, [255], extra_frames=LINE)["rmse_mm"][255.0]
+        )
+        lit = SimulatedRig(white_plate(d), lighting=Lighting(ambient_lux=600), seed=30 + i)
+        sweep = tradeoff_search(lit, SPEC, calibration, range(255, 104, -10), extra_frames=LINE)
+        at_255.append(sweep["rmse_mm"][255.0])
+        best.append(sweep["best_migl"])
+        at_tradeoff.append(sweep["rmse_mm"][sweep["best_migl"]])
+        rig = SimulatedRig(white_plate(d), lighting=Lighting(ambient_lux=600), seed=40 + i)
+        res = lpa(rig, SPEC, step=5)
+        imgs = np.concatenate([res.images, rig.capture(LINE)])
+        folder = CaptureFolder.from_arrays(
+            [*SPEC.frames(), *LINE],
+            imgs,
+            8,
+            projector=rig.projector,
+            scene=rig.scene.to_manifest(),
+            truth_height_mm=rig.truth().height_mm,
+        )
+        lpa5.append(measure_folder(folder, calibration, reject_saturated=False).metrics["rmse_mm"])
+    m0, m255, mt, ml = (float(np.mean(v)) for v in (no_amb, at_255, at_tradeoff, lpa5))
+    print(
+        f"\nwhite plate, sinusoidal 3-step pitch 6, linear model, mean over {DEPTHS} mm: "
+        f"0 lx MIGL 255 {m0:.3f} mm; 600 lx MIGL 255 {m255:.3f} mm; 600 lx trade-off "
+        f"(MIGL {best}) {mt:.3f} mm; 600 lx LPA S=5 {ml:.3f} mm"
+    )
+    assert mt < m255  # lowering the MIGL helps under 600 lx (Table 4.3)
+    assert mt == pytest.approx(m0, rel=0.25)  # and recovers nearly the dark-room accuracy
+    assert 105 < min(best) and max(best) < 255  # an interior trade-off point
+    assert ml == pytest.approx(mt, rel=0.15)  # LPA S = 5 matches the trade-off (Table 5.1)
