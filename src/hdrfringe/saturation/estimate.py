@@ -396,7 +396,7 @@ def unsaturation_migl(
     a0 = _image(offset, p.shape)
     thr = full - 0.5
     with np.errstate(invalid="ignore", divide="ignore"):
-        m = imin + (float(capture_migl) - imin) * (thr - a0) / (p - a0)
+        m = np.array(imin + (float(capture_migl) - imin) * (thr - a0) / (p - a0), dtype=float)
     never = (a0 >= thr) | (p <= a0)
     m[never & np.isfinite(p) & np.isfinite(a0)] = -np.inf
     return m
