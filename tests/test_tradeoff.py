@@ -10,7 +10,7 @@ from hdrfringe.measurement import calibrate_captures, measure_folder, tradeoff_s
 from hdrfringe.patterns import CenterlineFrame, FringeSpec
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
-from hdrfringe.saturation.strategies import lpa
+from hdrfringe.saturation.strategies import lpa, uniform
 from tests.test_measurement import series
 
 SPEC = FringeSpec("sinusoidal", 3, 6.0)  # thesis Table 4.3 / 5.1 conditions
@@ -24,8 +24,23 @@ def calibration():
     return calibrate_captures(series(SPEC, noise=True, seed=11), model="linear")
 
 
+def _measure_strategy(strategy, depth: float, seed: int, calibration) -> float:
+    rig = SimulatedRig(white_plate(depth), lighting=Lighting(ambient_lux=600), seed=seed)
+    res = strategy(rig)
+    imgs = np.concatenate([res.images, rig.capture(LINE)])
+    folder = CaptureFolder.from_arrays(
+        [*SPEC.frames(), *LINE],
+        imgs,
+        8,
+        projector=rig.projector,
+        scene=rig.scene.to_manifest(),
+        truth_height_mm=rig.truth().height_mm,
+    )
+    return measure_folder(folder, calibration, reject_saturated=False).metrics["rmse_mm"]
+
+
 def test_white_plate_600_lux_tradeoff_and_lpa(calibration) -> None:
-    no_amb, at_255, at_tradeoff, lpa5, best = [], [], [], [], []
+    no_amb, at_255, at_tradeoff, lpa5, auto, best = [], [], [], [], [], []
     for i, d in enumerate(DEPTHS):
         dark = SimulatedRig(white_plate(d), seed=20 + i)
         no_amb.append(
@@ -36,25 +51,18 @@ def test_white_plate_600_lux_tradeoff_and_lpa(calibration) -> None:
         at_255.append(sweep["rmse_mm"][255.0])
         best.append(sweep["best_migl"])
         at_tradeoff.append(sweep["rmse_mm"][sweep["best_migl"]])
-        rig = SimulatedRig(white_plate(d), lighting=Lighting(ambient_lux=600), seed=40 + i)
-        res = lpa(rig, SPEC, step=5)
-        imgs = np.concatenate([res.images, rig.capture(LINE)])
-        folder = CaptureFolder.from_arrays(
-            [*SPEC.frames(), *LINE],
-            imgs,
-            8,
-            projector=rig.projector,
-            scene=rig.scene.to_manifest(),
-            truth_height_mm=rig.truth().height_mm,
+        lpa5.append(_measure_strategy(lambda r: lpa(r, SPEC, step=5), d, 40 + i, calibration))
+        auto.append(
+            _measure_strategy(lambda r: uniform(r, SPEC, tolerance=0.0), d, 40 + i, calibration)
         )
-        lpa5.append(measure_folder(folder, calibration, reject_saturated=False).metrics["rmse_mm"])
-    m0, m255, mt, ml = (float(np.mean(v)) for v in (no_amb, at_255, at_tradeoff, lpa5))
+    m0, m255, mt, ml, ma = (float(np.mean(v)) for v in (no_amb, at_255, at_tradeoff, lpa5, auto))
     print(
         f"\nwhite plate, sinusoidal 3-step pitch 6, linear model, mean over {DEPTHS} mm: "
         f"0 lx MIGL 255 {m0:.3f} mm; 600 lx MIGL 255 {m255:.3f} mm; 600 lx trade-off "
-        f"(MIGL {best}) {mt:.3f} mm; 600 lx LPA S=5 {ml:.3f} mm"
+        f"(MIGL {best}) {mt:.3f} mm; 600 lx LPA S=5 {ml:.3f} mm; automatic uniform {ma:.3f} mm"
     )
     assert mt < m255  # lowering the MIGL helps under 600 lx (Table 4.3)
     assert mt == pytest.approx(m0, rel=0.25)  # and recovers nearly the dark-room accuracy
     assert 105 < min(best) and max(best) < 255  # an interior trade-off point
     assert ml == pytest.approx(mt, rel=0.15)  # LPA S = 5 matches the trade-off (Table 5.1)
+    assert ma == pytest.approx(mt, rel=0.10)  # the no-ground-truth rule lands there too
