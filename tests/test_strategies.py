@@ -13,6 +13,7 @@ from hdrfringe.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
+from hdrfringe.saturation.dpa import dpa
 from hdrfringe.saturation.strategies import conventional, lpa, uniform
 
 TWO_PI = 2 * np.pi
@@ -47,11 +48,10 @@ def test_requirement_4_unsaturated_scenes_give_the_conventional_result(
     spec = FringeSpec("sinusoidal", steps, pitch)
     ref = conventional(rig(), spec)
     assert ref.images.max() < 255  # the scene is unsaturated
-    for res in (
-        lpa(rig(), spec, step=step),
-        uniform(rig(), spec),
-        uniform(rig(), spec, migl=150.0),
-    ):
+    runs = [lpa(rig(), spec, step=step), uniform(rig(), spec), uniform(rig(), spec, migl=150.0)]
+    if steps >= 4:
+        runs.append(dpa(rig(), spec, threshold=0.1))
+    for res in runs:
         assert res.sets_captured == 1 and res.images_captured == steps
         assert res.migls == [255.0]
         assert np.array_equal(res.images, ref.images)
@@ -108,3 +108,27 @@ def test_replay_of_a_sweep_equals_the_live_rig() -> None:
     assert np.array_equal(replay.migl_index, live.migl_index)
     with pytest.raises(Exception, match="holds no capture"):
         lpa(ReplayRig(folder), spec, step=7)
+
+
+@pytest.mark.parametrize("threshold", [0.1, 0.2])
+def test_dpa_matches_lpa_15_on_the_checkerboard(threshold: float) -> None:
+    """Thesis Sec. 6.3: DPA at 10 % and 20 % within 5 % of LPA S = 15 (phase error here; the
+    height error is the phase error times the local phase-to-height factor)."""
+    spec = FringeSpec("sinusoidal", 4, 8.0)
+    truth = board_rig().truth()
+
+    def phase_rms(res) -> float:
+        ph = decode_set(res.images, spec, 8, reject_saturated=False)
+        e = np.angle(np.exp(1j * (ph.wrapped_phase - TWO_PI * truth.u / 8)))[truth.valid]
+        return float(np.sqrt(np.nanmean(e**2)))
+
+    ref = lpa(board_rig(), spec, step=15)
+    res = dpa(board_rig(), spec, threshold=threshold)
+    print(
+        f"\ncheckerboard: LPA S=15 {phase_rms(ref):.4f} rad in {ref.sets_captured} sets; "
+        f"DPA {threshold:.0%} {phase_rms(res):.4f} rad in {res.sets_captured} sets"
+    )
+    assert not res.never_unsaturated.any()
+    assert phase_rms(res) <= 1.05 * phase_rms(ref)
+    assert res.details["rules"][0] == "initial" and res.migls[0] == 255.0
+    assert all(a > b for a, b in zip(res.migls, res.migls[1:], strict=False))

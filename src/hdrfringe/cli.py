@@ -658,6 +658,12 @@ def measure(
         ),
     ] = None,
     step: Annotated[float, typer.Option(help="LPA: MIGL step S in gray levels.")] = 5.0,
+    threshold: Annotated[
+        float, typer.Option(help="DPA: CDF gain that triggers a capture (0.1 = 10 %).")
+    ] = 0.1,
+    correction: Annotated[
+        Path | None, typer.Option(help="DPA: trained correction polynomial (JSON).")
+    ] = None,
     uniform_migl: Annotated[
         float | None, typer.Option(help="Uniform: the trade-off MIGL (default: automatic).")
     ] = None,
@@ -692,6 +698,12 @@ def measure(
             params = {"step": step}
         elif method == "uniform":
             params = {"migl": uniform_migl, "tolerance": tolerance}
+        elif method == "dpa":
+            from hdrfringe.saturation.estimate import CorrectionPolynomial
+
+            params = {"threshold": threshold}
+            if correction is not None:
+                params["correction"] = CorrectionPolynomial.load(correction)
         caps, strategy_results = composite_folder(caps, method, **params)
     result = measure_folder(
         caps, cal, calibration_source=None if calibration is None else str(calibration)

@@ -280,17 +280,16 @@ def composite_folder(
     from hdrfringe.process import group_families
     from hdrfringe.rig.replay import ReplayRig
     from hdrfringe.saturation import strategies
+    from hdrfringe.saturation.dpa import dpa
 
     runners = {
         "conventional": strategies.conventional,
         "uniform": strategies.uniform,
         "lpa": strategies.lpa,
+        "dpa": dpa,
     }
     if method not in runners:
-        raise InputError(
-            f"unknown method {method!r}; use one of {', '.join(runners)}"
-            + (" (dpa is not available yet)" if method == "dpa" else "")
-        )
+        raise InputError(f"unknown method {method!r}; use one of {', '.join(runners)}")
     if not folder.sets:
         raise CaptureFormatError(f"{folder.path}: no fringe sets to run a strategy on")
     families = group_families(folder.sets)
