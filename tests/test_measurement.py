@@ -30,19 +30,7 @@ def plate_rig(depth: float, *, noise: bool, seed: int) -> SimulatedRig:
 
 def captured(rig: SimulatedRig, frames: list[Frame]) -> CaptureFolder:
     """What `hdrfringe simulate` would write, kept in memory."""
-    g = rig.geometry
-    return CaptureFolder.from_arrays(
-        frames,
-        rig.capture(frames),
-        rig.camera_bit_depth,
-        projector=rig.projector,
-        scene=rig.scene.to_manifest(),
-        camera_extra={
-            "focal_px": g.camera_focal_px(rig.image_shape[1]),
-            "standoff_mm": g.standoff_mm,
-        },
-        truth_height_mm=rig.truth().height_mm,
-    )
+    return rig.capture_folder(frames)
 
 
 def frames_for(spec: FringeSpec) -> list[Frame]:

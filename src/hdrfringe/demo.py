@@ -27,7 +27,7 @@ from rich.table import Table
 
 from hdrfringe.calibration import Calibration
 from hdrfringe.io.calibration_file import save_calibration
-from hdrfringe.io.captures import CaptureFolder, write_capture_folder
+from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.phase_maps import write_phase_maps
 from hdrfringe.io.results import check_output_dir, staged_output_dir
 from hdrfringe.measurement import calibrate_captures, calibration_geometry, measure_folder
@@ -63,29 +63,12 @@ def _rig(scene: Scene, seed: int, black_aperture: bool) -> SimulatedRig:
     return rig
 
 
-def _capture(rig: SimulatedRig, frames: list[Frame]) -> CaptureFolder:
-    g = rig.geometry
-    return CaptureFolder.from_arrays(
-        frames,
-        rig.capture(frames),
-        rig.camera_bit_depth,
-        projector=rig.projector,
-        scene=rig.scene.to_manifest(),
-        camera_extra={
-            "focal_px": g.camera_focal_px(rig.image_shape[1]),
-            "standoff_mm": g.standoff_mm,
-        },
-        truth_height_mm=rig.truth().height_mm,
-        label=rig.scene.name,
-    )
-
-
 def _calibrations(seed: int, black: bool, progress: Any) -> dict[str, Calibration]:
     plate = black_plate if black else white_plate
     frames = demo_frames()
     folders = []
     for d in (0.0, *THESIS_CALIBRATION_DEPTHS_MM):
-        folders.append(_capture(_rig(plate(d), seed, black), frames))
+        folders.append(_rig(plate(d), seed, black).capture_folder(frames))
         progress()
     return {m: calibrate_captures(folders, model=m) for m in ("linear", "rational")}
 
@@ -186,7 +169,7 @@ def run_demo(
         task = prog.add_task("measuring scenes", total=len(scenes))
         for name, scene, black in scenes:
             rig = _rig(scene, seed + 1, black)
-            caps = _capture(rig, frames)
+            caps = rig.capture_folder(frames)
             sdir = tmp / name
             sdir.mkdir()
             write_capture_folder(

@@ -767,6 +767,30 @@ class SimulatedRig:
             out[k] = self._signal(frame)
         return out
 
+    def capture_folder(self, frames: Sequence[Frame]) -> Any:
+        """Capture ``frames`` into an in-memory capture folder, as ``simulate`` would write it.
+
+        The folder carries the scene, the camera geometry (``focal_px``, ``standoff_mm``) and the
+        ground-truth height map, so it can be calibrated on or measured directly.
+        """
+        from hdrfringe.io.captures import CaptureFolder
+
+        frames = list(frames)
+        g = self.geometry
+        return CaptureFolder.from_arrays(
+            frames,
+            self.capture(frames),
+            self.camera_bit_depth,
+            projector=self.projector,
+            scene=self.scene.to_manifest(),
+            camera_extra={
+                "focal_px": g.camera_focal_px(self.image_shape[1]),
+                "standoff_mm": g.standoff_mm,
+            },
+            truth_height_mm=self.truth().height_mm,
+            label=self.scene.name,
+        )
+
     def truth(self) -> GroundTruth:
         """Ground truth per camera pixel, evaluated at the pixel centres (cached, read-only)."""
         if self._truth is None:
