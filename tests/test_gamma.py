@@ -1,77 +1,320 @@
-"""Projector gamma: uniform and fringe fits on the virtual rig, and the kamino410 real data."""
+"""Projector gamma (hdrfringe.gamma): uniform-gray and fringe fits, residual nonlinearity, plot.
+
+Synthetic captures are generated here with the contract's pattern and pre-compensation formulas
+(hdrfringe.patterns), a known gamma, an offset, a reflectivity map, noise and 8-bit rounding;
+the virtual rig and the command line are exercised once each; the kamino410 real-data test
+skips when ../shared/realdata is absent.
+"""
 
 from __future__ import annotations
 
 import json
-import os
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from hdrfringe.errors import InputError
 from hdrfringe.gamma import (
+    GammaFit,
     fit_gamma_fringes,
     fit_gamma_uniform,
+    measure_nonlinearity,
     plot_gamma_mapping,
     predicted_nonlinearity,
     residual_nonlinearity,
 )
-from hdrfringe.patterns import FringeSpec, UniformFrame
-from hdrfringe.rig.scenes import white_plate
-from hdrfringe.rig.simulated import Lighting, SimulatedRig
+from hdrfringe.patterns import FringeSpec, UniformFrame, fringe_gray, precompensate_gamma
 from tests.conftest import realdata_path, run_cli
 
-TRUE_GAMMA = 2.812  # the virtual projector's gamma (the thesis's estimate)
+THESIS_GAMMA = 2.812
+LEVELS = np.arange(0.0, 256.0, 15.0)  # 0, 15, ..., 255
 
 
-def uniform_captures(precomp: float = 1.0, lux: float = 100.0):
-    rig = SimulatedRig(
-        white_plate(10.0), gamma_precompensation=precomp, lighting=Lighting(ambient_lux=lux), seed=2
-    )
-    levels = np.arange(0, 256, 15.0)
-    imgs = rig.capture([UniformFrame(g) for g in levels])
-    h, w = rig.image_shape
-    roi = (slice(h // 4, 3 * h // 4), slice(w // 4, 3 * w // 4))
-    return levels, np.array([im[roi].mean() for im in imgs])
+# ---------------------------------------------------------------------------------------------
+# synthetic captures
+# ---------------------------------------------------------------------------------------------
 
 
-def test_uniform_fit_recovers_rig_gamma_and_linearises() -> None:
-    levels, dn = uniform_captures()
-    fit = fit_gamma_uniform(levels, dn, camera_bit_depth=8)
-    # ambient (100 lx) offset, projector black level, noise and 8-bit rounding: within 1 %
-    assert fit.gamma == pytest.approx(TRUE_GAMMA, rel=0.01)
-    assert fit.stderr < 0.05 and fit.rms_residual < 1.0
-    after, _ = predicted_nonlinearity(fit, fit.gamma)
-    before, _ = predicted_nonlinearity(fit, 1.0)
-    assert after < 1.0 and before > 10.0
-    # measured: captures made WITH the fitted pre-compensation are linear within 1 %
-    lv2, dn2 = uniform_captures(precomp=fit.gamma)
-    assert residual_nonlinearity(lv2, dn2)[0] < 1.0
-    # a fit on pre-compensated captures still returns the projector's own gamma
-    refit = fit_gamma_uniform(lv2, dn2, camera_bit_depth=8, gamma_precompensation=fit.gamma)
-    assert refit.gamma == pytest.approx(TRUE_GAMMA, rel=0.01)
+def uniform_images(
+    levels: np.ndarray,
+    gamma: float = THESIS_GAMMA,
+    *,
+    precomp: float = 1.0,
+    scale: float = 300.0,
+    offset: float = 14.0,
+    noise: float = 1.5,
+    shape: tuple[int, int] = (40, 50),
+    seed: int = 0,
+) -> np.ndarray:
+    """8-bit captures of uniform grays: offset + scale * reflectivity * (sent/255)^gamma + noise.
+
+    With scale 300 the brightest levels clip at 255.
+    """
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    rows, cols = np.mgrid[0:h, 0:w]
+    refl = 0.9 + 0.1 * np.cos(cols / w * np.pi) * np.cos(rows / h * np.pi)
+    sent = precompensate_gamma(levels, precomp).astype(float) / 255.0
+    imgs = offset + scale * refl[None] * sent[:, None, None] ** gamma
+    imgs = imgs + rng.normal(0.0, noise, imgs.shape)
+    return np.clip(np.rint(imgs), 0, 255).astype(np.uint8)
 
 
-def test_uniform_fit_ignores_saturated_levels(tmp_path: Path) -> None:
-    levels, dn = uniform_captures(lux=900.0)  # bright: the top levels clip at 255
-    assert dn.max() >= 254.5
-    fit = fit_gamma_uniform(levels, np.minimum(dn, 255.0), camera_bit_depth=8)
-    assert fit.gamma == pytest.approx(TRUE_GAMMA, rel=0.02)
-    assert fit.n_samples < len(levels)
-    plot_gamma_mapping(fit, tmp_path / "g.png")
-    assert (tmp_path / "g.png").stat().st_size > 10_000
+def fringe_sets(
+    gamma: float,
+    exponents: tuple[float, ...] = (0.75, 1.25),
+    *,
+    steps: int = 3,
+    scatter: float = 0.05,
+    noise: float = 1.0,
+    shape: tuple[int, int] = (80, 110),
+    pitch: float = 48.0,
+    seed: int = 0,
+) -> tuple[list[tuple[FringeSpec, float, np.ndarray]], np.ndarray, np.ndarray]:
+    """Sinusoidal sets pre-distorted with ``exponents`` (kamino410's design), and black/white.
 
+    The camera sees a smooth, slightly nonlinear map of projector columns, a reflectivity map
+    (0.55..0.95), an ambient offset (10..15 DN), light scattered from the rest of the scene
+    (``scatter`` times the pattern's mean light: it differs between pre-distortions), Gaussian
+    noise and 8-bit rounding. Returns the sets, the black and the white capture.
+    """
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    rows, cols = np.mgrid[0:h, 0:w].astype(float)
+    x = 3.1 * cols + 0.4 * rows + 0.002 * cols**2
+    refl = 0.55 + 0.4 * np.exp(-((rows - h / 2) ** 2 + (cols - w / 3) ** 2) / (2 * (w / 2) ** 2))
+    ambient = 10.0 + 5.0 * cols / w
+    spec = FringeSpec("sinusoidal", steps, pitch, "vertical", 0, 255)
 
-@pytest.mark.parametrize("steps", [3, 4])
-def test_fringe_shape_fit_recovers_rig_gamma(steps: int) -> None:
-    """Sets pre-distorted with 0.75 and 1.25 (as kamino410 did), or one 4-step set."""
-    spec = FringeSpec("sinusoidal", steps, 96.0, "vertical", 0, 255)
+    def capture(light: np.ndarray, mean_light: float) -> np.ndarray:
+        img = ambient + 200.0 * (scatter * mean_light + refl * light)
+        return np.clip(np.rint(img + rng.normal(0.0, noise, img.shape)), 0, 255).astype(np.uint8)
+
     sets = []
-    for gh in (0.75, 1.25) if steps == 3 else (1.6,):
+    for gh in exponents:
+        light = [
+            (precompensate_gamma(fringe_gray(x, spec, k), gh) / 255.0) ** gamma
+            for k in range(steps)
+        ]
+        mean_light = float(np.mean(light))
+        sets.append((spec, gh, np.stack([capture(li, mean_light) for li in light])))
+    black = capture(np.zeros(shape), 0.0)
+    white = capture(np.ones(shape), 1.0)
+    return sets, black, white
+
+
+# ---------------------------------------------------------------------------------------------
+# uniform grays
+# ---------------------------------------------------------------------------------------------
+
+
+def test_uniform_fit_recovers_thesis_gamma_from_clipped_noisy_images() -> None:
+    imgs = uniform_images(LEVELS)
+    assert (imgs[-1] == 255).mean() > 0.5  # the top levels are clipped
+    fit = fit_gamma_uniform(LEVELS, imgs, camera_bit_depth=8, roi=(5, 35, 5, 45))
+    assert fit.gamma == pytest.approx(THESIS_GAMMA, rel=0.01)
+    assert fit.ci95[0] < fit.gamma < fit.ci95[1] and fit.stderr < 0.03
+    assert fit.offset == pytest.approx(14.0, abs=1.0)
+    assert fit.rms_residual < 1.0
+    # clipped levels are reported but not fitted
+    assert not fit.used[-1] and fit.used[:10].all() and fit.n_samples == fit.used.sum()
+    assert fit.n_pixels == 30 * 40
+    # the fit predicts a linear mapping once pre-compensated with its gamma, not without
+    g = np.arange(256.0)
+    assert residual_nonlinearity(g, fit, fit.gamma) < 1.0
+    assert residual_nonlinearity(g, fit, 1.0) > 10.0
+    mx, rms = predicted_nonlinearity(fit, fit.gamma)
+    assert mx < 1.0 and rms < mx
+
+
+def test_uniform_fit_from_means_with_precompensation_and_measured_nonlinearity() -> None:
+    # captures sent WITH a pre-compensation of 2.0: the fit still returns the projector's gamma
+    imgs = uniform_images(LEVELS, precomp=2.0, scale=220.0, seed=1)
+    means = imgs.reshape(len(LEVELS), -1).mean(axis=1)
+    fit = fit_gamma_uniform(LEVELS, means, camera_bit_depth=8, gamma_precompensation=2.0)
+    assert fit.gamma == pytest.approx(THESIS_GAMMA, rel=0.01)
+    np.testing.assert_array_equal(fit.sent, precompensate_gamma(LEVELS, 2.0))
+
+    # measured: captures made with the fitted pre-compensation are linear within 1 % ...
+    dn_fit = uniform_images(LEVELS, precomp=fit.gamma, scale=220.0, seed=2)
+    dn_fit = dn_fit.reshape(len(LEVELS), -1).mean(axis=1)
+    assert residual_nonlinearity(LEVELS, dn_fit, fit.gamma) < 1.0
+    # ... captures without correction are not ...
+    dn_raw = uniform_images(LEVELS, scale=220.0, seed=3).reshape(len(LEVELS), -1).mean(axis=1)
+    assert residual_nonlinearity(LEVELS, dn_raw, 1.0) > 10.0
+    # ... and re-indexing those raw captures by the level that pre-compensation would map to
+    # their gray shows, without any model, what pre-compensation leaves
+    nl = measure_nonlinearity(LEVELS, dn_raw, fit.gamma, captured_with=1.0)
+    assert nl.max_percent < 1.0 and nl.rms_percent <= nl.max_percent and nl.slope > 0
+
+
+def test_uniform_fit_is_robust_to_one_bad_capture() -> None:
+    imgs = uniform_images(LEVELS, scale=220.0, seed=4)
+    means = imgs.reshape(len(LEVELS), -1).mean(axis=1)
+    means[8] += 25.0  # e.g. a light switched on during one capture
+    fit = fit_gamma_uniform(LEVELS, means, camera_bit_depth=8)
+    assert fit.gamma == pytest.approx(THESIS_GAMMA, rel=0.02)
+
+
+def test_uniform_fit_on_the_virtual_rig() -> None:
+    from hdrfringe.rig.scenes import white_plate
+    from hdrfringe.rig.simulated import Lighting, SimulatedRig
+
+    rig = SimulatedRig(
+        white_plate(10.0), gamma_precompensation=1.0, lighting=Lighting(ambient_lux=100.0), seed=2
+    )
+    imgs = rig.capture([UniformFrame(g) for g in LEVELS])
+    h, w = rig.image_shape
+    fit = fit_gamma_uniform(
+        LEVELS,
+        imgs,
+        camera_bit_depth=rig.camera_bit_depth,
+        roi=(slice(h // 4, 3 * h // 4), slice(w // 4, 3 * w // 4)),
+    )
+    assert fit.gamma == pytest.approx(THESIS_GAMMA, rel=0.01)
+
+
+@pytest.mark.parametrize(
+    ("levels", "data", "kwargs", "match"),
+    [
+        (LEVELS[:3], np.array([10.0, 20.0, 30.0]), {}, "usable levels"),
+        (LEVELS, np.ones(3), {}, "one mean per level"),
+        (LEVELS, np.full(len(LEVELS), 255.0), {}, "usable levels"),
+        (LEVELS, np.zeros((len(LEVELS), 4, 4)), {"roi": (0, 0, 0, 0)}, "selects no pixel"),
+        (LEVELS, np.zeros((len(LEVELS), 4, 4)), {"mask": np.ones((3, 3), bool)}, "mask"),
+        (LEVELS + 300, np.arange(len(LEVELS)) + 20.0, {}, "levels must lie"),
+        (LEVELS, np.full((len(LEVELS), 2, 2), 300.0), {}, "bit depth"),
+    ],
+)
+def test_uniform_fit_input_errors(levels, data, kwargs, match) -> None:
+    with pytest.raises(InputError, match=match):
+        fit_gamma_uniform(levels, data, camera_bit_depth=8, **kwargs)
+
+
+# ---------------------------------------------------------------------------------------------
+# fringes
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("gamma", [1.6, THESIS_GAMMA])
+@pytest.mark.parametrize("weighting", ["levels", "samples"])
+def test_fringe_fit_recovers_gamma_from_two_predistortions(gamma: float, weighting: str) -> None:
+    """kamino410's design: 3-step sets pre-distorted with 1/0.75 and 1/1.25, no Gray code."""
+    sets, _, _ = fringe_sets(gamma)
+    fit = fit_gamma_fringes(sets, camera_bit_depth=8, weighting=weighting, max_pixels=5000)
+    assert fit.gamma == pytest.approx(gamma, rel=0.01)
+    assert fit.ci95[0] < fit.gamma < fit.ci95[1] and fit.stderr < 0.01 * gamma
+    assert fit.rms_residual < 1.0  # noise 1 DN, with 4 of 6 samples' degrees of freedom fitted
+    assert fit.method == "fringes" and fit.n_pixels > 4900
+    # samples re-indexed by the level that pre-compensation with the fit would send: linear
+    nl = measure_nonlinearity(fit.sent, fit.dn, fit.gamma, captured_with=1.0, bins=24)
+    assert nl.max_percent < 1.0
+    assert measure_nonlinearity(fit.sent, fit.dn, 1.0, captured_with=1.0, bins=24).max_percent > 8
+
+
+def test_fringe_fit_needs_per_set_offsets_under_scattered_light() -> None:
+    """Scattered light follows each pattern's mean light; one offset for both sets biases gamma."""
+    sets, _, _ = fringe_sets(THESIS_GAMMA, scatter=0.05)
+    shared = fit_gamma_fringes(sets, camera_bit_depth=8, offset_per_set=False, max_pixels=4000)
+    per_set = fit_gamma_fringes(sets, camera_bit_depth=8, max_pixels=4000)
+    assert abs(shared.gamma / THESIS_GAMMA - 1) > 0.01
+    assert abs(per_set.gamma / THESIS_GAMMA - 1) < 0.005
+    assert per_set.rms_residual < shared.rms_residual
+
+
+def test_fringe_fit_on_the_virtual_rig() -> None:
+    """Pixelated projector, defocus, camera blur and noise: within 1 % at a 96 px pitch."""
+    from hdrfringe.rig.scenes import white_plate
+    from hdrfringe.rig.simulated import SimulatedRig
+
+    spec = FringeSpec("sinusoidal", 3, 96.0, "vertical", 0, 255)
+    sets = []
+    for gh in (0.75, 1.25):
         rig = SimulatedRig(white_plate(5.0), gamma_precompensation=gh, seed=7)
         sets.append((spec, gh, rig.capture(spec.frames())))
-    fit = fit_gamma_fringes(sets, camera_bit_depth=8)
-    assert fit.gamma == pytest.approx(TRUE_GAMMA, rel=0.01)
+    fit = fit_gamma_fringes(sets, camera_bit_depth=8, max_pixels=5000)
+    assert fit.gamma == pytest.approx(THESIS_GAMMA, rel=0.01)
+
+
+def test_fringe_fit_warns_on_narrow_fringes() -> None:
+    sets, _, _ = fringe_sets(2.2, pitch=8.0, shape=(30, 40))
+    with pytest.warns(RuntimeWarning, match="pitch of 8 projector px"):
+        fit_gamma_fringes(sets, camera_bit_depth=8)
+
+
+def test_fringe_fit_single_four_step_set() -> None:
+    sets, _, _ = fringe_sets(2.2, (1.6,), steps=4, scatter=0.0)
+    fit = fit_gamma_fringes(sets, camera_bit_depth=8, max_pixels=4000)
+    assert fit.gamma == pytest.approx(2.2, rel=0.01)
+
+
+def test_fringe_fit_black_white_normalisation() -> None:
+    # one 3-step set suffices when black and white fix offset and scale ...
+    sets, black, white = fringe_sets(2.2, (1.25,), scatter=0.0, seed=3)
+    fit = fit_gamma_fringes(
+        sets, camera_bit_depth=8, normalization="black_white", black=black, white=white
+    )
+    assert fit.gamma == pytest.approx(2.2, rel=0.01)
+    assert fit.normalization == "black_white"
+    # ... but scattered light (white gets more of it than a fringe) biases that normalisation
+    sets, black, white = fringe_sets(2.2, (1.25,), scatter=0.05, seed=3)
+    biased = fit_gamma_fringes(
+        sets, camera_bit_depth=8, normalization="black_white", black=black, white=white
+    )
+    assert abs(biased.gamma / 2.2 - 1) > 0.02
+
+
+def test_fringe_fit_ignores_saturated_pixels() -> None:
+    sets, _, _ = fringe_sets(2.2, seed=5)
+    bright = [(s, g, np.clip(im * 1.25, 0, 255).astype(np.uint8)) for s, g, im in sets]
+    assert any((im == 255).any() for _, _, im in bright)
+    fit = fit_gamma_fringes(bright, camera_bit_depth=8, max_pixels=4000)
+    assert fit.gamma == pytest.approx(2.2, rel=0.01)
+
+
+def test_fringe_fit_input_errors() -> None:
+    sets, black, _ = fringe_sets(2.2, (1.0,), noise=0.5)
+    with pytest.raises(InputError, match="two pre-distortions"):
+        fit_gamma_fringes(sets, camera_bit_depth=8)  # 3 samples for 4 unknowns per pixel
+    with pytest.raises(InputError, match="black and white"):
+        fit_gamma_fringes(sets, camera_bit_depth=8, normalization="black_white", black=black)
+    spec, gh, imgs = sets[0]
+    with pytest.raises(InputError, match="one image per shift"):
+        fit_gamma_fringes([(spec, gh, imgs[:2])], camera_bit_depth=8)
+    with pytest.raises(InputError, match="gamma_hat"):
+        fit_gamma_fringes([(spec, 0.0, imgs)], camera_bit_depth=8)
+    with pytest.raises(InputError, match="at least one"):
+        fit_gamma_fringes([], camera_bit_depth=8)
+
+
+# ---------------------------------------------------------------------------------------------
+# plot
+# ---------------------------------------------------------------------------------------------
+
+
+def test_plot_gamma_mapping(tmp_path: Path) -> None:
+    imgs = uniform_images(LEVELS)
+    fit = fit_gamma_uniform(LEVELS, imgs, camera_bit_depth=8)
+    measured = uniform_images(LEVELS, precomp=fit.gamma, scale=220.0, seed=2)
+    out = plot_gamma_mapping(
+        fit,
+        tmp_path / "uniform.png",
+        measured_levels=LEVELS,
+        measured_dn=measured.reshape(len(LEVELS), -1).mean(axis=1),
+        title="synthetic",
+    )
+    assert out.stat().st_size > 10_000 and out.read_bytes()[:4] == b"\x89PNG"
+    sets, _, _ = fringe_sets(2.2, shape=(40, 60))
+    ffit = fit_gamma_fringes(sets, camera_bit_depth=8)
+    assert isinstance(ffit, GammaFit) and ffit.sent.size == ffit.dn.size > 0
+    assert plot_gamma_mapping(ffit, tmp_path / "fringes.png", gamma_hat=2.0).stat().st_size > 10_000
+
+
+# ---------------------------------------------------------------------------------------------
+# command line (reads the capture folder, calls the functions above)
+# ---------------------------------------------------------------------------------------------
 
 
 def test_gamma_cli_on_uniform_folder(tmp_path: Path) -> None:
@@ -83,8 +326,10 @@ def test_gamma_cli_on_uniform_folder(tmp_path: Path) -> None:
         str(caps),
         "--gamma",
         "1",
+        "--steps",
+        "3",
         "--gray",
-        ",".join(str(g) for g in range(0, 256, 15)),
+        ",".join(str(int(g)) for g in LEVELS),
         "--no-centerline",
     )
     assert res.returncode == 0, res.stderr
@@ -92,29 +337,99 @@ def test_gamma_cli_on_uniform_folder(tmp_path: Path) -> None:
     res = run_cli("gamma", str(caps), "-o", str(out))
     assert res.returncode == 0, res.stderr
     report = json.loads((out / "gamma.json").read_text())
-    assert report["uniform"]["gamma"] == pytest.approx(TRUE_GAMMA, rel=0.01)
+    assert report["uniform"]["gamma"] == pytest.approx(THESIS_GAMMA, rel=0.01)
     assert (out / "gamma_mapping.png").is_file()
+
+
+def test_gamma_cli_skips_narrow_fringe_sets(tmp_path: Path) -> None:
+    """A 4-step set at 8 px is distorted by projector pixels and blur (the shape fit would read
+    that as gamma 3.18 on the rig); the command leaves it out and says so."""
+    caps = tmp_path / "caps"
+    res = run_cli(
+        "simulate",
+        "white_plate",
+        "-o",
+        str(caps),
+        "--gamma",
+        "1",
+        "--gray",
+        ",".join(str(int(g)) for g in LEVELS),
+        "--no-centerline",
+    )
+    assert res.returncode == 0, res.stderr
+    out = tmp_path / "g"
+    res = run_cli("gamma", str(caps), "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "not used for gamma" in res.stdout and "fringe shape" not in res.stdout
+    report = json.loads((out / "gamma.json").read_text())
+    assert "fringes" not in report
+    assert report["uniform"]["gamma"] == pytest.approx(THESIS_GAMMA, rel=0.01)
+
+
+# ---------------------------------------------------------------------------------------------
+# real data: kamino410 gamma_correction_subset
+# ---------------------------------------------------------------------------------------------
+
+KAMINO_AUTHOR_GAMMA = 1.6448  # gamma_result.txt (Gray-code based; the subset has no Gray code)
+
+
+def kamino_sets(src: Path, orientation: str) -> list[tuple[FringeSpec, float, np.ndarray]]:
+    """pat00-05 vertical, pat06-11 horizontal; in each, exponent 1/0.75 then 1/1.25.
+
+    The files show shifts -120, 0, +120 degrees of ``0.5 * (1 + cos)``: in the contract's
+    convention imin 0, migl 255, pre-compensation gamma-hat 0.75 and 1.25, shifts 2, 0, 1.
+    """
+    import imageio.v3 as iio
+
+    base = 0 if orientation == "vertical" else 6
+    sets = []
+    for j, gh in enumerate((0.75, 1.25)):
+        files = [src / f"pat{base + 3 * j + k:02d}.png" for k in range(3)]
+        imgs = [iio.imread(f) for f in files]
+        spec = FringeSpec("sinusoidal", 3, 240.0, orientation, 0, 255)
+        sets.append((spec, gh, np.stack([imgs[1], imgs[2], imgs[0]])))  # shifts 0, 1, 2
+    return sets
 
 
 @pytest.mark.realdata
 def test_kamino410_gamma_subset(tmp_path: Path) -> None:
-    """The author's estimate is 1.6448 (Gray-code method); ours comes from the fringe shape.
+    """Measured: 1.585 (vertical), 1.574 (horizontal), 1.583 both; the author's 1.6448.
 
-    Both orientations must agree within 1 % (they share the projector), and the estimate must
-    lie within 10 % of the author's: measured 1.550 (vertical) and 1.548 (horizontal), 5.8 %
-    below, with a fit residual of 1.16 DN per sample (the camera's noise and 8-bit rounding),
-    so the power law describes these captures to the noise floor (docs/gamma.md).
+    Tolerance 6 % of the author's value: this projector is not a pure power law (its local
+    exponent runs from about 1.40 in the dark to 1.63 at mid gray, docs/gamma.md), so estimators
+    that weight the range differently legitimately land between about 1.51 and 1.68 on these
+    captures; ours weights the requested levels evenly. The two orientations see the same
+    projector and must agree within 1.5 %; the fit must describe the captures to about the
+    camera's noise, and pre-compensation with it must leave < 1 % nonlinearity (vs > 8 %
+    without).
     """
     src = realdata_path("kamino410", "gamma_correction_subset")
+    fits = {
+        o: fit_gamma_fringes(kamino_sets(src, o), camera_bit_depth=8)
+        for o in ("vertical", "horizontal")
+    }
+    g_v, g_h = fits["vertical"].gamma, fits["horizontal"].gamma
+    print(
+        f"\nkamino410 gamma: vertical {g_v:.4f}, horizontal {g_h:.4f} "
+        f"(author {KAMINO_AUTHOR_GAMMA})"
+    )
+    assert g_v == pytest.approx(g_h, rel=0.015)
+    for fit in fits.values():
+        assert fit.gamma == pytest.approx(KAMINO_AUTHOR_GAMMA, rel=0.06)
+        assert fit.rms_residual < 1.5
+        after = measure_nonlinearity(fit.sent, fit.dn, fit.gamma, captured_with=1.0, bins=32)
+        before = measure_nonlinearity(fit.sent, fit.dn, 1.0, captured_with=1.0, bins=32)
+        assert after.max_percent < 1.0 and before.max_percent > 8.0
+
+    # the command line on a capture folder of the same files (per-set exponents in the manifest)
     caps = tmp_path / "kamino"
     caps.mkdir()
     frames = []
-    # files pat0(1,2,3) show shifts -120, 0, +120 degrees: our shifts 2, 0, 1
     for base, orient in ((0, "vertical"), (6, "horizontal")):
-        for j, gp in enumerate((0.75, 1.25)):
+        for j, gh in enumerate((0.75, 1.25)):
             for k, shift in enumerate((2, 0, 1)):
                 name = f"pat{base + 3 * j + k:02d}.png"
-                os.symlink(src / name, caps / name)
+                (caps / name).symlink_to(src / name)
                 frames.append(
                     {
                         "file": name,
@@ -126,7 +441,7 @@ def test_kamino410_gamma_subset(tmp_path: Path) -> None:
                         "orientation": orient,
                         "imin": 0,
                         "migl": 255,
-                        "gamma_precompensation": gp,
+                        "gamma_precompensation": gh,
                     }
                 )
     manifest = {
@@ -137,21 +452,8 @@ def test_kamino410_gamma_subset(tmp_path: Path) -> None:
         "frames": frames,
     }
     (caps / "manifest.json").write_text(json.dumps(manifest))
-    from hdrfringe.io.captures import read_capture_folder
-
-    folder = read_capture_folder(caps)
-    fits = {}
-    for orient in ("vertical", "horizontal"):
-        sets = [s for s in folder.sets if s.spec.orientation == orient]
-        fits[orient] = fit_gamma_fringes(
-            [(s.spec, s.gamma_precompensation, folder.set_images(s)) for s in sets],
-            camera_bit_depth=8,
-        )
-    g_v, g_h = fits["vertical"].gamma, fits["horizontal"].gamma
-    print(f"\nkamino410 gamma: vertical {g_v:.4f}, horizontal {g_h:.4f} (author: 1.6448)")
-    assert g_v == pytest.approx(g_h, rel=0.01)
-    assert g_v == pytest.approx(1.6448, rel=0.10)
-    assert fits["vertical"].rms_residual < 2.0
     res = run_cli("gamma", str(caps))
     assert res.returncode == 0, res.stderr
-    assert "fringe shape: gamma = 1.5" in res.stdout
+    m = re.search(r"fringe shape: gamma = ([0-9.]+)", res.stdout)
+    assert m is not None, res.stdout
+    assert float(m.group(1)) == pytest.approx((g_v + g_h) / 2, rel=0.01)
