@@ -265,20 +265,12 @@ def measure_folder(
     return Measurement(decoded, height, metrics, skipped)
 
 
-def composite_folder(
-    folder: CaptureFolder, method: str, **params: Any
-) -> tuple[CaptureFolder, list[Any]]:
-    """Run a saturation-avoidance strategy on a replayed capture folder (a MIGL sweep).
+STRATEGY_METHODS = ("conventional", "uniform", "lpa", "dpa")
 
-    For every pitch of the primary family (vertical first) at the folder's highest MIGL, the
-    strategy (``conventional``, ``uniform`` or ``lpa``; see :mod:`hdrfringe.saturation.strategies`)
-    drives a :class:`~hdrfringe.rig.replay.ReplayRig` over the folder. The returned in-memory
-    folder holds the composite sets (labelled at the highest MIGL), the folder's centerline
-    frames and its ground truth, so :func:`measure_folder` treats it like any capture.
-    """
-    from hdrfringe.patterns import CenterlineFrame, Frame
-    from hdrfringe.process import group_families
-    from hdrfringe.rig.replay import ReplayRig
+
+def run_strategy(rig: Any, spec: FringeSpec, method: str, **params: Any) -> Any:
+    """Run the saturation-avoidance strategy ``method`` (one of :data:`STRATEGY_METHODS`) for one
+    fringe set on any rig; returns its :class:`~hdrfringe.saturation.strategies.StrategyResult`."""
     from hdrfringe.saturation import strategies
     from hdrfringe.saturation.dpa import dpa
 
@@ -290,44 +282,119 @@ def composite_folder(
     }
     if method not in runners:
         raise InputError(f"unknown method {method!r}; use one of {', '.join(runners)}")
-    if not folder.sets:
-        raise CaptureFormatError(f"{folder.path}: no fringe sets to run a strategy on")
-    families = group_families(folder.sets)
-    rig = ReplayRig(folder)
+    return runners[method](rig, spec, **params)
+
+
+def composite_captures(
+    rig: Any,
+    specs: list[FringeSpec],
+    method: str,
+    *,
+    centerline: Any = None,
+    scene: dict[str, Any] | None = None,
+    camera_extra: dict[str, Any] | None = None,
+    truth_height_mm: NDArray | None = None,
+    label: str = "",
+    **params: Any,
+) -> tuple[CaptureFolder, list[Any]]:
+    """Run ``method`` for every set in ``specs`` on ``rig`` (live or replayed) and assemble the
+    composites as an in-memory capture folder that :func:`measure_folder` treats like any other.
+
+    Each set is labelled at its highest MIGL; ``centerline`` (a frame, optional) is captured once
+    at the end. ``scene``, ``camera_extra`` and ``truth_height_mm`` go into the folder's manifest
+    and maps (ground truth gives the measurement its error metrics).
+    """
+    from hdrfringe.patterns import Frame
+
     frames: list[Frame] = []
     images = []
     results = []
-    if method == "uniform" and params.get("migl") is None:
-        params = {**params, "candidates": rig.available_migls()}
-    for s in families[0]:
-        res = runners[method](rig, s.spec, **params)
+    for spec in specs:
+        res = run_strategy(rig, spec, method, **params)
         results.append(res)
-        frames += s.spec.frames()
+        frames += spec.frames()
         images.append(res.images)
-    lines = [
-        (f, img)
-        for f, img in folder.centerlines()
-        if f.orientation == families[0][0].spec.orientation
-    ]
-    for f, img in lines[:1]:
-        assert isinstance(f, CenterlineFrame)
-        frames.append(f)
-        images.append(img[None])
+    if centerline is not None:
+        frames.append(centerline)
+        images.append(rig.capture([centerline]))
     dtype = np.result_type(*[i.dtype for i in images])
     stack = np.concatenate([i.astype(dtype, copy=False) for i in images])
     out = CaptureFolder.from_arrays(
         frames,
         stack,
-        folder.camera_bit_depth,
-        projector=folder.projector,
+        rig.camera_bit_depth,
+        projector=rig.projector,
+        scene=scene,
+        camera_extra=camera_extra,
+        truth_height_mm=truth_height_mm,
+        label=label,
+    )
+    return out, results
+
+
+def simulated_composite(
+    rig: Any,
+    specs: list[FringeSpec],
+    method: str,
+    *,
+    centerline: Any = None,
+    **params: Any,
+) -> tuple[CaptureFolder, list[Any]]:
+    """:func:`composite_captures` on the live virtual rig, carrying its scene, camera geometry
+    and ground truth (as :meth:`SimulatedRig.capture_folder` does for plain captures)."""
+    g = rig.geometry
+    return composite_captures(
+        rig,
+        specs,
+        method,
+        centerline=centerline,
+        scene=rig.scene.to_manifest(),
+        camera_extra={
+            "focal_px": g.camera_focal_px(rig.image_shape[1]),
+            "standoff_mm": g.standoff_mm,
+        },
+        truth_height_mm=rig.truth().height_mm,
+        label=rig.scene.name,
+        **params,
+    )
+
+
+def composite_folder(
+    folder: CaptureFolder, method: str, **params: Any
+) -> tuple[CaptureFolder, list[Any]]:
+    """Run a saturation-avoidance strategy on a replayed capture folder (a MIGL sweep).
+
+    For every pitch of the primary family (vertical first) at the folder's highest MIGL, the
+    strategy (``conventional``, ``uniform``, ``lpa`` or ``dpa``; see
+    :mod:`hdrfringe.saturation.strategies`) drives a :class:`~hdrfringe.rig.replay.ReplayRig`
+    over the folder (:func:`composite_captures`). The folder's first centerline frame of the
+    family's orientation and its ground truth come along.
+    """
+    from hdrfringe.process import group_families
+    from hdrfringe.rig.replay import ReplayRig
+
+    if method not in STRATEGY_METHODS:
+        raise InputError(f"unknown method {method!r}; use one of {', '.join(STRATEGY_METHODS)}")
+    if not folder.sets:
+        raise CaptureFormatError(f"{folder.path}: no fringe sets to run a strategy on")
+    families = group_families(folder.sets)
+    rig = ReplayRig(folder)
+    if method == "uniform" and params.get("migl") is None:
+        params = {**params, "candidates": rig.available_migls()}
+    lines = [f for f, _ in folder.centerlines() if f.orientation == families[0][0].spec.orientation]
+    return composite_captures(
+        rig,
+        [s.spec for s in families[0]],
+        method,
+        centerline=lines[0] if lines else None,
         scene=folder.scene,
         camera_extra={
             k: v for k, v in folder.manifest.get("camera", {}).items() if k != "bit_depth"
         },
         truth_height_mm=folder.read_map("truth_height_mm"),
         label=str(folder.path),
+        **params,
     )
-    return out, results
 
 
 def tradeoff_search(

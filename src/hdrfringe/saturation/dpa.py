@@ -27,7 +27,11 @@ from hdrfringe.saturation.estimate import (
     estimate_saturated_lsq,
     sinusoid_trough,
 )
-from hdrfringe.saturation.strategies import StrategyResult, default_min_migl
+from hdrfringe.saturation.strategies import (
+    StrategyResult,
+    default_min_migl,
+    merge_into_composite,
+)
 
 
 def dpa(
@@ -52,7 +56,10 @@ def dpa(
     Returns
     -------
     StrategyResult
-        ``details`` holds the capture rules that fired and the final CDF.
+        ``details`` holds the capture rules that fired (``rules``), the CDF estimated from the
+        first set (``initial_cdf``) and after the last update (``final_cdf``), both
+        :class:`~hdrfringe.saturation.dpa_rules.SaturationCDF`, and the pixels saturated in the
+        first set (``saturated_at_top``; thesis Fig. 6.3 compares the CDFs with the actual one).
     """
     if spec.pattern != "sinusoidal" or spec.steps < 4:
         raise InputError(
@@ -80,6 +87,7 @@ def dpa(
             "dpa",
             {"threshold": threshold, "rules": ["initial"]},
         )
+    saturated_at_top = remaining.copy()
     peak = corr.apply(estimate_saturated_lsq(imgs, bits))
     state = initial_dpa_state(
         peak,
@@ -91,6 +99,7 @@ def dpa(
         offset=sinusoid_trough(imgs, bits),
         lowest_migl=floor,
     )
+    initial_cdf = state.cdf
     rules = ["initial"]
     m = float(spec.migl)
     while remaining.any():
@@ -100,12 +109,7 @@ def dpa(
         rule = capture_rule(state.cdf, nxt, state.last_captured_cdf_value, threshold) or "lowest"
         imgs = rig.capture(spec.with_migl(float(nxt)).frames())
         n_sat = saturation_count(imgs, bits)
-        new = remaining & (n_sat == 0)
-        composite[:, new] = imgs[:, new]
-        index[new] = nxt
-        remaining &= ~new
-        composite[:, remaining] = imgs[:, remaining]  # least saturated so far
-        index[remaining] = nxt
+        n_new = merge_into_composite(composite, index, remaining, imgs, n_sat == 0, nxt)
         peak = corr.apply(estimate_saturated_lsq(imgs, bits))
         state = update_dpa_state(
             state,
@@ -119,7 +123,7 @@ def dpa(
             offset=sinusoid_trough(imgs, bits),
         )
         migls.append(float(nxt))
-        newly.append(int(new.sum()))
+        newly.append(n_new)
         rules.append(rule)
         m = float(nxt)
     return StrategyResult(
@@ -130,5 +134,12 @@ def dpa(
         newly,
         remaining,
         "dpa",
-        {"threshold": threshold, "rules": rules, "min_migl": floor},
+        {
+            "threshold": threshold,
+            "rules": rules,
+            "min_migl": floor,
+            "initial_cdf": initial_cdf,
+            "final_cdf": state.cdf,
+            "saturated_at_top": saturated_at_top,
+        },
     )

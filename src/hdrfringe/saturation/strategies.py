@@ -85,6 +85,29 @@ def _unsaturated(images: NDArray, bit_depth: int) -> NDArray[np.bool_]:
     return out
 
 
+def merge_into_composite(
+    composite: NDArray,
+    index: NDArray[np.float32],
+    remaining: NDArray[np.bool_],
+    images: NDArray,
+    unsaturated: NDArray[np.bool_],
+    migl: float,
+) -> int:
+    """One step of Eq. 5.1, in place; returns the number of newly unsaturated pixels.
+
+    Pixels still ``remaining`` (saturated in every set so far) that are ``unsaturated`` in
+    ``images`` (captured at ``migl``) take these intensities and leave ``remaining``; pixels
+    still saturated carry the least-saturated (lowest-MIGL) intensities so far.
+    """
+    new = remaining & unsaturated
+    composite[:, new] = images[:, new]
+    index[new] = migl
+    remaining &= ~new
+    composite[:, remaining] = images[:, remaining]
+    index[remaining] = migl
+    return int(new.sum())
+
+
 def _check(spec: FringeSpec, rig: Rig) -> None:
     if not isinstance(spec, FringeSpec):
         raise InputError(f"strategy needs a FringeSpec, got {type(spec).__name__}")
@@ -222,15 +245,10 @@ def lpa(
     while remaining.any() and m - step >= floor - 1e-9:
         m = round(m - step, 9)
         imgs = _capture_set(rig, spec, m)
-        new = remaining & _unsaturated(imgs, bits)
-        composite[:, new] = imgs[:, new]
-        index[new] = m
-        remaining &= ~new
-        # pixels still saturated carry the least-saturated (lowest-MIGL) intensities so far
-        composite[:, remaining] = imgs[:, remaining]
-        index[remaining] = m
+        newly.append(
+            merge_into_composite(composite, index, remaining, imgs, _unsaturated(imgs, bits), m)
+        )
         migls.append(m)
-        newly.append(int(new.sum()))
     return StrategyResult(
         images=composite,
         spec=spec,
