@@ -531,3 +531,30 @@ def test_modify_is_eq_4_1(img, add):
     out = modify_captures(img, 10, add_dn=add)
     np.testing.assert_array_equal(out, np.minimum(1023, img.astype(np.int64) + add))
     assert out.dtype == np.uint16
+
+
+@pytest.mark.parametrize(
+    ("pattern", "steps", "pitch", "orientation", "defocus"),
+    [
+        ("sinusoidal", 3, 6, "vertical", 0.6),
+        ("triangular", 2, 7, "vertical", 0.0),
+        ("triangular", 3, 12, "horizontal", 0.6),
+    ],
+)
+def test_periodic_basis_reproduces_the_expected_signal(pattern, steps, pitch, orientation, defocus):
+    """The fast sweep path (one response image per projector-pixel residue) is exact: every
+    step from projected light to signal is linear."""
+    rig = SimulatedRig(
+        checkerboard(),
+        camera=CameraModel(width=160, height=120, supersample=2),
+        projector_model=ProjectorModel(defocus_px=defocus),
+        lighting=Lighting(ambient_lux=300.0),
+    )
+    spec = FringeSpec(pattern, steps, float(pitch), orientation)
+    frames = [f for m in (255, 180, 105) for f in spec.with_migl(m).frames()]
+    basis = rig.periodic_basis(pitch, orientation)
+    light = np.stack([rig.periodic_light(f, pitch) for f in frames])
+    fast = rig.ambient_signal() + np.tensordot(light, basis, axes=1)
+    assert np.allclose(fast, rig.expected_signal(frames), rtol=0, atol=1e-9)
+    with pytest.raises(InputError, match="does not repeat every 5"):
+        rig.periodic_light(frames[0], 5)

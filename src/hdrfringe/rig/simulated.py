@@ -896,12 +896,91 @@ class SimulatedRig:
     def _line_light(self, frame: Frame, n: int) -> NDArray[np.float64]:
         """Projected light of each projector pixel along the frame's varying axis."""
         proj = self.projector_model
-        img = render_frame(
-            frame, proj.width, proj.height, self.gamma_precompensation, proj.bit_depth
-        )
-        line = img[0, :] if frame_axis(frame) == "vertical" else img[:, 0]
+        vertical = frame_axis(frame) == "vertical"
+        # the pattern only varies along its axis: render one line, not the whole frame
+        w, h = (proj.width, 1) if vertical else (1, proj.height)
+        img = render_frame(frame, w, h, self.gamma_precompensation, proj.bit_depth)
+        line = img[0, :] if vertical else img[:, 0]
         assert line.size == n
         return proj.light(line)
+
+    def _sample_line(
+        self, values: NDArray[np.float64], vertical: bool, rad: _Radiometry
+    ) -> NDArray[np.float64]:
+        """Light reaching each sample from projector-pixel light ``values`` along one axis
+        (pixelated model: each projector pixel is a uniform square, blurred by defocus)."""
+        proj = self.projector_model
+        coord, n = (rad.u, proj.width) if vertical else (rad.v, proj.height)
+        across = rad.edge_v if vertical else rad.edge_u
+        if proj.defocus_px == 0:
+            inside = (coord >= -0.5) & (coord <= n - 0.5)
+            idx = np.clip(np.floor(coord + 0.5), 0, n - 1).astype(np.intp)
+            return np.where(inside, values[idx], 0.0) * across
+        line = rad.fine_u if vertical else rad.fine_v
+        assert line is not None
+        return line.sample(np.where(line.inside, values[line.pixel], 0.0)) * across
+
+    def _integrate(self, signal: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Pixel integration (supersampling) and camera blur of a signal at the sample grid."""
+        cam = self.camera
+        s = cam.supersample
+        if s > 1:
+            signal = signal.reshape(cam.height, s, cam.width, s).mean(axis=(1, 3))
+        if cam.blur_px > 0:
+            signal = gaussian_filter(signal, cam.blur_px, mode="nearest")
+        return signal
+
+    def ambient_signal(self) -> NDArray[np.float64]:
+        """Noise-free signal (DN) from ambient light alone: the ``a1``, ``a2`` terms of Eq. 3.3
+        after pixel integration and camera blur. ``expected_signal`` minus this is linear in the
+        projected light."""
+        return self._integrate(self._get_radiometry().offset.copy())
+
+    def periodic_basis(self, period: int, orientation: str = "vertical") -> NDArray[np.float64]:
+        """Response images for patterns that repeat every ``period`` projector pixels.
+
+        Image ``j`` is the noise-free signal (DN, ambient excluded) when the projector emits
+        unit light (full white) from the columns (``"vertical"`` fringes) or rows
+        (``"horizontal"``) whose index is ``j`` modulo ``period`` and no light elsewhere;
+        defocus, field edges, pixel integration and camera blur included. Every step from
+        projected light to signal is linear, so a frame whose light repeats every ``period``
+        pixels has the signal ``ambient_signal() + sum_j light[j] * basis[j]`` with ``light``
+        from :meth:`periodic_light`: a MIGL sweep then costs one weighted sum per frame instead
+        of a full simulation (the sweeps of ``hdrfringe reproduce``). Pixelated projector only.
+
+        Returns
+        -------
+        ndarray, shape (period, H, W)
+        """
+        if self.projector_model.model != "pixelated":
+            raise InputError("periodic_basis needs the pixelated projector model")
+        if orientation not in ("vertical", "horizontal"):
+            raise InputError(f"orientation must be vertical or horizontal, got {orientation!r}")
+        if isinstance(period, bool) or not isinstance(period, (int, np.integer)) or period < 1:
+            raise InputError(f"period must be a positive whole number of pixels, got {period!r}")
+        rad = self._get_radiometry()
+        vertical = orientation == "vertical"
+        n = self.projector_model.width if vertical else self.projector_model.height
+        residue = np.arange(n) % period
+        out = np.empty((period, self.camera.height, self.camera.width))
+        for j in range(period):
+            comb = (residue == j).astype(np.float64)
+            out[j] = self._integrate(rad.gain * self._sample_line(comb, vertical, rad))
+        return out
+
+    def periodic_light(self, frame: Frame, period: int) -> NDArray[np.float64]:
+        """Projected light of one period of ``frame`` (see :meth:`periodic_basis`), shape
+        ``(period,)``; refuses a frame whose light does not repeat every ``period`` pixels."""
+        vertical = frame_axis(frame) == "vertical"
+        n = self.projector_model.width if vertical else self.projector_model.height
+        line = self._line_light(frame, n)
+        light = line[:period]
+        if not np.array_equal(np.resize(light, n), line):
+            raise InputError(
+                f"the frame's projected light does not repeat every {period} projector pixels "
+                "(use a whole-pixel pitch, or expected_signal)"
+            )
+        return light
 
     def _continuous_light(self, frame: Frame, coord: NDArray[np.float64]) -> NDArray[np.float64]:
         proj = self.projector_model
@@ -922,37 +1001,24 @@ class SimulatedRig:
                 f"{proj.bit_depth} bits; lower migl or raise the projector bit depth"
             )
         vertical = frame_axis(frame) == "vertical"
-        coord, n = (rad.u, proj.width) if vertical else (rad.v, proj.height)
+        n = proj.width if vertical else proj.height
+        if proj.model == "pixelated":
+            return self._sample_line(self._line_light(frame, n), vertical, rad)
+        coord = rad.u if vertical else rad.v
         across = rad.edge_v if vertical else rad.edge_u
-        sigma = proj.defocus_px
-        if sigma == 0:
+        if proj.defocus_px == 0:
             inside = (coord >= -0.5) & (coord <= n - 0.5)
-            if proj.model == "pixelated":
-                idx = np.clip(np.floor(coord + 0.5), 0, n - 1).astype(np.intp)
-                along = self._line_light(frame, n)[idx]
-            else:
-                along = self._continuous_light(frame, coord)
-            return np.where(inside, along, 0.0) * across
+            return np.where(inside, self._continuous_light(frame, coord), 0.0) * across
         # Defocus: blur the light of the whole line on a fine grid, then interpolate.
         line = rad.fine_u if vertical else rad.fine_v
         assert line is not None
-        if proj.model == "pixelated":
-            values = np.where(line.inside, self._line_light(frame, n)[line.pixel], 0.0)
-        else:
-            values = np.where(line.inside, self._continuous_light(frame, line.coords), 0.0)
+        values = np.where(line.inside, self._continuous_light(frame, line.coords), 0.0)
         return line.sample(values) * across
 
     def _signal(self, frame: Frame) -> NDArray[np.float64]:
         """Noise-free signal (DN) of one frame: Eq. 3.3, pixel integration, camera blur."""
         rad = self._get_radiometry()
-        cam = self.camera
-        signal = rad.gain * self._light(frame, rad) + rad.offset
-        s = cam.supersample
-        if s > 1:
-            signal = signal.reshape(cam.height, s, cam.width, s).mean(axis=(1, 3))
-        if cam.blur_px > 0:
-            signal = gaussian_filter(signal, cam.blur_px, mode="nearest")
-        return signal
+        return self._integrate(rad.gain * self._light(frame, rad) + rad.offset)
 
 
 def simulate_frames(rig: SimulatedRig, frames: Sequence[Frame]) -> NDArray[np.integer]:
