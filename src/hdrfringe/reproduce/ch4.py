@@ -1,0 +1,330 @@
+"""The measurements of thesis Ch. 4 on the virtual rig, fast enough for the full sweep.
+
+Sec. 4.1: a flat white plate at 25 positions (2 to 50 mm by 2), 17 pitches (4 to 20 px),
+31 MIGLs (105 to 255 by 5), three patterns (sinusoidal 3-step, triangular 3- and 2-step),
+with 0 and 600 lx of added ambient light; one linear calibration (Eq. 2.15, median and mean
+filter of 21 px) per pattern and pitch from the same 25 positions at MIGL 255 in the dark;
+RMSE against the true depth over every pixel but a 10 px border, saturated pixels included.
+Sec. 4.3 modifies the 0 lx captures at a pitch of 6 px by Eq. 4.1 (added uniform light,
+added Gaussian noise).
+
+One **block** is one pattern and pitch: its calibration and every (lux, MIGL, depth)
+measurement, so that the work shared by them is done once:
+
+* per depth, the rig's response to each projector-pixel residue modulo the pitch
+  (:meth:`~hdrfringe.rig.simulated.SimulatedRig.periodic_basis`) turns every frame of the MIGL
+  sweep into one weighted sum (exact: the rig is linear from projected light to signal), and
+  the lux levels differ only by the ambient signal;
+* the noise (read and shot noise, as :meth:`SimulatedRig.capture`) is drawn in float32 from a
+  generator seeded by the cell's coordinates, so any cell can be recomputed alone and gives the
+  same numbers.
+
+Fringe orders come from the known plate position (the micrometer reading): the phase error
+that Ch. 4 studies is then measured without unwrapping failures mixed in (the thesis's flat
+plate had none either; unwrapping is validated on its own, docs/unwrapping.md).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdrfringe.calibration import Calibration, calibrate, measurement_mask
+from hdrfringe.errors import InputError
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.phase import (
+    saturation_count,
+    sinusoidal_phase,
+    triangular_2step,
+    triangular_3step,
+)
+from hdrfringe.rig.modify import modify_captures
+from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, white_plate
+from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
+
+TWO_PI = 2.0 * np.pi
+
+#: The three patterns of Ch. 4: name -> (pattern, steps).
+PATTERNS: dict[str, tuple[str, int]] = {
+    "sinusoidal-3": ("sinusoidal", 3),
+    "triangular-3": ("triangular", 3),
+    "triangular-2": ("triangular", 2),
+}
+#: Sec. 4.1 grid.
+THESIS_PITCHES: tuple[int, ...] = tuple(range(4, 21))
+THESIS_MIGLS: tuple[float, ...] = tuple(float(m) for m in range(255, 104, -5))
+THESIS_DEPTHS_MM: tuple[float, ...] = tuple(THESIS_CALIBRATION_DEPTHS_MM)
+THESIS_LUX: tuple[float, ...] = (0.0, 600.0)
+#: Sec. 4.3: added light 100..900 lx (simulated by Eq. 4.1), noise sigma 1..8 at 600 lx.
+THESIS_ADDED_LUX: tuple[float, ...] = tuple(float(x) for x in range(100, 1000, 100))
+THESIS_NOISE_SIGMA: tuple[float, ...] = tuple(float(s) for s in range(1, 9))
+THESIS_IMIN = 40.0
+#: Saturated shift counts reported (Fig. 4.5: pixels saturated in one, two, three images).
+SATURATED_SHIFTS: tuple[int, ...] = (1, 2, 3)
+
+
+@dataclass(frozen=True)
+class Ch4Setup:
+    """Rig and processing settings shared by every cell of a Ch. 4 sweep.
+
+    Attributes
+    ----------
+    width, height : int
+        Camera resolution (the thesis: 648 x 494).
+    camera_field_mm : float
+        Width of the camera's view on the reference plane. Halving it with the resolution keeps
+        the sampling (camera pixels per fringe) and views the central part: the quick grid.
+    seed : int
+        Noise seed; each cell's noise also depends on its coordinates.
+    imin : float
+        Minimum input gray level (thesis Sec. 3.4.3: 40).
+    window_px, border_px : int
+        Calibration filter window and unfiltered border (Sec. 4.1: 21 and 10).
+    camera : dict
+        Further :class:`CameraModel` arguments (e.g. ``read_noise_dn8``).
+    """
+
+    width: int = 648
+    height: int = 494
+    camera_field_mm: float = 320.0
+    seed: int = 0
+    imin: float = THESIS_IMIN
+    window_px: int = 21
+    border_px: int = 10
+    camera: dict[str, Any] = field(default_factory=dict)
+
+    def camera_model(self) -> CameraModel:
+        return CameraModel(width=self.width, height=self.height, **self.camera)
+
+    def rig(self, depth_mm: float) -> SimulatedRig:
+        """The virtual rig looking at the white plate at ``depth_mm``, 0 lx."""
+        return SimulatedRig(
+            white_plate(float(depth_mm)),
+            camera=self.camera_model(),
+            geometry=RigGeometry(camera_field_mm=self.camera_field_mm),
+            seed=self.seed,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "width": self.width,
+            "height": self.height,
+            "camera_field_mm": self.camera_field_mm,
+            "seed": self.seed,
+            "imin": self.imin,
+            "window_px": self.window_px,
+            "border_px": self.border_px,
+            "camera": dict(self.camera),
+        }
+
+
+def pattern_spec(pattern: str, pitch: float, imin: float = THESIS_IMIN) -> FringeSpec:
+    """The vertical fringe set of a Ch. 4 pattern name at MIGL 255."""
+    if pattern not in PATTERNS:
+        raise InputError(f"unknown Ch. 4 pattern {pattern!r}; use one of {', '.join(PATTERNS)}")
+    kind, steps = PATTERNS[pattern]
+    return FringeSpec(kind, steps, float(pitch), "vertical", imin, 255.0)
+
+
+def wrapped_phase(images: NDArray, spec: FringeSpec) -> NDArray[np.float64]:
+    """Wrapped phase in [0, 2 pi) of one set, every pixel kept (saturated ones too)."""
+    if spec.pattern == "sinusoidal":
+        return sinusoidal_phase(images)[0]
+    if spec.steps == 3:
+        return triangular_3step(images)[0]
+    return triangular_2step(images, orientation=spec.orientation)[0]
+
+
+def orders_from_expected(wrapped: NDArray, expected: NDArray) -> NDArray[np.float64]:
+    """Absolute phase: ``wrapped`` plus the multiple of 2 pi closest to ``expected``."""
+    return wrapped + TWO_PI * np.round((expected - wrapped) / TWO_PI)
+
+
+def cell_rng(setup: Ch4Setup, *key: Any) -> np.random.Generator:
+    """A generator that depends only on the setup's seed and the cell's coordinates."""
+    digest = hashlib.sha256(repr(key).encode()).digest()
+    words = [int.from_bytes(digest[i : i + 4], "little") for i in range(0, 16, 4)]
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([setup.seed, *words])))
+
+
+def add_sensor_noise(
+    signal: NDArray, camera: CameraModel, rng: np.random.Generator
+) -> NDArray[np.uint16]:
+    """Read and shot noise, rounding and clipping to ``[0, 2^B - 1]`` (as the rig's capture),
+    computed in float32."""
+    s = signal.astype(np.float32, copy=False)
+    read = np.float32(camera.read_noise_dn)
+    shot = np.float32(camera.full_scale / camera.full_well_e if camera.full_well_e else 0.0)
+    std = np.sqrt(read * read + shot * np.maximum(s, 0.0))
+    noisy = s + std * rng.standard_normal(s.shape, dtype=np.float32)
+    np.rint(noisy, out=noisy)
+    np.clip(noisy, 0, camera.full_scale, out=noisy)
+    return noisy.astype(camera.dtype)
+
+
+class PlateSweep:
+    """Noise-free signals of one white-plate position for any MIGL and ambient light."""
+
+    def __init__(self, depth_mm: float, setup: Ch4Setup, spec: FringeSpec) -> None:
+        self.depth_mm = float(depth_mm)
+        self.spec = spec
+        self.period = round(spec.pitch_px)
+        if self.period != spec.pitch_px:
+            raise InputError(f"the sweep needs a whole-pixel pitch, got {spec.pitch_px:g}")
+        self.rig = setup.rig(self.depth_mm)
+        basis = self.rig.periodic_basis(self.period, spec.orientation)
+        self._basis = basis.reshape(self.period, -1)
+        self._ambient0 = self.rig.ambient_signal()
+        self._ambient: dict[float, NDArray] = {0.0: self._ambient0}
+        truth = self.rig.truth()
+        self.expected_phase = TWO_PI * truth.u / spec.pitch_px
+
+    def ambient(self, lux: float) -> NDArray:
+        """Ambient signal (DN) with ``lux`` of added light (0 lx: the rig's own)."""
+        if lux not in self._ambient:
+            lit = self.rig.replace(lighting=Lighting(ambient_lux=float(lux)))
+            self._ambient[lux] = lit.ambient_signal()
+        return self._ambient[lux]
+
+    def signal(self, migl: float, lux: float = 0.0) -> NDArray[np.float64]:
+        """Noise-free signal of the set at ``migl`` with ``lux`` of added light, (N, H, W)."""
+        frames = self.spec.with_migl(float(migl)).frames()
+        light = np.stack([self.rig.periodic_light(f, self.period) for f in frames])
+        shape = (len(frames), *self.rig.image_shape)
+        return (light @ self._basis).reshape(shape) + self.ambient(lux)
+
+
+def calibrate_pattern(
+    pattern: str,
+    pitch: float,
+    setup: Ch4Setup,
+    depths_mm: Sequence[float] = THESIS_DEPTHS_MM,
+) -> tuple[Calibration, NDArray[np.float64]]:
+    """The Sec. 4.1 calibration of one pattern and pitch: reference plane and the plate
+    positions at MIGL 255, 0 lx, linear model (Eq. 2.15), filtered. Returns the calibration
+    and the reference plane's absolute phase."""
+    spec = pattern_spec(pattern, pitch, setup.imin)
+    cam = setup.camera_model()
+    phases = []
+    for d in (0.0, *depths_mm):
+        plate = PlateSweep(d, setup, spec)
+        imgs = add_sensor_noise(plate.signal(255.0), cam, cell_rng(setup, "cal", pattern, pitch, d))
+        phases.append(orders_from_expected(wrapped_phase(imgs, spec), plate.expected_phase))
+    cal = calibrate(
+        phases[0],
+        np.stack(phases[1:]),
+        np.asarray(depths_mm, dtype=np.float64),
+        model="linear",
+        compare=["linear"],
+        window_px=setup.window_px,
+        border_px=setup.border_px,
+        spec=spec,
+        camera_bit_depth=cam.bit_depth,
+    )
+    return cal, phases[0]
+
+
+def _metrics(
+    imgs: NDArray,
+    spec: FringeSpec,
+    plate: PlateSweep,
+    cal: Calibration,
+    mask: NDArray[np.bool_],
+    bit_depth: int,
+) -> tuple[float, float, list[float]]:
+    phase = orders_from_expected(wrapped_phase(imgs, spec), plate.expected_phase)
+    err = cal.height(phase)[mask] - plate.depth_mm
+    nsat = saturation_count(imgs, bit_depth)[mask]
+    fractions = [float(np.count_nonzero(nsat == k)) / nsat.size for k in SATURATED_SHIFTS]
+    return float(np.sqrt(np.mean(err * err))), float(np.mean(err)), fractions
+
+
+def ch4_block(
+    pattern: str,
+    pitch: float,
+    luxes: Sequence[float],
+    migls: Sequence[float],
+    depths_mm: Sequence[float],
+    setup: Ch4Setup,
+) -> dict[str, NDArray[np.float64]]:
+    """Every Sec. 4.2 measurement of one pattern and pitch.
+
+    Returns
+    -------
+    dict
+        ``rmse_mm`` and ``mean_error_mm`` of shape (lux, MIGL, depth), and
+        ``saturated_fraction`` of shape (lux, MIGL, depth, 3): the fraction of measurement
+        pixels saturated in exactly 1, 2 and 3 of the shifts (Fig. 4.5).
+    """
+    spec = pattern_spec(pattern, pitch, setup.imin)
+    cam = setup.camera_model()
+    cal, _ = calibrate_pattern(pattern, pitch, setup, depths_mm)
+    mask = measurement_mask((setup.height, setup.width), setup.border_px)
+    shape = (len(luxes), len(migls), len(depths_mm))
+    rmse, bias = np.full(shape, np.nan), np.full(shape, np.nan)
+    sat = np.full((*shape, len(SATURATED_SHIFTS)), np.nan)
+    for k, d in enumerate(depths_mm):
+        plate = PlateSweep(d, setup, spec)
+        for j, m in enumerate(migls):
+            base = plate.signal(m)
+            for i, lux in enumerate(luxes):
+                signal = base + (plate.ambient(lux) - plate.ambient(0.0)) if lux else base
+                imgs = add_sensor_noise(signal, cam, cell_rng(setup, pattern, pitch, lux, m, d))
+                rmse[i, j, k], bias[i, j, k], sat[i, j, k] = _metrics(
+                    imgs, spec, plate, cal, mask, cam.bit_depth
+                )
+    return {"rmse_mm": rmse, "mean_error_mm": bias, "saturated_fraction": sat}
+
+
+def ch4_modified_block(
+    pattern: str,
+    pitch: float,
+    added_lux: Sequence[float],
+    noise_sigma: Sequence[float],
+    migls: Sequence[float],
+    depths_mm: Sequence[float],
+    setup: Ch4Setup,
+    *,
+    noise_lux: float = 600.0,
+) -> dict[str, NDArray[np.float64]]:
+    """The Sec. 4.3 simulations for one pattern (pitch 6 in the thesis).
+
+    The 0 lx captures of :func:`ch4_block` (same noise) are modified by Eq. 4.1: uniform added
+    light ``added_lux`` (0.17 gray level per lux, Fig. 4.14c), and separately ``noise_lux`` of
+    added light plus zero-mean Gaussian noise of each ``noise_sigma``.
+
+    Returns
+    -------
+    dict
+        ``rmse_light_mm`` (added lux, MIGL, depth) and ``rmse_noise_mm`` (sigma, MIGL, depth).
+    """
+    spec = pattern_spec(pattern, pitch, setup.imin)
+    cam = setup.camera_model()
+    cal, _ = calibrate_pattern(pattern, pitch, setup, depths_mm)
+    mask = measurement_mask((setup.height, setup.width), setup.border_px)
+    light = np.full((len(added_lux), len(migls), len(depths_mm)), np.nan)
+    noise = np.full((len(noise_sigma), len(migls), len(depths_mm)), np.nan)
+    for k, d in enumerate(depths_mm):
+        plate = PlateSweep(d, setup, spec)
+        for j, m in enumerate(migls):
+            imgs = add_sensor_noise(
+                plate.signal(m), cam, cell_rng(setup, pattern, pitch, 0.0, m, d)
+            )
+            for i, lux in enumerate(added_lux):
+                mod = modify_captures(imgs, cam.bit_depth, add_lux=lux)
+                light[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
+            for i, sigma in enumerate(noise_sigma):
+                mod = modify_captures(
+                    imgs,
+                    cam.bit_depth,
+                    add_lux=noise_lux,
+                    noise_sigma=sigma,
+                    seed=cell_rng(setup, "eq4.1", pattern, pitch, sigma, m, d),
+                )
+                noise[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
+    return {"rmse_light_mm": light, "rmse_noise_mm": noise}

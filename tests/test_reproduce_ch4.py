@@ -1,0 +1,94 @@
+"""Thesis Ch. 4 measurements on the virtual rig (the cells of ``hdrfringe reproduce ch4``).
+
+A quarter-size view (324 x 247 px over half the field: the thesis's sampling of camera pixels
+per fringe) with three plate positions keeps these tests fast; the trends are the thesis's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hdrfringe.reproduce.ch4 import (
+    Ch4Setup,
+    PlateSweep,
+    add_sensor_noise,
+    calibrate_pattern,
+    cell_rng,
+    ch4_block,
+    ch4_modified_block,
+    orders_from_expected,
+    pattern_spec,
+    wrapped_phase,
+)
+from hdrfringe.rig.simulated import Lighting
+
+SETUP = Ch4Setup(width=324, height=247, camera_field_mm=160.0)
+DEPTHS = (10.0, 26.0, 42.0)
+MIGLS = (255.0, 225.0, 195.0, 165.0, 135.0, 105.0)
+
+
+@pytest.fixture(scope="module")
+def sinusoidal() -> dict[str, np.ndarray]:
+    return ch4_block("sinusoidal-3", 6, (0.0, 600.0), MIGLS, DEPTHS, SETUP)
+
+
+def test_600_lux_has_an_interior_tradeoff_and_0_lux_does_not(sinusoidal) -> None:
+    """Fig. 4.13 / Table 4.3 pattern at pitch 6."""
+    dark, lit = sinusoidal["rmse_mm"].mean(axis=2)
+    best = int(np.argmin(lit))
+    assert 0 < best < len(MIGLS) - 1  # higher at 255 and at 105 than at the trade-off
+    assert lit[0] > 1.2 * lit[best] and lit[-1] > 1.1 * lit[best]
+    assert lit[best] < 1.25 * dark.min()  # within 25 % of the no-ambient RMSE
+    # 0 lx: the RMSE never rises with the MIGL (MIGLS run downwards: it only grows along it)
+    assert np.all(np.diff(dark) >= 0) and dark[-1] > 1.1 * dark[0]
+    sat = sinusoidal["saturated_fraction"].sum(axis=-1).mean(axis=2)
+    assert np.all(sat[0] == 0) and sat[1, 0] > 0.5 and sat[1, -1] == 0
+
+
+def test_cells_are_deterministic_and_independent_of_the_block(sinusoidal) -> None:
+    """A cell recomputed alone gives the same numbers: what resumable sweeps rely on."""
+    alone = ch4_block("sinusoidal-3", 6, (600.0,), (195.0,), DEPTHS, SETUP)
+    assert np.array_equal(alone["rmse_mm"][0, 0], sinusoidal["rmse_mm"][1, 2])
+    assert np.array_equal(alone["saturated_fraction"][0, 0], sinusoidal["saturated_fraction"][1, 2])
+
+
+def test_fast_path_matches_the_rig_capture() -> None:
+    """Basis signals + float32 noise give the RMSE of the rig's own capture path."""
+    spec = pattern_spec("sinusoidal-3", 6)
+    cal, _ = calibrate_pattern("sinusoidal-3", 6, SETUP, DEPTHS)
+    plate = PlateSweep(26.0, SETUP, spec)
+    cam = SETUP.camera_model()
+    lit = plate.rig.replace(lighting=Lighting(ambient_lux=600.0))
+    for migl in (255.0, 165.0):
+        frames = spec.with_migl(migl).frames()
+        fast = add_sensor_noise(plate.signal(migl, 600.0), cam, cell_rng(SETUP, "t", migl))
+        slow = lit.capture(frames)
+        rmse = []
+        for imgs in (fast, slow):
+            phase = orders_from_expected(wrapped_phase(imgs, spec), plate.expected_phase)
+            err = cal.height(phase)[10:-10, 10:-10] - 26.0
+            rmse.append(float(np.sqrt(np.mean(err**2))))
+        assert rmse[0] == pytest.approx(rmse[1], rel=0.02)
+        assert np.mean(fast == 255) == pytest.approx(np.mean(slow == 255), abs=0.005)
+
+
+@pytest.mark.parametrize("pattern", ["triangular-3", "triangular-2"])
+def test_triangular_patterns_show_the_same_saturation_tradeoff(pattern: str) -> None:
+    out = ch4_block(pattern, 6, (0.0, 600.0), (255.0, 195.0, 105.0), DEPTHS, SETUP)
+    dark, lit = out["rmse_mm"].mean(axis=2)
+    assert lit[0] > lit[1] and dark[0] <= dark[2]
+    assert out["saturated_fraction"][1, 0].sum(axis=-1).mean() > 0.3
+
+
+def test_simulated_light_lowers_the_tradeoff_and_noise_raises_its_rmse() -> None:
+    """Sec. 4.3: Table 4.1 (trade-off MIGL falls as added light grows) and Table 4.2 (noise
+    raises the trade-off RMSE), by Eq. 4.1 on the 0 lx captures."""
+    out = ch4_modified_block(
+        "sinusoidal-3", 6, (300.0, 600.0, 900.0), (1.0, 4.0, 8.0), MIGLS, DEPTHS, SETUP
+    )
+    light = out["rmse_light_mm"].mean(axis=2)
+    tradeoff = [MIGLS[int(np.argmin(row))] for row in light]
+    assert tradeoff[0] >= tradeoff[1] >= tradeoff[2] and tradeoff[0] > tradeoff[2]
+    noise_min = out["rmse_noise_mm"].mean(axis=2).min(axis=1)
+    assert np.all(np.diff(noise_min) > 0)
