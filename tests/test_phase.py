@@ -137,3 +137,24 @@ def test_decode_refuses_wrong_shift_count_and_overrange() -> None:
         decode_set(imgs, spec, 8)
     with pytest.raises(InputError, match="not supported"):
         decode_set(np.zeros((4, 5, 5)), FringeSpec("triangular", 4, 8.0), 8)
+
+
+def test_triangular_3step_order_statistics_match_sorting() -> None:
+    """The min/max order statistics equal np.sort / argmax / argmin, ties included."""
+    from hdrfringe.phase import _tri3_region_table
+
+    rng = np.random.default_rng(5)
+    stack = rng.integers(0, 6, (3, 40, 50)).astype(np.float64)  # many ties
+    phase, modulation, _ = triangular_3step(stack)
+    srt = np.sort(stack, axis=0)
+    hi, lo = np.argmax(stack, axis=0), np.argmin(stack, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r0 = (srt[2] - srt[1]) / (srt[2] - srt[0])
+    region_tab, rising_tab = _tri3_region_table()
+    code = 3 * hi + lo
+    ratio = region_tab[code] + np.where(rising_tab[code], r0, 1.0 - r0)
+    ratio[code == 4 * lo] = np.nan
+    expected = np.mod(2 * np.pi * ratio / 6.0, 2 * np.pi)
+    expected[expected >= 2 * np.pi] = 0.0
+    assert np.array_equal(phase, expected, equal_nan=True)
+    assert np.array_equal(modulation, 0.75 * (srt[2] - srt[0]))

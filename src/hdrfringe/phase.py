@@ -182,10 +182,15 @@ def triangular_3step(images: ArrayLike) -> tuple[F64, F64, F64]:
     if stack.shape[0] != 3:
         raise InputError(f"triangular 3-step decoding needs exactly 3 images, got {stack.shape[0]}")
     f = stack.astype(np.float64, copy=False)
-    hi_idx = np.argmax(f, axis=0)
-    lo_idx = np.argmin(f, axis=0)
-    srt = np.sort(f, axis=0)
-    low, med, high = srt[0], srt[1], srt[2]
+    a, b, c = f[0], f[1], f[2]
+    # Order statistics of three values by elementwise min/max, and the index of the first
+    # highest / lowest shift (np.argmax/argmin's tie rule), without a strided sort along axis 0;
+    # bit-identical to np.sort/argmax/argmin (tests/test_phase.py).
+    ab_lo, ab_hi = np.minimum(a, b), np.maximum(a, b)
+    low, high = np.minimum(ab_lo, c), np.maximum(ab_hi, c)
+    med = np.maximum(ab_lo, np.minimum(ab_hi, c))
+    hi_idx = np.where((a >= b) & (a >= c), 0, np.where(b >= c, 1, 2))
+    lo_idx = np.where((a <= b) & (a <= c), 0, np.where(b <= c, 1, 2))
     span = high - low
     with np.errstate(invalid="ignore", divide="ignore"):
         r0 = (high - med) / span
