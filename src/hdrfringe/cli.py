@@ -339,41 +339,182 @@ def _scene_params(scene: str, depth_mm: float | None) -> dict[str, Any]:
     return {"depth_mm": depth_mm}
 
 
+# Options of the virtual rig and its fringes, declared once for simulate, measure --rig sim and
+# train-correction --rig sim (each command gives its own default). The Live* twins put them in
+# a help panel of their own where they only apply to the live rig.
+SCENES_HELP = "white_plate, black_plate, plate, checkerboard, mask or glossy."
+LIVE_PANEL = "Live virtual rig (--rig sim)"
+
+
+def _option_pair(kind: Any, help_text: str) -> tuple[Any, Any]:
+    """``Annotated`` option types for ``kind``: plain, and in the live-rig help panel."""
+    return (
+        Annotated[kind, typer.Option(help=help_text)],
+        Annotated[kind, typer.Option(help=help_text, rich_help_panel=LIVE_PANEL)],
+    )
+
+
+DepthOpt, LiveDepthOpt = _option_pair(
+    float | None, "Plate/board depth (mask, glossy: base height) in mm."
+)
+AmbientOpt, LiveAmbientOpt = _option_pair(float, "Added ambient light in lux.")
+NoiseOpt, LiveNoiseOpt = _option_pair(float, "Read noise sigma in 8-bit gray levels.")
+ApertureOpt, LiveApertureOpt = _option_pair(
+    str, "white (white plate peaks at 80 %), black (Sec. 5.2.2) or auto."
+)
+GammaOpt, LiveGammaOpt = _option_pair(float, "Gamma pre-compensation of the patterns.")
+SeedOpt, LiveSeedOpt = _option_pair(int, "Random seed (noise).")
+PatternOpt, LivePatternOpt = _option_pair(str, "sinusoidal or triangular.")
+StepsOpt, LiveStepsOpt = _option_pair(int, "Number of phase shifts N.")
+PitchOpt = Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")]
+IminOpt, LiveIminOpt = _option_pair(float, "Minimum input gray level.")
+CenterlineOpt, LiveCenterlineOpt = _option_pair(bool, "Add a centerline frame.")
+LiveSceneOpt = Annotated[str, typer.Option(help=SCENES_HELP, rich_help_panel=LIVE_PANEL)]
+RigOpt = Annotated[
+    str | None,
+    typer.Option(help="Live source instead of FOLDER: 'sim', the virtual rig (scene options)."),
+]
+
+#: measure's options that only a live rig uses (an error with a FOLDER: they would be ignored).
+LIVE_OPTIONS = (
+    "scene",
+    "depth_mm",
+    "ambient_lux",
+    "noise",
+    "aperture",
+    "gamma",
+    "seed",
+    "pattern",
+    "steps",
+    "pitch",
+    "imin",
+    "migl",
+    "centerline",
+)
+
+
+def simulated_rig(
+    scene: str,
+    *,
+    depth_mm: float | None = None,
+    ambient_lux: float = 0.0,
+    noise: float = 1.0,
+    shot_noise: bool = True,
+    aperture: str = "auto",
+    gamma: float = 2.812,
+    bit_depth: int = 8,
+    ideal: bool = False,
+    seed: int = 0,
+) -> Any:
+    """The virtual rig the scene options describe (simulate, measure and train-correction).
+
+    Parameters
+    ----------
+    scene : str
+        Scene name (:func:`hdrfringe.rig.scenes.make_scene`).
+    depth_mm : float, optional
+        Plate or board depth; base height for mask and glossy. None: the scene's default.
+    ambient_lux, noise, shot_noise, gamma, bit_depth, seed
+        Added ambient light (lux), read noise (8-bit gray levels), photon shot noise, gamma
+        pre-compensation of the patterns, camera bit depth, noise seed.
+    aperture : {"auto", "white", "black"}
+        ``white``: the default camera (a white plate peaks at 80 %); ``black``: opened for the
+        black plate (thesis Sec. 5.2.2); ``auto``: black for checkerboard and black_plate.
+    ideal : bool
+        :meth:`SimulatedRig.ideal` (no noise or blur, 16-bit camera and projector).
+
+    Returns
+    -------
+    SimulatedRig
+    """
+    import dataclasses
+
+    from hdrfringe.errors import InputError
+    from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, make_scene
+    from hdrfringe.rig.simulated import Lighting, SimulatedRig
+
+    if aperture not in ("auto", "white", "black"):
+        raise InputError(f"unknown aperture {aperture!r}; use auto, white or black")
+    lighting = Lighting(ambient_lux=ambient_lux)
+    sc = make_scene(scene, **_scene_params(scene, depth_mm))
+    if ideal:
+        return SimulatedRig.ideal(sc, lighting=lighting, seed=seed)
+    rig = SimulatedRig(sc, lighting=lighting, gamma_precompensation=gamma, seed=seed)
+    cam = dataclasses.replace(
+        rig.camera,
+        bit_depth=bit_depth,
+        read_noise_dn8=noise,
+        full_well_e=rig.camera.full_well_e if shot_noise else None,
+    )
+    if aperture == "black" or (aperture == "auto" and scene in ("checkerboard", "black_plate")):
+        cam = cam.with_aperture_for(BLACK_PLATE_REFLECTIVITY)
+    return rig.replace(camera=cam)
+
+
+def _given(ctx: typer.Context, names: tuple[str, ...]) -> list[str]:
+    """The options among ``names`` given on the command line (not left at their default)."""
+    out = []
+    for name in names:
+        src = ctx.get_parameter_source(name)
+        if src is not None and src.name not in ("DEFAULT", "DEFAULT_MAP"):
+            out.append("--" + name.replace("_", "-"))
+    return out
+
+
+def _check_source(
+    ctx: typer.Context, folder: Path | None, rig: str | None, live_only: tuple[str, ...]
+) -> bool:
+    """Exactly one of FOLDER and ``--rig sim``; live-only options only with the rig.
+
+    Returns True for the live rig.
+    """
+    from hdrfringe.errors import InputError
+
+    if rig is not None and rig != "sim":
+        raise InputError(f"unknown rig {rig!r}; use --rig sim (the virtual rig)")
+    if (folder is None) == (rig is None):
+        raise InputError(
+            "give exactly one source: a capture FOLDER (replay) or --rig sim (live virtual rig)"
+            if folder is not None
+            else "no source: give a capture FOLDER or --rig sim (live virtual rig)"
+        )
+    if rig is None:
+        given = _given(ctx, live_only)
+        if given:
+            raise InputError(
+                f"{', '.join(given)} only appl{'ies' if len(given) == 1 else 'y'} to the live "
+                "virtual rig; add --rig sim instead of the folder, or drop "
+                f"{'it' if len(given) == 1 else 'them'} (a capture folder fixes scene and fringes)"
+            )
+    return rig is not None
+
+
 @app.command()
 @handle_errors
 def simulate(
-    scene: Annotated[
-        str,
-        typer.Argument(
-            help="white_plate, black_plate, plate, checkerboard, mask or glossy.",
-        ),
-    ],
+    scene: Annotated[str, typer.Argument(help=SCENES_HELP)],
     output: Annotated[Path, typer.Option("-o", "--output", help="Capture folder to write.")],
-    depth_mm: Annotated[
-        float | None, typer.Option(help="Plate/board depth (mask, glossy: base height) in mm.")
-    ] = None,
-    pattern: Annotated[str, typer.Option(help="sinusoidal or triangular.")] = "sinusoidal",
-    steps: Annotated[int, typer.Option(help="Number of phase shifts N.")] = 4,
-    pitch: Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")] = "8",
+    depth_mm: DepthOpt = None,
+    pattern: PatternOpt = "sinusoidal",
+    steps: StepsOpt = 4,
+    pitch: PitchOpt = "8",
     orientation: Annotated[str, typer.Option(help="vertical, horizontal or both.")] = "vertical",
-    imin: Annotated[float, typer.Option(help="Minimum input gray level.")] = 40.0,
+    imin: IminOpt = 40.0,
     migl: Annotated[str, typer.Option(help="MIGL(s): comma-separated or start:stop:step.")] = "255",
     migl_sweep: Annotated[
         str | None,
         typer.Option(help="A MIGL sweep start:stop:step (e.g. 255:60:1) for offline strategies."),
     ] = None,
     bit_depth: Annotated[int, typer.Option(help="Camera bit depth B (8, 10, 12, 16).")] = 8,
-    ambient_lux: Annotated[float, typer.Option(help="Added ambient light in lux.")] = 0.0,
-    noise: Annotated[float, typer.Option(help="Read noise sigma in 8-bit gray levels.")] = 1.0,
+    ambient_lux: AmbientOpt = 0.0,
+    noise: NoiseOpt = 1.0,
     shot_noise: Annotated[bool, typer.Option(help="Photon shot noise.")] = True,
-    aperture: Annotated[
-        str, typer.Option(help="white (white plate peaks at 80 %), black (Sec. 5.2.2) or auto.")
-    ] = "auto",
-    gamma: Annotated[float, typer.Option(help="Gamma pre-compensation of the patterns.")] = 2.812,
+    aperture: ApertureOpt = "auto",
+    gamma: GammaOpt = 2.812,
     ideal: Annotated[
         bool, typer.Option(help="Ideal rig: no noise/blur, 16-bit camera and projector.")
     ] = False,
-    centerline: Annotated[bool, typer.Option(help="Add a centerline frame.")] = True,
+    centerline: CenterlineOpt = True,
     gray: Annotated[str, typer.Option(help="Uniform gray levels to add, comma-separated.")] = "",
     add_lux: Annotated[
         float, typer.Option(help="Eq. 4.1: add uniform light (lux) to the captures.")
@@ -392,7 +533,7 @@ def simulate(
     reference: Annotated[
         bool, typer.Option(help="With --series, add the reference plane (depth 0).")
     ] = True,
-    seed: Annotated[int, typer.Option(help="Random seed (noise).")] = 0,
+    seed: SeedOpt = 0,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Capture fringe sets of a scene on the virtual rig and write a capture folder.
@@ -401,45 +542,36 @@ def simulate(
     geometry, so measurements can report their error. With --series, DIR holds one folder per
     depth (a calibration series: reference plane + positions).
     """
-    import dataclasses
-
     from hdrfringe.errors import InputError
     from hdrfringe.io.captures import write_capture_folder
     from hdrfringe.io.results import check_output_dir, staged_output_dir
     from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec, UniformFrame
     from hdrfringe.rig.modify import modify_captures
-    from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, make_scene
-    from hdrfringe.rig.simulated import Lighting, SimulatedRig
 
     check_output_dir(output, force)
     if orientation not in ("vertical", "horizontal", "both"):
         raise InputError(f"unknown orientation {orientation!r}; use vertical, horizontal or both")
-    if aperture not in ("auto", "white", "black"):
-        raise InputError(f"unknown aperture {aperture!r}; use auto, white or black")
     if series is not None:
         depths = _parse_range(series, "--series")
         if reference and 0.0 not in depths:
             depths = [0.0, *depths]
     else:
         depths = [depth_mm]
-    lighting = Lighting(ambient_lux=ambient_lux)
-
-    def make_rig(d: float | None) -> SimulatedRig:
-        sc = make_scene(scene, **_scene_params(scene, d))
-        if ideal:
-            return SimulatedRig.ideal(sc, lighting=lighting, seed=seed)
-        rig = SimulatedRig(sc, lighting=lighting, gamma_precompensation=gamma, seed=seed)
-        cam = dataclasses.replace(
-            rig.camera,
+    rigs = [  # validates every scene before anything is captured
+        simulated_rig(
+            scene,
+            depth_mm=d,
+            ambient_lux=ambient_lux,
+            noise=noise,
+            shot_noise=shot_noise,
+            aperture=aperture,
+            gamma=gamma,
             bit_depth=bit_depth,
-            read_noise_dn8=noise,
-            full_well_e=rig.camera.full_well_e if shot_noise else None,
+            ideal=ideal,
+            seed=seed,
         )
-        if aperture == "black" or (aperture == "auto" and scene in ("checkerboard", "black_plate")):
-            cam = cam.with_aperture_for(BLACK_PLATE_REFLECTIVITY)
-        return rig.replace(camera=cam)
-
-    rigs = [make_rig(d) for d in depths]  # validates every scene before anything is captured
+        for d in depths
+    ]
     rig0 = rigs[0]
     full = 2**rig0.projector.bit_depth - 1
     orients = ["vertical", "horizontal"] if orientation == "both" else [orientation]
@@ -657,15 +789,22 @@ def calibrate(
 @app.command()
 @handle_errors
 def measure(
-    folder: Annotated[Path, typer.Argument(help="Capture folder of the part.")],
-    output: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")],
+    ctx: typer.Context,
+    folder: Annotated[
+        Path | None,
+        typer.Argument(help="Capture folder of the part (or a MIGL sweep with --method)."),
+    ] = None,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Output folder (required).")
+    ] = None,
     calibration: Annotated[
         Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
     ] = None,
     method: Annotated[
         str | None,
         typer.Option(
-            help="Saturation avoidance on a MIGL-sweep folder: conventional, uniform, lpa."
+            help="Saturation avoidance: conventional, uniform, lpa or dpa (a FOLDER must then "
+            "be a MIGL sweep; --rig sim without it: conventional)."
         ),
     ] = None,
     step: Annotated[float, typer.Option(help="LPA: MIGL step S in gray levels.")] = 5.0,
@@ -673,7 +812,8 @@ def measure(
         float, typer.Option(help="DPA: CDF gain that triggers a capture (0.1 = 10 %).")
     ] = 0.1,
     correction: Annotated[
-        Path | None, typer.Option(help="DPA: trained correction polynomial (JSON).")
+        Path | None,
+        typer.Option(help="DPA: trained correction polynomial (JSON from train-correction)."),
     ] = None,
     uniform_migl: Annotated[
         float | None, typer.Option(help="Uniform: the trade-off MIGL (default: automatic).")
@@ -681,46 +821,114 @@ def measure(
     tolerance: Annotated[
         float, typer.Option(help="Uniform (automatic): saturated fraction allowed.")
     ] = 0.0,
+    rig: RigOpt = None,
+    scene: LiveSceneOpt = "white_plate",
+    depth_mm: LiveDepthOpt = None,
+    ambient_lux: LiveAmbientOpt = 0.0,
+    noise: LiveNoiseOpt = 1.0,
+    aperture: LiveApertureOpt = "auto",
+    gamma: LiveGammaOpt = 2.812,
+    seed: LiveSeedOpt = 0,
+    pattern: LivePatternOpt = "sinusoidal",
+    steps: LiveStepsOpt = 4,
+    pitch: Annotated[
+        str,
+        typer.Option(
+            help="Pitch(es) in projector px, comma-separated; the strategy runs per pitch and "
+            "the coarse pitches unwrap the finest temporally (the demo's 1024,64,8).",
+            rich_help_panel=LIVE_PANEL,
+        ),
+    ] = "1024,64,8",
+    imin: LiveIminOpt = 40.0,
+    migl: Annotated[float, typer.Option(help="Highest MIGL.", rich_help_panel=LIVE_PANEL)] = 255.0,
+    centerline: LiveCenterlineOpt = True,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
-    """Height map, point cloud, phase maps and metrics of a capture folder.
+    """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
 
-    With --method, the folder is a MIGL sweep (hdrfringe simulate --migl-sweep) replayed by the
-    strategy, which builds the composite images that are then measured.
+    The source is a capture FOLDER (replay) or --rig sim with scene and fringe options (the
+    live virtual rig). With --method, a FOLDER is a MIGL sweep (hdrfringe simulate --migl-sweep)
+    replayed by the strategy; the live rig captures what the strategy asks for. The composite
+    images are then measured; OUT also gets the MIGL index map and pie chart, and for DPA the
+    estimated-versus-actual CDF (dpa_cdf.png, thesis Fig. 6.3).
     """
     import json
 
-    from hdrfringe.io.calibration_file import load_calibration
-    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.errors import InputError
+    from hdrfringe.io.calibration_file import check_compatible, load_calibration
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import check_output_dir, staged_output_dir
-    from hdrfringe.measurement import calibration_geometry, measure_folder
+    from hdrfringe.measurement import STRATEGY_METHODS, calibration_geometry, measure_folder
     from hdrfringe.outputs import write_height_outputs
 
+    live = _check_source(ctx, folder, rig, LIVE_OPTIONS)
+    if output is None:
+        raise InputError("no output folder: give -o/--output OUT")
+    if live and method is None:
+        method = "conventional"
+    if method is not None and method not in STRATEGY_METHODS:
+        raise InputError(f"unknown method {method!r}; use one of {', '.join(STRATEGY_METHODS)}")
     check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
-    caps = read_capture_folder(folder)
-    strategy_results = []
-    if method is not None:
-        from hdrfringe.measurement import composite_folder
+    params: dict[str, Any] = {}
+    if method == "lpa":
+        params = {"step": step}
+    elif method == "uniform":
+        params = {"migl": uniform_migl, "tolerance": tolerance}
+    elif method == "dpa":
+        from hdrfringe.saturation.estimate import CorrectionPolynomial
 
-        params: dict[str, Any] = {}
-        if method == "lpa":
-            params = {"step": step}
-        elif method == "uniform":
-            params = {"migl": uniform_migl, "tolerance": tolerance}
-        elif method == "dpa":
-            from hdrfringe.saturation.estimate import CorrectionPolynomial
+        params = {"threshold": threshold}
+        if correction is not None:
+            params["correction"] = CorrectionPolynomial.load(correction)
+    replay = None
+    strategy_results: list[Any] = []
+    if live:
+        from hdrfringe.measurement import simulated_composite
+        from hdrfringe.patterns import CenterlineFrame, FringeSpec
 
-            params = {"threshold": threshold}
-            if correction is not None:
-                params["correction"] = CorrectionPolynomial.load(correction)
-        caps, strategy_results = composite_folder(caps, method, **params)
+        sim = simulated_rig(
+            scene,
+            depth_mm=depth_mm,
+            ambient_lux=ambient_lux,
+            noise=noise,
+            aperture=aperture,
+            gamma=gamma,
+            seed=seed,
+        )
+        pitches = sorted(set(_parse_floats(pitch, "--pitch")), reverse=True)
+        specs = [FringeSpec(pattern, steps, p, "vertical", imin, migl) for p in pitches]  # type: ignore[arg-type]
+        if cal is not None:  # refuse a mismatched calibration before capturing anything
+            check_compatible(
+                cal, specs[-1], sim.image_shape, sim.camera_bit_depth, source=str(calibration)
+            )
+        full = 2**sim.projector.bit_depth - 1
+        line = CenterlineFrame(sim.projector.width // 2, "vertical", full) if centerline else None
+        source = f"live virtual rig: {json.dumps(sim.scene.to_manifest())}, {ambient_lux:g} lx"
+        with progress_bar() as prog:
+            prog.add_task(f"{method} on the virtual rig ({scene})", total=None)
+            caps, strategy_results = simulated_composite(
+                sim, specs, method, centerline=line, **params
+            )
+    else:
+        from hdrfringe.io.captures import read_capture_folder
+
+        assert folder is not None
+        source = str(folder)
+        caps = read_capture_folder(folder)
+        if method is not None:
+            from hdrfringe.measurement import composite_folder
+
+            replay = caps
+            caps, strategy_results = composite_folder(caps, method, **params)
     result = measure_folder(
         caps, cal, calibration_source=None if calibration is None else str(calibration)
     )
+    result.metrics["source"] = source
+    if live:
+        result.metrics["live_rig"] = {"scene": sim.scene.to_manifest(), **sim.to_manifest()}
     with staged_output_dir(output, force=force) as tmp:
-        summary = write_phase_maps(tmp, result.decoded, str(folder))
+        summary = write_phase_maps(tmp, result.decoded, source)
         notes = list(summary["notes"])
         if result.height_mm is not None and cal is not None:
             notes += write_height_outputs(tmp, result.height_mm, calibration_geometry(cal))
@@ -728,12 +936,36 @@ def measure(
             from hdrfringe.outputs import write_strategy_outputs
 
             result.metrics.update(write_strategy_outputs(tmp, strategy_results))
+        if method == "dpa":
+            from hdrfringe.measurement import dpa_cdfs
+            from hdrfringe.outputs import write_dpa_outputs
+
+            result.metrics["dpa"] = write_dpa_outputs(
+                tmp,
+                [dpa_cdfs(r, replay) for r in strategy_results],
+                threshold=threshold,
+                correction=str(correction) if correction is not None else "none (identity)",
+            )
         result.metrics["skipped"] = result.skipped
         result.metrics["notes"] = notes
         (tmp / "metrics.json").write_text(
             json.dumps(result.metrics, indent=1) + "\n", encoding="utf-8"
         )
     m = result.metrics
+    if strategy_results:
+        console.print(
+            f"{m['method']}: {m['sets_captured']} sets, {m['images_captured']} images captured"
+        )
+    if "dpa" in m:
+        for entry in m["dpa"]["sets"]:
+            if "max_abs_difference_initial_vs_actual" in entry:
+                extra = ""
+                if "max_abs_difference_initial_vs_exact" in entry:
+                    extra = f", vs exact {entry['max_abs_difference_initial_vs_exact']:.3f}"
+                console.print(
+                    f"DPA {entry['set']}: max |estimated CDF (first set) - actual| "
+                    f"{entry['max_abs_difference_initial_vs_actual']:.3f} at captured MIGLs" + extra
+                )
     if "rmse_mm" in m:
         console.print(
             f"height vs {m['truth']}: RMSE {m['rmse_mm']:.4f} mm, bias {m['bias_mm']:+.4f} mm, "
@@ -745,6 +977,119 @@ def measure(
         console.print(f"skipped: {sk}")
     for note in notes:
         console.print(f"note: {note}")
+    console.print(f"wrote {output}")
+
+
+@app.command("train-correction")
+@handle_errors
+def train_correction(
+    ctx: typer.Context,
+    folder: Annotated[
+        Path | None,
+        typer.Argument(help="A step-1 MIGL sweep folder (simulate --migl-sweep 255:60:1)."),
+    ] = None,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Correction polynomial file (.json).")
+    ] = None,
+    rig: RigOpt = None,
+    scene: LiveSceneOpt = "white_plate",
+    depth_mm: LiveDepthOpt = None,
+    ambient_lux: Annotated[
+        float,
+        typer.Option(
+            help="Added ambient light in lux (saturates the white plate).",
+            rich_help_panel=LIVE_PANEL,
+        ),
+    ] = 600.0,
+    noise: LiveNoiseOpt = 1.0,
+    aperture: LiveApertureOpt = "auto",
+    gamma: LiveGammaOpt = 2.812,
+    seed: LiveSeedOpt = 0,
+    steps: Annotated[
+        int, typer.Option(help="Number of phase shifts N (>= 4).", rich_help_panel=LIVE_PANEL)
+    ] = 4,
+    pitch: Annotated[
+        float | None,
+        typer.Option(
+            help="Pitch in projector px (live default 20, the thesis's; a folder: pick "
+            "one of its pitches)."
+        ),
+    ] = None,
+    imin: LiveIminOpt = 40.0,
+    migl: Annotated[
+        float, typer.Option(help="Top MIGL of the sweep.", rich_help_panel=LIVE_PANEL)
+    ] = 255.0,
+    order: Annotated[int, typer.Option(help="Polynomial degree (thesis: low order).")] = 2,
+    truth: Annotated[
+        str,
+        typer.Option(help="Training truth: scaled (the pixel's own response) or thesis (Eq. 6.3)."),
+    ] = "scaled",
+    margin: Annotated[
+        int, typer.Option(help="Gray levels below N(x, y) of each pixel's reference set.")
+    ] = 10,
+    force: Annotated[bool, typer.Option(help="Replace an existing file.")] = False,
+) -> None:
+    """Train DPA's error-correction polynomial (thesis Sec. 6.1.2, Eq. 6.3-6.4) and save it.
+
+    LPA with a step of one gray level on a white plate at a large pitch (thesis: 20 px) gives
+    every saturated pixel's true peak; a polynomial in the Eq. 6.2 estimate is fitted to the
+    estimate's error. Live (--rig sim; white plate under 600 lx by default) or from a step-1
+    MIGL sweep FOLDER. Use the file with measure --method dpa --correction FILE.
+    """
+    from hdrfringe.errors import InputError, OutputExistsError
+    from hdrfringe.measurement import THESIS_CORRECTION_RMSE
+    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.saturation.estimate import TRUTH_MODELS, training_data_from_rig
+
+    live_only = tuple(n for n in LIVE_OPTIONS if n not in ("pitch", "pattern", "centerline"))
+    live = _check_source(ctx, folder, rig, live_only)  # --pitch also picks a folder's set
+    if output is None:
+        raise InputError("no output file: give -o/--output FILE.json")
+    if truth not in TRUTH_MODELS:
+        raise InputError(f"unknown truth {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
+    if output.exists() and not force:
+        raise OutputExistsError(f"{output}: exists; pass --force to replace it")
+    if output.is_dir():
+        raise OutputExistsError(f"{output}: is a folder; give a file name such as corr.json")
+    if live:
+        sim = simulated_rig(
+            scene,
+            depth_mm=depth_mm,
+            ambient_lux=ambient_lux,
+            noise=noise,
+            aperture=aperture,
+            gamma=gamma,
+            seed=seed,
+        )
+        if steps < 4:
+            raise InputError(
+                f"the saturated-intensity estimate needs at least 4 steps (Eq. 6.2), got {steps}"
+            )
+        spec = FringeSpec(
+            "sinusoidal", steps, 20.0 if pitch is None else pitch, "vertical", imin, migl
+        )
+        source = f"live virtual rig: {sim.scene.to_manifest()}, {ambient_lux:g} lx, seed {seed}"
+        with progress_bar() as prog:
+            prog.add_task("LPA step-1 sweep on the virtual rig", total=None)
+            data = training_data_from_rig(sim, spec, margin=margin)
+    else:
+        from hdrfringe.io.captures import read_capture_folder
+        from hdrfringe.measurement import training_data_from_folder
+
+        assert folder is not None
+        source = str(folder)
+        data = training_data_from_folder(read_capture_folder(folder), pitch, margin=margin)
+    poly = data.train(order, truth=truth, metadata={"source": source})  # type: ignore[arg-type]
+    poly.save(output, force=force)
+    before, after = THESIS_CORRECTION_RMSE
+    console.print(
+        f"trained on {poly.n_samples} saturated pixels of {data.spec.label()} "
+        f"({data.sets_captured} sets, truth {truth}, order {order})"
+    )
+    console.print(
+        f"estimate RMSE (Eq. 6.4): before correction {poly.rmse_before:.2f} DN (thesis "
+        f"{before:g} gray levels), after {poly.rmse_after:.2f} DN (thesis {after:g})"
+    )
     console.print(f"wrote {output}")
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -442,3 +443,176 @@ def tradeoff_search(
         sat[float(m)] = float(res.metrics.get("saturated_fraction", np.nan))
     best = min(rmse, key=lambda k: (np.nan_to_num(rmse[k], nan=np.inf), -k))
     return {"rmse_mm": rmse, "saturated_fraction": sat, "best_migl": best}
+
+
+# ---------------------------------------------------------------------------------------------
+# DPA: estimated versus actual CDF (thesis Fig. 6.3) and the correction's training data
+# ---------------------------------------------------------------------------------------------
+
+#: Thesis Sec. 6.1.2: RMSE (gray levels) of the saturated-intensity estimate against Eq. 6.3's
+#: truth before and after the error correction (Eq. 6.4).
+THESIS_CORRECTION_RMSE: tuple[float, float] = (71.05, 2.99)
+
+
+@dataclass
+class DPACDFs:
+    """The CDFs of thesis Fig. 6.3 for one DPA set.
+
+    Attributes
+    ----------
+    spec : FringeSpec
+        The set at its highest MIGL.
+    migls, rules : list
+        MIGLs captured, in capture order, and the rule that asked for each (``"initial"`` first).
+    saturated_at_top : int
+        Pixels saturated at the highest MIGL (the CDFs' denominator).
+    initial, final : SaturationCDF or None
+        Estimated CDF from the first set and after the last update (None: nothing saturated).
+    actual : SaturationCDF or None
+        From the DPA index image over the pixels saturated at the top: each pixel counts at the
+        MIGL of the capture where it became unsaturated, so the CDF is quantised to the captured
+        MIGLs (at a captured MIGL it is the fraction unsaturated at or above it).
+    exact : SaturationCDF or None
+        From LPA with a step of 1 (every integer MIGL) on a replayed sweep, when the folder holds
+        every integer MIGL down to DPA's lowest capture: the thesis's actual CDF (Eq. 6.3 is the
+        same histogram of ``N(x, y)``).
+    """
+
+    spec: FringeSpec
+    migls: list[float]
+    rules: list[str]
+    saturated_at_top: int
+    initial: Any = None
+    final: Any = None
+    actual: Any = None
+    exact: Any = None
+
+    def max_abs_difference(self, which: str = "actual") -> float | None:
+        """Largest ``|F_initial(m) - F_actual(m)|``: over the captured MIGLs for ``"actual"``
+        (where the quantised CDF is a sample of the exact one), over every integer MIGL from the
+        top down to DPA's lowest capture for ``"exact"``. None when the CDF is not available."""
+        other = self.actual if which == "actual" else self.exact
+        if self.initial is None or other is None:
+            return None
+        if which == "actual":
+            ms = [round(m) for m in self.migls]
+        else:
+            ms = list(range(round(min(self.migls)), self.initial.migl0 + 1))
+        return float(max(abs(self.initial.at(m) - other.at(m)) for m in ms))
+
+
+def _index_without_never(result: Any) -> NDArray[np.float64]:
+    """The index image with pixels never unsaturated marked -1 (they count as ``beyond``)."""
+    idx = np.asarray(result.migl_index, dtype=np.float64).copy()
+    idx[result.never_unsaturated] = -1.0
+    return idx
+
+
+def dpa_cdfs(result: Any, replay: CaptureFolder | None = None) -> DPACDFs:
+    """Estimated and actual CDFs (thesis Fig. 6.3) of a DPA :class:`StrategyResult`.
+
+    Parameters
+    ----------
+    result : StrategyResult
+        From :func:`hdrfringe.saturation.dpa.dpa` (``details`` holds ``initial_cdf``,
+        ``final_cdf`` and ``saturated_at_top`` when a pixel saturated at the top).
+    replay : CaptureFolder, optional
+        The MIGL sweep DPA was replayed on. When it holds this set at every integer MIGL from the
+        top down to DPA's lowest capture, LPA with step 1 runs on it (images are in memory) and
+        its index image gives the exact actual CDF.
+    """
+    from hdrfringe.rig.replay import ReplayRig
+    from hdrfringe.saturation.dpa_rules import index_image_cdf
+    from hdrfringe.saturation.strategies import lpa
+
+    d = result.details
+    rules = list(d.get("rules", ["initial"]))
+    out = DPACDFs(result.spec, list(map(float, result.migls)), rules, 0)
+    if "initial_cdf" not in d:  # requirement 4: nothing saturated, one set
+        return out
+    initial, final = d["initial_cdf"], d["final_cdf"]
+    top = np.asarray(d["saturated_at_top"], dtype=bool)
+    out.saturated_at_top = int(top.sum())
+    out.initial, out.final = initial, final
+    out.actual = index_image_cdf(
+        _index_without_never(result), top, initial.migl0, initial.lowest_migl
+    )
+    if replay is not None:
+        spec = result.spec
+        have = {
+            float(s.spec.migl)
+            for s in replay.sets
+            if _same_spec(s.spec, spec) and s.spec.imin == spec.imin
+        }
+        lowest = round(min(out.migls))
+        if all(float(m) in have for m in range(lowest, initial.migl0 + 1)):
+            exact = lpa(ReplayRig(replay), spec, step=1.0, min_migl=float(lowest))
+            out.exact = index_image_cdf(
+                _index_without_never(exact), top, initial.migl0, initial.lowest_migl
+            )
+    return out
+
+
+def training_data_from_folder(
+    folder: CaptureFolder, pitch: float | None = None, *, margin: int = 10
+) -> Any:
+    """The correction's training data (thesis Sec. 6.1.2) from a step-1 MIGL sweep folder.
+
+    The folder must hold a sinusoidal set of at least 4 steps at every integer MIGL from its
+    highest down to its lowest one (``hdrfringe simulate white_plate --migl-sweep 255:60:1
+    --pitch 20 --ambient-lux 600``); :func:`training_data_from_rig` then replays LPA with a
+    step of 1 on it. ``pitch`` picks the set when the folder holds several pitches. Uniform
+    frames at ``imin``, when present, give the offset ``A``.
+
+    Returns
+    -------
+    TrainingData
+    """
+    from hdrfringe.patterns import UniformFrame
+    from hdrfringe.rig.replay import ReplayRig
+    from hdrfringe.saturation.estimate import training_data_from_rig
+
+    sets = [s for s in folder.sets if s.spec.pattern == "sinusoidal" and s.spec.steps >= 4]
+    if not sets:
+        raise CaptureFormatError(
+            f"{folder.path}: no sinusoidal set of 4 or more steps; the correction is trained on "
+            "sinusoidal sets (thesis: 4-step, 20 px pitch)"
+        )
+    pitches = sorted({s.spec.pitch_px for s in sets})
+    if pitch is None:
+        if len(pitches) > 1:
+            raise InputError(
+                f"{folder.path}: holds pitches {', '.join(f'{p:g}' for p in pitches)} px; choose "
+                "one with --pitch (the thesis trains at 20 px)"
+            )
+        pitch = pitches[0]
+    chosen = [s for s in sets if s.spec.pitch_px == pitch]
+    if not chosen:
+        raise InputError(
+            f"{folder.path}: no sinusoidal set at pitch {pitch:g} px; it holds "
+            + ", ".join(f"{p:g}" for p in pitches)
+        )
+    top_set = max(chosen, key=lambda s: s.spec.migl)
+    spec = top_set.spec
+    migls = {float(s.spec.migl) for s in chosen if _same_spec(s.spec, spec)}
+    low = min(migls)
+    missing = [m for m in range(round(low), round(spec.migl) + 1) if float(m) not in migls]
+    if len(migls) < 2 or missing or spec.migl != round(spec.migl):
+        what = (
+            f"{len(missing)} integer MIGLs between {low:g} and {spec.migl:g} are missing"
+            if missing
+            else f"it holds MIGLs {', '.join(f'{m:g}' for m in sorted(migls, reverse=True)[:5])}"
+        )
+        raise CaptureFormatError(
+            f"{folder.path}: training needs the set at every integer MIGL from the top down "
+            f"(LPA with a step of 1), but {what}; capture e.g. hdrfringe simulate "
+            "--migl-sweep 255:60:1"
+        )
+    n_offset = sum(1 for f in folder.frames if isinstance(f, UniformFrame) and f.level == spec.imin)
+    return training_data_from_rig(
+        ReplayRig(folder),
+        spec,
+        lowest_migl=max(low, math.floor(spec.imin) + 1),
+        margin=margin,
+        offset_captures=min(n_offset, 1),
+    )
