@@ -178,6 +178,21 @@ def test_live_temporal_unwrapping_without_centerline(tmp_path: Path, calibration
     assert m["rmse_mm"] < 0.12, m["rmse_mm"]
 
 
+def test_live_dpa_without_saturation_is_one_set(tmp_path: Path) -> None:
+    """Requirement 4 through the CLI: nothing saturates at 0 lx, DPA captures one set and
+    reports no CDF (the figure says so instead of plotting empty curves)."""
+    out = tmp_path / "dpa"
+    res = run_cli("measure", "--rig", "sim", "--pitch", "8", "--method", "dpa", "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    m = _metrics(out)
+    assert m["migls"] == [255.0] and m["sets_captured"] == 1
+    entry = m["dpa"]["sets"][0]
+    assert entry["saturated_at_top"] == 0 and entry["rules"] == ["initial"]
+    assert entry["captures"] == [{"migl": 255.0, "rule": "initial"}]
+    assert "max_abs_difference_initial_vs_actual" not in entry
+    assert (out / "dpa_cdf.png").is_file()
+
+
 # ---------------------------------------------------------------------------------------------
 # DPA: Fig. 6.3 and the metrics block on a replayed step-1 sweep (exact actual CDF)
 # ---------------------------------------------------------------------------------------------

@@ -16,7 +16,7 @@ import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,6 +29,11 @@ from hdrfringe.io.captures import CaptureFolder, read_capture_folder
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.process import FolderPhase, decode_folder
 from hdrfringe.reconstruct import CameraGeometry, height_errors
+
+if TYPE_CHECKING:
+    from hdrfringe.saturation.dpa_rules import SaturationCDF
+    from hdrfringe.saturation.estimate import TrainingData
+    from hdrfringe.saturation.strategies import StrategyResult
 
 
 def folder_hash(folder: CaptureFolder) -> str:
@@ -482,10 +487,10 @@ class DPACDFs:
     migls: list[float]
     rules: list[str]
     saturated_at_top: int
-    initial: Any = None
-    final: Any = None
-    actual: Any = None
-    exact: Any = None
+    initial: SaturationCDF | None = None
+    final: SaturationCDF | None = None
+    actual: SaturationCDF | None = None
+    exact: SaturationCDF | None = None
 
     def max_abs_difference(self, which: str = "actual") -> float | None:
         """Largest ``|F_initial(m) - F_actual(m)|``: over the captured MIGLs for ``"actual"``
@@ -501,14 +506,14 @@ class DPACDFs:
         return float(max(abs(self.initial.at(m) - other.at(m)) for m in ms))
 
 
-def _index_without_never(result: Any) -> NDArray[np.float64]:
+def _index_without_never(result: StrategyResult) -> NDArray[np.float64]:
     """The index image with pixels never unsaturated marked -1 (they count as ``beyond``)."""
     idx = np.asarray(result.migl_index, dtype=np.float64).copy()
     idx[result.never_unsaturated] = -1.0
     return idx
 
 
-def dpa_cdfs(result: Any, replay: CaptureFolder | None = None) -> DPACDFs:
+def dpa_cdfs(result: StrategyResult, replay: CaptureFolder | None = None) -> DPACDFs:
     """Estimated and actual CDFs (thesis Fig. 6.3) of a DPA :class:`StrategyResult`.
 
     Parameters
@@ -555,7 +560,7 @@ def dpa_cdfs(result: Any, replay: CaptureFolder | None = None) -> DPACDFs:
 
 def training_data_from_folder(
     folder: CaptureFolder, pitch: float | None = None, *, margin: int = 10
-) -> Any:
+) -> TrainingData:
     """The correction's training data (thesis Sec. 6.1.2) from a step-1 MIGL sweep folder.
 
     The folder must hold a sinusoidal set of at least 4 steps at every integer MIGL from its

@@ -13,6 +13,8 @@ from hdrfringe.reconstruct import CameraGeometry, points_from_height, write_ply
 
 if TYPE_CHECKING:
     from hdrfringe.measurement import DPACDFs
+    from hdrfringe.saturation.dpa_rules import SaturationCDF
+    from hdrfringe.saturation.strategies import StrategyResult
 
 
 def write_height_outputs(
@@ -38,12 +40,12 @@ def write_height_outputs(
     return notes
 
 
-def _finest(results: list[Any]) -> Any:
+def _finest(results: list[StrategyResult]) -> StrategyResult:
     """The result of the finest pitch: its composite carries the measured phase."""
     return min(results, key=lambda r: r.spec.pitch_px)
 
 
-def write_strategy_outputs(out: Path, results: list[Any]) -> dict[str, Any]:
+def write_strategy_outputs(out: Path, results: list[StrategyResult]) -> dict[str, Any]:
     """MIGL index map, the pie chart of pixels per MIGL (thesis Fig. 5.6), metrics keys.
 
     Parameters
@@ -97,6 +99,19 @@ def write_strategy_outputs(out: Path, results: list[Any]) -> dict[str, Any]:
 def dpa_metrics(cdfs: DPACDFs) -> dict[str, Any]:
     """The metrics.json entry of one DPA set: rules and CDFs at each captured MIGL.
 
+    Parameters
+    ----------
+    cdfs : DPACDFs
+        From :func:`hdrfringe.measurement.dpa_cdfs`.
+
+    Returns
+    -------
+    dict
+        ``set``, ``pitch_px``, ``saturated_at_top``, ``rules``, ``captures`` and, when a pixel
+        saturated at the top, ``lowest_migl``, ``estimable_at_top`` and the differences below.
+
+    Notes
+    -----
     ``captures`` lists, in capture order, the MIGL, the rule that asked for it, and the CDF
     there: estimated from the first set (``estimated_initial``), after the last update
     (``estimated_final``), actual from the DPA index image (``actual``, quantised to the captured
@@ -138,12 +153,14 @@ def dpa_metrics(cdfs: DPACDFs) -> dict[str, Any]:
     return entry
 
 
-def _cdf_curve(cdf: Any, lo: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _cdf_curve(cdf: SaturationCDF, lo: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(MIGL, F(MIGL))`` for the integer MIGLs ``lo..migl0`` of a SaturationCDF."""
     ms = np.arange(lo, cdf.migl0 + 1)
     return ms.astype(np.float64), np.asarray(cdf.values[lo:], dtype=np.float64)
 
 
-def _lowest_bin(cdf: Any) -> int:
+def _lowest_bin(cdf: SaturationCDF) -> int:
+    """Lowest MIGL holding a pixel of the CDF (``migl0`` when it is empty)."""
     nz = np.flatnonzero(cdf.counts)
     return int(nz[0]) if nz.size else int(cdf.migl0)
 
@@ -152,6 +169,17 @@ def write_dpa_outputs(
     out: Path, all_cdfs: list[DPACDFs], *, threshold: float, correction: str
 ) -> dict[str, Any]:
     """``dpa_cdf.png`` (thesis Fig. 6.3, one panel per pitch) and the metrics ``dpa`` block.
+
+    Parameters
+    ----------
+    out : Path
+        Output folder.
+    all_cdfs : list of DPACDFs
+        One per pitch, coarsest first (:func:`hdrfringe.measurement.dpa_cdfs`).
+    threshold : float
+        DPA's threshold (a fraction), for the titles and the block.
+    correction : str
+        What correction DPA used (a file name or ``"none (identity)"``).
 
     Each panel shows, over decreasing MIGL, the CDF estimated from the first set, the CDF after
     the last update, the actual CDF from the DPA index image over the pixels saturated at the
@@ -185,6 +213,7 @@ def write_dpa_outputs(
             ax.set_title(title, fontsize=10)
             ax.set_axis_off()
             continue
+        assert c.final is not None and c.actual is not None  # set together with initial
         cands = [min(c.migls), _lowest_bin(c.initial), _lowest_bin(c.final)]
         lo = max(int(c.initial.lowest_migl), int(min(cands)) - 5)
         if c.exact is not None:
@@ -205,7 +234,7 @@ def write_dpa_outputs(
         ax.step(x, y, where="pre", color="tab:blue", ls="--", label="estimated, first set")
         x, y = _cdf_curve(c.final, lo)
         ax.step(x, y, where="pre", color="tab:orange", label="estimated, after last update")
-        diff = c.max_abs_difference("actual")
+        diff = c.max_abs_difference("actual") or 0.0
         ax.set_title(
             f"{title}; {c.saturated_at_top} px saturated at {c.spec.migl:g}\n"
             f"max |first estimate - actual| at captured MIGLs: {diff:.3f}",
