@@ -2,19 +2,27 @@
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import pytest
+from rich.console import Console
 
 from hdrfringe.demo import run_demo
 from hdrfringe.io.captures import read_capture_folder
+from hdrfringe.io.results import read_map_tiff
 from tests.conftest import run_cli
+
+METHODS = ("conventional", "uniform", "lpa", "dpa")
 
 
 def test_demo_runs_and_meets_its_own_numbers(tmp_path: Path) -> None:
     out = tmp_path / "demo"
-    summary = run_demo(out, seed=1)
+    console = Console(file=io.StringIO(), record=True, width=100)
+    summary = run_demo(out, seed=1, console=console)
     for name in (
         "overview.png",
         "summary.json",
@@ -40,6 +48,107 @@ def test_demo_runs_and_meets_its_own_numbers(tmp_path: Path) -> None:
     assert 0.35 < board["saturated_fraction"] < 0.65
     assert 0.3 < board["valid_fraction"] < 0.6
     assert board["rmse_mm"]["rational"] < 0.08
+    _check_saturation_study(out, summary, console.export_text())
+
+
+def _check_study_bookkeeping(out: Path, name: str, method: str, row: dict[str, Any]) -> None:
+    """Files, metrics.json and the sets/images/MIGLs of one study run."""
+    d = out / "saturation" / name / method
+    files = ["metrics.json", "height.tiff", "migl_index.tiff", "migl_index.png", "migl_pie.png"]
+    for f in files + (["dpa_cdf.png"] if method == "dpa" else []):
+        assert (d / f).is_file(), d / f
+    metrics = json.loads((d / "metrics.json").read_text())
+    assert metrics["method"] == method and metrics["model"] == "rational"
+    for key in ("sets_captured", "images_captured", "migls"):
+        assert metrics[key] == row[key], key
+    assert metrics["valid_fraction"] == row["valid_fraction"]
+    migls = row["migls"]  # one list per pitch (1024, 64, 8 px), in capture order
+    if method == "dpa":  # the Fig. 6.3 block: per pitch, the rule behind every capture
+        sets = metrics["dpa"]["sets"]
+        assert [len(st["rules"]) for st in sets] == [len(m) for m in migls]
+        assert all(st["rules"][0] == "initial" for st in sets)
+        assert sum(row["dpa_rules"].values()) == row["sets_captured"]
+    assert len(migls) == 3 and all(m[0] == 255.0 for m in migls)
+    assert list(row["sets_per_pitch"]) == ["1024", "64", "8"]
+    assert list(row["sets_per_pitch"].values()) == [len(m) for m in migls]
+    assert row["sets_captured"] == sum(len(m) for m in migls)
+    assert row["images_captured"] == 4 * row["sets_captured"]  # 4-step: 4 images per set
+    if method == "conventional":
+        assert migls == [[255.0]] * 3
+        return
+    assert row["never_unsaturated_fraction"] == 0.0  # every strategy got every pixel out
+    assert row["saturated_fraction"] == 0.0 and row["valid_fraction"] > 0.99
+    for m in migls:
+        assert min(m) >= 60.0  # imin + 20: the lowest MIGL that carries a fringe
+        if method == "lpa":  # constant step S down from 255 (Eq. 5.1)
+            step = row["params"]["step"]
+            assert m == [255.0 - step * k for k in range(len(m))]
+        elif method == "dpa":  # the MIGL only falls
+            assert np.all(np.diff(m) < 0)
+            assert len(m) <= 100  # a bound (about 73 now, sets at every level in a gap), no goal
+    if method == "uniform":  # bisection over 60..254: at most 2 + log2(195) sets per pitch
+        assert all(len(m) <= 10 for m in migls)
+        assert all(u in m for u, m in zip(row["uniform_migl"], migls, strict=True))
+
+
+def _check_saturation_study(out: Path, summary: dict[str, Any], text: str) -> None:
+    """The four methods on the 600 lx plate and the checkerboard (issue 4, item 8)."""
+    assert (out / "saturation_study.png").is_file()
+    study = summary["saturation_study"]
+    assert study["calibration"].startswith("rational")
+    scenes = study["scenes"]
+    assert list(scenes) == ["white_plate_25mm_600lx", "checkerboard"]
+    for name, st in scenes.items():
+        assert list(st["methods"]) == list(METHODS)
+        for method, row in st["methods"].items():
+            _check_study_bookkeeping(out, name, method, row)
+    for label in ("LPA S=5", "LPA S=15", "DPA 10 %", "uniform auto", "sat. kept"):
+        assert label in text  # the printed tables
+
+    # White plate under 600 lx (thesis Ch. 4, Tables 4.3 / 5.1): at MIGL 255 every pixel has a
+    # saturated shift, so nothing is valid and, kept, saturation error dominates; every
+    # strategy measures the whole plate at about the dark-room accuracy (0.044 mm at 0 lx).
+    plate = scenes["white_plate_25mm_600lx"]["methods"]
+    conv = plate["conventional"]
+    assert conv["saturated_fraction"] == 1.0 and conv["valid_fraction"] == 0.0
+    assert np.isnan(conv["rmse_mm"])
+    assert 0.3 < conv["rmse_mm_saturated_kept"] < 0.6  # 0.44 mm
+    for method in METHODS[1:]:
+        assert plate[method]["rmse_mm"] < 0.075  # 0.057-0.064 mm
+        assert conv["rmse_mm_saturated_kept"] > 5 * plate[method]["rmse_mm"]
+    # LPA gives each pixel its own highest unsaturated MIGL (255..180 across the plate), so it
+    # beats the one MIGL of the automatic uniform rule; DPA matches LPA in far fewer sets.
+    assert 130 < min(plate["uniform"]["uniform_migl"]) < 200
+    assert plate["lpa"]["rmse_mm"] < 0.95 * plate["uniform"]["rmse_mm"]
+    assert plate["dpa"]["rmse_mm"] < 1.05 * plate["lpa"]["rmse_mm"]
+    assert plate["dpa"]["sets_captured"] < 0.7 * plate["lpa"]["sets_captured"]
+
+    # Checkerboard, black-plate aperture (Sec. 5.2.2, Table 5.2): conventional is the demo's
+    # checkerboard measurement (same rig, seed, frames): the white squares saturate and are
+    # invalid; kept, their phase is garbage. LPA and DPA recover them.
+    board = scenes["checkerboard"]["methods"]
+    conv = board["conventional"]
+    plain = summary["scenes"]["checkerboard"]
+    assert conv["valid_fraction"] == pytest.approx(plain["valid_fraction"], rel=1e-12)
+    assert conv["rmse_mm"] == pytest.approx(plain["rmse_mm"]["rational"], rel=1e-12)
+    assert 0.35 < conv["valid_fraction"] < 0.6 and conv["rmse_mm"] < 0.06
+    assert conv["rmse_mm_saturated_kept"] > 1.0  # tens of mm: fringe orders lost
+    for method in ("lpa", "dpa"):
+        assert board[method]["rmse_mm"] < 0.1  # 0.08 mm; square edges 0.14, squares 0.04-0.06
+        assert board[method]["rmse_mm"] < conv["rmse_mm_saturated_kept"] / 100
+    assert board["dpa"]["rmse_mm"] < 1.05 * board["lpa"]["rmse_mm"]  # Sec. 6.3
+    # One MIGL for the whole board must go below the white squares' unsaturation (about 140):
+    # the black squares lose so much modulation that temporal unwrapping fails in places.
+    assert max(board["uniform"]["uniform_migl"]) < 100
+    assert board["uniform"]["rmse_mm"] > 5 * board["lpa"]["rmse_mm"]
+    # Where the conventional measurement is valid (unsaturated at 255 in every set) LPA and
+    # DPA keep the MIGL-255 capture: the same heights, bit for bit.
+    ref = read_map_tiff(out / "saturation/checkerboard/conventional/height.tiff")
+    ok = np.isfinite(ref)
+    for method in ("lpa", "dpa"):
+        h = read_map_tiff(out / f"saturation/checkerboard/{method}/height.tiff")
+        assert np.array_equal(h[ok], ref[ok])
+        assert np.isfinite(h[10:-10, 10:-10]).mean() > 0.99
 
 
 def test_simulate_writes_a_contract_folder(tmp_path: Path) -> None:

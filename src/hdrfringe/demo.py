@@ -10,9 +10,22 @@
    face-like mask, and the black-and-white checkerboard (its white squares saturate; saturated
    pixels are invalid). Sinusoidal 4-step fringes at pitches 1024, 64 and 8 px: temporal
    unwrapping from the one-period set gives the absolute phase; the centerline checks it.
-3. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
+3. **Saturation avoidance** (thesis Ch. 4-6): the white plate at 25 mm under 600 lx of added
+   ambient light (white-plate aperture, Ch. 4) and the checkerboard (black-plate aperture,
+   Sec. 5.2.2, 0 lx), each measured with the four strategies of
+   :data:`~hdrfringe.measurement.STRATEGY_METHODS` on the live rig with the same 4-step
+   1024/64/8 px family and the rational calibration: conventional (one set at MIGL 255),
+   uniform (automatic: the highest MIGL at which nothing saturates, no ground truth), LPA
+   (S = 5 on the plate as in Table 5.1, S = 15 on the checkerboard as in Table 5.2) and DPA
+   (10 % threshold, no correction polynomial). Every strategy runs per pitch
+   (:func:`~hdrfringe.measurement.simulated_composite`); the composite is measured like any
+   capture folder.
+4. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
-   table of RMSE per scene and model.
+   table of RMSE per scene and model; per study scene and method ``metrics.json`` (with
+   ``sets_captured``, ``images_captured``, ``migls``), ``height.tiff``, the MIGL index map and
+   pie chart (:func:`~hdrfringe.outputs.write_strategy_outputs`); a figure comparing the
+   methods and a table of RMSE, valid fraction, sets and images captured.
 """
 
 from __future__ import annotations
@@ -29,9 +42,16 @@ from hdrfringe.calibration import Calibration
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.phase_maps import write_phase_maps
-from hdrfringe.io.results import check_output_dir, staged_output_dir
-from hdrfringe.measurement import calibrate_captures, calibration_geometry, measure_folder
-from hdrfringe.outputs import write_height_outputs
+from hdrfringe.io.results import check_output_dir, staged_output_dir, write_map_tiff
+from hdrfringe.measurement import (
+    STRATEGY_METHODS,
+    calibrate_captures,
+    calibration_geometry,
+    dpa_cdfs,
+    measure_folder,
+    simulated_composite,
+)
+from hdrfringe.outputs import write_dpa_outputs, write_height_outputs, write_strategy_outputs
 from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec
 from hdrfringe.rig.scenes import (
     BLACK_PLATE_REFLECTIVITY,
@@ -42,22 +62,51 @@ from hdrfringe.rig.scenes import (
     mask,
     white_plate,
 )
-from hdrfringe.rig.simulated import SimulatedRig
+from hdrfringe.rig.simulated import Lighting, SimulatedRig
 
 PITCHES = (1024.0, 64.0, 8.0)
+CENTERLINE = CenterlineFrame(512, "vertical", 255)
+
+STUDY_AMBIENT_LUX = 600.0  # thesis Sec. 4.2
+DPA_THRESHOLD = 0.1  # thesis Ch. 6: 10 %
+
+
+def study_scenes() -> list[tuple[str, str, Scene, bool, float, float]]:
+    """The saturation study: (name, label, scene, black-plate aperture, ambient lux, LPA S).
+
+    The white plate under 600 lx with the white-plate aperture (thesis Ch. 4, LPA S = 5 as in
+    Table 5.1) and the checkerboard with the aperture opened for its black squares (Sec. 5.2.2,
+    LPA S = 15 as in Table 5.2).
+    """
+    return [
+        (
+            "white_plate_25mm_600lx",
+            f"white plate 25 mm, {STUDY_AMBIENT_LUX:g} lx",
+            white_plate(25.0),
+            False,
+            STUDY_AMBIENT_LUX,
+            5.0,
+        ),
+        ("checkerboard", "checkerboard, 0 lx", checkerboard(), True, 0.0, 15.0),
+    ]
+
+
+def demo_specs() -> list[FringeSpec]:
+    """Sinusoidal 4-step at pitches 1024, 64 and 8 px (MIGL 255, imin 40), coarse first."""
+    return [FringeSpec("sinusoidal", 4, p, "vertical", 40, 255) for p in PITCHES]
 
 
 def demo_frames() -> list[Frame]:
-    """Sinusoidal 4-step at pitches 1024, 64 and 8 px (MIGL 255, imin 40) and a centerline."""
+    """The frames of :func:`demo_specs` and a centerline."""
     frames: list[Frame] = []
-    for p in PITCHES:
-        frames += FringeSpec("sinusoidal", 4, p, "vertical", 40, 255).frames()
-    frames.append(CenterlineFrame(512, "vertical", 255))
+    for spec in demo_specs():
+        frames += spec.frames()
+    frames.append(CENTERLINE)
     return frames
 
 
-def _rig(scene: Scene, seed: int, black_aperture: bool) -> SimulatedRig:
-    rig = SimulatedRig(scene, seed=seed)
+def _rig(scene: Scene, seed: int, black_aperture: bool, ambient_lux: float = 0.0) -> SimulatedRig:
+    rig = SimulatedRig(scene, lighting=Lighting(ambient_lux=ambient_lux), seed=seed)
     if black_aperture:
         rig = rig.replace(camera=rig.camera.with_aperture_for(BLACK_PLATE_REFLECTIVITY))
     return rig
@@ -102,20 +151,26 @@ def _figure_3d(path: Path, height: np.ndarray, title: str) -> None:
     plt.close(fig)
 
 
-def _overview(path: Path, panels: list[tuple[str, np.ndarray, str, str]]) -> None:
+Panel = tuple  # (title, data, cmap, unit) or (title, data, cmap, unit, (vmin, vmax))
+
+
+def _overview(path: Path, panels: list[Panel], cols: int = 3) -> None:
+    """A grid of maps; NaN (invalid) in gray; each panel its own 0.5-99.5 % range or limits."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    cols = 3
     rows = (len(panels) + cols - 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), dpi=100)
     for ax in np.ravel(axes)[len(panels) :]:
         ax.set_axis_off()
-    for ax, (title, data, cmap, unit) in zip(np.ravel(axes), panels, strict=False):
+    for ax, (title, data, cmap, unit, *limits) in zip(np.ravel(axes), panels, strict=False):
         finite = np.isfinite(data)
-        lo, hi = np.percentile(data[finite], [0.5, 99.5]) if finite.any() else (0.0, 1.0)
+        if limits:
+            lo, hi = limits[0]
+        else:
+            lo, hi = np.percentile(data[finite], [0.5, 99.5]) if finite.any() else (0.0, 1.0)
         im = ax.imshow(
             np.ma.masked_invalid(data),
             cmap=matplotlib.colormaps[cmap].with_extremes(bad="0.5"),
@@ -128,6 +183,155 @@ def _overview(path: Path, panels: list[tuple[str, np.ndarray, str, str]]) -> Non
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def _strategy_params(method: str, lpa_step: float) -> dict[str, Any]:
+    """The study's parameters: uniform automatic (tolerance 0), LPA step S, DPA 10 %."""
+    return {"lpa": {"step": lpa_step}, "dpa": {"threshold": DPA_THRESHOLD}}.get(method, {})
+
+
+def _study_run(
+    out: Path,
+    scene: Scene,
+    black: bool,
+    lux: float,
+    method: str,
+    params: dict[str, Any],
+    seed: int,
+    cal: Calibration,
+) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+    """One strategy on one scene: composite on the live rig, measured with ``cal``; writes the
+    measure outputs into ``out``; returns the summary row, the height error and the finest
+    pitch's MIGL index map."""
+    rig = _rig(scene, seed, black, lux)
+    folder, results = simulated_composite(
+        rig, demo_specs(), method, centerline=CENTERLINE, **params
+    )
+    res = measure_folder(folder, cal)
+    # Saturated pixels are invalid by default; the thesis (Ch. 4) measured them as they are, so
+    # that saturation error counts: both figures where the composite still saturates.
+    kept = res
+    if res.metrics.get("saturated_fraction", 0.0) > 0:
+        kept = measure_folder(folder, cal, reject_saturated=False)
+    out.mkdir(parents=True)
+    strategy = write_strategy_outputs(out, results)
+    assert res.height_mm is not None
+    write_map_tiff(out / "height.tiff", res.height_mm)
+    row: dict[str, Any] = {
+        "params": params,
+        "sets_captured": strategy["sets_captured"],
+        "images_captured": strategy["images_captured"],
+        "sets_per_pitch": {f"{r.spec.pitch_px:g}": r.sets_captured for r in results},
+        "migls": strategy["migls"],
+        "never_unsaturated_fraction": strategy["never_unsaturated_fraction"],  # finest pitch
+        "saturated_fraction": res.metrics["saturated_fraction_measurement_pixels"],
+        "valid_fraction": res.metrics["valid_fraction"],
+        "rmse_mm": res.metrics["rmse_mm"],
+        "rmse_mm_saturated_kept": kept.metrics["rmse_mm"],
+        "valid_fraction_saturated_kept": kept.metrics["valid_fraction"],
+    }
+    if method == "uniform":
+        row["uniform_migl"] = [r.details["chosen_migl"] for r in results]
+    metrics = {**res.metrics, **strategy, "params": params}
+    if method == "dpa":  # as measure --method dpa: Fig. 6.3 and the metrics dpa block
+        metrics["dpa"] = write_dpa_outputs(
+            out,
+            [dpa_cdfs(r) for r in results],
+            threshold=params["threshold"],
+            correction="none (identity)",
+        )
+        rules = [rule for r in results for rule in r.details["rules"]]
+        row["dpa_rules"] = {k: rules.count(k) for k in ("initial", "threshold", "lowest")}
+    metrics["rmse_mm_saturated_kept"] = row["rmse_mm_saturated_kept"]
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=1) + "\n", encoding="utf-8")
+    error = res.height_mm - rig.truth().height_mm
+    return row, error, results[-1].migl_index
+
+
+def _method_label(method: str, params: dict[str, Any]) -> str:
+    if method == "lpa":
+        return f"LPA S={params['step']:g}"
+    if method == "dpa":
+        return f"DPA {100 * params['threshold']:g} %"
+    return {"uniform": "uniform auto"}.get(method, method)
+
+
+StudyMaps = dict[str, dict[str, tuple[np.ndarray, np.ndarray, float]]]
+
+
+def _study_figure(path: Path, maps: StudyMaps) -> None:
+    """Per study scene a row of MIGL index maps (finest pitch) and a row of height errors,
+    one column per method, on shared colour scales. ``maps[scene][method]`` holds the height
+    error, the MIGL index map and the valid fraction."""
+    panels: list[Panel] = []
+    for scene, by_method in maps.items():
+        lo = min(float(np.min(idx)) for _, idx, _ in by_method.values())
+        errs = np.concatenate([e[np.isfinite(e)] for e, _, _ in by_method.values()])
+        lim = float(np.percentile(np.abs(errs), 99.5)) if errs.size else 1.0
+        for method, (_, idx, _) in by_method.items():
+            title = f"{scene}\n{method}: MIGL index (8 px pitch)"
+            panels.append((title, idx, "viridis", "MIGL", (lo, 255.0)))
+        for method, (err, _, valid) in by_method.items():
+            title = f"{scene}\n{method}: height error ({100 * valid:.1f} % valid)"
+            panels.append((title, err, "coolwarm", "mm", (-lim, lim)))
+    _overview(path, panels, cols=len(STRATEGY_METHODS))
+
+
+def _saturation_study(
+    tmp: Path, seed: int, cal: Calibration, progress: Any
+) -> tuple[dict[str, Any], StudyMaps]:
+    """Every study scene with every strategy; the summary's ``saturation_study`` scenes and
+    the maps for :func:`_study_figure`."""
+    study: dict[str, Any] = {}
+    maps: StudyMaps = {}
+    for name, label, scene, black, lux, lpa_step in study_scenes():
+        rows: dict[str, Any] = {}
+        maps[label] = {}
+        for method in STRATEGY_METHODS:
+            params = _strategy_params(method, lpa_step)
+            out = tmp / "saturation" / name / method
+            rows[method], err, idx = _study_run(out, scene, black, lux, method, params, seed, cal)
+            row = rows[method]
+            maps[label][_method_label(method, params)] = (err, idx, row["valid_fraction"])
+            progress()
+        study[name] = {
+            "label": label,
+            "aperture": "black plate" if black else "white plate",
+            "ambient_lux": lux,
+            "methods": rows,
+        }
+    return study, maps
+
+
+def _migl_span(method: str, row: dict[str, Any]) -> str:
+    """MIGLs of the finest pitch: the one used (uniform) or the highest..lowest captured."""
+    if method == "uniform":
+        return f"{row['uniform_migl'][-1]:g}"
+    migls = row["migls"][-1] if isinstance(row["migls"][0], list) else row["migls"]
+    return f"{migls[0]:g}" if len(migls) == 1 else f"{migls[0]:g}..{min(migls):g}"
+
+
+def _study_tables(study: dict[str, Any]) -> list[Table]:
+    """One table per study scene: sets, images, MIGLs, valid fraction, RMSE per method."""
+    tables = []
+    for st in study["scenes"].values():
+        table = Table(title=f"{st['label']}, {st['aperture']} aperture, 4-step 1024/64/8 px")
+        for col in ("method", "sets", "images", "MIGL 8 px", "valid", "RMSE mm", "sat. kept"):
+            table.add_column(col, no_wrap=True, justify="left" if col == "method" else "right")
+        for method, row in st["methods"].items():
+            table.add_row(
+                _method_label(method, row["params"]),
+                str(row["sets_captured"]),
+                str(row["images_captured"]),
+                _migl_span(method, row),
+                f"{100 * row['valid_fraction']:.1f} %",
+                *(
+                    "-" if not np.isfinite(v) else f"{v:.3f}"
+                    for v in (row["rmse_mm"], row["rmse_mm_saturated_kept"])
+                ),
+            )
+        tables.append(table)
+    return tables
 
 
 def run_demo(
@@ -153,7 +357,7 @@ def run_demo(
         + " px, MIGL 255, 0 lx",
         "scenes": {},
     }
-    panels: list[tuple[str, np.ndarray, str, str]] = []
+    panels: list[Panel] = []
     with (
         staged_output_dir(output, force=force) as tmp,
         Progress(console=console, transient=True, disable=not console.is_terminal) as prog,
@@ -222,6 +426,21 @@ def run_demo(
                 _figure_3d(tmp / "mask_3d.png", best.height_mm, "mask, measured height")
             prog.advance(task)
         _overview(tmp / "overview.png", panels)
+        n_study = len(study_scenes()) * len(STRATEGY_METHODS)
+        task = prog.add_task("saturation avoidance (4 methods x 2 scenes)", total=n_study)
+        study, maps = _saturation_study(
+            tmp, seed + 1, cals["white"]["rational"], lambda: prog.advance(task)
+        )
+        summary["saturation_study"] = {
+            "pattern": "sinusoidal 4-step, pitches "
+            + ", ".join(f"{p:g}" for p in PITCHES)
+            + " px, highest MIGL 255, imin 40; every strategy runs per pitch",
+            "calibration": "rational (white plate)",
+            "rmse": "rmse_mm: saturated pixels invalid (measure's default); "
+            "rmse_mm_saturated_kept: saturated pixels measured as they are (thesis Ch. 4)",
+            "scenes": study,
+        }
+        _study_figure(tmp / "saturation_study.png", maps)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
 
     table = Table(title="hdrfringe demo: virtual rig, 0 lx, MIGL 255, sinusoidal 4-step")
@@ -240,6 +459,15 @@ def run_demo(
         "RMSE: height against the rig's ground truth over valid measurement pixels (10 px border "
         "excluded, thesis Sec. 4.1); saturated pixels are invalid by default, so the checkerboard "
         "is measured on its black squares only (saturation avoidance: later stages)."
+    )
+    for table in _study_tables(summary["saturation_study"]):
+        console.print(table)
+    console.print(
+        "Saturation avoidance, rational calibration, same seed for every method. 'valid' and "
+        "'RMSE': saturated pixels invalid (measure's default); 'sat. kept': RMSE with saturated "
+        "pixels measured as they are (thesis Ch. 4). Sets and images: summed over the three "
+        "pitches. uniform auto: the highest MIGL at which nothing saturates, per pitch; DPA: no "
+        "correction polynomial."
     )
     for a, text in summary["calibration_residual_mm"].items():
         console.print(f"calibration fit residual, {a} plate: {text}")
