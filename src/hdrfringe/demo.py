@@ -24,8 +24,9 @@
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
    table of RMSE per scene and model; per study scene and method ``metrics.json`` (with
    ``sets_captured``, ``images_captured``, ``migls``), ``height.tiff``, the MIGL index map and
-   pie chart (:func:`~hdrfringe.outputs.write_strategy_outputs`); a figure comparing the
-   methods and a table of RMSE, valid fraction, sets and images captured.
+   pie chart (:func:`~hdrfringe.outputs.write_strategy_outputs`), for DPA its CDF figure
+   (Fig. 6.3); a figure comparing the methods and a table of RMSE, valid fraction, sets and
+   images captured (docs/saturation.md).
 """
 
 from __future__ import annotations
@@ -458,7 +459,8 @@ def run_demo(
     console.print(
         "RMSE: height against the rig's ground truth over valid measurement pixels (10 px border "
         "excluded, thesis Sec. 4.1); saturated pixels are invalid by default, so the checkerboard "
-        "is measured on its black squares only (saturation avoidance: later stages)."
+        "is measured on its black squares only (the saturation-avoidance tables below recover "
+        "its white squares)."
     )
     for table in _study_tables(summary["saturation_study"]):
         console.print(table)
