@@ -613,7 +613,7 @@ def _connect(scheduler: str | Client | None, n_workers: int | None) -> Iterator[
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:
             raise InputError(
                 f"cannot reach the dask scheduler at {scheduler!r} ({exc}); check the address "
                 "(e.g. tcp://host:8786) and that `dask scheduler` runs there"
