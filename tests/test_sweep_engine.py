@@ -252,6 +252,7 @@ def test_ctrl_c_midway_keeps_the_finished_blocks_and_a_rerun_completes_them(
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode != 0 and "KeyboardInterrupt" in err, err
+    assert "blocks are stored in" in err and "rerun to compute the rest" in err
 
     status = sweep_status(store)
     assert 3 <= status.done < GRID.n_blocks
