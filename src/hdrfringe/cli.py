@@ -18,7 +18,7 @@ import typer
 from rich.console import Console
 
 from hdrfringe import __version__
-from hdrfringe.errors import HdrFringeError
+from hdrfringe.errors import HdrFringeError, InputError
 
 app = typer.Typer(
     name="hdrfringe",
@@ -733,6 +733,48 @@ def demo(
     from hdrfringe.demo import run_demo
 
     run_demo(output, seed=seed, force=force, console=console)
+
+
+@app.command()
+@handle_errors
+def reproduce(
+    chapter: Annotated[str, typer.Argument(help="ch4 or all (ch5, ch6: later).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Reproduction folder.")] = Path(
+        "hdrfringe-reproduction"
+    ),
+    quick: Annotated[
+        bool, typer.Option(help="Reduced grid (quarter-size view, fewer pitches/MIGLs/depths).")
+    ] = False,
+    scheduler: Annotated[
+        str | None, typer.Option(help="Dask scheduler address (default: a local cluster).")
+    ] = None,
+    workers: Annotated[
+        int | None, typer.Option(help="Local cluster worker processes (default: CPU count).")
+    ] = None,
+    force: Annotated[
+        bool, typer.Option(help="Write into a non-empty folder that is not a reproduction.")
+    ] = False,
+) -> None:
+    """Run the thesis's experiments on the virtual rig as resumable sweeps (Dask, Zarr) and
+    write tables beside the thesis's, figures and a report. Rerun to resume."""
+    from hdrfringe.reproduce.runner import CHAPTERS
+    from hdrfringe.reproduce.runner import reproduce as run
+
+    chapters = list(CHAPTERS) if chapter == "all" else [chapter]
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers must be at least 1, got {workers}")
+    res = run(
+        chapters,
+        output,
+        quick=quick,
+        scheduler=scheduler,
+        n_workers=workers,
+        progress=console.is_terminal,
+        force=force,
+    )
+    for name, secs in res["timings_s"].items():
+        console.print(f"{name}: {secs:.1f}")
+    console.print(f"report: {output / 'report.md'} and report.html")
 
 
 # ---------------------------------------------------------------------------------------------

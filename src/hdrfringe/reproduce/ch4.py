@@ -328,3 +328,105 @@ def ch4_modified_block(
                 )
                 noise[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
     return {"rmse_light_mm": light, "rmse_noise_mm": noise}
+
+
+# --------------------------------------------------------------------------------------------
+# sweep grids and tasks (run by hdrfringe.reproduce.engine)
+# --------------------------------------------------------------------------------------------
+#: Quick grid: a quarter-size view at the thesis's sampling, fewer pitches, MIGLs and depths.
+QUICK_SETUP = Ch4Setup(width=324, height=247, camera_field_mm=160.0)
+QUICK_PITCHES: tuple[int, ...] = (4, 6, 12, 20)
+QUICK_MIGLS: tuple[float, ...] = tuple(float(m) for m in range(255, 104, -15))
+QUICK_DEPTHS_MM: tuple[float, ...] = (6.0, 18.0, 30.0, 42.0)
+QUICK_ADDED_LUX: tuple[float, ...] = (300.0, 600.0, 900.0)
+QUICK_NOISE_SIGMA: tuple[float, ...] = (1.0, 4.0, 8.0)
+#: The Sec. 4.3 simulations use one pitch.
+SIMULATION_PITCH = 6
+
+
+def ch4_grid(quick: bool = False) -> Any:
+    """The Sec. 4.2 sweep: dims pattern, pitch (one task each) x lux, MIGL, depth."""
+    from hdrfringe.reproduce.engine import SweepGrid, Variable
+
+    return SweepGrid(
+        dims={
+            "pattern": list(PATTERNS),
+            "pitch": list(QUICK_PITCHES if quick else THESIS_PITCHES),
+            "lux": list(THESIS_LUX),
+            "migl": list(QUICK_MIGLS if quick else THESIS_MIGLS),
+            "depth_mm": list(QUICK_DEPTHS_MM if quick else THESIS_DEPTHS_MM),
+        },
+        variables=[
+            Variable("rmse_mm", attrs={"units": "mm", "long_name": "height RMSE"}),
+            Variable("mean_error_mm", attrs={"units": "mm", "long_name": "mean height error"}),
+            Variable(
+                "saturated_fraction",
+                extra_dims={"saturated_shifts": list(SATURATED_SHIFTS)},
+                attrs={"long_name": "fraction of pixels saturated in exactly k shifts"},
+            ),
+        ],
+        block_dims=["lux", "migl", "depth_mm"],
+        attrs={"experiment": "thesis Sec. 4.1-4.2", "quick": int(quick)},
+    )
+
+
+def ch4_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArray]:
+    """Engine task: one pattern and pitch (see :func:`ch4_block`)."""
+    return ch4_block(
+        coords["pattern"],
+        coords["pitch"],
+        coords["lux"],
+        coords["migl"],
+        coords["depth_mm"],
+        Ch4Setup(**params["setup"]),
+    )
+
+
+def ch4_simulation_grid(quick: bool = False) -> Any:
+    """The Sec. 4.3 sweep at pitch 6: dims pattern (one task each) x MIGL, depth, and the added
+    light / noise levels as trailing dims of their variables."""
+    from hdrfringe.reproduce.engine import SweepGrid, Variable
+
+    return SweepGrid(
+        dims={
+            "pattern": list(PATTERNS),
+            "migl": list(QUICK_MIGLS if quick else THESIS_MIGLS),
+            "depth_mm": list(QUICK_DEPTHS_MM if quick else THESIS_DEPTHS_MM),
+        },
+        variables=[
+            Variable(
+                "rmse_light_mm",
+                extra_dims={"added_lux": list(QUICK_ADDED_LUX if quick else THESIS_ADDED_LUX)},
+                attrs={"units": "mm", "long_name": "RMSE with added uniform light (Eq. 4.1)"},
+            ),
+            Variable(
+                "rmse_noise_mm",
+                extra_dims={
+                    "noise_sigma": list(QUICK_NOISE_SIGMA if quick else THESIS_NOISE_SIGMA)
+                },
+                attrs={"units": "mm", "long_name": "RMSE with 600 lx and Gaussian noise"},
+            ),
+        ],
+        block_dims=["migl", "depth_mm"],
+        attrs={
+            "experiment": "thesis Sec. 4.3",
+            "pitch": SIMULATION_PITCH,
+            "quick": int(quick),
+        },
+    )
+
+
+def ch4_simulation_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArray]:
+    """Engine task: the Sec. 4.3 simulations of one pattern (:func:`ch4_modified_block`)."""
+    setup = Ch4Setup(**params["setup"])
+    out = ch4_modified_block(
+        coords["pattern"],
+        SIMULATION_PITCH,
+        params["added_lux"],
+        params["noise_sigma"],
+        coords["migl"],
+        coords["depth_mm"],
+        setup,
+    )
+    # (level, MIGL, depth) -> (MIGL, depth, level): the engine's block dims come first
+    return {k: np.moveaxis(v, 0, -1) for k, v in out.items()}

@@ -1,0 +1,266 @@
+"""Tables and figures of thesis Ch. 4 from the reproduction's Datasets.
+
+Every table is returned as rows of ``(label, thesis, ours, ratio)`` columns so the report can
+print them side by side; every figure is a matplotlib PNG named after the thesis's figure.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Thesis Table 4.1 (simulation, sinusoidal 3-step, pitch 6): lux -> (trade-off MIGL, RMSE at
+#: 255, RMSE at the trade-off), mm.
+THESIS_TABLE_4_1: dict[float, tuple[float, float, float]] = {
+    500.0: (225, 0.56, 0.31),
+    600.0: (215, 0.86, 0.31),
+    700.0: (210, 1.21, 0.32),
+    800.0: (190, 85.05, 0.32),
+    900.0: (190, 373.42, 0.32),
+}
+#: Thesis Table 4.2 (simulation, 600 lx, sinusoidal 3-step, pitch 6): sigma -> (trade-off
+#: MIGL, RMSE at the trade-off).
+THESIS_TABLE_4_2: dict[float, tuple[float, float]] = {
+    1.0: (225, 0.32),
+    2.0: (225, 0.34),
+    3.0: (225, 0.37),
+    4.0: (225, 0.40),
+    5.0: (225, 0.45),
+    6.0: (230, 0.49),
+    7.0: (230, 0.53),
+    8.0: (230, 0.58),
+}
+#: Thesis Table 4.3 (real, pitch 6): pattern -> (trade-off MIGL, RMSE 255 at 0 lx, RMSE 255 at
+#: 600 lx, RMSE at the trade-off with 600 lx).
+THESIS_TABLE_4_3: dict[str, tuple[float, float, float, float]] = {
+    "sinusoidal-3": (225, 0.27, 0.68, 0.33),
+    "triangular-3": (230, 0.33, 0.53, 0.36),
+    "triangular-2": (215, 1.03, 1.35, 1.05),
+}
+
+
+def _ratio(ours: float, thesis: float) -> float:
+    return float(ours) / float(thesis) if thesis else float("nan")
+
+
+def tradeoff(curve: Any) -> tuple[float, float]:
+    """(MIGL, value) of the minimum of a 1-D DataArray over ``migl`` (highest MIGL on ties)."""
+    values = np.asarray(curve.values, dtype=np.float64)
+    migls = np.asarray(curve["migl"].values, dtype=np.float64)
+    best = np.nanmin(values)
+    i = int(np.flatnonzero(values == best)[np.argmax(migls[values == best])])
+    return float(migls[i]), float(values[i])
+
+
+def table_4_3(ds: Any, pitch: int = 6) -> list[dict[str, Any]]:
+    """Per pattern at ``pitch``: trade-off MIGL at 600 lx, RMSE at 255 (0 and 600 lx) and at the
+    trade-off, each beside the thesis."""
+    mean = ds["rmse_mm"].sel(pitch=pitch).mean("depth_mm")
+    rows = []
+    for pattern in ds["pattern"].values:
+        p = str(pattern)
+        m = mean.sel(pattern=p)
+        t_migl, t_rmse = tradeoff(m.sel(lux=600.0))
+        ours = (
+            t_migl,
+            float(m.sel(lux=0.0, migl=255.0)),
+            float(m.sel(lux=600.0, migl=255.0)),
+            t_rmse,
+        )
+        rows.append({"pattern": p, "ours": ours, "thesis": THESIS_TABLE_4_3.get(p)})
+    return rows
+
+
+def table_4_1(sim: Any, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
+    """Per added light: trade-off MIGL, RMSE at 255 and at the trade-off (Eq. 4.1 simulation)."""
+    mean = sim["rmse_light_mm"].sel(pattern=pattern).mean("depth_mm")
+    rows = []
+    for lux in mean["added_lux"].values:
+        curve = mean.sel(added_lux=lux)
+        t_migl, t_rmse = tradeoff(curve)
+        ours = (t_migl, float(curve.sel(migl=255.0)), t_rmse)
+        rows.append({"lux": float(lux), "ours": ours, "thesis": THESIS_TABLE_4_1.get(float(lux))})
+    return rows
+
+
+def table_4_2(sim: Any, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
+    """Per noise sigma at 600 lx: trade-off MIGL and the RMSE there."""
+    mean = sim["rmse_noise_mm"].sel(pattern=pattern).mean("depth_mm")
+    rows = []
+    for sigma in mean["noise_sigma"].values:
+        ours = tradeoff(mean.sel(noise_sigma=sigma))
+        rows.append(
+            {"sigma": float(sigma), "ours": ours, "thesis": THESIS_TABLE_4_2.get(float(sigma))}
+        )
+    return rows
+
+
+def _markdown(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _side_by_side(
+    label: str, ours: Sequence[float], thesis: Sequence[float] | None, formats: Sequence[str]
+) -> list[str]:
+    """One table row: the label, then thesis, ours and ours/thesis for every quantity."""
+    row = [label]
+    for i, fmt in enumerate(formats):
+        th = None if thesis is None else thesis[i]
+        if th is None:
+            row += ["", fmt.format(ours[i]), ""]
+        else:
+            row += [fmt.format(th), fmt.format(ours[i]), f"{_ratio(ours[i], th):.2f}"]
+    return row
+
+
+def _header(first: str, quantities: Sequence[str]) -> list[str]:
+    return [first] + [f"{q} {c}" for q in quantities for c in ("thesis", "ours", "ratio")]
+
+
+def tables_markdown(ds: Any, sim: Any) -> dict[str, str]:
+    """Tables 4.1, 4.2 and 4.3 as Markdown, thesis beside ours with the ratio ours/thesis."""
+    mm = "{:.3f}"
+    level = "{:.0f}"
+    return {
+        "4.1": _markdown(
+            _header(
+                "added light (lx)",
+                ("trade-off MIGL", "RMSE at 255 (mm)", "RMSE at trade-off (mm)"),
+            ),
+            [
+                _side_by_side(f"{r['lux']:g}", r["ours"], r["thesis"], (level, mm, mm))
+                for r in table_4_1(sim)
+            ],
+        ),
+        "4.2": _markdown(
+            _header("sigma (gray level)", ("trade-off MIGL", "RMSE at trade-off (mm)")),
+            [
+                _side_by_side(f"{r['sigma']:g}", r["ours"], r["thesis"], (level, mm))
+                for r in table_4_2(sim)
+            ],
+        ),
+        "4.3": _markdown(
+            _header(
+                "pattern",
+                (
+                    "trade-off MIGL (600 lx)",
+                    "RMSE 255, 0 lx (mm)",
+                    "RMSE 255, 600 lx (mm)",
+                    "RMSE trade-off, 600 lx (mm)",
+                ),
+            ),
+            [
+                _side_by_side(r["pattern"], r["ours"], r["thesis"], (level, mm, mm, mm))
+                for r in table_4_3(ds)
+            ],
+        ),
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# figures
+# --------------------------------------------------------------------------------------------
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def figure_rmse_maps(ds: Any, path: Path, lux: float) -> None:
+    """Fig. 4.2-4.4 (0 lx) and 4.6-4.8 (600 lx): mean RMSE over depth against pitch and MIGL,
+    one contour panel per pattern."""
+    plt = _plt()
+    mean = ds["rmse_mm"].sel(lux=lux).mean("depth_mm")
+    patterns = [str(p) for p in ds["pattern"].values]
+    fig, axes = plt.subplots(1, len(patterns), figsize=(5 * len(patterns), 4), dpi=100)
+    for ax, p in zip(np.atleast_1d(axes), patterns, strict=True):
+        z = mean.sel(pattern=p).transpose("migl", "pitch")
+        cs = ax.contourf(z["pitch"], z["migl"], z.values, levels=12, cmap="viridis")
+        ax.contour(z["pitch"], z["migl"], z.values, levels=12, colors="k", linewidths=0.3)
+        fig.colorbar(cs, ax=ax, label="mean RMSE (mm)")
+        ax.set(xlabel="pitch (px)", ylabel="MIGL", title=f"{p}, {lux:g} lx")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def figure_saturation_by_pitch(ds: Any, path: Path, migl: float = 255.0) -> None:
+    """Fig. 4.5: percentage of pixels saturated in 1, 2, 3 shifts at 600 lx, by pitch."""
+    plt = _plt()
+    sat = ds["saturated_fraction"].sel(lux=600.0, migl=migl).mean("depth_mm") * 100
+    patterns = [str(p) for p in ds["pattern"].values]
+    fig, axes = plt.subplots(1, len(patterns), figsize=(5 * len(patterns), 3.6), dpi=100)
+    pitches = sat["pitch"].values
+    for ax, p in zip(np.atleast_1d(axes), patterns, strict=True):
+        bottom = np.zeros(len(pitches))
+        for k in sat["saturated_shifts"].values:
+            v = sat.sel(pattern=p, saturated_shifts=k).values
+            ax.bar(pitches, v, bottom=bottom, label=f"{k} shift(s)")
+            bottom += v
+        ax.set(xlabel="pitch (px)", ylabel="saturated pixels (%)", title=f"{p}, 600 lx")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def figure_pitch6(ds: Any, path: Path, pitch: int = 6) -> None:
+    """Fig. 4.13: mean RMSE against MIGL at pitch 6, 0 and 600 lx, per pattern."""
+    plt = _plt()
+    mean = ds["rmse_mm"].sel(pitch=pitch).mean("depth_mm")
+    patterns = [str(p) for p in ds["pattern"].values]
+    fig, axes = plt.subplots(1, len(patterns), figsize=(5 * len(patterns), 3.6), dpi=100)
+    for ax, p in zip(np.atleast_1d(axes), patterns, strict=True):
+        for lux in mean["lux"].values:
+            c = mean.sel(pattern=p, lux=lux)
+            ax.plot(c["migl"], c.values, marker=".", label=f"{lux:g} lx")
+        ax.set(xlabel="MIGL", ylabel="mean RMSE (mm)", title=f"{p}, pitch {pitch}")
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def figure_simulation(sim: Any, path: Path, var: str, dim: str, unit: str) -> None:
+    """Fig. 4.15 (added light) / 4.16 (noise): mean RMSE against MIGL per level and pattern."""
+    plt = _plt()
+    mean = sim[var].mean("depth_mm")
+    patterns = [str(p) for p in sim["pattern"].values]
+    fig, axes = plt.subplots(1, len(patterns), figsize=(5 * len(patterns), 3.6), dpi=100)
+    for ax, p in zip(np.atleast_1d(axes), patterns, strict=True):
+        for level in mean[dim].values:
+            c = mean.sel(pattern=p, **{dim: level})
+            ax.plot(c["migl"], c.values, label=f"{level:g} {unit}")
+        ax.set(xlabel="MIGL", ylabel="mean RMSE (mm)", title=p, yscale="log")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def figures(ds: Any, sim: Any, folder: Path) -> list[str]:
+    """Write the Ch. 4 figures into ``folder``; return their file names."""
+    folder.mkdir(parents=True, exist_ok=True)
+    written = {
+        "fig4_2-4_4_rmse_0lx.png": lambda p: figure_rmse_maps(ds, p, 0.0),
+        "fig4_6-4_8_rmse_600lx.png": lambda p: figure_rmse_maps(ds, p, 600.0),
+        "fig4_5_saturation_by_pitch.png": lambda p: figure_saturation_by_pitch(ds, p),
+        "fig4_13_pitch6.png": lambda p: figure_pitch6(ds, p),
+        "fig4_15_added_light.png": lambda p: figure_simulation(
+            sim, p, "rmse_light_mm", "added_lux", "lx"
+        ),
+        "fig4_16_added_noise.png": lambda p: figure_simulation(
+            sim, p, "rmse_noise_mm", "noise_sigma", "DN"
+        ),
+    }
+    for name, draw in written.items():
+        draw(folder / name)
+    return list(written)

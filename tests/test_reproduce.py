@@ -1,0 +1,91 @@
+"""``hdrfringe reproduce ch4 --quick`` end to end: the thesis's Ch. 4 trends on the quick grid,
+resumption, and the report beside the thesis's tables."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from hdrfringe.reproduce.engine import RUNTIME_ATTRS, open_results, sweep_status
+from tests.conftest import run_cli
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("repro") / "ch4"
+    res = run_cli("reproduce", "ch4", "--quick", "-o", str(out), "--workers", "2")
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+def _depth_mean(out: Path) -> xr.DataArray:
+    return open_results(out / "ch4.zarr")["rmse_mm"].mean("depth_mm")
+
+
+def test_600_lux_has_an_interior_minimum_and_0_lux_does_not_rise_above_205(quick_run) -> None:
+    mean = _depth_mean(quick_run)
+    for pattern in mean["pattern"].values:
+        lit = mean.sel(pattern=pattern, lux=600.0, pitch=6)
+        best = float(lit.min())
+        assert float(lit.sel(migl=255.0)) > 1.05 * best, pattern
+        assert float(lit.sel(migl=105.0)) > 1.005 * best, pattern
+        dark = mean.sel(pattern=pattern, lux=0.0).mean("pitch")
+        high = dark.where(dark["migl"] >= 205, drop=True).sortby("migl")
+        # rising MIGL never raises the RMSE beyond 1 % (noise between cells)
+        assert np.all(np.diff(high.values) <= 0.01 * high.values[:-1]), pattern
+
+
+def test_smaller_pitch_saturates_fewer_pixels(quick_run) -> None:
+    """Fig. 4.5: at 600 lx and MIGL 255 the saturated share grows with the pitch."""
+    sat = open_results(quick_run / "ch4.zarr")["saturated_fraction"]
+    total = sat.sel(lux=600.0, migl=255.0).sum("saturated_shifts").mean("depth_mm")
+    for pattern in total["pattern"].values:
+        v = total.sel(pattern=pattern).sortby("pitch").values
+        assert v[0] < v[-1] and np.all(np.diff(v) > -0.01), (pattern, v)
+    assert float(sat.sel(lux=0.0).max()) == 0.0
+
+
+def test_tables_follow_the_thesis_trends(quick_run) -> None:
+    tables = json.loads((quick_run / "tables.json").read_text())["ch4"]
+    t41 = tables["table_4_1"]
+    migls = [r["ours"][0] for r in t41]
+    assert migls == sorted(migls, reverse=True) and migls[0] > migls[-1]  # Table 4.1
+    assert all(r["ours"][2] <= r["ours"][1] for r in t41)  # the trade-off beats MIGL 255
+    rmse = [r["ours"][1] for r in tables["table_4_2"]]
+    assert all(b > a for a, b in itertools.pairwise(rmse))  # Table 4.2
+    for r in tables["table_4_3"]:  # Table 4.3: trade-off under 600 lx within 25 % of 0 lx
+        _, dark, lit255, lit_trade = r["ours"]
+        assert lit_trade < lit255 and lit_trade < 1.25 * dark
+    report = (quick_run / "report.md").read_text()
+    for table in ("Table 4.1", "Table 4.2", "Table 4.3"):
+        assert table in report
+    assert (quick_run / "report.html").is_file()
+    assert len(list((quick_run / "figures").glob("*.png"))) == 6
+
+
+def test_rerun_resumes_and_computes_nothing(quick_run) -> None:
+    before = open_results(quick_run / "ch4.zarr")
+    assert sweep_status(quick_run / "ch4.zarr").complete
+    res = run_cli("reproduce", "ch4", "--quick", "-o", str(quick_run), "--workers", "1")
+    assert res.returncode == 0, res.stderr
+    after = open_results(quick_run / "ch4.zarr")
+    for attr in RUNTIME_ATTRS:
+        before.attrs.pop(attr, None)
+        after.attrs.pop(attr, None)
+    xr.testing.assert_identical(before, after)
+
+
+def test_refuses_a_folder_that_is_not_a_reproduction(tmp_path: Path) -> None:
+    (tmp_path / "notes.txt").write_text("mine")
+    res = run_cli("reproduce", "ch4", "--quick", "-o", str(tmp_path))
+    assert res.returncode == 2
+    assert "not a reproduction folder" in res.stderr and "Traceback" not in res.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+    res = run_cli("reproduce", "ch9", "-o", str(tmp_path / "x"))
+    assert res.returncode == 2 and "unknown chapter" in res.stderr
+    assert not (tmp_path / "x").exists()
