@@ -14,8 +14,12 @@ import xarray as xr
 from hdrfringe.reproduce.engine import RUNTIME_ATTRS, open_results, sweep_status
 from tests.conftest import run_cli
 
+# Tests that start dask clusters run in one xdist worker (make test: --dist loadgroup), so
+# at most one local cluster runs at a time on the two cores.
+pytestmark = pytest.mark.xdist_group("dask-cluster")
 
-@pytest.fixture(scope="module")
+
+@pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave
 def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("repro") / "ch4"
     res = run_cli("reproduce", "ch4", "--quick", "-o", str(out), "--workers", "2")

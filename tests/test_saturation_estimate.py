@@ -420,3 +420,26 @@ def test_dpa_state_round():
     assert not state.pending.any() and state.cdf.at(state.cdf.lowest_migl) == 1.0
     assert state.captures == ((255, "initial"), (240, "threshold"))
     assert state.last_captured_cdf_value == 0.75
+
+
+def test_peak_and_trough_on_a_subset_equals_the_full_fits() -> None:
+    """DPA fits only the pixels still pending: the values equal the whole-image functions."""
+    from hdrfringe.saturation.estimate import (
+        estimate_saturated_lsq,
+        peak_and_trough,
+        sinusoid_trough,
+    )
+
+    rng = np.random.default_rng(3)
+    phi = rng.uniform(0, 2 * np.pi, (30, 40))
+    amp = rng.uniform(20, 150, phi.shape)
+    stack = np.stack([120 + amp * np.cos(phi + 2 * np.pi * k / 5) for k in range(5)])
+    imgs = np.clip(np.rint(stack), 0, 255).astype(np.uint8)
+    pixels = rng.random(phi.shape) < 0.5
+    peak, trough = peak_and_trough(imgs, 8, pixels)
+    full_peak, full_trough = estimate_saturated_lsq(imgs, 8), sinusoid_trough(imgs, 8)
+    assert np.array_equal(peak[pixels], full_peak[pixels], equal_nan=True)
+    assert np.array_equal(trough[pixels], full_trough[pixels], equal_nan=True)
+    assert np.isnan(peak[~pixels]).all() and np.isnan(trough[~pixels]).all()
+    assert np.isfinite(peak).sum() > 100  # some pixels are estimable, some saturated
+    assert (imgs == 255).any()

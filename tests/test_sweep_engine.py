@@ -38,6 +38,10 @@ from hdrfringe.reproduce.engine import (
     sweep_status,
 )
 
+# Tests that start dask clusters run in one xdist worker (make test: --dist loadgroup), so
+# at most one local cluster runs at a time on the two cores.
+pytestmark = pytest.mark.xdist_group("dask-cluster")
+
 MARKERS_ENV = "HDRFRINGE_SWEEP_TEST_DIR"
 SLEEP_ENV = "HDRFRINGE_SWEEP_TEST_SLEEP"
 ROOT = Path(__file__).resolve().parents[1]

@@ -22,11 +22,7 @@ from hdrfringe.saturation.dpa_rules import (
     next_capture_migl,
     update_dpa_state,
 )
-from hdrfringe.saturation.estimate import (
-    CorrectionPolynomial,
-    estimate_saturated_lsq,
-    sinusoid_trough,
-)
+from hdrfringe.saturation.estimate import CorrectionPolynomial, peak_and_trough
 from hdrfringe.saturation.strategies import (
     StrategyResult,
     default_min_migl,
@@ -88,15 +84,15 @@ def dpa(
             {"threshold": threshold, "rules": ["initial"]},
         )
     saturated_at_top = remaining.copy()
-    peak = corr.apply(estimate_saturated_lsq(imgs, bits))
+    peak, trough = peak_and_trough(imgs, bits, remaining)
     state = initial_dpa_state(
-        peak,
+        corr.apply(peak),
         n_sat,
         spec.migl,
         spec.imin,
         bit_depth=bits,
         model=corr.truth,
-        offset=sinusoid_trough(imgs, bits),
+        offset=trough,
         lowest_migl=floor,
     )
     initial_cdf = state.cdf
@@ -110,17 +106,18 @@ def dpa(
         imgs = rig.capture(spec.with_migl(float(nxt)).frames())
         n_sat = saturation_count(imgs, bits)
         n_new = merge_into_composite(composite, index, remaining, imgs, n_sat == 0, nxt)
-        peak = corr.apply(estimate_saturated_lsq(imgs, bits))
+        # the CDF updates only read the pixels still pending: fit those alone
+        peak, trough = peak_and_trough(imgs, bits, state.pending & (n_sat > 0))
         state = update_dpa_state(
             state,
-            peak,
+            corr.apply(peak),
             n_sat,
             nxt,
             spec.imin,
             rule=rule,
             bit_depth=bits,
             model=corr.truth,
-            offset=sinusoid_trough(imgs, bits),
+            offset=trough,
         )
         migls.append(float(nxt))
         newly.append(n_new)

@@ -242,6 +242,28 @@ def estimate_saturated_lsq(
     return (peak, est) if return_stack else peak
 
 
+def peak_and_trough(
+    images: ArrayLike, bit_depth: int, pixels: ArrayLike | None = None
+) -> tuple[F64, F64]:
+    """:func:`estimate_saturated_lsq`'s peak and :func:`sinusoid_trough` from one fit, only at
+    ``pixels`` (bool (H, W); default all), NaN elsewhere: what the DPA loop needs per capture
+    for the pixels still pending, without fitting the whole image twice."""
+    stack = _stack(images, bit_depth, "saturated estimate")
+    shape = stack.shape[1:]
+    peak = np.full(shape, np.nan)
+    trough = np.full(shape, np.nan)
+    sel = np.ones(shape, dtype=bool) if pixels is None else np.asarray(pixels, dtype=bool)
+    if sel.shape != shape:
+        raise InputError(f"pixel mask shape {sel.shape} does not match the images' {shape}")
+    if not sel.any():
+        return peak, trough
+    coef, est, _ = _estimate_lsq(stack[:, sel][:, :, None], bit_depth)
+    a, c, s = coef[..., 0]
+    peak[sel] = est[..., 0].max(axis=0)
+    trough[sel] = a - np.hypot(c, s)
+    return peak, trough
+
+
 def fit_unsaturated_sinusoid(images: ArrayLike, bit_depth: int) -> tuple[F64, F64, F64]:
     """Sinusoid fitted to each pixel's unsaturated samples: mean ``a``, amplitude ``b``, phase.
 
