@@ -4,7 +4,7 @@ VENV := .venv
 STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
-.PHONY: install demo test lint bench clean
+.PHONY: install demo test lint bench bench-sweep clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -26,6 +26,9 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_phase.py
+
+bench-sweep: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_sweep.py
 
 clean:
 	rm -rf $(VENV) $(OUT)

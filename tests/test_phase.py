@@ -14,6 +14,7 @@ from hdrfringe.phase import (
     decode_set,
     saturation_count,
     sinusoidal_phase,
+    sinusoidal_phase_only,
     triangular_2step,
     triangular_3step,
 )
@@ -158,3 +159,17 @@ def test_triangular_3step_order_statistics_match_sorting() -> None:
     expected[expected >= 2 * np.pi] = 0.0
     assert np.array_equal(phase, expected, equal_nan=True)
     assert np.array_equal(modulation, 0.75 * (srt[2] - srt[0]))
+
+
+@pytest.mark.parametrize("n", [3, 4, 8])
+def test_sinusoidal_phase_only_agrees_with_the_full_decoder(n: int) -> None:
+    rng = np.random.default_rng(n)
+    x = np.linspace(0, 60, 640)
+    imgs = np.stack([120 + 90 * np.cos(2 * np.pi * x / 7 + 2 * np.pi * k / n) for k in range(n)])
+    imgs = np.clip(np.rint(imgs[:, None, :] + rng.normal(0, 2, (n, 30, 640))), 0, 255)
+    imgs = imgs.astype(np.uint8)
+    fast = sinusoidal_phase_only(imgs)
+    full = sinusoidal_phase(imgs)[0]
+    assert fast.dtype == np.float32 and fast.min() >= 0 and fast.max() < 2 * np.pi
+    diff = np.angle(np.exp(1j * (fast.astype(np.float64) - full)))
+    assert np.abs(diff).max() < 1e-5

@@ -27,6 +27,7 @@ plate had none either; unwrapping is validated on its own, docs/unwrapping.md).
 from __future__ import annotations
 
 import hashlib
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -39,7 +40,7 @@ from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import (
     saturation_count,
-    sinusoidal_phase,
+    sinusoidal_phase_only,
     triangular_2step,
     triangular_3step,
 )
@@ -134,7 +135,7 @@ def pattern_spec(pattern: str, pitch: float, imin: float = THESIS_IMIN) -> Fring
 def wrapped_phase(images: NDArray, spec: FringeSpec) -> NDArray[np.float64]:
     """Wrapped phase in [0, 2 pi) of one set, every pixel kept (saturated ones too)."""
     if spec.pattern == "sinusoidal":
-        return sinusoidal_phase(images)[0]
+        return sinusoidal_phase_only(images)
     if spec.steps == 3:
         return triangular_3step(images)[0]
     return triangular_2step(images, orientation=spec.orientation)[0]
@@ -177,9 +178,10 @@ class PlateSweep:
         if self.period != spec.pitch_px:
             raise InputError(f"the sweep needs a whole-pixel pitch, got {spec.pitch_px:g}")
         self.rig = setup.rig(self.depth_mm)
-        basis = self.rig.periodic_basis(self.period, spec.orientation)
+        # float32: the signal feeds float32 noise anyway; halves the memory traffic
+        basis = self.rig.periodic_basis(self.period, spec.orientation).astype(np.float32)
         self._basis = basis.reshape(self.period, -1)
-        self._ambient0 = self.rig.ambient_signal()
+        self._ambient0 = self.rig.ambient_signal().astype(np.float32)
         self._ambient: dict[float, NDArray] = {0.0: self._ambient0}
         truth = self.rig.truth()
         self.expected_phase = TWO_PI * truth.u / spec.pitch_px
@@ -188,15 +190,22 @@ class PlateSweep:
         """Ambient signal (DN) with ``lux`` of added light (0 lx: the rig's own)."""
         if lux not in self._ambient:
             lit = self.rig.replace(lighting=Lighting(ambient_lux=float(lux)))
-            self._ambient[lux] = lit.ambient_signal()
+            self._ambient[lux] = lit.ambient_signal().astype(np.float32)
         return self._ambient[lux]
 
-    def signal(self, migl: float, lux: float = 0.0) -> NDArray[np.float64]:
-        """Noise-free signal of the set at ``migl`` with ``lux`` of added light, (N, H, W)."""
+    def signal(self, migl: float, lux: float = 0.0) -> NDArray[np.float32]:
+        """Noise-free signal (float32) of the set at ``migl`` with ``lux`` of added light,
+        (N, H, W)."""
         frames = self.spec.with_migl(float(migl)).frames()
         light = np.stack([self.rig.periodic_light(f, self.period) for f in frames])
         shape = (len(frames), *self.rig.image_shape)
-        return (light @ self._basis).reshape(shape) + self.ambient(lux)
+        out = (light.astype(np.float32) @ self._basis).reshape(shape)
+        out += self.ambient(lux)
+        return out
+
+
+_CALIBRATIONS: dict[str, tuple[Calibration, NDArray[np.float64]]] = {}
+_CALIBRATIONS_KEPT = 4
 
 
 def calibrate_pattern(
@@ -207,7 +216,22 @@ def calibrate_pattern(
 ) -> tuple[Calibration, NDArray[np.float64]]:
     """The Sec. 4.1 calibration of one pattern and pitch: reference plane and the plate
     positions at MIGL 255, 0 lx, linear model (Eq. 2.15), filtered. Returns the calibration
-    and the reference plane's absolute phase."""
+    and the reference plane's absolute phase.
+
+    Deterministic, so a worker keeps its last few calibrations: blocks that share a pattern
+    and pitch (the Sec. 4.3 blocks, one per depth) calibrate once per worker process.
+    """
+    key = json.dumps([pattern, float(pitch), setup.to_dict(), [float(d) for d in depths_mm]])
+    if key not in _CALIBRATIONS:
+        if len(_CALIBRATIONS) >= _CALIBRATIONS_KEPT:
+            del _CALIBRATIONS[next(iter(_CALIBRATIONS))]
+        _CALIBRATIONS[key] = _calibrate_pattern(pattern, pitch, setup, depths_mm)
+    return _CALIBRATIONS[key]
+
+
+def _calibrate_pattern(
+    pattern: str, pitch: float, setup: Ch4Setup, depths_mm: Sequence[float]
+) -> tuple[Calibration, NDArray[np.float64]]:
     spec = pattern_spec(pattern, pitch, setup.imin)
     cam = setup.camera_model()
     phases = []
@@ -291,12 +315,16 @@ def ch4_modified_block(
     setup: Ch4Setup,
     *,
     noise_lux: float = 600.0,
+    calibration_depths_mm: Sequence[float] | None = None,
 ) -> dict[str, NDArray[np.float64]]:
     """The Sec. 4.3 simulations for one pattern (pitch 6 in the thesis).
 
     The 0 lx captures of :func:`ch4_block` (same noise) are modified by Eq. 4.1: uniform added
     light ``added_lux`` (0.17 gray level per lux, Fig. 4.14c), and separately ``noise_lux`` of
     added light plus zero-mean Gaussian noise of each ``noise_sigma``.
+
+    ``calibration_depths_mm`` (default ``depths_mm``): the plate positions of the calibration,
+    when the block measures only some of them.
 
     Returns
     -------
@@ -305,7 +333,8 @@ def ch4_modified_block(
     """
     spec = pattern_spec(pattern, pitch, setup.imin)
     cam = setup.camera_model()
-    cal, _ = calibrate_pattern(pattern, pitch, setup, depths_mm)
+    cal_depths = depths_mm if calibration_depths_mm is None else calibration_depths_mm
+    cal, _ = calibrate_pattern(pattern, pitch, setup, cal_depths)
     mask = measurement_mask((setup.height, setup.width), setup.border_px)
     light = np.full((len(added_lux), len(migls), len(depths_mm)), np.nan)
     noise = np.full((len(noise_sigma), len(migls), len(depths_mm)), np.nan)
@@ -383,8 +412,9 @@ def ch4_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArra
 
 
 def ch4_simulation_grid(quick: bool = False) -> Any:
-    """The Sec. 4.3 sweep at pitch 6: dims pattern (one task each) x MIGL, depth, and the added
-    light / noise levels as trailing dims of their variables."""
+    """The Sec. 4.3 sweep at pitch 6: dims pattern and depth (one task each: enough tasks to
+    keep every worker busy) x MIGL, and the added light / noise levels as trailing dims of
+    their variables."""
     from hdrfringe.reproduce.engine import SweepGrid, Variable
 
     return SweepGrid(
@@ -407,7 +437,7 @@ def ch4_simulation_grid(quick: bool = False) -> Any:
                 attrs={"units": "mm", "long_name": "RMSE with 600 lx and Gaussian noise"},
             ),
         ],
-        block_dims=["migl", "depth_mm"],
+        block_dims=["migl"],
         attrs={
             "experiment": "thesis Sec. 4.3",
             "pitch": SIMULATION_PITCH,
@@ -425,8 +455,9 @@ def ch4_simulation_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[
         params["added_lux"],
         params["noise_sigma"],
         coords["migl"],
-        coords["depth_mm"],
+        (coords["depth_mm"],),
         setup,
+        calibration_depths_mm=params["calibration_depths_mm"],
     )
-    # (level, MIGL, depth) -> (MIGL, depth, level): the engine's block dims come first
-    return {k: np.moveaxis(v, 0, -1) for k, v in out.items()}
+    # (level, MIGL, one depth) -> (MIGL, level): the engine's block dims come first
+    return {k: np.moveaxis(v[..., 0], 0, -1) for k, v in out.items()}

@@ -51,6 +51,7 @@ def _ch4(
             "setup": setup.to_dict(),
             "added_lux": list(levels["rmse_light_mm"]["added_lux"]),
             "noise_sigma": list(levels["rmse_noise_mm"]["noise_sigma"]),
+            "calibration_depths_mm": list(sim_grid.dims["depth_mm"]),
         },
     )
     timings["ch4_simulation_s"] = time.perf_counter() - t0
