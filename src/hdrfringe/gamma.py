@@ -130,9 +130,7 @@ class GammaFit:
         x = np.clip(np.asarray(sent, dtype=np.float64) / _full(self.projector_bit_depth), 0, 1)
         return self.offset + self.scale * x**self.gamma
 
-    def predict_precompensated(
-        self, levels: ArrayLike, gamma_hat: float | None = None
-    ) -> F64:
+    def predict_precompensated(self, levels: ArrayLike, gamma_hat: float | None = None) -> F64:
         """Captured DN for linear levels sent with pre-compensation ``gamma_hat`` (Eq. 2.17).
 
         ``gamma_hat`` defaults to the fitted gamma. The rounding of the sent gray to the
@@ -551,11 +549,18 @@ class _Group:
 
     def take(self, keep: NDArray[np.bool_] | NDArray[np.intp]) -> _Group:
         return _Group(
-            y=self.y[:, keep], valid=self.valid[:, keep], delta=self.delta, lo=self.lo,
-            amp=self.amp, inv_gh=self.inv_gh, pattern=self.pattern, set_of=self.set_of,
+            y=self.y[:, keep],
+            valid=self.valid[:, keep],
+            delta=self.delta,
+            lo=self.lo,
+            amp=self.amp,
+            inv_gh=self.inv_gh,
+            pattern=self.pattern,
+            set_of=self.set_of,
             offset_per_set=self.offset_per_set,
             black=None if self.black is None else self.black[keep],
-            span=None if self.span is None else self.span[keep], w=self.w[:, keep],
+            span=None if self.span is None else self.span[keep],
+            w=self.w[:, keep],
         )
 
     def pattern_value(self, phi: F64) -> tuple[F64, F64]:
