@@ -58,6 +58,7 @@ def _ch4(
     figs = ch4_report.figures(ds, sim, out / "figures")
     return {
         "tables": ch4_report.tables_markdown(ds, sim),
+        "differences": ch4_report.differences_markdown(ds, sim),
         "figures": figs,
         "data": {
             "table_4_1": ch4_report.table_4_1(sim),
@@ -149,6 +150,10 @@ def _write_report(out: Path, results: dict[str, Any], quick: bool) -> None:
             "### Table 4.3: pitch 6, MIGL 255 and the trade-off",
             "",
             ch4["tables"]["4.3"],
+            "",
+            "### Differences from the thesis",
+            "",
+            ch4["differences"],
             "",
             "### Figures",
             "",
