@@ -236,7 +236,12 @@ def test_ctrl_c_midway_keeps_the_finished_blocks_and_a_rerun_completes_them(
     store = tmp_path / "i.zarr"
     path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
     env = {**os.environ, SLEEP_ENV: "0.4", "PYTHONPATH": path}
-    code = f"from tests.test_sweep_engine import drive; drive({str(store)!r})"
+    # A shell that starts jobs in the background (CI may) hands them SIGINT ignored, and Python
+    # then never raises KeyboardInterrupt: restore the default, as a terminal's process has it.
+    code = (
+        "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+        f"from tests.test_sweep_engine import drive; drive({str(store)!r})"
+    )
     proc = subprocess.Popen(
         [sys.executable, "-c", code], cwd=ROOT, env=env, stderr=subprocess.PIPE, text=True
     )
