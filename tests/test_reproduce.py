@@ -93,3 +93,10 @@ def test_refuses_a_folder_that_is_not_a_reproduction(tmp_path: Path) -> None:
     res = run_cli("reproduce", "ch9", "-o", str(tmp_path / "x"))
     assert res.returncode == 2 and "unknown chapter" in res.stderr
     assert not (tmp_path / "x").exists()
+
+
+def test_refuses_to_mix_the_quick_and_the_full_grid(quick_run) -> None:
+    marker = (quick_run / "reproduce.json").read_text()
+    res = run_cli("reproduce", "ch4", "-o", str(quick_run))
+    assert res.returncode == 2 and "holds a reproduction on --quick" in res.stderr
+    assert (quick_run / "reproduce.json").read_text() == marker

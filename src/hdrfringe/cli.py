@@ -618,7 +618,6 @@ def simulate(
             extra: dict[str, Any] = {"simulator": rig.to_manifest()}
             if modified:
                 extra["modification"] = modified
-            geom = rig.geometry
             target = tmp if series is None else tmp / f"{scene}_{(d or 0.0):06.2f}mm"
             write_capture_folder(
                 target,
@@ -628,10 +627,7 @@ def simulate(
                 projector=rig.projector,
                 scene=rig.scene.to_manifest(),
                 extra=extra,
-                camera_extra={
-                    "focal_px": geom.camera_focal_px(rig.image_shape[1]),
-                    "standoff_mm": geom.standoff_mm,
-                },
+                camera_extra=rig.camera_manifest(),
                 maps={"truth_height_mm": rig.truth().height_mm},
                 force=True,
             )

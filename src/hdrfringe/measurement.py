@@ -348,17 +348,13 @@ def simulated_composite(
 ) -> tuple[CaptureFolder, list[Any]]:
     """:func:`composite_captures` on the live virtual rig, carrying its scene, camera geometry
     and ground truth (as :meth:`SimulatedRig.capture_folder` does for plain captures)."""
-    g = rig.geometry
     return composite_captures(
         rig,
         specs,
         method,
         centerline=centerline,
         scene=rig.scene.to_manifest(),
-        camera_extra={
-            "focal_px": g.camera_focal_px(rig.image_shape[1]),
-            "standoff_mm": g.standoff_mm,
-        },
+        camera_extra=rig.camera_manifest(),
         truth_height_mm=rig.truth().height_mm,
         label=rig.scene.name,
         **params,

@@ -544,6 +544,14 @@ class SweepStatus:
         return f"{self.done} of {self.total} blocks done, {len(self.missing)} missing"
 
 
+def _stored_sweep(path: Path) -> tuple[dict[str, Any], SweepGrid]:
+    """The identity attributes and the grid of the sweep store at ``path``, or a clear error."""
+    if not _is_store(path):
+        raise InputError(f"{path}: no sweep store there (run the sweep first)")
+    attrs = _read_identity(path)
+    return attrs, SweepGrid.from_json(json.loads(attrs["sweep_grid"]))
+
+
 def sweep_status(store_path: str | os.PathLike[str]) -> SweepStatus:
     """Count the done and missing blocks of a sweep store (cheap: reads the flags only).
 
@@ -555,10 +563,7 @@ def sweep_status(store_path: str | os.PathLike[str]) -> SweepStatus:
     import zarr
 
     path = Path(store_path)
-    if not _is_store(path):
-        raise InputError(f"{path}: no sweep store there (run the sweep first)")
-    attrs = _read_identity(path)
-    grid = SweepGrid.from_json(json.loads(attrs["sweep_grid"]))
+    attrs, grid = _stored_sweep(path)
     flags = _done_flags(zarr.open_group(str(path), mode="r"))
     missing = tuple(grid.split_coords(i) for i in grid.block_indices() if not flags[i])
     return SweepStatus(
@@ -584,10 +589,7 @@ def open_results(store_path: str | os.PathLike[str]) -> xr.Dataset:
     import xarray as xr
 
     path = Path(store_path)
-    if not _is_store(path):
-        raise InputError(f"{path}: no sweep store there (run the sweep first)")
-    attrs = _read_identity(path)
-    grid = SweepGrid.from_json(json.loads(attrs["sweep_grid"]))
+    _, grid = _stored_sweep(path)
     ds = xr.open_dataset(path, engine="zarr", chunks=None, consolidated=False)
     strings = {
         name: np.asarray(ds[name].values.tolist(), dtype=str)

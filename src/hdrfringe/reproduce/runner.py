@@ -21,14 +21,26 @@ MARKER = "reproduce.json"
 CHAPTERS: tuple[str, ...] = ("ch4",)
 
 
-def _check_folder(out: Path, force: bool) -> None:
+def _check_folder(out: Path, force: bool, quick: bool) -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"{out} is a file; give a folder for the reproduction (-o)")
-    if out.is_dir() and any(out.iterdir()) and not (out / MARKER).is_file() and not force:
+    marker = out / MARKER
+    if out.is_dir() and any(out.iterdir()) and not marker.is_file() and not force:
         raise OutputExistsError(
             f"{out} exists and is not a reproduction folder (no {MARKER}); choose another "
             "folder or pass --force to write into it"
         )
+    if marker.is_file():
+        try:
+            before = json.loads(marker.read_text(encoding="utf-8")).get("quick")
+        except (OSError, ValueError, AttributeError):
+            before = None
+        if before is not None and bool(before) != quick:
+            grids = {True: "--quick", False: "the full grid"}
+            raise InputError(
+                f"{out} holds a reproduction on {grids[bool(before)]}; rerun with the same "
+                "grid to resume it, or use another folder (-o)"
+            )
 
 
 def _ch4(
@@ -98,7 +110,7 @@ def reproduce(
         raise InputError(
             f"unknown chapter(s) {unknown or chapters}; use {', '.join(CHAPTERS)} or all"
         )
-    _check_folder(out, force)
+    _check_folder(out, force, quick)
     out.mkdir(parents=True, exist_ok=True)
     (out / MARKER).write_text(
         json.dumps({"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}) + "\n",

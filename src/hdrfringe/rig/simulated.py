@@ -776,20 +776,22 @@ class SimulatedRig:
         from hdrfringe.io.captures import CaptureFolder
 
         frames = list(frames)
-        g = self.geometry
         return CaptureFolder.from_arrays(
             frames,
             self.capture(frames),
             self.camera_bit_depth,
             projector=self.projector,
             scene=self.scene.to_manifest(),
-            camera_extra={
-                "focal_px": g.camera_focal_px(self.image_shape[1]),
-                "standoff_mm": g.standoff_mm,
-            },
+            camera_extra=self.camera_manifest(),
             truth_height_mm=self.truth().height_mm,
             label=self.scene.name,
         )
+
+    def camera_manifest(self) -> dict[str, float]:
+        """The camera geometry a capture manifest records (``focal_px``, ``standoff_mm``), from
+        which measurements place their points in millimetres."""
+        g = self.geometry
+        return {"focal_px": g.camera_focal_px(self.image_shape[1]), "standoff_mm": g.standoff_mm}
 
     def truth(self) -> GroundTruth:
         """Ground truth per camera pixel, evaluated at the pixel centres (cached, read-only)."""
