@@ -63,8 +63,23 @@ def capture_folder(tmp_path: Path) -> Path:
     return path
 
 
-def run_cli(*args: str) -> subprocess.CompletedProcess:
+def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     """Run the installed command line in a subprocess (as a user would)."""
     return subprocess.run(
-        [sys.executable, "-m", "hdrfringe.cli", *args], capture_output=True, text=True, timeout=120
+        [sys.executable, "-m", "hdrfringe.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
     )
+
+
+@pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave
+def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``hdrfringe reproduce all --quick`` (Ch. 4, 5 and 6 on the reduced grid), run once.
+
+    Tests using it start a dask cluster: mark them ``xdist_group("dask-cluster")``.
+    """
+    out = tmp_path_factory.mktemp("repro") / "all"
+    res = run_cli("reproduce", "all", "--quick", "-o", str(out), "--workers", "2", timeout=600)
+    assert res.returncode == 0, res.stderr
+    return out

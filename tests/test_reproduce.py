@@ -1,5 +1,5 @@
-"""``hdrfringe reproduce ch4 --quick`` end to end: the thesis's Ch. 4 trends on the quick grid,
-resumption, and the report beside the thesis's tables."""
+"""``hdrfringe reproduce all --quick`` end to end: the thesis's Ch. 4 trends on the quick grid,
+resumption, and the report beside the thesis's tables (Ch. 5 and 6: test_reproduce_adaptive)."""
 
 from __future__ import annotations
 
@@ -17,14 +17,6 @@ from tests.conftest import run_cli
 # Tests that start dask clusters run in one xdist worker (make test: --dist loadgroup), so
 # at most one local cluster runs at a time on the two cores.
 pytestmark = pytest.mark.xdist_group("dask-cluster")
-
-
-@pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave
-def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("repro") / "ch4"
-    res = run_cli("reproduce", "ch4", "--quick", "-o", str(out), "--workers", "2")
-    assert res.returncode == 0, res.stderr
-    return out
 
 
 def _depth_mean(out: Path) -> xr.DataArray:
@@ -69,19 +61,24 @@ def test_tables_follow_the_thesis_trends(quick_run) -> None:
     for table in ("Table 4.1", "Table 4.2", "Table 4.3"):
         assert table in report
     assert (quick_run / "report.html").is_file()
-    assert len(list((quick_run / "figures").glob("*.png"))) == 6
+    assert {"fig4_5_saturation_by_pitch.png", "fig4_13_pitch6.png"} <= {
+        p.name for p in (quick_run / "figures").glob("fig4_*.png")
+    }
+    assert len(list((quick_run / "figures").glob("fig4_*.png"))) == 6
 
 
 def test_rerun_resumes_and_computes_nothing(quick_run) -> None:
-    before = open_results(quick_run / "ch4.zarr")
-    assert sweep_status(quick_run / "ch4.zarr").complete
-    res = run_cli("reproduce", "ch4", "--quick", "-o", str(quick_run), "--workers", "1")
+    stores = ("ch4.zarr", "ch4_simulation.zarr", "ch5_plate.zarr", "checkerboard.zarr")
+    before = {s: open_results(quick_run / s) for s in stores}
+    assert all(sweep_status(quick_run / s).complete for s in stores)
+    res = run_cli("reproduce", "all", "--quick", "-o", str(quick_run), "--workers", "1")
     assert res.returncode == 0, res.stderr
-    after = open_results(quick_run / "ch4.zarr")
-    for attr in RUNTIME_ATTRS:
-        before.attrs.pop(attr, None)
-        after.attrs.pop(attr, None)
-    xr.testing.assert_identical(before, after)
+    for s in stores:
+        after = open_results(quick_run / s)
+        for attr in RUNTIME_ATTRS:
+            before[s].attrs.pop(attr, None)
+            after.attrs.pop(attr, None)
+        xr.testing.assert_identical(before[s], after)
 
 
 def test_refuses_a_folder_that_is_not_a_reproduction(tmp_path: Path) -> None:

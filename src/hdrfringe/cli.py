@@ -734,7 +734,9 @@ def demo(
 @app.command()
 @handle_errors
 def reproduce(
-    chapter: Annotated[str, typer.Argument(help="ch4 or all (ch5, ch6: later).")],
+    chapter: Annotated[
+        str, typer.Argument(help="ch4, ch5, ch6, several joined by commas (ch5,ch6), or all.")
+    ],
     output: Annotated[Path, typer.Option("-o", "--output", help="Reproduction folder.")] = Path(
         "hdrfringe-reproduction"
     ),
@@ -756,7 +758,7 @@ def reproduce(
     from hdrfringe.reproduce.runner import CHAPTERS
     from hdrfringe.reproduce.runner import reproduce as run
 
-    chapters = list(CHAPTERS) if chapter == "all" else [chapter]
+    chapters = list(CHAPTERS) if chapter == "all" else [c.strip() for c in chapter.split(",")]
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
     res = run(
@@ -769,7 +771,7 @@ def reproduce(
         force=force,
     )
     for name, secs in res["timings_s"].items():
-        console.print(f"{name}: {secs:.1f}")
+        console.print(f"{name}: {secs:.1f} s")
     console.print(f"report: {output / 'report.md'} and report.html")
 
 

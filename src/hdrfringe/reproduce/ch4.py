@@ -45,7 +45,7 @@ from hdrfringe.phase import (
     triangular_3step,
 )
 from hdrfringe.rig.modify import modify_captures
-from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, white_plate
+from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, Scene, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
 
 TWO_PI = 2.0 * np.pi
@@ -56,6 +56,9 @@ PATTERNS: dict[str, tuple[str, int]] = {
     "triangular-3": ("triangular", 3),
     "triangular-2": ("triangular", 2),
 }
+#: Every pattern a reproduction measures: Ch. 4's and the sinusoidal 4-step of Sec. 5.2.2 and
+#: Ch. 6 (DPA needs the fourth shift to estimate a saturated one).
+ALL_PATTERNS: dict[str, tuple[str, int]] = {**PATTERNS, "sinusoidal-4": ("sinusoidal", 4)}
 #: Sec. 4.1 grid.
 THESIS_PITCHES: tuple[int, ...] = tuple(range(4, 21))
 THESIS_MIGLS: tuple[float, ...] = tuple(float(m) for m in range(255, 104, -5))
@@ -102,10 +105,10 @@ class Ch4Setup:
     def camera_model(self) -> CameraModel:
         return CameraModel(width=self.width, height=self.height, **self.camera)
 
-    def rig(self, depth_mm: float) -> SimulatedRig:
-        """The virtual rig looking at the white plate at ``depth_mm``, 0 lx."""
+    def rig(self, depth_mm: float, scene: Scene | None = None) -> SimulatedRig:
+        """The virtual rig looking at ``scene`` (default the white plate at ``depth_mm``), 0 lx."""
         return SimulatedRig(
-            white_plate(float(depth_mm)),
+            white_plate(float(depth_mm)) if scene is None else scene,
             camera=self.camera_model(),
             geometry=RigGeometry(camera_field_mm=self.camera_field_mm),
             seed=self.seed,
@@ -125,10 +128,10 @@ class Ch4Setup:
 
 
 def pattern_spec(pattern: str, pitch: float, imin: float = THESIS_IMIN) -> FringeSpec:
-    """The vertical fringe set of a Ch. 4 pattern name at MIGL 255."""
-    if pattern not in PATTERNS:
-        raise InputError(f"unknown Ch. 4 pattern {pattern!r}; use one of {', '.join(PATTERNS)}")
-    kind, steps = PATTERNS[pattern]
+    """The vertical fringe set of a pattern name (:data:`ALL_PATTERNS`) at MIGL 255."""
+    if pattern not in ALL_PATTERNS:
+        raise InputError(f"unknown pattern {pattern!r}; use one of {', '.join(ALL_PATTERNS)}")
+    kind, steps = ALL_PATTERNS[pattern]
     return FringeSpec(kind, steps, float(pitch), "vertical", imin, 255.0)
 
 
@@ -169,15 +172,22 @@ def add_sensor_noise(
 
 
 class PlateSweep:
-    """Noise-free signals of one white-plate position for any MIGL and ambient light."""
+    """Noise-free signals of one plate position (or any flat-lit scene) for any MIGL and
+    ambient light.
 
-    def __init__(self, depth_mm: float, setup: Ch4Setup, spec: FringeSpec) -> None:
+    ``scene`` replaces the white plate at ``depth_mm`` (e.g. the checkerboard of Sec. 5.2.2);
+    ``truth_height_mm`` is its true height map.
+    """
+
+    def __init__(
+        self, depth_mm: float, setup: Ch4Setup, spec: FringeSpec, scene: Scene | None = None
+    ) -> None:
         self.depth_mm = float(depth_mm)
         self.spec = spec
         self.period = round(spec.pitch_px)
         if self.period != spec.pitch_px:
             raise InputError(f"the sweep needs a whole-pixel pitch, got {spec.pitch_px:g}")
-        self.rig = setup.rig(self.depth_mm)
+        self.rig = setup.rig(self.depth_mm, scene)
         # float32: the signal feeds float32 noise anyway; halves the memory traffic
         basis = self.rig.periodic_basis(self.period, spec.orientation).astype(np.float32)
         self._basis = basis.reshape(self.period, -1)
@@ -185,6 +195,7 @@ class PlateSweep:
         self._ambient: dict[float, NDArray] = {0.0: self._ambient0}
         truth = self.rig.truth()
         self.expected_phase = TWO_PI * truth.u / spec.pitch_px
+        self.truth_height_mm = truth.height_mm
 
     def ambient(self, lux: float) -> NDArray:
         """Ambient signal (DN) with ``lux`` of added light (0 lx: the rig's own)."""
@@ -196,7 +207,11 @@ class PlateSweep:
     def signal(self, migl: float, lux: float = 0.0) -> NDArray[np.float32]:
         """Noise-free signal (float32) of the set at ``migl`` with ``lux`` of added light,
         (N, H, W)."""
-        frames = self.spec.with_migl(float(migl)).frames()
+        return self.frames_signal(self.spec.with_migl(float(migl)).frames(), lux)
+
+    def frames_signal(self, frames: Sequence[Any], lux: float = 0.0) -> NDArray[np.float32]:
+        """Noise-free signal (float32) of any frames periodic with the pitch (fringe frames of
+        this set at any MIGL, uniform frames), (n, H, W)."""
         light = np.stack([self.rig.periodic_light(f, self.period) for f in frames])
         shape = (len(frames), *self.rig.image_shape)
         out = (light.astype(np.float32) @ self._basis).reshape(shape)
@@ -205,6 +220,8 @@ class PlateSweep:
 
 
 _CALIBRATIONS: dict[str, tuple[Calibration, NDArray[np.float64]]] = {}
+#: Reflectivity of the white calibration plate.
+WHITE_PLATE = 1.0
 _CALIBRATIONS_KEPT = 4
 
 
@@ -213,31 +230,45 @@ def calibrate_pattern(
     pitch: float,
     setup: Ch4Setup,
     depths_mm: Sequence[float] = THESIS_DEPTHS_MM,
+    plate_reflectivity: float = WHITE_PLATE,
 ) -> tuple[Calibration, NDArray[np.float64]]:
     """The Sec. 4.1 calibration of one pattern and pitch: reference plane and the plate
     positions at MIGL 255, 0 lx, linear model (Eq. 2.15), filtered. Returns the calibration
     and the reference plane's absolute phase.
 
+    ``plate_reflectivity``: the calibration plate (white, or the black plate of Sec. 5.2.2
+    with the camera opened for it through ``setup.camera``).
+
     Deterministic, so a worker keeps its last few calibrations: blocks that share a pattern
     and pitch (the Sec. 4.3 blocks, one per depth) calibrate once per worker process.
     """
-    key = json.dumps([pattern, float(pitch), setup.to_dict(), [float(d) for d in depths_mm]])
+    key = json.dumps(
+        [pattern, float(pitch), setup.to_dict(), [float(d) for d in depths_mm], plate_reflectivity]
+    )
     if key not in _CALIBRATIONS:
         if len(_CALIBRATIONS) >= _CALIBRATIONS_KEPT:
             del _CALIBRATIONS[next(iter(_CALIBRATIONS))]
-        _CALIBRATIONS[key] = _calibrate_pattern(pattern, pitch, setup, depths_mm)
+        _CALIBRATIONS[key] = _calibrate_pattern(
+            pattern, pitch, setup, depths_mm, plate_reflectivity
+        )
     return _CALIBRATIONS[key]
 
 
 def _calibrate_pattern(
-    pattern: str, pitch: float, setup: Ch4Setup, depths_mm: Sequence[float]
+    pattern: str,
+    pitch: float,
+    setup: Ch4Setup,
+    depths_mm: Sequence[float],
+    reflectivity: float,
 ) -> tuple[Calibration, NDArray[np.float64]]:
     spec = pattern_spec(pattern, pitch, setup.imin)
     cam = setup.camera_model()
     phases = []
+    # the white plate keeps its historical noise key (stores made before stay valid)
+    key = ("cal",) if reflectivity == WHITE_PLATE else ("cal", reflectivity)
     for d in (0.0, *depths_mm):
-        plate = PlateSweep(d, setup, spec)
-        imgs = add_sensor_noise(plate.signal(255.0), cam, cell_rng(setup, "cal", pattern, pitch, d))
+        plate = PlateSweep(d, setup, spec, scene=white_plate(d, reflectivity))
+        imgs = add_sensor_noise(plate.signal(255.0), cam, cell_rng(setup, *key, pattern, pitch, d))
         phases.append(orders_from_expected(wrapped_phase(imgs, spec), plate.expected_phase))
     cal = calibrate(
         phases[0],

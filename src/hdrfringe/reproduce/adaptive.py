@@ -1,0 +1,422 @@
+"""The pixel-wise adaptive experiments of thesis Ch. 5 (LPA) and Ch. 6 (DPA) on the virtual rig.
+
+Three experiments, each a resumable sweep (:mod:`hdrfringe.reproduce.engine`) over pattern,
+pitch and depth:
+
+* ``ch5_plate`` (Sec. 5.2.1): the white plate under 600 lx of added light, the three Ch. 4
+  patterns, pitches 4..20 px, 25 depths 2..50 mm; LPA with S = 5 and, on the same captures,
+  every uniform MIGL from 255 down to 190 by 5 (the 255 MIGL and trade-off columns of Table 5.1
+  and Fig. 5.5); per MIGL of the LPA index image, the fraction of pixels and their error (Fig.
+  5.6). White-plate calibration of Ch. 4.
+* ``checkerboard`` (Sec. 5.2.2 and 6.2): the checkerboard on its board, 0 lx, the aperture
+  opened for the black squares, sinusoidal 4-step, pitches 5..20, 10 depths 10..28 mm; LPA with
+  S = 1, 2, 3, 5, 10, 15, 20, 30, 45, DPA with thresholds 10 % and 20 %, and every uniform MIGL
+  from 255 down to 60 (the trade-off search that gave the thesis 96). Calibrated on the black
+  plate with the same aperture, as the thesis did.
+* ``ch6_plate`` (Sec. 6.2): the white plate under 600 lx, sinusoidal 4-step, the checkerboard's
+  pitches and depths; LPA with S = 1, 10, 15, 20, 30 and DPA 10 % and 20 %; white-plate
+  calibration.
+
+As in the thesis, every method of one pitch and depth is computed from **one** MIGL sweep:
+the set at each MIGL is captured (rendered and given sensor noise) once, the first time a
+method asks for it, and every strategy then reads the same images (:class:`SweepRig`). The
+strategies are the product's own (:func:`hdrfringe.saturation.strategies.lpa`,
+:func:`hdrfringe.saturation.dpa.dpa`); DPA uses the error-correction polynomial trained once
+per reproduction as in Sec. 6.1.2 (:func:`train_correction`). Fringe orders come from the
+known geometry, as in Ch. 4, so the errors are the phase errors the chapters study.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdrfringe.calibration import measurement_mask
+from hdrfringe.errors import InputError
+from hdrfringe.patterns import FringeFrame, FringeSpec
+from hdrfringe.phase import saturation_count
+from hdrfringe.reproduce.ch4 import (
+    THESIS_DEPTHS_MM,
+    WHITE_PLATE,
+    Ch4Setup,
+    PlateSweep,
+    add_sensor_noise,
+    calibrate_pattern,
+    cell_rng,
+    orders_from_expected,
+    pattern_spec,
+    wrapped_phase,
+)
+from hdrfringe.rig.base import ProjectorInfo
+from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
+from hdrfringe.saturation.estimate import CorrectionPolynomial
+
+#: Added light of the white-plate experiments (Sec. 5.2.1, 6.2).
+PLATE_LUX = 600.0
+#: The MIGL grid of the CDFs kept for Fig. 6.3 (every integer from the top to imin + 20).
+CDF_MIGLS: tuple[float, ...] = tuple(float(m) for m in range(255, 59, -1))
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One pixel-wise adaptive experiment: scene, lighting, calibration plate and methods.
+
+    Attributes
+    ----------
+    name : str
+        Store name (``<name>.zarr``).
+    scene : {"white_plate", "checkerboard"}
+    lux : float
+        Added ambient light.
+    black_aperture : bool
+        Camera opened for the black plate (Sec. 5.2.2), which is also the calibration plate.
+    patterns, pitches, depths_mm : tuple
+        The swept grid.
+    methods : tuple of str
+        ``"lpa-S"`` (step S gray levels) or ``"dpa-P"`` (threshold P %).
+    uniform_migls : tuple of float
+        MIGLs measured as uniform sets on the same captures (trade-off search).
+    level_method : str or None
+        The method whose index image is broken down by MIGL (Fig. 5.6).
+    level_migls : tuple of float
+        The MIGLs of that breakdown.
+    """
+
+    name: str
+    scene: str
+    lux: float
+    black_aperture: bool
+    patterns: tuple[str, ...]
+    pitches: tuple[int, ...]
+    depths_mm: tuple[float, ...]
+    methods: tuple[str, ...]
+    uniform_migls: tuple[float, ...]
+    level_method: str | None = None
+    level_migls: tuple[float, ...] = ()
+
+    def setup(self, base: Ch4Setup) -> Ch4Setup:
+        """``base`` with the experiment's aperture."""
+        if not self.black_aperture:
+            return base
+        cam = base.camera_model().with_aperture_for(BLACK_PLATE_REFLECTIVITY)
+        return Ch4Setup(
+            **{**base.to_dict(), "camera": {**base.camera, "white_level": cam.white_level}}
+        )
+
+    @property
+    def calibration_plate(self) -> float:
+        return BLACK_PLATE_REFLECTIVITY if self.black_aperture else WHITE_PLATE
+
+    def scene_at(self, depth_mm: float) -> Any:
+        if self.scene == "checkerboard":
+            return checkerboard(depth_mm)
+        return white_plate(depth_mm)
+
+
+def _migls(top: int, bottom: int, step: int) -> tuple[float, ...]:
+    return tuple(float(m) for m in range(top, bottom - 1, -step))
+
+
+CHECKERBOARD_DEPTHS_MM: tuple[float, ...] = tuple(float(d) for d in range(10, 29, 2))
+LPA_STEPS_CH5: tuple[int, ...] = (1, 2, 3, 5, 10, 15, 20, 30, 45)
+
+
+def experiments(quick: bool = False) -> dict[str, Experiment]:
+    """The three experiments, on the thesis's grid or the reduced ``quick`` one."""
+    board_pitches = (8, 14, 20) if quick else tuple(range(5, 21))
+    board_depths = (10.0, 18.0, 26.0) if quick else CHECKERBOARD_DEPTHS_MM
+    plate_levels = _migls(255, 60, 5)
+    return {
+        "ch5_plate": Experiment(
+            "ch5_plate",
+            "white_plate",
+            PLATE_LUX,
+            False,
+            ("sinusoidal-3", "triangular-3", "triangular-2"),
+            (6, 12, 20) if quick else tuple(range(4, 21)),
+            (6.0, 18.0, 30.0, 42.0) if quick else THESIS_DEPTHS_MM,
+            ("lpa-5",),
+            _migls(255, 190, 5),
+            "lpa-5",
+            plate_levels,
+        ),
+        "checkerboard": Experiment(
+            "checkerboard",
+            "checkerboard",
+            0.0,
+            True,
+            ("sinusoidal-4",),
+            board_pitches,
+            board_depths,
+            (*(f"lpa-{s}" for s in LPA_STEPS_CH5), "dpa-10", "dpa-20"),
+            _migls(255, 60, 5 if quick else 1),
+        ),
+        "ch6_plate": Experiment(
+            "ch6_plate",
+            "white_plate",
+            PLATE_LUX,
+            False,
+            ("sinusoidal-4",),
+            board_pitches,
+            board_depths,
+            ("lpa-1", "lpa-10", "lpa-15", "lpa-20", "lpa-30", "dpa-10", "dpa-20"),
+            _migls(255, 190, 5),
+        ),
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# one MIGL sweep, captured lazily, shared by every method
+# --------------------------------------------------------------------------------------------
+class SweepRig:
+    """The rig protocol over one scene position: each MIGL's set is captured once.
+
+    ``capture(frames)`` accepts the fringe frames of ``sweep.spec`` at any MIGL; the noisy
+    images are drawn from a generator seeded by ``key`` and the MIGL, and kept, so every
+    strategy that asks for a MIGL gets the same images (the thesis processed one captured sweep
+    with every method). ``sets_rendered`` counts distinct sets.
+    """
+
+    def __init__(self, sweep: PlateSweep, setup: Ch4Setup, lux: float, key: tuple[Any, ...]):
+        self.sweep = sweep
+        self.setup = setup
+        self.lux = float(lux)
+        self.key = key
+        self.camera = setup.camera_model()
+        self.camera_bit_depth = self.camera.bit_depth
+        self.image_shape = sweep.rig.image_shape
+        self.projector: ProjectorInfo = sweep.rig.projector
+        self._sets: dict[float, NDArray] = {}
+
+    @property
+    def sets_rendered(self) -> int:
+        return len(self._sets)
+
+    def capture(self, frames: Sequence[Any]) -> NDArray:
+        frames = list(frames)
+        if not frames or not all(isinstance(f, FringeFrame) for f in frames):
+            raise InputError("the sweep rig captures fringe sets only")
+        migl = float(frames[0].spec.migl)
+        if frames != self.sweep.spec.with_migl(migl).frames():
+            raise InputError(
+                f"the sweep rig holds {self.sweep.spec.label()} only; asked for "
+                f"{frames[0].spec.label()}"
+            )
+        if migl not in self._sets:
+            signal = self.sweep.signal(migl, self.lux)
+            rng = cell_rng(self.setup, *self.key, migl)
+            self._sets[migl] = add_sensor_noise(signal, self.camera, rng)
+        return self._sets[migl]
+
+
+def _run_method(
+    method: str, rig: SweepRig, spec: FringeSpec, correction: CorrectionPolynomial
+) -> Any:
+    from hdrfringe.saturation.dpa import dpa
+    from hdrfringe.saturation.strategies import lpa
+
+    kind, _, value = method.partition("-")
+    if kind == "lpa":
+        return lpa(rig, spec, step=float(value))
+    if kind == "dpa":
+        return dpa(rig, spec, threshold=float(value) / 100.0, correction=correction)
+    raise InputError(f"unknown adaptive method {method!r}; use lpa-S or dpa-P")
+
+
+def _errors(
+    images: NDArray, spec: FringeSpec, sweep: PlateSweep, cal: Any, mask: NDArray[np.bool_]
+) -> NDArray[np.float64]:
+    phase = orders_from_expected(wrapped_phase(images, spec), sweep.expected_phase)
+    return (cal.height(phase) - sweep.truth_height_mm)[mask]
+
+
+def _stats(err: NDArray[np.float64]) -> tuple[float, float, float]:
+    """(RMSE, mean error, standard deviation) of an error sample; NaN when empty."""
+    if err.size == 0:
+        return np.nan, np.nan, np.nan
+    return float(np.sqrt(np.mean(err * err))), float(np.mean(err)), float(np.std(err))
+
+
+def _cdf_values(cdf: Any) -> NDArray[np.float64]:
+    values = cdf.values
+    return np.array([values[int(m)] if int(m) < values.size else 1.0 for m in CDF_MIGLS])
+
+
+def adaptive_cell(
+    exp: Experiment,
+    pattern: str,
+    pitch: int,
+    depth_mm: float,
+    base: Ch4Setup,
+    correction: CorrectionPolynomial,
+) -> dict[str, NDArray[np.float64]]:
+    """Every method of ``exp`` on one MIGL sweep of one pattern, pitch and depth.
+
+    Returns
+    -------
+    dict
+        Per method (in ``exp.methods`` order): ``rmse_mm``, ``mean_error_mm``, ``std_mm``,
+        ``sets`` (sets captured), ``never_unsaturated`` (fraction of measured pixels);
+        per uniform MIGL: ``uniform_rmse_mm``, ``uniform_mean_error_mm``, ``uniform_std_mm``,
+        ``saturated_fraction``; per level MIGL of ``exp.level_method``'s index image:
+        ``level_fraction``, ``level_rmse_mm``, ``level_mean_error_mm``; per method and CDF MIGL
+        (DPA only, NaN otherwise): ``cdf_initial`` and ``cdf_final``; per CDF MIGL, the actual
+        CDF from LPA's step-1 index (``cdf_actual``, NaN without an ``lpa-1`` method).
+    """
+    setup = exp.setup(base)
+    spec = pattern_spec(pattern, pitch, setup.imin)
+    cal, _ = calibrate_pattern(
+        pattern, pitch, setup, THESIS_DEPTHS_MM, plate_reflectivity=exp.calibration_plate
+    )
+    mask = measurement_mask((setup.height, setup.width), setup.border_px)
+    sweep = PlateSweep(depth_mm, setup, spec, scene=exp.scene_at(depth_mm))
+    rig = SweepRig(sweep, setup, exp.lux, (exp.name, pattern, pitch, depth_mm))
+    nm, nu, nl, nc = len(exp.methods), len(exp.uniform_migls), len(exp.level_migls), len(CDF_MIGLS)
+    out = {
+        k: np.full(nm, np.nan)
+        for k in ("rmse_mm", "mean_error_mm", "std_mm", "sets", "never_unsaturated")
+    }
+    out |= {
+        k: np.full(nu, np.nan)
+        for k in (
+            "uniform_rmse_mm",
+            "uniform_mean_error_mm",
+            "uniform_std_mm",
+            "saturated_fraction",
+        )
+    }
+    out |= {
+        k: np.full(max(nl, 1), np.nan)
+        for k in ("level_fraction", "level_rmse_mm", "level_mean_error_mm")
+    }
+    out |= {"cdf_initial": np.full((nm, nc), np.nan), "cdf_final": np.full((nm, nc), np.nan)}
+    out["cdf_actual"] = np.full(nc, np.nan)
+    top = rig.capture(spec.frames())
+    saturated_at_top = saturation_count(top, setup.camera_model().bit_depth) > 0
+    for i, method in enumerate(exp.methods):
+        res = _run_method(method, rig, spec, correction)
+        err = _errors(res.images, spec, sweep, cal, mask)
+        out["rmse_mm"][i], out["mean_error_mm"][i], out["std_mm"][i] = _stats(err)
+        out["sets"][i] = res.sets_captured
+        out["never_unsaturated"][i] = float(res.never_unsaturated[mask].mean())
+        if "initial_cdf" in res.details:
+            out["cdf_initial"][i] = _cdf_values(res.details["initial_cdf"])
+            out["cdf_final"][i] = _cdf_values(res.details["final_cdf"])
+        if method == "lpa-1" and saturated_at_top.any():
+            from hdrfringe.saturation.dpa_rules import index_image_cdf
+
+            idx = res.migl_index.astype(np.float64)
+            idx[res.never_unsaturated] = -1.0
+            actual = index_image_cdf(idx, saturated_at_top, spec.migl, CDF_MIGLS[-1])
+            out["cdf_actual"] = _cdf_values(actual)
+        if method == exp.level_method:
+            index = res.migl_index[mask]
+            for j, m in enumerate(exp.level_migls):
+                at = index == m
+                out["level_fraction"][j] = float(at.mean())
+                rmse, bias, _ = _stats(err[at])
+                out["level_rmse_mm"][j], out["level_mean_error_mm"][j] = rmse, bias
+    for j, m in enumerate(exp.uniform_migls):
+        imgs = rig.capture(spec.with_migl(m).frames())
+        err = _errors(imgs, spec, sweep, cal, mask)
+        stats = _stats(err)
+        out["uniform_rmse_mm"][j], out["uniform_mean_error_mm"][j], out["uniform_std_mm"][j] = stats
+        out["saturated_fraction"][j] = float(
+            (saturation_count(imgs, rig.camera_bit_depth) > 0)[mask].mean()
+        )
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# the DPA correction polynomial of a reproduction (Sec. 6.1.2)
+# --------------------------------------------------------------------------------------------
+#: Sec. 6.1.2 training: white plate, 600 lx, sinusoidal 4-step, pitch 20 (one position, at the
+#: middle of the calibration depths).
+TRAINING_PITCH = 20
+TRAINING_DEPTH_MM = 26.0
+
+
+def train_correction(base: Ch4Setup, order: int = 2) -> CorrectionPolynomial:
+    """The DPA error-correction polynomial of thesis Sec. 6.1.2 for this rig.
+
+    LPA with a step of 1 on the white plate under 600 lx at a pitch of 20 px (the live virtual
+    rig, the same camera as the sweeps): every saturated pixel's true peak against its Eq. 6.2
+    estimate (:meth:`~hdrfringe.saturation.estimate.TrainingData.train`). Deterministic.
+    """
+    from hdrfringe.rig.simulated import Lighting
+    from hdrfringe.saturation.estimate import training_data_from_rig
+
+    spec = pattern_spec("sinusoidal-4", TRAINING_PITCH, base.imin)
+    rig = base.rig(TRAINING_DEPTH_MM).replace(lighting=Lighting(ambient_lux=PLATE_LUX))
+    data = training_data_from_rig(rig, spec)
+    return data.train(
+        order, metadata={"source": "hdrfringe reproduce: white plate, 600 lx, pitch 20"}
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# sweep grids and tasks
+# --------------------------------------------------------------------------------------------
+def adaptive_grid(exp: Experiment, quick: bool = False) -> Any:
+    """The sweep of ``exp``: one task per pattern, pitch and depth; methods, uniform MIGLs,
+    level MIGLs and CDF MIGLs are trailing dims of the variables."""
+    from hdrfringe.reproduce.engine import SweepGrid, Variable
+
+    methods = {"strategy": list(exp.methods)}
+    uniform = {"uniform_migl": list(exp.uniform_migls)}
+    levels = {"index_migl": list(exp.level_migls or (0.0,))}
+    cdf = {"cdf_migl": list(CDF_MIGLS)}
+
+    def var(name: str, dims: dict[str, list[Any]], units: str, long_name: str) -> Any:
+        attrs = {"long_name": long_name} | ({"units": units} if units else {})
+        return Variable(name, extra_dims=dims, attrs=attrs)
+
+    return SweepGrid(
+        dims={
+            "pattern": list(exp.patterns),
+            "pitch": list(exp.pitches),
+            "depth_mm": list(exp.depths_mm),
+        },
+        variables=[
+            var("rmse_mm", methods, "mm", "height RMSE"),
+            var("mean_error_mm", methods, "mm", "mean height error (bias)"),
+            var("std_mm", methods, "mm", "standard deviation of the height error"),
+            var("sets", methods, "", "fringe sets captured"),
+            var("never_unsaturated", methods, "", "fraction of pixels saturated in every set"),
+            var("uniform_rmse_mm", uniform, "mm", "height RMSE of the uniform set"),
+            var("uniform_mean_error_mm", uniform, "mm", "mean error of the uniform set"),
+            var("uniform_std_mm", uniform, "mm", "error standard deviation, uniform set"),
+            var("saturated_fraction", uniform, "", "fraction of pixels saturated (any shift)"),
+            var("level_fraction", levels, "", "fraction of pixels with this index MIGL"),
+            var("level_rmse_mm", levels, "mm", "RMSE of the pixels with this index MIGL"),
+            var("level_mean_error_mm", levels, "mm", "mean error of those pixels"),
+            var("cdf_initial", methods | cdf, "", "DPA CDF estimated from the first set"),
+            var("cdf_final", methods | cdf, "", "DPA CDF after the last update"),
+            var("cdf_actual", cdf, "", "actual CDF (LPA step-1 index image)"),
+        ],
+        attrs={
+            "experiment": exp.name,
+            "scene": exp.scene,
+            "lux": exp.lux,
+            "black_aperture": int(exp.black_aperture),
+            "level_method": exp.level_method or "",
+            "quick": int(quick),
+        },
+    )
+
+
+def adaptive_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArray]:
+    """Engine task: one pattern, pitch and depth of an experiment (:func:`adaptive_cell`)."""
+    exp = experiments(bool(params["quick"]))[params["experiment"]]
+    return adaptive_cell(
+        exp,
+        coords["pattern"],
+        int(coords["pitch"]),
+        float(coords["depth_mm"]),
+        Ch4Setup(**params["setup"]),
+        CorrectionPolynomial.from_dict(params["correction"]),
+    )
