@@ -64,7 +64,7 @@ def test_tables_follow_the_thesis_trends(quick_run) -> None:
     assert {"fig4_5_saturation_by_pitch.png", "fig4_13_pitch6.png"} <= {
         p.name for p in (quick_run / "figures").glob("fig4_*.png")
     }
-    assert len(list((quick_run / "figures").glob("fig4_*.png"))) == 6
+    assert len(list((quick_run / "figures").glob("fig4_*.png"))) == 11
 
 
 def test_rerun_resumes_and_computes_nothing(quick_run) -> None:

@@ -284,13 +284,74 @@ def figure_simulation(sim: Any, path: Path, var: str, dim: str, unit: str) -> No
     plt.close(fig)
 
 
+def figure_depth_maps(ds: Any, path: Path, pattern: str, migls: Sequence[float]) -> None:
+    """Fig. 4.9-4.11: RMSE over pitch and depth at 600 lx for one pattern, one contour panel per
+    MIGL (the thesis: 255 and 225)."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, len(migls), figsize=(5 * len(migls), 4), dpi=100)
+    for ax, m in zip(np.atleast_1d(axes), migls, strict=True):
+        z = ds["rmse_mm"].sel(pattern=pattern, lux=600.0, migl=m).transpose("depth_mm", "pitch")
+        cs = ax.contourf(z["pitch"], z["depth_mm"], z.values, levels=12, cmap="viridis")
+        ax.contour(z["pitch"], z["depth_mm"], z.values, levels=12, colors="k", linewidths=0.3)
+        fig.colorbar(cs, ax=ax, label="RMSE (mm)")
+        ax.set(xlabel="pitch (px)", ylabel="depth (mm)", title=f"{pattern}, 600 lx, MIGL {m:g}")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def figure_patterns_by_pitch(ds: Any, path: Path, migls: Sequence[float]) -> None:
+    """Fig. 4.12: mean RMSE over depth against pitch at 600 lx, one panel per MIGL, one line
+    per pattern."""
+    plt = _plt()
+    mean = ds["rmse_mm"].sel(lux=600.0).mean("depth_mm")
+    fig, axes = plt.subplots(1, len(migls), figsize=(5.5 * len(migls), 3.8), dpi=100)
+    for ax, m in zip(np.atleast_1d(axes), migls, strict=True):
+        for p in ds["pattern"].values:
+            c = mean.sel(pattern=p, migl=m)
+            ax.plot(c["pitch"], c.values, marker="o", ms=3, label=str(p))
+        ax.set(xlabel="pitch (px)", ylabel="mean RMSE (mm)", title=f"600 lx, MIGL {m:g}")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def figure_measured_vs_simulated(ds: Any, sim: Any, path: Path, sigma: float = 1.0) -> None:
+    """Fig. 4.17: RMSE against depth at pitch 6 and MIGL 255: measured with 0 and 600 lx, and
+    the Eq. 4.1 simulation of 600 lx with noise sigma 1, per pattern."""
+    plt = _plt()
+    pitch = int(sim.attrs.get("pitch", 6))
+    patterns = [str(p) for p in ds["pattern"].values]
+    fig, axes = plt.subplots(1, len(patterns), figsize=(5 * len(patterns), 3.6), dpi=100)
+    for ax, p in zip(np.atleast_1d(axes), patterns, strict=True):
+        meas = ds["rmse_mm"].sel(pattern=p, pitch=pitch, migl=255.0)
+        ax.plot(meas["depth_mm"], meas.sel(lux=0.0), "k-", marker=".", label="0 lx")
+        ax.plot(meas["depth_mm"], meas.sel(lux=600.0), "k--", marker=".", label="600 lx")
+        s = sim["rmse_noise_mm"].sel(pattern=p, migl=255.0, noise_sigma=sigma)
+        ax.plot(s["depth_mm"], s, "C3:", marker=".", label=f"simulated 600 lx, sigma {sigma:g}")
+        ax.set(xlabel="depth (mm)", ylabel="RMSE (mm)", title=f"{p}, pitch {pitch}, MIGL 255")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def figures(ds: Any, sim: Any, folder: Path) -> list[str]:
     """Write the Ch. 4 figures into ``folder``; return their file names."""
     folder.mkdir(parents=True, exist_ok=True)
+    migls = [m for m in (255.0, 225.0) if m in ds["migl"].values]
     written = {
         "fig4_2-4_4_rmse_0lx.png": lambda p: figure_rmse_maps(ds, p, 0.0),
         "fig4_6-4_8_rmse_600lx.png": lambda p: figure_rmse_maps(ds, p, 600.0),
         "fig4_5_saturation_by_pitch.png": lambda p: figure_saturation_by_pitch(ds, p),
+        **{
+            f"fig4_{9 + i}_{pattern}_depth_maps.png": (
+                lambda p, pattern=pattern: figure_depth_maps(ds, p, pattern, migls)
+            )
+            for i, pattern in enumerate(str(x) for x in ds["pattern"].values)
+        },
+        "fig4_12_patterns_by_pitch.png": lambda p: figure_patterns_by_pitch(ds, p, migls),
         "fig4_13_pitch6.png": lambda p: figure_pitch6(ds, p),
         "fig4_15_added_light.png": lambda p: figure_simulation(
             sim, p, "rmse_light_mm", "added_lux", "lx"
@@ -298,6 +359,7 @@ def figures(ds: Any, sim: Any, folder: Path) -> list[str]:
         "fig4_16_added_noise.png": lambda p: figure_simulation(
             sim, p, "rmse_noise_mm", "noise_sigma", "DN"
         ),
+        "fig4_17_measured_vs_simulated.png": lambda p: figure_measured_vs_simulated(ds, sim, p),
     }
     for name, draw in written.items():
         draw(folder / name)
