@@ -63,14 +63,18 @@ def test_table_5_2_lpa_beats_the_uniform_tradeoff_on_the_checkerboard(quick_run)
 
 def test_large_lpa_steps_lose_snr_at_large_pitch(quick_run) -> None:
     """Fig. 5.7: at pitches of 14 px and more, S = 30 and 45 give a higher error std and RMSE
-    than S <= 15 (each pixel drops further below its own unsaturation MIGL)."""
+    than S <= 5 (each pixel lands further below its own unsaturation MIGL).
+
+    S = 10..45 coincide on this board: the white squares unsaturate between MIGL 85 and 80,
+    and every one of these steps reaches 75 from 255 (255 - 75 = 180 is a multiple of each),
+    so they compose the white squares from the same set (docs/reproduction.md)."""
     board = open_results(quick_run / "checkerboard.zarr").isel(pattern=0).mean("depth_mm")
-    small = [f"lpa-{s}" for s in (1, 2, 3, 5, 10, 15)]
+    small = [f"lpa-{s}" for s in (1, 2, 3, 5)]
     for pitch in board["pitch"].values[board["pitch"].values >= 14]:
         for var in ("std_mm", "rmse_mm"):
             c = board[var].sel(pitch=pitch)
             large = c.sel(strategy=["lpa-30", "lpa-45"]).values
-            assert large.min() > c.sel(strategy=small).values.mean(), (pitch, var)
+            assert large.min() > c.sel(strategy=small).values.max(), (pitch, var)
 
 
 def test_dpa_is_within_5_percent_of_lpa_15(quick_run) -> None:

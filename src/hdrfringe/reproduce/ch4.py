@@ -15,8 +15,9 @@ measurement, so that the work shared by them is done once:
   (:meth:`~hdrfringe.rig.simulated.SimulatedRig.periodic_basis`) turns every frame of the MIGL
   sweep into one weighted sum (exact: the rig is linear from projected light to signal), and
   the lux levels differ only by the ambient signal;
-* the noise (read and shot noise, as :meth:`SimulatedRig.capture`) is drawn in float32 from a
-  generator seeded by the cell's coordinates, so any cell can be recomputed alone and gives the
+* the noise (read and shot noise, as :meth:`SimulatedRig.capture`) is computed in float32 from
+  standard normal draws seeded by the pattern, pitch and depth (:func:`depth_normals`: common
+  random numbers across MIGL and light), so any cell can be recomputed alone and gives the
   same numbers.
 
 Fringe orders come from the known plate position (the micrometer reading): the phase error
@@ -44,7 +45,7 @@ from hdrfringe.phase import (
     triangular_2step,
     triangular_3step,
 )
-from hdrfringe.rig.modify import modify_captures
+from hdrfringe.rig.modify import lux_to_dn
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, Scene, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
 
@@ -157,18 +158,77 @@ def cell_rng(setup: Ch4Setup, *key: Any) -> np.random.Generator:
 
 
 def add_sensor_noise(
-    signal: NDArray, camera: CameraModel, rng: np.random.Generator
+    signal: NDArray,
+    camera: CameraModel,
+    rng: np.random.Generator | None = None,
+    *,
+    normals: NDArray[np.float32] | None = None,
 ) -> NDArray[np.uint16]:
     """Read and shot noise, rounding and clipping to ``[0, 2^B - 1]`` (as the rig's capture),
-    computed in float32."""
+    computed in float32.
+
+    The standard normal draws come from ``rng``, or are given as ``normals`` (same shape as
+    ``signal``): common random numbers, so that captures of one scene under different
+    lighting differ by the lighting alone.
+    """
     s = signal.astype(np.float32, copy=False)
+    if normals is None:
+        if rng is None:
+            raise InputError("add_sensor_noise needs a generator or the normal draws")
+        normals = rng.standard_normal(s.shape, dtype=np.float32)
     read = np.float32(camera.read_noise_dn)
     shot = np.float32(camera.full_scale / camera.full_well_e if camera.full_well_e else 0.0)
-    std = np.sqrt(read * read + shot * np.maximum(s, 0.0))
-    noisy = s + std * rng.standard_normal(s.shape, dtype=np.float32)
+    noisy = np.maximum(s, 0.0)
+    noisy *= shot
+    noisy += read * read
+    np.sqrt(noisy, out=noisy)
+    noisy *= normals
+    noisy += s
     np.rint(noisy, out=noisy)
     np.clip(noisy, 0, camera.full_scale, out=noisy)
     return noisy.astype(camera.dtype)
+
+
+def depth_normals(
+    setup: Ch4Setup,
+    spec: FringeSpec,
+    pattern: str,
+    depth_mm: float,
+    shape: tuple[int, int],
+    *tag: str,
+) -> NDArray[np.float32]:
+    """Standard normal draws (float32, one per image pixel of the set) shared by every cell of
+    one pattern, pitch and plate position: **common random numbers**.
+
+    Every MIGL and lighting of a position is measured with the same draws, each scaled by
+    that cell's own noise standard deviation (:func:`add_sensor_noise`). A cell is still an
+    exact sample of the camera model; only the cells of one position are correlated, so
+    comparisons over MIGL and light are paired (the trade-off search compares exactly those)
+    while the means over the 25 positions average independent draws. Drawing once per position
+    instead of once per cell removes what was the sweep's largest cost.
+    """
+    rng = cell_rng(setup, *tag, pattern, float(spec.pitch_px), float(depth_mm))
+    return rng.standard_normal((spec.steps, *shape), dtype=np.float32)
+
+
+def modify_fast(
+    images: NDArray,
+    bit_depth: int,
+    add_lux: float,
+    noise: NDArray[np.float32] | None = None,
+) -> NDArray:
+    """Eq. 4.1 in float32 for sweeps: ``clip(rint(I + D + noise), 0, 2^B - 1)`` with ``D`` the
+    gray level of ``add_lux`` (:func:`hdrfringe.rig.modify.lux_to_dn`) and ``noise`` already
+    scaled to its sigma. :func:`~hdrfringe.rig.modify.modify_captures` is the checked, general
+    version (float64); without noise the two agree exactly when ``D`` is a whole number of DN
+    (every multiple of 100 lx at 8 bits)."""
+    out = images.astype(np.float32)
+    out += np.float32(lux_to_dn(add_lux, bit_depth))
+    if noise is not None:
+        out += noise
+    np.rint(out, out=out)
+    np.clip(out, 0, 2**bit_depth - 1, out=out)
+    return out.astype(images.dtype)
 
 
 class PlateSweep:
@@ -325,11 +385,12 @@ def ch4_block(
     sat = np.full((*shape, len(SATURATED_SHIFTS)), np.nan)
     for k, d in enumerate(depths_mm):
         plate = PlateSweep(d, setup, spec)
+        normals = depth_normals(setup, spec, pattern, d, plate.rig.image_shape)
         for j, m in enumerate(migls):
             base = plate.signal(m)
             for i, lux in enumerate(luxes):
                 signal = base + (plate.ambient(lux) - plate.ambient(0.0)) if lux else base
-                imgs = add_sensor_noise(signal, cam, cell_rng(setup, pattern, pitch, lux, m, d))
+                imgs = add_sensor_noise(signal, cam, normals=normals)
                 rmse[i, j, k], bias[i, j, k], sat[i, j, k] = _metrics(
                     imgs, spec, plate, cal, mask, cam.bit_depth
                 )
@@ -352,7 +413,10 @@ def ch4_modified_block(
 
     The 0 lx captures of :func:`ch4_block` (same noise) are modified by Eq. 4.1: uniform added
     light ``added_lux`` (0.17 gray level per lux, Fig. 4.14c), and separately ``noise_lux`` of
-    added light plus zero-mean Gaussian noise of each ``noise_sigma``.
+    added light plus zero-mean Gaussian noise of each ``noise_sigma``. The Gaussian noise is
+    one standard normal draw per plate position scaled to each sigma (common random numbers,
+    :func:`depth_normals`: the levels differ by sigma alone, so the RMSE-against-sigma curves
+    of Table 4.2 are not blurred by independent draws).
 
     ``calibration_depths_mm`` (default ``depths_mm``): the plate positions of the calibration,
     when the block measures only some of them.
@@ -371,21 +435,16 @@ def ch4_modified_block(
     noise = np.full((len(noise_sigma), len(migls), len(depths_mm)), np.nan)
     for k, d in enumerate(depths_mm):
         plate = PlateSweep(d, setup, spec)
+        normals = depth_normals(setup, spec, pattern, d, plate.rig.image_shape)
+        # Eq. 4.1 noise: one draw per depth, scaled to each sigma (common random numbers)
+        z = depth_normals(setup, spec, pattern, d, plate.rig.image_shape, "eq4.1")
         for j, m in enumerate(migls):
-            imgs = add_sensor_noise(
-                plate.signal(m), cam, cell_rng(setup, pattern, pitch, 0.0, m, d)
-            )
+            imgs = add_sensor_noise(plate.signal(m), cam, normals=normals)
             for i, lux in enumerate(added_lux):
-                mod = modify_captures(imgs, cam.bit_depth, add_lux=lux)
+                mod = modify_fast(imgs, cam.bit_depth, lux)
                 light[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
             for i, sigma in enumerate(noise_sigma):
-                mod = modify_captures(
-                    imgs,
-                    cam.bit_depth,
-                    add_lux=noise_lux,
-                    noise_sigma=sigma,
-                    seed=cell_rng(setup, "eq4.1", pattern, pitch, sigma, m, d),
-                )
+                mod = modify_fast(imgs, cam.bit_depth, noise_lux, np.float32(sigma) * z)
                 noise[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
     return {"rmse_light_mm": light, "rmse_noise_mm": noise}
 
