@@ -443,3 +443,30 @@ def test_peak_and_trough_on_a_subset_equals_the_full_fits() -> None:
     assert np.isnan(peak[~pixels]).all() and np.isnan(trough[~pixels]).all()
     assert np.isfinite(peak).sum() > 100  # some pixels are estimable, some saturated
     assert (imgs == 255).any()
+
+
+@pytest.mark.parametrize("n", [4, 5, 6, 8])
+def test_saturated_peak_lower_bound_never_exceeds_the_true_peak(n: int) -> None:
+    """The bound holds for any offset, amplitude and phase, up to the rounding of the
+    unsaturated samples (at most 1.5 DN); NaN where nothing or everything is saturated."""
+    from hdrfringe.saturation.estimate import saturated_peak_lower_bound
+
+    rng = np.random.default_rng(n)
+    m = 20000
+    a = rng.uniform(30, 600, m)
+    b = rng.uniform(0, 1, m) * a
+    phi = rng.uniform(0, 2 * np.pi, m)
+    d = 2 * np.pi * np.arange(n)[:, None] / n
+    true = a + b * np.cos(phi + d)
+    obs = np.clip(np.rint(true), 0, 255).astype(np.uint8)[:, :, None]
+    bound = saturated_peak_lower_bound(obs, 8)[:, 0]
+    count = (obs[:, :, 0] == 255).sum(axis=0)
+    assert np.all(np.isnan(bound[(count == 0) | (count == n)]))
+    some = (count > 0) & (count < n)
+    assert some.mean() > 0.2 and np.all(np.isfinite(bound[some]))
+    assert np.all(bound[some] <= (a + b)[some] + 1.5)
+    assert np.median(bound[some] / (a + b)[some]) > 0.5  # informative, not just 255
+    if n == 4:  # three saturated shifts: 2F - I_u
+        three = count == 3
+        u = np.where(obs[:, three, 0] == 255, 999, obs[:, three, 0].astype(int)).min(axis=0)
+        np.testing.assert_allclose(bound[three], 510.0 - u)

@@ -51,6 +51,7 @@ def test_requirement_4_unsaturated_scenes_give_the_conventional_result(
     runs = [lpa(rig(), spec, step=step), uniform(rig(), spec), uniform(rig(), spec, migl=150.0)]
     if steps >= 4:
         runs.append(dpa(rig(), spec, threshold=0.1))
+        runs.append(dpa(rig(), spec, threshold=0.1, bound_pending=True))
     for res in runs:
         assert res.sets_captured == 1 and res.images_captured == steps
         assert res.migls == [255.0]
@@ -108,6 +109,34 @@ def test_replay_of_a_sweep_equals_the_live_rig() -> None:
     assert np.array_equal(replay.migl_index, live.migl_index)
     with pytest.raises(Exception, match="holds no capture"):
         lpa(ReplayRig(folder), spec, step=7)
+
+
+@pytest.mark.parametrize("threshold", [0.1, 0.2])
+def test_dpa_bound_skips_the_flat_cdf_for_the_same_accuracy(threshold: float) -> None:
+    """Beyond the thesis: with the pending-pixel bound DPA jumps over the MIGLs at which the
+    thesis's lowest-MIGL rule captures one gray level after another while the white squares
+    are too saturated to estimate; the composite keeps the thesis DPA's accuracy."""
+    spec = FringeSpec("sinusoidal", 4, 8.0)
+    truth = board_rig().truth()
+
+    def phase_rms(res) -> float:
+        ph = decode_set(res.images, spec, 8, reject_saturated=False)
+        e = np.angle(np.exp(1j * (ph.wrapped_phase - TWO_PI * truth.u / 8)))[truth.valid]
+        return float(np.sqrt(np.nanmean(e**2)))
+
+    plain = dpa(board_rig(), spec, threshold=threshold)
+    bound = dpa(board_rig(), spec, threshold=threshold, bound_pending=True)
+    print(
+        f"\ncheckerboard DPA {threshold:.0%}: {plain.sets_captured} sets, "
+        f"{phase_rms(plain):.4f} rad; with the bound {bound.sets_captured} sets, "
+        f"{phase_rms(bound):.4f} rad"
+    )
+    assert plain.details["rules"].count("lowest") > 30  # the flat stretch (one set per level)
+    assert "bound" in bound.details["rules"] and bound.details["bound_pending"]
+    assert bound.sets_captured < 0.4 * plain.sets_captured
+    assert not bound.never_unsaturated.any()
+    assert phase_rms(bound) <= 1.03 * phase_rms(plain)
+    assert all(a > b for a, b in zip(bound.migls, bound.migls[1:], strict=False))
 
 
 @pytest.mark.parametrize("threshold", [0.1, 0.2])

@@ -855,6 +855,13 @@ def measure(
         Path | None,
         typer.Option(help="DPA: trained correction polynomial (JSON from train-correction)."),
     ] = None,
+    bound_pending: Annotated[
+        bool,
+        typer.Option(
+            help="DPA, beyond the thesis: where the CDF is flat, jump to the highest MIGL at "
+            "which the pixels too saturated to estimate could unsaturate (fewer sets)."
+        ),
+    ] = False,
     uniform_migl: Annotated[
         float | None, typer.Option(help="Uniform: the trade-off MIGL (default: automatic).")
     ] = None,
@@ -918,7 +925,7 @@ def measure(
     elif method == "dpa":
         from hdrfringe.saturation.estimate import CorrectionPolynomial
 
-        params = {"threshold": threshold}
+        params = {"threshold": threshold, "bound_pending": bound_pending}
         if correction is not None:
             params["correction"] = CorrectionPolynomial.load(correction)
     replay = None
@@ -986,6 +993,7 @@ def measure(
                 threshold=threshold,
                 correction=str(correction) if correction is not None else "none (identity)",
             )
+            result.metrics["dpa"]["bound_pending"] = bound_pending
         result.metrics["skipped"] = result.skipped
         result.metrics["notes"] = notes
         (tmp / "metrics.json").write_text(

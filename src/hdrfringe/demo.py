@@ -17,7 +17,8 @@
    1024/64/8 px family and the rational calibration: conventional (one set at MIGL 255),
    uniform (automatic: the highest MIGL at which nothing saturates, no ground truth), LPA
    (S = 5 on the plate as in Table 5.1, S = 15 on the checkerboard as in Table 5.2) and DPA
-   (10 % threshold, no correction polynomial). Every strategy runs per pitch
+   (10 % threshold, no correction polynomial), and DPA with the pending-pixel bound (beyond the
+   thesis: ``bound_pending``, fewer sets where the CDF is flat). Every strategy runs per pitch
    (:func:`~hdrfringe.measurement.simulated_composite`); the composite is measured like any
    capture folder.
 4. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
@@ -45,7 +46,6 @@ from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.phase_maps import write_phase_maps
 from hdrfringe.io.results import check_output_dir, staged_output_dir, write_map_tiff
 from hdrfringe.measurement import (
-    STRATEGY_METHODS,
     calibrate_captures,
     calibration_geometry,
     dpa_cdfs,
@@ -186,9 +186,24 @@ def _overview(path: Path, panels: list[Panel], cols: int = 3) -> None:
     plt.close(fig)
 
 
-def _strategy_params(method: str, lpa_step: float) -> dict[str, Any]:
-    """The study's parameters: uniform automatic (tolerance 0), LPA step S, DPA 10 %."""
-    return {"lpa": {"step": lpa_step}, "dpa": {"threshold": DPA_THRESHOLD}}.get(method, {})
+#: The study's runs: key (output folder, summary key) -> strategy method.
+STUDY_RUNS: dict[str, str] = {
+    "conventional": "conventional",
+    "uniform": "uniform",
+    "lpa": "lpa",
+    "dpa": "dpa",
+    "dpa_bound": "dpa",
+}
+
+
+def _strategy_params(key: str, lpa_step: float) -> dict[str, Any]:
+    """The study's parameters: uniform automatic (tolerance 0), LPA step S, DPA 10 % (with the
+    pending-pixel bound for ``dpa_bound``)."""
+    return {
+        "lpa": {"step": lpa_step},
+        "dpa": {"threshold": DPA_THRESHOLD},
+        "dpa_bound": {"threshold": DPA_THRESHOLD, "bound_pending": True},
+    }.get(key, {})
 
 
 def _study_run(
@@ -242,7 +257,7 @@ def _study_run(
             correction="none (identity)",
         )
         rules = [rule for r in results for rule in r.details["rules"]]
-        row["dpa_rules"] = {k: rules.count(k) for k in ("initial", "threshold", "lowest")}
+        row["dpa_rules"] = {k: rules.count(k) for k in ("initial", "threshold", "lowest", "bound")}
     metrics["rmse_mm_saturated_kept"] = row["rmse_mm_saturated_kept"]
     (out / "metrics.json").write_text(json.dumps(metrics, indent=1) + "\n", encoding="utf-8")
     error = res.height_mm - rig.truth().height_mm
@@ -253,7 +268,8 @@ def _method_label(method: str, params: dict[str, Any]) -> str:
     if method == "lpa":
         return f"LPA S={params['step']:g}"
     if method == "dpa":
-        return f"DPA {100 * params['threshold']:g} %"
+        bound = " + bound" if params.get("bound_pending") else ""
+        return f"DPA {100 * params['threshold']:g} %{bound}"
     return {"uniform": "uniform auto"}.get(method, method)
 
 
@@ -275,7 +291,7 @@ def _study_figure(path: Path, maps: StudyMaps) -> None:
         for method, (err, _, valid) in by_method.items():
             title = f"{scene}\n{method}: height error ({100 * valid:.1f} % valid)"
             panels.append((title, err, "coolwarm", "mm", (-lim, lim)))
-    _overview(path, panels, cols=len(STRATEGY_METHODS))
+    _overview(path, panels, cols=len(STUDY_RUNS))
 
 
 def _saturation_study(
@@ -288,11 +304,11 @@ def _saturation_study(
     for name, label, scene, black, lux, lpa_step in study_scenes():
         rows: dict[str, Any] = {}
         maps[label] = {}
-        for method in STRATEGY_METHODS:
-            params = _strategy_params(method, lpa_step)
-            out = tmp / "saturation" / name / method
-            rows[method], err, idx = _study_run(out, scene, black, lux, method, params, seed, cal)
-            row = rows[method]
+        for key, method in STUDY_RUNS.items():
+            params = _strategy_params(key, lpa_step)
+            out = tmp / "saturation" / name / key
+            rows[key], err, idx = _study_run(out, scene, black, lux, method, params, seed, cal)
+            row = rows[key]
             maps[label][_method_label(method, params)] = (err, idx, row["valid_fraction"])
             progress()
         study[name] = {
@@ -321,7 +337,7 @@ def _study_tables(study: dict[str, Any]) -> list[Table]:
             table.add_column(col, no_wrap=True, justify="left" if col == "method" else "right")
         for method, row in st["methods"].items():
             table.add_row(
-                _method_label(method, row["params"]),
+                _method_label(STUDY_RUNS[method], row["params"]),
                 str(row["sets_captured"]),
                 str(row["images_captured"]),
                 _migl_span(method, row),
@@ -427,8 +443,10 @@ def run_demo(
                 _figure_3d(tmp / "mask_3d.png", best.height_mm, "mask, measured height")
             prog.advance(task)
         _overview(tmp / "overview.png", panels)
-        n_study = len(study_scenes()) * len(STRATEGY_METHODS)
-        task = prog.add_task("saturation avoidance (4 methods x 2 scenes)", total=n_study)
+        n_study = len(study_scenes()) * len(STUDY_RUNS)
+        task = prog.add_task(
+            f"saturation avoidance ({len(STUDY_RUNS)} runs x 2 scenes)", total=n_study
+        )
         study, maps = _saturation_study(
             tmp, seed + 1, cals["white"]["rational"], lambda: prog.advance(task)
         )

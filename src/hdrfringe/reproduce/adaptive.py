@@ -77,7 +77,8 @@ class Experiment:
     patterns, pitches, depths_mm : tuple
         The swept grid.
     methods : tuple of str
-        ``"lpa-S"`` (step S gray levels) or ``"dpa-P"`` (threshold P %).
+        ``"lpa-S"`` (step S gray levels), ``"dpa-P"`` (threshold P %) or ``"dpab-P"`` (DPA
+        with the pending-pixel bound).
     uniform_migls : tuple of float
         MIGLs measured as uniform sets on the same captures (trade-off search).
     level_method : str or None
@@ -123,6 +124,9 @@ def _migls(top: int, bottom: int, step: int) -> tuple[float, ...]:
 
 CHECKERBOARD_DEPTHS_MM: tuple[float, ...] = tuple(float(d) for d in range(10, 29, 2))
 LPA_STEPS_CH5: tuple[int, ...] = (1, 2, 3, 5, 10, 15, 20, 30, 45)
+#: DPA as the thesis ran it (10 % and 20 %), and with the pending-pixel bound ("dpab", beyond
+#: the thesis: :func:`hdrfringe.saturation.dpa.bounded_cdf`).
+DPA_METHODS: tuple[str, ...] = ("dpa-10", "dpa-20", "dpab-10", "dpab-20")
 
 
 def experiments(quick: bool = False) -> dict[str, Experiment]:
@@ -152,7 +156,7 @@ def experiments(quick: bool = False) -> dict[str, Experiment]:
             ("sinusoidal-4",),
             board_pitches,
             board_depths,
-            (*(f"lpa-{s}" for s in LPA_STEPS_CH5), "dpa-10", "dpa-20"),
+            (*(f"lpa-{s}" for s in LPA_STEPS_CH5), *DPA_METHODS),
             _migls(255, 60, 5 if quick else 1),
         ),
         "ch6_plate": Experiment(
@@ -163,7 +167,7 @@ def experiments(quick: bool = False) -> dict[str, Experiment]:
             ("sinusoidal-4",),
             board_pitches,
             board_depths,
-            ("lpa-1", "lpa-10", "lpa-15", "lpa-20", "lpa-30", "dpa-10", "dpa-20"),
+            ("lpa-1", "lpa-10", "lpa-15", "lpa-20", "lpa-30", *DPA_METHODS),
             _migls(255, 190, 5),
         ),
     }
@@ -222,9 +226,15 @@ def _run_method(
     kind, _, value = method.partition("-")
     if kind == "lpa":
         return lpa(rig, spec, step=float(value))
-    if kind == "dpa":
-        return dpa(rig, spec, threshold=float(value) / 100.0, correction=correction)
-    raise InputError(f"unknown adaptive method {method!r}; use lpa-S or dpa-P")
+    if kind in ("dpa", "dpab"):
+        return dpa(
+            rig,
+            spec,
+            threshold=float(value) / 100.0,
+            correction=correction,
+            bound_pending=kind == "dpab",
+        )
+    raise InputError(f"unknown adaptive method {method!r}; use lpa-S, dpa-P or dpab-P")
 
 
 def _errors(

@@ -64,6 +64,8 @@ def method_label(method: str) -> str:
         return f"LPA S={value}"
     if kind == "dpa":
         return f"DPA {value} %"
+    if kind == "dpab":
+        return f"DPA {value} % + bound (ours)"
     return method
 
 
@@ -339,7 +341,7 @@ def _per_pitch(ds: Any, path: Path, var: str, methods: list[str], ylabel: str, t
     for m in methods:
         if m in ds["strategy"].values:
             c = mean.sel(strategy=m)
-            style = "--" if m.startswith("dpa") else "-"
+            style = ":" if m.startswith("dpab") else "--" if m.startswith("dpa") else "-"
             ax.plot(c["pitch"], c.values, style, marker="o", ms=3, label=method_label(m))
     ax.set(xlabel="pitch (px)", ylabel=ylabel, title=title)
     ax.legend(fontsize=8)
@@ -442,7 +444,7 @@ def figures(
     for key, ds in (("a", plate4), ("b", board6)):
         if ds is None:
             continue
-        methods = ["dpa-10", "dpa-20"] + (
+        methods = ["dpa-10", "dpa-20", "dpab-10", "dpab-20"] + (
             ["lpa-10", "lpa-15", "lpa-20"] if key == "a" else ["lpa-15", "lpa-20", "lpa-30"]
         )
         name = "white plate" if key == "a" else "checkerboard"

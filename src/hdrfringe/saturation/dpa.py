@@ -17,17 +17,56 @@ from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import saturation_count
 from hdrfringe.rig.base import Rig
 from hdrfringe.saturation.dpa_rules import (
+    SaturationCDF,
     capture_rule,
     initial_dpa_state,
     next_capture_migl,
     update_dpa_state,
 )
-from hdrfringe.saturation.estimate import CorrectionPolynomial, peak_and_trough
+from hdrfringe.saturation.estimate import (
+    CorrectionPolynomial,
+    peak_and_trough,
+    saturated_peak_lower_bound,
+    unsaturation_migl,
+)
 from hdrfringe.saturation.strategies import (
     StrategyResult,
     default_min_migl,
     merge_into_composite,
 )
+
+#: DN taken off the peak bound before it becomes a MIGL: the bound is exact up to the
+#: rounding of the unsaturated samples (at most 1.5 DN: 2 x 0.5 through the mean, 0.5 through
+#: the lowest sample).
+BOUND_MARGIN_DN = 1.5
+
+
+def bounded_cdf(
+    cdf: SaturationCDF,
+    pending: np.ndarray,
+    images: np.ndarray,
+    n_saturated: np.ndarray,
+    capture_migl: float,
+    imin: float,
+    bit_depth: int,
+) -> SaturationCDF:
+    """The CDF with each pending pixel provisionally at the highest MIGL it could be
+    unsaturated at (beyond the thesis's Sec. 6.1.3).
+
+    A pending pixel (too many shifts saturated for the estimate) has a lower bound on its peak
+    (:func:`~hdrfringe.saturation.estimate.saturated_peak_lower_bound`); under the MIGL scaling
+    with the smallest possible offset (0) that bound becomes an upper bound on the MIGL at which
+    the pixel stops saturating. Nothing is learnt about it by capturing above that MIGL, so the
+    capture rules may skip there. The entries are provisional: recomputed from every capture,
+    never stored in the state's CDF (the thesis's updates move pixels into it when they become
+    estimable or unsaturated).
+    """
+    bound = saturated_peak_lower_bound(images, bit_depth) - BOUND_MARGIN_DN
+    use = pending & (n_saturated > 0) & np.isfinite(bound)
+    if not use.any():
+        return cdf
+    m_up = unsaturation_migl(bound[use], capture_migl, imin, bit_depth, model="scaled", offset=0.0)
+    return cdf.add(np.ceil(m_up), ceiling=capture_migl - 1)
 
 
 def dpa(
@@ -37,6 +76,7 @@ def dpa(
     threshold: float = 0.1,
     correction: CorrectionPolynomial | None = None,
     min_migl: float | None = None,
+    bound_pending: bool = False,
 ) -> StrategyResult:
     """Run DPA on ``rig`` for the sinusoidal set ``spec`` (N >= 4; thesis Ch. 6).
 
@@ -48,6 +88,13 @@ def dpa(
         The trained error correction (Sec. 6.1.2); None: no correction (identity).
     min_migl : float, optional
         Lowest MIGL (default ``imin + 20``).
+    bound_pending : bool
+        Beyond the thesis: where the lowest-MIGL rule would capture at the next gray level (no
+        estimated pixel left below: the CDF is flat), place the pixels that cannot be estimated
+        yet at the highest MIGL they could become unsaturated (:func:`bounded_cdf`) and apply
+        the rules to that CDF instead (rule ``"bound"``). On a board whose white squares
+        saturate in three of four shifts the thesis's rule captures at every gray level while
+        they wait; the bound skips those sets. Off by default: the thesis's method as written.
 
     Returns
     -------
@@ -98,11 +145,20 @@ def dpa(
     initial_cdf = state.cdf
     rules = ["initial"]
     m = float(spec.migl)
+
+    bounds_from = (imgs, n_sat, m)  # the capture the pending pixels' bounds come from
     while remaining.any():
         nxt = next_capture_migl(state.cdf, m, state.last_captured_cdf_value, threshold)
         if nxt is None or nxt < floor:
             break
         rule = capture_rule(state.cdf, nxt, state.last_captured_cdf_value, threshold) or "lowest"
+        if bound_pending and rule == "lowest":
+            # the thesis would step one gray level into a flat CDF: jump instead to where the
+            # pending pixels could first become unsaturated (the rules on the bounded CDF)
+            bounded = bounded_cdf(state.cdf, state.pending, *bounds_from, spec.imin, bits)
+            alt = next_capture_migl(bounded, m, state.last_captured_cdf_value, threshold)
+            if alt is not None and floor <= alt < nxt:
+                nxt, rule = alt, "bound"
         imgs = rig.capture(spec.with_migl(float(nxt)).frames())
         n_sat = saturation_count(imgs, bits)
         n_new = merge_into_composite(composite, index, remaining, imgs, n_sat == 0, nxt)
@@ -123,6 +179,7 @@ def dpa(
         newly.append(n_new)
         rules.append(rule)
         m = float(nxt)
+        bounds_from = (imgs, n_sat, m)
     return StrategyResult(
         composite,
         spec,
@@ -135,6 +192,7 @@ def dpa(
             "threshold": threshold,
             "rules": rules,
             "min_migl": floor,
+            "bound_pending": bound_pending,
             "initial_cdf": initial_cdf,
             "final_cdf": state.cdf,
             "saturated_at_top": saturated_at_top,

@@ -264,6 +264,42 @@ def peak_and_trough(
     return peak, trough
 
 
+def saturated_peak_lower_bound(images: ArrayLike, bit_depth: int) -> F64:
+    """A lower bound on the true peak of pixels too saturated to estimate (beyond the thesis).
+
+    Where more than N - 3 shifts are saturated the sinusoid cannot be fitted, but it is still
+    constrained: every saturated sample's true value is at least ``F = 2^B - 1``, the mean
+    ``a`` of equally spaced shifts is the mean of all N samples and, for even N, of each pair of
+    opposite shifts; so ``a >= a_lb``, the largest of those means with ``F`` in place of each
+    saturated sample. Every sample is at least ``a - b``, hence ``b >= a - I_min`` over the
+    unsaturated samples and the peak ``a + b >= 2 a_lb - I_min``.
+
+    For N = 4 with three saturated shifts this is ``2F - I_u`` (the unsaturated one ``I_u``).
+    The bound holds whatever the phase, amplitude and offset, up to the rounding of the
+    unsaturated samples (at most 1.5 DN); noise on them moves it by about their noise.
+
+    Returns
+    -------
+    ndarray (H, W)
+        The bound where at least one shift is saturated and at least one is not; NaN elsewhere
+        (nothing saturated, or every shift saturated: no information beyond ``F``).
+    """
+    stack = _stack(images, bit_depth, "saturated peak bound")
+    full = float(_full_scale(bit_depth))
+    n = stack.shape[0]
+    sat = stack >= full
+    lb = np.where(sat, full, stack)
+    a_lb = lb.mean(axis=0)
+    if n % 2 == 0:
+        half = n // 2
+        a_lb = np.maximum(a_lb, ((lb[:half] + lb[half:]) / 2.0).max(axis=0))
+    low = np.where(sat, np.inf, stack).min(axis=0)
+    bound = np.maximum(2.0 * a_lb - low, full)
+    count = sat.sum(axis=0)
+    bound[(count == 0) | (count == n)] = np.nan
+    return bound
+
+
 def fit_unsaturated_sinusoid(images: ArrayLike, bit_depth: int) -> tuple[F64, F64, F64]:
     """Sinusoid fitted to each pixel's unsaturated samples: mean ``a``, amplitude ``b``, phase.
 
