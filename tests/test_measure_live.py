@@ -178,6 +178,26 @@ def test_live_temporal_unwrapping_without_centerline(tmp_path: Path, calibration
     assert m["rmse_mm"] < 0.12, m["rmse_mm"]
 
 
+def test_live_dpa_bound_pending_through_the_cli(tmp_path: Path) -> None:
+    """``measure --method dpa --bound-pending`` on the checkerboard: the bound's captures are
+    labelled in the dpa block and the flat stretch of the thesis's rule is skipped."""
+    sets = {}
+    for flag in ("--no-bound-pending", "--bound-pending"):
+        out = tmp_path / flag
+        res = run_cli(
+            "measure", "--rig", "sim", "--scene", "checkerboard", "--pitch", "8",
+            "--method", "dpa", flag, "-o", str(out),
+        )  # fmt: skip
+        assert res.returncode == 0, res.stderr
+        m = _metrics(out)
+        rules = m["dpa"]["sets"][0]["rules"]
+        assert m["dpa"]["bound_pending"] is (flag == "--bound-pending")
+        assert ("bound" in rules) is (flag == "--bound-pending")
+        assert m["never_unsaturated_fraction"] == 0.0
+        sets[flag] = m["sets_captured"]
+    assert sets["--bound-pending"] < 0.4 * sets["--no-bound-pending"]
+
+
 def test_live_dpa_without_saturation_is_one_set(tmp_path: Path) -> None:
     """Requirement 4 through the CLI: nothing saturates at 0 lx, DPA captures one set and
     reports no CDF (the figure says so instead of plotting empty curves)."""
