@@ -214,6 +214,19 @@ def test_a_rerun_computes_only_blocks_not_flagged_done(
     xr.testing.assert_identical(again.load(), ref)
 
 
+def test_progress_is_logged_without_a_terminal(
+    scheduler: str, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """No progress bar (no terminal, progress=False): the run still leaves a record, a line
+    on the engine's logger when the last block is stored (and every LOG_EVERY_S before)."""
+    with caplog.at_level(logging.INFO, logger="hdrfringe.reproduce.engine"):
+        run_sweep(
+            tmp_path / "log.zarr", GRID, toy_block, PARAMS, scheduler=scheduler, progress=False
+        )
+    lines = [r.getMessage() for r in caplog.records]
+    assert any("12 of 12 blocks stored" in m for m in lines), lines
+
+
 def test_a_killed_worker_loses_nothing(
     reference: tuple[Path, xr.Dataset], scheduler: str, markers: Path, tmp_path: Path
 ) -> None:

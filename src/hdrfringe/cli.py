@@ -759,6 +759,16 @@ def reproduce(
     from hdrfringe.reproduce.runner import reproduce as run
 
     chapters = list(CHAPTERS) if chapter == "all" else [c.strip() for c in chapter.split(",")]
+    if not console.is_terminal:  # no progress bar: progress lines on stderr instead
+        import logging
+        import sys
+
+        logger = logging.getLogger("hdrfringe.reproduce")
+        if not logger.handlers:
+            handler = logging.StreamHandler(sys.stderr)
+            handler.setFormatter(logging.Formatter("%(asctime)s %(message)s", "%H:%M:%S"))
+            logger.addHandler(handler)
+        logger.setLevel(logging.INFO)
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
     res = run(

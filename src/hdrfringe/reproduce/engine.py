@@ -35,6 +35,7 @@ import shutil
 import signal
 import sys
 import threading
+import time
 import uuid
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -59,6 +60,9 @@ log = logging.getLogger(__name__)
 DONE_VAR = "block_done"
 #: Dataset attributes that record when the store was made (differ between identical sweeps).
 RUNTIME_ATTRS: tuple[str, ...] = ("sweep_created",)
+#: Seconds between progress lines on the ``hdrfringe.reproduce.engine`` logger (INFO): the
+#: record of a run that has no terminal for the progress bar (a batch job, nohup).
+LOG_EVERY_S = 30.0
 #: Store format written: Zarr v3 (zarr-python >= 3.1.3 for atomic chunk writes).
 ZARR_FORMAT = 3
 
@@ -857,6 +861,7 @@ def _compute(
 
     run = f"sweep-{ident['sweep_fingerprint'][:10]}-{uuid.uuid4().hex[:8]}"
     stored = grid.n_blocks - len(todo)
+    started = last_log = time.monotonic()
     with _connect(scheduler, n_workers) as client, _progress_bar(progress) as bar:
         task = bar.add_task(path.name, total=grid.n_blocks, completed=stored)
         pending: dict[Any, tuple[int, ...]] = {}
@@ -879,6 +884,16 @@ def _compute(
                 _write_block(arrays, grid, index, _checked_output(grid, index, out))
                 stored += 1
                 bar.advance(task)
+                now = time.monotonic()
+                if now - last_log >= LOG_EVERY_S or stored == grid.n_blocks:
+                    last_log = now
+                    log.info(
+                        "sweep %s: %d of %d blocks stored (%.0f s)",
+                        path.name,
+                        stored,
+                        grid.n_blocks,
+                        now - started,
+                    )
         except KeyboardInterrupt:
             log.warning(
                 "interrupted: %d of %d blocks are stored in %s; rerun to compute the rest",
