@@ -196,6 +196,10 @@ def test_live_dpa_bound_pending_through_the_cli(tmp_path: Path) -> None:
         assert m["never_unsaturated_fraction"] == 0.0
         sets[flag] = m["sets_captured"]
     assert sets["--bound-pending"] < 0.4 * sets["--no-bound-pending"]
+    out = tmp_path / "lpa"
+    res = run_cli("measure", "--rig", "sim", "--method", "lpa", "--bound-pending", "-o", str(out))
+    assert res.returncode == 2 and "--bound-pending is a DPA option" in res.stderr
+    assert "Traceback" not in res.stderr and not out.exists()
 
 
 def test_live_dpa_without_saturation_is_one_set(tmp_path: Path) -> None:

@@ -925,6 +925,10 @@ def measure(
         method = "conventional"
     if method is not None and method not in STRATEGY_METHODS:
         raise InputError(f"unknown method {method!r}; use one of {', '.join(STRATEGY_METHODS)}")
+    if bound_pending and method != "dpa":
+        raise InputError(
+            f"--bound-pending is a DPA option; use it with --method dpa (got {method})"
+        )
     check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
     params: dict[str, Any] = {}
