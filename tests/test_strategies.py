@@ -111,18 +111,23 @@ def test_replay_of_a_sweep_equals_the_live_rig() -> None:
         lpa(ReplayRig(folder), spec, step=7)
 
 
+BOARD_SPEC = FringeSpec("sinusoidal", 4, 8.0)
+
+
+def phase_rms(res) -> float:
+    """RMS wrapped-phase error (rad) of a checkerboard composite at ``BOARD_SPEC``."""
+    truth = board_rig().truth()
+    ph = decode_set(res.images, BOARD_SPEC, 8, reject_saturated=False)
+    e = np.angle(np.exp(1j * (ph.wrapped_phase - TWO_PI * truth.u / 8)))[truth.valid]
+    return float(np.sqrt(np.nanmean(e**2)))
+
+
 @pytest.mark.parametrize("threshold", [0.1, 0.2])
 def test_dpa_bound_skips_the_flat_cdf_for_the_same_accuracy(threshold: float) -> None:
     """Beyond the thesis: with the pending-pixel bound DPA jumps over the MIGLs at which the
     thesis's lowest-MIGL rule captures one gray level after another while the white squares
     are too saturated to estimate; the composite keeps the thesis DPA's accuracy."""
-    spec = FringeSpec("sinusoidal", 4, 8.0)
-    truth = board_rig().truth()
-
-    def phase_rms(res) -> float:
-        ph = decode_set(res.images, spec, 8, reject_saturated=False)
-        e = np.angle(np.exp(1j * (ph.wrapped_phase - TWO_PI * truth.u / 8)))[truth.valid]
-        return float(np.sqrt(np.nanmean(e**2)))
+    spec = BOARD_SPEC
 
     plain = dpa(board_rig(), spec, threshold=threshold)
     bound = dpa(board_rig(), spec, threshold=threshold, bound_pending=True)
@@ -143,13 +148,7 @@ def test_dpa_bound_skips_the_flat_cdf_for_the_same_accuracy(threshold: float) ->
 def test_dpa_matches_lpa_15_on_the_checkerboard(threshold: float) -> None:
     """Thesis Sec. 6.3: DPA at 10 % and 20 % within 5 % of LPA S = 15 (phase error here; the
     height error is the phase error times the local phase-to-height factor)."""
-    spec = FringeSpec("sinusoidal", 4, 8.0)
-    truth = board_rig().truth()
-
-    def phase_rms(res) -> float:
-        ph = decode_set(res.images, spec, 8, reject_saturated=False)
-        e = np.angle(np.exp(1j * (ph.wrapped_phase - TWO_PI * truth.u / 8)))[truth.valid]
-        return float(np.sqrt(np.nanmean(e**2)))
+    spec = BOARD_SPEC
 
     ref = lpa(board_rig(), spec, step=15)
     res = dpa(board_rig(), spec, threshold=threshold)

@@ -316,11 +316,11 @@ def adaptive_cell(
         if "initial_cdf" in res.details:
             out["cdf_initial"][i] = _cdf_values(res.details["initial_cdf"])
             out["cdf_final"][i] = _cdf_values(res.details["final_cdf"])
-        if method == "lpa-1" and saturated_at_top.any():
+        if method == "lpa-1" and saturated_at_top.any():  # Fig. 6.3's actual CDF
+            from hdrfringe.measurement import _index_without_never
             from hdrfringe.saturation.dpa_rules import index_image_cdf
 
-            idx = res.migl_index.astype(np.float64)
-            idx[res.never_unsaturated] = -1.0
+            idx = _index_without_never(res)
             actual = index_image_cdf(idx, saturated_at_top, spec.migl, CDF_MIGLS[-1])
             out["cdf_actual"] = _cdf_values(actual)
         if method == exp.level_method:
