@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.captures import ProjectorInfo
+from hdrfringe.frames import CenterlineFrame
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.patterns import CenterlineFrame, FringeSpec, fringe_gray
-from hdrfringe.rig.base import ProjectorInfo
+from hdrfringe.patterns import FringeSpec, fringe_gray
 
 REALDATA = Path(__file__).resolve().parents[2] / "shared" / "realdata"
 

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from hdrfringe.errors import InputError
+from hdrfringe.frames import UniformFrame
 from hdrfringe.gamma import (
     GammaFit,
     fit_gamma_fringes,
@@ -25,7 +26,7 @@ from hdrfringe.gamma import (
     predicted_nonlinearity,
     residual_nonlinearity,
 )
-from hdrfringe.patterns import FringeSpec, UniformFrame, fringe_gray, precompensate_gamma
+from hdrfringe.patterns import FringeSpec, fringe_gray, precompensate_gamma
 from tests.conftest import realdata_path, run_cli
 
 THESIS_GAMMA = 2.812

@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hdrfringe.frames import Frame
 from hdrfringe.io.captures import CaptureFolder
-from hdrfringe.patterns import Frame, FringeSpec
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard

@@ -15,10 +15,11 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
+from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.measurement import calibrate_captures
-from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec, UniformFrame
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.saturation.estimate import CorrectionPolynomial, training_data_from_rig

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from hdrfringe.calibration import filter_map, fit_linear_k, measurement_mask
+from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.io.captures import CaptureFolder
 from hdrfringe.measurement import calibrate_captures, measure_folder
-from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, mask, white_plate
 from hdrfringe.rig.simulated import SimulatedRig
 

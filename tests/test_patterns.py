@@ -6,17 +6,14 @@ import numpy as np
 import pytest
 
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import (
+from hdrfringe.frames import (
     CenterlineFrame,
     FringeFrame,
-    FringeSpec,
     UniformFrame,
     frame_from_manifest,
-    fringe_gray,
-    fringe_profile,
-    precompensate_gamma,
     render_frame,
 )
+from hdrfringe.patterns import FringeSpec, fringe_gray, fringe_profile, precompensate_gamma
 
 
 def test_profiles_peak_at_zero_period_one() -> None:

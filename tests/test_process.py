@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.frames import CenterlineFrame
 from hdrfringe.io.captures import read_capture_folder
-from hdrfringe.patterns import CenterlineFrame, FringeSpec
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.process import decode_folder
 from hdrfringe.rig.scenes import mask
 from hdrfringe.rig.simulated import SimulatedRig, simulate_to_folder

@@ -12,15 +12,11 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.ndimage import binary_erosion
 
+from hdrfringe.captures import ProjectorInfo
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import (
-    CenterlineFrame,
-    FringeSpec,
-    UniformFrame,
-    fringe_gray,
-    render_frame,
-)
-from hdrfringe.rig.base import ProjectorInfo, Rig
+from hdrfringe.frames import CenterlineFrame, UniformFrame, render_frame
+from hdrfringe.patterns import FringeSpec, fringe_gray
+from hdrfringe.rig.base import Rig
 from hdrfringe.rig.modify import lux_to_dn, modify_captures
 from hdrfringe.rig.scenes import (
     BLACK_PLATE_REFLECTIVITY,

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import tifffile
 
-from hdrfringe.patterns import CenterlineFrame, FringeSpec
+from hdrfringe.frames import CenterlineFrame
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.scenes import mask, white_plate
 from hdrfringe.rig.simulated import SimulatedRig, simulate_to_folder

@@ -7,8 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hdrfringe.frames import Frame
 from hdrfringe.io.captures import CaptureFolder
-from hdrfringe.patterns import Frame, FringeSpec
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, plate

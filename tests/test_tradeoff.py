@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hdrfringe.frames import CenterlineFrame
 from hdrfringe.io.captures import CaptureFolder
 from hdrfringe.measurement import calibrate_captures, measure_folder, tradeoff_search
-from hdrfringe.patterns import CenterlineFrame, FringeSpec
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
 from hdrfringe.saturation.strategies import lpa, uniform

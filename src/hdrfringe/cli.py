@@ -129,9 +129,10 @@ def patterns(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Generate fringe patterns (and centerline/uniform images) for a projector."""
+    from hdrfringe.captures import ProjectorInfo
+    from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame, render_frame
     from hdrfringe.io.pattern_folder import write_pattern_folder
-    from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec, UniformFrame, render_frame
-    from hdrfringe.rig.base import ProjectorInfo
+    from hdrfringe.patterns import FringeSpec
 
     projector = ProjectorInfo(width, height, bit_depth, gamma)
     frames: list[Frame] = []
@@ -543,9 +544,10 @@ def simulate(
     depth (a calibration series: reference plane + positions).
     """
     from hdrfringe.errors import InputError
+    from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
     from hdrfringe.io.captures import write_capture_folder
     from hdrfringe.io.results import check_output_dir, staged_output_dir
-    from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec, UniformFrame
+    from hdrfringe.patterns import FringeSpec
     from hdrfringe.rig.modify import modify_captures
 
     check_output_dir(output, force)
@@ -945,8 +947,9 @@ def measure(
     replay = None
     strategy_results: list[Any] = []
     if live:
+        from hdrfringe.frames import CenterlineFrame
         from hdrfringe.measurement import simulated_composite
-        from hdrfringe.patterns import CenterlineFrame, FringeSpec
+        from hdrfringe.patterns import FringeSpec
 
         sim = simulated_rig(
             scene,

@@ -41,6 +41,7 @@ from rich.console import Console
 from rich.table import Table
 
 from hdrfringe.calibration import Calibration
+from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.phase_maps import write_phase_maps
@@ -53,7 +54,7 @@ from hdrfringe.measurement import (
     simulated_composite,
 )
 from hdrfringe.outputs import write_dpa_outputs, write_height_outputs, write_strategy_outputs
-from hdrfringe.patterns import CenterlineFrame, Frame, FringeSpec
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import (
     BLACK_PLATE_REFLECTIVITY,
     THESIS_CALIBRATION_DEPTHS_MM,

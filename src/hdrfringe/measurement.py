@@ -310,7 +310,7 @@ def composite_captures(
     at the end. ``scene``, ``camera_extra`` and ``truth_height_mm`` go into the folder's manifest
     and maps (ground truth gives the measurement its error metrics).
     """
-    from hdrfringe.patterns import Frame
+    from hdrfringe.frames import Frame
 
     frames: list[Frame] = []
     images = []
@@ -569,7 +569,7 @@ def training_data_from_folder(
     -------
     TrainingData
     """
-    from hdrfringe.patterns import UniformFrame
+    from hdrfringe.frames import UniformFrame
     from hdrfringe.rig.replay import ReplayRig
     from hdrfringe.saturation.estimate import training_data_from_rig
 

@@ -19,19 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe.captures import ProjectorInfo
 from hdrfringe.errors import CaptureFormatError, HdrFringeError
+from hdrfringe.frames import CenterlineFrame, Frame, FringeFrame, UniformFrame, frame_from_manifest
 from hdrfringe.io.results import read_map_tiff, staged_output_dir, write_map_tiff
-from hdrfringe.patterns import (
-    ORIENTATIONS,
-    PATTERNS,
-    CenterlineFrame,
-    Frame,
-    FringeFrame,
-    FringeSpec,
-    UniformFrame,
-    frame_from_manifest,
-)
-from hdrfringe.rig.base import ProjectorInfo
+from hdrfringe.patterns import ORIENTATIONS, PATTERNS, FringeSpec
 
 FORMAT_NAME = "hdrfringe-captures"
 FORMAT_VERSION = 1

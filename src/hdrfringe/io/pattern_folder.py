@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe.captures import ProjectorInfo
+from hdrfringe.frames import Frame, render_frame
 from hdrfringe.io.results import staged_output_dir
-from hdrfringe.patterns import Frame, render_frame
-from hdrfringe.rig.base import ProjectorInfo
 
 PATTERN_FORMAT = "hdrfringe-patterns"
 

@@ -36,8 +36,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe.calibration import measurement_mask
+from hdrfringe.captures import ProjectorInfo
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeFrame, FringeSpec
+from hdrfringe.frames import FringeFrame
+from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import saturation_count
 from hdrfringe.reproduce.ch4 import (
     THESIS_DEPTHS_MM,
@@ -51,7 +53,6 @@ from hdrfringe.reproduce.ch4 import (
     pattern_spec,
     wrapped_phase,
 )
-from hdrfringe.rig.base import ProjectorInfo
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.saturation.estimate import CorrectionPolynomial
 

@@ -1,5 +1,6 @@
 """Acquisition: rigs that project frames and return camera images."""
 
-from hdrfringe.rig.base import ProjectorInfo, Rig
+from hdrfringe.captures import ProjectorInfo
+from hdrfringe.rig.base import Rig
 
 __all__ = ["ProjectorInfo", "Rig"]

