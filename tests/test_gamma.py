@@ -18,14 +18,16 @@ import pytest
 from hdrfringe.errors import InputError
 from hdrfringe.frames import UniformFrame
 from hdrfringe.gamma import (
+    MIN_FRINGE_PITCH_PX,
     GammaFit,
     fit_gamma_fringes,
     fit_gamma_uniform,
     measure_nonlinearity,
-    plot_gamma_mapping,
     predicted_nonlinearity,
     residual_nonlinearity,
+    select_gamma_sets,
 )
+from hdrfringe.io.plots import plot_gamma_mapping
 from hdrfringe.patterns import FringeSpec, fringe_gray, precompensate_gamma
 from tests.conftest import realdata_path, run_cli
 
@@ -288,6 +290,58 @@ def test_fringe_fit_input_errors() -> None:
         fit_gamma_fringes([(spec, 0.0, imgs)], camera_bit_depth=8)
     with pytest.raises(InputError, match="at least one"):
         fit_gamma_fringes([], camera_bit_depth=8)
+
+
+# ---------------------------------------------------------------------------------------------
+# which fringe sets a shape fit uses
+# ---------------------------------------------------------------------------------------------
+
+
+def test_select_gamma_sets_rule() -> None:
+    """Wide sinusoidal sets only (the boundary pitch included); fittable with two exponents
+    or N >= 4 steps among the USED sets (narrow and triangular sets do not count)."""
+
+    def sin(steps: int, pitch: float) -> FringeSpec:
+        return FringeSpec("sinusoidal", steps, pitch)
+
+    tri = FringeSpec("triangular", 3, 48.0)
+    items = [(sin(4, 8.0), 0.75), (sin(3, 48.0), 0.75), (tri, 1.25), (sin(3, 32.0), 1.25)]
+    sel = select_gamma_sets(items)
+    assert MIN_FRINGE_PITCH_PX == 32.0 and sel.min_pitch_px == 32.0
+    assert sel.used == (1, 3) and sel.too_narrow == (0,) and sel.fittable
+    assert sel.sets == (items[1], items[3])
+    # one exponent among the used sets: the triangular set's other exponent does not count ...
+    assert not select_gamma_sets([(sin(3, 48.0), 0.75), (tri, 1.25)]).fittable
+    # ... nor do narrow sets, whatever their steps and exponents
+    only_narrow = select_gamma_sets([(sin(4, 8.0), 0.75), (sin(4, 16.0), 1.25)])
+    assert only_narrow.used == () and only_narrow.too_narrow == (0, 1)
+    assert not only_narrow.fittable
+    # one exponent: fittable with four steps, not with three
+    assert select_gamma_sets([(sin(4, 64.0), 1.0)]).fittable
+    assert not select_gamma_sets([(sin(3, 64.0), 1.0), (sin(3, 96.0), 1.0)]).fittable
+    # another minimum pitch
+    wide = select_gamma_sets(items, min_pitch_px=40.0)
+    assert wide.used == (1,) and wide.too_narrow == (0, 3) and not wide.fittable
+    assert select_gamma_sets([]).used == () and not select_gamma_sets([]).fittable
+    with pytest.raises(InputError, match="FringeSpec"):
+        select_gamma_sets([("sinusoidal", 1.0)])
+
+
+def test_select_gamma_sets_agrees_with_the_fringe_fit() -> None:
+    """``fittable`` says whether fit_gamma_fringes can fit the selected sets by shape; the items
+    (with their images) pass through untouched."""
+    sets, _, _ = fringe_sets(2.2, (0.75, 1.25), shape=(40, 60))
+    narrow, _, _ = fringe_sets(2.2, (1.0,), shape=(40, 60), pitch=8.0, steps=4)
+    sel = select_gamma_sets(narrow + sets)
+    assert sel.too_narrow == (0,) and sel.used == (1, 2) and sel.fittable
+    assert all(a is b for a, b in zip(sel.sets, sets, strict=True))
+    fit = fit_gamma_fringes(sel.sets, camera_bit_depth=8)
+    assert fit.gamma == pytest.approx(2.2, rel=0.01)
+    one, _, _ = fringe_sets(2.2, (1.0,), shape=(40, 60))
+    sel = select_gamma_sets(one)
+    assert sel.used == (0,) and not sel.fittable
+    with pytest.raises(InputError, match="two pre-distortions"):
+        fit_gamma_fringes(sel.sets, camera_bit_depth=8)
 
 
 # ---------------------------------------------------------------------------------------------

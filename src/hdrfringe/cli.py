@@ -231,10 +231,10 @@ def gamma(
     from hdrfringe.gamma import (
         fit_gamma_fringes,
         fit_gamma_uniform,
-        plot_gamma_mapping,
         predicted_nonlinearity,
     )
     from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.plots import plot_gamma_mapping
     from hdrfringe.io.results import check_output_dir, staged_output_dir
 
     if output is not None:
