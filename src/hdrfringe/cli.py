@@ -232,6 +232,7 @@ def gamma(
         fit_gamma_fringes,
         fit_gamma_uniform,
         predicted_nonlinearity,
+        select_gamma_sets,
     )
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.plots import plot_gamma_mapping
@@ -282,37 +283,32 @@ def gamma(
             f"residual nonlinearity (max, % of range): {mx_fit:.2f} % pre-compensated with the "
             f"fit, {mx_cur:.2f} % with {gh0:g}, {mx_none:.2f} % without"
         )
-    # Narrow fringes are distorted by projector pixels and blur, which the shape fit would read
-    # as gamma (on the virtual rig: 3.18 at 8 px, 2.84 at 32 px for a true 2.812).
-    min_pitch = 32.0
-    narrow = [
-        s.label for s in caps.sets if s.spec.pattern == "sinusoidal" and s.spec.pitch_px < min_pitch
-    ]
-    sets = [s for s in caps.sets if s.spec.pattern == "sinusoidal" and s.spec.pitch_px >= min_pitch]
-    if narrow:
+    # Wide sinusoidal sets only: narrow fringes are reshaped by projector pixels and blur, which
+    # the shape fit would read as gamma (hdrfringe.gamma.select_gamma_sets has the rule).
+    chosen = select_gamma_sets([(s.spec, s.gamma_precompensation or gh0) for s in caps.sets])
+    if chosen.too_narrow:
         console.print(
-            f"note: fringe sets narrower than {min_pitch:g} px not used for gamma: "
-            + ", ".join(narrow)
+            f"note: fringe sets narrower than {chosen.min_pitch_px:g} px not used for gamma: "
+            + ", ".join(caps.sets[i].label for i in chosen.too_narrow)
         )
-    if sets:
-        by_gamma = {s.gamma_precompensation or gh0 for s in sets}
-        if len(by_gamma) > 1 or any(s.spec.steps >= 4 for s in sets):
-            fit = fit_gamma_fringes(
-                [(s.spec, s.gamma_precompensation or gh0, caps.set_images(s)) for s in sets],
-                camera_bit_depth=caps.camera_bit_depth,
-                projector_bit_depth=proj_bits,
-            )
-            report["fringes"] = {
-                "gamma": fit.gamma,
-                "stderr": fit.stderr,
-                "rms_residual_dn": fit.rms_residual,
-                "pixels_used": fit.n_samples,
-                "sets": [s.label for s in sets],
-            }
-            console.print(
-                f"fringe shape: gamma = {fit.gamma:.4f} +- {fit.stderr:.4f} "
-                f"(rms residual {fit.rms_residual:.2f} DN over {fit.n_samples} pixels)"
-            )
+    if chosen.fittable:
+        used = [caps.sets[i] for i in chosen.used]
+        fit = fit_gamma_fringes(
+            [(s.spec, s.gamma_precompensation or gh0, caps.set_images(s)) for s in used],
+            camera_bit_depth=caps.camera_bit_depth,
+            projector_bit_depth=proj_bits,
+        )
+        report["fringes"] = {
+            "gamma": fit.gamma,
+            "stderr": fit.stderr,
+            "rms_residual_dn": fit.rms_residual,
+            "pixels_used": fit.n_samples,
+            "sets": [s.label for s in used],
+        }
+        console.print(
+            f"fringe shape: gamma = {fit.gamma:.4f} +- {fit.stderr:.4f} "
+            f"(rms residual {fit.rms_residual:.2f} DN over {fit.n_samples} pixels)"
+        )
     if len(report) == 1:
         raise CaptureFormatError(
             f"{folder}: nothing to fit: give uniform frames at >= 4 gray levels, or sinusoidal "
