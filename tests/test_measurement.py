@@ -113,8 +113,8 @@ def test_mask_height_matches_truth_and_ply_opens(tmp_path) -> None:
     """
     import trimesh
 
+    from hdrfringe.io.measurement_outputs import write_height_outputs
     from hdrfringe.measurement import calibration_geometry
-    from hdrfringe.outputs import write_height_outputs
 
     spec = FringeSpec("sinusoidal", 4, 8.0)
     cal = calibrate_captures(series(spec, noise=True, seed=3), model="rational")

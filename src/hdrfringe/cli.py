@@ -911,10 +911,10 @@ def measure(
 
     from hdrfringe.errors import InputError
     from hdrfringe.io.calibration_file import check_compatible, load_calibration
+    from hdrfringe.io.measurement_outputs import write_height_outputs
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import check_output_dir, staged_output_dir
     from hdrfringe.measurement import STRATEGY_METHODS, calibration_geometry, measure_folder
-    from hdrfringe.outputs import write_height_outputs
 
     live = _check_source(ctx, folder, rig, LIVE_OPTIONS)
     if output is None:
@@ -993,12 +993,12 @@ def measure(
         if result.height_mm is not None and cal is not None:
             notes += write_height_outputs(tmp, result.height_mm, calibration_geometry(cal))
         if strategy_results:
-            from hdrfringe.outputs import write_strategy_outputs
+            from hdrfringe.io.measurement_outputs import write_strategy_outputs
 
             result.metrics.update(write_strategy_outputs(tmp, strategy_results))
         if method == "dpa":
+            from hdrfringe.io.measurement_outputs import write_dpa_outputs
             from hdrfringe.measurement import dpa_cdfs
-            from hdrfringe.outputs import write_dpa_outputs
 
             result.metrics["dpa"] = write_dpa_outputs(
                 tmp,

@@ -25,9 +25,9 @@
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
    table of RMSE per scene and model; per study scene and method ``metrics.json`` (with
    ``sets_captured``, ``images_captured``, ``migls``), ``height.tiff``, the MIGL index map and
-   pie chart (:func:`~hdrfringe.outputs.write_strategy_outputs`), for DPA its CDF figure
-   (Fig. 6.3); a figure comparing the methods and a table of RMSE, valid fraction, sets and
-   images captured (docs/saturation.md).
+   pie chart (:func:`~hdrfringe.io.measurement_outputs.write_strategy_outputs`), for DPA its
+   CDF figure (Fig. 6.3); a figure comparing the methods and a table of RMSE, valid fraction,
+   sets and images captured (docs/saturation.md).
 """
 
 from __future__ import annotations
@@ -44,6 +44,11 @@ from hdrfringe.calibration import Calibration
 from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
+from hdrfringe.io.measurement_outputs import (
+    write_dpa_outputs,
+    write_height_outputs,
+    write_strategy_outputs,
+)
 from hdrfringe.io.phase_maps import write_phase_maps
 from hdrfringe.io.results import check_output_dir, staged_output_dir, write_map_tiff
 from hdrfringe.measurement import (
@@ -53,7 +58,6 @@ from hdrfringe.measurement import (
     measure_folder,
     simulated_composite,
 )
-from hdrfringe.outputs import write_dpa_outputs, write_height_outputs, write_strategy_outputs
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import (
     BLACK_PLATE_REFLECTIVITY,

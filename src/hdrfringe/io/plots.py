@@ -1,26 +1,35 @@
-"""Figures written as PNG files.
+"""Figures written as PNG files: the gamma mapping, the MIGL pie chart, DPA's saturation CDFs.
 
 Every figure of the library is drawn here, with matplotlib's Agg backend (no display needed);
 matplotlib is imported when a figure is drawn, not when this module is imported. The core
-modules compute what is plotted (:mod:`hdrfringe.gamma`) and
+modules compute what is plotted (:mod:`hdrfringe.gamma`, :mod:`hdrfringe.measurement`) and
 never import matplotlib.
 
 * :func:`plot_gamma_mapping`: thesis Fig. 2.6 b/c, input gray -> captured intensity without
   and with pre-compensation.
+* :func:`plot_migl_pie`: thesis Fig. 5.6 b/d/f, pixels per MIGL of a composite.
+* :func:`plot_dpa_cdfs`: thesis Fig. 6.3, DPA's estimated and actual CDFs of the saturated
+  intensities.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe._validation import full_scale
 from hdrfringe.gamma import GammaFit, line_deviation, measure_nonlinearity
 
-__all__ = ["plot_gamma_mapping"]
+if TYPE_CHECKING:
+    from hdrfringe.measurement import DPACDFs
+    from hdrfringe.saturation.dpa_rules import SaturationCDF
+
+__all__ = ["plot_dpa_cdfs", "plot_gamma_mapping", "plot_migl_pie"]
 
 
 def _pyplot() -> ModuleType:
@@ -127,6 +136,166 @@ def plot_gamma_mapping(
     ax2.legend(loc="upper left")
     if title:
         fig.suptitle(title)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def plot_migl_pie(
+    path: str | Path, migl_index: ArrayLike, *, title: str = "pixels per MIGL", dpi: int = 100
+) -> Path:
+    """Pie chart of the pixels per MIGL of a composite (thesis Fig. 5.6 b/d/f) as a PNG.
+
+    One slice per MIGL in the index map, highest MIGL first, clockwise from the top; slices
+    under 2 % of the pixels are left unlabelled.
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    migl_index : array_like
+        MIGL index map ``N(x, y)``: the MIGL each pixel of the composite was taken at.
+    title : str
+        Chart title.
+    dpi : int
+        Resolution of the PNG (the figure is 6 x 6 inches).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    References
+    ----------
+    Thesis Sec. 5.2.1, Fig. 5.6 (pie charts of the pixels per adaptive MIGL step).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> index = np.array([[255, 255, 240], [225, 255, 240]])
+    >>> out = plot_migl_pie(Path(tempfile.mkdtemp()) / "migl_pie.png", index)
+    >>> out.name, out.stat().st_size > 0
+    ('migl_pie.png', True)
+    """
+    plt = _pyplot()
+    levels, counts = np.unique(np.asarray(migl_index), return_counts=True)
+    order = np.argsort(levels)[::-1]
+    fig, ax = plt.subplots(figsize=(6, 6), dpi=dpi)
+    labels = [f"{levels[i]:g}" if counts[i] / counts.sum() > 0.02 else "" for i in order]
+    ax.pie(counts[order], labels=labels, startangle=90, counterclock=False)
+    ax.set_title(title)
+    out = Path(path)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def _cdf_curve(cdf: SaturationCDF, lo: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``(MIGL, F(MIGL))`` for the integer MIGLs ``lo..migl0`` of a SaturationCDF."""
+    ms = np.arange(lo, cdf.migl0 + 1)
+    return ms.astype(np.float64), np.asarray(cdf.values[lo:], dtype=np.float64)
+
+
+def _lowest_bin(cdf: SaturationCDF) -> int:
+    """Lowest MIGL holding a pixel of the CDF (``migl0`` when it is empty)."""
+    nz = np.flatnonzero(cdf.counts)
+    return int(nz[0]) if nz.size else int(cdf.migl0)
+
+
+def plot_dpa_cdfs(
+    path: str | Path, all_cdfs: Sequence[DPACDFs], *, threshold: float, dpi: int = 100
+) -> Path:
+    """DPA's saturation CDFs (thesis Fig. 6.3) as a PNG, one panel per pitch.
+
+    Each panel shows, over decreasing MIGL, the CDF estimated from the first set, the CDF after
+    the last update, the actual CDF from the DPA index image over the pixels saturated at the
+    top MIGL (quantised to the captured MIGLs, which are marked), and the exact actual CDF when
+    a step-1 sweep gave one. A set with no pixel saturated at its top MIGL gets a panel that
+    says so.
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    all_cdfs : sequence of DPACDFs
+        One per pitch, coarsest first (:func:`hdrfringe.measurement.dpa_cdfs`).
+    threshold : float
+        DPA's threshold (a fraction), for the titles.
+    dpi : int
+        Resolution of the PNG (each panel is 6.4 x 4.8 inches).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (the CDF and its updates) and Fig. 6.3; Eq. 6.2 (estimated) and Eq. 6.3
+    (actual saturated intensities).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.measurement import DPACDFs
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> nothing = DPACDFs(FringeSpec("sinusoidal", 4, 8.0), [255.0], ["initial"], 0)
+    >>> out = plot_dpa_cdfs(Path(tempfile.mkdtemp()) / "dpa_cdf.png", [nothing], threshold=0.1)
+    >>> out.name, out.stat().st_size > 0
+    ('dpa_cdf.png', True)
+    """
+    plt = _pyplot()
+    n = len(all_cdfs)
+    fig, axes = plt.subplots(1, n, figsize=(6.4 * n, 4.8), dpi=dpi, squeeze=False)
+    for ax, c in zip(axes[0], all_cdfs, strict=True):
+        title = f"{c.spec.label()}: DPA {100 * threshold:g} %"
+        if c.initial is None:
+            ax.text(
+                0.5,
+                0.5,
+                f"no pixel saturated at MIGL {c.spec.migl:g}:\none set, no CDF",
+                ha="center",
+                va="center",
+                transform=ax.transAxes,
+            )
+            ax.set_title(title, fontsize=10)
+            ax.set_axis_off()
+            continue
+        assert c.final is not None and c.actual is not None  # set together with initial
+        cands = [min(c.migls), _lowest_bin(c.initial), _lowest_bin(c.final)]
+        lo = max(int(c.initial.lowest_migl), int(min(cands)) - 5)
+        if c.exact is not None:
+            x, y = _cdf_curve(c.exact, lo)
+            ax.step(x, y, where="pre", color="black", lw=1.2, label="actual, exact (LPA step 1)")
+        x, y = _cdf_curve(c.actual, lo)
+        ax.step(
+            x,
+            y,
+            where="pre",
+            color="tab:green",
+            lw=1.6,
+            label=f"actual, DPA index image (quantised to the {len(c.migls)} captured MIGLs)",
+        )
+        at = [c.actual.at(m) for m in c.migls]
+        ax.plot(c.migls, at, "o", color="tab:green", ms=4)
+        x, y = _cdf_curve(c.initial, lo)
+        ax.step(x, y, where="pre", color="tab:blue", ls="--", label="estimated, first set")
+        x, y = _cdf_curve(c.final, lo)
+        ax.step(x, y, where="pre", color="tab:orange", label="estimated, after last update")
+        diff = c.max_abs_difference("actual") or 0.0
+        ax.set_title(
+            f"{title}; {c.saturated_at_top} px saturated at {c.spec.migl:g}\n"
+            f"max |first estimate - actual| at captured MIGLs: {diff:.3f}",
+            fontsize=10,
+        )
+        ax.set_xlim(c.initial.migl0 + 1, lo)  # the MIGL falls to the right (thesis Sec. 6.1.3)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel("MIGL")
+        ax.set_ylabel("fraction of the pixels saturated at the top MIGL")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out)

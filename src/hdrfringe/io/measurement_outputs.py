@@ -1,4 +1,9 @@
-"""Outputs of a measurement: height map and PLY, strategy maps and charts, DPA's CDF figure."""
+"""Outputs of a measurement: height map and PLY, strategy maps and charts, DPA's CDFs.
+
+Writers of a result folder's files (the ``measure`` command and the demo call them); the
+figures are drawn by :mod:`hdrfringe.io.plots`, the point cloud by
+:mod:`hdrfringe.io.point_cloud`.
+"""
 
 from __future__ import annotations
 
@@ -8,13 +13,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe.io.plots import plot_dpa_cdfs, plot_migl_pie
+from hdrfringe.io.point_cloud import write_ply
 from hdrfringe.io.results import write_map_tiff, write_preview_png
-from hdrfringe.reconstruct import CameraGeometry, points_from_height, write_ply
+from hdrfringe.reconstruct import CameraGeometry, points_from_height
 
 if TYPE_CHECKING:
     from hdrfringe.measurement import DPACDFs
-    from hdrfringe.saturation.dpa_rules import SaturationCDF
     from hdrfringe.saturation.strategies import StrategyResult
+
+__all__ = ["dpa_metrics", "write_dpa_outputs", "write_height_outputs", "write_strategy_outputs"]
 
 
 def write_height_outputs(
@@ -22,7 +30,32 @@ def write_height_outputs(
 ) -> list[str]:
     """Write ``height.tiff``, ``height.png`` and ``points.ply`` into ``out``; return notes.
 
-    Without camera geometry in the calibration, x and y are in pixels (a note says so).
+    Parameters
+    ----------
+    out : Path
+        Output folder (e.g. the staging folder of ``measure``).
+    height_mm : ndarray, shape (H, W)
+        Height map in mm (NaN = invalid; invalid pixels are not in the point cloud).
+    geometry : CameraGeometry or None
+        Camera geometry of the calibration, for x and y in mm. None: x and y are in pixels
+        (column, minus row) and a note says so.
+
+    Returns
+    -------
+    list of str
+        Notes for the report (empty when nothing needs saying).
+
+    References
+    ----------
+    Thesis Sec. 2.4, Eq. 2.11 (the height map).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp())
+    >>> notes = write_height_outputs(out, np.zeros((4, 5)), None)
+    >>> sorted(p.name for p in out.iterdir()), len(notes)
+    (['height.png', 'height.tiff', 'points.ply'], 1)
     """
     notes: list[str] = []
     write_map_tiff(out / "height.tiff", height_mm)
@@ -48,6 +81,9 @@ def _finest(results: list[StrategyResult]) -> StrategyResult:
 def write_strategy_outputs(out: Path, results: list[StrategyResult]) -> dict[str, Any]:
     """MIGL index map, the pie chart of pixels per MIGL (thesis Fig. 5.6), metrics keys.
 
+    Writes ``migl_index.tiff``, ``migl_index.png`` and ``migl_pie.png``
+    (:func:`~hdrfringe.io.plots.plot_migl_pie`).
+
     Parameters
     ----------
     out : Path
@@ -62,12 +98,30 @@ def write_strategy_outputs(out: Path, results: list[StrategyResult]) -> dict[str
         ``method``, ``sets_captured`` and ``images_captured`` (summed over the pitches),
         ``migls`` (capture order; one list per pitch, coarsest first, when there are several)
         and ``never_unsaturated_fraction`` (finest pitch) for metrics.json.
+
+    References
+    ----------
+    Thesis Sec. 5.1 (the LPA composite and its MIGL index) and Fig. 5.6.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.saturation.strategies import StrategyResult
+    >>> index = np.array([[255, 240], [255, 225]], dtype=np.float32)
+    >>> res = StrategyResult(
+    ...     images=np.zeros((4, 2, 2), np.uint8),
+    ...     spec=FringeSpec("sinusoidal", 4, 8.0),
+    ...     migl_index=index,
+    ...     migls=[255.0, 240.0, 225.0],
+    ...     newly_unsaturated=[2, 1, 1],
+    ...     never_unsaturated=np.zeros((2, 2), bool),
+    ...     method="lpa",
+    ... )
+    >>> keys = write_strategy_outputs(Path(tempfile.mkdtemp()), [res])
+    >>> keys["images_captured"], keys["migls"]
+    (12, [255.0, 240.0, 225.0])
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fine = _finest(results)
     write_map_tiff(out / "migl_index.tiff", fine.migl_index)
     write_preview_png(
@@ -77,14 +131,11 @@ def write_strategy_outputs(out: Path, results: list[StrategyResult]) -> dict[str
         cmap="viridis",
         label="MIGL",
     )
-    levels, counts = np.unique(fine.migl_index, return_counts=True)
-    order = np.argsort(levels)[::-1]
-    fig, ax = plt.subplots(figsize=(6, 6), dpi=100)
-    labels = [f"{levels[i]:g}" if counts[i] / counts.sum() > 0.02 else "" for i in order]
-    ax.pie(counts[order], labels=labels, startangle=90, counterclock=False)
-    ax.set_title(f"pixels per MIGL ({fine.method}, pitch {fine.spec.pitch_px:g} px)")
-    fig.savefig(out / "migl_pie.png")
-    plt.close(fig)
+    plot_migl_pie(
+        out / "migl_pie.png",
+        fine.migl_index,
+        title=f"pixels per MIGL ({fine.method}, pitch {fine.spec.pitch_px:g} px)",
+    )
     return {
         "method": fine.method,
         "sets_captured": int(sum(r.sets_captured for r in results)),
@@ -121,6 +172,19 @@ def dpa_metrics(cdfs: DPACDFs) -> dict[str, Any]:
     updates); ``max_abs_difference_initial_vs_actual`` is the largest ``|initial - actual|``
     over the captured MIGLs; ``max_abs_difference_initial_vs_exact`` the same against the exact
     CDF over every integer MIGL down to DPA's lowest capture.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (the CDF of the saturated intensities) and Fig. 6.3.
+
+    Examples
+    --------
+    >>> from hdrfringe.measurement import DPACDFs
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> nothing = DPACDFs(FringeSpec("sinusoidal", 4, 8.0), [255.0], ["initial"], 0)
+    >>> entry = dpa_metrics(nothing)  # no pixel saturated at the top: one set, no CDF
+    >>> entry["set"], entry["captures"]
+    ('s4_p8_v_i40_g255', [{'migl': 255.0, 'rule': 'initial'}])
     """
     entry: dict[str, Any] = {
         "set": cdfs.spec.label(),
@@ -153,18 +217,6 @@ def dpa_metrics(cdfs: DPACDFs) -> dict[str, Any]:
     return entry
 
 
-def _cdf_curve(cdf: SaturationCDF, lo: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``(MIGL, F(MIGL))`` for the integer MIGLs ``lo..migl0`` of a SaturationCDF."""
-    ms = np.arange(lo, cdf.migl0 + 1)
-    return ms.astype(np.float64), np.asarray(cdf.values[lo:], dtype=np.float64)
-
-
-def _lowest_bin(cdf: SaturationCDF) -> int:
-    """Lowest MIGL holding a pixel of the CDF (``migl0`` when it is empty)."""
-    nz = np.flatnonzero(cdf.counts)
-    return int(nz[0]) if nz.size else int(cdf.migl0)
-
-
 def write_dpa_outputs(
     out: Path, all_cdfs: list[DPACDFs], *, threshold: float, correction: str
 ) -> dict[str, Any]:
@@ -181,74 +233,32 @@ def write_dpa_outputs(
     correction : str
         What correction DPA used (a file name or ``"none (identity)"``).
 
-    Each panel shows, over decreasing MIGL, the CDF estimated from the first set, the CDF after
-    the last update, the actual CDF from the DPA index image over the pixels saturated at the
-    top MIGL (quantised to the captured MIGLs, which are marked), and the exact actual CDF when
-    a step-1 sweep gave one.
-
     Returns
     -------
     dict
         ``threshold``, ``correction`` and ``sets`` (one :func:`dpa_metrics` entry per pitch,
         coarsest first).
+
+    Notes
+    -----
+    The figure is :func:`~hdrfringe.io.plots.plot_dpa_cdfs`.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 and Fig. 6.3.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.measurement import DPACDFs
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> nothing = DPACDFs(FringeSpec("sinusoidal", 4, 8.0), [255.0], ["initial"], 0)
+    >>> out = Path(tempfile.mkdtemp())
+    >>> block = write_dpa_outputs(out, [nothing], threshold=0.1, correction="none (identity)")
+    >>> block["threshold"], len(block["sets"]), (out / "dpa_cdf.png").is_file()
+    (0.1, 1, True)
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = len(all_cdfs)
-    fig, axes = plt.subplots(1, n, figsize=(6.4 * n, 4.8), dpi=100, squeeze=False)
-    for ax, c in zip(axes[0], all_cdfs, strict=True):
-        title = f"{c.spec.label()}: DPA {100 * threshold:g} %"
-        if c.initial is None:
-            ax.text(
-                0.5,
-                0.5,
-                f"no pixel saturated at MIGL {c.spec.migl:g}:\none set, no CDF",
-                ha="center",
-                va="center",
-                transform=ax.transAxes,
-            )
-            ax.set_title(title, fontsize=10)
-            ax.set_axis_off()
-            continue
-        assert c.final is not None and c.actual is not None  # set together with initial
-        cands = [min(c.migls), _lowest_bin(c.initial), _lowest_bin(c.final)]
-        lo = max(int(c.initial.lowest_migl), int(min(cands)) - 5)
-        if c.exact is not None:
-            x, y = _cdf_curve(c.exact, lo)
-            ax.step(x, y, where="pre", color="black", lw=1.2, label="actual, exact (LPA step 1)")
-        x, y = _cdf_curve(c.actual, lo)
-        ax.step(
-            x,
-            y,
-            where="pre",
-            color="tab:green",
-            lw=1.6,
-            label=f"actual, DPA index image (quantised to the {len(c.migls)} captured MIGLs)",
-        )
-        at = [c.actual.at(m) for m in c.migls]
-        ax.plot(c.migls, at, "o", color="tab:green", ms=4)
-        x, y = _cdf_curve(c.initial, lo)
-        ax.step(x, y, where="pre", color="tab:blue", ls="--", label="estimated, first set")
-        x, y = _cdf_curve(c.final, lo)
-        ax.step(x, y, where="pre", color="tab:orange", label="estimated, after last update")
-        diff = c.max_abs_difference("actual") or 0.0
-        ax.set_title(
-            f"{title}; {c.saturated_at_top} px saturated at {c.spec.migl:g}\n"
-            f"max |first estimate - actual| at captured MIGLs: {diff:.3f}",
-            fontsize=10,
-        )
-        ax.set_xlim(c.initial.migl0 + 1, lo)  # the MIGL falls to the right (thesis Sec. 6.1.3)
-        ax.set_ylim(-0.02, 1.02)
-        ax.set_xlabel("MIGL")
-        ax.set_ylabel("fraction of the pixels saturated at the top MIGL")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
-    fig.savefig(out / "dpa_cdf.png")
-    plt.close(fig)
+    plot_dpa_cdfs(out / "dpa_cdf.png", all_cdfs, threshold=threshold)
     return {
         "threshold": float(threshold),
         "correction": correction,
