@@ -367,6 +367,32 @@ def test_plot_gamma_mapping(tmp_path: Path) -> None:
     assert plot_gamma_mapping(ffit, tmp_path / "fringes.png", gamma_hat=2.0).stat().st_size > 10_000
 
 
+def test_gamma_package_is_core_math() -> None:
+    """No module of hdrfringe.gamma (nor reconstruct) imports matplotlib, plyfile or the I/O
+    layer, not even inside a function: plots and file formats live in hdrfringe.io."""
+    import ast
+
+    import hdrfringe.gamma
+    import hdrfringe.reconstruct
+
+    files = [
+        *Path(hdrfringe.gamma.__file__).parent.glob("*.py"),
+        Path(hdrfringe.reconstruct.__file__),
+    ]
+    assert len(files) >= 8
+    forbidden = ("matplotlib", "plyfile", "hdrfringe.io", "hdrfringe.cli")
+    for file in files:
+        for node in ast.walk(ast.parse(file.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            else:
+                continue
+            bad = [n for n in names if n.startswith(forbidden)]
+            assert not bad, f"{file.name} imports {bad}"
+
+
 # ---------------------------------------------------------------------------------------------
 # command line (reads the capture folder, calls the functions above)
 # ---------------------------------------------------------------------------------------------
