@@ -306,8 +306,8 @@ def _solve(
     scan = [g.take(np.sort(rng.permutation(g.y.shape[1])[:1500])) for g in groups]
     best = (math.inf, float(gamma_init))
     for g0 in sorted({float(gamma_init), 1.0, 1.5, 2.0, 2.5, 3.0, 4.0}):
-        prm = [_init_params(g, g0) for g in scan]
-        c = _levenberg_marquardt(scan, prm, g0, fix_gamma=True, max_iter=15)[2]
+        trial = [_init_params(g, g0) for g in scan]
+        c = _levenberg_marquardt(scan, trial, g0, fix_gamma=True, max_iter=15)[2]
         if c < best[0]:
             best = (c, g0)
     gamma = best[1]

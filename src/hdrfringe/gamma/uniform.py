@@ -214,14 +214,14 @@ def _fit_power_law(x: F64, y: F64) -> tuple[F64, F64 | None, F64]:
     sol = optimize.least_squares(
         resid, sol.x, jac=jac, bounds=bounds, loss="soft_l1", f_scale=f_scale, x_scale="jac"
     )
-    p = sol.x
+    p: F64 = sol.x
     r = resid(p)
     dof = x.size - 3
-    cov = None
+    cov: F64 | None = None
     if dof > 0:
         j = _power_law_jac(p, x)
         try:
-            cov = np.linalg.inv(j.T @ j) * float(np.sum(r * r) / dof)
+            cov = np.asarray(np.linalg.inv(j.T @ j) * float(np.sum(r * r) / dof), np.float64)
         except np.linalg.LinAlgError:
             cov = None
     return p, cov, r

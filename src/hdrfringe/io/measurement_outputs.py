@@ -58,6 +58,9 @@ def write_height_outputs(
     (['height.png', 'height.tiff', 'points.ply'], 1)
     """
     notes: list[str] = []
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    z: NDArray[np.float64]
     write_map_tiff(out / "height.tiff", height_mm)
     write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
     if geometry is None:
@@ -65,8 +68,8 @@ def write_height_outputs(
             "the calibration records no camera geometry (focal_px, standoff_mm): points.ply has "
             "x and y in pixels"
         )
-        rows, cols = np.indices(height_mm.shape, dtype=np.float64)
-        x, y, z = cols, -rows, height_mm
+        rows_cols = np.indices(height_mm.shape, dtype=np.float64)
+        x, y, z = rows_cols[1], -rows_cols[0], height_mm
     else:
         x, y, z = points_from_height(height_mm, geometry)
     write_ply(out / "points.ply", x, y, z)
