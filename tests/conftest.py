@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import ProjectorInfo
+from hdrfringe.captures import Captures, ProjectorInfo
 from hdrfringe.frames import CenterlineFrame
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.patterns import FringeSpec, fringe_gray
@@ -55,11 +55,13 @@ def capture_folder(tmp_path: Path) -> Path:
     path = tmp_path / "caps"
     write_capture_folder(
         path,
-        frames,
-        np.concatenate([imgs, line[None]]),
-        8,
-        projector=ProjectorInfo(1024, 768, 8, 2.812),
-        scene={"depth_mm": 0.0},
+        Captures(
+            frames,
+            np.concatenate([imgs, line[None]]),
+            8,
+            projector=ProjectorInfo(1024, 768, 8, 2.812),
+            scene={"depth_mm": 0.0},
+        ),
     )
     return path
 

@@ -14,7 +14,9 @@ from scipy import ndimage
 from hdrfringe.calibration import (
     MODELS,
     Calibration,
+    CalibrationMismatchError,
     calibrate,
+    check_compatible,
     evaluate_model,
     filter_map,
     fit_linear_k,
@@ -26,8 +28,6 @@ from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
 from hdrfringe.io import calibration_file
 from hdrfringe.io.calibration_file import (
     CalibrationFileError,
-    CalibrationMismatchError,
-    check_compatible,
     load_calibration,
     save_calibration,
 )

@@ -232,7 +232,7 @@ def test_modify_applies_eq_4_1(tmp_path: Path) -> None:
     assert np.array_equal(b, np.minimum(255, a + 102))  # 600 lx * 0.17 DN/lx, clipped
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["modification"]["add_lux"] == 600
-    truth = read_capture_folder(out).read_map("truth_height_mm")  # ground truth travels along
+    truth = read_capture_folder(out).map("truth_height_mm")  # ground truth travels along
     assert truth is not None and np.allclose(truth, 0.0)
 
 

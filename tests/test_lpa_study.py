@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hdrfringe.captures import Captures
 from hdrfringe.frames import Frame
-from hdrfringe.io.captures import CaptureFolder
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
@@ -30,7 +30,7 @@ def test_lpa_steps_against_uniform_tradeoff(pitch: float) -> None:
     frames: list[Frame] = []
     for m in range(255, 59, -1):
         frames += spec.with_migl(m).frames()
-    sweep = CaptureFolder.from_arrays(frames, rig.capture(frames), 8, projector=rig.projector)
+    sweep = Captures(frames, rig.capture(frames), 8, projector=rig.projector)
 
     def rms(images: np.ndarray) -> float:
         ph = decode_set(images, spec, 8, reject_saturated=False)

@@ -15,6 +15,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
+from hdrfringe.captures import Captures
 from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
@@ -57,11 +58,9 @@ def _small_sweep(path: Path, pitch: float, lowest: int, *, uniform: bool = False
         frames.append(UniformFrame(40))
     write_capture_folder(
         path,
-        frames,
-        rig.capture(frames),
-        8,
-        projector=rig.projector,
-        scene=rig.scene.to_manifest(),
+        Captures(
+            frames, rig.capture(frames), 8, projector=rig.projector, scene=rig.scene.to_manifest()
+        ),
     )
     rig.reset_noise()
     return rig

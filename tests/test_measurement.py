@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from hdrfringe.calibration import filter_map, fit_linear_k, measurement_mask
+from hdrfringe.captures import Captures
 from hdrfringe.frames import CenterlineFrame, Frame
-from hdrfringe.io.captures import CaptureFolder
 from hdrfringe.measurement import calibrate_captures, measure_folder
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, mask, white_plate
@@ -29,7 +29,7 @@ def plate_rig(depth: float, *, noise: bool, seed: int) -> SimulatedRig:
     return rig
 
 
-def captured(rig: SimulatedRig, frames: list[Frame]) -> CaptureFolder:
+def captured(rig: SimulatedRig, frames: list[Frame]) -> Captures:
     """What `hdrfringe simulate` would write, kept in memory."""
     return rig.capture_folder(frames)
 
@@ -38,7 +38,7 @@ def frames_for(spec: FringeSpec) -> list[Frame]:
     return [*spec.frames(), CenterlineFrame(512, spec.orientation, 255)]
 
 
-def series(spec: FringeSpec, *, noise: bool, seed: int) -> list[CaptureFolder]:
+def series(spec: FringeSpec, *, noise: bool, seed: int) -> list[Captures]:
     fr = frames_for(spec)
     return [captured(plate_rig(d, noise=noise, seed=seed), fr) for d in (0.0, *DEPTHS)]
 

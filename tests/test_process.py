@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from hdrfringe.frames import CenterlineFrame
-from hdrfringe.io.captures import read_capture_folder
+from hdrfringe.io.captures import read_capture_folder, simulate_to_folder
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.process import decode_folder
+from hdrfringe.process import decode_captures
 from hdrfringe.rig.scenes import mask
-from hdrfringe.rig.simulated import SimulatedRig, simulate_to_folder
+from hdrfringe.rig.simulated import SimulatedRig
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +32,7 @@ def two_pitch_folder(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Si
 
 def test_spatial_then_temporal_then_centerline(two_pitch_folder) -> None:
     path, rig = two_pitch_folder
-    decoded = decode_folder(read_capture_folder(path))
+    decoded = decode_captures(read_capture_folder(path))
     fam = decoded.primary
     assert fam is not None and fam.orientation == "vertical"
     assert [s.spec.pitch_px for s in fam.sets] == [48.0, 8.0]

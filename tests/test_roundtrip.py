@@ -10,10 +10,11 @@ import pytest
 import tifffile
 
 from hdrfringe.frames import CenterlineFrame
+from hdrfringe.io.captures import simulate_to_folder
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.scenes import mask, white_plate
-from hdrfringe.rig.simulated import SimulatedRig, simulate_to_folder
+from hdrfringe.rig.simulated import SimulatedRig
 from tests.conftest import run_cli
 
 TWO_PI = 2 * np.pi

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hdrfringe.captures import Captures
 from hdrfringe.frames import Frame
-from hdrfringe.io.captures import CaptureFolder
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
@@ -101,9 +101,7 @@ def test_replay_of_a_sweep_equals_the_live_rig() -> None:
     frames: list[Frame] = []
     for m in range(255, 59, -5):
         frames += spec.with_migl(m).frames()
-    folder = CaptureFolder.from_arrays(
-        frames, sweep_rig.capture(frames), 8, projector=sweep_rig.projector
-    )
+    folder = Captures(frames, sweep_rig.capture(frames), 8, projector=sweep_rig.projector)
     replay = lpa(ReplayRig(folder), spec, step=15)
     assert replay.migls == live.migls
     assert np.array_equal(replay.images, live.images)

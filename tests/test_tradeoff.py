@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hdrfringe.captures import Captures
 from hdrfringe.frames import CenterlineFrame
-from hdrfringe.io.captures import CaptureFolder
 from hdrfringe.measurement import calibrate_captures, measure_folder, tradeoff_search
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import white_plate
@@ -29,13 +29,13 @@ def _measure_strategy(strategy, depth: float, seed: int, calibration) -> float:
     rig = SimulatedRig(white_plate(depth), lighting=Lighting(ambient_lux=600), seed=seed)
     res = strategy(rig)
     imgs = np.concatenate([res.images, rig.capture(LINE)])
-    folder = CaptureFolder.from_arrays(
+    folder = Captures(
         [*SPEC.frames(), *LINE],
         imgs,
         8,
         projector=rig.projector,
         scene=rig.scene.to_manifest(),
-        truth_height_mm=rig.truth().height_mm,
+        maps={"truth_height_mm": rig.truth().height_mm},
     )
     return measure_folder(folder, calibration, reject_saturated=False).metrics["rmse_mm"]
 

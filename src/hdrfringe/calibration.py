@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from os import PathLike
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -35,15 +36,17 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from hdrfringe.errors import InputError
+from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.patterns import FringeSpec
 
 __all__ = [
     "MODELS",
     "N_COEFFICIENTS",
     "Calibration",
+    "CalibrationMismatchError",
     "ResidualStats",
     "calibrate",
+    "check_compatible",
     "evaluate_model",
     "filter_coefficients",
     "filter_map",
@@ -919,4 +922,94 @@ def calibrate(
         gamma_precompensation=gamma_precompensation,
         camera_bit_depth=camera_bit_depth,
         provenance=dict(provenance or {}),
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# compatibility of a calibration with a measurement
+# --------------------------------------------------------------------------------------------
+class CalibrationMismatchError(HdrFringeError):
+    """A calibration does not fit a measurement (fringe set, image size or bit depth)."""
+
+
+def _fmt(v: Any) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def check_compatible(
+    cal: Calibration,
+    spec: FringeSpec,
+    image_shape: tuple[int, int],
+    camera_bit_depth: int,
+    *,
+    source: str | PathLike[str] | None = None,
+) -> None:
+    """Refuse a measurement the calibration does not fit.
+
+    Compared: fringe pattern, steps, pitch and orientation (they set the phase-to-height
+    relation and the phase errors the calibration absorbed), image size, camera bit depth.
+    ``imin`` and ``migl`` may differ: the thesis measures at MIGL 105..255 with calibrations
+    taken at MIGL 255 (Sec. 4.1), since the gray range does not change the phase. Fields the
+    calibration does not record (None) are not compared.
+
+    Parameters
+    ----------
+    cal : Calibration
+    spec : FringeSpec
+        Fringe set of the measurement.
+    image_shape : (int, int)
+        Camera image (height, width) of the measurement.
+    camera_bit_depth : int
+    source : str or path-like, optional
+        Where the calibration came from, for the message.
+
+    Raises
+    ------
+    CalibrationMismatchError
+        One line listing every difference, then "recalibrate with ... or measure with ...".
+
+    Notes
+    -----
+    Thesis Sec. 4.1: calibrations taken at MIGL 255 serve measurements at any MIGL.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cal = Calibration("linear", np.ones((2, 3)), None, np.zeros((2, 3)), np.array([2.0]),
+    ...                   spec=FringeSpec("sinusoidal", 3, 6.0), camera_bit_depth=8)
+    >>> check_compatible(cal, FringeSpec("sinusoidal", 3, 6.0, migl=150.0), (2, 3), 8)
+    >>> check_compatible(cal, FringeSpec("sinusoidal", 4, 6.0), (2, 3), 8)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.calibration.CalibrationMismatchError: ... steps 3 (calibration) vs 4 (measurement)...
+    """
+    diffs: list[tuple[str, str, str]] = []  # (what, calibration value, measurement value)
+    if cal.spec is not None:
+        c = cal.spec
+        for what, cv, mv in (
+            ("pattern", c.pattern, spec.pattern),
+            ("steps", c.steps, spec.steps),
+            ("orientation", c.orientation, spec.orientation),
+        ):
+            if cv != mv:
+                diffs.append((what, _fmt(cv), _fmt(mv)))
+        if not math.isclose(c.pitch_px, spec.pitch_px, rel_tol=1e-9, abs_tol=1e-12):
+            diffs.append(("pitch", f"{c.pitch_px:g} px", f"{spec.pitch_px:g} px"))
+    shape = (int(image_shape[0]), int(image_shape[1]))
+    if cal.image_shape != shape:
+        ch, cw = cal.image_shape
+        diffs.append(("image size", f"{cw}x{ch}", f"{shape[1]}x{shape[0]}"))
+    if cal.camera_bit_depth is not None and cal.camera_bit_depth != int(camera_bit_depth):
+        diffs.append(
+            ("camera bit depth", f"{cal.camera_bit_depth} bits", f"{int(camera_bit_depth)} bits")
+        )
+    if not diffs:
+        return
+    name = f" {source}" if source is not None else ""
+    listed = ", ".join(f"{w} {cv} (calibration) vs {mv} (measurement)" for w, cv, mv in diffs)
+    redo = ", ".join(f"{w} {mv}" for w, _, mv in diffs)
+    keep = ", ".join(f"{w} {cv}" for w, cv, _ in diffs)
+    raise CalibrationMismatchError(
+        f"calibration{name} does not fit this measurement: {listed}; recalibrate with {redo} "
+        f"or measure with {keep}"
     )

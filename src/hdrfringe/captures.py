@@ -1,18 +1,46 @@
-"""What a rig saw: projector and camera descriptions, and (issue 10, in progress) the in-memory
-``Captures`` type that the I/O layer reads and writes and the pipeline consumes.
+"""What a rig saw: the in-memory :class:`Captures` and the projector and camera descriptions.
 
-This module is core: it holds data, not paths, and imports nothing above the core layer.
+A :class:`Captures` is a capture folder's content held in memory: the frames that were
+projected, one camera image per frame, the camera bit depth, projector and camera descriptions,
+the scene, per-frame exposure and set labels, and float maps such as the ground-truth height.
+It holds data, not paths: :mod:`hdrfringe.io.captures` reads and writes it as a capture folder
+(docs/capture_format.md), rigs produce it, and the pipeline (:mod:`hdrfringe.process`) consumes
+it.
+
+This module is core: it imports nothing above the core layer and touches no file.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
-from hdrfringe.errors import InputError
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["CameraSettings", "ProjectorInfo"]
+from hdrfringe._validation import check_bit_depth, full_scale
+from hdrfringe.errors import CaptureFormatError, HdrFringeError, InputError
+from hdrfringe.frames import CenterlineFrame, Frame, FringeFrame, UniformFrame, frame_from_manifest
+from hdrfringe.patterns import FringeSpec
+
+__all__ = [
+    "FORMAT_NAME",
+    "FORMAT_VERSION",
+    "CameraSettings",
+    "Captures",
+    "FringeSet",
+    "ProjectorInfo",
+    "group_fringe_sets",
+]
+
+#: The capture manifest's ``format`` field (docs/capture_format.md).
+FORMAT_NAME = "hdrfringe-captures"
+#: The capture-folder contract version this hdrfringe reads and writes.
+FORMAT_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -53,6 +81,31 @@ class ProjectorInfo:
             "gamma_precompensation": float(self.gamma_precompensation),
         }
 
+    @classmethod
+    def from_manifest(cls, entry: Mapping[str, Any]) -> ProjectorInfo:
+        """From a manifest's (validated) ``projector`` entry; absent fields take the defaults.
+
+        Parameters
+        ----------
+        entry : mapping
+            Optional ``width``, ``height``, ``bit_depth``, ``gamma_precompensation``.
+
+        Returns
+        -------
+        ProjectorInfo
+
+        Examples
+        --------
+        >>> ProjectorInfo.from_manifest({"gamma_precompensation": 2.2})
+        ProjectorInfo(width=1024, height=768, bit_depth=8, gamma_precompensation=2.2)
+        """
+        return cls(
+            width=int(entry.get("width", 1024)),
+            height=int(entry.get("height", 768)),
+            bit_depth=int(entry.get("bit_depth", 8)),
+            gamma_precompensation=float(entry.get("gamma_precompensation", 1.0)),
+        )
+
 
 @dataclass(frozen=True)
 class CameraSettings:
@@ -86,3 +139,564 @@ class CameraSettings:
             math.isfinite(self.gain_db) and -20.0 <= self.gain_db <= 48.0
         ):
             raise InputError(f"camera gain must be -20..48 dB, got {self.gain_db}")
+
+
+@dataclass(frozen=True)
+class FringeSet:
+    """One complete phase-shifted set inside a :class:`Captures`.
+
+    Parameters
+    ----------
+    label : str
+        The manifest's ``set`` label, or a label built from the pattern specification (with
+        ``_e<exposure>`` and ``_gp<gamma>`` appended when the frames give them).
+    spec : FringeSpec
+        The set's pattern specification.
+    frame_indices : tuple of int
+        Indices into :attr:`Captures.frames`, ordered by shift (shift 0 first).
+    exposure_ms : float or None
+        Exposure time of the set's first frame, when given.
+    gamma_precompensation : float or None
+        Per-set pre-compensation exponent when the frames give one (an hdrfringe addition to
+        the contract); None: the projector's ``gamma_precompensation``.
+
+    Examples
+    --------
+    >>> spec = FringeSpec("sinusoidal", 3, 8.0)
+    >>> group_fringe_sets(spec.frames())[0].frame_indices
+    (0, 1, 2)
+    """
+
+    label: str
+    spec: FringeSpec
+    frame_indices: tuple[int, ...]
+    exposure_ms: float | None = None
+    gamma_precompensation: float | None = None
+
+
+def _per_frame(values: Sequence[Any] | None, n: int, what: str, where: str) -> tuple[Any, ...]:
+    """A per-frame column as a tuple of length ``n`` (None or empty: all None)."""
+    if values is None or (len(values) == 0 and n > 0):
+        return (None,) * n
+    out = tuple(values)
+    if len(out) != n:
+        raise InputError(
+            f"{where}: {what} has {len(out)} entries for {n} frames; give one per frame "
+            "(None where it does not apply)"
+        )
+    return out
+
+
+def _positive_or_none(value: Any, what: str, where: str) -> float | None:
+    if value is None:
+        return None
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float | np.integer | np.floating)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        raise CaptureFormatError(f"{where}: {what} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def group_fringe_sets(
+    frames: Sequence[Frame],
+    *,
+    exposure_ms: Sequence[float | None] | None = None,
+    set_labels: Sequence[str | None] | None = None,
+    gamma_precompensation: Sequence[float | None] | None = None,
+    names: Sequence[str] | None = None,
+) -> list[FringeSet]:
+    """Group fringe frames into complete phase-shifted sets (the capture-folder contract).
+
+    Frames with a ``set`` label form one set per label; the others form one set per pattern
+    specification, exposure time and gamma pre-compensation. Every set must hold one
+    specification and each shift 0..N-1 exactly once.
+
+    Parameters
+    ----------
+    frames : sequence of Frame
+        Only the :class:`~hdrfringe.frames.FringeFrame` entries are grouped.
+    exposure_ms, set_labels, gamma_precompensation : sequence, optional
+        Per-frame values (None where not given); default: all None.
+    names : sequence of str, optional
+        Per-frame names for the messages (e.g. the image files); default: ``frame <index>``.
+
+    Returns
+    -------
+    list of FringeSet
+        In order of each set's first frame.
+
+    Raises
+    ------
+    CaptureFormatError
+        A labelled set mixes specifications, or a set misses or repeats a shift.
+
+    Examples
+    --------
+    >>> frames = FringeSpec("sinusoidal", 3, 8.0).frames()
+    >>> [s.label for s in group_fringe_sets(frames[::-1])]
+    ['s3_p8_v_i40_g255']
+    >>> group_fringe_sets(frames[:2])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.CaptureFormatError: set 's3_p8_v_i40_g255': has shifts [0, 1] but a 3-step ...
+    """
+    n = len(frames)
+    exposures = _per_frame(exposure_ms, n, "exposure_ms", "fringe sets")
+    labels = _per_frame(set_labels, n, "set_labels", "fringe sets")
+    gammas = _per_frame(gamma_precompensation, n, "gamma_precompensation", "fringe sets")
+    frame_names = [f"frame {i}" for i in range(n)] if names is None else list(names)
+    groups: dict[tuple[Any, ...], list[int]] = {}
+    for i, frame in enumerate(frames):
+        if not isinstance(frame, FringeFrame):
+            continue
+        key: tuple[Any, ...]
+        if labels[i] is not None:
+            key = ("label", labels[i])
+        else:
+            key = ("spec", frame.spec, exposures[i], gammas[i])
+        groups.setdefault(key, []).append(i)
+    sets: list[FringeSet] = []
+    for key, idx in groups.items():
+        fringe = [frames[i] for i in idx]
+        spec = fringe[0].spec  # type: ignore[union-attr]
+        label = key[1] if key[0] == "label" else spec.label()
+        exposure = exposures[idx[0]]
+        if exposure is not None and key[0] == "spec":
+            label = f"{label}_e{exposure:g}"
+        gamma = gammas[idx[0]]
+        if gamma is not None and key[0] == "spec":
+            label = f"{label}_gp{gamma:g}"
+        for i, f in zip(idx, fringe, strict=True):
+            if f.spec != spec:  # type: ignore[union-attr]
+                raise CaptureFormatError(
+                    f"set {label!r}: frame {frame_names[i]} has a different pattern "
+                    "specification from the rest of its set; give each set one specification"
+                )
+        shifts = sorted(f.shift for f in fringe)  # type: ignore[union-attr]
+        if shifts != list(range(spec.steps)):
+            raise CaptureFormatError(
+                f"set {label!r}: has shifts {shifts} but a {spec.steps}-step set needs each of "
+                f"0..{spec.steps - 1} exactly once; add or remove frames"
+            )
+        ordered = tuple(sorted(idx, key=lambda i: frames[i].shift))  # type: ignore[union-attr]
+        sets.append(
+            FringeSet(label, spec, ordered, exposure, None if gamma is None else float(gamma))
+        )
+    return sets
+
+
+#: Top-level manifest fields :meth:`Captures.to_manifest` writes itself.
+_MANIFEST_FIELDS = ("format", "version", "camera", "projector", "scene", "maps", "frames")
+
+
+@dataclass(frozen=True, eq=False)
+class Captures:
+    """Captured images with what was projected for each: a capture folder held in memory.
+
+    Validated on construction: one (H, W) image per frame, values within ``0..2^B - 1``
+    (:func:`hdrfringe._validation.full_scale`), maps of the image size, complete fringe sets
+    (:func:`group_fringe_sets`). It holds no path: :mod:`hdrfringe.io.captures` reads and
+    writes it as a capture folder (docs/capture_format.md).
+
+    Parameters
+    ----------
+    frames : sequence of Frame
+        What the projector showed for each image.
+    images : ndarray, shape (n_frames, H, W)
+        Camera counts (integers; float32 only for luma converted from RGB).
+    camera_bit_depth : int
+        Sensor bit depth B; a pixel is saturated at ``2^B - 1``.
+    projector : ProjectorInfo, optional
+        Projector input description (None: not recorded).
+    camera : dict, optional
+        Camera description besides the bit depth, e.g. the geometry ``focal_px`` and
+        ``standoff_mm`` (what a manifest's ``camera`` holds besides ``bit_depth``).
+    scene : dict, optional
+        Scene description, e.g. ``{"depth_mm": 12.0}`` for a flat plate.
+    exposure_ms : sequence of float or None, optional
+        Per-frame exposure time in milliseconds (None: not given); default all None.
+    set_labels : sequence of str or None, optional
+        Per-frame ``set`` label grouping fringe frames into sets; default all None.
+    gamma_precompensation : sequence of float or None, optional
+        Per-frame gamma pre-compensation overriding the projector's (an hdrfringe addition,
+        docs/gamma.md); default all None.
+    maps : dict of str to ndarray, optional
+        Float maps of the image size, e.g. ``truth_height_mm``.
+    name : str
+        A label for messages only (the folder reader sets it to the folder path).
+
+    Raises
+    ------
+    CaptureFormatError
+        Images that do not match the frames or the bit depth, maps of another size, invalid
+        per-frame values, or incomplete fringe sets.
+    InputError
+        An invalid bit depth or per-frame columns of the wrong length.
+
+    Notes
+    -----
+    Thesis Sec. 2.2: a set of N phase-shifted images per fringe specification; the saturation
+    rule (a value of ``2^B - 1``) is :func:`hdrfringe._validation.is_saturated`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> frames = FringeSpec("sinusoidal", 4, 8.0).frames()
+    >>> caps = Captures(frames, np.zeros((4, 3, 5), np.uint8), 8, scene={"depth_mm": 0.0})
+    >>> caps
+    Captures('<memory>': 4 frames of 5x3 at 8 bits, 1 fringe set)
+    >>> caps.image_shape, caps.sets[0].label
+    ((3, 5), 's4_p8_v_i40_g255')
+    >>> caps.set_images(caps.sets[0]).shape
+    (4, 3, 5)
+    """
+
+    frames: list[Frame]
+    images: NDArray[Any] = field(repr=False)
+    camera_bit_depth: int
+    projector: ProjectorInfo | None = None
+    camera: dict[str, Any] = field(default_factory=dict)
+    scene: dict[str, Any] = field(default_factory=dict)
+    exposure_ms: tuple[float | None, ...] = ()
+    set_labels: tuple[str | None, ...] = ()
+    gamma_precompensation: tuple[float | None, ...] = ()
+    maps: dict[str, NDArray[Any]] = field(default_factory=dict, repr=False)
+    name: str = "<memory>"
+    _sets: tuple[FringeSet, ...] = field(init=False, repr=False, default=())
+
+    def __post_init__(self) -> None:
+        name = str(self.name)
+        bits = check_bit_depth(self.camera_bit_depth)
+        frames = list(self.frames)
+        for i, f in enumerate(frames):
+            if not isinstance(f, Frame):
+                raise InputError(
+                    f"{name}: frame {i} is a {type(f).__name__}; give frames from "
+                    "hdrfringe.frames (FringeFrame, CenterlineFrame, UniformFrame)"
+                )
+        images = np.asarray(self.images)
+        if images.ndim != 3 or images.shape[0] != len(frames):
+            raise CaptureFormatError(
+                f"{name}: {len(frames)} frames but images of shape {images.shape}; "
+                "give one (H, W) image per frame"
+            )
+        if images.dtype.kind not in "uif":
+            raise CaptureFormatError(
+                f"{name}: images of dtype {images.dtype}; give camera counts as integers"
+            )
+        full = full_scale(bits)
+        if images.size:
+            hi = images.max()
+            lo = images.min() if images.dtype.kind != "u" else 0
+            if not hi <= full:  # NaN fails too
+                raise CaptureFormatError(
+                    f"{name}: values reach {hi}, above 2^B - 1 = {full}; fix the bit depth"
+                )
+            if not lo >= 0:
+                raise CaptureFormatError(
+                    f"{name}: values go down to {lo}; camera counts are never negative"
+                )
+        n = len(frames)
+        exposure = tuple(
+            _positive_or_none(v, "exposure_ms", f"{name}: frame {i}")
+            for i, v in enumerate(_per_frame(self.exposure_ms, n, "exposure_ms", name))
+        )
+        gamma = tuple(
+            _positive_or_none(v, "gamma_precompensation", f"{name}: frame {i}")
+            for i, v in enumerate(
+                _per_frame(self.gamma_precompensation, n, "gamma_precompensation", name)
+            )
+        )
+        labels = _per_frame(self.set_labels, n, "set_labels", name)
+        for i, label in enumerate(labels):
+            if label is not None and not isinstance(label, str):
+                raise CaptureFormatError(
+                    f"{name}: frame {i} set label must be a string, got {label!r}"
+                )
+        camera = dict(self.camera)
+        if "bit_depth" in camera:
+            raise InputError(
+                f"{name}: camera holds 'bit_depth'; give the bit depth as camera_bit_depth "
+                "and the rest of the camera description in camera"
+            )
+        shape = (int(images.shape[1]), int(images.shape[2]))
+        maps: dict[str, NDArray[Any]] = {}
+        for key, data in self.maps.items():
+            arr = np.asarray(data)
+            if arr.shape != shape:
+                got = f"{arr.shape[1]}x{arr.shape[0]}" if arr.ndim == 2 else str(arr.shape)
+                raise CaptureFormatError(
+                    f"{name}: map {key!r} is {got} but the images are {shape[1]}x{shape[0]}; "
+                    "regenerate it"
+                )
+            maps[str(key)] = arr
+        sets = group_fringe_sets(
+            frames, exposure_ms=exposure, set_labels=labels, gamma_precompensation=gamma
+        )
+        for attr, value in (
+            ("frames", frames),
+            ("images", images),
+            ("camera_bit_depth", bits),
+            ("camera", camera),
+            ("scene", dict(self.scene)),
+            ("exposure_ms", exposure),
+            ("set_labels", labels),
+            ("gamma_precompensation", gamma),
+            ("maps", maps),
+            ("name", name),
+            ("_sets", tuple(sets)),
+        ):
+            object.__setattr__(self, attr, value)
+
+    def __repr__(self) -> str:
+        h, w = self.image_shape
+        n_sets = len(self._sets)
+        return (
+            f"Captures({self.name!r}: {len(self.frames)} frames of {w}x{h} at "
+            f"{self.camera_bit_depth} bits, {n_sets} fringe set{'s' if n_sets != 1 else ''})"
+        )
+
+    # --- views ------------------------------------------------------------------------------
+    @property
+    def sets(self) -> tuple[FringeSet, ...]:
+        """The complete fringe sets (:func:`group_fringe_sets`), in order of first frame."""
+        return self._sets
+
+    @property
+    def image_shape(self) -> tuple[int, int]:
+        """Camera image (height, width)."""
+        return (int(self.images.shape[1]), int(self.images.shape[2]))
+
+    def set_images(self, fringe_set: FringeSet) -> NDArray[Any]:
+        """Stack of a set's images, shape (N, H, W), shift 0 first.
+
+        Parameters
+        ----------
+        fringe_set : FringeSet
+            One of :attr:`sets`.
+
+        Returns
+        -------
+        ndarray
+        """
+        return self.images[list(fringe_set.frame_indices)]
+
+    def centerlines(self) -> list[tuple[CenterlineFrame, NDArray[Any]]]:
+        """Every centerline frame with its image, in frame order.
+
+        Returns
+        -------
+        list of (CenterlineFrame, ndarray (H, W))
+        """
+        return [
+            (f, self.images[i]) for i, f in enumerate(self.frames) if isinstance(f, CenterlineFrame)
+        ]
+
+    def uniforms(self) -> list[tuple[UniformFrame, NDArray[Any]]]:
+        """Every uniform-gray frame with its image, in frame order.
+
+        Returns
+        -------
+        list of (UniformFrame, ndarray (H, W))
+        """
+        return [
+            (f, self.images[i]) for i, f in enumerate(self.frames) if isinstance(f, UniformFrame)
+        ]
+
+    def map(self, key: str) -> NDArray[Any] | None:
+        """A float map (e.g. ``truth_height_mm``), or None when the captures carry none.
+
+        Parameters
+        ----------
+        key : str
+
+        Returns
+        -------
+        ndarray (H, W) or None
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdrfringe.frames import UniformFrame
+        >>> caps = Captures([UniformFrame(128)], np.zeros((1, 2, 2), np.uint8), 8,
+        ...                 maps={"truth_height_mm": np.ones((2, 2))})
+        >>> caps.map("truth_height_mm").sum(), caps.map("depth")
+        (np.float64(4.0), None)
+        """
+        return self.maps.get(key)
+
+    # --- manifest (no file access) ----------------------------------------------------------
+    def _entry(self, i: int, file: str) -> dict[str, Any]:
+        entry = self.frames[i].manifest_entry(file)
+        if self.exposure_ms[i] is not None:
+            entry["exposure_ms"] = self.exposure_ms[i]
+        if self.set_labels[i] is not None:
+            entry["set"] = self.set_labels[i]
+        if self.gamma_precompensation[i] is not None:
+            entry["gamma_precompensation"] = self.gamma_precompensation[i]
+        return entry
+
+    def to_manifest(
+        self, files: Sequence[str] | None = None, *, extra: Mapping[str, Any] | None = None
+    ) -> dict[str, Any]:
+        """The capture manifest describing these captures (docs/capture_format.md).
+
+        Parameters
+        ----------
+        files : sequence of str, optional
+            Image file name of each frame; default ``0000.png``, ``0001.png``, ...
+        extra : mapping, optional
+            Additional top-level fields (the contract allows additions), e.g. ``simulator``.
+
+        Returns
+        -------
+        dict
+            JSON-ready; maps are listed as ``<key>.tiff``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdrfringe.frames import UniformFrame
+        >>> m = Captures([UniformFrame(128)], np.zeros((1, 2, 2), np.uint8), 8).to_manifest()
+        >>> m["camera"], m["frames"]
+        ({'bit_depth': 8}, [{'file': '0000.png', 'kind': 'uniform', 'level': 128}])
+        """
+        n = len(self.frames)
+        names = [f"{i:04d}.png" for i in range(n)] if files is None else list(files)
+        if len(names) != n:
+            raise InputError(f"{self.name}: {len(names)} file names for {n} frames; give one each")
+        manifest: dict[str, Any] = {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "camera": {"bit_depth": self.camera_bit_depth, **self.camera},
+        }
+        if self.projector is not None:
+            manifest["projector"] = self.projector.to_manifest()
+        if self.scene:
+            manifest["scene"] = dict(self.scene)
+        for key, value in (extra or {}).items():
+            if key in _MANIFEST_FIELDS:
+                raise InputError(
+                    f"extra manifest field {key!r} would replace the captures' own; "
+                    "give it through the Captures fields"
+                )
+            manifest[key] = value
+        if self.maps:
+            manifest["maps"] = {k: f"{k}.tiff" for k in self.maps}
+        manifest["frames"] = [self._entry(i, f) for i, f in enumerate(names)]
+        return manifest
+
+    @classmethod
+    def from_manifest(
+        cls,
+        manifest: Mapping[str, Any],
+        images: ArrayLike,
+        maps: Mapping[str, ArrayLike] | None = None,
+        *,
+        name: str = "<memory>",
+    ) -> Captures:
+        """Captures from a (validated) capture manifest and the images it lists, in its order.
+
+        The manifest's fields are checked by :func:`hdrfringe.io.captures.read_manifest`; this
+        builds the frames, the per-frame ``exposure_ms`` (any frame), ``set`` and
+        ``gamma_precompensation`` (fringe frames), and names the image files in its messages.
+
+        Parameters
+        ----------
+        manifest : mapping
+            ``camera.bit_depth`` and ``frames`` required; ``projector`` and ``scene`` optional.
+            Other top-level fields are not kept.
+        images : array_like, shape (n_frames, H, W)
+        maps : mapping of str to array_like, optional
+            The maps' data (the manifest's ``maps`` lists only their files).
+        name : str
+            Label for messages.
+
+        Returns
+        -------
+        Captures
+
+        Raises
+        ------
+        CaptureFormatError
+            Frames that cannot be built, incomplete sets (naming the files), or anything
+            :class:`Captures` refuses.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> m = {"camera": {"bit_depth": 10, "focal_px": 800.0},
+        ...      "frames": [{"file": "g.png", "kind": "uniform", "level": 64, "exposure_ms": 5}]}
+        >>> caps = Captures.from_manifest(m, np.zeros((1, 2, 2), np.uint16))
+        >>> caps.camera, caps.exposure_ms
+        ({'focal_px': 800.0}, (5.0,))
+        """
+        entries = list(manifest["frames"])
+        frames: list[Frame] = []
+        for i, entry in enumerate(entries):
+            try:
+                frames.append(frame_from_manifest(entry))
+            except HdrFringeError as exc:
+                raise CaptureFormatError(
+                    f"manifest frame {i} ({entry.get('file')}): {exc}"
+                ) from None
+        fringe = [isinstance(f, FringeFrame) for f in frames]
+        exposure = tuple(e.get("exposure_ms") for e in entries)
+        labels = tuple(e.get("set") if fr else None for e, fr in zip(entries, fringe, strict=True))
+        gamma = tuple(
+            e.get("gamma_precompensation") if fr else None
+            for e, fr in zip(entries, fringe, strict=True)
+        )
+        # Validate the grouping first, so that its messages name the image files.
+        group_fringe_sets(
+            frames,
+            exposure_ms=exposure,
+            set_labels=labels,
+            gamma_precompensation=gamma,
+            names=[str(e.get("file", f"frame {i}")) for i, e in enumerate(entries)],
+        )
+        camera = manifest["camera"]
+        projector = manifest.get("projector")
+        return cls(
+            frames,
+            np.asarray(images),
+            int(camera["bit_depth"]),
+            projector=None if projector is None else ProjectorInfo.from_manifest(projector),
+            camera={k: v for k, v in camera.items() if k != "bit_depth"},
+            scene=dict(manifest.get("scene") or {}),
+            exposure_ms=exposure,
+            set_labels=labels,
+            gamma_precompensation=gamma,
+            maps={k: np.asarray(v) for k, v in (maps or {}).items()},
+            name=name,
+        )
+
+    def content_hash(self) -> str:
+        """SHA-256 of the content: manifest fields, images and maps (not file names or name).
+
+        Returns
+        -------
+        str
+            64 hex digits; equal for captures that hold equal frames, values (and dtypes),
+            descriptions and maps, whether read from a folder or made in memory.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdrfringe.frames import UniformFrame
+        >>> a = Captures([UniformFrame(128)], np.zeros((1, 2, 2), np.uint8), 8, name="a")
+        >>> b = Captures([UniformFrame(128)], np.zeros((1, 2, 2), np.uint8), 8, name="b")
+        >>> a.content_hash() == b.content_hash()
+        True
+        """
+        h = hashlib.sha256()
+        h.update(json.dumps(self.to_manifest(), sort_keys=True, default=repr).encode())
+        for key, arr in [("images", self.images), *sorted(self.maps.items())]:
+            data = np.ascontiguousarray(arr)
+            h.update(f"{key}:{data.dtype.str}:{data.shape}".encode())
+            h.update(data.data)
+        return h.hexdigest()

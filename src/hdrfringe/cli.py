@@ -177,7 +177,7 @@ def phase(
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import check_output_dir, staged_output_dir
-    from hdrfringe.process import decode_folder
+    from hdrfringe.process import decode_captures
 
     check_output_dir(output, force)
     captures = read_capture_folder(folder)
@@ -187,7 +187,7 @@ def phase(
         raise CaptureFormatError(
             f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"
         )
-    decoded = decode_folder(
+    decoded = decode_captures(
         captures, min_modulation=min_modulation, reject_saturated=not keep_saturated
     )
     with staged_output_dir(output, force=force) as tmp:
@@ -539,6 +539,7 @@ def simulate(
     geometry, so measurements can report their error. With --series, DIR holds one folder per
     depth (a calibration series: reference plane + positions).
     """
+    from hdrfringe.captures import Captures
     from hdrfringe.errors import InputError
     from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
     from hdrfringe.io.captures import write_capture_folder
@@ -617,18 +618,16 @@ def simulate(
             if modified:
                 extra["modification"] = modified
             target = tmp if series is None else tmp / f"{scene}_{(d or 0.0):06.2f}mm"
-            write_capture_folder(
-                target,
+            captures = Captures(
                 frames,
                 stack,
                 rig.camera_bit_depth,
                 projector=rig.projector,
                 scene=rig.scene.to_manifest(),
-                extra=extra,
-                camera_extra=rig.camera_manifest(),
+                camera=rig.camera_manifest(),
                 maps={"truth_height_mm": rig.truth().height_mm},
-                force=True,
             )
+            write_capture_folder(target, captures, extra=extra, force=True)
             sat_fractions.append(float(np.mean((stack == 2**rig.camera_bit_depth - 1).any(axis=0))))
     what = f"{len(rigs)} capture folders" if series is not None else "a capture folder"
     console.print(
@@ -669,12 +668,15 @@ def modify(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Add light and noise to existing captures with clipping at 2^B - 1 (thesis Eq. 4.1)."""
-    from hdrfringe.io.captures import read_capture_folder, write_capture_folder
+    import dataclasses
+
+    from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
     from hdrfringe.io.results import check_output_dir
     from hdrfringe.rig.modify import modify_captures
 
     check_output_dir(output, force)
     caps = read_capture_folder(folder)
+    manifest = read_manifest(folder)  # the fields Captures does not keep: file names, extras
     out = modify_captures(
         caps.images,
         caps.camera_bit_depth,
@@ -685,7 +687,7 @@ def modify(
     )
     extra = {
         k: v
-        for k, v in caps.manifest.items()
+        for k, v in manifest.items()
         if k not in ("format", "version", "camera", "projector", "scene", "frames", "maps")
     }
     extra["modification"] = {
@@ -696,19 +698,9 @@ def modify(
         "seed": seed,
         "equation": "thesis Eq. 4.1",
     }
-    names = [Path(e["file"]).stem for e in caps.entries]
+    names = [Path(e["file"]).stem for e in manifest["frames"]]
     write_capture_folder(
-        output,
-        caps.frames,
-        out,
-        caps.camera_bit_depth,
-        projector=caps.projector,
-        scene=caps.scene,
-        names=names,
-        extra=extra,
-        camera_extra={k: v for k, v in caps.manifest["camera"].items() if k != "bit_depth"},
-        maps={key: caps.read_map(key) for key in caps.maps},
-        force=force,
+        output, dataclasses.replace(caps, images=out), names=names, extra=extra, force=force
     )
     sat = float(np.mean((out == 2**caps.camera_bit_depth - 1).any(axis=0)))
     console.print(f"wrote {len(names)} modified captures to {output} ({100 * sat:.1f} % saturated)")
@@ -909,8 +901,9 @@ def measure(
     """
     import json
 
+    from hdrfringe.calibration import check_compatible
     from hdrfringe.errors import InputError
-    from hdrfringe.io.calibration_file import check_compatible, load_calibration
+    from hdrfringe.io.calibration_file import load_calibration
     from hdrfringe.io.measurement_outputs import write_height_outputs
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import check_output_dir, staged_output_dir

@@ -398,17 +398,7 @@ def run_demo(
             caps = rig.capture_folder(frames)
             sdir = tmp / name
             sdir.mkdir()
-            write_capture_folder(
-                sdir / "captures",
-                frames,
-                caps.images,
-                rig.camera_bit_depth,
-                projector=rig.projector,
-                scene=rig.scene.to_manifest(),
-                extra={"simulator": rig.to_manifest()},
-                camera_extra={k: v for k, v in caps.manifest["camera"].items() if k != "bit_depth"},
-                maps={"truth_height_mm": rig.truth().height_mm},
-            )
+            write_capture_folder(sdir / "captures", caps, extra={"simulator": rig.to_manifest()})
             cal_set = cals["white"]
             results = {m: measure_folder(caps, c) for m, c in cal_set.items()}
             best = results["rational"]

@@ -1,18 +1,21 @@
-"""Folder-level calibration and measurement: capture folders in, calibration and heights out.
+"""Folder-level calibration and measurement: captures in, calibration and heights out.
 
 * :func:`calibrate_folders`: flat-plate capture folders at known ``scene.depth_mm`` (one at 0, the
   reference plane) -> absolute phase per folder (centerline or one-period set, docs/phase.md) ->
   :func:`hdrfringe.calibration.calibrate` (Eq. 2.10, 2.15 and the non-linear models, Sec. 4.1
-  filtering) with provenance (package version, date, input folders and content hashes).
-* :func:`measure_folder`: a capture folder and a calibration -> height (Eq. 2.10-2.11 or the
-  non-linear model), point cloud coordinates, and error metrics when the folder knows its truth
-  (``scene.depth_mm`` or a ``truth_height_mm`` map).
+  filtering) with provenance (package version, date, input folders and content hashes);
+  :func:`calibrate_captures` does the same on :class:`~hdrfringe.captures.Captures` in memory.
+* :func:`measure_folder`: captures and a calibration -> height (Eq. 2.10-2.11 or the
+  non-linear model), point cloud coordinates, and error metrics when the captures know their
+  truth (``scene.depth_mm`` or a ``truth_height_mm`` map).
+
+This module orchestrates and still reads capture folders (:func:`calibrate_folders`), so it
+sits in the I/O layer.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,30 +25,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe import __version__
-from hdrfringe.calibration import Calibration, calibrate
+from hdrfringe.calibration import Calibration, calibrate, check_compatible
+from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.io.calibration_file import check_compatible
-from hdrfringe.io.captures import CaptureFolder, read_capture_folder
+from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.process import FolderPhase, decode_folder
+from hdrfringe.process import FolderPhase, decode_captures
 from hdrfringe.reconstruct import CameraGeometry, height_errors
 
 if TYPE_CHECKING:
     from hdrfringe.saturation.dpa_rules import SaturationCDF
     from hdrfringe.saturation.estimate import TrainingData
     from hdrfringe.saturation.strategies import StrategyResult
-
-
-def folder_hash(folder: CaptureFolder) -> str:
-    """SHA-256 over the manifest and every image file, in manifest order."""
-    h = hashlib.sha256()
-    if not (folder.path / "manifest.json").is_file():  # in memory: hash what was captured
-        h.update(np.ascontiguousarray(folder.images).tobytes())
-        return h.hexdigest()
-    h.update((folder.path / "manifest.json").read_bytes())
-    for entry in folder.entries:
-        h.update((folder.path / entry["file"]).read_bytes())
-    return h.hexdigest()
 
 
 def expand_capture_dirs(paths: list[Path]) -> list[Path]:
@@ -61,14 +52,14 @@ def expand_capture_dirs(paths: list[Path]) -> list[Path]:
     return out
 
 
-def absolute_phase_of(folder: CaptureFolder, decoded: FolderPhase) -> tuple[NDArray, FringeSpec]:
+def absolute_phase_of(folder: Captures, decoded: FolderPhase) -> tuple[NDArray, FringeSpec]:
     """Absolute phase of the primary family and the spec of its finest set, or a clear error."""
     fam = decoded.primary
     if fam is None:
-        raise CaptureFormatError(f"{folder.path}: no fringe sets; add a complete phase-shifted set")
+        raise CaptureFormatError(f"{folder.name}: no fringe sets; add a complete phase-shifted set")
     if fam.absolute_phase is None:
         raise CaptureFormatError(
-            f"{folder.path}: cannot make the phase absolute: add a {fam.orientation} centerline "
+            f"{folder.name}: cannot make the phase absolute: add a {fam.orientation} centerline "
             "frame or a set whose pitch spans the projector (one period)"
         )
     return fam.absolute_phase, fam.sets[-1].spec
@@ -104,14 +95,18 @@ def calibrate_folders(
 
 
 def calibrate_captures(
-    folders: list[CaptureFolder],
+    folders: list[Captures],
     *,
     model: str = "linear",
     window_px: int = 21,
     border_px: int = 10,
     progress: Any = None,
 ) -> Calibration:
-    """:func:`calibrate_folders` on capture folders already read (or made in memory)."""
+    """:func:`calibrate_folders` on captures already read (or made in memory).
+
+    The provenance records each input's ``name`` and its :meth:`Captures.content_hash
+    <hdrfringe.captures.Captures.content_hash>`.
+    """
     if len(folders) < 3:
         raise InputError(
             f"calibration needs the reference plane and at least 2 plate positions, got "
@@ -122,7 +117,7 @@ def calibrate_captures(
         d = f.scene.get("depth_mm")
         if d is None:
             raise CaptureFormatError(
-                f"{f.path}: manifest has no scene.depth_mm; calibration folders must state the "
+                f"{f.name}: manifest has no scene.depth_mm; calibration folders must state the "
                 "plate depth (0 for the reference plane)"
             )
         depths.append(float(d))
@@ -134,36 +129,36 @@ def calibrate_captures(
         )
     if len(refs) > 1:
         raise InputError(
-            f"several reference planes (depth 0): {', '.join(str(r.path) for r in refs)}; keep one"
+            f"several reference planes (depth 0): {', '.join(r.name for r in refs)}; keep one"
         )
-    seen: dict[float, Path] = {}  # duplicate depths, named by folder
+    seen: dict[float, str] = {}  # duplicate depths, named by folder
     for f, d in zip(folders, depths, strict=True):
         if d in seen:
             raise InputError(
-                f"duplicate depth {d:g} mm in {seen[d]} and {f.path}; each position once"
+                f"duplicate depth {d:g} mm in {seen[d]} and {f.name}; each position once"
             )
-        seen[d] = f.path
+        seen[d] = f.name
     ref = refs[0]
     for f in folders[1:] if folders[0] is ref else folders:
         if f.image_shape != ref.image_shape:
             raise InputError(
-                f"{f.path}: images are {f.image_shape[1]}x{f.image_shape[0]} but the reference "
+                f"{f.name}: images are {f.image_shape[1]}x{f.image_shape[0]} but the reference "
                 f"plane's are {ref.image_shape[1]}x{ref.image_shape[0]}; use one camera setting"
             )
         if f.camera_bit_depth != ref.camera_bit_depth:
             raise InputError(
-                f"{f.path}: camera bit depth {f.camera_bit_depth} differs from the reference "
+                f"{f.name}: camera bit depth {f.camera_bit_depth} differs from the reference "
                 f"plane's {ref.camera_bit_depth}"
             )
     phases: dict[int, NDArray] = {}
     spec0: FringeSpec | None = None
     for f in folders:
-        phi, spec = absolute_phase_of(f, decode_folder(f))
+        phi, spec = absolute_phase_of(f, decode_captures(f))
         if spec0 is None:
             spec0 = spec
         elif not _same_spec(spec, spec0):
             raise InputError(
-                f"{f.path}: fringes {spec.label()} differ from {spec0.label()} in the other "
+                f"{f.name}: fringes {spec.label()} differ from {spec0.label()} in the other "
                 "folders; calibrate with one pattern, steps, pitch and orientation"
             )
         phases[id(f)] = phi
@@ -173,12 +168,16 @@ def calibrate_captures(
     order = sorted(
         ((d, f) for d, f in zip(depths, folders, strict=True) if f is not ref), key=lambda t: t[0]
     )
-    geometry = CameraGeometry.from_manifest(ref.manifest.get("camera"))
+    geometry = CameraGeometry.from_manifest(ref.camera)
     provenance: dict[str, Any] = {
         "package_version": __version__,
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         "inputs": {
-            f"{i:02d}": {"path": str(f.path.resolve()), "depth_mm": d, "sha256": folder_hash(f)}
+            f"{i:02d}": {
+                "path": str(Path(f.name).resolve()),
+                "depth_mm": d,
+                "sha256": f.content_hash(),
+            }
             for i, (d, f) in enumerate([(0.0, ref), *order])
         },
     }
@@ -207,7 +206,7 @@ def calibration_geometry(cal: Calibration) -> CameraGeometry | None:
 
 @dataclass
 class Measurement:
-    """Height and metrics of one capture folder."""
+    """Height and metrics of one set of captures."""
 
     decoded: FolderPhase
     height_mm: NDArray[np.float64] | None
@@ -216,13 +215,13 @@ class Measurement:
 
 
 def measure_folder(
-    folder: CaptureFolder,
+    folder: Captures,
     calibration: Calibration | None,
     *,
     calibration_source: str | None = None,
     reject_saturated: bool = True,
 ) -> Measurement:
-    """Decode a folder and, with a calibration, compute its height map and metrics.
+    """Decode captures and, with a calibration, compute their height map and metrics.
 
     The calibration is refused (one-line error) when its pattern spec, image size or camera bit
     depth differ from the folder's. Metrics cover the measurement pixels (the calibration's
@@ -230,10 +229,10 @@ def measure_folder(
     deviation and RMSE against ``truth_height_mm`` (a map in the folder) or ``scene.depth_mm``
     when the folder gives one.
     """
-    decoded = decode_folder(folder, reject_saturated=reject_saturated)
+    decoded = decode_captures(folder, reject_saturated=reject_saturated)
     fam = decoded.primary
     skipped: list[str] = []
-    metrics: dict[str, Any] = {"source": str(folder.path)}
+    metrics: dict[str, Any] = {"source": folder.name}
     if fam is not None:
         finest = decoded.set_results[fam.sets[-1].label]
         sat = np.zeros(folder.image_shape, bool)
@@ -261,7 +260,7 @@ def measure_folder(
                 )[inside]
             )
         )
-    truth = folder.read_map("truth_height_mm")
+    truth = folder.map("truth_height_mm")
     if truth is not None:
         metrics["truth"] = "truth_height_mm map"
         metrics.update(height_errors(height, truth, inside))
@@ -302,13 +301,15 @@ def composite_captures(
     truth_height_mm: NDArray | None = None,
     label: str = "",
     **params: Any,
-) -> tuple[CaptureFolder, list[Any]]:
+) -> tuple[Captures, list[Any]]:
     """Run ``method`` for every set in ``specs`` on ``rig`` (live or replayed) and assemble the
-    composites as an in-memory capture folder that :func:`measure_folder` treats like any other.
+    composites as in-memory :class:`~hdrfringe.captures.Captures` that :func:`measure_folder`
+    treats like any other.
 
     Each set is labelled at its highest MIGL; ``centerline`` (a frame, optional) is captured once
-    at the end. ``scene``, ``camera_extra`` and ``truth_height_mm`` go into the folder's manifest
-    and maps (ground truth gives the measurement its error metrics).
+    at the end. ``scene``, ``camera_extra`` (the camera description besides its bit depth) and
+    ``truth_height_mm`` go into the captures' scene, camera and maps (ground truth gives the
+    measurement its error metrics); ``label`` becomes their name.
     """
     from hdrfringe.frames import Frame
 
@@ -325,15 +326,15 @@ def composite_captures(
         images.append(rig.capture([centerline]))
     dtype = np.result_type(*[i.dtype for i in images])
     stack = np.concatenate([i.astype(dtype, copy=False) for i in images])
-    out = CaptureFolder.from_arrays(
+    out = Captures(
         frames,
         stack,
         rig.camera_bit_depth,
         projector=rig.projector,
-        scene=scene,
-        camera_extra=camera_extra,
-        truth_height_mm=truth_height_mm,
-        label=label,
+        scene=dict(scene or {}),
+        camera=dict(camera_extra or {}),
+        maps={} if truth_height_mm is None else {"truth_height_mm": truth_height_mm},
+        name=label or "<memory>",
     )
     return out, results
 
@@ -345,7 +346,7 @@ def simulated_composite(
     *,
     centerline: Any = None,
     **params: Any,
-) -> tuple[CaptureFolder, list[Any]]:
+) -> tuple[Captures, list[Any]]:
     """:func:`composite_captures` on the live virtual rig, carrying its scene, camera geometry
     and ground truth (as :meth:`SimulatedRig.capture_folder` does for plain captures)."""
     return composite_captures(
@@ -361,16 +362,14 @@ def simulated_composite(
     )
 
 
-def composite_folder(
-    folder: CaptureFolder, method: str, **params: Any
-) -> tuple[CaptureFolder, list[Any]]:
-    """Run a saturation-avoidance strategy on a replayed capture folder (a MIGL sweep).
+def composite_folder(folder: Captures, method: str, **params: Any) -> tuple[Captures, list[Any]]:
+    """Run a saturation-avoidance strategy on replayed captures (a MIGL sweep).
 
     For every pitch of the primary family (vertical first) at the folder's highest MIGL, the
     strategy (``conventional``, ``uniform``, ``lpa`` or ``dpa``; see
     :mod:`hdrfringe.saturation.strategies`) drives a :class:`~hdrfringe.rig.replay.ReplayRig`
-    over the folder (:func:`composite_captures`). The folder's first centerline frame of the
-    family's orientation and its ground truth come along.
+    over the captures (:func:`composite_captures`). Their first centerline frame of the
+    family's orientation, their camera description and their ground truth come along.
     """
     from hdrfringe.process import group_families
     from hdrfringe.rig.replay import ReplayRig
@@ -378,7 +377,7 @@ def composite_folder(
     if method not in STRATEGY_METHODS:
         raise InputError(f"unknown method {method!r}; use one of {', '.join(STRATEGY_METHODS)}")
     if not folder.sets:
-        raise CaptureFormatError(f"{folder.path}: no fringe sets to run a strategy on")
+        raise CaptureFormatError(f"{folder.name}: no fringe sets to run a strategy on")
     families = group_families(folder.sets)
     rig = ReplayRig(folder)
     if method == "uniform" and params.get("migl") is None:
@@ -390,11 +389,9 @@ def composite_folder(
         method,
         centerline=lines[0] if lines else None,
         scene=folder.scene,
-        camera_extra={
-            k: v for k, v in folder.manifest.get("camera", {}).items() if k != "bit_depth"
-        },
-        truth_height_mm=folder.read_map("truth_height_mm"),
-        label=str(folder.path),
+        camera_extra=folder.camera,
+        truth_height_mm=folder.map("truth_height_mm"),
+        label=folder.name,
         **params,
     )
 
@@ -431,13 +428,13 @@ def tradeoff_search(
         imgs = rig.capture(frames)
         if extra_imgs is not None:
             imgs = np.concatenate([imgs, extra_imgs])
-        folder = CaptureFolder.from_arrays(
+        folder = Captures(
             [*frames, *extra],
             imgs,
             rig.camera_bit_depth,
             projector=rig.projector,
             scene=scene,
-            truth_height_mm=truth,
+            maps={} if truth is None else {"truth_height_mm": truth},
         )
         res = measure_folder(folder, calibration, reject_saturated=False)
         rmse[float(m)] = float(res.metrics.get("rmse_mm", np.nan))
@@ -509,7 +506,7 @@ def _index_without_never(result: StrategyResult) -> NDArray[np.float64]:
     return idx
 
 
-def dpa_cdfs(result: StrategyResult, replay: CaptureFolder | None = None) -> DPACDFs:
+def dpa_cdfs(result: StrategyResult, replay: Captures | None = None) -> DPACDFs:
     """Estimated and actual CDFs (thesis Fig. 6.3) of a DPA :class:`StrategyResult`.
 
     Parameters
@@ -517,7 +514,7 @@ def dpa_cdfs(result: StrategyResult, replay: CaptureFolder | None = None) -> DPA
     result : StrategyResult
         From :func:`hdrfringe.saturation.dpa.dpa` (``details`` holds ``initial_cdf``,
         ``final_cdf`` and ``saturated_at_top`` when a pixel saturated at the top).
-    replay : CaptureFolder, optional
+    replay : Captures, optional
         The MIGL sweep DPA was replayed on. When it holds this set at every integer MIGL from the
         top down to DPA's lowest capture, LPA with step 1 runs on it (images are in memory) and
         its index image gives the exact actual CDF.
@@ -555,7 +552,7 @@ def dpa_cdfs(result: StrategyResult, replay: CaptureFolder | None = None) -> DPA
 
 
 def training_data_from_folder(
-    folder: CaptureFolder, pitch: float | None = None, *, margin: int = 10
+    folder: Captures, pitch: float | None = None, *, margin: int = 10
 ) -> TrainingData:
     """The correction's training data (thesis Sec. 6.1.2) from a step-1 MIGL sweep folder.
 
@@ -576,21 +573,21 @@ def training_data_from_folder(
     sets = [s for s in folder.sets if s.spec.pattern == "sinusoidal" and s.spec.steps >= 4]
     if not sets:
         raise CaptureFormatError(
-            f"{folder.path}: no sinusoidal set of 4 or more steps; the correction is trained on "
+            f"{folder.name}: no sinusoidal set of 4 or more steps; the correction is trained on "
             "sinusoidal sets (thesis: 4-step, 20 px pitch)"
         )
     pitches = sorted({s.spec.pitch_px for s in sets})
     if pitch is None:
         if len(pitches) > 1:
             raise InputError(
-                f"{folder.path}: holds pitches {', '.join(f'{p:g}' for p in pitches)} px; choose "
+                f"{folder.name}: holds pitches {', '.join(f'{p:g}' for p in pitches)} px; choose "
                 "one with --pitch (the thesis trains at 20 px)"
             )
         pitch = pitches[0]
     chosen = [s for s in sets if s.spec.pitch_px == pitch]
     if not chosen:
         raise InputError(
-            f"{folder.path}: no sinusoidal set at pitch {pitch:g} px; it holds "
+            f"{folder.name}: no sinusoidal set at pitch {pitch:g} px; it holds "
             + ", ".join(f"{p:g}" for p in pitches)
         )
     top_set = max(chosen, key=lambda s: s.spec.migl)
@@ -605,7 +602,7 @@ def training_data_from_folder(
             else f"it holds MIGLs {', '.join(f'{m:g}' for m in sorted(migls, reverse=True)[:5])}"
         )
         raise CaptureFormatError(
-            f"{folder.path}: training needs the set at every integer MIGL from the top down "
+            f"{folder.name}: training needs the set at every integer MIGL from the top down "
             f"(LPA with a step of 1), but {what}; capture e.g. hdrfringe simulate "
             "--migl-sweep 255:60:1"
         )

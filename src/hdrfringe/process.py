@@ -1,7 +1,8 @@
-"""Folder-level decoding: every fringe set of a capture folder to phase maps.
+"""Decoding captures: every fringe set of a :class:`~hdrfringe.captures.Captures` to phases.
 
 This is the one place that chains the array stages (phase -> unwrap -> absolute phase) for a
-capture folder; the command-line ``phase`` command and later stages call it.
+set of captures (read from a capture folder or made in memory); the command-line ``phase``
+command and later stages call it.
 
 Rules (documented in docs/phase.md):
 
@@ -18,14 +19,17 @@ Rules (documented in docs/phase.md):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.io.captures import CaptureFolder, FringeSet
+from hdrfringe.captures import Captures, FringeSet
 from hdrfringe.phase import PhaseResult, decode_set
 from hdrfringe.unwrap import absolute_phase_from_centerline, unwrap_spatial, unwrap_temporal
+
+__all__ = ["FamilyResult", "FolderPhase", "decode_captures", "group_families"]
 
 
 @dataclass
@@ -43,7 +47,7 @@ class FamilyResult:
 
 @dataclass
 class FolderPhase:
-    """Everything :func:`decode_folder` computed."""
+    """Everything :func:`decode_captures` computed."""
 
     set_results: dict[str, PhaseResult]
     sets: list[FringeSet]
@@ -60,8 +64,28 @@ def _family_key(s: FringeSet) -> tuple:
     return (sp.orientation, sp.pattern, sp.steps, sp.imin, sp.migl, s.exposure_ms)
 
 
-def group_families(sets: list[FringeSet]) -> list[list[FringeSet]]:
-    """Group sets into families (same everything but pitch), primary family first."""
+def group_families(sets: Sequence[FringeSet]) -> list[list[FringeSet]]:
+    """Group sets into families (same everything but pitch), primary family first.
+
+    Parameters
+    ----------
+    sets : sequence of FringeSet
+        E.g. :attr:`Captures.sets <hdrfringe.captures.Captures.sets>`.
+
+    Returns
+    -------
+    list of list of FringeSet
+        One family per orientation (the vertical one first, then by highest MIGL), each
+        ordered coarse to fine.
+
+    Examples
+    --------
+    >>> from hdrfringe.captures import group_fringe_sets
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> frames = [*FringeSpec(pitch_px=8.0).frames(), *FringeSpec(pitch_px=48.0).frames()]
+    >>> [[s.spec.pitch_px for s in fam] for fam in group_families(group_fringe_sets(frames))]
+    [[48.0, 8.0]]
+    """
     fams: dict[tuple, list[FringeSet]] = {}
     for s in sets:
         fams.setdefault(_family_key(s), []).append(s)
@@ -80,42 +104,65 @@ def group_families(sets: list[FringeSet]) -> list[list[FringeSet]]:
     return out
 
 
-def decode_folder(
-    folder: CaptureFolder,
+def decode_captures(
+    captures: Captures,
     *,
     min_modulation: float | None = None,
     reject_saturated: bool = True,
 ) -> FolderPhase:
-    """Decode every set of a capture folder; unwrap and make absolute where the folder allows.
+    """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
     Parameters
     ----------
-    folder : CaptureFolder
+    captures : Captures
+        Read from a capture folder or made in memory.
     min_modulation : float, optional
         Validity threshold on I' in DN (default per bit depth, see
         :func:`hdrfringe.phase.default_min_modulation`).
     reject_saturated : bool
         Invalidate pixels with any saturated shift (default True).
+
+    Returns
+    -------
+    FolderPhase
+        Per-set results and, per family, the unwrapped and absolute phase.
+
+    Notes
+    -----
+    Thesis Eq. 2.2/2.4 (wrapped phase), Sec. 2.3 (unwrapping), Eq. 2.12-2.13 (absolute phase
+    from a centerline).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdrfringe.captures import ProjectorInfo
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> spec = FringeSpec("sinusoidal", 4, 1024.0)
+    >>> x = np.tile(np.arange(16.0), (4, 1))
+    >>> images = np.stack([np.rint(fringe_gray(x, spec, k)) for k in range(4)]).astype(np.uint8)
+    >>> decoded = decode_captures(Captures(spec.frames(), images, 8, projector=ProjectorInfo()))
+    >>> decoded.primary.absolute_method
+    'one-period coarse set'
     """
     results: dict[str, PhaseResult] = {}
-    for s in folder.sets:
+    for s in captures.sets:
         results[s.label] = decode_set(
-            folder.set_images(s),
+            captures.set_images(s),
             s.spec,
-            folder.camera_bit_depth,
+            captures.camera_bit_depth,
             min_modulation=min_modulation,
             reject_saturated=reject_saturated,
         )
-    out = FolderPhase(set_results=results, sets=list(folder.sets))
-    if not folder.sets:
+    out = FolderPhase(set_results=results, sets=list(captures.sets))
+    if not captures.sets:
         out.notes.append("no fringe sets: nothing to decode")
         return out
-    for fam in group_families(folder.sets):
+    for fam in group_families(captures.sets):
         orient = fam[0].spec.orientation
         coarse = fam[0]
         extent = None
-        if folder.projector is not None:
-            extent = folder.projector.width if orient == "vertical" else folder.projector.height
+        if captures.projector is not None:
+            extent = captures.projector.width if orient == "vertical" else captures.projector.height
         spans = extent is not None and coarse.spec.pitch_px >= extent
         coarse_phase = results[coarse.label].wrapped_phase
         if spans:
@@ -141,7 +188,7 @@ def decode_folder(
             absolute = unwrapped
             abs_method = "one-period coarse set"
         else:
-            lines = [(f, img) for f, img in folder.centerlines() if f.orientation == orient]
+            lines = [(f, img) for f, img in captures.centerlines() if f.orientation == orient]
             if lines:
                 frame, img = lines[0]
                 absolute = absolute_phase_from_centerline(

@@ -23,7 +23,6 @@ Only plain numeric datasets and attributes and fixed-length UTF-8 string attribu
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import tempfile
 from collections.abc import Mapping
@@ -40,8 +39,6 @@ __all__ = [
     "FORMAT_NAME",
     "FORMAT_VERSION",
     "CalibrationFileError",
-    "CalibrationMismatchError",
-    "check_compatible",
     "coefficient_names",
     "load_calibration",
     "save_calibration",
@@ -67,10 +64,6 @@ _COMPRESSION: dict[str, Any] = {"compression": "gzip", "compression_opts": 4}
 
 class CalibrationFileError(HdrFringeError):
     """A calibration file is missing, unreadable, foreign, of another version or incomplete."""
-
-
-class CalibrationMismatchError(HdrFringeError):
-    """A calibration does not fit a measurement (fringe set, image size or bit depth)."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -372,77 +365,6 @@ def load_calibration(path: str | Path) -> Calibration:
         raise CalibrationFileError(
             f"{src}: calibration file is damaged or inconsistent ({reason}); recalibrate"
         ) from exc
-
-
-# --------------------------------------------------------------------------------------------
-# compatibility
-# --------------------------------------------------------------------------------------------
-def _fmt(v: Any) -> str:
-    return f"{v:g}" if isinstance(v, float) else str(v)
-
-
-def check_compatible(
-    cal: Calibration,
-    spec: FringeSpec,
-    image_shape: tuple[int, int],
-    camera_bit_depth: int,
-    *,
-    source: str | Path | None = None,
-) -> None:
-    """Refuse a measurement the calibration does not fit.
-
-    Compared: fringe pattern, steps, pitch and orientation (they set the phase-to-height
-    relation and the phase errors the calibration absorbed), image size, camera bit depth.
-    ``imin`` and ``migl`` may differ: the thesis measures at MIGL 105..255 with calibrations
-    taken at MIGL 255 (Sec. 4.1), since the gray range does not change the phase. Fields the
-    calibration does not record (None) are not compared.
-
-    Parameters
-    ----------
-    cal : Calibration
-    spec : FringeSpec
-        Fringe set of the measurement.
-    image_shape : (int, int)
-        Camera image (height, width) of the measurement.
-    camera_bit_depth : int
-    source : str or Path, optional
-        Where the calibration came from, for the message.
-
-    Raises
-    ------
-    CalibrationMismatchError
-        One line listing every difference, then "recalibrate with ... or measure with ...".
-    """
-    diffs: list[tuple[str, str, str]] = []  # (what, calibration value, measurement value)
-    if cal.spec is not None:
-        c = cal.spec
-        for what, cv, mv in (
-            ("pattern", c.pattern, spec.pattern),
-            ("steps", c.steps, spec.steps),
-            ("orientation", c.orientation, spec.orientation),
-        ):
-            if cv != mv:
-                diffs.append((what, _fmt(cv), _fmt(mv)))
-        if not math.isclose(c.pitch_px, spec.pitch_px, rel_tol=1e-9, abs_tol=1e-12):
-            diffs.append(("pitch", f"{c.pitch_px:g} px", f"{spec.pitch_px:g} px"))
-    shape = (int(image_shape[0]), int(image_shape[1]))
-    if cal.image_shape != shape:
-        ch, cw = cal.image_shape
-        diffs.append(("image size", f"{cw}x{ch}", f"{shape[1]}x{shape[0]}"))
-    if cal.camera_bit_depth is not None and cal.camera_bit_depth != int(camera_bit_depth):
-        diffs.append(
-            ("camera bit depth", f"{cal.camera_bit_depth} bits", f"{int(camera_bit_depth)} bits")
-        )
-    if not diffs:
-        return
-    name = f" {source}" if source is not None else ""
-    listed = ", ".join(f"{w} {cv} (calibration) vs {mv} (measurement)" for w, cv, mv in diffs)
-    redo = ", ".join(f"{w} {mv}" for w, _, mv in diffs)
-    keep = ", ".join(f"{w} {cv}" for w, cv, _ in diffs)
-    raise CalibrationMismatchError(
-        f"calibration{name} does not fit this measurement: {listed}; recalibrate with {redo} "
-        f"or measure with {keep}"
-    )
 
 
 def coefficient_names(model: str) -> tuple[str, ...]:

@@ -1,9 +1,11 @@
 """Capture folders (version 1 of the contract in docs/capture_format.md): read, validate, write.
 
-A capture folder is a ``manifest.json`` plus the single-channel PNG or TIFF images it names.
-:func:`read_capture_folder` validates everything (manifest fields, file paths, image sizes, bit
-depth, complete fringe sets) *before* any processing starts, so a bad folder fails with one
-clear :class:`~hdrfringe.errors.CaptureFormatError` and no output is written.
+A capture folder is a ``manifest.json`` plus the single-channel PNG or TIFF images it names; in
+memory it is a :class:`hdrfringe.captures.Captures`. :func:`read_capture_folder` validates
+everything (manifest fields, file paths, image sizes, bit depth, complete fringe sets, maps)
+*before* any processing starts, so a bad folder fails with one clear
+:class:`~hdrfringe.errors.CaptureFormatError` and no output is written;
+:func:`write_capture_folder` writes a :class:`~hdrfringe.captures.Captures` as a folder.
 """
 
 from __future__ import annotations
@@ -12,150 +14,39 @@ import json
 import math
 import posixpath
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import ProjectorInfo
-from hdrfringe.errors import CaptureFormatError, HdrFringeError
-from hdrfringe.frames import CenterlineFrame, Frame, FringeFrame, UniformFrame, frame_from_manifest
+from hdrfringe._validation import full_scale, is_saturated
+from hdrfringe.captures import FORMAT_NAME, FORMAT_VERSION, Captures
+from hdrfringe.errors import CaptureFormatError
+from hdrfringe.frames import Frame
 from hdrfringe.io.results import read_map_tiff, staged_output_dir, write_map_tiff
-from hdrfringe.patterns import ORIENTATIONS, PATTERNS, FringeSpec
+from hdrfringe.patterns import ORIENTATIONS, PATTERNS
 
-FORMAT_NAME = "hdrfringe-captures"
-FORMAT_VERSION = 1
+if TYPE_CHECKING:
+    from hdrfringe.rig.simulated import SimulatedRig
+
+__all__ = [
+    "FORMAT_NAME",
+    "FORMAT_VERSION",
+    "IMAGE_SUFFIXES",
+    "RGB_LUMA_WEIGHTS",
+    "load_image",
+    "read_capture_folder",
+    "read_manifest",
+    "simulate_to_folder",
+    "write_capture_folder",
+]
+
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
+MAP_SUFFIXES = (".tif", ".tiff")
 
 #: Luma weights (ITU-R BT.601) used when a capture is an RGB image.
 RGB_LUMA_WEIGHTS = (0.299, 0.587, 0.114)
-
-
-@dataclass(frozen=True)
-class FringeSet:
-    """One complete phase-shifted set inside a capture folder.
-
-    Attributes
-    ----------
-    label : str
-        The manifest's ``set`` label, or a label built from the pattern specification.
-    spec : FringeSpec
-    frame_indices : tuple of int
-        Indices into :attr:`CaptureFolder.frames`, ordered by shift (shift 0 first).
-    exposure_ms : float or None
-    gamma_precompensation : float or None
-        Per-set pre-compensation exponent when the frames give one (an hdrfringe addition to
-        the contract); None: the projector's ``gamma_precompensation``.
-    """
-
-    label: str
-    spec: FringeSpec
-    frame_indices: tuple[int, ...]
-    exposure_ms: float | None = None
-    gamma_precompensation: float | None = None
-
-
-@dataclass
-class CaptureFolder:
-    """A validated capture folder with its images in memory."""
-
-    path: Path
-    manifest: dict[str, Any]
-    camera_bit_depth: int
-    projector: ProjectorInfo | None
-    scene: dict[str, Any]
-    frames: list[Frame]
-    entries: list[dict[str, Any]]
-    images: NDArray = field(repr=False)
-    sets: list[FringeSet] = field(default_factory=list)
-    maps: dict[str, Path] = field(default_factory=dict)
-    memory_maps: dict[str, NDArray] = field(default_factory=dict, repr=False)
-
-    @property
-    def image_shape(self) -> tuple[int, int]:
-        return (int(self.images.shape[1]), int(self.images.shape[2]))
-
-    @classmethod
-    def from_arrays(
-        cls,
-        frames: Sequence[Frame],
-        images: NDArray,
-        camera_bit_depth: int,
-        *,
-        projector: ProjectorInfo | None = None,
-        scene: dict[str, Any] | None = None,
-        camera_extra: dict[str, Any] | None = None,
-        truth_height_mm: NDArray | None = None,
-        label: str = "<memory>",
-    ) -> CaptureFolder:
-        """An in-memory capture folder (e.g. straight from a rig), validated like one on disk."""
-        images = np.asarray(images)
-        if images.ndim != 3 or images.shape[0] != len(frames):
-            raise CaptureFormatError(
-                f"{label}: {len(frames)} frames but images of shape {images.shape}; "
-                "give one (H, W) image per frame"
-            )
-        full = 2**camera_bit_depth - 1
-        if images.max(initial=0) > full:
-            raise CaptureFormatError(
-                f"{label}: values reach {images.max()}, above 2^B - 1 = {full}; fix the bit depth"
-            )
-        entries = [f.manifest_entry(f"{i:04d}.png") for i, f in enumerate(frames)]
-        manifest: dict[str, Any] = {
-            "format": FORMAT_NAME,
-            "version": FORMAT_VERSION,
-            "camera": {"bit_depth": int(camera_bit_depth), **(camera_extra or {})},
-            "scene": dict(scene or {}),
-            "frames": entries,
-        }
-        if projector is not None:
-            manifest["projector"] = projector.to_manifest()
-        folder = cls(
-            path=Path(label),
-            manifest=manifest,
-            camera_bit_depth=int(camera_bit_depth),
-            projector=projector,
-            scene=dict(scene or {}),
-            frames=list(frames),
-            entries=entries,
-            images=images,
-            sets=_group_sets(entries, list(frames)),
-        )
-        if truth_height_mm is not None:
-            folder.memory_maps["truth_height_mm"] = np.asarray(truth_height_mm)
-        return folder
-
-    def read_map(self, key: str) -> NDArray | None:
-        """A float map listed in the manifest's ``maps`` (e.g. ``truth_height_mm``), or None."""
-        if key in self.memory_maps:
-            return self.memory_maps[key]
-        if key not in self.maps:
-            return None
-        data = read_map_tiff(self.maps[key])
-        if data.shape != self.image_shape:
-            raise CaptureFormatError(
-                f"{self.maps[key]}: map is {data.shape[1]}x{data.shape[0]} but the images are "
-                f"{self.image_shape[1]}x{self.image_shape[0]}; regenerate it"
-            )
-        return data
-
-    def set_images(self, fringe_set: FringeSet) -> NDArray:
-        """Stack of the set's images, shape (N, H, W), shift 0 first."""
-        return self.images[list(fringe_set.frame_indices)]
-
-    def centerlines(self) -> list[tuple[CenterlineFrame, NDArray]]:
-        """Every centerline frame with its image."""
-        return [
-            (f, self.images[i]) for i, f in enumerate(self.frames) if isinstance(f, CenterlineFrame)
-        ]
-
-    def uniforms(self) -> list[tuple[UniformFrame, NDArray]]:
-        """Every uniform-gray frame with its image."""
-        return [
-            (f, self.images[i]) for i, f in enumerate(self.frames) if isinstance(f, UniformFrame)
-        ]
 
 
 def _fail(where: str, what: str, fix: str) -> CaptureFormatError:
@@ -250,11 +141,30 @@ def _validate_frame(entry: Any, index: int) -> dict[str, Any]:
         _number(entry, "migl", where, positive=True)
     else:
         _number(entry, "level", where)
+    if kind != "fringe" and "exposure_ms" in entry:  # any frame may give its exposure time
+        _number(entry, "exposure_ms", where, positive=True)
     return out
 
 
-def read_manifest(folder: Path) -> dict[str, Any]:
-    """Parse and validate ``manifest.json`` (fields only; images are checked by the reader)."""
+def read_manifest(folder: str | Path) -> dict[str, Any]:
+    """Parse and validate a capture folder's ``manifest.json`` (fields only, no images).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The capture folder.
+
+    Returns
+    -------
+    dict
+        The manifest, with every frame's ``file`` normalised; top-level fields hdrfringe does
+        not read (e.g. ``simulator``) are kept.
+
+    Raises
+    ------
+    CaptureFormatError
+        A missing or unparsable manifest or any field breaking the contract.
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise CaptureFormatError(
@@ -314,58 +224,31 @@ def read_manifest(folder: Path) -> dict[str, Any]:
     return manifest
 
 
-def _group_sets(entries: list[dict[str, Any]], frames: list[Frame]) -> list[FringeSet]:
-    groups: dict[tuple, list[int]] = {}
-    for i, (entry, frame) in enumerate(zip(entries, frames, strict=True)):
-        if not isinstance(frame, FringeFrame):
-            continue
-        key: tuple
-        if "set" in entry:
-            key = ("label", entry["set"])
-        else:
-            s = frame.spec
-            key = ("spec", s, entry.get("exposure_ms"), entry.get("gamma_precompensation"))
-        groups.setdefault(key, []).append(i)
-    sets: list[FringeSet] = []
-    for key, idx in groups.items():
-        first = frames[idx[0]]
-        assert isinstance(first, FringeFrame)
-        spec = first.spec
-        label = key[1] if key[0] == "label" else spec.label()
-        exposure = entries[idx[0]].get("exposure_ms")
-        if exposure is not None and key[0] == "spec":
-            label = f"{label}_e{exposure:g}"
-        gamma = entries[idx[0]].get("gamma_precompensation")
-        if gamma is not None and key[0] == "spec":
-            label = f"{label}_gp{gamma:g}"
-        for i in idx:
-            f = frames[i]
-            assert isinstance(f, FringeFrame)
-            if f.spec != spec:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {entries[i]['file']} has a different pattern "
-                    "specification from the rest of its set; give each set one specification"
-                )
-        shifts = sorted(frames[i].shift for i in idx)  # type: ignore[union-attr]
-        if shifts != list(range(spec.steps)):
-            raise CaptureFormatError(
-                f"set {label!r}: has shifts {shifts} but a {spec.steps}-step set needs each of "
-                f"0..{spec.steps - 1} exactly once; add or remove frames"
-            )
-        ordered = tuple(sorted(idx, key=lambda i: frames[i].shift))  # type: ignore[union-attr]
-        sets.append(
-            FringeSet(label, spec, ordered, exposure, None if gamma is None else float(gamma))
-        )
-    return sets
-
-
-def load_image(path: Path, bit_depth: int) -> NDArray:
+def load_image(path: str | Path, bit_depth: int) -> NDArray:
     """Read one capture image as a single-channel array and check it against the bit depth.
 
     RGB(A) images are converted to luma with the BT.601 weights (0.299, 0.587, 0.114) as
     float32; a pixel with any clipped colour channel is set to ``2^B - 1`` so that it still
-    counts as saturated. Grayscale images keep their integer dtype.
+    counts as saturated (:func:`hdrfringe._validation.is_saturated`). Grayscale images keep
+    their integer dtype.
+
+    Parameters
+    ----------
+    path : str or Path
+        A PNG or TIFF file.
+    bit_depth : int
+        Camera bit depth B; values above ``2^B - 1`` are refused.
+
+    Returns
+    -------
+    ndarray (H, W)
+
+    Raises
+    ------
+    CaptureFormatError
+        A missing, unreadable, multi-channel (other than RGB), non-integer or out-of-range image.
     """
+    path = Path(path)
     if not path.is_file():
         raise CaptureFormatError(
             f"{path}: image file named in the manifest does not exist; add it or fix the manifest"
@@ -386,7 +269,7 @@ def load_image(path: Path, bit_depth: int) -> NDArray:
             "recapture or re-export it"
         ) from None
     img = np.asarray(img)
-    full = 2**bit_depth - 1
+    full = full_scale(bit_depth)
     if img.ndim == 3 and img.shape[-1] in (3, 4):
         rgb = img[..., :3]
         if rgb.max(initial=0) > full:
@@ -395,7 +278,7 @@ def load_image(path: Path, bit_depth: int) -> NDArray:
                 f"bit depth {bit_depth}; fix camera.bit_depth in the manifest"
             )
         luma = rgb.astype(np.float32) @ np.asarray(RGB_LUMA_WEIGHTS, dtype=np.float32)
-        luma[(rgb == full).any(axis=-1)] = full
+        luma[is_saturated(rgb, bit_depth).any(axis=-1)] = full
         return luma
     if img.ndim != 2:
         raise CaptureFormatError(
@@ -415,7 +298,24 @@ def load_image(path: Path, bit_depth: int) -> NDArray:
     return img
 
 
-def read_capture_folder(path: str | Path) -> CaptureFolder:
+def _read_map(path: Path, key: str, shape: tuple[int, ...]) -> NDArray:
+    """One float map listed in the manifest's ``maps``, checked against the image size."""
+    try:
+        data = read_map_tiff(path)
+    except Exception as exc:  # any decoder failure: truncated, corrupt, not a TIFF
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CaptureFormatError(
+            f"{path}: cannot read map {key!r} ({reason}); regenerate it or remove the 'maps' entry"
+        ) from None
+    if data.shape != shape:
+        got = f"{data.shape[1]}x{data.shape[0]}" if data.ndim == 2 else f"of shape {data.shape}"
+        raise CaptureFormatError(
+            f"{path}: map is {got} but the images are {shape[1]}x{shape[0]}; regenerate it"
+        )
+    return data
+
+
+def read_capture_folder(path: str | Path) -> Captures:
     """Read and fully validate a capture folder.
 
     Parameters
@@ -425,24 +325,29 @@ def read_capture_folder(path: str | Path) -> CaptureFolder:
 
     Returns
     -------
-    CaptureFolder
-        With every image loaded, shape (n_frames, H, W).
+    Captures
+        Every image loaded, shape (n_frames, H, W), and every map listed in the manifest's
+        ``maps`` loaded as an array; ``name`` is the folder path.
 
     Raises
     ------
     CaptureFormatError
         Any breach of the contract, with what, where and how to fix it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> caps = Captures(FringeSpec(steps=3).frames(), np.zeros((3, 4, 5), np.uint8), 8)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     back = read_capture_folder(write_capture_folder(Path(tmp) / "caps", caps))
+    >>> back.sets[0].label, np.array_equal(back.images, caps.images), back.name.endswith("caps")
+    ('s3_p6_v_i40_g255', True, True)
     """
     folder = Path(path)
     manifest = read_manifest(folder)
     bit_depth = int(manifest["camera"]["bit_depth"])
     entries: list[dict[str, Any]] = manifest["frames"]
-    frames: list[Frame] = []
-    for i, entry in enumerate(entries):
-        try:
-            frames.append(frame_from_manifest(entry))
-        except HdrFringeError as exc:
-            raise CaptureFormatError(f"manifest frame {i} ({entry['file']}): {exc}") from None
     seen: dict[str, int] = {}
     for i, entry in enumerate(entries):
         if entry["file"] in seen:
@@ -451,7 +356,6 @@ def read_capture_folder(path: str | Path) -> CaptureFolder:
                 "give each frame its own image"
             )
         seen[entry["file"]] = i
-    sets = _group_sets(entries, frames)
     images: list[NDArray] = []
     shape0: tuple[int, ...] | None = None
     for entry in entries:
@@ -468,23 +372,14 @@ def read_capture_folder(path: str | Path) -> CaptureFolder:
     kinds = {im.dtype for im in images}
     dtype = np.result_type(*kinds) if len(kinds) > 1 else images[0].dtype
     stack = np.stack([im.astype(dtype, copy=False) for im in images])
-    proj = manifest.get("projector")
-    projector = None
-    if proj is not None:
-        projector = ProjectorInfo(
-            width=int(proj.get("width", 1024)),
-            height=int(proj.get("height", 768)),
-            bit_depth=int(proj.get("bit_depth", 8)),
-            gamma_precompensation=float(proj.get("gamma_precompensation", 1.0)),
-        )
-    maps: dict[str, Path] = {}
     listed = manifest.get("maps", {})
     if not isinstance(listed, dict):
         raise _fail(str(folder / "manifest.json"), "'maps' is not an object", "use {name: file}")
+    maps: dict[str, NDArray] = {}
     for key, file in listed.items():
         rel = (
             _safe_relpath(file, f"manifest map {key!r}")
-            if str(file).lower().endswith((".tif", ".tiff"))
+            if str(file).lower().endswith(MAP_SUFFIXES)
             else None
         )
         if rel is None or not (folder / rel).is_file():
@@ -492,101 +387,131 @@ def read_capture_folder(path: str | Path) -> CaptureFolder:
                 f"{folder / 'manifest.json'}: map {key!r} names {file!r}, which is not a TIFF file "
                 "in the folder; fix or remove the 'maps' entry"
             )
-        maps[key] = folder / rel
-    return CaptureFolder(
-        path=folder,
-        maps=maps,
-        manifest=manifest,
-        camera_bit_depth=bit_depth,
-        projector=projector,
-        scene=dict(manifest.get("scene", {})),
-        frames=frames,
-        entries=entries,
-        images=stack,
-        sets=sets,
-    )
+        maps[key] = _read_map(folder / rel, key, stack.shape[1:])
+    return Captures.from_manifest(manifest, stack, maps, name=str(folder))
+
+
+def _default_stems(frames: Sequence[Frame]) -> list[str]:
+    stems = [f.default_name() for f in frames]
+    if len(set(stems)) != len(stems):
+        stems = [f"{i:04d}_{s}" for i, s in enumerate(stems)]
+    return stems
 
 
 def write_capture_folder(
     path: str | Path,
-    frames: Sequence[Frame],
-    images: NDArray,
-    camera_bit_depth: int,
+    captures: Captures,
     *,
-    projector: ProjectorInfo | dict[str, Any] | None = None,
-    scene: dict[str, Any] | None = None,
     names: Sequence[str] | None = None,
     extra: dict[str, Any] | None = None,
-    camera_extra: dict[str, Any] | None = None,
-    maps: dict[str, NDArray] | None = None,
     force: bool = False,
 ) -> Path:
-    """Write images and their manifest as a capture folder (contract version 1).
+    """Write captures and their manifest as a capture folder (contract version 1).
 
-    Images go to PNG: 8-bit for ``camera_bit_depth <= 8``, 16-bit otherwise. The folder is
-    written to a staging directory and moved into place only when complete.
+    Images go to PNG: 8-bit for ``camera_bit_depth <= 8``, 16-bit otherwise (float luma is
+    rounded). Maps go beside them as float32 TIFF ``<key>.tiff``, listed in the manifest's
+    ``maps``. The folder is written to a staging directory and moved into place only when
+    complete.
 
     Parameters
     ----------
     path : str or Path
         Target folder. If it exists and is not empty, ``force`` must be True.
-    frames : sequence of Frame
-        What was projected for each image.
-    images : ndarray, shape (n, H, W)
-        Camera counts, at most ``2**camera_bit_depth - 1``.
-    camera_bit_depth : int
-    projector : ProjectorInfo or dict, optional
-    scene : dict, optional
-        E.g. ``{"name": "white_plate", "depth_mm": 12.0}``.
+    captures : Captures
+        Frames, images, bit depth, projector, camera, scene, per-frame fields and maps.
     names : sequence of str, optional
-        File stems; default from each frame's :meth:`default_name`.
+        File stems; default from each frame's ``default_name()`` (prefixed with the frame
+        index when two coincide).
     extra : dict, optional
-        Additional top-level manifest fields (the contract allows additions).
-    camera_extra : dict, optional
-        Additional ``camera`` fields, e.g. ``focal_px`` and ``standoff_mm``.
-    maps : dict of str to ndarray, optional
-        Extra float maps written beside the images as float32 TIFF ``<key>.tiff`` and listed in
-        the manifest's ``maps`` field, e.g. ``{"truth_height_mm": h}``.
+        Additional top-level manifest fields (the contract allows additions), e.g.
+        ``{"simulator": ...}``.
     force : bool
         Replace an existing non-empty folder.
+
+    Returns
+    -------
+    Path
+        The folder written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.frames import UniformFrame
+    >>> caps = Captures([UniformFrame(128)], np.full((1, 2, 3), 7, np.uint16), 12)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     out = write_capture_folder(Path(tmp) / "caps", caps, extra={"lab": "B2"})
+    ...     m = json.loads((out / "manifest.json").read_text())
+    >>> m["camera"], m["lab"], m["frames"][0]["file"]
+    ({'bit_depth': 12}, 'B2', 'gray_128.png')
     """
     import imageio.v3 as iio
 
-    images = np.asarray(images)
-    if images.ndim != 3 or images.shape[0] != len(frames):
+    stems = list(names) if names is not None else _default_stems(captures.frames)
+    if len(stems) != len(captures.frames):
         raise CaptureFormatError(
-            f"write_capture_folder: {len(frames)} frames but images of shape {images.shape}; "
-            "give one (H, W) image per frame"
+            f"write_capture_folder: {len(stems)} names for {len(captures.frames)} frames; "
+            "give one file stem per frame"
         )
-    full = 2**camera_bit_depth - 1
-    if images.max(initial=0) > full or images.min(initial=0) < 0:
-        raise CaptureFormatError(
-            f"write_capture_folder: values outside 0..{full} for bit depth {camera_bit_depth}"
-        )
-    dtype = np.uint8 if camera_bit_depth <= 8 else np.uint16
-    stems = list(names) if names is not None else [f.default_name() for f in frames]
-    if len(set(stems)) != len(stems):
-        stems = [f"{i:04d}_{s}" for i, s in enumerate(stems)]
-    manifest: dict[str, Any] = {
-        "format": FORMAT_NAME,
-        "version": FORMAT_VERSION,
-        "camera": {"bit_depth": int(camera_bit_depth), **(camera_extra or {})},
-    }
-    if projector is not None:
-        manifest["projector"] = (
-            projector.to_manifest() if isinstance(projector, ProjectorInfo) else dict(projector)
-        )
-    if scene:
-        manifest["scene"] = dict(scene)
-    if extra:
-        manifest.update(extra)
-    if maps:
-        manifest["maps"] = {k: f"{k}.tiff" for k in maps}
-    manifest["frames"] = [f.manifest_entry(f"{s}.png") for f, s in zip(frames, stems, strict=True)]
+    manifest = captures.to_manifest([f"{s}.png" for s in stems], extra=extra)
+    dtype = np.uint8 if captures.camera_bit_depth <= 8 else np.uint16
     with staged_output_dir(path, force=force) as tmp:
-        for img, stem in zip(images, stems, strict=True):
+        for img, stem in zip(captures.images, stems, strict=True):
             iio.imwrite(tmp / f"{stem}.png", np.rint(img).astype(dtype))
-        for key, data in (maps or {}).items():
+        for key, data in captures.maps.items():
             write_map_tiff(tmp / f"{key}.tiff", data)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return Path(path)
+
+
+def simulate_to_folder(
+    path: str | Path,
+    rig: SimulatedRig,
+    frames: Sequence[Frame],
+    *,
+    names: Sequence[str] | None = None,
+    force: bool = False,
+    provenance: bool = True,
+) -> NDArray[np.integer]:
+    """Capture ``frames`` with a virtual rig and write them as a capture folder.
+
+    The manifest's ``scene`` is the scene's :meth:`~hdrfringe.rig.scenes.Scene.to_manifest`
+    (``depth_mm`` for flat plates); with ``provenance`` an optional top-level ``simulator``
+    entry records every rig parameter (:meth:`SimulatedRig.to_manifest`).
+
+    Parameters
+    ----------
+    path : str or Path
+        Target folder (see :func:`write_capture_folder`).
+    rig : SimulatedRig
+        The virtual rig (:mod:`hdrfringe.rig.simulated`).
+    frames : sequence of Frame
+        What to project, in order.
+    names : sequence of str, optional
+        File stems (default from the frames).
+    force : bool
+        Replace an existing non-empty folder.
+    provenance : bool
+        Record the rig parameters in the manifest's ``simulator`` field.
+
+    Returns
+    -------
+    ndarray
+        The captured images.
+    """
+    frames = list(frames)
+    images = rig.capture(frames)
+    captures = Captures(
+        frames,
+        images,
+        rig.camera_bit_depth,
+        projector=rig.projector,
+        scene=rig.scene.to_manifest(),
+    )
+    write_capture_folder(
+        path,
+        captures,
+        names=names,
+        extra={"simulator": rig.to_manifest()} if provenance else None,
+        force=force,
+    )
+    return images

@@ -1,10 +1,11 @@
-"""Replay a capture folder as a rig: strategies run offline on captured MIGL sweeps.
+"""Replay captures as a rig: strategies run offline on captured MIGL sweeps.
 
 The thesis captured every MIGL from 255 to 60 in steps of 1 and ran its strategies offline;
-:class:`ReplayRig` does the same with any capture folder (``hdrfringe simulate --migl-sweep``
-writes one). ``capture(frames)`` returns, for each frame, the image the folder holds for exactly
-that frame (same pattern, steps, shift, pitch, orientation, imin and MIGL; or the same centerline
-or uniform frame), and refuses frames the folder does not hold.
+:class:`ReplayRig` does the same with any :class:`~hdrfringe.captures.Captures` (read from a
+capture folder, which ``hdrfringe simulate --migl-sweep`` writes, or made in memory).
+``capture(frames)`` returns, for each frame, the image the captures hold for exactly that frame
+(same pattern, steps, shift, pitch, orientation, imin and MIGL; or the same centerline or
+uniform frame), and refuses frames they do not hold.
 """
 
 from __future__ import annotations
@@ -16,10 +17,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import ProjectorInfo
+from hdrfringe.captures import Captures, ProjectorInfo
 from hdrfringe.errors import CaptureFormatError
-from hdrfringe.frames import Frame
-from hdrfringe.io.captures import CaptureFolder
+from hdrfringe.frames import Frame, FringeFrame
+
+__all__ = ["ReplayRig"]
 
 
 def _key(frame: Frame) -> str:
@@ -35,17 +37,60 @@ def _key(frame: Frame) -> str:
 
 
 class ReplayRig:
-    """A rig whose captures come from a capture folder (see module docstring)."""
+    """A rig whose captures come from a :class:`~hdrfringe.captures.Captures`.
 
-    def __init__(self, folder: CaptureFolder) -> None:
-        self.folder = folder
-        self.camera_bit_depth = folder.camera_bit_depth
-        self.image_shape = folder.image_shape
-        self.projector = folder.projector or ProjectorInfo()
-        self._index = {_key(f): i for i, f in enumerate(folder.frames)}
+    Parameters
+    ----------
+    captures : Captures
+        The images to replay, e.g. a MIGL sweep read with
+        :func:`hdrfringe.io.captures.read_capture_folder`.
+
+    Attributes
+    ----------
+    camera_bit_depth, image_shape, projector
+        As the :class:`~hdrfringe.rig.base.Rig` protocol asks (the projector defaults to
+        :class:`~hdrfringe.captures.ProjectorInfo` when the captures record none).
+    captured : int
+        Number of images returned so far.
+
+    Notes
+    -----
+    Thesis Sec. 5.2: the strategies were evaluated offline on a sweep of every MIGL.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> frames = FringeSpec(steps=3).frames()
+    >>> rig = ReplayRig(Captures(frames, np.arange(3).reshape(3, 1, 1).astype(np.uint8), 8))
+    >>> rig.capture(frames[::-1])[:, 0, 0].tolist()
+    [2, 1, 0]
+    """
+
+    def __init__(self, captures: Captures) -> None:
+        self.captures = captures
+        self.camera_bit_depth = captures.camera_bit_depth
+        self.image_shape = captures.image_shape
+        self.projector = captures.projector or ProjectorInfo()
+        self._index = {_key(f): i for i, f in enumerate(captures.frames)}
         self.captured = 0
 
-    def capture(self, frames: Sequence[Frame]) -> NDArray:
+    def capture(self, frames: Sequence[Frame]) -> NDArray[Any]:
+        """The held image of each frame, shape (n, H, W).
+
+        Parameters
+        ----------
+        frames : sequence of Frame
+
+        Returns
+        -------
+        ndarray
+
+        Raises
+        ------
+        CaptureFormatError
+            A frame the captures do not hold.
+        """
         idx = []
         for f in frames:
             i = self._index.get(_key(f))
@@ -53,15 +98,21 @@ class ReplayRig:
                 what = f.manifest_entry("")
                 what.pop("file")
                 raise CaptureFormatError(
-                    f"{self.folder.path}: the replay folder holds no capture of frame {what}; "
+                    f"{self.captures.name}: the replay folder holds no capture of frame {what}; "
                     "capture a MIGL sweep that covers it (hdrfringe simulate --migl-sweep)"
                 )
             idx.append(i)
         self.captured += len(idx)
-        return np.stack([self.folder.images[i] for i in idx])
+        return np.stack([self.captures.images[i] for i in idx])
 
     def available_migls(self) -> list[float]:
-        """MIGLs of the fringe frames the folder holds, highest first."""
+        """MIGLs of the fringe frames the captures hold, highest first.
+
+        Returns
+        -------
+        list of float
+        """
         return sorted(
-            {float(f.spec.migl) for f in self.folder.frames if hasattr(f, "spec")}, reverse=True
+            {float(f.spec.migl) for f in self.captures.frames if isinstance(f, FringeFrame)},
+            reverse=True,
         )

@@ -39,7 +39,6 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -71,7 +70,6 @@ __all__ = [
     "RigGeometry",
     "SimulatedRig",
     "simulate_frames",
-    "simulate_to_folder",
 ]
 
 #: Projector gamma estimated in the thesis (Sec. 2.6); default true gamma and pre-compensation.
@@ -768,23 +766,25 @@ class SimulatedRig:
         return out
 
     def capture_folder(self, frames: Sequence[Frame]) -> Any:
-        """Capture ``frames`` into an in-memory capture folder, as ``simulate`` would write it.
+        """Capture ``frames`` into an in-memory :class:`~hdrfringe.captures.Captures`, as
+        ``simulate`` would write it.
 
-        The folder carries the scene, the camera geometry (``focal_px``, ``standoff_mm``) and the
-        ground-truth height map, so it can be calibrated on or measured directly.
+        The captures carry the scene, the camera geometry (``focal_px``, ``standoff_mm``) and
+        the ground-truth height map (``truth_height_mm``), so they can be calibrated on or
+        measured directly; their ``name`` is the scene's.
         """
-        from hdrfringe.io.captures import CaptureFolder
+        from hdrfringe.captures import Captures
 
         frames = list(frames)
-        return CaptureFolder.from_arrays(
+        return Captures(
             frames,
             self.capture(frames),
             self.camera_bit_depth,
             projector=self.projector,
             scene=self.scene.to_manifest(),
-            camera_extra=self.camera_manifest(),
-            truth_height_mm=self.truth().height_mm,
-            label=self.scene.name,
+            camera=self.camera_manifest(),
+            maps={"truth_height_mm": self.truth().height_mm},
+            name=self.scene.name,
         )
 
     def camera_manifest(self) -> dict[str, float]:
@@ -1026,41 +1026,3 @@ class SimulatedRig:
 def simulate_frames(rig: SimulatedRig, frames: Sequence[Frame]) -> NDArray[np.integer]:
     """Capture ``frames`` with ``rig`` (the same as ``rig.capture(frames)``)."""
     return rig.capture(frames)
-
-
-def simulate_to_folder(
-    path: str | Path,
-    rig: SimulatedRig,
-    frames: Sequence[Frame],
-    *,
-    names: Sequence[str] | None = None,
-    force: bool = False,
-    provenance: bool = True,
-) -> NDArray[np.integer]:
-    """Capture ``frames`` with ``rig`` and write them as a capture folder (CAPTURE_FORMAT.md).
-
-    The manifest's ``scene`` is the scene's :meth:`~hdrfringe.rig.scenes.Scene.to_manifest`
-    (``depth_mm`` for flat plates); with ``provenance`` an optional top-level ``simulator``
-    entry records every rig parameter (:meth:`SimulatedRig.to_manifest`).
-
-    Returns
-    -------
-    ndarray
-        The captured images.
-    """
-    from hdrfringe.io.captures import write_capture_folder
-
-    frames = list(frames)
-    images = rig.capture(frames)
-    write_capture_folder(
-        path,
-        frames,
-        images,
-        rig.camera_bit_depth,
-        projector=rig.projector,
-        scene=rig.scene.to_manifest(),
-        names=names,
-        extra={"simulator": rig.to_manifest()} if provenance else None,
-        force=force,
-    )
-    return images

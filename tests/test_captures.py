@@ -1,0 +1,193 @@
+"""The in-memory Captures (core) and its capture-folder reader and writer (io)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hdrfringe.captures import Captures, ProjectorInfo, group_fringe_sets
+from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.frames import CenterlineFrame, UniformFrame
+from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
+from hdrfringe.patterns import FringeSpec
+
+SPEC = FringeSpec("sinusoidal", 3, 8.0)
+SHAPE = (4, 6)
+
+
+def _images(n: int, dtype: type = np.uint8) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    return rng.integers(0, 200, size=(n, *SHAPE)).astype(dtype)
+
+
+def _rich() -> Captures:
+    """Two labelled exposures of one set, a centerline with its exposure, a map, camera info."""
+    frames = [*SPEC.frames(), *SPEC.frames(), CenterlineFrame(20.0)]
+    return Captures(
+        frames,
+        _images(7, np.uint16),
+        12,
+        projector=ProjectorInfo(800, 600, 8, 2.2),
+        camera={"focal_px": 1000.0, "standoff_mm": 500.0},
+        scene={"depth_mm": 4.0, "name": "plate"},
+        exposure_ms=[5.0] * 3 + [20.0] * 3 + [7.5],
+        set_labels=["short"] * 3 + ["long"] * 3 + [None],
+        gamma_precompensation=[None] * 3 + [1.5] * 3 + [None],
+        maps={"truth_height_mm": np.full(SHAPE, 4.0, np.float32)},
+        name="rich",
+    )
+
+
+# --- validation on construction ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("images", "bits", "match"),
+    [
+        (np.zeros((2, *SHAPE), np.uint8), 8, "3 frames but images of shape"),
+        (np.zeros(SHAPE, np.uint8), 8, "3 frames but images of shape"),
+        (np.full((3, *SHAPE), 64, np.uint8), 6, r"values reach 64, above 2\^B - 1 = 63"),
+        (np.full((3, *SHAPE), -1, np.int16), 8, "go down to -1"),
+        (np.full((3, *SHAPE), np.nan, np.float32), 8, "values reach nan"),
+    ],
+)
+def test_images_must_match_frames_and_bit_depth(images, bits, match) -> None:
+    with pytest.raises(CaptureFormatError, match=match):
+        Captures(SPEC.frames(), images, bits)
+
+
+def test_full_scale_is_accepted_and_bit_depth_checked() -> None:
+    Captures(SPEC.frames(), np.full((3, *SHAPE), 4095, np.uint16), 12)  # 2^B - 1 is valid
+    with pytest.raises(InputError, match=r"camera bit depth must be an integer 1\.\.16"):
+        Captures(SPEC.frames(), np.zeros((3, *SHAPE), np.uint8), 17)
+
+
+def test_per_frame_fields_and_maps_are_checked() -> None:
+    frames, images = SPEC.frames(), _images(3)
+    with pytest.raises(InputError, match="exposure_ms has 2 entries for 3 frames"):
+        Captures(frames, images, 8, exposure_ms=[1.0, 2.0])
+    with pytest.raises(CaptureFormatError, match="frame 1: exposure_ms must be a positive"):
+        Captures(frames, images, 8, exposure_ms=[1.0, 0.0, 1.0])
+    with pytest.raises(CaptureFormatError, match="frame 2 set label must be a string"):
+        Captures(frames, images, 8, set_labels=[None, None, 3])
+    with pytest.raises(CaptureFormatError, match=r"map 'truth_height_mm' is 5x4 but the images"):
+        Captures(frames, images, 8, maps={"truth_height_mm": np.zeros((4, 5))})
+    with pytest.raises(InputError, match="camera holds 'bit_depth'"):
+        Captures(frames, images, 8, camera={"bit_depth": 8})
+    with pytest.raises(InputError, match="frame 0 is a str"):
+        Captures(["frame"], images[:1], 8)  # type: ignore[list-item]
+
+
+def test_sets_are_grouped_and_incomplete_sets_refused() -> None:
+    caps = _rich()
+    assert [(s.label, s.frame_indices, s.exposure_ms) for s in caps.sets] == [
+        ("short", (0, 1, 2), 5.0),
+        ("long", (3, 4, 5), 20.0),
+    ]
+    assert caps.sets[1].gamma_precompensation == 1.5
+    # without labels, the exposure and gamma split the sets and name them
+    unlabelled = dataclasses.replace(caps, set_labels=())
+    assert [s.label for s in unlabelled.sets] == [
+        "s3_p8_v_i40_g255_e5",
+        "s3_p8_v_i40_g255_e20_gp1.5",
+    ]
+    with pytest.raises(CaptureFormatError, match=r"has shifts \[0, 2\]"):
+        Captures([SPEC.frames()[0], SPEC.frames()[2]], _images(2), 8)
+    with pytest.raises(CaptureFormatError, match=r"frame b\.png has a different pattern"):
+        group_fringe_sets(
+            [*SPEC.frames()[:2], FringeSpec(pitch_px=9.0).frames()[2]],
+            set_labels=["a"] * 3,
+            names=["a.png", "c.png", "b.png"],
+        )
+
+
+def test_views() -> None:
+    caps = _rich()
+    assert caps.image_shape == SHAPE
+    np.testing.assert_array_equal(caps.set_images(caps.sets[1]), caps.images[3:6])
+    assert [f.position for f, _ in caps.centerlines()] == [20.0] and caps.uniforms() == []
+    assert caps.map("truth_height_mm") is caps.maps["truth_height_mm"] and caps.map("x") is None
+    assert repr(caps) == "Captures('rich': 7 frames of 6x4 at 12 bits, 2 fringe sets)"
+
+
+# --- manifest, hash, folder round trip ---------------------------------------------------------
+
+
+def test_manifest_round_trip_in_memory() -> None:
+    caps = _rich()
+    m = caps.to_manifest(extra={"simulator": {"seed": 3}})
+    assert m["camera"] == {"bit_depth": 12, "focal_px": 1000.0, "standoff_mm": 500.0}
+    assert m["simulator"] == {"seed": 3} and m["maps"] == {
+        "truth_height_mm": "truth_height_mm.tiff"
+    }
+    assert m["frames"][3]["set"] == "long" and m["frames"][3]["gamma_precompensation"] == 1.5
+    assert m["frames"][6]["exposure_ms"] == 7.5 and "set" not in m["frames"][6]
+    back = Captures.from_manifest(m, caps.images, caps.maps, name="back")
+    assert back.content_hash() == caps.content_hash()
+    with pytest.raises(InputError, match="extra manifest field 'frames'"):
+        caps.to_manifest(extra={"frames": []})
+
+
+def test_content_hash_follows_the_content_only() -> None:
+    caps = _rich()
+    same = dataclasses.replace(caps, name="elsewhere", images=caps.images.copy())
+    assert same.content_hash() == caps.content_hash()
+    images = caps.images.copy()
+    images[6, 0, 0] += 1
+    maps = {"truth_height_mm": caps.maps["truth_height_mm"] + 1}
+    for changed in (
+        dataclasses.replace(caps, images=images),
+        dataclasses.replace(caps, maps=maps),
+        dataclasses.replace(caps, scene={"depth_mm": 5.0}),
+        dataclasses.replace(caps, images=caps.images.astype(np.int32)),
+    ):
+        assert changed.content_hash() != caps.content_hash()
+
+
+def test_folder_round_trip_keeps_everything(tmp_path: Path) -> None:
+    caps = _rich()
+    out = write_capture_folder(tmp_path / "caps", caps, extra={"lab": "B2"})
+    back = read_capture_folder(out)
+    assert back.name == str(out)
+    np.testing.assert_array_equal(back.images, caps.images)
+    for attr in ("camera_bit_depth", "projector", "camera", "scene", "exposure_ms"):
+        assert getattr(back, attr) == getattr(caps, attr), attr
+    assert back.set_labels == caps.set_labels
+    assert back.gamma_precompensation == caps.gamma_precompensation
+    assert back.frames == caps.frames and back.sets == caps.sets
+    np.testing.assert_array_equal(back.map("truth_height_mm"), caps.map("truth_height_mm"))
+    assert back.content_hash() == caps.content_hash()  # the folder's files hold the same
+    assert read_manifest(out)["lab"] == "B2"
+
+
+def test_reader_names_bad_maps(tmp_path: Path) -> None:
+    frames = [UniformFrame(10), UniformFrame(20)]
+    caps = Captures(frames, _images(2), 8, maps={"truth_height_mm": np.zeros(SHAPE)})
+    folder = write_capture_folder(tmp_path / "caps", caps)
+    map_file = folder / "truth_height_mm.tiff"
+    map_file.write_bytes(map_file.read_bytes()[:40])
+    with pytest.raises(CaptureFormatError, match=r"truth_height_mm\.tiff: cannot read map"):
+        read_capture_folder(folder)
+    import tifffile
+
+    tifffile.imwrite(map_file, np.zeros((3, 6), np.float32))
+    with pytest.raises(CaptureFormatError, match=r"height_mm\.tiff: map is 6x3 but the"):
+        read_capture_folder(folder)
+    map_file.unlink()
+    with pytest.raises(CaptureFormatError, match="which is not a TIFF file in the folder"):
+        read_capture_folder(folder)
+
+
+def test_exposure_of_any_frame_is_read_and_checked(tmp_path: Path) -> None:
+    caps = Captures([UniformFrame(10)], _images(1), 8, exposure_ms=[3.0])
+    folder = write_capture_folder(tmp_path / "caps", caps)
+    assert read_capture_folder(folder).exposure_ms == (3.0,)
+    m = json.loads((folder / "manifest.json").read_text())
+    m["frames"][0]["exposure_ms"] = -1
+    (folder / "manifest.json").write_text(json.dumps(m))
+    with pytest.raises(CaptureFormatError, match="field 'exposure_ms' must be positive"):
+        read_capture_folder(folder)
