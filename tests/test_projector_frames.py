@@ -7,6 +7,7 @@ principles (pinhole camera, look-at projector, plate plane), not through the rig
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -42,7 +43,7 @@ PROJ_W, PROJ_H = 1024, 768
 
 def ideal_camera(**changes) -> CameraModel:
     """A noise-free, blur-free 16-bit camera, coarse (odd size: a pixel on the optical axis)."""
-    args = {
+    args: dict[str, Any] = {
         "width": 129,
         "height": 97,
         "bit_depth": 16,

@@ -67,15 +67,15 @@ class FringeFrame:
     shift : int
         Shift index i in 0..N-1.
 
+    References
+    ----------
+    Pattern convention: docs/capture_format.md; thesis Eq. 2.1 (sinusoidal), Eq. 2.5 (triangular).
+
     Examples
     --------
     >>> frame = FringeFrame(FringeSpec(steps=4, pitch_px=8.0, imin=0.0, migl=200.0), 0)
     >>> frame.gray([0.0, 4.0]).tolist()
     [200.0, 0.0]
-
-    References
-    ----------
-    Pattern convention: docs/capture_format.md; thesis Eq. 2.1 (sinusoidal), Eq. 2.5 (triangular).
     """
 
     spec: FringeSpec
@@ -191,14 +191,14 @@ class CenterlineFrame:
     background : float
         Gray level elsewhere.
 
+    References
+    ----------
+    Thesis Sec. 2.5 (centerline image for absolute phase).
+
     Examples
     --------
     >>> CenterlineFrame(3.0, migl=255.0).gray([2.0, 3.0, 4.0]).tolist()
     [0.0, 255.0, 0.0]
-
-    References
-    ----------
-    Thesis Sec. 2.5 (centerline image for absolute phase).
     """
 
     position: float
@@ -308,6 +308,10 @@ class UniformFrame:
     ----------
     level : float
         Linear input gray level.
+
+    References
+    ----------
+    Thesis Eq. 2.1 and 3.8-3.9 (a = (migl + imin)/2, b = (migl - imin)/2, here per pixel).
 
     Examples
     --------
@@ -422,10 +426,6 @@ class PixelwiseFringeFrame:
     >>> m[:, 2:] = 100.0
     >>> PixelwiseFringeFrame(spec, 0, m).render(4, 2)[0].tolist()
     [200, 100, 0, 50]
-
-    References
-    ----------
-    Thesis Eq. 2.1 and 3.8-3.9 (a = (migl + imin)/2, b = (migl - imin)/2, here per pixel).
     """
 
     spec: FringeSpec
@@ -621,6 +621,10 @@ class ImageFrame:
     name : str
         A label (part of the frame's identity and of its file names).
 
+    References
+    ----------
+    Thesis Eq. 2.17 (gamma pre-compensation).
+
     Examples
     --------
     >>> frame = ImageFrame(np.array([[0, 255], [255, 0]]), "checker")
@@ -745,8 +749,9 @@ class ImageFrame:
         }
 
     def default_data_file(self) -> str:
-        """Default side-file path: a PNG when every level is a whole number <= 65535 (8-bit when
-        <= 255), else a float32 TIFF; named by the digest.
+        """Default side-file path for the image, named by its digest.
+
+        A PNG when every level is a whole number <= 65535, else a float32 TIFF.
 
         Returns
         -------
@@ -772,9 +777,9 @@ LineFrame = FringeFrame | CenterlineFrame | UniformFrame
 #: Any frame the projector can show.
 Frame = FringeFrame | CenterlineFrame | UniformFrame | PixelwiseFringeFrame | ImageFrame
 #: The line-frame classes, for ``isinstance``.
-LINE_FRAMES: tuple[type, ...] = (FringeFrame, CenterlineFrame, UniformFrame)
+LINE_FRAMES = (FringeFrame, CenterlineFrame, UniformFrame)
 #: The classes of frames with 2-D data stored in a side file, for ``isinstance``.
-IMAGE_FRAMES: tuple[type, ...] = (PixelwiseFringeFrame, ImageFrame)
+IMAGE_FRAMES = (PixelwiseFringeFrame, ImageFrame)
 
 
 def frame_axis(frame: Frame) -> Orientation:
@@ -783,6 +788,7 @@ def frame_axis(frame: Frame) -> Orientation:
     Parameters
     ----------
     frame : FringeFrame, CenterlineFrame or UniformFrame
+        A line frame.
 
     Returns
     -------
@@ -845,10 +851,6 @@ def render_frame(
     --------
     >>> render_frame(CenterlineFrame(1.0), width=4, height=1).tolist()
     [[0, 255, 0, 0]]
-
-    References
-    ----------
-    Thesis Eq. 2.17 (gamma pre-compensation).
     """
     if width < 1 or height < 1:
         raise InputError(f"projector resolution must be positive, got {width}x{height}")
@@ -866,6 +868,7 @@ def sample_bilinear(image: ArrayLike, u: ArrayLike, v: ArrayLike) -> NDArray[np.
     Parameters
     ----------
     image : array_like, shape (H, W)
+        Values at the pixel centres.
     u, v : array_like
         Column and row coordinates, broadcast together.
 

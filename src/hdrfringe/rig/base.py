@@ -71,11 +71,20 @@ class Rig(Protocol):
     def capture(
         self, frames: Sequence[Frame], settings: CameraSettings | None = None
     ) -> NDArray[np.integer]:
-        """Project each frame in order and return the images, shape (n, height, width).
+        """Project each frame in order and return the images.
 
-        ``settings`` applies to every frame of the call; a field left None (or ``settings``
-        None) takes the rig's :attr:`camera_settings`. dtype is uint8 for B <= 8 and uint16
-        otherwise; values never exceed ``2**B - 1``.
+        Parameters
+        ----------
+        frames : sequence of Frame
+            What the projector shows, in order.
+        settings : CameraSettings, optional
+            Camera settings for every frame of the call; a field left None (or ``settings``
+            None) takes the rig's :attr:`camera_settings`.
+
+        Returns
+        -------
+        ndarray, shape (n, height, width)
+            uint8 for B <= 8, uint16 otherwise; values never exceed ``2**B - 1``.
         """
         ...
 
@@ -123,12 +132,14 @@ class RigBase:
         self.close()
 
     def resolve_settings(self, settings: CameraSettings | None) -> CameraSettings:
-        """The settings a capture uses: each field of ``settings`` that is not None, else the
-        rig's :attr:`camera_settings`.
+        """The settings a capture uses.
+
+        Each field of ``settings`` that is not None, else the rig's :attr:`camera_settings`.
 
         Parameters
         ----------
         settings : CameraSettings or None
+            The settings a capture was given.
 
         Returns
         -------

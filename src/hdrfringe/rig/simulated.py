@@ -62,6 +62,7 @@ from hdrfringe.frames import (
     Frame,
     FringeFrame,
     ImageFrame,
+    LineFrame,
     PixelwiseFringeFrame,
     frame_axis,
     render_frame,
@@ -447,7 +448,7 @@ def _trace(
     march = _shadow_possible(scene, geometry, ax, ay, z, converged, zmax)
 
     names = ("height_mm", "u", "v", "reflectivity", "shading", "specular", "x_mm", "y_mm")
-    out = {k: np.empty((h, w)) for k in names}
+    out: dict[str, NDArray[Any]] = {k: np.empty((h, w)) for k in names}
     out["height_mm"] = z
     out["valid"] = np.empty((h, w), dtype=bool)
     for rows in blocks:
@@ -1156,7 +1157,9 @@ class SimulatedRig(RigBase):
             )
         return light
 
-    def _continuous_light(self, frame: Frame, coord: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _continuous_light(
+        self, frame: LineFrame, coord: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         proj = self.projector_model
         sent = precompensate_gamma(frame.gray(coord), self.gamma_precompensation, proj.bit_depth)
         return proj.light(sent)
