@@ -553,3 +553,38 @@ def test_periodic_basis_reproduces_the_expected_signal(pattern, steps, pitch, or
     assert np.allclose(fast, rig.expected_signal(frames), rtol=0, atol=1e-9)
     with pytest.raises(InputError, match="does not repeat every 5"):
         rig.periodic_light(frames[0], 5)
+
+
+# --- camera settings on the rig protocol --------------------------------------------------------
+
+
+def test_replay_rig_takes_settings_and_refuses_exposures_it_does_not_hold():
+    """The replay returns the image captured at the asked exposure, and refuses an exposure
+    (or a gain) the folder does not hold instead of returning another exposure's image."""
+    from hdrfringe.captures import CameraSettings
+    from hdrfringe.errors import CaptureFormatError
+    from hdrfringe.captures import Captures
+    from hdrfringe.rig.replay import ReplayRig
+
+    rig = SimulatedRig(white_plate(5.0), camera=small_camera())
+    gray = UniformFrame(100)
+    images = np.concatenate(
+        [
+            rig.capture([gray], CameraSettings(5.0)),
+            rig.capture([gray], CameraSettings(10.0)),
+            rig.capture([UniformFrame(200)]),
+        ]
+    )
+    folder = Captures([gray, gray, UniformFrame(200)], images, 8, exposure_ms=(5.0, 10.0, None))
+    assert not np.array_equal(images[0], images[1])
+    with ReplayRig(folder) as replay:
+        assert isinstance(replay, Rig)
+        np.testing.assert_array_equal(replay.capture([gray], CameraSettings(5.0))[0], images[0])
+        np.testing.assert_array_equal(replay.capture([gray], CameraSettings(10))[0], images[1])
+        assert replay.capture([gray]).shape == (1, 49, 65)  # no settings: as before
+        with pytest.raises(CaptureFormatError, match="at 5 ms, 10 ms, not at 7 ms"):
+            replay.capture([gray], CameraSettings(7.0))
+        with pytest.raises(CaptureFormatError, match="no recorded exposure"):
+            replay.capture([UniformFrame(200)], CameraSettings(5.0))
+        with pytest.raises(CaptureFormatError, match="no camera gain"):
+            replay.capture([gray], CameraSettings(gain_db=6.0))

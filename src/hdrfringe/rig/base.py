@@ -1,19 +1,32 @@
-"""The rig interface: project these frames, return what the camera captured.
+"""The rig interface: project these frames with these camera settings, return what the camera saw.
 
-Strategies and front ends drive any rig through this protocol: the virtual rig
+Strategies and front ends drive any rig through the :class:`Rig` protocol: the virtual rig
 (:class:`hdrfringe.rig.simulated.SimulatedRig`), a replay rig over a capture folder, or hardware.
+A rig is opened before use and closed after (a hardware rig acquires its devices there), most
+simply as a context manager::
+
+    with make_rig() as rig:
+        images = rig.capture(frames, CameraSettings(exposure_ms=20.0))
+
+:class:`RigBase` gives a rig the protocol's housekeeping (``open``/``close`` that do nothing,
+context-manager use, ``camera_settings`` and :meth:`RigBase.resolve_settings`), so a rig only
+writes ``capture`` and whatever it really needs to open.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol, runtime_checkable
+from types import TracebackType
+from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import ProjectorInfo
+from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame
+
+__all__ = ["Rig", "RigBase"]
 
 
 @runtime_checkable
@@ -28,15 +41,121 @@ class Rig(Protocol):
         Camera image (height, width).
     projector : ProjectorInfo
         Projector input description, including the gamma pre-compensation in use.
+    camera_settings : CameraSettings
+        The settings a capture uses when it is given none (a field left None: the rig does not
+        know or set it, e.g. a replayed folder that records no exposure).
     """
 
     camera_bit_depth: int
     image_shape: tuple[int, int]
     projector: ProjectorInfo
+    camera_settings: CameraSettings
 
-    def capture(self, frames: Sequence[Frame]) -> NDArray[np.integer]:
-        """Project each frame in order and return the images, shape (n, height, width).
+    def open(self) -> None:
+        """Acquire what the rig needs (devices, windows); a rig is usable after it."""
+        ...
 
-        dtype is uint8 for B <= 8 and uint16 otherwise; values never exceed ``2**B - 1``.
+    def close(self) -> None:
+        """Release what :meth:`open` acquired; closing twice is harmless."""
+        ...
+
+    def __enter__(self) -> Self: ...
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None: ...
+
+    def capture(
+        self, frames: Sequence[Frame], settings: CameraSettings | None = None
+    ) -> NDArray[np.integer]:
+        """Project each frame in order and return the images.
+
+        Parameters
+        ----------
+        frames : sequence of Frame
+            What the projector shows, in order.
+        settings : CameraSettings, optional
+            Camera settings for every frame of the call; a field left None (or ``settings``
+            None) takes the rig's :attr:`camera_settings`.
+
+        Returns
+        -------
+        ndarray, shape (n, height, width)
+            uint8 for B <= 8, uint16 otherwise; values never exceed ``2**B - 1``.
         """
         ...
+
+
+class RigBase:
+    """Defaults for the housekeeping of the :class:`Rig` protocol.
+
+    ``open`` and ``close`` do nothing (a rig with nothing to acquire needs nothing more);
+    ``with rig:`` opens it and closes it on leaving, also after an error (which it does not
+    swallow). ``camera_settings`` defaults to ``CameraSettings()`` (nothing known);
+    :meth:`resolve_settings` merges a capture's settings with it.
+
+    Examples
+    --------
+    >>> class Dark(RigBase):
+    ...     opened = 0
+    ...
+    ...     def open(self) -> None:
+    ...         self.opened += 1
+    >>> with Dark() as rig:
+    ...     rig.opened
+    1
+    >>> Dark().resolve_settings(CameraSettings(gain_db=6.0))
+    CameraSettings(exposure_ms=None, gain_db=6.0)
+    """
+
+    camera_settings: CameraSettings = CameraSettings()
+
+    def open(self) -> None:
+        """Acquire what the rig needs; the default has nothing to acquire."""
+
+    def close(self) -> None:
+        """Release what :meth:`open` acquired; the default has nothing to release."""
+
+    def __enter__(self) -> Self:
+        self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def resolve_settings(self, settings: CameraSettings | None) -> CameraSettings:
+        """The settings a capture uses.
+
+        Each field of ``settings`` that is not None, else the rig's :attr:`camera_settings`.
+
+        Parameters
+        ----------
+        settings : CameraSettings or None
+            The settings a capture was given.
+
+        Returns
+        -------
+        CameraSettings
+        """
+        current = self.camera_settings
+        if settings is None:
+            return current
+        if not isinstance(settings, CameraSettings):
+            raise InputError(
+                f"camera settings must be a hdrfringe.captures.CameraSettings or None, got "
+                f"{type(settings).__name__}"
+            )
+        return CameraSettings(
+            exposure_ms=(
+                settings.exposure_ms if settings.exposure_ms is not None else current.exposure_ms
+            ),
+            gain_db=settings.gain_db if settings.gain_db is not None else current.gain_db,
+        )

@@ -17,9 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.captures import CameraSettings, Captures, ProjectorInfo
 from hdrfringe.errors import CaptureFormatError
 from hdrfringe.frames import Frame, FringeFrame
+from hdrfringe.rig.base import RigBase
 
 __all__ = ["ReplayRig"]
 
@@ -36,8 +37,12 @@ def _key(frame: Frame) -> str:
     )
 
 
-class ReplayRig:
+class ReplayRig(RigBase):
     """A rig whose captures come from a :class:`~hdrfringe.captures.Captures`.
+
+    ``capture(frames, settings)`` with an exposure time returns the frame captured at exactly
+    that exposure (the per-frame ``exposure_ms``) and refuses an exposure the captures do not
+    hold; a gain cannot be replayed (captures record none).
 
     Parameters
     ----------
@@ -75,12 +80,16 @@ class ReplayRig:
         self._index = {_key(f): i for i, f in enumerate(captures.frames)}
         self.captured = 0
 
-    def capture(self, frames: Sequence[Frame]) -> NDArray[Any]:
+    def capture(
+        self, frames: Sequence[Frame], settings: CameraSettings | None = None
+    ) -> NDArray[Any]:
         """The held image of each frame, shape (n, H, W).
 
         Parameters
         ----------
         frames : sequence of Frame
+        settings : CameraSettings, optional
+            An exposure time selects the frame captured at exactly that exposure.
 
         Returns
         -------
@@ -89,11 +98,19 @@ class ReplayRig:
         Raises
         ------
         CaptureFormatError
-            A frame the captures do not hold.
+            A frame (or exposure) the captures do not hold, or a gain.
         """
+        settings = self.resolve_settings(settings)
+        if settings.gain_db is not None:
+            raise CaptureFormatError(
+                f"{self.captures.name}: captures record no camera gain, so a replay "
+                f"cannot apply {settings.gain_db:g} dB; leave gain_db None"
+            )
         idx = []
         for f in frames:
             i = self._index.get(_key(f))
+            if i is not None and settings.exposure_ms is not None:
+                i = self._at_exposure(f, settings.exposure_ms)
             if i is None:
                 what = f.manifest_entry("")
                 what.pop("file")
@@ -104,6 +121,23 @@ class ReplayRig:
             idx.append(i)
         self.captured += len(idx)
         return np.stack([self.captures.images[i] for i in idx])
+
+    def _at_exposure(self, frame: Frame, exposure_ms: float) -> int:
+        """Index of ``frame`` captured at ``exposure_ms``; refuses an exposure not held."""
+        key = _key(frame)
+        c = self.captures
+        held = {
+            float(e): i
+            for i, (f, e) in enumerate(zip(c.frames, c.exposure_ms, strict=True))
+            if e is not None and _key(f) == key
+        }
+        if float(exposure_ms) not in held:
+            have = ", ".join(f"{e:g} ms" for e in sorted(held)) or "no recorded exposure"
+            raise CaptureFormatError(
+                f"{c.name}: the replay folder holds frame {json.loads(key)} at {have}, "
+                f"not at {exposure_ms:g} ms; ask for a held exposure or capture that one"
+            )
+        return held[float(exposure_ms)]
 
     def available_migls(self) -> list[float]:
         """MIGLs of the fringe frames the captures hold, highest first.

@@ -25,10 +25,17 @@ Radiometry follows thesis Eq. 3.3 with each term parameterised physically::
   camera's sensitivity.
 
 The camera then blurs (Gaussian PSF), optionally integrates each pixel's area (supersampling),
-adds read noise and shot noise, rounds and clips to ``[0, 2^B - 1]``.
+scales by the camera settings (exposure time ``t`` against the camera's reference exposure
+``t_ref``, gain ``G = 10^(gain_db / 20)``: ``I -> G (t / t_ref) I``), adds read noise (times
+``G``) and shot noise, rounds and clips to ``[0, 2^B - 1]``.
 
-Noise is seeded per frame from ``(seed, scene, frame identity, repeat count)`` through a
-SHA-256 hash, so a frame's image does not depend on the capture order.
+Line frames (which vary along one projector axis) are sampled from one projector line; frames
+that vary along both axes (:class:`~hdrfringe.frames.PixelwiseFringeFrame`,
+:class:`~hdrfringe.frames.ImageFrame`) are looked up in the full projector image at each sample's
+``(u, v)``, with the same projector models (docs/virtual_rig.md, "Projector images").
+
+Noise is seeded per frame from ``(seed, scene, frame identity, camera settings, repeat count)``
+through a SHA-256 hash, so a frame's image does not depend on the capture order.
 """
 
 from __future__ import annotations
@@ -46,20 +53,25 @@ from numpy.typing import NDArray
 from scipy.ndimage import gaussian_filter, gaussian_filter1d
 from scipy.special import erf
 
-from hdrfringe.captures import ProjectorInfo
+from hdrfringe.captures import CameraSettings, ProjectorInfo
 from hdrfringe.errors import InputError
 from hdrfringe.frames import (
-    CenterlineFrame,
+    IMAGE_FRAMES,
+    LINE_FRAMES,
     Frame,
     FringeFrame,
-    UniformFrame,
+    ImageFrame,
+    LineFrame,
+    PixelwiseFringeFrame,
     frame_axis,
     render_frame,
 )
 from hdrfringe.patterns import precompensate_gamma
+from hdrfringe.rig.base import RigBase
 from hdrfringe.rig.scenes import Scene
 
 __all__ = [
+    "REFERENCE_EXPOSURE_MS",
     "REFERENCE_WHITE_LEVEL",
     "THESIS_DN_PER_LUX",
     "THESIS_GAMMA",
@@ -79,8 +91,15 @@ THESIS_DN_PER_LUX = 0.17
 #: Default camera sensitivity: a white plate at the reference-plane centre under full-white
 #: projector input reads this fraction of full scale (204 of 255 at 8 bits).
 REFERENCE_WHITE_LEVEL = 0.8
+#: Default reference exposure time of the camera (ms): the exposure at which ``white_level`` and
+#: the ambient coefficients hold; other exposures scale the signal by ``t / t_ref``.
+REFERENCE_EXPOSURE_MS = 10.0
 
 _FINE = 16  # samples per projector pixel of the line on which defocus blur is evaluated
+# Defocus taps of the 2-D path reach this many Gaussian sigmas (plus the pixel half-width): the
+# light left out is below 0.5 erfc(7.5 / sqrt 2) = 3e-14 of the total on each side.
+_TAP_REACH = 7.5
+_TAP_CHUNK = 8192  # samples per block in the 2-D defocus path (bounds its temporaries)
 _BIT_DEPTHS = (8, 10, 12, 16)
 
 
@@ -115,6 +134,16 @@ class CameraModel:
         Gaussian PSF standard deviation in camera pixels (0: none).
     supersample : int
         Each pixel's area is integrated over ``supersample x supersample`` sub-pixel samples.
+    exposure_ms : float
+        Reference exposure time t_ref in ms (default :data:`REFERENCE_EXPOSURE_MS`, 10 ms): the
+        exposure at which ``white_level`` and the ambient coefficients hold. A capture at
+        exposure ``t`` scales the signal by ``t / t_ref`` (:class:`SimulatedRig`,
+        :class:`~hdrfringe.captures.CameraSettings`).
+
+    Examples
+    --------
+    >>> CameraModel(bit_depth=12).full_scale
+    4095
     """
 
     width: int = 648
@@ -125,6 +154,7 @@ class CameraModel:
     full_well_e: float | None = 20000.0
     blur_px: float = 0.5
     supersample: int = 1
+    exposure_ms: float = REFERENCE_EXPOSURE_MS
 
     def __post_init__(self) -> None:
         if (
@@ -144,6 +174,7 @@ class CameraModel:
         _check_positive("camera blur_px", self.blur_px, allow_zero=True)
         if int(self.supersample) != self.supersample or not (1 <= self.supersample <= 8):
             raise InputError(f"camera supersample must be an integer 1..8, got {self.supersample}")
+        _check_positive("camera reference exposure_ms", self.exposure_ms)
 
     @property
     def full_scale(self) -> int:
@@ -415,7 +446,7 @@ def _trace(
     march = _shadow_possible(scene, geometry, ax, ay, z, converged, zmax)
 
     names = ("height_mm", "u", "v", "reflectivity", "shading", "specular", "x_mm", "y_mm")
-    out = {k: np.empty((h, w)) for k in names}
+    out: dict[str, NDArray[Any]] = {k: np.empty((h, w)) for k in names}
     out["height_mm"] = z
     out["valid"] = np.empty((h, w), dtype=bool)
     for rows in blocks:
@@ -652,13 +683,87 @@ def _box_edge(coord: NDArray[np.float64], n: int, sigma: float) -> NDArray[np.fl
     return 0.5 * (erf((coord + 0.5) * k) - erf((coord - (n - 0.5)) * k))
 
 
-def _frame_identity(frame: Frame) -> dict[str, Any]:
+def _exposure(settings: CameraSettings, camera: CameraModel) -> float:
+    """Exposure time (ms) of resolved settings; the camera's reference when unset."""
+    return float(settings.exposure_ms if settings.exposure_ms is not None else camera.exposure_ms)
+
+
+def _gain_db(settings: CameraSettings) -> float:
+    return float(settings.gain_db) if settings.gain_db is not None else 0.0
+
+
+def _gain_factor(settings: CameraSettings) -> float:
+    """Amplitude factor ``10^(gain_db / 20)`` (exactly 1.0 at 0 dB)."""
+    return float(10.0 ** (_gain_db(settings) / 20.0))
+
+
+def _tap_weights(
+    coord: NDArray[np.float64], n: int, sigma: float
+) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """Exact weights of a window of projector pixels around each coordinate along one axis.
+
+    Pixel ``c`` is the box ``[c - 1/2, c + 1/2]`` blurred by a Gaussian of ``sigma`` pixels; its
+    weight at ``x`` is ``(erf((x - c + 1/2) k) - erf((x - c - 1/2) k)) / 2`` with
+    ``k = 1 / (sigma sqrt 2)``. The window holds ``T = 2 R + 1`` pixels (``R`` reaching
+    ``_TAP_REACH`` sigmas), all on the projector: it covers every projector pixel within ``R``
+    of the nearest one, so the light left out is below 3e-14 of the total on each side.
+
+    Returns
+    -------
+    weights : ndarray, shape (m, T)
+    start : ndarray of intp, shape (m,)
+        First pixel of each window (pixels ``start .. start + T - 1``).
+    """
+    reach = max(1, math.ceil(_TAP_REACH * sigma))
+    taps = min(2 * reach + 1, n)
+    nearest = np.floor(coord + 0.5)
+    start = np.clip(nearest - reach, 0, n - taps)
+    bounds = start[:, None] + (np.arange(taps + 1) - 0.5)[None, :]
+    e = erf((coord[:, None] - bounds) / (sigma * math.sqrt(2.0)))
+    return 0.5 * (e[:, :-1] - e[:, 1:]), start.astype(np.intp)
+
+
+def _sample_pixels(
+    light: NDArray[np.float64],
+    u: NDArray[np.float64],
+    v: NDArray[np.float64],
+    sigma: float,
+) -> NDArray[np.float64]:
+    """Light at ``(u, v)`` from a projector image of uniform square pixels, blurred by a Gaussian
+    of ``sigma`` pixels (0: sharp), with no light outside the projector."""
+    h, w = light.shape
+    if sigma == 0:
+        inside = (u >= -0.5) & (u <= w - 0.5) & (v >= -0.5) & (v <= h - 0.5)
+        col = np.clip(np.floor(u + 0.5), 0, w - 1).astype(np.intp)
+        row = np.clip(np.floor(v + 0.5), 0, h - 1).astype(np.intp)
+        return np.where(inside, light[row, col], 0.0)
+    flat = light.reshape(-1)
+    uf, vf = u.reshape(-1), v.reshape(-1)
+    out = np.empty(uf.size)
+    for first in range(0, uf.size, _TAP_CHUNK):
+        part = slice(first, first + _TAP_CHUNK)
+        wx, col0 = _tap_weights(uf[part], w, sigma)
+        wy, row0 = _tap_weights(vf[part], h, sigma)
+        window = np.arange(wy.shape[1])[:, None] * w + np.arange(wx.shape[1])[None, :]
+        patch = flat[(row0 * w + col0)[:, None, None] + window]  # (m, rows, columns)
+        out[part] = (np.matmul(patch, wx[:, :, None])[:, :, 0] * wy).sum(axis=1)
+    return out.reshape(u.shape)
+
+
+def _frame_identity(frame: Frame, settings: dict[str, float] | None = None) -> dict[str, Any]:
+    """What seeds a frame's noise: its manifest entry without file names (a 2-D frame's data
+    enters through its ``content_sha256``), plus the camera settings when they are not the
+    reference ones (so reference captures keep the seeds they always had)."""
     entry = frame.manifest_entry("")
     entry.pop("file", None)
+    if isinstance(frame, IMAGE_FRAMES):
+        entry.pop(frame.DATA_FIELD, None)
+    if settings is not None:
+        entry["camera_settings"] = settings
     return entry
 
 
-class SimulatedRig:
+class SimulatedRig(RigBase):
     """A virtual PSFPP rig implementing the :class:`~hdrfringe.rig.base.Rig` protocol.
 
     Parameters
@@ -674,6 +779,9 @@ class SimulatedRig:
         :attr:`projector`; 1.0: none.
     seed : int
         Non-negative noise seed.
+    camera_settings : CameraSettings, optional
+        Settings for captures given none; a field left None follows the camera: its reference
+        exposure ``camera.exposure_ms`` and 0 dB gain. See :attr:`camera_settings`.
 
     Examples
     --------
@@ -693,6 +801,7 @@ class SimulatedRig:
         lighting: Lighting | None = None,
         gamma_precompensation: float = THESIS_GAMMA,
         seed: int = 0,
+        camera_settings: CameraSettings | None = None,
     ) -> None:
         if not isinstance(scene, Scene):
             raise InputError(
@@ -712,6 +821,9 @@ class SimulatedRig:
         self._truth: GroundTruth | None = None
         self._radiometry: _Radiometry | None = None
         self._scene_key = json.dumps(scene.to_manifest(), sort_keys=True)
+        self._settings = CameraSettings()
+        if camera_settings is not None:
+            self.camera_settings = camera_settings
 
     # --- the Rig protocol -------------------------------------------------------------------
     @property
@@ -730,22 +842,65 @@ class SimulatedRig:
         p = self.projector_model
         return ProjectorInfo(p.width, p.height, p.bit_depth, self.gamma_precompensation)
 
-    def capture(self, frames: Sequence[Frame]) -> NDArray[np.integer]:
+    @property
+    def camera_settings(self) -> CameraSettings:
+        """Settings of captures given none: exposure (default the camera's reference exposure
+        ``camera.exposure_ms``) and gain (default 0 dB). Assigning a
+        :class:`~hdrfringe.captures.CameraSettings` changes the fields it gives."""
+        s = self._settings
+        return CameraSettings(
+            exposure_ms=s.exposure_ms if s.exposure_ms is not None else self.camera.exposure_ms,
+            gain_db=s.gain_db if s.gain_db is not None else 0.0,
+        )
+
+    @camera_settings.setter
+    def camera_settings(self, settings: CameraSettings) -> None:
+        if not isinstance(settings, CameraSettings):
+            raise InputError(
+                f"camera settings must be a hdrfringe.captures.CameraSettings, got "
+                f"{type(settings).__name__}"
+            )
+        old = self._settings
+        self._settings = CameraSettings(
+            exposure_ms=(
+                settings.exposure_ms if settings.exposure_ms is not None else old.exposure_ms
+            ),
+            gain_db=settings.gain_db if settings.gain_db is not None else old.gain_db,
+        )
+
+    def capture(
+        self, frames: Sequence[Frame], settings: CameraSettings | None = None
+    ) -> NDArray[np.integer]:
         """Project each frame and return the camera images, shape (n, height, width).
 
         dtype uint8 for B <= 8, else uint16; values in ``[0, 2^B - 1]``. Each frame's noise
-        depends only on the seed, the scene, the frame and how many times this rig captured that
-        same frame before (not on the order or grouping of the calls).
+        depends only on the seed, the scene, the frame, the camera settings and how many times
+        this rig captured that same frame with those settings before (not on the order or
+        grouping of the calls).
+
+        Parameters
+        ----------
+        frames : sequence of Frame
+        settings : CameraSettings, optional
+            Exposure time and gain for every frame of the call; a field left None (or
+            ``settings`` None) takes :attr:`camera_settings`. The signal scales by
+            ``G t / t_ref``, the read noise by ``G`` (module docstring).
+
+        Returns
+        -------
+        ndarray, shape (n, height, width)
         """
         frames = list(frames)
         cam = self.camera
+        settings = self.resolve_settings(settings)
+        gain = _gain_factor(settings)
         out = np.empty((len(frames), cam.height, cam.width), dtype=cam.dtype)
-        read = cam.read_noise_dn
-        shot = cam.full_scale / cam.full_well_e if cam.full_well_e is not None else 0.0
+        read = cam.read_noise_dn * gain
+        shot = (cam.full_scale / cam.full_well_e if cam.full_well_e is not None else 0.0) * gain
         for k, frame in enumerate(frames):
-            signal = self._signal(frame)
+            signal = self._signal(frame, settings)
             if read > 0 or shot > 0:
-                rng = self._frame_rng(frame)
+                rng = self._frame_rng(frame, settings)
                 std = np.sqrt(read * read + shot * np.maximum(signal, 0.0))
                 signal = signal + std * rng.standard_normal(signal.shape)
             np.rint(signal, out=signal)
@@ -754,15 +909,28 @@ class SimulatedRig:
         return out
 
     # --- extras ----------------------------------------------------------------------------
-    def expected_signal(self, frames: Sequence[Frame]) -> NDArray[np.float64]:
+    def expected_signal(
+        self, frames: Sequence[Frame], settings: CameraSettings | None = None
+    ) -> NDArray[np.float64]:
         """Noise-free camera signal in DN, before quantisation and clipping, (n, H, W).
 
         Values above ``2^B - 1`` are the true intensities a saturated pixel would have had.
+
+        Parameters
+        ----------
+        frames : sequence of Frame
+        settings : CameraSettings, optional
+            As for :meth:`capture`.
+
+        Returns
+        -------
+        ndarray, shape (n, H, W)
         """
         frames = list(frames)
+        settings = self.resolve_settings(settings)
         out = np.empty((len(frames), self.camera.height, self.camera.width))
         for k, frame in enumerate(frames):
-            out[k] = self._signal(frame)
+            out[k] = self._signal(frame, settings)
         return out
 
     def capture_folder(self, frames: Sequence[Frame]) -> Any:
@@ -813,6 +981,7 @@ class SimulatedRig:
             "lighting": self.lighting,
             "gamma_precompensation": self.gamma_precompensation,
             "seed": self.seed,
+            "camera_settings": self._settings,
         }
         unknown = set(changes) - set(args)
         if unknown:
@@ -861,8 +1030,12 @@ class SimulatedRig:
         )
 
     # --- internals -------------------------------------------------------------------------
-    def _frame_rng(self, frame: Frame) -> np.random.Generator:
-        ident = json.dumps(_frame_identity(frame), sort_keys=True)
+    def _frame_rng(self, frame: Frame, settings: CameraSettings) -> np.random.Generator:
+        reference = CameraSettings(self.camera.exposure_ms, 0.0)
+        tag = None
+        if settings != reference:
+            tag = {"exposure_ms": _exposure(settings, self.camera), "gain_db": _gain_db(settings)}
+        ident = json.dumps(_frame_identity(frame, tag), sort_keys=True)
         count = self._counts.get(ident, 0)
         self._counts[ident] = count + 1
         digest = hashlib.sha256(f"{self._scene_key}|{ident}".encode()).digest()
@@ -984,18 +1157,23 @@ class SimulatedRig:
             )
         return light
 
-    def _continuous_light(self, frame: Frame, coord: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _continuous_light(
+        self, frame: LineFrame, coord: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
         proj = self.projector_model
         sent = precompensate_gamma(frame.gray(coord), self.gamma_precompensation, proj.bit_depth)
         return proj.light(sent)
 
     def _light(self, frame: Frame, rad: _Radiometry) -> NDArray[np.float64]:
-        """Projected light reaching each sample: pattern along its axis times field edges."""
+        """Projected light reaching each sample: pattern along its axis times field edges
+        (line frames), or the projector image at ``(u, v)`` (frames varying along both axes)."""
         proj = self.projector_model
-        if not isinstance(frame, (FringeFrame, CenterlineFrame, UniformFrame)):
+        if isinstance(frame, IMAGE_FRAMES):
+            return self._image_light(frame, rad)
+        if not isinstance(frame, LINE_FRAMES):
             raise InputError(
-                f"cannot project a {type(frame).__name__}; use FringeFrame, CenterlineFrame "
-                "or UniformFrame"
+                f"cannot project a {type(frame).__name__}; use a frame of hdrfringe.frames "
+                "(FringeFrame, CenterlineFrame, UniformFrame, PixelwiseFringeFrame, ImageFrame)"
             )
         if isinstance(frame, FringeFrame) and frame.spec.migl > proj.full_scale:
             raise InputError(
@@ -1017,10 +1195,52 @@ class SimulatedRig:
         values = np.where(line.inside, self._continuous_light(frame, line.coords), 0.0)
         return line.sample(values) * across
 
-    def _signal(self, frame: Frame) -> NDArray[np.float64]:
-        """Noise-free signal (DN) of one frame: Eq. 3.3, pixel integration, camera blur."""
+    def _image_light(
+        self, frame: PixelwiseFringeFrame | ImageFrame, rad: _Radiometry
+    ) -> NDArray[np.float64]:
+        """Projected light reaching each sample from a full projector image (any frame).
+
+        Pixelated model: each projector pixel is a uniform square of light; with defocus the
+        light at ``(u, v)`` is ``sum_rc L[r, c] w_c(u) w_r(v)`` with the exact box*Gaussian
+        weights of :func:`_tap_weights`. Continuous model: the frame's gray at ``(u, v)``
+        (:meth:`gray_at`: analytic fringes, bilinear per-pixel data), pre-compensated, rounded
+        and turned into light, without defocus.
+        """
+        proj = self.projector_model
+        w, h = proj.width, proj.height
+        u, v = rad.u, rad.v
+        if proj.model == "pixelated":
+            img = frame.render(w, h, self.gamma_precompensation, proj.bit_depth)
+            return _sample_pixels(proj.light(img), u, v, proj.defocus_px)
+        frame.check_projector(w, h, proj.bit_depth)
+        if proj.defocus_px > 0:
+            # The continuous light is a staircase (rounding at Bp bits) over two axes: blurring
+            # it needs a fine 2-D grid (too large) or a quadrature (about 0.4 % off, 6 s/frame).
+            raise InputError(
+                f"the continuous projector model with defocus renders line frames only, not a "
+                f"{type(frame).__name__}; use model='pixelated' (exact defocus) or defocus_px=0"
+            )
+        inside = (u >= -0.5) & (u <= w - 0.5) & (v >= -0.5) & (v <= h - 0.5)
+        return np.where(inside, self._continuous_light_at(frame, u, v), 0.0)
+
+    def _continuous_light_at(
+        self, frame: Frame, u: NDArray[np.float64], v: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        proj = self.projector_model
+        gray = frame.gray_at(u, v)
+        return proj.light(precompensate_gamma(gray, self.gamma_precompensation, proj.bit_depth))
+
+    def _signal(self, frame: Frame, settings: CameraSettings | None = None) -> NDArray[np.float64]:
+        """Noise-free signal (DN) of one frame: Eq. 3.3, pixel integration, camera blur, then
+        exposure and gain (``settings`` resolved; None: the reference, a factor of exactly 1)."""
         rad = self._get_radiometry()
-        return self._integrate(rad.gain * self._light(frame, rad) + rad.offset)
+        signal = self._integrate(rad.gain * self._light(frame, rad) + rad.offset)
+        if settings is not None:
+            factor = _exposure(settings, self.camera) / self.camera.exposure_ms
+            factor *= _gain_factor(settings)
+            if factor != 1.0:
+                signal *= factor
+        return signal
 
 
 def simulate_frames(rig: SimulatedRig, frames: Sequence[Frame]) -> NDArray[np.integer]:
