@@ -561,9 +561,8 @@ def test_periodic_basis_reproduces_the_expected_signal(pattern, steps, pitch, or
 def test_replay_rig_takes_settings_and_refuses_exposures_it_does_not_hold():
     """The replay returns the image captured at the asked exposure, and refuses an exposure
     (or a gain) the folder does not hold instead of returning another exposure's image."""
-    from hdrfringe.captures import CameraSettings
+    from hdrfringe.captures import CameraSettings, Captures
     from hdrfringe.errors import CaptureFormatError
-    from hdrfringe.captures import Captures
     from hdrfringe.rig.replay import ReplayRig
 
     rig = SimulatedRig(white_plate(5.0), camera=small_camera())
