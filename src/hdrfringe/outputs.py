@@ -14,7 +14,7 @@ from hdrfringe.reconstruct import CameraGeometry, points_from_height, write_ply
 if TYPE_CHECKING:
     from hdrfringe.measurement import DPACDFs
     from hdrfringe.saturation.dpa_rules import SaturationCDF
-    from hdrfringe.saturation.strategies import StrategyResult
+    from hdrfringe.strategies.base import StrategyResult
 
 
 def write_height_outputs(
