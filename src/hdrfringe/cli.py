@@ -1016,7 +1016,11 @@ def measure(
         raise InputError("no output folder: give -o/--output OUT")
     if live and method is None:
         method = "conventional"
-    given = {o.option: strategy_options[o.dest] for o in cli_options() if _given(ctx, (o.dest,))}
+    given = {  # the strategy options on the command line (this command's: built at import)
+        o.option: strategy_options[o.dest]
+        for o in cli_options()
+        if o.dest in strategy_options and _given(ctx, (o.dest,))
+    }
     params = params_from_options(
         method, given, readers={t: read for t, (read, _) in strategy_file_readers().items()}
     )

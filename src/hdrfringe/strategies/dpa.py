@@ -102,7 +102,10 @@ def bounded_cdf(
     >>> imgs = np.array([[[255]], [[255]], [[255]], [[100]]], np.uint8)  # 3 of 4 saturated
     >>> out = bounded_cdf(cdf, np.array([[True]]), imgs, np.array([[3]]), 255.0, 40.0, 8)
     >>> out.accounted, int(np.flatnonzero(out.counts)[0])
-    (1, 146)
+    (1, 174)
+
+    The peak is at least ``2 * 255 - 100 - 1.5 = 408.5`` DN, which stops saturating at MIGL
+    ``40 + 215 * 254.5 / 408.5 = 173.95`` (Eq. 6.3's scaled variant), rounded up.
     """
     bound = saturated_peak_lower_bound(images, bit_depth) - BOUND_MARGIN_DN
     use = pending & (n_saturated > 0) & np.isfinite(bound)
