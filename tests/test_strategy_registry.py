@@ -13,9 +13,10 @@ import re
 import subprocess
 import sys
 import types
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -183,8 +184,9 @@ def test_the_cli_method_list_and_options_are_the_registry() -> None:
 
     command = typer.main.get_command(app).commands["measure"]  # type: ignore[attr-defined]
     params = {p.name: p for p in command.params}
-    listed = re.match(r"Saturation avoidance: (.*?) \(", params["method"].help).group(1)
-    assert re.split(r", | or ", listed) == list(available_strategies())
+    listed = re.match(r"Saturation avoidance: (.*?) \(", params["method"].help or "")
+    assert listed is not None, params["method"].help
+    assert re.split(r", | or ", listed.group(1)) == list(available_strategies())
     strategy_opts = {o.option for o in cli_options()}
     assert strategy_opts == {"--step", "--threshold", "--correction", "--bound-pending",
                              "--uniform-migl", "--tolerance"}  # fmt: skip
@@ -265,7 +267,7 @@ def test_params_from_options_reads_files_only_for_the_chosen_strategy() -> None:
         read.append(path)
         return CorrectionPolynomial.identity()
 
-    readers = {CorrectionPolynomial: reader}
+    readers: dict[type, Callable[[Any], Any]] = {CorrectionPolynomial: reader}
     lpa_params = params_from_options("lpa", {"--correction": "c.json"}, readers=readers)
     assert lpa_params == make_params("lpa") and read == []
     dpa_params = params_from_options("dpa", {"--correction": "c.json"}, readers=readers)

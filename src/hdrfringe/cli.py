@@ -1051,6 +1051,7 @@ def measure(
         full = 2**sim.projector.bit_depth - 1
         line = CenterlineFrame(sim.projector.width // 2, "vertical", full) if centerline else None
         source = f"live virtual rig: {json.dumps(sim.scene.to_manifest())}, {ambient_lux:g} lx"
+        assert method is not None  # the live rig defaults to conventional
         with progress_bar() as prog:
             prog.add_task(f"{method} on the virtual rig ({scene})", total=None)
             caps, strategy_results = simulated_composite(

@@ -124,6 +124,11 @@ class StrategyResult:
     details : dict
         Strategy-specific information (e.g. the uniform strategy's saturated fractions).
 
+    Notes
+    -----
+    ``migls`` and ``migl_index`` are views of ``captured`` and ``index_map`` for the strategies
+    that vary the MIGL (all of the thesis's, Ch. 4-6).
+
     Examples
     --------
     >>> spec = FringeSpec("sinusoidal", 4, 8.0)
@@ -134,11 +139,6 @@ class StrategyResult:
     ...     never_unsaturated=np.zeros((2, 3), bool), method="lpa")
     >>> res.migls, res.sets_captured, res.images_captured
     ([255.0, 250.0], 2, 8)
-
-    Notes
-    -----
-    ``migls`` and ``migl_index`` are views of ``captured`` and ``index_map`` for the strategies
-    that vary the MIGL (all of the thesis's, Ch. 4-6).
     """
 
     images: NDArray
@@ -152,6 +152,7 @@ class StrategyResult:
     details: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        """Refuse records that do not fit together (counts per set, maps per pixel)."""
         where = f"strategy {self.method!r} result"
         if self.index_quantity not in INDEX_QUANTITIES:
             raise InputError(
@@ -173,7 +174,17 @@ class StrategyResult:
 
     @property
     def migls(self) -> list[float]:
-        """MIGL of every captured set, in capture order (sets with one global MIGL only)."""
+        """MIGL of every captured set, in capture order (sets with one global MIGL only).
+
+        Returns
+        -------
+        list of float
+
+        Raises
+        ------
+        AttributeError
+            When a set has no single MIGL (a per-pixel MIGL map): read ``captured``.
+        """
         out = [s.migl for s in self.captured]
         if any(m is None for m in out):
             raise AttributeError(
@@ -183,7 +194,17 @@ class StrategyResult:
 
     @property
     def migl_index(self) -> NDArray[np.float32]:
-        """The MIGL index image N(x, y) (Fig. 5.2c): ``index_map`` when it holds MIGLs."""
+        """The MIGL index image N(x, y) (Fig. 5.2c): ``index_map`` when it holds MIGLs.
+
+        Returns
+        -------
+        ndarray (H, W) float32
+
+        Raises
+        ------
+        AttributeError
+            When ``index_quantity`` is not ``"migl"``: read ``index_map``.
+        """
         if self.index_quantity != "migl":
             raise AttributeError(
                 f"strategy {self.method!r}: the index map holds {self.index_quantity}, not the "
@@ -193,12 +214,22 @@ class StrategyResult:
 
     @property
     def sets_captured(self) -> int:
-        """Number of fringe sets captured."""
+        """Number of fringe sets captured.
+
+        Returns
+        -------
+        int
+        """
         return len(self.captured)
 
     @property
     def images_captured(self) -> int:
-        """Number of images captured: ``spec.steps`` per set."""
+        """Number of images captured: ``spec.steps`` per set.
+
+        Returns
+        -------
+        int
+        """
         return len(self.captured) * self.spec.steps
 
 
@@ -236,11 +267,35 @@ class Strategy(Protocol):
     Params: type
 
     def run(self, rig: Rig, spec: FringeSpec, params: Any) -> StrategyResult:
-        """Capture on ``rig`` what the strategy asks for and return the composite."""
+        """Capture on ``rig`` what the strategy asks for and return the composite.
+
+        Parameters
+        ----------
+        rig : Rig
+            Any rig (virtual, replay, hardware).
+        spec : FringeSpec
+            The fringe set, at its highest MIGL.
+        params : Params
+            The strategy's parameters.
+
+        Returns
+        -------
+        StrategyResult
+        """
         ...
 
     def describe(self, params: Any) -> str:
-        """Short label of a run for tables and figures (e.g. ``"LPA S=5"``)."""
+        """Short label of a run for tables and figures (e.g. ``"LPA S=5"``).
+
+        Parameters
+        ----------
+        params : Params
+            The strategy's parameters.
+
+        Returns
+        -------
+        str
+        """
         ...
 
 
@@ -248,6 +303,7 @@ _REGISTRY: dict[str, Strategy] = {}
 
 
 def _type_hints(params_type: type, where: str) -> dict[str, Any]:
+    """The resolved field types of a Params dataclass; a clear error when they do not resolve."""
     try:
         return typing.get_type_hints(params_type)
     except (NameError, TypeError) as exc:
@@ -298,7 +354,8 @@ def register(strategy: Any) -> Any:
 
     Returns
     -------
-    The argument, unchanged.
+    Strategy or type
+        The argument, unchanged.
 
     Raises
     ------
@@ -342,10 +399,24 @@ def register(strategy: Any) -> Any:
 def unregister(name: str) -> Strategy:
     """Remove a strategy from the registry and return it (e.g. after a test).
 
+    Parameters
+    ----------
+    name : str
+        Registry name.
+
+    Returns
+    -------
+    Strategy
+        The strategy removed.
+
     Examples
     --------
-    >>> s = unregister("lpa"); _ = register(s); "lpa" in available_strategies()
-    True
+    >>> from hdrfringe.strategies.lpa import LPA
+    >>> class LPACopy(LPA):
+    ...     name = "lpa-copy"
+    >>> _ = register(LPACopy)
+    >>> unregister("lpa-copy").name, "lpa-copy" in available_strategies()
+    ('lpa-copy', False)
     """
     strategy = get_strategy(name)
     del _REGISTRY[name]
@@ -385,6 +456,10 @@ def get_strategy(name: str) -> Strategy:
 def available_strategies() -> tuple[str, ...]:
     """Names of the registered strategies, in registration order.
 
+    Returns
+    -------
+    tuple of str
+
     Examples
     --------
     >>> available_strategies()[:4]
@@ -420,6 +495,7 @@ def _conforms(value: Any, hint: Any) -> bool:
 
 
 def _type_name(hint: Any) -> str:
+    """A type as messages name it (``float``, ``CorrectionPolynomial | None``)."""
     return getattr(hint, "__name__", None) or str(hint).replace("typing.", "")
 
 
@@ -435,7 +511,8 @@ def make_params(name: str, **values: Any) -> Any:
 
     Returns
     -------
-    The strategy's ``Params`` instance.
+    Params
+        The strategy's ``Params`` instance.
 
     Raises
     ------
@@ -464,6 +541,16 @@ def make_params(name: str, **values: Any) -> Any:
 
 def param_values(params: Any) -> dict[str, Any]:
     """The fields of a ``Params`` object as a dict (shallow: values are not copied).
+
+    Parameters
+    ----------
+    params : Params
+        A strategy's parameters.
+
+    Returns
+    -------
+    dict
+        Field name -> value, e.g. to pass on as keyword arguments.
 
     Examples
     --------
@@ -509,7 +596,17 @@ class StrategyOption:
     exclusive: bool
 
     def titles(self) -> list[str]:
-        """Titles of the strategies that take the option, in registry order."""
+        """Titles of the strategies that take the option, in registry order.
+
+        Returns
+        -------
+        list of str
+
+        Examples
+        --------
+        >>> [o.titles() for o in cli_options() if o.option == "--step"]
+        [['LPA']]
+        """
         return [_REGISTRY[name].title for name in self.fields]
 
 
@@ -522,6 +619,7 @@ def cli_options() -> list[StrategyOption]:
     Returns
     -------
     list of StrategyOption
+        One per option name.
 
     Raises
     ------
@@ -541,7 +639,7 @@ def cli_options() -> list[StrategyOption]:
             opt = f.metadata.get("cli")
             if opt is None:
                 continue
-            default = f.default if f.default is not dataclasses.MISSING else f.default_factory()  # type: ignore[misc]
+            default = _field_default(f)
             exclusive = bool(f.metadata.get("exclusive", False))
             if opt in out:
                 prev = out[opt]
@@ -571,7 +669,16 @@ def cli_options() -> list[StrategyOption]:
     ]
 
 
+def _field_default(f: dataclasses.Field[Any]) -> Any:
+    """A dataclass field's default value (from its default factory if it has one)."""
+    if f.default is not dataclasses.MISSING:
+        return f.default
+    factory: Callable[[], Any] = f.default_factory  # type: ignore[assignment]
+    return factory()
+
+
 def _article(title: str) -> str:
+    """``a`` or ``an`` before ``title`` (acronyms are read letter by letter)."""
     first = title[:1]
     if title.isupper():  # an acronym, read letter by letter: an LPA, a DPA
         return "an" if first in "AEFHILMNORSX" else "a"
@@ -602,7 +709,8 @@ def params_from_options(
 
     Returns
     -------
-    The strategy's ``Params``, or None when ``name`` is None.
+    Params or None
+        The strategy's ``Params``; None when ``name`` is None.
 
     Raises
     ------
@@ -681,7 +789,21 @@ def check_fringe_spec(spec: FringeSpec, rig: Rig) -> None:
 
 
 def capture_set(rig: Rig, spec: FringeSpec, migl: float) -> NDArray:
-    """Capture the set ``spec`` at MIGL ``migl`` on ``rig``; images of shape (N, H, W).
+    """Capture the set ``spec`` at MIGL ``migl`` on ``rig``.
+
+    Parameters
+    ----------
+    rig : Rig
+        Any rig.
+    spec : FringeSpec
+        The set (its own MIGL is replaced).
+    migl : float
+        The MIGL to project it at.
+
+    Returns
+    -------
+    ndarray (N, H, W)
+        The camera images, shift 0 first.
 
     Examples
     --------
@@ -726,6 +848,7 @@ def merge_into_composite(
     Returns
     -------
     int
+        Pixels that left ``remaining``.
 
     References
     ----------
@@ -752,6 +875,19 @@ def merge_into_composite(
 
 def default_min_migl(spec: FringeSpec) -> float:
     """Lowest MIGL that still carries a fringe: ``imin + 20`` gray levels (amplitude b >= 10).
+
+    Parameters
+    ----------
+    spec : FringeSpec
+        The set.
+
+    Returns
+    -------
+    float
+
+    References
+    ----------
+    Thesis Sec. 5.2.2: the checkerboard sweeps ran from MIGL 255 down to 60.
 
     Examples
     --------

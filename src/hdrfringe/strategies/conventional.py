@@ -88,9 +88,38 @@ class Conventional:
     Params = ConventionalParams
 
     def run(self, rig: Rig, spec: FringeSpec, params: ConventionalParams) -> StrategyResult:
-        """:func:`conventional` on ``rig``."""
+        """Run :func:`conventional` with ``params``.
+
+        Parameters
+        ----------
+        rig : Rig
+            Any rig (virtual, replay, hardware).
+        spec : FringeSpec
+            The set, at its highest MIGL.
+        params : ConventionalParams
+            The parameters.
+
+        Returns
+        -------
+        StrategyResult
+        """
         return conventional(rig, spec)
 
     def describe(self, params: ConventionalParams) -> str:
-        """``"conventional"``."""
+        """Label of a run: ``"conventional"``.
+
+        Parameters
+        ----------
+        params : ConventionalParams
+            The parameters.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> Conventional().describe(ConventionalParams())
+        'conventional'
+        """
         return "conventional"

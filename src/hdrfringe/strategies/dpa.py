@@ -57,10 +57,10 @@ def bounded_cdf(
     imin: float,
     bit_depth: int,
 ) -> SaturationCDF:
-    """The CDF with each pending pixel provisionally at the highest MIGL it could be
-    unsaturated at (beyond the thesis's Sec. 6.1.3).
+    """The CDF with each pending pixel at the highest MIGL it could unsaturate at (provisional).
 
-    A pending pixel (too many shifts saturated for the estimate) has a lower bound on its peak
+    Beyond the thesis's Sec. 6.1.3: a pending pixel (too many shifts saturated for the
+    estimate) has a lower bound on its peak
     (:func:`~hdrfringe.saturation.estimate.saturated_peak_lower_bound`); under the MIGL scaling
     with the smallest possible offset (0) that bound becomes an upper bound on the MIGL at which
     the pixel stops saturating. Nothing is learnt about it by capturing above that MIGL, so the
@@ -321,7 +321,21 @@ class DPA:
     Params = DPAParams
 
     def run(self, rig: Rig, spec: FringeSpec, params: DPAParams) -> StrategyResult:
-        """:func:`dpa` with ``params``."""
+        """Run :func:`dpa` with ``params``.
+
+        Parameters
+        ----------
+        rig : Rig
+            Any rig (virtual, replay, hardware).
+        spec : FringeSpec
+            The set, at its highest MIGL.
+        params : DPAParams
+            The parameters.
+
+        Returns
+        -------
+        StrategyResult
+        """
         return dpa(
             rig,
             spec,
@@ -332,6 +346,21 @@ class DPA:
         )
 
     def describe(self, params: DPAParams) -> str:
-        """``"DPA <threshold> %"``, with ``" + bound"`` for ``bound_pending``."""
+        """Label of a run: ``"DPA <threshold> %"``, with ``" + bound"`` for ``bound_pending``.
+
+        Parameters
+        ----------
+        params : DPAParams
+            The parameters.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> DPA().describe(DPAParams(threshold=0.2))
+        'DPA 20 %'
+        """
         bound = " + bound" if params.bound_pending else ""
         return f"DPA {100 * params.threshold:g} %{bound}"

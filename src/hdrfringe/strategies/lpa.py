@@ -134,9 +134,38 @@ class LPA:
     Params = LPAParams
 
     def run(self, rig: Rig, spec: FringeSpec, params: LPAParams) -> StrategyResult:
-        """:func:`lpa` with ``params``."""
+        """Run :func:`lpa` with ``params``.
+
+        Parameters
+        ----------
+        rig : Rig
+            Any rig (virtual, replay, hardware).
+        spec : FringeSpec
+            The set, at its highest MIGL.
+        params : LPAParams
+            The parameters.
+
+        Returns
+        -------
+        StrategyResult
+        """
         return lpa(rig, spec, step=params.step, min_migl=params.min_migl)
 
     def describe(self, params: LPAParams) -> str:
-        """``"LPA S=<step>"``."""
+        """Label of a run: ``"LPA S=<step>"``.
+
+        Parameters
+        ----------
+        params : LPAParams
+            The parameters.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> LPA().describe(LPAParams(step=15.0))
+        'LPA S=15'
+        """
         return f"LPA S={params.step:g}"

@@ -181,7 +181,21 @@ class Uniform:
     Params = UniformParams
 
     def run(self, rig: Rig, spec: FringeSpec, params: UniformParams) -> StrategyResult:
-        """:func:`uniform` with ``params``."""
+        """Run :func:`uniform` with ``params``.
+
+        Parameters
+        ----------
+        rig : Rig
+            Any rig (virtual, replay, hardware).
+        spec : FringeSpec
+            The set, at its highest MIGL.
+        params : UniformParams
+            The parameters.
+
+        Returns
+        -------
+        StrategyResult
+        """
         return uniform(
             rig,
             spec,
@@ -192,5 +206,20 @@ class Uniform:
         )
 
     def describe(self, params: UniformParams) -> str:
-        """``"uniform auto"``, or ``"uniform MIGL <m>"`` with a given MIGL."""
+        """Label of a run: ``"uniform auto"``, or ``"uniform MIGL <m>"`` with a given MIGL.
+
+        Parameters
+        ----------
+        params : UniformParams
+            The parameters.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> Uniform().describe(UniformParams(migl=180.0))
+        'uniform MIGL 180'
+        """
         return "uniform auto" if params.migl is None else f"uniform MIGL {params.migl:g}"
