@@ -279,13 +279,13 @@ def test_params_from_options_reads_files_only_for_the_chosen_strategy() -> None:
 # ---------------------------------------------------------------------------------------------
 
 
-def _strategy(name: str, params: type) -> object:
+def _strategy(name: str, params: type, title: str = "S") -> object:
     return type(
         "S",
         (),
         {
             "name": name,
-            "title": "S",
+            "title": title,
             "help": "test",
             "Params": params,
             "run": lambda self, rig, spec, p: None,
@@ -328,6 +328,7 @@ class Empty:
         (_strategy("x", StepAsInt), "option --step is already LPA's with type float"),
         (_strategy("lpa", Empty), "strategy 'lpa' is already registered"),
         (_strategy("Bad Name", Empty), "name must be lower case"),
+        (_strategy("x", Empty, title=""), "title must be a non-empty string"),
         (object(), "is not a Strategy"),
     ],
 )

@@ -324,6 +324,9 @@ def _check_strategy(strategy: Any) -> None:
         raise InputError(
             f"{where}: name must be lower case letters, digits, '-' or '_' (e.g. 'lpa')"
         )
+    for what in ("title", "help"):
+        if not (isinstance(getattr(strategy, what), str) and getattr(strategy, what).strip()):
+            raise InputError(f"{where}: {what} must be a non-empty string")
     params = strategy.Params
     if not (dataclasses.is_dataclass(params) and isinstance(params, type)):
         raise InputError(f"{where}: Params must be a dataclass type")
