@@ -46,8 +46,6 @@ LAYERS: dict[str, int] = {
     # 1 acquisition: rigs and the strategies that drive them
     "rig": ACQUISITION,
     "rig.*": ACQUISITION,
-    "saturation.strategies": ACQUISITION,
-    "saturation.dpa": ACQUISITION,
     "strategies": ACQUISITION,
     "strategies.*": ACQUISITION,
     "pipeline": ACQUISITION,
@@ -316,4 +314,4 @@ def test_checker_reports_unknown_modules_and_unplaced_ones() -> None:
     ]
     assert unplaced({"", "phase", "rig.replay", "newthing", "reproduce.x"}) == ["newthing"]
     assert layer_of("gamma.fits") == CORE and layer_of("strategies.lpa") == ACQUISITION
-    assert layer_of("saturation.strategies") == ACQUISITION and layer_of("saturation") == CORE
+    assert layer_of("saturation") == CORE

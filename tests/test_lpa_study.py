@@ -18,7 +18,8 @@ from hdrfringe.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard
 from hdrfringe.rig.simulated import SimulatedRig
-from hdrfringe.saturation.strategies import lpa, uniform
+from hdrfringe.strategies.lpa import lpa
+from hdrfringe.strategies.uniform import uniform
 
 
 @pytest.mark.parametrize("pitch", [8.0, 14.0])

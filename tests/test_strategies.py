@@ -14,8 +14,10 @@ from hdrfringe.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
-from hdrfringe.saturation.dpa import dpa
-from hdrfringe.saturation.strategies import conventional, lpa, uniform
+from hdrfringe.strategies.conventional import conventional
+from hdrfringe.strategies.dpa import dpa
+from hdrfringe.strategies.lpa import lpa
+from hdrfringe.strategies.uniform import uniform
 
 TWO_PI = 2 * np.pi
 

@@ -11,7 +11,8 @@ from hdrfringe.measurement import calibrate_captures, measure_folder, tradeoff_s
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
-from hdrfringe.saturation.strategies import lpa, uniform
+from hdrfringe.strategies.lpa import lpa
+from hdrfringe.strategies.uniform import uniform
 from tests.test_measurement import series
 
 SPEC = FringeSpec("sinusoidal", 3, 6.0)  # thesis Table 4.3 / 5.1 conditions

@@ -826,8 +826,124 @@ def calibrate(
     console.print(f"wrote {output}")
 
 
+def method_help() -> str:
+    """``measure --method``'s help: the registered strategies, read when the CLI is imported.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> method_help()[:56]
+    'Saturation avoidance: conventional, uniform, lpa or dpa '
+    """
+    from hdrfringe.strategies import available_strategies
+
+    names = available_strategies()
+    listed = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else "".join(names)
+    return (
+        f"Saturation avoidance: {listed} (a FOLDER must then be a MIGL sweep; --rig sim "
+        "without it: conventional)."
+    )
+
+
+def strategy_file_readers() -> dict[type, tuple[Callable[[Any], Any], str]]:
+    """Strategy parameter types the command line takes as a file: type -> (reader, what file).
+
+    Strategies read no files; the front end turns the path into the parameter.
+
+    Returns
+    -------
+    dict
+
+    Examples
+    --------
+    >>> [t.__name__ for t in strategy_file_readers()]
+    ['CorrectionPolynomial']
+    """
+    from hdrfringe.saturation.estimate import CorrectionPolynomial
+
+    return {CorrectionPolynomial: (CorrectionPolynomial.load, "JSON from train-correction")}
+
+
+def _strategy_option_type(opt: Any) -> tuple[Any, str]:
+    """The command-line type of a strategy option (bool, int, float, str, or a file as a
+    Path) and, for a file, what it holds."""
+    import types
+    import typing
+
+    hint = opt.hint
+    union = typing.get_origin(hint) in (typing.Union, types.UnionType)
+    args = typing.get_args(hint) if union else (hint,)
+    base = [a for a in args if a is not type(None)]
+    files = strategy_file_readers()
+    if len(base) == 1 and base[0] in (bool, int, float, str):
+        return (base[0] | None if type(None) in args else base[0]), ""
+    if len(base) == 1 and base[0] in files and opt.default is None:
+        return Path | None, files[base[0]][1]
+    raise InputError(
+        f"strategy option {opt.option} ({', '.join(opt.titles())}): the command line gives "
+        f"bool, int, float, str or a file read into "
+        f"{', '.join(t.__name__ for t in files)} (default None), not {hint}; change the Params "
+        "field or drop its 'cli' name"
+    )
+
+
+def with_strategy_options(func: F) -> F:
+    """Give a command one option per strategy parameter on the command line, after --method.
+
+    The options come from the registry (:func:`hdrfringe.strategies.cli_options`) when this
+    module is imported: a strategy registered before that has its options here. The command
+    receives them in ``**strategy_options`` by Python name (``bound_pending``).
+
+    Parameters
+    ----------
+    func : callable
+        A command with a ``method`` parameter and ``**strategy_options``.
+
+    Returns
+    -------
+    The command, with a ``__signature__`` that typer reads.
+
+    Examples
+    --------
+    >>> import inspect
+    >>> "bound_pending" in inspect.signature(measure).parameters
+    True
+    """
+    import inspect
+
+    from hdrfringe.strategies import cli_options
+
+    sig = inspect.signature(func, eval_str=True)
+    own = [p for p in sig.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+    at = [p.name for p in own].index("method") + 1
+    extra = []
+    for opt in cli_options():
+        if opt.dest in sig.parameters:
+            raise InputError(
+                f"strategy option {opt.option} ({', '.join(opt.titles())}) is also an option of "
+                f"{func.__name__}; give the Params field another 'cli' name"
+            )
+        kind, file = _strategy_option_type(opt)
+        decl = f"{opt.option}/--no-{opt.option[2:]}" if kind is bool else opt.option
+        text = f"{opt.help} File: {file}." if file else opt.help
+        extra.append(
+            inspect.Parameter(
+                opt.dest,
+                inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                default=opt.default,
+                annotation=Annotated[kind, typer.Option(decl, help=text)],
+            )
+        )
+    func.__signature__ = sig.replace(parameters=[*own[:at], *extra, *own[at:]])  # type: ignore[attr-defined]
+    return func
+
+
 @app.command()
 @handle_errors
+@with_strategy_options
 def measure(
     ctx: typer.Context,
     folder: Annotated[
@@ -840,34 +956,7 @@ def measure(
     calibration: Annotated[
         Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
     ] = None,
-    method: Annotated[
-        str | None,
-        typer.Option(
-            help="Saturation avoidance: conventional, uniform, lpa or dpa (a FOLDER must then "
-            "be a MIGL sweep; --rig sim without it: conventional)."
-        ),
-    ] = None,
-    step: Annotated[float, typer.Option(help="LPA: MIGL step S in gray levels.")] = 5.0,
-    threshold: Annotated[
-        float, typer.Option(help="DPA: CDF gain that triggers a capture (0.1 = 10 %).")
-    ] = 0.1,
-    correction: Annotated[
-        Path | None,
-        typer.Option(help="DPA: trained correction polynomial (JSON from train-correction)."),
-    ] = None,
-    bound_pending: Annotated[
-        bool,
-        typer.Option(
-            help="DPA, beyond the thesis: where the CDF is flat, jump to the highest MIGL at "
-            "which the pixels too saturated to estimate could unsaturate (fewer sets)."
-        ),
-    ] = False,
-    uniform_migl: Annotated[
-        float | None, typer.Option(help="Uniform: the trade-off MIGL (default: automatic).")
-    ] = None,
-    tolerance: Annotated[
-        float, typer.Option(help="Uniform (automatic): saturated fraction allowed.")
-    ] = 0.0,
+    method: Annotated[str | None, typer.Option(help=method_help())] = None,
     rig: RigOpt = None,
     scene: LiveSceneOpt = "white_plate",
     depth_mm: LiveDepthOpt = None,
@@ -890,6 +979,7 @@ def measure(
     migl: Annotated[float, typer.Option(help="Highest MIGL.", rich_help_panel=LIVE_PANEL)] = 255.0,
     centerline: LiveCenterlineOpt = True,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+    **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
 
@@ -907,32 +997,24 @@ def measure(
     from hdrfringe.io.measurement_outputs import write_height_outputs
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import check_output_dir, staged_output_dir
-    from hdrfringe.measurement import STRATEGY_METHODS, calibration_geometry, measure_folder
+    from hdrfringe.measurement import calibration_geometry, measure_folder
+    from hdrfringe.strategies import cli_options, param_values, params_from_options
 
     live = _check_source(ctx, folder, rig, LIVE_OPTIONS)
     if output is None:
         raise InputError("no output folder: give -o/--output OUT")
     if live and method is None:
         method = "conventional"
-    if method is not None and method not in STRATEGY_METHODS:
-        raise InputError(f"unknown method {method!r}; use one of {', '.join(STRATEGY_METHODS)}")
-    if bound_pending and method != "dpa":
-        raise InputError(
-            f"--bound-pending is a DPA option; use it with --method dpa (got {method})"
-        )
+    given = {  # the strategy options on the command line (this command's: built at import)
+        o.option: strategy_options[o.dest]
+        for o in cli_options()
+        if o.dest in strategy_options and _given(ctx, (o.dest,))
+    }
+    params = params_from_options(
+        method, given, readers={t: read for t, (read, _) in strategy_file_readers().items()}
+    )
     check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
-    params: dict[str, Any] = {}
-    if method == "lpa":
-        params = {"step": step}
-    elif method == "uniform":
-        params = {"migl": uniform_migl, "tolerance": tolerance}
-    elif method == "dpa":
-        from hdrfringe.saturation.estimate import CorrectionPolynomial
-
-        params = {"threshold": threshold, "bound_pending": bound_pending}
-        if correction is not None:
-            params["correction"] = CorrectionPolynomial.load(correction)
     replay = None
     strategy_results: list[Any] = []
     if live:
@@ -958,10 +1040,11 @@ def measure(
         full = 2**sim.projector.bit_depth - 1
         line = CenterlineFrame(sim.projector.width // 2, "vertical", full) if centerline else None
         source = f"live virtual rig: {json.dumps(sim.scene.to_manifest())}, {ambient_lux:g} lx"
+        assert method is not None  # the live rig defaults to conventional
         with progress_bar() as prog:
             prog.add_task(f"{method} on the virtual rig ({scene})", total=None)
             caps, strategy_results = simulated_composite(
-                sim, specs, method, centerline=line, **params
+                sim, specs, method, centerline=line, **param_values(params)
             )
     else:
         from hdrfringe.io.captures import read_capture_folder
@@ -973,7 +1056,7 @@ def measure(
             from hdrfringe.measurement import composite_folder
 
             replay = caps
-            caps, strategy_results = composite_folder(caps, method, **params)
+            caps, strategy_results = composite_folder(caps, method, **param_values(params))
     result = measure_folder(
         caps, cal, calibration_source=None if calibration is None else str(calibration)
     )
@@ -993,13 +1076,14 @@ def measure(
             from hdrfringe.io.measurement_outputs import write_dpa_outputs
             from hdrfringe.measurement import dpa_cdfs
 
+            correction = given.get("--correction")
             result.metrics["dpa"] = write_dpa_outputs(
                 tmp,
                 [dpa_cdfs(r, replay) for r in strategy_results],
-                threshold=threshold,
+                threshold=params.threshold,
                 correction=str(correction) if correction is not None else "none (identity)",
             )
-            result.metrics["dpa"]["bound_pending"] = bound_pending
+            result.metrics["dpa"]["bound_pending"] = params.bound_pending
         result.metrics["skipped"] = result.skipped
         result.metrics["notes"] = notes
         (tmp / "metrics.json").write_text(

@@ -12,8 +12,8 @@
    unwrapping from the one-period set gives the absolute phase; the centerline checks it.
 3. **Saturation avoidance** (thesis Ch. 4-6): the white plate at 25 mm under 600 lx of added
    ambient light (white-plate aperture, Ch. 4) and the checkerboard (black-plate aperture,
-   Sec. 5.2.2, 0 lx), each measured with the four strategies of
-   :data:`~hdrfringe.measurement.STRATEGY_METHODS` on the live rig with the same 4-step
+   Sec. 5.2.2, 0 lx), each measured with the four built-in strategies
+   (:data:`hdrfringe.strategies.BUILTIN`) on the live rig with the same 4-step
    1024/64/8 px family and the rational calibration: conventional (one set at MIGL 255),
    uniform (automatic: the highest MIGL at which nothing saturates, no ground truth), LPA
    (S = 5 on the plate as in Table 5.1, S = 15 on the checkerboard as in Table 5.2) and DPA
@@ -69,6 +69,7 @@ from hdrfringe.rig.scenes import (
     white_plate,
 )
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
+from hdrfringe.strategies import get_strategy, make_params
 
 PITCHES = (1024.0, 64.0, 8.0)
 CENTERLINE = CenterlineFrame(512, "vertical", 255)
@@ -270,12 +271,8 @@ def _study_run(
 
 
 def _method_label(method: str, params: dict[str, Any]) -> str:
-    if method == "lpa":
-        return f"LPA S={params['step']:g}"
-    if method == "dpa":
-        bound = " + bound" if params.get("bound_pending") else ""
-        return f"DPA {100 * params['threshold']:g} %{bound}"
-    return {"uniform": "uniform auto"}.get(method, method)
+    """The strategy's own label of a run (e.g. ``"LPA S=5"``)."""
+    return get_strategy(method).describe(make_params(method, **params))
 
 
 StudyMaps = dict[str, dict[str, tuple[np.ndarray, np.ndarray, float]]]

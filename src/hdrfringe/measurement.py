@@ -36,7 +36,7 @@ from hdrfringe.reconstruct import CameraGeometry, height_errors
 if TYPE_CHECKING:
     from hdrfringe.saturation.dpa_rules import SaturationCDF
     from hdrfringe.saturation.estimate import TrainingData
-    from hdrfringe.saturation.strategies import StrategyResult
+    from hdrfringe.strategies.base import StrategyResult
 
 
 def expand_capture_dirs(paths: list[Path]) -> list[Path]:
@@ -270,26 +270,6 @@ def measure_folder(
     return Measurement(decoded, height, metrics, skipped)
 
 
-STRATEGY_METHODS = ("conventional", "uniform", "lpa", "dpa")
-
-
-def run_strategy(rig: Any, spec: FringeSpec, method: str, **params: Any) -> Any:
-    """Run the saturation-avoidance strategy ``method`` (one of :data:`STRATEGY_METHODS`) for one
-    fringe set on any rig; returns its :class:`~hdrfringe.saturation.strategies.StrategyResult`."""
-    from hdrfringe.saturation import strategies
-    from hdrfringe.saturation.dpa import dpa
-
-    runners = {
-        "conventional": strategies.conventional,
-        "uniform": strategies.uniform,
-        "lpa": strategies.lpa,
-        "dpa": dpa,
-    }
-    if method not in runners:
-        raise InputError(f"unknown method {method!r}; use one of {', '.join(runners)}")
-    return runners[method](rig, spec, **params)
-
-
 def composite_captures(
     rig: Any,
     specs: list[FringeSpec],
@@ -306,18 +286,23 @@ def composite_captures(
     composites as in-memory :class:`~hdrfringe.captures.Captures` that :func:`measure_folder`
     treats like any other.
 
+    ``method`` is any registered strategy (:func:`hdrfringe.strategies.available_strategies`);
+    ``params`` are its parameters by name (:func:`hdrfringe.strategies.make_params`).
+
     Each set is labelled at its highest MIGL; ``centerline`` (a frame, optional) is captured once
     at the end. ``scene``, ``camera_extra`` (the camera description besides its bit depth) and
     ``truth_height_mm`` go into the captures' scene, camera and maps (ground truth gives the
     measurement its error metrics); ``label`` becomes their name.
     """
     from hdrfringe.frames import Frame
+    from hdrfringe.strategies import get_strategy, make_params
 
+    strategy, strategy_params = get_strategy(method), make_params(method, **params)
     frames: list[Frame] = []
     images = []
     results = []
     for spec in specs:
-        res = run_strategy(rig, spec, method, **params)
+        res = strategy.run(rig, spec, strategy_params)
         results.append(res)
         frames += spec.frames()
         images.append(res.images)
@@ -366,16 +351,16 @@ def composite_folder(folder: Captures, method: str, **params: Any) -> tuple[Capt
     """Run a saturation-avoidance strategy on replayed captures (a MIGL sweep).
 
     For every pitch of the primary family (vertical first) at the folder's highest MIGL, the
-    strategy (``conventional``, ``uniform``, ``lpa`` or ``dpa``; see
-    :mod:`hdrfringe.saturation.strategies`) drives a :class:`~hdrfringe.rig.replay.ReplayRig`
+    strategy (any registered one: ``conventional``, ``uniform``, ``lpa``, ``dpa``, ...; see
+    :mod:`hdrfringe.strategies`) drives a :class:`~hdrfringe.rig.replay.ReplayRig`
     over the captures (:func:`composite_captures`). Their first centerline frame of the
     family's orientation, their camera description and their ground truth come along.
     """
     from hdrfringe.process import group_families
     from hdrfringe.rig.replay import ReplayRig
+    from hdrfringe.strategies import get_strategy
 
-    if method not in STRATEGY_METHODS:
-        raise InputError(f"unknown method {method!r}; use one of {', '.join(STRATEGY_METHODS)}")
+    get_strategy(method)  # an unknown method is refused before the folder is examined
     if not folder.sets:
         raise CaptureFormatError(f"{folder.name}: no fringe sets to run a strategy on")
     families = group_families(folder.sets)
@@ -512,7 +497,7 @@ def dpa_cdfs(result: StrategyResult, replay: Captures | None = None) -> DPACDFs:
     Parameters
     ----------
     result : StrategyResult
-        From :func:`hdrfringe.saturation.dpa.dpa` (``details`` holds ``initial_cdf``,
+        From :func:`hdrfringe.strategies.dpa.dpa` (``details`` holds ``initial_cdf``,
         ``final_cdf`` and ``saturated_at_top`` when a pixel saturated at the top).
     replay : Captures, optional
         The MIGL sweep DPA was replayed on. When it holds this set at every integer MIGL from the
@@ -521,7 +506,7 @@ def dpa_cdfs(result: StrategyResult, replay: Captures | None = None) -> DPACDFs:
     """
     from hdrfringe.rig.replay import ReplayRig
     from hdrfringe.saturation.dpa_rules import index_image_cdf
-    from hdrfringe.saturation.strategies import lpa
+    from hdrfringe.strategies.lpa import lpa
 
     d = result.details
     rules = list(d.get("rules", ["initial"]))

@@ -20,7 +20,7 @@ from hdrfringe.reconstruct import CameraGeometry, points_from_height
 
 if TYPE_CHECKING:
     from hdrfringe.measurement import DPACDFs
-    from hdrfringe.saturation.strategies import StrategyResult
+    from hdrfringe.strategies.base import StrategyResult
 
 __all__ = ["dpa_metrics", "write_dpa_outputs", "write_height_outputs", "write_strategy_outputs"]
 
@@ -110,13 +110,13 @@ def write_strategy_outputs(out: Path, results: list[StrategyResult]) -> dict[str
     --------
     >>> import tempfile
     >>> from hdrfringe.patterns import FringeSpec
-    >>> from hdrfringe.saturation.strategies import StrategyResult
+    >>> from hdrfringe.strategies.base import CapturedSet, StrategyResult
     >>> index = np.array([[255, 240], [255, 225]], dtype=np.float32)
     >>> res = StrategyResult(
     ...     images=np.zeros((4, 2, 2), np.uint8),
     ...     spec=FringeSpec("sinusoidal", 4, 8.0),
-    ...     migl_index=index,
-    ...     migls=[255.0, 240.0, 225.0],
+    ...     captured=[CapturedSet(migl=m) for m in (255.0, 240.0, 225.0)],
+    ...     index_map=index,
     ...     newly_unsaturated=[2, 1, 1],
     ...     never_unsaturated=np.zeros((2, 2), bool),
     ...     method="lpa",

@@ -221,8 +221,8 @@ class SweepRig:
 def _run_method(
     method: str, rig: SweepRig, spec: FringeSpec, correction: CorrectionPolynomial
 ) -> Any:
-    from hdrfringe.saturation.dpa import dpa
-    from hdrfringe.saturation.strategies import lpa
+    from hdrfringe.strategies.dpa import dpa
+    from hdrfringe.strategies.lpa import lpa
 
     kind, _, value = method.partition("-")
     if kind == "lpa":

@@ -1,20 +1,23 @@
-"""Dynamic pixel-wise adaptive strategy (thesis Ch. 6).
+"""The dynamic pixel-wise adaptive strategy, DPA (thesis Ch. 6).
 
 The loop of docs/dpa.md: capture at the highest MIGL; estimate each saturated pixel's true
-highest intensity (Eq. 6.2 / least squares on the sinusoid, :mod:`.estimate`), correct it with
-the trained polynomial (Sec. 6.1.2), turn the estimates into a CDF over the MIGL at which pixels
-become unsaturated (Sec. 6.1.3); then scan the MIGL down one gray level at a time and capture only
-where the threshold rule or the 0.01 % rule (:mod:`.dpa_rules`) asks; after each capture the
-composite grows as in LPA (Eq. 5.1) and the CDF gets both of its updates.
+highest intensity (Eq. 6.2 / least squares on the sinusoid,
+:mod:`hdrfringe.saturation.estimate`), correct it with the trained polynomial (Sec. 6.1.2), turn
+the estimates into a CDF over the MIGL at which pixels become unsaturated (Sec. 6.1.3); then scan
+the MIGL down one gray level at a time and capture only where the threshold rule or the 0.01 %
+rule (:mod:`hdrfringe.saturation.dpa_rules`) asks; after each capture the composite grows as in
+LPA (Eq. 5.1) and the CDF gets both of its updates.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
+from hdrfringe._validation import saturation_count
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import saturation_count
 from hdrfringe.rig.base import Rig
 from hdrfringe.saturation.dpa_rules import (
     SaturationCDF,
@@ -29,11 +32,15 @@ from hdrfringe.saturation.estimate import (
     saturated_peak_lower_bound,
     unsaturation_migl,
 )
-from hdrfringe.saturation.strategies import (
+from hdrfringe.strategies.base import (
+    CapturedSet,
     StrategyResult,
     default_min_migl,
     merge_into_composite,
+    register,
 )
+
+__all__ = ["BOUND_MARGIN_DN", "DPA", "DPAParams", "bounded_cdf", "dpa"]
 
 #: DN taken off the peak bound before it becomes a MIGL: the bound is exact up to the
 #: rounding of the unsaturated samples (at most 1.5 DN: 2 x 0.5 through the mean, 0.5 through
@@ -50,16 +57,55 @@ def bounded_cdf(
     imin: float,
     bit_depth: int,
 ) -> SaturationCDF:
-    """The CDF with each pending pixel provisionally at the highest MIGL it could be
-    unsaturated at (beyond the thesis's Sec. 6.1.3).
+    """The CDF with each pending pixel at the highest MIGL it could unsaturate at (provisional).
 
-    A pending pixel (too many shifts saturated for the estimate) has a lower bound on its peak
+    Beyond the thesis's Sec. 6.1.3: a pending pixel (too many shifts saturated for the
+    estimate) has a lower bound on its peak
     (:func:`~hdrfringe.saturation.estimate.saturated_peak_lower_bound`); under the MIGL scaling
     with the smallest possible offset (0) that bound becomes an upper bound on the MIGL at which
     the pixel stops saturating. Nothing is learnt about it by capturing above that MIGL, so the
     capture rules may skip there. The entries are provisional: recomputed from every capture,
     never stored in the state's CDF (the thesis's updates move pixels into it when they become
     estimable or unsaturated).
+
+    Parameters
+    ----------
+    cdf : SaturationCDF
+        The state's CDF.
+    pending : ndarray (H, W) bool
+        Pixels saturated at the top whose estimate is still pending.
+    images : ndarray (N, H, W)
+        The last set captured, at ``capture_migl``.
+    n_saturated : ndarray (H, W)
+        Saturated shifts per pixel in ``images``.
+    capture_migl : float
+        MIGL of ``images``.
+    imin : float
+        Minimum input gray level of the set.
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    SaturationCDF
+        ``cdf`` with the bounded pending pixels added below ``capture_migl`` (``cdf`` itself
+        when no pending pixel has a bound).
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (the CDF); the bound is docs/dpa.md's "pending pixels".
+
+    Examples
+    --------
+    >>> from hdrfringe.saturation.dpa_rules import SaturationCDF
+    >>> cdf = SaturationCDF(np.zeros(256, np.int64), total=1, migl0=255, lowest_migl=60)
+    >>> imgs = np.array([[[255]], [[255]], [[255]], [[100]]], np.uint8)  # 3 of 4 saturated
+    >>> out = bounded_cdf(cdf, np.array([[True]]), imgs, np.array([[3]]), 255.0, 40.0, 8)
+    >>> out.accounted, int(np.flatnonzero(out.counts)[0])
+    (1, 174)
+
+    The peak is at least ``2 * 255 - 100 - 1.5 = 408.5`` DN, which stops saturating at MIGL
+    ``40 + 215 * 254.5 / 408.5 = 173.95`` (Eq. 6.3's scaled variant), rounded up.
     """
     bound = saturated_peak_lower_bound(images, bit_depth) - BOUND_MARGIN_DN
     use = pending & (n_saturated > 0) & np.isfinite(bound)
@@ -82,6 +128,10 @@ def dpa(
 
     Parameters
     ----------
+    rig : Rig
+        Any rig (virtual, replay, hardware).
+    spec : FringeSpec
+        A sinusoidal set of at least 4 steps, at its highest MIGL.
     threshold : float
         CDF gain since the last capture that triggers the next one (0.1 and 0.2 in the thesis).
     correction : CorrectionPolynomial, optional
@@ -103,6 +153,24 @@ def dpa(
         first set (``initial_cdf``) and after the last update (``final_cdf``), both
         :class:`~hdrfringe.saturation.dpa_rules.SaturationCDF`, and the pixels saturated in the
         first set (``saturated_at_top``; thesis Fig. 6.3 compares the CDFs with the actual one).
+
+    Raises
+    ------
+    InputError
+        When ``spec`` is not a sinusoidal set of at least 4 steps.
+
+    References
+    ----------
+    Thesis Ch. 6 (Sec. 6.1.1-6.1.3, Fig. 6.2); docs/dpa.md.
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.simulated import Lighting, SimulatedRig
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> rig = SimulatedRig(white_plate(), lighting=Lighting(ambient_lux=600))
+    >>> res = dpa(rig, FringeSpec("sinusoidal", 4, 8.0), threshold=0.2)
+    >>> res.details["rules"][0], res.migls[0], bool(res.never_unsaturated.any())
+    ('initial', 255.0, False)
     """
     if spec.pattern != "sinusoidal" or spec.steps < 4:
         raise InputError(
@@ -121,14 +189,14 @@ def dpa(
     newly = [int((~remaining).sum())]
     if not remaining.any():  # requirement 4: the conventional result after one set
         return StrategyResult(
-            composite,
-            spec,
-            index,
-            migls,
-            newly,
-            remaining,
-            "dpa",
-            {"threshold": threshold, "rules": ["initial"]},
+            images=composite,
+            spec=spec,
+            captured=[CapturedSet(migl=m) for m in migls],
+            index_map=index,
+            newly_unsaturated=newly,
+            never_unsaturated=remaining,
+            method="dpa",
+            details={"threshold": threshold, "rules": ["initial"]},
         )
     saturated_at_top = remaining.copy()
     peak, trough = peak_and_trough(imgs, bits, remaining)
@@ -181,14 +249,14 @@ def dpa(
         m = float(nxt)
         bounds_from = (imgs, n_sat, m)
     return StrategyResult(
-        composite,
-        spec,
-        index,
-        migls,
-        newly,
-        remaining,
-        "dpa",
-        {
+        images=composite,
+        spec=spec,
+        captured=[CapturedSet(migl=m) for m in migls],
+        index_map=index,
+        newly_unsaturated=newly,
+        never_unsaturated=remaining,
+        method="dpa",
+        details={
             "threshold": threshold,
             "rules": rules,
             "min_migl": floor,
@@ -198,3 +266,101 @@ def dpa(
             "saturated_at_top": saturated_at_top,
         },
     )
+
+
+@dataclass(frozen=True)
+class DPAParams:
+    """Parameters of :func:`dpa`.
+
+    Examples
+    --------
+    >>> DPAParams(threshold=0.2).bound_pending
+    False
+    """
+
+    threshold: float = field(
+        default=0.1,
+        metadata={"help": "CDF gain that triggers a capture (0.1 = 10 %).", "cli": "--threshold"},
+    )
+    correction: CorrectionPolynomial | None = field(
+        default=None,
+        metadata={
+            "help": "trained correction polynomial (Sec. 6.1.2; default: none, identity).",
+            "cli": "--correction",
+        },
+    )
+    min_migl: float | None = field(
+        default=None, metadata={"help": "lowest MIGL (default: imin + 20)."}
+    )
+    bound_pending: bool = field(
+        default=False,
+        metadata={
+            "help": "beyond the thesis: where the CDF is flat, jump to the highest MIGL at "
+            "which the pixels too saturated to estimate could unsaturate (fewer sets).",
+            "cli": "--bound-pending",
+            "exclusive": True,
+        },
+    )
+
+
+@register
+class DPA:
+    """The registry's ``dpa``: :func:`dpa`.
+
+    Examples
+    --------
+    >>> DPA().describe(DPAParams(threshold=0.1, bound_pending=True))
+    'DPA 10 % + bound'
+    """
+
+    name = "dpa"
+    title = "DPA"
+    help = (
+        "dynamic pixel-wise adaptive (Ch. 6): sets where the estimated CDF says pixels unsaturate"
+    )
+    Params = DPAParams
+
+    def run(self, rig: Rig, spec: FringeSpec, params: DPAParams) -> StrategyResult:
+        """Run :func:`dpa` with ``params``.
+
+        Parameters
+        ----------
+        rig : Rig
+            Any rig (virtual, replay, hardware).
+        spec : FringeSpec
+            The set, at its highest MIGL.
+        params : DPAParams
+            The parameters.
+
+        Returns
+        -------
+        StrategyResult
+        """
+        return dpa(
+            rig,
+            spec,
+            threshold=params.threshold,
+            correction=params.correction,
+            min_migl=params.min_migl,
+            bound_pending=params.bound_pending,
+        )
+
+    def describe(self, params: DPAParams) -> str:
+        """Label of a run: ``"DPA <threshold> %"``, with ``" + bound"`` for ``bound_pending``.
+
+        Parameters
+        ----------
+        params : DPAParams
+            The parameters.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> DPA().describe(DPAParams(threshold=0.2))
+        'DPA 20 %'
+        """
+        bound = " + bound" if params.bound_pending else ""
+        return f"DPA {100 * params.threshold:g} %{bound}"
