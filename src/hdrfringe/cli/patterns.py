@@ -1,0 +1,64 @@
+"""``hdrfringe patterns``: fringe, centerline and uniform frames as projector images."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hdrfringe.cli._app import app, console, handle_errors, parse_floats, progress_bar
+
+__all__ = ["patterns"]
+
+
+@app.command()
+@handle_errors
+def patterns(
+    output: Annotated[
+        Path, typer.Option("-o", "--output", help="Output folder for PNGs + manifest.")
+    ],
+    pattern: Annotated[str, typer.Option(help="sinusoidal or triangular.")] = "sinusoidal",
+    steps: Annotated[int, typer.Option(help="Number of phase shifts N.")] = 3,
+    pitch: Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")] = "6",
+    orientation: Annotated[str, typer.Option(help="vertical or horizontal.")] = "vertical",
+    imin: Annotated[float, typer.Option(help="Minimum input gray level.")] = 40.0,
+    migl: Annotated[float, typer.Option(help="Maximum input gray level (MIGL).")] = 255.0,
+    width: Annotated[int, typer.Option(help="Projector width in px.")] = 1024,
+    height: Annotated[int, typer.Option(help="Projector height in px.")] = 768,
+    bit_depth: Annotated[int, typer.Option(help="Projector input bit depth.")] = 8,
+    gamma: Annotated[
+        float, typer.Option(help="Gamma pre-compensation exponent (1 = none).")
+    ] = 2.812,
+    centerline: Annotated[bool, typer.Option(help="Add the centerline image.")] = True,
+    centerline_position: Annotated[
+        float | None, typer.Option(help="Centerline projector coordinate (default: middle).")
+    ] = None,
+    gray: Annotated[str, typer.Option(help="Uniform gray levels to add, comma-separated.")] = "",
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Generate fringe patterns (and centerline/uniform images) for a projector."""
+    from hdrfringe.captures import ProjectorInfo
+    from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame, render_frame
+    from hdrfringe.io.pattern_folder import write_pattern_folder
+    from hdrfringe.patterns import FringeSpec
+
+    projector = ProjectorInfo(width, height, bit_depth, gamma)
+    frames: list[Frame] = []
+    for p in parse_floats(pitch, "--pitch"):
+        spec = FringeSpec(pattern, steps, p, orientation, imin, migl)  # type: ignore[arg-type]
+        frames += spec.frames()
+    if centerline:
+        extent = width if orientation == "vertical" else height
+        pos = extent // 2 if centerline_position is None else centerline_position
+        frames.append(CenterlineFrame(pos, orientation, migl))  # type: ignore[arg-type]
+    if gray:
+        frames += [UniformFrame(g) for g in parse_floats(gray, "--gray")]
+    for f in frames:  # validate everything (levels vs bit depth) before writing
+        render_frame(f, 1, 1, gamma, bit_depth)
+    with progress_bar() as prog:
+        task = prog.add_task("writing patterns", total=len(frames))
+        write_pattern_folder(
+            output, frames, projector, force=force, progress=lambda: prog.advance(task)
+        )
+    console.print(f"wrote {len(frames)} pattern images and manifest.json to {output}")

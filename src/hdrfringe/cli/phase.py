@@ -1,0 +1,57 @@
+"""``hdrfringe phase``: every fringe set of a capture folder to phase and quality maps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hdrfringe.cli._app import app, console, handle_errors
+
+__all__ = ["phase"]
+
+
+@app.command()
+@handle_errors
+def phase(
+    folder: Annotated[Path, typer.Argument(help="Capture folder (manifest.json + images).")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Output folder for the maps.")],
+    min_modulation: Annotated[
+        float | None, typer.Option(help="Minimum intensity modulation I' in DN for a valid pixel.")
+    ] = None,
+    keep_saturated: Annotated[
+        bool, typer.Option(help="Keep the (biased) phase of pixels with saturated shifts.")
+    ] = False,
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
+    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.phase_maps import write_phase_maps
+    from hdrfringe.io.results import check_output_dir, staged_output_dir
+    from hdrfringe.process import decode_captures
+
+    check_output_dir(output, force)
+    captures = read_capture_folder(folder)
+    if not captures.sets:
+        from hdrfringe.errors import CaptureFormatError
+
+        raise CaptureFormatError(
+            f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"
+        )
+    decoded = decode_captures(
+        captures, min_modulation=min_modulation, reject_saturated=not keep_saturated
+    )
+    with staged_output_dir(output, force=force) as tmp:
+        summary = write_phase_maps(tmp, decoded, str(folder))
+    for s in summary["sets"]:
+        console.print(
+            f"set {s['label']}: valid {100 * s['valid_fraction']:.1f} %, "
+            f"saturated {100 * s['saturated_fraction']:.1f} %"
+        )
+    for fam in summary["families"]:
+        extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""
+        console.print(f"{fam['orientation']}: unwrapped by {fam['unwrapping']}{extra}")
+    for note in summary["notes"]:
+        console.print(f"note: {note}")
+    console.print(f"wrote {len(summary['files'])} files to {output}")

@@ -1,0 +1,67 @@
+"""``hdrfringe reproduce``: the thesis's experiments as resumable sweeps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hdrfringe.cli._app import app, console, handle_errors
+from hdrfringe.errors import InputError
+
+__all__ = ["reproduce"]
+
+
+@app.command()
+@handle_errors
+def reproduce(
+    chapter: Annotated[
+        str, typer.Argument(help="ch4, ch5, ch6, several joined by commas (ch5,ch6), or all.")
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Reproduction folder.")] = Path(
+        "hdrfringe-reproduction"
+    ),
+    quick: Annotated[
+        bool, typer.Option(help="Reduced grid (quarter-size view, fewer pitches/MIGLs/depths).")
+    ] = False,
+    scheduler: Annotated[
+        str | None, typer.Option(help="Dask scheduler address (default: a local cluster).")
+    ] = None,
+    workers: Annotated[
+        int | None, typer.Option(help="Local cluster worker processes (default: CPU count).")
+    ] = None,
+    force: Annotated[
+        bool, typer.Option(help="Write into a non-empty folder that is not a reproduction.")
+    ] = False,
+) -> None:
+    """Run the thesis's experiments on the virtual rig as resumable sweeps (Dask, Zarr) and
+    write tables beside the thesis's, figures and a report. Rerun to resume."""
+    from hdrfringe.reproduce.runner import CHAPTERS
+    from hdrfringe.reproduce.runner import reproduce as run
+
+    chapters = list(CHAPTERS) if chapter == "all" else [c.strip() for c in chapter.split(",")]
+    if not console.is_terminal:  # no progress bar: progress lines on stderr instead
+        import logging
+        import sys
+
+        logger = logging.getLogger("hdrfringe.reproduce")
+        if not logger.handlers:
+            handler = logging.StreamHandler(sys.stderr)
+            handler.setFormatter(logging.Formatter("%(asctime)s %(message)s", "%H:%M:%S"))
+            logger.addHandler(handler)
+        logger.setLevel(logging.INFO)
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers must be at least 1, got {workers}")
+    res = run(
+        chapters,
+        output,
+        quick=quick,
+        scheduler=scheduler,
+        n_workers=workers,
+        progress=console.is_terminal,
+        force=force,
+    )
+    for name, secs in res["timings_s"].items():
+        console.print(f"{name}: {secs:.1f} s")
+    console.print(f"report: {output / 'report.md'} and report.html")
