@@ -25,7 +25,8 @@ Radiometry follows thesis Eq. 3.3 with each term parameterised physically::
   camera's sensitivity.
 
 The camera then blurs (Gaussian PSF), optionally integrates each pixel's area (supersampling),
-adds read noise and shot noise, rounds and clips to ``[0, 2^B - 1]``.
+adds read noise and shot noise, rounds and clips to ``[0, 2^B - 1]``
+(:func:`hdrfringe.rig.camera.sensor_readout`).
 
 Noise is seeded per frame from ``(seed, scene, frame identity, repeat count)`` through a
 SHA-256 hash, so a frame's image does not depend on the capture order.
@@ -58,6 +59,7 @@ from hdrfringe.frames import (
     render_frame,
 )
 from hdrfringe.patterns import precompensate_gamma
+from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import Scene
 
 __all__ = [
@@ -742,17 +744,8 @@ class SimulatedRig:
         frames = list(frames)
         cam = self.camera
         out = np.empty((len(frames), cam.height, cam.width), dtype=cam.dtype)
-        read = cam.read_noise_dn
-        shot = cam.full_scale / cam.full_well_e if cam.full_well_e is not None else 0.0
         for k, frame in enumerate(frames):
-            signal = self._signal(frame)
-            if read > 0 or shot > 0:
-                rng = self._frame_rng(frame)
-                std = np.sqrt(read * read + shot * np.maximum(signal, 0.0))
-                signal = signal + std * rng.standard_normal(signal.shape)
-            np.rint(signal, out=signal)
-            np.clip(signal, 0, cam.full_scale, out=signal)
-            out[k] = signal
+            out[k] = sensor_readout(self._signal(frame), cam, self._frame_rng(frame))
         return out
 
     # --- extras ----------------------------------------------------------------------------
