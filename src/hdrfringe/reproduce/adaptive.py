@@ -35,24 +35,25 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._validation import saturation_count
 from hdrfringe.calibration import measurement_mask
 from hdrfringe.captures import ProjectorInfo
 from hdrfringe.errors import InputError
 from hdrfringe.frames import FringeFrame
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import saturation_count
 from hdrfringe.reproduce.ch4 import (
+    SWEEP_DTYPE,
     THESIS_DEPTHS_MM,
     WHITE_PLATE,
     Ch4Setup,
     PlateSweep,
-    add_sensor_noise,
     calibrate_pattern,
     cell_rng,
     orders_from_expected,
     pattern_spec,
-    wrapped_phase,
+    sweep_phase,
 )
+from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.saturation.estimate import CorrectionPolynomial
 
@@ -214,7 +215,7 @@ class SweepRig:
         if migl not in self._sets:
             signal = self.sweep.signal(migl, self.lux)
             rng = cell_rng(self.setup, *self.key, migl)
-            self._sets[migl] = add_sensor_noise(signal, self.camera, rng)
+            self._sets[migl] = sensor_readout(signal, self.camera, rng, dtype=SWEEP_DTYPE)
         return self._sets[migl]
 
 
@@ -241,7 +242,7 @@ def _run_method(
 def _errors(
     images: NDArray, spec: FringeSpec, sweep: PlateSweep, cal: Any, mask: NDArray[np.bool_]
 ) -> NDArray[np.float64]:
-    phase = orders_from_expected(wrapped_phase(images, spec), sweep.expected_phase)
+    phase = orders_from_expected(sweep_phase(images, spec), sweep.expected_phase)
     return (cal.height(phase) - sweep.truth_height_mm)[mask]
 
 
