@@ -141,6 +141,29 @@ def sweep_phase(images: NDArray, spec: FringeSpec) -> NDArray:
 
     :func:`hdrfringe.phase.wrapped_phase` with the sweeps' precision: sinusoidal sets (Eq. 2.2)
     in :data:`SWEEP_DTYPE`, triangular sets (Eq. 2.8, 2.9) in float64, their only precision.
+
+    Parameters
+    ----------
+    images : ndarray, shape (N, H, W)
+        The set, shift k at index k.
+    spec : FringeSpec
+        What was projected.
+
+    Returns
+    -------
+    ndarray, shape (H, W)
+
+    Examples
+    --------
+    >>> from hdrfringe.patterns import fringe_gray
+    >>> spec = pattern_spec("sinusoidal-3", 6)
+    >>> imgs = np.stack([fringe_gray(np.arange(12.0), spec, k) for k in range(3)])[:, None]
+    >>> sweep_phase(imgs, spec).dtype, sweep_phase(imgs, pattern_spec("triangular-3", 6)).dtype
+    (dtype('float32'), dtype('float64'))
+
+    References
+    ----------
+    Thesis Eq. 2.2, 2.8, 2.9.
     """
     dtype = SWEEP_DTYPE if spec.pattern == "sinusoidal" else np.float64
     return wrapped_phase(images, spec, dtype=dtype)

@@ -38,6 +38,13 @@ class SensorParameters(Protocol):
         Saturation value ``2^B - 1``.
     dtype : type
         Integer type of the images (uint8 for B <= 8, else uint16).
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.simulated import CameraModel
+    >>> cam: SensorParameters = CameraModel(bit_depth=12)
+    >>> cam.full_scale, round(cam.read_noise_dn, 3), cam.dtype.__name__
+    (4095, 16.059, 'uint16')
     """
 
     @property
