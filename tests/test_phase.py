@@ -14,9 +14,9 @@ from hdrfringe.phase import (
     decode_set,
     saturation_count,
     sinusoidal_phase,
-    sinusoidal_phase_only,
     triangular_2step,
     triangular_3step,
+    wrapped_phase,
 )
 
 TWO_PI = 2 * np.pi
@@ -162,14 +162,69 @@ def test_triangular_3step_order_statistics_match_sorting() -> None:
 
 
 @pytest.mark.parametrize("n", [3, 4, 8])
-def test_sinusoidal_phase_only_agrees_with_the_full_decoder(n: int) -> None:
+def test_float32_phase_alone_agrees_with_the_full_decoder(n: int) -> None:
     rng = np.random.default_rng(n)
     x = np.linspace(0, 60, 640)
     imgs = np.stack([120 + 90 * np.cos(2 * np.pi * x / 7 + 2 * np.pi * k / n) for k in range(n)])
     imgs = np.clip(np.rint(imgs[:, None, :] + rng.normal(0, 2, (n, 30, 640))), 0, 255)
     imgs = imgs.astype(np.uint8)
-    fast = sinusoidal_phase_only(imgs)
-    full = sinusoidal_phase(imgs)[0]
+    fast, b, a = sinusoidal_phase(imgs, dtype=np.float32, quality=False)
+    assert b is None and a is None
+    full, b64, a64 = sinusoidal_phase(imgs)
     assert fast.dtype == np.float32 and fast.min() >= 0 and fast.max() < 2 * np.pi
     diff = np.angle(np.exp(1j * (fast.astype(np.float64) - full)))
     assert np.abs(diff).max() < 1e-5
+    # the float64 phase does not depend on whether the quality maps are computed
+    assert np.array_equal(sinusoidal_phase(imgs, quality=False)[0], full)
+    _, b32, a32 = sinusoidal_phase(imgs, dtype=np.float32)
+    assert b32.dtype == np.float32 and np.allclose(b32, b64, rtol=1e-5)
+    assert np.allclose(a32, a64, rtol=1e-6)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_phase_zero_is_positive_zero_in_both_precisions(dtype) -> None:
+    """atan2(-0, C > 0) is -0.0; the [0, 2 pi) wrap turns it into +0.0 in float32 too (the
+    float32 path once wrapped only negatives and returned -0.0 there)."""
+    imgs = np.array([[[200.0]], [[100.0]], [[100.0]], [[100.0]]])  # phi = 0 exactly: S = 0
+    phi = sinusoidal_phase(imgs, dtype=dtype)[0]
+    assert phi.dtype == dtype and phi[0, 0] == 0 and not np.signbit(phi[0, 0])
+
+
+def test_sinusoidal_phase_refuses_other_dtypes() -> None:
+    with pytest.raises(InputError, match="float32 or float64"):
+        sinusoidal_phase(np.zeros((3, 2, 2)), dtype=np.float16)
+
+
+@pytest.mark.parametrize(
+    ("pattern", "steps"),
+    [("sinusoidal", 3), ("sinusoidal", 4), ("triangular", 3), ("triangular", 2)],
+)
+def test_wrapped_phase_is_the_decoders_phase(pattern: str, steps: int) -> None:
+    """wrapped_phase gives decode_set's phase bit for bit (every pixel kept), the same decoder;
+    triangular sets refuse float32, sinusoidal ones decode in it."""
+    spec = FringeSpec(pattern, steps, 9.3)
+    x = np.linspace(0, 60, 200)[None, :].repeat(20, 0)
+    rng = np.random.default_rng(steps)
+    noisy = analytic(spec, x, 0.9, 10.0) + rng.normal(0, 1, (steps, 20, 200))
+    imgs = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+    res = decode_set(imgs, spec, 8, min_modulation=0.0, reject_saturated=False)
+    phase = wrapped_phase(imgs, spec)
+    assert phase.dtype == np.float64
+    assert np.array_equal(phase, res.wrapped_phase, equal_nan=True)
+    if pattern == "triangular":
+        with pytest.raises(InputError, match="float64 only"):
+            wrapped_phase(imgs, spec, dtype=np.float32)
+    else:
+        fast = wrapped_phase(imgs, spec, dtype=np.float32)
+        assert np.array_equal(fast, sinusoidal_phase(imgs, dtype=np.float32)[0])
+    with pytest.raises(InputError, match=f"{steps}-step set has {steps + 1} images"):
+        wrapped_phase(np.concatenate([imgs, imgs[:1]]), spec)
+
+
+def test_triangular_3step_phase_does_not_depend_on_the_quality_maps() -> None:
+    spec = FringeSpec("triangular", 3, 11.0)
+    x = np.linspace(0, 50, 300)[None, :].repeat(4, 0)
+    imgs = analytic(spec, x, 0.7, 3.0) + np.random.default_rng(3).normal(0, 1, (3, 4, 300))
+    phi, b, a = triangular_3step(imgs, quality=False)
+    assert b is None and a is None
+    assert np.array_equal(phi, triangular_3step(imgs)[0], equal_nan=True)

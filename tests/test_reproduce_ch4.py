@@ -10,17 +10,18 @@ import numpy as np
 import pytest
 
 from hdrfringe.reproduce.ch4 import (
+    SWEEP_DTYPE,
     Ch4Setup,
     PlateSweep,
-    add_sensor_noise,
     calibrate_pattern,
     cell_rng,
     ch4_block,
     ch4_modified_block,
     orders_from_expected,
     pattern_spec,
-    wrapped_phase,
+    sweep_phase,
 )
+from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.simulated import Lighting
 
 SETUP = Ch4Setup(width=324, height=247, camera_field_mm=160.0)
@@ -62,11 +63,12 @@ def test_fast_path_matches_the_rig_capture() -> None:
     lit = plate.rig.replace(lighting=Lighting(ambient_lux=600.0))
     for migl in (255.0, 165.0):
         frames = spec.with_migl(migl).frames()
-        fast = add_sensor_noise(plate.signal(migl, 600.0), cam, cell_rng(SETUP, "t", migl))
+        signal = plate.signal(migl, 600.0)
+        fast = sensor_readout(signal, cam, cell_rng(SETUP, "t", migl), dtype=SWEEP_DTYPE)
         slow = lit.capture(frames)
         rmse = []
         for imgs in (fast, slow):
-            phase = orders_from_expected(wrapped_phase(imgs, spec), plate.expected_phase)
+            phase = orders_from_expected(sweep_phase(imgs, spec), plate.expected_phase)
             err = cal.height(phase)[10:-10, 10:-10] - 26.0
             rmse.append(float(np.sqrt(np.mean(err**2))))
         assert rmse[0] == pytest.approx(rmse[1], rel=0.02)
@@ -94,16 +96,17 @@ def test_simulated_light_lowers_the_tradeoff_and_noise_raises_its_rmse() -> None
     assert np.all(np.diff(noise_min) > 0)
 
 
-def test_fast_eq_4_1_matches_modify_captures() -> None:
-    from hdrfringe.reproduce.ch4 import modify_fast
-    from hdrfringe.rig.modify import modify_captures
+def test_float32_eq_4_1_matches_modify_captures() -> None:
+    """The sweep's Eq. 4.1 (float32, pre-drawn noise) against the ``modify`` command's."""
+    from hdrfringe.rig.modify import lux_to_dn, modify_captures, modify_intensity
 
     imgs = np.random.default_rng(1).integers(0, 256, (3, 20, 30), dtype=np.uint8)
     for lux in (0.0, 100.0, 600.0, 900.0):
         expected = modify_captures(imgs, 8, add_lux=lux)
-        assert np.array_equal(modify_fast(imgs, 8, lux), expected)
+        fast = modify_intensity(imgs, 8, lux_to_dn(lux, 8), dtype=SWEEP_DTYPE)
+        assert np.array_equal(fast, expected)
     z = np.random.default_rng(2).standard_normal(imgs.shape).astype(np.float32)
-    noisy = modify_fast(imgs, 8, 600.0, np.float32(4.0) * z)
+    noisy = modify_intensity(imgs, 8, lux_to_dn(600.0, 8), SWEEP_DTYPE(4.0) * z, dtype=SWEEP_DTYPE)
     ref = np.clip(np.rint(imgs + 102.0 + 4.0 * z.astype(np.float64)), 0, 255)
     assert np.mean(noisy != ref) < 1e-3  # float32 vs float64 rounding at .5 ties only
 
@@ -118,7 +121,8 @@ def test_lux_levels_share_their_noise_draws() -> None:
     plate = PlateSweep(26.0, SETUP, spec)
     cam = SETUP.camera_model()
     z = cell_rng(SETUP, "z").standard_normal((3, *plate.rig.image_shape), dtype=np.float32)
-    dark = add_sensor_noise(plate.signal(105.0), cam, normals=z).astype(float)
-    lit = add_sensor_noise(plate.signal(105.0, 600.0), cam, normals=z).astype(float)
+    dark = sensor_readout(plate.signal(105.0), cam, normals=z, dtype=SWEEP_DTYPE).astype(float)
+    lit = sensor_readout(plate.signal(105.0, 600.0), cam, normals=z, dtype=SWEEP_DTYPE)
+    lit = lit.astype(float)
     gain = (lit - dark).mean()
     assert gain > 50 and np.std(lit - dark) < 0.35 * np.sqrt(gain)  # far below fresh noise

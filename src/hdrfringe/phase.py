@@ -14,7 +14,12 @@ Conventions (capture-folder contract): the decoded phase is ``phi = 2*pi*x/p (mo
 
 Quality maps (thesis Sec. 3.3): intensity modulation ``I'`` (Eq. 3.4, estimated as ``b``), average
 intensity ``I''`` (Eq. 3.5, estimated as ``a``), data modulation ``psi = I'/I''`` (Eq. 3.6), and
-the saturation count: the number of shifts at ``2^B - 1``.
+the saturation count: the number of saturated shifts
+(:func:`hdrfringe._validation.saturation_count`, re-exported here).
+
+Each equation has one implementation: :func:`sinusoidal_phase` is the only Eq. 2.2 in hdrfringe
+(float64 with quality maps for the product, float32 phase alone for the reproduction's sweeps),
+and :func:`wrapped_phase` is the phase of any supported set, the sweeps' entry point.
 """
 
 from __future__ import annotations
@@ -23,11 +28,26 @@ from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 from scipy import ndimage
 
+from hdrfringe._validation import as_stack, full_scale, saturation_count
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec, fringe_profile
+
+__all__ = [
+    "TWO_PI",
+    "PhaseResult",
+    "data_modulation",
+    "decode_set",
+    "default_min_modulation",
+    "saturation_count",
+    "sinusoidal_phase",
+    "triangular_2step",
+    "triangular_3step",
+    "wrap_phase",
+    "wrapped_phase",
+]
 
 TWO_PI = 2.0 * np.pi
 
@@ -72,34 +92,39 @@ def wrap_phase(phase: ArrayLike) -> F64:
     return out
 
 
-def _as_stack(images: ArrayLike, n_min: int, what: str) -> NDArray:
-    arr = np.asarray(images)
-    if arr.ndim != 3:
-        raise InputError(
-            f"{what}: expected a stack of shape (N, height, width), got shape {arr.shape}"
-        )
-    if arr.shape[0] < n_min:
-        raise InputError(f"{what}: needs at least {n_min} phase-shifted images, got {arr.shape[0]}")
-    if arr.dtype.kind not in "uif":
-        raise InputError(f"{what}: images must be numeric, got dtype {arr.dtype}")
-    return arr
+def _float_dtype(dtype: DTypeLike, what: str) -> np.dtype:
+    dt = np.dtype(dtype)
+    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+        raise InputError(f"{what}: dtype must be float32 or float64, got {dt}")
+    return dt
 
 
-def sinusoidal_phase(images: ArrayLike) -> tuple[F64, F64, F64]:
+def sinusoidal_phase(
+    images: ArrayLike, *, dtype: DTypeLike = np.float64, quality: bool = True
+) -> tuple[NDArray, NDArray | None, NDArray | None]:
     """Wrapped phase of a sinusoidal N-step set (thesis Eq. 2.2; Eq. 2.4 for N = 3).
+
+    The one implementation of Eq. 2.2 in hdrfringe: :func:`decode_set` calls it in float64
+    with the quality maps, the reproduction's sweeps (:func:`wrapped_phase`) in float32 without
+    them (about 2.5x faster; float32 rounding, ~1e-6 rad, is far below the phase noise of any
+    capture).
 
     Parameters
     ----------
     images : array_like, shape (N, H, W)
-        Shift k at index k, ``delta_k = 2*pi*k/N``.
+        Shift k at index k, ``delta_k = 2*pi*k/N``, N >= 3.
+    dtype : {float64, float32}
+        Precision of the computation and of the returned maps.
+    quality : bool
+        Also compute the modulation and mean maps (else they are returned as None).
 
     Returns
     -------
     phase : ndarray
-        ``atan2(-S, C)`` wrapped to [0, 2*pi).
-    modulation : ndarray
+        ``atan2(-S, C)`` wrapped to [0, 2*pi) (zero is +0.0).
+    modulation : ndarray or None
         ``I' = (2/N) * sqrt(S^2 + C^2)`` in the images' units (Eq. 3.4).
-    mean_intensity : ndarray
+    mean_intensity : ndarray or None
         ``I'' = mean_k I_k`` (Eq. 3.5).
 
     Examples
@@ -109,46 +134,38 @@ def sinusoidal_phase(images: ArrayLike) -> tuple[F64, F64, F64]:
     >>> phi, b, a = sinusoidal_phase(imgs)
     >>> bool(np.allclose(phi[0], np.mod(2*np.pi*x/8, 2*np.pi)))
     True
+    >>> fast, _, _ = sinusoidal_phase(imgs, dtype=np.float32, quality=False)
+    >>> fast.dtype, bool(np.allclose(fast, phi, atol=1e-5))
+    (dtype('float32'), True)
+
+    References
+    ----------
+    Thesis Eq. 2.2 (phase), Eq. 3.4 and 3.5 (quality maps).
     """
-    stack = _as_stack(images, 3, "sinusoidal phase")
+    stack = as_stack(images, what="sinusoidal phase", n_min=3)
+    dt = _float_dtype(dtype, "sinusoidal phase")
     n = stack.shape[0]
     delta = TWO_PI * np.arange(n) / n
-    flat = stack.reshape(n, -1).astype(np.float64, copy=False)
-    s = np.sin(delta) @ flat
-    c = np.cos(delta) @ flat
+    flat = stack.reshape(n, -1).astype(dt, copy=False)
+    s = np.sin(delta).astype(dt, copy=False) @ flat
+    c = np.cos(delta).astype(dt, copy=False) @ flat
+    shape = stack.shape[1:]
+    modulation = mean = None
     # In place, few temporaries (benchmarks/README.md): sqrt(S^2 + C^2) instead of np.hypot
     # (same value within an ulp, 5x faster), and [0, 2*pi) wrapping of atan2's (-pi, pi] by
     # adding 2*pi where <= 0 instead of np.mod: bit-identical to wrap_phase, zero is +0.0.
-    modulation = np.multiply(s, s)
-    modulation += c * c
-    np.sqrt(modulation, out=modulation)
-    modulation *= 2.0 / n
+    if quality:
+        modulation = np.multiply(s, s)
+        modulation += c * c
+        np.sqrt(modulation, out=modulation)
+        modulation *= 2.0 / n
+        modulation = modulation.reshape(shape)
+        mean = flat.mean(axis=0).reshape(shape)
     phase = np.arctan2(np.negative(s, out=s), c, out=s)
-    np.add(phase, TWO_PI, out=phase, where=phase <= 0.0)
-    phase[phase >= TWO_PI] = 0.0
-    mean = flat.mean(axis=0)
-    shape = stack.shape[1:]
-    return phase.reshape(shape), modulation.reshape(shape), mean.reshape(shape)
-
-
-def sinusoidal_phase_only(images: ArrayLike, dtype: type = np.float32) -> NDArray:
-    """Wrapped phase of a sinusoidal N-step set alone, computed in ``dtype`` (float32 default).
-
-    The phase of :func:`sinusoidal_phase` (same convention, [0, 2*pi)) without the modulation
-    and mean maps, in single precision: about 2.5x faster, for sweeps that need millions of
-    phase maps. Float32 rounding (~1e-6 rad) is far below the phase noise of any capture.
-    """
-    stack = _as_stack(images, 3, "sinusoidal phase")
-    n = stack.shape[0]
-    delta = TWO_PI * np.arange(n) / n
-    x = stack.astype(dtype, copy=False)
-    s = np.tensordot(np.sin(delta).astype(dtype), x, axes=1)
-    c = np.tensordot(np.cos(delta).astype(dtype), x, axes=1)
-    phase = np.arctan2(np.negative(s, out=s), c, out=s)
-    two_pi = dtype(TWO_PI)
-    np.add(phase, two_pi, out=phase, where=phase < 0)
+    two_pi = dt.type(TWO_PI)
+    np.add(phase, two_pi, out=phase, where=phase <= 0)
     phase[phase >= two_pi] = 0
-    return phase
+    return phase.reshape(shape), modulation, mean
 
 
 @cache
@@ -177,7 +194,9 @@ def _tri3_region_table() -> tuple[NDArray[np.int8], NDArray[np.bool_]]:
     return region, rising
 
 
-def triangular_3step(images: ArrayLike) -> tuple[F64, F64, F64]:
+def triangular_3step(
+    images: ArrayLike, *, quality: bool = True
+) -> tuple[F64, F64 | None, F64 | None]:
     """Intensity ratio of a triangular 3-step set (thesis Eq. 2.9), in radians.
 
     Eq. 2.9 gives ``r0 = (I_high - I_med + I_low - I_min) / I_m`` per region. For the triangular
@@ -189,16 +208,38 @@ def triangular_3step(images: ArrayLike) -> tuple[F64, F64, F64]:
     ``r = region + r0`` (or ``region + 1 - r0`` on falling regions) runs over [0, 6) and is
     rescaled to ``phi = 2*pi*r/6``.
 
+    Parameters
+    ----------
+    images : array_like, shape (3, H, W)
+        Shift k at index k (a third of a period each).
+    quality : bool
+        Also compute the modulation and mean maps (else they are returned as None; the mean
+        is the costly part).
+
     Returns
     -------
     phase : ndarray
         In [0, 2*pi).
-    modulation : ndarray
+    modulation : ndarray or None
         ``I_m / 2 = 0.75 * (I_high - I_low)`` (the triangular counterpart of b, Eq. 2.6).
-    mean_intensity : ndarray
+    mean_intensity : ndarray or None
         ``I_min + I_m / 2``, the wave's mid level, from the fitted wave.
+
+    Examples
+    --------
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> spec = FringeSpec("triangular", 3, 12.0)
+    >>> x = np.linspace(0.5, 11.5, 12)
+    >>> imgs = np.stack([fringe_gray(x, spec, k) for k in range(3)])[:, None]
+    >>> phi, _, _ = triangular_3step(imgs, quality=False)
+    >>> bool(np.allclose(phi[0], 2*np.pi*x/12))
+    True
+
+    References
+    ----------
+    Thesis Eq. 2.9 (intensity ratio), Eq. 2.6 (triangular pattern).
     """
-    stack = _as_stack(images, 3, "triangular 3-step")
+    stack = as_stack(images, what="triangular 3-step", n_min=3)
     if stack.shape[0] != 3:
         raise InputError(f"triangular 3-step decoding needs exactly 3 images, got {stack.shape[0]}")
     f = stack.astype(np.float64, copy=False)
@@ -221,6 +262,8 @@ def triangular_3step(images: ArrayLike) -> tuple[F64, F64, F64]:
     ratio = region + np.where(rising, r0, 1.0 - r0)
     ratio[code == 3 * lo_idx + lo_idx] = np.nan  # flat pixel: all three equal
     phase = wrap_phase(TWO_PI * ratio / 6.0)
+    if not quality:
+        return phase, None, None
     modulation = 0.75 * span
     mean = _wave_mid_level(f, phase, modulation, "triangular")
     return phase, modulation, mean
@@ -270,7 +313,7 @@ def triangular_2step(
     mean_intensity : ndarray
         ``(I_1 + I_2) / 2``, which equals ``I_min + I_m/2`` exactly for this pattern.
     """
-    stack = _as_stack(images, 2, "triangular 2-step")
+    stack = as_stack(images, what="triangular 2-step", n_min=2)
     if stack.shape[0] != 2:
         raise InputError(f"triangular 2-step decoding needs exactly 2 images, got {stack.shape[0]}")
     if direction not in (1, -1):
@@ -311,24 +354,6 @@ def _wave_mid_level(f: F64, phase: F64, modulation: F64, pattern: str) -> F64:
     return acc / n
 
 
-def saturation_count(images: ArrayLike, bit_depth: int) -> NDArray[np.uint8]:
-    """Number of images in which each pixel equals ``2^B - 1`` (is saturated).
-
-    Parameters
-    ----------
-    images : array_like, shape (N, H, W)
-    bit_depth : int
-        Camera bit depth B.
-    """
-    stack = _as_stack(images, 1, "saturation count")
-    full = 2**bit_depth - 1
-    # One image at a time into a uint8 accumulator: 4x faster than counting a full boolean stack.
-    count = np.zeros(stack.shape[1:], dtype=np.uint8)
-    for image in stack:
-        count += image == full
-    return count
-
-
 def data_modulation(modulation: ArrayLike, mean_intensity: ArrayLike) -> F64:
     """Data modulation ``psi = I' / I''`` (thesis Eq. 3.6); NaN where ``I'' <= 0``."""
     b = np.asarray(modulation, dtype=np.float64)
@@ -344,7 +369,87 @@ def default_min_modulation(bit_depth: int) -> float:
     ``sqrt(2/N) * sigma / I'``; at ``I' = 2`` DN and sigma = 1 DN that is 0.4-0.6 rad, the point
     below which the phase carries little more than noise.
     """
-    return 2.0 * (2**bit_depth - 1) / 255.0
+    return 2.0 * full_scale(bit_depth) / 255.0
+
+
+def _check_steps(stack: NDArray, spec: FringeSpec) -> None:
+    n = stack.shape[0]
+    if n != spec.steps:
+        raise InputError(
+            f"the {spec.pattern} {spec.steps}-step set has {n} images; "
+            f"give exactly {spec.steps}, shift 0 first"
+        )
+
+
+def _decode(
+    stack: NDArray, spec: FringeSpec, dtype: DTypeLike, quality: bool, direction: int
+) -> tuple[NDArray, NDArray | None, NDArray | None]:
+    """Phase and (with ``quality``) modulation and mean of a checked stack: the decoder that
+    ``spec``'s pattern and steps choose."""
+    if spec.pattern == "sinusoidal":
+        return sinusoidal_phase(stack, dtype=dtype, quality=quality)
+    if spec.steps not in (2, 3):
+        raise InputError(
+            f"triangular {spec.steps}-step decoding is not supported; use 2 or 3 steps "
+            "(thesis Eq. 2.8 and 2.9) or a sinusoidal set"
+        )
+    if _float_dtype(dtype, "triangular decoding") != np.float64:
+        raise InputError(
+            f"triangular decoding runs in float64 only, got dtype {np.dtype(dtype)}; "
+            "leave dtype at float64 for triangular sets"
+        )
+    if spec.steps == 3:
+        return triangular_3step(stack, quality=quality)
+    phase, _, modulation, mean = triangular_2step(
+        stack, orientation=spec.orientation, direction=direction
+    )
+    return phase, modulation, mean
+
+
+def wrapped_phase(
+    images: ArrayLike, spec: FringeSpec, *, dtype: DTypeLike = np.float64, direction: int = 1
+) -> NDArray:
+    """Wrapped phase in [0, 2*pi) of one set, every pixel kept (saturated and dark ones too).
+
+    The phase of :func:`decode_set` without its quality maps and validity: what the
+    reproduction's sweeps need, millions of times. Sinusoidal sets use :func:`sinusoidal_phase`
+    (Eq. 2.2) in ``dtype``; triangular sets :func:`triangular_3step` (Eq. 2.9) or
+    :func:`triangular_2step` (Eq. 2.8), which compute in float64 only.
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W)
+        Shift k at index k.
+    spec : FringeSpec
+        What was projected (pattern and steps choose the algorithm).
+    dtype : {float64, float32}
+        Precision of the sinusoidal decoding (float32: the sweeps); triangular sets refuse
+        anything but float64.
+    direction : {1, -1}
+        For triangular 2-step only, see :func:`triangular_2step`.
+
+    Returns
+    -------
+    ndarray, shape (H, W)
+        The wrapped phase, in ``dtype``.
+
+    Examples
+    --------
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> spec = FringeSpec("sinusoidal", 3, 8.0)
+    >>> x = np.arange(16.0)
+    >>> imgs = np.stack([100 + 50 * fringe_gray(x, spec, k) for k in range(3)])[:, None]
+    >>> phi = wrapped_phase(imgs, spec, dtype=np.float32)
+    >>> phi.dtype, bool(np.allclose(phi[0], np.mod(2*np.pi*x/8, 2*np.pi), atol=1e-5))
+    (dtype('float32'), True)
+
+    References
+    ----------
+    Thesis Eq. 2.2 (sinusoidal), Eq. 2.8 and 2.9 (triangular intensity ratios).
+    """
+    stack = as_stack(images, what="wrapped phase", n_min=2)
+    _check_steps(stack, spec)
+    return _decode(stack, spec, dtype, False, direction)[0]
 
 
 def decode_set(
@@ -380,34 +485,26 @@ def decode_set(
     Returns
     -------
     PhaseResult
+
+    Examples
+    --------
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> spec = FringeSpec("sinusoidal", 4, 8.0)
+    >>> x = np.arange(16.0)
+    >>> imgs = np.stack([np.rint(100 + 90 * fringe_gray(x, spec, k) / 255)
+    ...                  for k in range(4)]).astype(np.uint8)[:, None]
+    >>> res = decode_set(imgs, spec, 8)
+    >>> bool(res.valid.all()), res.saturation_count.max()
+    (True, np.uint8(0))
+
+    References
+    ----------
+    Thesis Eq. 2.2, 2.8, 2.9 (phase), Sec. 3.3 (quality maps, saturation).
     """
-    stack = _as_stack(images, 2, "decode")
-    n = stack.shape[0]
-    if n != spec.steps:
-        raise InputError(
-            f"the {spec.pattern} {spec.steps}-step set has {n} images; "
-            f"give exactly {spec.steps}, shift 0 first"
-        )
-    full = 2**bit_depth - 1
-    if stack.dtype.kind in "ui":
-        if stack.max(initial=0) > full:
-            raise InputError(
-                f"image values reach {int(stack.max())}, above 2^B - 1 = {full} for bit depth "
-                f"{bit_depth}; set the camera bit depth the data were captured with"
-            )
-    if spec.pattern == "sinusoidal":
-        phase, modulation, mean = sinusoidal_phase(stack)
-    elif spec.steps == 3:
-        phase, modulation, mean = triangular_3step(stack)
-    elif spec.steps == 2:
-        phase, _, modulation, mean = triangular_2step(
-            stack, orientation=spec.orientation, direction=direction
-        )
-    else:
-        raise InputError(
-            f"triangular {spec.steps}-step decoding is not supported; use 2 or 3 steps "
-            "(thesis Eq. 2.8 and 2.9) or a sinusoidal set"
-        )
+    stack = as_stack(images, what="decode", n_min=2, bit_depth=bit_depth)
+    _check_steps(stack, spec)
+    phase, modulation, mean = _decode(stack, spec, np.float64, True, direction)
+    assert modulation is not None and mean is not None
     sat = saturation_count(stack, bit_depth)
     thr = default_min_modulation(bit_depth) if min_modulation is None else float(min_modulation)
     valid = np.isfinite(phase) & (modulation >= thr)

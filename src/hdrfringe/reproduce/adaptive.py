@@ -20,8 +20,8 @@ pitch and depth:
 As in the thesis, every method of one pitch and depth is computed from **one** MIGL sweep:
 the set at each MIGL is captured (rendered and given sensor noise) once, the first time a
 method asks for it, and every strategy then reads the same images (:class:`SweepRig`). The
-strategies are the product's own (:func:`hdrfringe.saturation.strategies.lpa`,
-:func:`hdrfringe.saturation.dpa.dpa`); DPA uses the error-correction polynomial trained once
+strategies are the product's own (:func:`hdrfringe.strategies.lpa.lpa`,
+:func:`hdrfringe.strategies.dpa.dpa`); DPA uses the error-correction polynomial trained once
 per reproduction as in Sec. 6.1.2 (:func:`train_correction`). Fringe orders come from the
 known geometry, as in Ch. 4, so the errors are the phase errors the chapters study.
 """
@@ -35,24 +35,26 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._validation import saturation_count
 from hdrfringe.calibration import measurement_mask
-from hdrfringe.captures import ProjectorInfo
+from hdrfringe.captures import CameraSettings, ProjectorInfo
 from hdrfringe.errors import InputError
 from hdrfringe.frames import FringeFrame
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import saturation_count
 from hdrfringe.reproduce.ch4 import (
+    SWEEP_DTYPE,
     THESIS_DEPTHS_MM,
     WHITE_PLATE,
     Ch4Setup,
     PlateSweep,
-    add_sensor_noise,
     calibrate_pattern,
     cell_rng,
     orders_from_expected,
     pattern_spec,
-    wrapped_phase,
+    sweep_phase,
 )
+from hdrfringe.rig.base import RigBase
+from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.saturation.estimate import CorrectionPolynomial
 
@@ -126,7 +128,7 @@ def _migls(top: int, bottom: int, step: int) -> tuple[float, ...]:
 CHECKERBOARD_DEPTHS_MM: tuple[float, ...] = tuple(float(d) for d in range(10, 29, 2))
 LPA_STEPS_CH5: tuple[int, ...] = (1, 2, 3, 5, 10, 15, 20, 30, 45)
 #: DPA as the thesis ran it (10 % and 20 %), and with the pending-pixel bound ("dpab", beyond
-#: the thesis: :func:`hdrfringe.saturation.dpa.bounded_cdf`).
+#: the thesis: :func:`hdrfringe.strategies.dpa.bounded_cdf`).
 DPA_METHODS: tuple[str, ...] = ("dpa-10", "dpa-20", "dpab-10", "dpab-20")
 
 
@@ -177,7 +179,7 @@ def experiments(quick: bool = False) -> dict[str, Experiment]:
 # --------------------------------------------------------------------------------------------
 # one MIGL sweep, captured lazily, shared by every method
 # --------------------------------------------------------------------------------------------
-class SweepRig:
+class SweepRig(RigBase):
     """The rig protocol over one scene position: each MIGL's set is captured once.
 
     ``capture(frames)`` accepts the fringe frames of ``sweep.spec`` at any MIGL; the noisy
@@ -201,7 +203,10 @@ class SweepRig:
     def sets_rendered(self) -> int:
         return len(self._sets)
 
-    def capture(self, frames: Sequence[Any]) -> NDArray:
+    def capture(self, frames: Sequence[Any], settings: CameraSettings | None = None) -> NDArray:
+        """The set's images at the frames' MIGL (camera settings: the reference only)."""
+        if settings is not None and settings != CameraSettings():
+            raise InputError("the sweep rig captures at the reference camera settings only")
         frames = list(frames)
         if not frames or not all(isinstance(f, FringeFrame) for f in frames):
             raise InputError("the sweep rig captures fringe sets only")
@@ -214,7 +219,7 @@ class SweepRig:
         if migl not in self._sets:
             signal = self.sweep.signal(migl, self.lux)
             rng = cell_rng(self.setup, *self.key, migl)
-            self._sets[migl] = add_sensor_noise(signal, self.camera, rng)
+            self._sets[migl] = sensor_readout(signal, self.camera, rng, dtype=SWEEP_DTYPE)
         return self._sets[migl]
 
 
@@ -241,7 +246,7 @@ def _run_method(
 def _errors(
     images: NDArray, spec: FringeSpec, sweep: PlateSweep, cal: Any, mask: NDArray[np.bool_]
 ) -> NDArray[np.float64]:
-    phase = orders_from_expected(wrapped_phase(images, spec), sweep.expected_phase)
+    phase = orders_from_expected(sweep_phase(images, spec), sweep.expected_phase)
     return (cal.height(phase) - sweep.truth_height_mm)[mask]
 
 

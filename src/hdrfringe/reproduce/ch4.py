@@ -15,7 +15,8 @@ measurement, so that the work shared by them is done once:
   (:meth:`~hdrfringe.rig.simulated.SimulatedRig.periodic_basis`) turns every frame of the MIGL
   sweep into one weighted sum (exact: the rig is linear from projected light to signal), and
   the lux levels differ only by the ambient signal;
-* the noise (read and shot noise, as :meth:`SimulatedRig.capture`) is computed in float32 from
+* the noise (read and shot noise, :func:`~hdrfringe.rig.camera.sensor_readout` as in
+  :meth:`SimulatedRig.capture`) is computed in float32 (:data:`SWEEP_DTYPE`) from
   standard normal draws seeded by the pattern, pitch and depth (:func:`depth_normals`: common
   random numbers across MIGL and light), so any cell can be recomputed alone and gives the
   same numbers.
@@ -39,13 +40,9 @@ from numpy.typing import NDArray
 from hdrfringe.calibration import Calibration, calibrate, measurement_mask
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import (
-    saturation_count,
-    sinusoidal_phase_only,
-    triangular_2step,
-    triangular_3step,
-)
-from hdrfringe.rig.modify import lux_to_dn
+from hdrfringe.phase import saturation_count, wrapped_phase
+from hdrfringe.rig.camera import sensor_readout
+from hdrfringe.rig.modify import lux_to_dn, modify_intensity
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, Scene, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
 
@@ -69,6 +66,9 @@ THESIS_LUX: tuple[float, ...] = (0.0, 600.0)
 THESIS_ADDED_LUX: tuple[float, ...] = tuple(float(x) for x in range(100, 1000, 100))
 THESIS_NOISE_SIGMA: tuple[float, ...] = tuple(float(s) for s in range(1, 9))
 THESIS_IMIN = 40.0
+#: Precision of the sweeps' sensor noise, Eq. 4.1 modifications and sinusoidal phase (Eq. 2.2):
+#: float32 halves the memory traffic, and its rounding (~1e-6 relative) is far below the noise.
+SWEEP_DTYPE = np.float32
 #: Saturated shift counts reported (Fig. 4.5: pixels saturated in one, two, three images).
 SATURATED_SHIFTS: tuple[int, ...] = (1, 2, 3)
 
@@ -136,13 +136,37 @@ def pattern_spec(pattern: str, pitch: float, imin: float = THESIS_IMIN) -> Fring
     return FringeSpec(kind, steps, float(pitch), "vertical", imin, 255.0)
 
 
-def wrapped_phase(images: NDArray, spec: FringeSpec) -> NDArray[np.float64]:
-    """Wrapped phase in [0, 2 pi) of one set, every pixel kept (saturated ones too)."""
-    if spec.pattern == "sinusoidal":
-        return sinusoidal_phase_only(images)
-    if spec.steps == 3:
-        return triangular_3step(images)[0]
-    return triangular_2step(images, orientation=spec.orientation)[0]
+def sweep_phase(images: NDArray, spec: FringeSpec) -> NDArray:
+    """Wrapped phase in [0, 2 pi) of one sweep set, every pixel kept (saturated ones too).
+
+    :func:`hdrfringe.phase.wrapped_phase` with the sweeps' precision: sinusoidal sets (Eq. 2.2)
+    in :data:`SWEEP_DTYPE`, triangular sets (Eq. 2.8, 2.9) in float64, their only precision.
+
+    Parameters
+    ----------
+    images : ndarray, shape (N, H, W)
+        The set, shift k at index k.
+    spec : FringeSpec
+        What was projected.
+
+    Returns
+    -------
+    ndarray, shape (H, W)
+
+    Examples
+    --------
+    >>> from hdrfringe.patterns import fringe_gray
+    >>> spec = pattern_spec("sinusoidal-3", 6)
+    >>> imgs = np.stack([fringe_gray(np.arange(12.0), spec, k) for k in range(3)])[:, None]
+    >>> sweep_phase(imgs, spec).dtype, sweep_phase(imgs, pattern_spec("triangular-3", 6)).dtype
+    (dtype('float32'), dtype('float64'))
+
+    References
+    ----------
+    Thesis Eq. 2.2, 2.8, 2.9.
+    """
+    dtype = SWEEP_DTYPE if spec.pattern == "sinusoidal" else np.float64
+    return wrapped_phase(images, spec, dtype=dtype)
 
 
 def orders_from_expected(wrapped: NDArray, expected: NDArray) -> NDArray[np.float64]:
@@ -157,38 +181,6 @@ def cell_rng(setup: Ch4Setup, *key: Any) -> np.random.Generator:
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence([setup.seed, *words])))
 
 
-def add_sensor_noise(
-    signal: NDArray,
-    camera: CameraModel,
-    rng: np.random.Generator | None = None,
-    *,
-    normals: NDArray[np.float32] | None = None,
-) -> NDArray[np.uint16]:
-    """Read and shot noise, rounding and clipping to ``[0, 2^B - 1]`` (as the rig's capture),
-    computed in float32.
-
-    The standard normal draws come from ``rng``, or are given as ``normals`` (same shape as
-    ``signal``): common random numbers, so that captures of one scene under different
-    lighting differ by the lighting alone.
-    """
-    s = signal.astype(np.float32, copy=False)
-    if normals is None:
-        if rng is None:
-            raise InputError("add_sensor_noise needs a generator or the normal draws")
-        normals = rng.standard_normal(s.shape, dtype=np.float32)
-    read = np.float32(camera.read_noise_dn)
-    shot = np.float32(camera.full_scale / camera.full_well_e if camera.full_well_e else 0.0)
-    noisy = np.maximum(s, 0.0)
-    noisy *= shot
-    noisy += read * read
-    np.sqrt(noisy, out=noisy)
-    noisy *= normals
-    noisy += s
-    np.rint(noisy, out=noisy)
-    np.clip(noisy, 0, camera.full_scale, out=noisy)
-    return noisy.astype(camera.dtype)
-
-
 def depth_normals(
     setup: Ch4Setup,
     spec: FringeSpec,
@@ -201,34 +193,14 @@ def depth_normals(
     one pattern, pitch and plate position: **common random numbers**.
 
     Every MIGL and lighting of a position is measured with the same draws, each scaled by
-    that cell's own noise standard deviation (:func:`add_sensor_noise`). A cell is still an
-    exact sample of the camera model; only the cells of one position are correlated, so
-    comparisons over MIGL and light are paired (the trade-off search compares exactly those)
-    while the means over the 25 positions average independent draws. Drawing once per position
-    instead of once per cell removes what was the sweep's largest cost.
+    that cell's own noise standard deviation (:func:`~hdrfringe.rig.camera.sensor_readout`).
+    A cell is still an exact sample of the camera model; only the cells of one position are
+    correlated, so comparisons over MIGL and light are paired (the trade-off search compares
+    exactly those) while the means over the 25 positions average independent draws. Drawing
+    once per position instead of once per cell removes what was the sweep's largest cost.
     """
     rng = cell_rng(setup, *tag, pattern, float(spec.pitch_px), float(depth_mm))
-    return rng.standard_normal((spec.steps, *shape), dtype=np.float32)
-
-
-def modify_fast(
-    images: NDArray,
-    bit_depth: int,
-    add_lux: float,
-    noise: NDArray[np.float32] | None = None,
-) -> NDArray:
-    """Eq. 4.1 in float32 for sweeps: ``clip(rint(I + D + noise), 0, 2^B - 1)`` with ``D`` the
-    gray level of ``add_lux`` (:func:`hdrfringe.rig.modify.lux_to_dn`) and ``noise`` already
-    scaled to its sigma. :func:`~hdrfringe.rig.modify.modify_captures` is the checked, general
-    version (float64); without noise the two agree exactly when ``D`` is a whole number of DN
-    (every multiple of 100 lx at 8 bits)."""
-    out = images.astype(np.float32)
-    out += np.float32(lux_to_dn(add_lux, bit_depth))
-    if noise is not None:
-        out += noise
-    np.rint(out, out=out)
-    np.clip(out, 0, 2**bit_depth - 1, out=out)
-    return out.astype(images.dtype)
+    return rng.standard_normal((spec.steps, *shape), dtype=SWEEP_DTYPE)
 
 
 class PlateSweep:
@@ -328,8 +300,9 @@ def _calibrate_pattern(
     key = ("cal",) if reflectivity == WHITE_PLATE else ("cal", reflectivity)
     for d in (0.0, *depths_mm):
         plate = PlateSweep(d, setup, spec, scene=white_plate(d, reflectivity))
-        imgs = add_sensor_noise(plate.signal(255.0), cam, cell_rng(setup, *key, pattern, pitch, d))
-        phases.append(orders_from_expected(wrapped_phase(imgs, spec), plate.expected_phase))
+        rng = cell_rng(setup, *key, pattern, pitch, d)
+        imgs = sensor_readout(plate.signal(255.0), cam, rng, dtype=SWEEP_DTYPE)
+        phases.append(orders_from_expected(sweep_phase(imgs, spec), plate.expected_phase))
     cal = calibrate(
         phases[0],
         np.stack(phases[1:]),
@@ -352,7 +325,7 @@ def _metrics(
     mask: NDArray[np.bool_],
     bit_depth: int,
 ) -> tuple[float, float, list[float]]:
-    phase = orders_from_expected(wrapped_phase(imgs, spec), plate.expected_phase)
+    phase = orders_from_expected(sweep_phase(imgs, spec), plate.expected_phase)
     err = cal.height(phase)[mask] - plate.depth_mm
     nsat = saturation_count(imgs, bit_depth)[mask]
     fractions = [float(np.count_nonzero(nsat == k)) / nsat.size for k in SATURATED_SHIFTS]
@@ -390,7 +363,7 @@ def ch4_block(
             base = plate.signal(m)
             for i, lux in enumerate(luxes):
                 signal = base + (plate.ambient(lux) - plate.ambient(0.0)) if lux else base
-                imgs = add_sensor_noise(signal, cam, normals=normals)
+                imgs = sensor_readout(signal, cam, normals=normals, dtype=SWEEP_DTYPE)
                 rmse[i, j, k], bias[i, j, k], sat[i, j, k] = _metrics(
                     imgs, spec, plate, cal, mask, cam.bit_depth
                 )
@@ -439,12 +412,14 @@ def ch4_modified_block(
         # Eq. 4.1 noise: one draw per depth, scaled to each sigma (common random numbers)
         z = depth_normals(setup, spec, pattern, d, plate.rig.image_shape, "eq4.1")
         for j, m in enumerate(migls):
-            imgs = add_sensor_noise(plate.signal(m), cam, normals=normals)
+            imgs = sensor_readout(plate.signal(m), cam, normals=normals, dtype=SWEEP_DTYPE)
             for i, lux in enumerate(added_lux):
-                mod = modify_fast(imgs, cam.bit_depth, lux)
+                added = lux_to_dn(lux, cam.bit_depth)
+                mod = modify_intensity(imgs, cam.bit_depth, added, dtype=SWEEP_DTYPE)
                 light[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
             for i, sigma in enumerate(noise_sigma):
-                mod = modify_fast(imgs, cam.bit_depth, noise_lux, np.float32(sigma) * z)
+                added, n = lux_to_dn(noise_lux, cam.bit_depth), SWEEP_DTYPE(sigma) * z
+                mod = modify_intensity(imgs, cam.bit_depth, added, n, dtype=SWEEP_DTYPE)
                 noise[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
     return {"rmse_light_mm": light, "rmse_noise_mm": noise}
 

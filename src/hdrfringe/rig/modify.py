@@ -7,6 +7,10 @@ The thesis simulated added ambient light by modifying real images captured witho
 with ``D`` uniform, the gray level of a given illuminance on the white plate (0.17 gray level/lux
 at 8 bits, Fig. 4.14c), optionally plus zero-mean Gaussian intensity noise (Sec. 4.3.1, sigma 1 to
 8 gray levels).
+
+:func:`modify_intensity` is the one implementation of Eq. 4.1 (float64 for the ``modify``
+command through :func:`modify_captures`, which checks its input and draws the noise; float32
+for the reproduction's Sec. 4.3 sweep, with pre-drawn noise).
 """
 
 from __future__ import annotations
@@ -14,11 +18,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
+from hdrfringe._validation import full_scale
 from hdrfringe.errors import InputError
 
-__all__ = ["lux_to_dn", "modify_captures"]
+__all__ = ["lux_to_dn", "modify_captures", "modify_intensity"]
 
 _THESIS_DN_PER_LUX = 0.17
 
@@ -30,10 +35,69 @@ def lux_to_dn(lux: ArrayLike, bit_depth: int, dn_per_lux: float = _THESIS_DN_PER
     --------
     >>> round(float(lux_to_dn(600, 8)), 9)
     102.0
+
+    References
+    ----------
+    Thesis Fig. 4.14c (0.17 gray level per lux on the white plate, 8 bits).
     """
-    if bit_depth not in range(1, 17):
-        raise InputError(f"camera bit depth must be 1..16, got {bit_depth}")
-    return np.asarray(lux, dtype=np.float64) * dn_per_lux * (2**bit_depth - 1) / 255.0
+    return np.asarray(lux, dtype=np.float64) * dn_per_lux * full_scale(bit_depth) / 255.0
+
+
+def modify_intensity(
+    images: NDArray[np.integer],
+    bit_depth: int,
+    added_dn: ArrayLike = 0.0,
+    noise: ArrayLike | None = None,
+    *,
+    dtype: DTypeLike = np.float64,
+) -> NDArray[np.integer]:
+    """Thesis Eq. 4.1: ``I* = clip(rint(I + D + n), 0, 2^B - 1)``, computed in ``dtype``.
+
+    The one implementation of Eq. 4.1, unchecked (a sweep calls it millions of times):
+    :func:`modify_captures` checks the images and draws the noise for the ``modify`` command.
+
+    Parameters
+    ----------
+    images : ndarray of unsigned integers
+        Captured images, any shape, values in [0, 2^B - 1].
+    bit_depth : int
+        Camera bit depth B.
+    added_dn : float or array_like
+        Added intensity ``D`` in DN, broadcasting to the images' shape (cast to ``dtype``
+        before it is added).
+    noise : array_like, optional
+        Added noise ``n`` in DN, already drawn and scaled to its standard deviation,
+        broadcasting to the images' shape.
+    dtype : {float64, float32}
+        Precision of the sum: float64 for :func:`modify_captures`, float32 for sweeps. Without
+        noise the two agree exactly when ``D`` is a whole number of DN.
+
+    Returns
+    -------
+    ndarray
+        The modified images, same shape and dtype as ``images``.
+
+    Examples
+    --------
+    >>> modify_intensity(np.array([100, 200], dtype=np.uint8), 8, 102.0).tolist()
+    [202, 255]
+    >>> modify_intensity(np.array([10], np.uint8), 8, 0.0, np.array([-20.3]), dtype=np.float32)
+    array([0], dtype=uint8)
+
+    References
+    ----------
+    Thesis Eq. 4.1 (Sec. 4.3).
+    """
+    dt = np.dtype(dtype)
+    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+        raise InputError(f"Eq. 4.1: dtype must be float32 or float64, got {dt}")
+    out = images.astype(dt)
+    out += np.asarray(added_dn, dtype=dt)
+    if noise is not None:
+        out += noise
+    np.rint(out, out=out)
+    np.clip(out, 0, full_scale(bit_depth), out=out)
+    return out.astype(images.dtype)
 
 
 def modify_captures(
@@ -80,6 +144,10 @@ def modify_captures(
     >>> import numpy as np
     >>> modify_captures(np.array([100, 200], dtype=np.uint8), 8, add_lux=600).tolist()
     [202, 255]
+
+    References
+    ----------
+    Thesis Eq. 4.1 and Sec. 4.3.1 (added light and Gaussian noise).
     """
     arr = np.asarray(images)
     if arr.dtype.kind not in "ui":
@@ -87,9 +155,7 @@ def modify_captures(
             f"images must hold integer camera values, got dtype {arr.dtype}; "
             "pass the captured uint8/uint16 arrays"
         )
-    if bit_depth not in range(1, 17):
-        raise InputError(f"camera bit depth must be 1..16, got {bit_depth}")
-    full = 2**bit_depth - 1
+    full = full_scale(bit_depth)
     if arr.size and (int(arr.min()) < 0 or int(arr.max()) > full):
         raise InputError(
             f"image values must lie in 0..{full} for a {bit_depth}-bit camera, found "
@@ -105,18 +171,17 @@ def modify_captures(
     if not np.all(np.isfinite(d)):
         raise InputError("added intensity D must be finite everywhere")
     try:
-        out = arr.astype(np.float64) + d
+        shape = np.broadcast_shapes(arr.shape, d.shape)
     except ValueError:
         raise InputError(
             f"added intensity of shape {d.shape} does not broadcast to images of shape {arr.shape}"
         ) from None
-    if out.shape != arr.shape:
+    if shape != arr.shape:
         raise InputError(
             f"added intensity of shape {d.shape} would change the images' shape {arr.shape}"
         )
+    noise = None
     if noise_sigma > 0:
         rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-        out += noise_sigma * rng.standard_normal(out.shape)
-    np.rint(out, out=out)
-    np.clip(out, 0, full, out=out)
-    return out.astype(arr.dtype)
+        noise = noise_sigma * rng.standard_normal(arr.shape)
+    return modify_intensity(arr, bit_depth, d, noise)

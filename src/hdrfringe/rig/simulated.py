@@ -27,7 +27,8 @@ Radiometry follows thesis Eq. 3.3 with each term parameterised physically::
 The camera then blurs (Gaussian PSF), optionally integrates each pixel's area (supersampling),
 scales by the camera settings (exposure time ``t`` against the camera's reference exposure
 ``t_ref``, gain ``G = 10^(gain_db / 20)``: ``I -> G (t / t_ref) I``), adds read noise (times
-``G``) and shot noise, rounds and clips to ``[0, 2^B - 1]``.
+``G``) and shot noise, rounds and clips to ``[0, 2^B - 1]``
+(:func:`hdrfringe.rig.camera.sensor_readout`).
 
 Line frames (which vary along one projector axis) are sampled from one projector line; frames
 that vary along both axes (:class:`~hdrfringe.frames.PixelwiseFringeFrame`,
@@ -68,6 +69,7 @@ from hdrfringe.frames import (
 )
 from hdrfringe.patterns import precompensate_gamma
 from hdrfringe.rig.base import RigBase
+from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import Scene
 
 __all__ = [
@@ -895,17 +897,9 @@ class SimulatedRig(RigBase):
         settings = self.resolve_settings(settings)
         gain = _gain_factor(settings)
         out = np.empty((len(frames), cam.height, cam.width), dtype=cam.dtype)
-        read = cam.read_noise_dn * gain
-        shot = (cam.full_scale / cam.full_well_e if cam.full_well_e is not None else 0.0) * gain
         for k, frame in enumerate(frames):
             signal = self._signal(frame, settings)
-            if read > 0 or shot > 0:
-                rng = self._frame_rng(frame, settings)
-                std = np.sqrt(read * read + shot * np.maximum(signal, 0.0))
-                signal = signal + std * rng.standard_normal(signal.shape)
-            np.rint(signal, out=signal)
-            np.clip(signal, 0, cam.full_scale, out=signal)
-            out[k] = signal
+            out[k] = sensor_readout(signal, cam, self._frame_rng(frame, settings), gain=gain)
         return out
 
     # --- extras ----------------------------------------------------------------------------

@@ -39,6 +39,13 @@ import numpy as np
 from numpy.polynomial import Polynomial
 from numpy.typing import ArrayLike, NDArray
 
+from hdrfringe._validation import (
+    as_stack,
+    check_bit_depth,
+    full_scale,
+    is_saturated,
+    unsaturated_mask,
+)
 from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.frames import UniformFrame
 from hdrfringe.patterns import FringeSpec
@@ -79,42 +86,18 @@ _MAX_STEPS = 16
 # --------------------------------------------------------------------------------------------
 # input checks
 # --------------------------------------------------------------------------------------------
-def _full_scale(bit_depth: int) -> int:
-    if isinstance(bit_depth, bool) or int(bit_depth) != bit_depth or not 1 <= bit_depth <= 16:
-        raise InputError(f"camera bit depth must be an integer 1..16, got {bit_depth!r}")
-    return 2 ** int(bit_depth) - 1
-
-
 def _stack(images: ArrayLike, bit_depth: int, what: str, n_min: int = 3) -> F64:
-    """The images as float64 (N, H, W), checked against the sensor's full scale."""
-    arr = np.asarray(images)
-    if arr.ndim != 3:
-        raise InputError(
-            f"{what}: expected a stack of shape (N, height, width), got shape {arr.shape}; "
-            "stack the phase-shifted images along axis 0"
-        )
-    n = arr.shape[0]
-    if not n_min <= n <= _MAX_STEPS:
-        raise InputError(
-            f"{what}: needs {n_min}..{_MAX_STEPS} phase-shifted images (shift k at index k), "
-            f"got {n}"
-        )
-    if arr.dtype.kind not in "uif":
-        raise InputError(f"{what}: images must be numeric, got dtype {arr.dtype}")
-    full = _full_scale(bit_depth)
-    if arr.dtype.kind in "ui" and arr.size and int(arr.max()) > full:
-        raise InputError(
-            f"{what}: image values reach {int(arr.max())}, above 2^B - 1 = {full} for bit depth "
-            f"{bit_depth}; pass the bit depth the images were captured with"
-        )
-    return arr.astype(np.float64, copy=False)
+    """The images as float64 (N, H, W), checked (:func:`hdrfringe._validation.as_stack`)."""
+    full_scale(bit_depth)  # a bad bit depth is an error for float stacks too
+    stack = as_stack(images, what=what, n_min=n_min, n_max=_MAX_STEPS, bit_depth=bit_depth)
+    return stack.astype(np.float64, copy=False)
 
 
 def saturation_pattern(images: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
     """Saturated samples, (N, H, W) bool: value ``>= 2^B - 1`` (the contract's ``== 2^B - 1``
     for integer images; float stacks clipped at full scale behave the same)."""
     stack = _stack(images, bit_depth, "saturation pattern", n_min=1)
-    return stack >= _full_scale(bit_depth)
+    return is_saturated(stack, bit_depth)
 
 
 def _design(n: int) -> F64:
@@ -160,7 +143,7 @@ def estimate_saturated_eq62(
             f"Eq. 6.2 is the sinusoidal 4-step case, got {stack.shape[0]} shifts; "
             "use estimate_saturated_lsq for other N"
         )
-    sat = stack >= _full_scale(bit_depth)
+    sat = is_saturated(stack, bit_depth)
     count = sat.sum(axis=0)
     est = stack.copy()
     for k in range(4):
@@ -183,7 +166,7 @@ def _estimate_lsq(stack: F64, bit_depth: int) -> tuple[F64, F64, NDArray[np.intp
     n = stack.shape[0]
     shape = stack.shape[1:]
     flat = stack.reshape(n, -1)
-    sat = flat >= _full_scale(bit_depth)
+    sat = is_saturated(flat, bit_depth)
     codes = np.zeros(flat.shape[1], dtype=np.int64)
     for k in range(n):
         codes |= sat[k].astype(np.int64) << k
@@ -286,9 +269,9 @@ def saturated_peak_lower_bound(images: ArrayLike, bit_depth: int) -> F64:
         (nothing saturated, or every shift saturated: no information beyond ``F``).
     """
     stack = _stack(images, bit_depth, "saturated peak bound")
-    full = float(_full_scale(bit_depth))
+    full = float(full_scale(bit_depth))
     n = stack.shape[0]
-    sat = stack >= full
+    sat = is_saturated(stack, bit_depth)
     lb = np.where(sat, full, stack)
     a_lb = lb.mean(axis=0)
     if n % 2 == 0:
@@ -351,7 +334,7 @@ def true_peak_thesis(index_image: ArrayLike, bit_depth: int, top_migl: float = 2
         step 1 from ``top_migl``). Negative or non-finite values mark pixels never unsaturated;
         they give NaN.
     """
-    full = _full_scale(bit_depth)
+    full = full_scale(bit_depth)
     idx = _index(index_image)
     out = full + (float(top_migl) - idx)
     out[~np.isfinite(idx) | (idx < 0)] = np.nan
@@ -403,9 +386,7 @@ def true_peak_scaled(
     peak = stack.max(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         out = a0 + (peak - a0) * (float(top_migl) - imin) / (mig - imin)
-    out[~np.isfinite(mig) | (mig <= imin) | np.any(stack >= _full_scale(bit_depth), axis=0)] = (
-        np.nan
-    )
+    out[~np.isfinite(mig) | (mig <= imin) | is_saturated(stack, bit_depth).any(axis=0)] = np.nan
     return out
 
 
@@ -443,7 +424,7 @@ def unsaturation_migl(
     """
     if model not in TRUTH_MODELS:
         raise InputError(f"unknown truth model {model!r}; use one of {', '.join(TRUTH_MODELS)}")
-    full = _full_scale(bit_depth)
+    full = full_scale(bit_depth)
     p = np.asarray(peak, dtype=np.float64)
     if model == "thesis":
         return float(capture_migl) - (p - full)
@@ -537,7 +518,7 @@ class CorrectionPolynomial:
     @classmethod
     def identity(cls, bit_depth: int = 8) -> CorrectionPolynomial:
         """No correction (``eps = 0``), for strategies run without training data."""
-        full = float(_full_scale(bit_depth))
+        full = float(full_scale(bit_depth))
         return cls((0.0,), (full, 2.0 * full), order=0, bit_depth=bit_depth)
 
     def to_dict(self) -> dict[str, Any]:
@@ -923,8 +904,7 @@ def training_data_from_rig(
         )
     if isinstance(margin, bool) or int(margin) != margin or margin < 0:
         raise InputError(f"margin must be a non-negative integer of gray levels, got {margin!r}")
-    bits = int(rig.camera_bit_depth)
-    full = _full_scale(bits)
+    bits = check_bit_depth(rig.camera_bit_depth)
     first = rig.capture(spec.frames())
     shape = first.shape[1:]
     composite = first.copy()
@@ -936,7 +916,7 @@ def training_data_from_rig(
     images = first
     while True:
         sets += 1
-        new = (index < 0) & np.all(images < full, axis=0)
+        new = (index < 0) & unsaturated_mask(images, bits)
         index[new] = m
         composite[:, new] = images[:, new]
         due = (index >= 0) & (index - m == margin)
