@@ -130,7 +130,8 @@ def test_rig_capture_is_the_float64_readout_of_its_signal() -> None:
     twin = rig.replace()  # same seed and scene: the same per-frame generators
     shot = cam.full_scale / cam.full_well_e
     for k, frame in enumerate(frames):
-        z = twin._frame_rng(frame).standard_normal(signal[k].shape)  # float64 draws
+        settings = twin.resolve_settings(None)
+        z = twin._frame_rng(frame, settings).standard_normal(signal[k].shape)  # float64 draws
         ref = _readout_reference(signal[k], cam.read_noise_dn, shot, z, cam.full_scale)
         assert np.array_equal(captured[k], ref.astype(np.uint16))
     assert captured.dtype == np.uint16 and captured.max() > 0
