@@ -68,7 +68,9 @@ def test_mypy_is_clean_outside_the_pending_modules() -> None:
             errors[_module_of(str(ROOT / m.group(1)))].append(line)
     assert not stderr.strip(), stderr
     unexpected = {k: v for k, v in errors.items() if k not in PENDING_MYPY}
-    assert not unexpected, "mypy errors:\n" + "\n".join(line for v in unexpected.values() for line in v)
+    assert not unexpected, "mypy errors:\n" + "\n".join(
+        line for v in unexpected.values() for line in v
+    )
     fixed = sorted(PENDING_MYPY - set(errors))
     assert not fixed, f"mypy-clean now, remove from PENDING_MYPY: {fixed}"
 
@@ -102,7 +104,9 @@ def test_public_api_docstrings_follow_numpydoc() -> None:
                 if code in NUMPYDOC_CODES:
                     problems[module].append(f"{qual}: {code} {msg}")
     unexpected = {k: v for k, v in problems.items() if k not in PENDING_DOCS}
-    assert not unexpected, "docstring problems:\n" + "\n".join(line for v in unexpected.values() for line in v)
+    assert not unexpected, "docstring problems:\n" + "\n".join(
+        line for v in unexpected.values() for line in v
+    )
     fixed = sorted(PENDING_DOCS - set(problems))
     assert not fixed, f"docstrings complete now, remove from PENDING_DOCS: {fixed}"
 
