@@ -97,6 +97,7 @@ def with_strategy_options(func: F) -> F:
     Examples
     --------
     >>> import inspect
+    >>> from hdrfringe.cli.measure import measure
     >>> "bound_pending" in inspect.signature(measure).parameters
     True
     """
