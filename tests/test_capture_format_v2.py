@@ -560,3 +560,58 @@ def test_pattern_folder_plays_2d_frames_and_becomes_a_capture_folder(tmp_path: P
     # line frames only: version 1, no side files
     assert write_pattern_folder(tmp_path / "p1", SPEC.frames(), PROJ)["version"] == 1
     assert not (tmp_path / "p1" / "projector").exists()
+
+
+# --- the documented example ---------------------------------------------------------------------
+
+
+def _documented_v2_manifest() -> dict:
+    text = (Path(__file__).parents[1] / "docs" / "capture_format.md").read_text()
+    section = text[text.index("## Version 2") :]
+    start = section.index("```json\n") + len("```json\n")
+    return json.loads(section[start : section.index("```", start)])
+
+
+def test_documented_example_is_valid_and_its_digests_follow_the_documented_rule(
+    tmp_path: Path,
+) -> None:
+    """The example manifest in docs/capture_format.md passes the reader's checks, and its
+    digests are SHA-256 of "<h>x<w>|" + little-endian float32 values of the data it describes,
+    computed here with hashlib from the docs' definition (not with hdrfringe's digest), which
+    the frames also give. Rejects a stale example and a digest convention drifting from the
+    docs (e.g. big-endian, float64, no shape prefix)."""
+    import hashlib
+
+    manifest = _documented_v2_manifest()
+    folder = tmp_path / "doc"
+    folder.mkdir()
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    m = read_manifest(folder)
+    assert m["version"] == 2 and len(m["frames"]) == 7
+    migl = np.full((768, 1024), 255.0)
+    migl[:, :512] = 180.0
+    markers = np.zeros((768, 1024))
+    markers[::64, :] = 255.0
+    for data, entry, frame in (
+        (migl, m["frames"][0], PixelwiseFringeFrame(SPEC, 0, migl)),
+        (markers, m["frames"][3], ImageFrame(markers, "markers")),
+    ):
+        expect = hashlib.sha256(b"768x1024|" + data.astype("<f4").tobytes()).hexdigest()
+        assert entry["content_sha256"] == expect == frame.content_sha256
+        assert entry[frame.DATA_FIELD] == frame.default_data_file()
+    # the described captures write exactly this manifest (file names, fields, version)
+    frames = [
+        *[PixelwiseFringeFrame(SPEC, i, migl) for i in range(3)],
+        ImageFrame(markers, "markers"),
+        *SPEC.frames(),
+    ]
+    caps = Captures(
+        frames,
+        np.zeros((7, 2, 2), np.uint16),
+        12,
+        projector=ProjectorInfo(1024, 768, 8, 2.812),
+        exposure_ms=[8.0] * 3 + [16.0] * 4,
+        gain_db=[0.0] * 3 + [None] + [6.0] * 3,
+    )
+    out = write_capture_folder(tmp_path / "caps", caps)
+    assert json.loads((out / "manifest.json").read_text()) == manifest
