@@ -208,7 +208,17 @@ class FringeSet:
 
     @property
     def is_pixelwise(self) -> bool:
-        """Whether the frames carry a MIGL map (:class:`~hdrfringe.frames.PixelwiseFringeFrame`)."""
+        """Whether the frames carry a MIGL map (:class:`~hdrfringe.frames.PixelwiseFringeFrame`).
+
+        Returns
+        -------
+        bool
+
+        Examples
+        --------
+        >>> group_fringe_sets(FringeSpec(steps=3).frames())[0].is_pixelwise
+        False
+        """
         return self.migl_map_sha256 is not None
 
 
@@ -785,6 +795,7 @@ class Captures:
             ``camera.bit_depth`` and ``frames`` required; ``projector`` and ``scene`` optional.
             Other top-level fields are not kept.
         images : array_like, shape (n_frames, H, W)
+            The camera images, in the manifest's frame order.
         maps : mapping of str to array_like, optional
             The maps' data (the manifest's ``maps`` lists only their files).
         name : str
