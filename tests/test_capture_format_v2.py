@@ -246,6 +246,8 @@ def test_v1_gives_gain_no_meaning_and_refuses_2d_kinds(tmp_path: Path) -> None:
     _edit_manifest(folder, lambda m: m.update(version=1))
     _edit_manifest(folder, lambda m: m["frames"][7].update(kind="image", image="x.png", name="x"))
     _one_line_error(folder, "kind 'image' needs capture format version 2", '"version": 2')
+    _edit_manifest(folder, lambda m: m["frames"][7].update(kind=["image"]))
+    _one_line_error(folder, "unknown kind ['image']; use one of 'fringe', 'centerline', 'uniform'")
 
 
 @pytest.mark.parametrize("version", [3, "2", -1, 0, True, None, 1.5, [1]])

@@ -186,7 +186,7 @@ def _validate_frame(entry: Any, index: int, version: int) -> dict[str, Any]:
     file = _safe_relpath(_require(entry, "file", where), where)
     where = f"manifest frame {index} ({file})"
     kind = _require(entry, "kind", where)
-    if version == 1 and kind in _DATA_FIELDS:
+    if version == 1 and isinstance(kind, str) and kind in _DATA_FIELDS:
         raise _fail(
             where,
             f"kind {kind!r} needs capture format version 2",
