@@ -191,3 +191,26 @@ def test_exposure_of_any_frame_is_read_and_checked(tmp_path: Path) -> None:
     (folder / "manifest.json").write_text(json.dumps(m))
     with pytest.raises(CaptureFormatError, match="field 'exposure_ms' must be positive"):
         read_capture_folder(folder)
+
+
+def test_version_2_manifest_round_trip_in_memory() -> None:
+    """Gains and a pixelwise set go through to_manifest/from_manifest with a loader callback
+    (no file): version 2, the map looked up by the entry's side-file path; without a loader the
+    2-D frame is refused naming load_array; a version-1 manifest's gain_db is ignored."""
+    from hdrfringe.frames import PixelwiseFringeFrame
+
+    proj = ProjectorInfo(8, 6, 8)
+    migl = np.linspace(60, 250, 48).reshape(6, 8)
+    frames = [*(PixelwiseFringeFrame(SPEC, i, migl) for i in range(3)), UniformFrame(9)]
+    caps = Captures(frames, _images(4), 8, projector=proj, gain_db=[None] * 3 + [12.0])
+    m = caps.to_manifest()
+    assert m["version"] == 2 and m["frames"][3]["gain_db"] == 12.0
+    store = {m["frames"][0]["migl_map"]: migl.astype(np.float32)}
+    back = Captures.from_manifest(m, caps.images, load_array=store.__getitem__)
+    assert back.content_hash() == caps.content_hash() and back.gain_db == caps.gain_db
+    assert back.sets[0].migl_map_sha256 == frames[0].content_sha256
+    with pytest.raises(CaptureFormatError, match=r"manifest frame 0 \(0000\.png\).*load_array"):
+        Captures.from_manifest(m, caps.images)
+    plain = Captures([UniformFrame(9)], _images(1), 8).to_manifest()
+    plain["frames"][0]["gain_db"] = 6.0
+    assert Captures.from_manifest(plain, _images(1)).gain_db == (None,)

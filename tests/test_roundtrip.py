@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import tifffile
 
-from hdrfringe.frames import CenterlineFrame
-from hdrfringe.io.captures import simulate_to_folder
+from hdrfringe.frames import CenterlineFrame, PixelwiseFringeFrame
+from hdrfringe.io.captures import read_manifest, simulate_to_folder, write_capture_folder
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.scenes import mask, white_plate
-from hdrfringe.rig.simulated import SimulatedRig
+from hdrfringe.rig.simulated import CameraModel, SimulatedRig
 from tests.conftest import run_cli
 
 TWO_PI = 2 * np.pi
@@ -83,6 +83,43 @@ def test_round_trip_through_files_and_cli(tmp_path: Path) -> None:
     ok = truth.valid & np.isfinite(absolute)
     assert ok.mean() > 0.99
     # absolute phase is 2*pi*u/p itself, not only modulo 2*pi
+    assert np.abs(absolute - TWO_PI * truth.u / pitch)[ok].max() < 1e-3
+
+
+def test_pixelwise_round_trip_through_files_and_cli(tmp_path: Path) -> None:
+    """A per-pixel MIGL set (half the projector at a lower MIGL, a corner below imin) written
+    as a version-2 folder decodes with `hdrfringe phase` to 2*pi*u/p wherever the fringes are
+    visible, absolute through the centerline; where the map is below imin, no fringe: invalid."""
+    camera = CameraModel(
+        width=160, height=120, bit_depth=16, read_noise_dn8=0.0, full_well_e=None, blur_px=0.0
+    )
+    rig = SimulatedRig.ideal(white_plate(12.0), camera=camera)
+    proj = rig.projector
+    pitch = 37.3  # about 6 camera pixels per period at this camera size: spatially unwrappable
+    spec = FringeSpec("sinusoidal", 4, pitch, "vertical", imin=40 * 257, migl=FULL16)
+    migl = np.full((proj.height, proj.width), float(FULL16))
+    migl[:, : proj.width // 2] = 30000.0
+    migl[: proj.height // 4, -proj.width // 4 :] = 0.0  # below imin: imin everywhere
+    frames = [
+        *(PixelwiseFringeFrame(spec, i, migl) for i in range(4)),
+        CenterlineFrame(512, "vertical", FULL16),
+    ]
+    write_capture_folder(tmp_path / "caps", rig.capture_folder(frames))
+    assert read_manifest(tmp_path / "caps")["version"] == 2
+    res = run_cli("phase", str(tmp_path / "caps"), "-o", str(tmp_path / "out"))
+    assert res.returncode == 0, res.stderr
+    truth = rig.truth()
+    wrapped = tifffile.imread(tmp_path / "out" / "wrapped_phase.tiff")
+    absolute = tifffile.imread(tmp_path / "out" / "absolute_phase.tiff")
+    dark = (truth.u > proj.width * 3 / 4 + 2) & (truth.v < proj.height / 4 - 2)
+    lit = truth.valid & ~((truth.u > proj.width * 3 / 4 - 2) & (truth.v < proj.height / 4 + 2))
+    assert dark.sum() > 100 and lit.sum() > 0.5 * truth.valid.sum()
+    assert not np.isfinite(wrapped[dark]).any()
+    ok = lit & np.isfinite(wrapped)
+    assert ok.sum() > 0.99 * lit.sum()
+    assert wrap_err(wrapped, TWO_PI * truth.u / pitch)[ok].max() < 1e-3
+    ok = lit & np.isfinite(absolute)
+    assert ok.sum() > 0.95 * lit.sum()
     assert np.abs(absolute - TWO_PI * truth.u / pitch)[ok].max() < 1e-3
 
 

@@ -17,19 +17,32 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe._validation import check_bit_depth, full_scale
 from hdrfringe.errors import CaptureFormatError, HdrFringeError, InputError
-from hdrfringe.frames import CenterlineFrame, Frame, FringeFrame, UniformFrame, frame_from_manifest
+from hdrfringe.frames import (
+    IMAGE_FRAMES,
+    CenterlineFrame,
+    Frame,
+    FringeFrame,
+    PixelwiseFringeFrame,
+    UniformFrame,
+    frame_from_manifest,
+)
 from hdrfringe.patterns import FringeSpec
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 __all__ = [
     "FORMAT_NAME",
     "FORMAT_VERSION",
+    "FORMAT_VERSIONS",
+    "GAIN_DB_RANGE",
     "CameraSettings",
     "Captures",
     "FringeSet",
@@ -39,8 +52,13 @@ __all__ = [
 
 #: The capture manifest's ``format`` field (docs/capture_format.md).
 FORMAT_NAME = "hdrfringe-captures"
-#: The capture-folder contract version this hdrfringe reads and writes.
-FORMAT_VERSION = 1
+#: The newest capture-folder contract version this hdrfringe reads and writes.
+FORMAT_VERSION = 2
+#: Every capture-folder contract version this hdrfringe reads. It writes version 1 whenever the
+#: captures fit in it (no 2-D frame, no gain), so folders stay readable by older readers.
+FORMAT_VERSIONS = (1, 2)
+#: The camera gains (dB) a frame may record, inclusive.
+GAIN_DB_RANGE = (-20.0, 48.0)
 
 
 @dataclass(frozen=True)
@@ -135,10 +153,11 @@ class CameraSettings:
             raise InputError(
                 f"exposure time must be a positive number of milliseconds, got {self.exposure_ms}"
             )
+        lo, hi = GAIN_DB_RANGE
         if self.gain_db is not None and not (
-            math.isfinite(self.gain_db) and -20.0 <= self.gain_db <= 48.0
+            math.isfinite(self.gain_db) and lo <= self.gain_db <= hi
         ):
-            raise InputError(f"camera gain must be -20..48 dB, got {self.gain_db}")
+            raise InputError(f"camera gain must be {lo:g}..{hi:g} dB, got {self.gain_db}")
 
 
 @dataclass(frozen=True)
@@ -149,9 +168,11 @@ class FringeSet:
     ----------
     label : str
         The manifest's ``set`` label, or a label built from the pattern specification (with
-        ``_e<exposure>`` and ``_gp<gamma>`` appended when the frames give them).
+        ``_map<8 hex>`` for a pixelwise set, ``_e<exposure>``, ``_gain<gain>dB`` and
+        ``_gp<gamma>`` appended when the frames give them).
     spec : FringeSpec
-        The set's pattern specification.
+        The set's pattern specification (for a pixelwise set its ``migl`` is the nominal MIGL;
+        decoding uses the pattern, steps and orientation only).
     frame_indices : tuple of int
         Indices into :attr:`Captures.frames`, ordered by shift (shift 0 first).
     exposure_ms : float or None
@@ -159,6 +180,16 @@ class FringeSet:
     gamma_precompensation : float or None
         Per-set pre-compensation exponent when the frames give one (an hdrfringe addition to
         the contract); None: the projector's ``gamma_precompensation``.
+    gain_db : float or None
+        Camera gain of the set's frames, when given (capture format version 2).
+    migl_map_sha256 : str or None
+        For a set of :class:`~hdrfringe.frames.PixelwiseFringeFrame`: the content digest of its
+        one MIGL map; None for a set of line frames.
+
+    Notes
+    -----
+    Thesis Sec. 2.2: N phase-shifted images of one pattern decode to one wrapped phase
+    (:func:`hdrfringe.phase.decode_set`), whether the pattern's MIGL is one number or a map.
 
     Examples
     --------
@@ -172,6 +203,23 @@ class FringeSet:
     frame_indices: tuple[int, ...]
     exposure_ms: float | None = None
     gamma_precompensation: float | None = None
+    gain_db: float | None = None
+    migl_map_sha256: str | None = None
+
+    @property
+    def is_pixelwise(self) -> bool:
+        """Whether the frames carry a MIGL map (:class:`~hdrfringe.frames.PixelwiseFringeFrame`).
+
+        Returns
+        -------
+        bool
+
+        Examples
+        --------
+        >>> group_fringe_sets(FringeSpec(steps=3).frames())[0].is_pixelwise
+        False
+        """
+        return self.migl_map_sha256 is not None
 
 
 def _per_frame(values: Sequence[Any] | None, n: int, what: str, where: str) -> tuple[Any, ...]:
@@ -185,6 +233,25 @@ def _per_frame(values: Sequence[Any] | None, n: int, what: str, where: str) -> t
             "(None where it does not apply)"
         )
     return out
+
+
+def _is_real(value: Any) -> bool:
+    return (
+        not isinstance(value, bool)
+        and isinstance(value, int | float | np.integer | np.floating)
+        and math.isfinite(value)
+    )
+
+
+def _gain_or_none(value: Any, where: str) -> float | None:
+    if value is None:
+        return None
+    lo, hi = GAIN_DB_RANGE
+    if not _is_real(value) or not lo <= value <= hi:
+        raise CaptureFormatError(
+            f"{where}: gain_db must be a number in {lo:g}..{hi:g} dB, got {value!r}"
+        )
+    return float(value)
 
 
 def _positive_or_none(value: Any, what: str, where: str) -> float | None:
@@ -207,21 +274,27 @@ def group_fringe_sets(
     set_labels: Sequence[str | None] | None = None,
     gamma_precompensation: Sequence[float | None] | None = None,
     names: Sequence[str] | None = None,
+    gain_db: Sequence[float | None] | None = None,
 ) -> list[FringeSet]:
     """Group fringe frames into complete phase-shifted sets (the capture-folder contract).
 
     Frames with a ``set`` label form one set per label; the others form one set per pattern
-    specification, exposure time and gamma pre-compensation. Every set must hold one
-    specification and each shift 0..N-1 exactly once.
+    specification, exposure time, gain and gamma pre-compensation, and, for
+    :class:`~hdrfringe.frames.PixelwiseFringeFrame`, per MIGL map (by content digest). Every
+    set must hold one kind of frame, one specification, one map and one gain, and each shift
+    0..N-1 exactly once.
 
     Parameters
     ----------
     frames : sequence of Frame
-        Only the :class:`~hdrfringe.frames.FringeFrame` entries are grouped.
+        Only the :class:`~hdrfringe.frames.FringeFrame` and
+        :class:`~hdrfringe.frames.PixelwiseFringeFrame` entries are grouped.
     exposure_ms, set_labels, gamma_precompensation : sequence, optional
         Per-frame values (None where not given); default: all None.
     names : sequence of str, optional
         Per-frame names for the messages (e.g. the image files); default: ``frame <index>``.
+    gain_db : sequence of float or None, optional
+        Per-frame camera gain (None where not given); default: all None.
 
     Returns
     -------
@@ -231,7 +304,13 @@ def group_fringe_sets(
     Raises
     ------
     CaptureFormatError
-        A labelled set mixes specifications, or a set misses or repeats a shift.
+        A labelled set mixes kinds, specifications, maps or gains, or a set misses or repeats
+        a shift.
+
+    Notes
+    -----
+    Thesis Sec. 2.2 (N-step phase shifting); the grouping rule is the capture-folder
+    contract's (docs/capture_format.md).
 
     Examples
     --------
@@ -247,45 +326,101 @@ def group_fringe_sets(
     exposures = _per_frame(exposure_ms, n, "exposure_ms", "fringe sets")
     labels = _per_frame(set_labels, n, "set_labels", "fringe sets")
     gammas = _per_frame(gamma_precompensation, n, "gamma_precompensation", "fringe sets")
+    gains = _per_frame(gain_db, n, "gain_db", "fringe sets")
     frame_names = [f"frame {i}" for i in range(n)] if names is None else list(names)
     groups: dict[tuple[Any, ...], list[int]] = {}
     for i, frame in enumerate(frames):
-        if not isinstance(frame, FringeFrame):
+        if not isinstance(frame, FringeFrame | PixelwiseFringeFrame):
             continue
         key: tuple[Any, ...]
         if labels[i] is not None:
             key = ("label", labels[i])
+        elif isinstance(frame, FringeFrame):
+            # the key of version 1 (a gain, absent there, splits sets only where given)
+            key = ("spec", frame.spec, exposures[i], gammas[i], gains[i])
         else:
-            key = ("spec", frame.spec, exposures[i], gammas[i])
+            key = ("map", frame.spec, frame.content_sha256, exposures[i], gammas[i], gains[i])
         groups.setdefault(key, []).append(i)
     sets: list[FringeSet] = []
     for key, idx in groups.items():
-        fringe = [frames[i] for i in idx]
-        spec = fringe[0].spec  # type: ignore[union-attr]
-        label = key[1] if key[0] == "label" else spec.label()
-        exposure = exposures[idx[0]]
-        if exposure is not None and key[0] == "spec":
-            label = f"{label}_e{exposure:g}"
-        gamma = gammas[idx[0]]
-        if gamma is not None and key[0] == "spec":
-            label = f"{label}_gp{gamma:g}"
-        for i, f in zip(idx, fringe, strict=True):
-            if f.spec != spec:  # type: ignore[union-attr]
+        first = frames[idx[0]]
+        assert isinstance(first, FringeFrame | PixelwiseFringeFrame)
+        spec = first.spec
+        digest = first.content_sha256 if isinstance(first, PixelwiseFringeFrame) else None
+        exposure, gamma, gain = exposures[idx[0]], gammas[idx[0]], gains[idx[0]]
+        if key[0] == "label":
+            label = str(key[1])
+        else:
+            label = spec.label()
+            if digest is not None:
+                label = f"{label}_map{digest[:8]}"
+            if exposure is not None:
+                label = f"{label}_e{exposure:g}"
+            if gain is not None:
+                label = f"{label}_gain{gain:g}dB"
+            if gamma is not None:
+                label = f"{label}_gp{gamma:g}"
+        shifts = []
+        for i in idx:
+            f = frames[i]
+            assert isinstance(f, FringeFrame | PixelwiseFringeFrame)
+            if type(f) is not type(first):
+                raise CaptureFormatError(
+                    f"set {label!r}: frame {frame_names[i]} is a {f.kind} frame but "
+                    f"{frame_names[idx[0]]} a {first.kind} frame; give each set one kind"
+                )
+            if f.spec != spec:
                 raise CaptureFormatError(
                     f"set {label!r}: frame {frame_names[i]} has a different pattern "
                     "specification from the rest of its set; give each set one specification"
                 )
-        shifts = sorted(f.shift for f in fringe)  # type: ignore[union-attr]
-        if shifts != list(range(spec.steps)):
+            if isinstance(f, PixelwiseFringeFrame) and f.content_sha256 != digest:
+                raise CaptureFormatError(
+                    f"set {label!r}: frame {frame_names[i]} has a different MIGL map from "
+                    f"{frame_names[idx[0]]}; give the frames of a set one map"
+                )
+            if gains[i] != gain:
+                raise CaptureFormatError(
+                    f"set {label!r}: frame {frame_names[i]} has gain {gains[i]} dB but "
+                    f"{frame_names[idx[0]]} {gain} dB; give the frames of a set one gain"
+                )
+            shifts.append(f.shift)
+        if sorted(shifts) != list(range(spec.steps)):
             raise CaptureFormatError(
-                f"set {label!r}: has shifts {shifts} but a {spec.steps}-step set needs each of "
-                f"0..{spec.steps - 1} exactly once; add or remove frames"
+                f"set {label!r}: has shifts {sorted(shifts)} but a {spec.steps}-step set needs "
+                f"each of 0..{spec.steps - 1} exactly once; add or remove frames"
             )
-        ordered = tuple(sorted(idx, key=lambda i: frames[i].shift))  # type: ignore[union-attr]
+        ordered = tuple(i for _, i in sorted(zip(shifts, idx, strict=True)))
         sets.append(
-            FringeSet(label, spec, ordered, exposure, None if gamma is None else float(gamma))
+            FringeSet(
+                label,
+                spec,
+                ordered,
+                exposure,
+                None if gamma is None else float(gamma),
+                None if gain is None else float(gain),
+                digest,
+            )
         )
     return sets
+
+
+def _check_projector_frames(
+    frames: Sequence[Frame], projector: ProjectorInfo | None, name: str
+) -> None:
+    """Frames with 2-D data need the projector, and must fit its size and bit depth."""
+    for i, f in enumerate(frames):
+        if not isinstance(f, IMAGE_FRAMES):
+            continue
+        if projector is None:
+            raise CaptureFormatError(
+                f"{name}: frame {i} is a {f.kind} frame, whose data covers the projector; "
+                "give the projector (ProjectorInfo with its width, height and bit depth)"
+            )
+        try:
+            f.check_projector(projector.width, projector.height, projector.bit_depth)
+        except InputError as exc:
+            raise CaptureFormatError(f"{name}: frame {i} ({f.kind}): {exc}") from None
 
 
 #: Top-level manifest fields :meth:`Captures.to_manifest` writes itself.
@@ -298,8 +433,12 @@ class Captures:
 
     Validated on construction: one (H, W) image per frame, values within ``0..2^B - 1``
     (:func:`hdrfringe._validation.full_scale`), maps of the image size, complete fringe sets
-    (:func:`group_fringe_sets`). It holds no path: :mod:`hdrfringe.io.captures` reads and
-    writes it as a capture folder (docs/capture_format.md).
+    (:func:`group_fringe_sets`), and frames with 2-D data
+    (:class:`~hdrfringe.frames.PixelwiseFringeFrame`, :class:`~hdrfringe.frames.ImageFrame`)
+    that fit the projector, which must then be given. It holds no path:
+    :mod:`hdrfringe.io.captures` reads and writes it as a capture folder
+    (docs/capture_format.md; version 2 when it holds 2-D frames or gains,
+    :attr:`format_version`).
 
     Parameters
     ----------
@@ -327,6 +466,8 @@ class Captures:
         Float maps of the image size, e.g. ``truth_height_mm``.
     name : str
         A label for messages only (the folder reader sets it to the folder path).
+    gain_db : sequence of float or None, optional
+        Per-frame camera gain in dB, -20..48 (None: not given); default all None.
 
     Raises
     ------
@@ -366,6 +507,7 @@ class Captures:
     gamma_precompensation: tuple[float | None, ...] = ()
     maps: dict[str, NDArray[Any]] = field(default_factory=dict, repr=False)
     name: str = "<memory>"
+    gain_db: tuple[float | None, ...] = ()
     _sets: tuple[FringeSet, ...] = field(init=False, repr=False, default=())
 
     def __post_init__(self) -> None:
@@ -411,6 +553,10 @@ class Captures:
                 _per_frame(self.gamma_precompensation, n, "gamma_precompensation", name)
             )
         )
+        gain = tuple(
+            _gain_or_none(v, f"{name}: frame {i}")
+            for i, v in enumerate(_per_frame(self.gain_db, n, "gain_db", name))
+        )
         labels = _per_frame(self.set_labels, n, "set_labels", name)
         for i, label in enumerate(labels):
             if label is not None and not isinstance(label, str):
@@ -434,8 +580,13 @@ class Captures:
                     "regenerate it"
                 )
             maps[str(key)] = arr
+        _check_projector_frames(frames, self.projector, name)
         sets = group_fringe_sets(
-            frames, exposure_ms=exposure, set_labels=labels, gamma_precompensation=gamma
+            frames,
+            exposure_ms=exposure,
+            set_labels=labels,
+            gamma_precompensation=gamma,
+            gain_db=gain,
         )
         for attr, value in (
             ("frames", frames),
@@ -444,6 +595,7 @@ class Captures:
             ("camera", camera),
             ("scene", dict(self.scene)),
             ("exposure_ms", exposure),
+            ("gain_db", gain),
             ("set_labels", labels),
             ("gamma_precompensation", gamma),
             ("maps", maps),
@@ -465,6 +617,33 @@ class Captures:
     def sets(self) -> tuple[FringeSet, ...]:
         """The complete fringe sets (:func:`group_fringe_sets`), in order of first frame."""
         return self._sets
+
+    @property
+    def format_version(self) -> int:
+        """The capture-format version a folder of these captures needs.
+
+        1 unless a frame has 2-D data (:data:`hdrfringe.frames.IMAGE_FRAMES`) or records a
+        gain, which only version 2 describes (docs/capture_format.md).
+
+        Returns
+        -------
+        int
+            1 or 2.
+
+        Examples
+        --------
+        >>> import dataclasses
+        >>> import numpy as np
+        >>> from hdrfringe.frames import UniformFrame
+        >>> caps = Captures([UniformFrame(9)], np.zeros((1, 2, 2), np.uint8), 8)
+        >>> caps.format_version, dataclasses.replace(caps, gain_db=[6.0]).format_version
+        (1, 2)
+        """
+        if any(isinstance(f, IMAGE_FRAMES) for f in self.frames):
+            return 2
+        if any(g is not None for g in self.gain_db):
+            return 2
+        return 1
 
     @property
     def image_shape(self) -> tuple[int, int]:
@@ -534,6 +713,8 @@ class Captures:
         entry = self.frames[i].manifest_entry(file)
         if self.exposure_ms[i] is not None:
             entry["exposure_ms"] = self.exposure_ms[i]
+        if self.gain_db[i] is not None:
+            entry["gain_db"] = self.gain_db[i]
         if self.set_labels[i] is not None:
             entry["set"] = self.set_labels[i]
         if self.gamma_precompensation[i] is not None:
@@ -555,7 +736,8 @@ class Captures:
         Returns
         -------
         dict
-            JSON-ready; maps are listed as ``<key>.tiff``.
+            JSON-ready, of version :attr:`format_version`; maps are listed as ``<key>.tiff``,
+            2-D frames name their side files by content (``default_data_file()``).
 
         Examples
         --------
@@ -571,7 +753,7 @@ class Captures:
             raise InputError(f"{self.name}: {len(names)} file names for {n} frames; give one each")
         manifest: dict[str, Any] = {
             "format": FORMAT_NAME,
-            "version": FORMAT_VERSION,
+            "version": self.format_version,
             "camera": {"bit_depth": self.camera_bit_depth, **self.camera},
         }
         if self.projector is not None:
@@ -598,12 +780,14 @@ class Captures:
         maps: Mapping[str, ArrayLike] | None = None,
         *,
         name: str = "<memory>",
+        load_array: Callable[[str], NDArray[Any]] | None = None,
     ) -> Captures:
         """Captures from a (validated) capture manifest and the images it lists, in its order.
 
         The manifest's fields are checked by :func:`hdrfringe.io.captures.read_manifest`; this
-        builds the frames, the per-frame ``exposure_ms`` (any frame), ``set`` and
-        ``gamma_precompensation`` (fringe frames), and names the image files in its messages.
+        builds the frames, the per-frame ``exposure_ms`` (any frame), ``gain_db`` (any frame,
+        version 2 only: version 1 gives it no meaning), ``set`` and ``gamma_precompensation``
+        (fringe and pixelwise fringe frames), and names the image files in its messages.
 
         Parameters
         ----------
@@ -611,10 +795,15 @@ class Captures:
             ``camera.bit_depth`` and ``frames`` required; ``projector`` and ``scene`` optional.
             Other top-level fields are not kept.
         images : array_like, shape (n_frames, H, W)
+            The camera images, in the manifest's frame order.
         maps : mapping of str to array_like, optional
             The maps' data (the manifest's ``maps`` lists only their files).
         name : str
             Label for messages.
+        load_array : callable, optional
+            ``load_array(path)`` returns the array of a frame's side file (the path as the
+            entry writes it); needed for frames with 2-D data, see
+            :func:`hdrfringe.frames.frame_from_manifest`.
 
         Returns
         -------
@@ -623,8 +812,9 @@ class Captures:
         Raises
         ------
         CaptureFormatError
-            Frames that cannot be built, incomplete sets (naming the files), or anything
-            :class:`Captures` refuses.
+            Frames that cannot be built (including a side file ``load_array`` refuses or whose
+            content differs from the entry's digest), incomplete sets (naming the files), or
+            anything :class:`Captures` refuses.
 
         Examples
         --------
@@ -639,13 +829,15 @@ class Captures:
         frames: list[Frame] = []
         for i, entry in enumerate(entries):
             try:
-                frames.append(frame_from_manifest(entry))
+                frames.append(frame_from_manifest(entry, load_array))
             except HdrFringeError as exc:
                 raise CaptureFormatError(
                     f"manifest frame {i} ({entry.get('file')}): {exc}"
                 ) from None
-        fringe = [isinstance(f, FringeFrame) for f in frames]
+        fringe = [isinstance(f, FringeFrame | PixelwiseFringeFrame) for f in frames]
         exposure = tuple(e.get("exposure_ms") for e in entries)
+        has_gain = manifest.get("version", FORMAT_VERSION) != 1  # no meaning in version 1
+        gain = tuple(e.get("gain_db") if has_gain else None for e in entries)
         labels = tuple(e.get("set") if fr else None for e, fr in zip(entries, fringe, strict=True))
         gamma = tuple(
             e.get("gamma_precompensation") if fr else None
@@ -658,6 +850,7 @@ class Captures:
             set_labels=labels,
             gamma_precompensation=gamma,
             names=[str(e.get("file", f"frame {i}")) for i, e in enumerate(entries)],
+            gain_db=gain,
         )
         camera = manifest["camera"]
         projector = manifest.get("projector")
@@ -673,6 +866,7 @@ class Captures:
             gamma_precompensation=gamma,
             maps={k: np.asarray(v) for k, v in (maps or {}).items()},
             name=name,
+            gain_db=gain,
         )
 
     def content_hash(self) -> str:

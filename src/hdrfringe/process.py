@@ -8,8 +8,9 @@ Rules (documented in docs/phase.md):
 
 * Every complete fringe set is decoded (:func:`hdrfringe.phase.decode_set`).
 * Sets that differ only in pitch form a *family* (same orientation, pattern, steps, imin, migl,
-  exposure). The primary family is the vertical one at the highest MIGL (horizontal if there is
-  no vertical set); a horizontal family is processed as well when present.
+  exposure, gain and, for sets of per-pixel fringes, MIGL map). The primary family is the
+  vertical one at the highest MIGL (horizontal if there is no vertical set); a horizontal
+  family is processed as well when present.
 * In a family with several pitches, the coarsest is unwrapped spatially unless one period covers
   the projector (then it needs no unwrapping), and the finer ones temporally, coarse to fine.
   With one pitch, the phase is unwrapped spatially.
@@ -61,7 +62,17 @@ class FolderPhase:
 
 def _family_key(s: FringeSet) -> tuple:
     sp = s.spec
-    return (sp.orientation, sp.pattern, sp.steps, sp.imin, sp.migl, s.exposure_ms)
+    # gain and map are None for every set of a version-1 folder: the same families as before
+    return (
+        sp.orientation,
+        sp.pattern,
+        sp.steps,
+        sp.imin,
+        sp.migl,
+        s.exposure_ms,
+        s.gain_db,
+        s.migl_map_sha256,
+    )
 
 
 def group_families(sets: Sequence[FringeSet]) -> list[list[FringeSet]]:

@@ -1,11 +1,14 @@
-"""Capture folders (version 1 of the contract in docs/capture_format.md): read, validate, write.
+"""Capture folders (versions 1 and 2 of the contract in docs/capture_format.md): read, validate,
+write.
 
-A capture folder is a ``manifest.json`` plus the single-channel PNG or TIFF images it names; in
-memory it is a :class:`hdrfringe.captures.Captures`. :func:`read_capture_folder` validates
-everything (manifest fields, file paths, image sizes, bit depth, complete fringe sets, maps)
-*before* any processing starts, so a bad folder fails with one clear
-:class:`~hdrfringe.errors.CaptureFormatError` and no output is written;
-:func:`write_capture_folder` writes a :class:`~hdrfringe.captures.Captures` as a folder.
+A capture folder is a ``manifest.json`` plus the single-channel PNG or TIFF images it names and,
+in version 2, the side files holding the 2-D data of projector-image frames (MIGL maps, projector
+images); in memory it is a :class:`hdrfringe.captures.Captures`. :func:`read_capture_folder`
+validates everything (manifest fields, file paths, image sizes, bit depth, side files from their
+headers before decoding, content digests, complete fringe sets, maps) *before* any processing
+starts, so a bad folder fails with one clear :class:`~hdrfringe.errors.CaptureFormatError` and no
+output is written; :func:`write_capture_folder` writes a :class:`~hdrfringe.captures.Captures` as
+a folder, in version 1 whenever the captures fit in it.
 """
 
 from __future__ import annotations
@@ -21,9 +24,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe._validation import full_scale, is_saturated
-from hdrfringe.captures import FORMAT_NAME, FORMAT_VERSION, Captures
+from hdrfringe.captures import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    FORMAT_VERSIONS,
+    GAIN_DB_RANGE,
+    Captures,
+    ProjectorInfo,
+)
 from hdrfringe.errors import CaptureFormatError
-from hdrfringe.frames import Frame
+from hdrfringe.frames import IMAGE_FRAMES, Frame
 from hdrfringe.io.results import read_map_tiff, staged_output_dir, write_map_tiff
 from hdrfringe.patterns import ORIENTATIONS, PATTERNS
 
@@ -33,17 +43,38 @@ if TYPE_CHECKING:
 __all__ = [
     "FORMAT_NAME",
     "FORMAT_VERSION",
+    "FORMAT_VERSIONS",
     "IMAGE_SUFFIXES",
+    "MAX_SIDE_FILE_PIXELS",
     "RGB_LUMA_WEIGHTS",
     "load_image",
+    "load_side_file",
     "read_capture_folder",
     "read_manifest",
     "simulate_to_folder",
     "write_capture_folder",
+    "write_side_files",
 ]
 
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
 MAP_SUFFIXES = (".tif", ".tiff")
+
+#: Frame kinds of each capture-format version (version 2 adds the frames with 2-D data).
+_KINDS = {
+    1: ("fringe", "centerline", "uniform"),
+    2: ("fringe", "centerline", "uniform", "pixelwise_fringe", "image"),
+}
+#: The manifest field naming the side file, per kind with 2-D data.
+_DATA_FIELDS = {"pixelwise_fringe": "migl_map", "image": "image"}
+#: Most projector pixels a folder with side files may declare (a side file is checked against
+#: the projector from its header, before decoding): 2^26, twice an 8K projector's 33 Mpx.
+MAX_SIDE_FILE_PIXELS = 1 << 26
+#: Side-file containers read, by dtype (float32 only in TIFF).
+_SIDE_DTYPES = {
+    ".png": (np.dtype(np.uint8), np.dtype(np.uint16)),
+    ".tif": (np.dtype(np.float32), np.dtype(np.uint8), np.dtype(np.uint16)),
+    ".tiff": (np.dtype(np.float32), np.dtype(np.uint8), np.dtype(np.uint16)),
+}
 
 #: Luma weights (ITU-R BT.601) used when a capture is an RGB image.
 RGB_LUMA_WEIGHTS = (0.299, 0.587, 0.114)
@@ -86,9 +117,9 @@ def _choice(entry: dict[str, Any], key: str, where: str, allowed: Sequence[str])
     return str(v)
 
 
-def _safe_relpath(file: Any, where: str) -> str:
+def _safe_relpath(file: Any, where: str, key: str = "file") -> str:
     if not isinstance(file, str) or not file:
-        raise _fail(where, f"field 'file' must be a non-empty string, got {file!r}", "fix it")
+        raise _fail(where, f"field '{key}' must be a non-empty string, got {file!r}", "fix it")
     norm = posixpath.normpath(file.replace("\\", "/"))
     if posixpath.isabs(norm) or norm == ".." or norm.startswith("../") or ":" in norm.split("/")[0]:
         raise _fail(
@@ -101,7 +132,52 @@ def _safe_relpath(file: Any, where: str) -> str:
     return norm
 
 
-def _validate_frame(entry: Any, index: int) -> dict[str, Any]:
+def _check_fringe_fields(entry: dict[str, Any], where: str) -> None:
+    pattern = _choice(entry, "pattern", where, PATTERNS)
+    min_steps = 3 if pattern == "sinusoidal" else 2
+    steps = _integer(entry, "steps", where, min_steps, 1000)
+    _integer(entry, "shift", where, 0, steps - 1)
+    _number(entry, "pitch", where, positive=True)
+    _choice(entry, "orientation", where, ORIENTATIONS)
+    imin = _number(entry, "imin", where)
+    migl = _number(entry, "migl", where)
+    if not 0 <= imin < migl:
+        raise _fail(
+            where,
+            f"need 0 <= imin < migl, got imin={imin:g}, migl={migl:g}",
+            "fix the manifest",
+        )
+    if "exposure_ms" in entry:
+        _number(entry, "exposure_ms", where, positive=True)
+    if "gamma_precompensation" in entry:
+        _number(entry, "gamma_precompensation", where, positive=True)
+    if "set" in entry and not isinstance(entry["set"], str):
+        raise _fail(where, f"field 'set' must be a string label, got {entry['set']!r}", "fix it")
+
+
+def _check_side_file_fields(entry: dict[str, Any], kind: str, where: str) -> str:
+    """Version 2: the side-file path (normalised) and the optional content digest."""
+    key = _DATA_FIELDS[kind]
+    rel = _safe_relpath(_require(entry, key, where), where, key)
+    digest = entry.get("content_sha256")
+    if digest is not None and not (
+        isinstance(digest, str)
+        and len(digest) == 64
+        and all(c in "0123456789abcdef" for c in digest)
+    ):
+        raise _fail(
+            where,
+            f"field 'content_sha256' must be 64 lowercase hex digits, got {digest!r}",
+            "rewrite it from the side file or leave it out",
+        )
+    if kind == "image":
+        name = _require(entry, "name", where)
+        if not isinstance(name, str) or not name.strip():
+            raise _fail(where, f"field 'name' must be a non-empty string, got {name!r}", "fix it")
+    return rel
+
+
+def _validate_frame(entry: Any, index: int, version: int) -> dict[str, Any]:
     where = f"manifest frame {index}"
     if not isinstance(entry, dict):
         raise _fail(
@@ -109,40 +185,37 @@ def _validate_frame(entry: Any, index: int) -> dict[str, Any]:
         )
     file = _safe_relpath(_require(entry, "file", where), where)
     where = f"manifest frame {index} ({file})"
-    kind = _choice(entry, "kind", where, ("fringe", "centerline", "uniform"))
+    kind = _require(entry, "kind", where)
+    if version == 1 and isinstance(kind, str) and kind in _DATA_FIELDS:
+        raise _fail(
+            where,
+            f"kind {kind!r} needs capture format version 2",
+            'set "version": 2 in the manifest (docs/capture_format.md)',
+        )
+    kind = _choice(entry, "kind", where, _KINDS[version])
     out = dict(entry)
     out["file"] = file
-    if kind == "fringe":
-        pattern = _choice(entry, "pattern", where, PATTERNS)
-        min_steps = 3 if pattern == "sinusoidal" else 2
-        steps = _integer(entry, "steps", where, min_steps, 1000)
-        _integer(entry, "shift", where, 0, steps - 1)
-        _number(entry, "pitch", where, positive=True)
-        _choice(entry, "orientation", where, ORIENTATIONS)
-        imin = _number(entry, "imin", where)
-        migl = _number(entry, "migl", where)
-        if not 0 <= imin < migl:
-            raise _fail(
-                where,
-                f"need 0 <= imin < migl, got imin={imin:g}, migl={migl:g}",
-                "fix the manifest",
-            )
-        if "exposure_ms" in entry:
-            _number(entry, "exposure_ms", where, positive=True)
-        if "gamma_precompensation" in entry:
-            _number(entry, "gamma_precompensation", where, positive=True)
-        if "set" in entry and not isinstance(entry["set"], str):
-            raise _fail(
-                where, f"field 'set' must be a string label, got {entry['set']!r}", "fix it"
-            )
+    if kind in ("fringe", "pixelwise_fringe"):
+        _check_fringe_fields(entry, where)
     elif kind == "centerline":
         _choice(entry, "orientation", where, ORIENTATIONS)
         _number(entry, "position", where)
         _number(entry, "migl", where, positive=True)
-    else:
+    elif kind == "uniform":
         _number(entry, "level", where)
-    if kind != "fringe" and "exposure_ms" in entry:  # any frame may give its exposure time
+    if kind in _DATA_FIELDS:
+        out[_DATA_FIELDS[kind]] = _check_side_file_fields(entry, kind, where)
+    if "exposure_ms" in entry:  # any frame may give its exposure time
         _number(entry, "exposure_ms", where, positive=True)
+    if version >= 2 and "gain_db" in entry:  # version 1 gives gain_db no meaning
+        gain = _number(entry, "gain_db", where)
+        lo, hi = GAIN_DB_RANGE
+        if not lo <= gain <= hi:
+            raise _fail(
+                where,
+                f"field 'gain_db' must be in {lo:g}..{hi:g} dB, got {gain:g}",
+                "fix the manifest",
+            )
     return out
 
 
@@ -189,12 +262,15 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
             f"format is {manifest.get('format')!r}, not {FORMAT_NAME!r}",
             f'set "format": "{FORMAT_NAME}"',
         )
-    if manifest.get("version") != FORMAT_VERSION:
+    version = manifest.get("version")
+    if isinstance(version, bool) or version not in FORMAT_VERSIONS:
+        readable = " and ".join(str(v) for v in FORMAT_VERSIONS)
         raise _fail(
             where,
-            f"unsupported version {manifest.get('version')!r}",
-            f"this hdrfringe reads version {FORMAT_VERSION}",
+            f"unsupported version {version!r}",
+            f"this hdrfringe reads versions {readable}: write one of them, or update hdrfringe",
         )
+    version = int(version)
     camera = _require(manifest, "camera", where)
     if not isinstance(camera, dict):
         raise _fail(where, "'camera' is not an object", 'use {"bit_depth": B}')
@@ -220,7 +296,25 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     if not isinstance(frames, list) or not frames:
         raise _fail(where, "'frames' must be a non-empty list", "list one entry per image")
     manifest = dict(manifest)
-    manifest["frames"] = [_validate_frame(e, i) for i, e in enumerate(frames)]
+    manifest["frames"] = [_validate_frame(e, i, version) for i, e in enumerate(frames)]
+    with_data = [i for i, e in enumerate(manifest["frames"]) if e["kind"] in _DATA_FIELDS]
+    if with_data:
+        first = f"{where} frame {with_data[0]}"
+        if projector is None or "width" not in projector or "height" not in projector:
+            raise _fail(
+                first,
+                f"a {manifest['frames'][with_data[0]]['kind']} frame's side file covers the "
+                "projector, but the manifest gives no projector width and height",
+                "add them to 'projector'",
+            )
+        pixels = int(projector["width"]) * int(projector["height"])
+        if pixels > MAX_SIDE_FILE_PIXELS:
+            raise _fail(
+                f"{where} projector",
+                f"{projector['width']}x{projector['height']} is {pixels} pixels, more than the "
+                f"{MAX_SIDE_FILE_PIXELS} a side file may hold",
+                "check the projector size",
+            )
     return manifest
 
 
@@ -315,6 +409,149 @@ def _read_map(path: Path, key: str, shape: tuple[int, ...]) -> NDArray:
     return data
 
 
+def _side_file_header(path: Path, suffix: str) -> tuple[tuple[int, ...], str]:
+    """Shape and a description of a side file's pixel type, from its header only."""
+    if suffix == ".png":
+        from PIL import Image
+
+        with Image.open(path) as im:
+            width, height = im.size
+            mode = im.mode
+        if mode not in ("L", "I;16", "I;16B", "I;16L", "I"):
+            raise CaptureFormatError(
+                f"{path}: side file is a PNG of mode {mode}, not single-channel 8- or 16-bit "
+                "gray; store the data as a gray PNG or a float32 TIFF"
+            )
+        return (height, width), mode
+    import tifffile
+
+    with tifffile.TiffFile(path) as tif:
+        n_pages = len(tif.pages)
+        page = tif.pages.first
+        shape, dtype = tuple(page.shape), page.dtype
+    if n_pages != 1:
+        raise CaptureFormatError(
+            f"{path}: side file holds {n_pages} TIFF pages; store one single-channel page"
+        )
+    if dtype not in _SIDE_DTYPES[suffix]:
+        raise CaptureFormatError(
+            f"{path}: side file holds {dtype} values; store float32 (or 8- or 16-bit integers)"
+        )
+    return shape, str(dtype)
+
+
+def load_side_file(path: str | Path, projector: ProjectorInfo) -> NDArray[Any]:
+    """Read one version-2 side file (a frame's 2-D data), checked against the projector.
+
+    The size is checked from the file's header before any pixel is decoded: a side file holds
+    exactly the projector's ``height x width`` values (at most :data:`MAX_SIDE_FILE_PIXELS`),
+    single-channel, as a gray 8- or 16-bit PNG or a float32 (or 8-/16-bit integer) TIFF. After
+    decoding, the values must be finite, non-negative and at most ``2^Bp - 1``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The side file.
+    projector : ProjectorInfo
+        The folder's projector: its ``width``, ``height`` and ``bit_depth`` Bp.
+
+    Returns
+    -------
+    ndarray, shape (projector height, projector width)
+        In the file's dtype (uint8, uint16 or float32).
+
+    Raises
+    ------
+    CaptureFormatError
+        A missing, unreadable, wrongly sized, multi-channel or out-of-range side file.
+
+    Notes
+    -----
+    The values are the projector's linear input gray levels (thesis Eq. 2.17 is applied when a
+    frame is rendered); docs/capture_format.md, "Version 2".
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.io.results import write_map_tiff
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     write_map_tiff(Path(tmp) / "m.tiff", np.full((2, 3), 200.0))
+    ...     data = load_side_file(Path(tmp) / "m.tiff", ProjectorInfo(3, 2, 8))
+    >>> data.dtype, data.shape
+    (dtype('float32'), (2, 3))
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise CaptureFormatError(
+            f"{path}: side file named in the manifest does not exist; add it or fix the manifest"
+        )
+    suffix = path.suffix.lower()
+    expect = (int(projector.height), int(projector.width))
+    try:
+        shape, _ = _side_file_header(path, suffix)
+    except CaptureFormatError:
+        raise
+    except Exception as exc:  # any header parser failure: truncated, corrupt, not an image
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CaptureFormatError(
+            f"{path}: cannot read the side file ({reason}); the file is corrupt or truncated: "
+            "rewrite the folder"
+        ) from None
+    if shape != expect:
+        got = f"{shape[1]}x{shape[0]}" if len(shape) == 2 else f"of shape {shape}"
+        raise CaptureFormatError(
+            f"{path}: side file is {got} but the projector is {expect[1]}x{expect[0]}; store "
+            "one single-channel value per projector pixel (or fix the manifest's projector)"
+        )
+    try:
+        if suffix == ".png":
+            import imageio.v3 as iio
+
+            data = np.asarray(iio.imread(path))
+        else:
+            import tifffile
+
+            data = np.asarray(tifffile.imread(path))
+    except Exception as exc:  # any decoder failure
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise CaptureFormatError(
+            f"{path}: cannot decode the side file ({reason}); the file is corrupt or truncated: "
+            "rewrite the folder"
+        ) from None
+    if data.shape != expect or data.dtype not in _SIDE_DTYPES[suffix]:
+        raise CaptureFormatError(
+            f"{path}: side file decodes to {data.dtype} of shape {data.shape}, not "
+            f"{expect[1]}x{expect[0]} single-channel values; rewrite it"
+        )
+    full = full_scale(projector.bit_depth, "projector bit depth")
+    if data.dtype.kind == "f" and not np.isfinite(data).all():
+        raise CaptureFormatError(
+            f"{path}: side file holds non-finite values; store finite gray levels"
+        )
+    lo, hi = (data.min(), data.max()) if data.size else (0, 0)
+    if lo < 0 or hi > full:
+        raise CaptureFormatError(
+            f"{path}: side file values span {lo:g}..{hi:g}, outside the projector's "
+            f"0..{full} at {projector.bit_depth} bits; fix the data or the projector bit depth"
+        )
+    return data
+
+
+class _SideFileLoader:
+    """``load_array`` for :meth:`Captures.from_manifest`: reads each side file of a folder once."""
+
+    def __init__(self, folder: Path, projector: ProjectorInfo) -> None:
+        self.folder = folder
+        self.projector = projector
+        self._cache: dict[str, NDArray[Any]] = {}
+
+    def __call__(self, rel: str) -> NDArray[Any]:
+        rel = _safe_relpath(rel, f"{self.folder / 'manifest.json'} side file", "side file")
+        if rel not in self._cache:
+            self._cache[rel] = load_side_file(self.folder / rel, self.projector)
+        return self._cache[rel]
+
+
 def read_capture_folder(path: str | Path) -> Captures:
     """Read and fully validate a capture folder.
 
@@ -356,6 +593,13 @@ def read_capture_folder(path: str | Path) -> Captures:
                 "give each frame its own image"
             )
         seen[entry["file"]] = i
+    for i, entry in enumerate(entries):
+        side = entry.get(_DATA_FIELDS.get(entry["kind"], ""))
+        if side is not None and side in seen:
+            raise CaptureFormatError(
+                f"manifest frame {i} names {side} as its side file, but it is the camera image of "
+                f"frame {seen[side]}; keep projector data and camera images in separate files"
+            )
     images: list[NDArray] = []
     shape0: tuple[int, ...] | None = None
     for entry in entries:
@@ -388,7 +632,11 @@ def read_capture_folder(path: str | Path) -> Captures:
                 "in the folder; fix or remove the 'maps' entry"
             )
         maps[key] = _read_map(folder / rel, key, stack.shape[1:])
-    return Captures.from_manifest(manifest, stack, maps, name=str(folder))
+    projector = manifest.get("projector")
+    loader = None
+    if projector is not None:
+        loader = _SideFileLoader(folder, ProjectorInfo.from_manifest(projector))
+    return Captures.from_manifest(manifest, stack, maps, name=str(folder), load_array=loader)
 
 
 def _default_stems(frames: Sequence[Frame]) -> list[str]:
@@ -396,6 +644,91 @@ def _default_stems(frames: Sequence[Frame]) -> list[str]:
     if len(set(stems)) != len(stems):
         stems = [f"{i:04d}_{s}" for i, s in enumerate(stems)]
     return stems
+
+
+def write_side_files(
+    folder: str | Path,
+    frames: Sequence[Frame],
+    entries: Sequence[dict[str, Any]],
+    projector: ProjectorInfo,
+) -> list[str]:
+    """Write the side files of the frames with 2-D data, each distinct file once.
+
+    The path of each comes from the frame's manifest entry (its ``DATA_FIELD``, by default
+    ``default_data_file()``, named by the content digest, so equal data is one file): a ``.tiff``
+    holds float32 (:func:`hdrfringe.io.results.write_map_tiff`), a ``.png`` whole gray levels at
+    the projector's bit depth (8-bit for Bp <= 8, else 16-bit).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The (staging) folder the manifest will be written in; sub-folders are created.
+    frames : sequence of Frame
+        Every frame; line frames are skipped.
+    entries : sequence of dict
+        The frames' manifest entries, in the same order.
+    projector : ProjectorInfo
+        The projector the data must fit (size, bit depth).
+
+    Returns
+    -------
+    list of str
+        The side files written, relative to ``folder``, in first-use order.
+
+    Raises
+    ------
+    CaptureFormatError
+        Two different contents given one path, a path leaving the folder, data that does not
+        fit the projector, or non-whole values for a PNG.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.frames import ImageFrame
+    >>> frames = [ImageFrame(np.eye(2) * 255, "a"), ImageFrame(np.eye(2) * 255, "b")]
+    >>> entries = [f.manifest_entry(f"{i}.png") for i, f in enumerate(frames)]
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     written = write_side_files(tmp, frames, entries, ProjectorInfo(2, 2, 8))
+    >>> len(written), written[0].startswith("projector/image_")
+    (1, True)
+    """
+    import imageio.v3 as iio
+
+    folder = Path(folder)
+    plan: dict[str, Any] = {}
+    for i, (frame, entry) in enumerate(zip(frames, entries, strict=True)):
+        if not isinstance(frame, IMAGE_FRAMES):
+            continue
+        where = f"frame {i} ({entry.get('file')})"
+        rel = _safe_relpath(entry[frame.DATA_FIELD], where, frame.DATA_FIELD)
+        held = plan.setdefault(rel, frame)
+        if held.content_sha256 != frame.content_sha256:
+            raise CaptureFormatError(
+                f"{where}: side file {rel} would hold two different contents; give the frames "
+                "data files of their own (default_data_file names them by content)"
+            )
+    full = full_scale(projector.bit_depth, "projector bit depth")
+    dtype = np.uint8 if projector.bit_depth <= 8 else np.uint16
+    for rel, frame in plan.items():
+        data = frame.data
+        if data.shape != (projector.height, projector.width) or data.max() > full:
+            raise CaptureFormatError(
+                f"side file {rel}: {frame.kind} data of {data.shape[1]}x{data.shape[0]} up to "
+                f"{data.max():g} does not fit the {projector.width}x{projector.height} projector "
+                f"at {projector.bit_depth} bits; fix the frame or the projector"
+            )
+        target = folder / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if rel.lower().endswith(MAP_SUFFIXES):
+            write_map_tiff(target, data)
+        else:
+            if not np.array_equal(data, np.round(data)):
+                raise CaptureFormatError(
+                    f"side file {rel}: a PNG holds whole gray levels but the {frame.kind} data "
+                    "has fractions; name a .tiff side file (float32)"
+                )
+            iio.imwrite(target, data.astype(dtype))
+    return list(plan)
 
 
 def write_capture_folder(
@@ -406,12 +739,17 @@ def write_capture_folder(
     extra: dict[str, Any] | None = None,
     force: bool = False,
 ) -> Path:
-    """Write captures and their manifest as a capture folder (contract version 1).
+    """Write captures and their manifest as a capture folder.
 
-    Images go to PNG: 8-bit for ``camera_bit_depth <= 8``, 16-bit otherwise (float luma is
-    rounded). Maps go beside them as float32 TIFF ``<key>.tiff``, listed in the manifest's
-    ``maps``. The folder is written to a staging directory and moved into place only when
-    complete.
+    The folder is version 1 of the contract when the captures fit in it (no frame with 2-D
+    data, no gain), so such folders are the same, byte for byte, as before version 2 existed;
+    otherwise version 2 (:attr:`Captures.format_version`). Images go to PNG: 8-bit for
+    ``camera_bit_depth <= 8``, 16-bit otherwise (float luma is rounded). Maps go beside them as
+    float32 TIFF ``<key>.tiff``, listed in the manifest's ``maps``. The 2-D data of
+    :class:`~hdrfringe.frames.PixelwiseFringeFrame` and :class:`~hdrfringe.frames.ImageFrame`
+    goes to side files under ``projector/``, named by content so that equal data (the N frames
+    of a pixelwise set) is stored once (:func:`write_side_files`). Everything is written to a
+    staging directory and moved into place only when complete.
 
     Parameters
     ----------
@@ -433,6 +771,15 @@ def write_capture_folder(
     Path
         The folder written.
 
+    Raises
+    ------
+    CaptureFormatError
+        Names that do not match the frames, or side-file data that cannot be stored.
+
+    Notes
+    -----
+    docs/capture_format.md (versions 1 and 2).
+
     Examples
     --------
     >>> import tempfile
@@ -441,8 +788,8 @@ def write_capture_folder(
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     out = write_capture_folder(Path(tmp) / "caps", caps, extra={"lab": "B2"})
     ...     m = json.loads((out / "manifest.json").read_text())
-    >>> m["camera"], m["lab"], m["frames"][0]["file"]
-    ({'bit_depth': 12}, 'B2', 'gray_128.png')
+    >>> m["version"], m["camera"], m["lab"], m["frames"][0]["file"]
+    (1, {'bit_depth': 12}, 'B2', 'gray_128.png')
     """
     import imageio.v3 as iio
 
@@ -457,6 +804,8 @@ def write_capture_folder(
     with staged_output_dir(path, force=force) as tmp:
         for img, stem in zip(captures.images, stems, strict=True):
             iio.imwrite(tmp / f"{stem}.png", np.rint(img).astype(dtype))
+        if captures.projector is not None:  # Captures requires it for frames with 2-D data
+            write_side_files(tmp, captures.frames, manifest["frames"], captures.projector)
         for key, data in captures.maps.items():
             write_map_tiff(tmp / f"{key}.tiff", data)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")

@@ -2,7 +2,9 @@
 
 The manifest has the same frame entries as a capture manifest (``format``
 ``"hdrfringe-patterns"``), so a capture program can copy it, add ``camera`` and the captured
-files, and produce a capture folder.
+files, and produce a capture folder. Frames with 2-D data (per-pixel fringes, projector images)
+make it version 2: their side files are written beside the rendered PNGs, under ``projector/``,
+exactly as a capture folder holds them (docs/capture_format.md).
 """
 
 from __future__ import annotations
@@ -15,9 +17,13 @@ from typing import Any
 import numpy as np
 
 from hdrfringe.captures import ProjectorInfo
-from hdrfringe.frames import Frame, render_frame
+from hdrfringe.frames import IMAGE_FRAMES, Frame, render_frame
+from hdrfringe.io.captures import write_side_files
 from hdrfringe.io.results import staged_output_dir
 
+__all__ = ["PATTERN_FORMAT", "write_pattern_folder"]
+
+#: The pattern manifest's ``format`` field.
 PATTERN_FORMAT = "hdrfringe-patterns"
 
 
@@ -31,6 +37,12 @@ def write_pattern_folder(
 ) -> dict[str, Any]:
     """Render every frame for the projector and write PNGs plus ``manifest.json``.
 
+    Each frame's ``file`` is the rendered projector image (gamma pre-compensated, at the
+    projector's bit depth), ``NNN_<stem>.png`` in play order. The manifest is version 1 unless a
+    frame has 2-D data (:data:`hdrfringe.frames.IMAGE_FRAMES`); then it is version 2 and each
+    such entry also names its side file (the MIGL map or the linear image), written once per
+    distinct content (:func:`hdrfringe.io.captures.write_side_files`).
+
     Parameters
     ----------
     path : str or Path
@@ -39,6 +51,8 @@ def write_pattern_folder(
         In play order.
     projector : ProjectorInfo
         Resolution, bit depth and gamma pre-compensation.
+    force : bool
+        Replace an existing non-empty folder.
     progress : callable, optional
         Called once per written frame (for progress bars).
 
@@ -46,18 +60,42 @@ def write_pattern_folder(
     -------
     dict
         The manifest written.
+
+    Raises
+    ------
+    InputError
+        A frame that does not fit the projector (e.g. a MIGL map of another size).
+
+    Notes
+    -----
+    Gamma pre-compensation: thesis Eq. 2.17 (:func:`hdrfringe.frames.render_frame`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.frames import PixelwiseFringeFrame
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> spec = FringeSpec(steps=3)
+    >>> frames = [PixelwiseFringeFrame(spec, i, np.full((4, 8), 200.0)) for i in range(3)]
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     m = write_pattern_folder(Path(tmp) / "p", frames, ProjectorInfo(8, 4, 8))
+    ...     files = [p.relative_to(Path(tmp) / "p").as_posix() for p in Path(tmp).rglob("*.*")]
+    >>> m["version"], len(files), m["frames"][2]["migl_map"] in files  # 3 PNGs, 1 map
+    (2, 5, True)
     """
     import imageio.v3 as iio
 
+    frames = list(frames)
     names: list[str] = []
     for i, f in enumerate(frames):
         stem = f"{i:03d}_{f.default_name()}"
         names.append(f"{stem}.png")
+    entries = [f.manifest_entry(n) for f, n in zip(frames, names, strict=True)]
     manifest: dict[str, Any] = {
         "format": PATTERN_FORMAT,
-        "version": 1,
+        "version": 2 if any(isinstance(f, IMAGE_FRAMES) for f in frames) else 1,
         "projector": projector.to_manifest(),
-        "frames": [f.manifest_entry(n) for f, n in zip(frames, names, strict=True)],
+        "frames": entries,
     }
     with staged_output_dir(path, force=force) as tmp:
         for f, name in zip(frames, names, strict=True):
@@ -71,5 +109,6 @@ def write_pattern_folder(
             iio.imwrite(tmp / name, np.asarray(img))
             if progress is not None:
                 progress()
+        write_side_files(tmp, frames, entries, projector)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return manifest
