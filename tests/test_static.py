@@ -22,7 +22,6 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: Modules with mypy errors still to fix (issue 10, step "mypy clean").
 PENDING_MYPY: set[str] = {
-    "hdrfringe._validation",
     "hdrfringe.calibration",
     "hdrfringe.cli.measure",
     "hdrfringe.demo",
@@ -47,7 +46,6 @@ FRONT_ENDS = ("hdrfringe.cli", "hdrfringe.demo", "hdrfringe.reproduce")
 #: Modules whose docstrings are still to complete (issue 10, step "numpydoc").
 PENDING_DOCS: set[str] = {
     "hdrfringe.calibration",
-    "hdrfringe.errors",
     "hdrfringe.gamma.model",
     "hdrfringe.gamma.nonlinearity",
     "hdrfringe.gamma.selection",
@@ -57,7 +55,6 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.io.phase_maps",
     "hdrfringe.io.results",
     "hdrfringe.measurement",
-    "hdrfringe.patterns",
     "hdrfringe.phase",
     "hdrfringe.process",
     "hdrfringe.rig.base",
@@ -140,13 +137,11 @@ def test_public_api_docstrings_follow_numpydoc() -> None:
 #: Modules without ``__all__`` yet (issue 10, step "__all__ everywhere").
 PENDING_ALL: set[str] = {
     "hdrfringe.demo",
-    "hdrfringe.errors",
     "hdrfringe.io",
     "hdrfringe.io.pattern_folder",
     "hdrfringe.io.phase_maps",
     "hdrfringe.io.results",
     "hdrfringe.measurement",
-    "hdrfringe.patterns",
     "hdrfringe.reproduce",
     "hdrfringe.reproduce.adaptive",
     "hdrfringe.reproduce.adaptive_report",
@@ -154,7 +149,6 @@ PENDING_ALL: set[str] = {
     "hdrfringe.reproduce.ch4_report",
     "hdrfringe.reproduce.engine",
     "hdrfringe.reproduce.runner",
-    "hdrfringe.saturation",
 }
 
 
