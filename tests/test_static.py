@@ -55,7 +55,6 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.io.phase_maps",
     "hdrfringe.io.results",
     "hdrfringe.measurement",
-    "hdrfringe.phase",
     "hdrfringe.process",
     "hdrfringe.rig.base",
     "hdrfringe.rig.camera",
