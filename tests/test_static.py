@@ -67,7 +67,6 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.strategies.dpa",
     "hdrfringe.strategies.lpa",
     "hdrfringe.strategies.uniform",
-    "hdrfringe.unwrap",
 }
 
 
