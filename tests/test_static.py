@@ -22,7 +22,6 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: Modules with mypy errors still to fix (issue 10, step "mypy clean").
 PENDING_MYPY: set[str] = {
-    "hdrfringe.calibration",
     "hdrfringe.cli.measure",
     "hdrfringe.demo",
     "hdrfringe.io.calibration_file",
@@ -45,7 +44,6 @@ FRONT_ENDS = ("hdrfringe.cli", "hdrfringe.demo", "hdrfringe.reproduce")
 
 #: Modules whose docstrings are still to complete (issue 10, step "numpydoc").
 PENDING_DOCS: set[str] = {
-    "hdrfringe.calibration",
     "hdrfringe.gamma.model",
     "hdrfringe.gamma.nonlinearity",
     "hdrfringe.gamma.selection",
