@@ -24,7 +24,6 @@ ROOT = Path(__file__).resolve().parents[1]
 PENDING_MYPY: set[str] = {
     "hdrfringe.cli.measure",
     "hdrfringe.demo",
-    "hdrfringe.io.calibration_file",
     "hdrfringe.reproduce.adaptive_report",
     "hdrfringe.reproduce.ch4",
     "hdrfringe.reproduce.ch4_report",
@@ -47,7 +46,6 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.gamma.model",
     "hdrfringe.gamma.nonlinearity",
     "hdrfringe.gamma.selection",
-    "hdrfringe.io.calibration_file",
     "hdrfringe.io.captures",
     "hdrfringe.io.pattern_folder",
     "hdrfringe.io.phase_maps",
