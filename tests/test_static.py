@@ -51,7 +51,6 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.io.phase_maps",
     "hdrfringe.io.results",
     "hdrfringe.measurement",
-    "hdrfringe.process",
     "hdrfringe.rig.base",
     "hdrfringe.rig.camera",
     "hdrfringe.rig.modify",
