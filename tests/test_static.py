@@ -57,7 +57,6 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.rig.scenes",
     "hdrfringe.rig.simulated",
     "hdrfringe.saturation.dpa_rules",
-    "hdrfringe.saturation.estimate",
     "hdrfringe.strategies.base",
     "hdrfringe.strategies.dpa",
     "hdrfringe.strategies.lpa",
