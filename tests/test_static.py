@@ -56,7 +56,6 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.rig.modify",
     "hdrfringe.rig.scenes",
     "hdrfringe.rig.simulated",
-    "hdrfringe.saturation.dpa_rules",
     "hdrfringe.strategies.base",
     "hdrfringe.strategies.dpa",
     "hdrfringe.strategies.lpa",
