@@ -22,11 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: Modules with mypy errors still to fix (issue 10, step "mypy clean").
 PENDING_MYPY: set[str] = {
-    "hdrfringe._validation",
-    "hdrfringe.calibration",
     "hdrfringe.cli.measure",
     "hdrfringe.demo",
-    "hdrfringe.io.calibration_file",
     "hdrfringe.reproduce.adaptive_report",
     "hdrfringe.reproduce.ch4",
     "hdrfringe.reproduce.ch4_report",
@@ -46,31 +43,22 @@ FRONT_ENDS = ("hdrfringe.cli", "hdrfringe.demo", "hdrfringe.reproduce")
 
 #: Modules whose docstrings are still to complete (issue 10, step "numpydoc").
 PENDING_DOCS: set[str] = {
-    "hdrfringe.calibration",
-    "hdrfringe.errors",
     "hdrfringe.gamma.model",
     "hdrfringe.gamma.nonlinearity",
     "hdrfringe.gamma.selection",
-    "hdrfringe.io.calibration_file",
     "hdrfringe.io.captures",
     "hdrfringe.io.phase_maps",
     "hdrfringe.io.results",
     "hdrfringe.measurement",
-    "hdrfringe.patterns",
-    "hdrfringe.phase",
-    "hdrfringe.process",
     "hdrfringe.rig.base",
     "hdrfringe.rig.camera",
     "hdrfringe.rig.modify",
     "hdrfringe.rig.scenes",
     "hdrfringe.rig.simulated",
-    "hdrfringe.saturation.dpa_rules",
-    "hdrfringe.saturation.estimate",
     "hdrfringe.strategies.base",
     "hdrfringe.strategies.dpa",
     "hdrfringe.strategies.lpa",
     "hdrfringe.strategies.uniform",
-    "hdrfringe.unwrap",
 }
 
 
@@ -139,12 +127,10 @@ def test_public_api_docstrings_follow_numpydoc() -> None:
 #: Modules without ``__all__`` yet (issue 10, step "__all__ everywhere").
 PENDING_ALL: set[str] = {
     "hdrfringe.demo",
-    "hdrfringe.errors",
     "hdrfringe.io",
     "hdrfringe.io.phase_maps",
     "hdrfringe.io.results",
     "hdrfringe.measurement",
-    "hdrfringe.patterns",
     "hdrfringe.reproduce",
     "hdrfringe.reproduce.adaptive",
     "hdrfringe.reproduce.adaptive_report",
@@ -152,7 +138,6 @@ PENDING_ALL: set[str] = {
     "hdrfringe.reproduce.ch4_report",
     "hdrfringe.reproduce.engine",
     "hdrfringe.reproduce.runner",
-    "hdrfringe.saturation",
 }
 
 

@@ -59,7 +59,7 @@ def check_bit_depth(bit_depth: object, what: str = "camera bit depth") -> int:
     if isinstance(bit_depth, bool) or not isinstance(bit_depth, int | np.integer):
         if not (isinstance(bit_depth, float) and bit_depth.is_integer()):
             raise InputError(f"{what} must be an integer 1..{MAX_BIT_DEPTH}, got {bit_depth!r}")
-    bits = int(bit_depth)  # type: ignore[call-overload]
+    bits = int(bit_depth)
     if not 1 <= bits <= MAX_BIT_DEPTH:
         raise InputError(f"{what} must be an integer 1..{MAX_BIT_DEPTH}, got {bit_depth!r}")
     return bits
@@ -100,6 +100,11 @@ def is_saturated(values: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
     Returns
     -------
     ndarray of bool, same shape as ``values``
+
+    References
+    ----------
+    Thesis Sec. 5.1: an intensity is saturated when it equals the maximum gray level
+    ``2^B - 1`` (255 for an 8-bit camera); Eq. 6.2 marks the saturated shift the same way.
 
     Examples
     --------
@@ -143,12 +148,18 @@ def unsaturated_mask(images: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
     Parameters
     ----------
     images : array_like, shape (N, H, W)
+        Phase-shifted images of one set.
     bit_depth : int
         Camera bit depth B.
 
     Returns
     -------
     ndarray of bool, shape (H, W)
+
+    References
+    ----------
+    Thesis Sec. 5.1, Eq. 5.1: the condition ``I_i < 2^B - 1`` for every shift i under which a
+    pixel's intensities enter the LPA composite.
 
     Examples
     --------

@@ -96,6 +96,21 @@ def phase_difference(phase: ArrayLike, reference_phase: ArrayLike) -> NDArray[np
     -------
     ndarray, same shape as ``phase``
         NaN where either phase is NaN.
+
+    Raises
+    ------
+    InputError
+        When the shapes do not match.
+
+    References
+    ----------
+    Thesis Sec. 2.4, Eq. 2.10.
+
+    Examples
+    --------
+    >>> ref = np.array([[0.5, 1.0, np.nan]])
+    >>> phase_difference(np.stack([ref + 1.0, ref + 2.5]), ref).tolist()
+    [[[1.0, 1.0, nan]], [[2.5, 2.5, nan]]]
     """
     phi = np.asarray(phase, dtype=np.float64)
     ref = np.asarray(reference_phase, dtype=np.float64)
@@ -113,7 +128,7 @@ class _Samples(NamedTuple):
     d: NDArray[np.float64]  # (J, H, W) phase differences, NaN where invalid
     dz: NDArray[np.float64]  # the same with 0 where invalid
     ok: NDArray[np.bool_]  # (J, H, W) finite samples
-    count: NDArray[np.intp]  # (H, W) number of finite samples
+    n_ok: NDArray[np.intp]  # (H, W) number of finite samples
     h: NDArray[np.float64]  # (J,) depths in mm
 
 
@@ -151,7 +166,7 @@ def _linear_k(s: _Samples) -> NDArray[np.float64]:
     den = _psum(s.dz, s.dz)
     with np.errstate(divide="ignore", invalid="ignore"):
         k = num / den
-    k[(s.count < 2) | (den == 0)] = np.nan
+    k[(s.n_ok < 2) | (den == 0)] = np.nan
     return k
 
 
@@ -176,6 +191,20 @@ def fit_linear_k(dphi: ArrayLike, depths: ArrayLike) -> NDArray[np.float64]:
     -------
     ndarray, shape (H, W)
         ``K`` in mm per phase unit; NaN where fewer than 2 finite samples (or all zero).
+
+    References
+    ----------
+    Thesis Sec. 2.5, Eq. 2.14-2.15 (and Eq. 2.11 for the model).
+
+    Examples
+    --------
+    Three plate depths seen as phase differences 4, 8, 12 rad (one sample invalid at pixel
+    (0, 0), which still has two):
+
+    >>> dphi = np.array([4.0, 8.0, 12.0])[:, None, None] * np.ones((1, 2, 3))
+    >>> dphi[0, 0, 0] = np.nan
+    >>> fit_linear_k(dphi, [2.0, 4.0, 6.0]).tolist()
+    [[0.5, 0.5, 0.5], [0.5, 0.5, 0.5]]
     """
     return _linear_k(_samples(dphi, depths))
 
@@ -209,7 +238,7 @@ def _rational_fit(s: _Samples) -> NDArray[np.float64]:
     """``a h_j + b h_j dphi_j = dphi_j`` by least squares per pixel; (2, H, W) ``[a, b]``."""
     h = s.h
     h2 = h * h
-    shape = s.count.shape
+    shape = s.n_ok.shape
     gram = np.empty((*shape, 2, 2))
     rhs = np.empty((*shape, 2))
     gram[..., 0, 0] = _wsum(h2, s.ok.astype(np.float64))
@@ -218,7 +247,7 @@ def _rational_fit(s: _Samples) -> NDArray[np.float64]:
     gram[..., 1, 1] = _wsum(h2, d2)
     rhs[..., 0] = _wsum(h, s.dz)
     rhs[..., 1] = _wsum(h, d2)
-    return _solve_normal(gram, rhs, s.count < 2)
+    return _solve_normal(gram, rhs, s.n_ok < 2)
 
 
 def _rational_sse(s: _Samples, coef: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -244,7 +273,7 @@ def _rational_refine(s: _Samples, coef: NDArray[np.float64]) -> NDArray[np.float
     use = s.ok & np.isfinite(ja) & np.isfinite(r)
     ja[~use] = 0.0
     r[~use] = 0.0
-    shape = s.count.shape
+    shape = s.n_ok.shape
     gram = np.empty((*shape, 2, 2))
     rhs = np.empty((*shape, 2))
     w = ja * ja
@@ -263,7 +292,7 @@ def _rational_refine(s: _Samples, coef: NDArray[np.float64]) -> NDArray[np.float
 
 def _poly_fit(s: _Samples, order: int) -> NDArray[np.float64]:
     """``h = sum_{k=1..order} c_k dphi^k`` by least squares per pixel; (order, H, W)."""
-    shape = s.count.shape
+    shape = s.n_ok.shape
     psums = {}
     p = s.dz.copy()
     rhs = np.empty((*shape, order))
@@ -277,7 +306,7 @@ def _poly_fit(s: _Samples, order: int) -> NDArray[np.float64]:
     for i in range(order):
         for j in range(order):
             gram[..., i, j] = psums[i + j + 2]
-    return _solve_normal(gram, rhs, s.count < max(2, order))
+    return _solve_normal(gram, rhs, s.n_ok < max(2, order))
 
 
 def _fit(s: _Samples, model: str, refine: bool) -> NDArray[np.float64]:
@@ -323,6 +352,20 @@ def fit_model(
     ndarray, shape (M, H, W)
         Coefficient maps, M = ``N_COEFFICIENTS[model]``; NaN where a pixel has fewer than
         ``max(2, M)`` finite samples or a degenerate system.
+
+    References
+    ----------
+    Thesis Sec. 2.5: Eq. 2.15 (linear); the non-linear models of its refs. [61, 62].
+
+    Examples
+    --------
+    Noise-free heights of the rational model ``h = dphi / (1.5 + 0.05 dphi)`` give its
+    coefficients back:
+
+    >>> dphi = np.array([2.0, 4.0, 6.0])[:, None, None]
+    >>> h = (dphi / (1.5 + 0.05 * dphi)).ravel()
+    >>> fit_model(dphi, h, "rational").ravel().round(9).tolist()
+    [1.5, 0.05]
     """
     _check_model(model)
     return _fit(_samples(dphi, depths), model, refine)
@@ -338,11 +381,29 @@ def evaluate_model(coefficients: ArrayLike, dphi: ArrayLike, model: str) -> NDAr
     dphi : array_like, shape (H, W) or (J, H, W)
         Phase differences to the reference plane (Eq. 2.10).
     model : {"linear", "rational", "poly2", "poly3"}
+        The model the coefficients belong to (see :func:`fit_model`).
 
     Returns
     -------
     ndarray, shape of ``dphi``
         Height in mm; NaN where ``dphi`` or a coefficient is NaN or the model diverges.
+
+    Raises
+    ------
+    InputError
+        Unknown model, or coefficients that do not fit it or ``dphi``.
+
+    References
+    ----------
+    Thesis Sec. 2.4, Eq. 2.11 (``linear``).
+
+    Examples
+    --------
+    >>> k = np.full((1, 1, 2), 0.5)
+    >>> evaluate_model(k, np.array([[4.0, np.nan]]), "linear").tolist()
+    [[2.0, nan]]
+    >>> evaluate_model(np.array([[[1.5]], [[0.05]]]), np.array([[5.0]]), "rational").round(6)
+    array([[2.857143]])
     """
     _check_model(model)
     c = np.asarray(coefficients, dtype=np.float64)
@@ -389,14 +450,30 @@ def residual_rms(
     Parameters
     ----------
     coefficients : array_like, shape (M, H, W)
+        Coefficient maps of ``model`` (as from :func:`fit_model`).
     dphi : array_like, shape (J, H, W)
+        Phase differences of the plate positions (Eq. 2.10); NaN = invalid.
     depths : array_like, shape (J,)
-    model : str
+        True plate depths in mm.
+    model : {"linear", "rational", "poly2", "poly3"}
+        The model the coefficients belong to.
 
     Returns
     -------
     ndarray, shape (H, W)
         RMS over the positions where the model height is finite; NaN where there is none.
+
+    References
+    ----------
+    Thesis Sec. 4.1: the RMSE between measured and true depth.
+
+    Examples
+    --------
+    ``K = 0.5`` predicts 1, 2, 3 mm where the plate was at 1, 2, 3.5 mm:
+
+    >>> dphi = np.array([2.0, 4.0, 6.0])[:, None, None]
+    >>> float(residual_rms(np.full((1, 1, 1), 0.5), dphi, [1.0, 2.0, 3.5], "linear")[0, 0])
+    0.28867513459481287
     """
     return _residual_rms(_samples(dphi, depths), np.asarray(coefficients, np.float64), model)
 
@@ -422,6 +499,18 @@ def measurement_mask(
     -------
     ndarray of bool, shape ``shape``
         True inside, False on the border.
+
+    References
+    ----------
+    Thesis Sec. 4.1: measurement pixels are the whole image except a 10 pixel border.
+
+    Examples
+    --------
+    >>> measurement_mask((4, 5), border_px=1).astype(int)
+    array([[0, 0, 0, 0, 0],
+           [0, 1, 1, 1, 0],
+           [0, 1, 1, 1, 0],
+           [0, 0, 0, 0, 0]])
     """
     if len(shape) != 2 or min(shape) < 0:
         raise InputError(f"image shape must be (height, width), got {tuple(shape)}")
@@ -464,9 +553,9 @@ def _median_interior(filled: NDArray[np.float64], window: int, border: int) -> N
     out_rows, out_cols = rows - 2 * border, cols - 2 * border
     padded = np.pad(filled, r, mode="edge")
     order = np.argsort(padded, axis=None, kind="stable")
-    ranks = np.empty(padded.size, dtype=np.int32)
-    ranks[order] = np.arange(padded.size, dtype=np.int32)
-    ranks = ranks.reshape(padded.shape)
+    flat_ranks = np.empty(padded.size, dtype=np.int32)
+    flat_ranks[order] = np.arange(padded.size, dtype=np.int32)
+    ranks = flat_ranks.reshape(padded.shape)
     values = padded.ravel()[order]
     views = sliding_window_view(ranks, (window, window))[
         top : top + out_rows, left : left + out_cols
@@ -510,6 +599,26 @@ def filter_map(
     Returns
     -------
     ndarray, shape (H, W), float64
+        The filtered map; NaN where ``data`` is NaN.
+
+    References
+    ----------
+    Thesis Sec. 4.1: median then mean filter, square windows of 21 pixels, 10 pixel border.
+
+    Examples
+    --------
+    A ramp with a spike and a NaN, 3 x 3 windows and a 1 pixel border: the spike is gone, the
+    NaN stays, and the ramp alone comes back unchanged.
+
+    >>> y, x = np.mgrid[0:5, 0:7]
+    >>> ramp = 0.1 * x + 0.2 * y
+    >>> spiky = ramp.copy()
+    >>> spiky[2, 3], spiky[0, 0] = 50.0, np.nan
+    >>> out = filter_map(spiky, window_px=3, border_px=1)
+    >>> round(float(out[2, 3]), 3), bool(np.isnan(out[0, 0]))
+    (0.756, True)
+    >>> bool(np.allclose(filter_map(ramp, 3, 1), ramp))
+    True
     """
     x = np.array(data, dtype=np.float64)
     if x.ndim != 2:
@@ -546,7 +655,34 @@ def filter_coefficients(
     window_px: int = DEFAULT_WINDOW_PX,
     border_px: int = DEFAULT_BORDER_PX,
 ) -> NDArray[np.float64]:
-    """:func:`filter_map` applied to each map of an (M, H, W) coefficient stack separately."""
+    """:func:`filter_map` applied to each map of an (M, H, W) coefficient stack separately.
+
+    Parameters
+    ----------
+    coefficients : array_like, shape (M, H, W)
+        Coefficient maps (as from :func:`fit_model`); NaN = invalid.
+    window_px : int
+        Odd side of the square windows; 21 in the thesis.
+    border_px : int
+        Unfiltered border width; 10 in the thesis.
+
+    Returns
+    -------
+    ndarray, shape (M, H, W), float64
+        Each map filtered by :func:`filter_map`.
+
+    References
+    ----------
+    Thesis Sec. 4.1.
+
+    Examples
+    --------
+    >>> y, x = np.mgrid[0:5, 0:7]
+    >>> maps = np.stack([0.1 * x + 0.2 * y, np.ones((5, 7))])
+    >>> out = filter_coefficients(maps, window_px=3, border_px=1)
+    >>> out.shape, bool(np.allclose(out, maps))
+    ((2, 5, 7), True)
+    """
     c = np.asarray(coefficients, dtype=np.float64)
     if c.ndim != 3:
         raise InputError(f"coefficients must be an (M, H, W) stack, got shape {c.shape}")
@@ -558,7 +694,29 @@ def filter_coefficients(
 # --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class ResidualStats:
-    """Summary of a per-pixel residual map over the measurement pixels (mm)."""
+    """Summary of a per-pixel residual map over the measurement pixels (mm).
+
+    What :meth:`Calibration.residual_summary` returns for each model.
+
+    Parameters
+    ----------
+    model : str
+        Calibration model of the residual map.
+    median_mm, mean_mm, max_mm : float
+        Median, mean and maximum of the per-pixel RMS over the measurement pixels (NaN when
+        there is none).
+    pixels : int
+        Number of measurement pixels with a finite RMS.
+
+    Examples
+    --------
+    >>> ref = np.zeros((2, 3))
+    >>> cal = calibrate(ref, np.stack([ref + 4.0, ref + 8.1]), [2.0, 4.0],
+    ...                 window_px=1, border_px=0)
+    >>> stats = cal.residual_summary()["linear"]
+    >>> stats.model, round(stats.median_mm, 4), stats.pixels
+    ('linear', 0.0157, 6)
+    """
 
     model: str
     median_mm: float
@@ -607,7 +765,11 @@ def _check_provenance(value: Any, where: str = "provenance") -> None:
 class Calibration:
     """A per-pixel phase-to-height calibration and everything needed to reuse it safely.
 
-    Attributes
+    Made by :func:`calibrate`, stored by :func:`hdrfringe.io.calibration_file.save_calibration`.
+    The constructor checks every field and converts the arrays to float64 (residual maps to
+    float32).
+
+    Parameters
     ----------
     model : {"linear", "rational", "poly2", "poly3"}
         Model :meth:`height` uses.
@@ -633,11 +795,31 @@ class Calibration:
     gamma_precompensation : float or None
         Projector gamma pre-compensation used (Eq. 2.17).
     camera_bit_depth : int or None
-    image_shape : (int, int)
-        Camera image (height, width); from ``reference_phase`` when not given.
+        Bit depth of the camera the calibration was measured with.
+    image_shape : (int, int) or None
+        Camera image (height, width); from ``reference_phase`` when not given (always set
+        after construction).
     provenance : dict
         Package version, date, input folders and their content hashes (given by the caller);
         values are str, int, float, lists of those or nested dicts.
+
+    Raises
+    ------
+    InputError
+        A field of the wrong shape or out of range.
+
+    References
+    ----------
+    Thesis Sec. 2.4-2.5 (Eq. 2.10, 2.11, 2.15) and Sec. 4.1 (filtering, border).
+
+    Examples
+    --------
+    A linear calibration with ``K = 0.5`` mm/rad over a 2 x 3 image:
+
+    >>> cal = Calibration("linear", np.full((2, 3), 0.5), None, np.zeros((2, 3)),
+    ...                   np.array([2.0, 4.0]))
+    >>> cal.image_shape, cal.height(np.full((2, 3), 6.0)).tolist()
+    ((2, 3), [[3.0, 3.0, 3.0], [3.0, 3.0, 3.0]])
     """
 
     model: str
@@ -744,17 +926,19 @@ class Calibration:
         Parameters
         ----------
         absolute_phase : array_like, shape (H, W)
+            Absolute phase map of this camera (radians, NaN = invalid).
 
         Returns
         -------
         ndarray, shape (H, W)
+            Height in mm.
         """
         dphi = self.phase_difference(absolute_phase)
         return evaluate_model(self.model_coefficients, dphi, self.model)
 
     def measurement_mask(self) -> NDArray[np.bool_]:
         """Pixels inside the unfiltered border (those the residual statistics use)."""
-        return measurement_mask(self.image_shape, self.border_px)
+        return measurement_mask(_image_shape(self), self.border_px)
 
     def residual_summary(self, filtered: bool = True) -> dict[str, ResidualStats]:
         """Per model compared: median, mean and max over measurement pixels of the RMS map."""
@@ -784,6 +968,13 @@ class Calibration:
         """
         stats = self.residual_summary(filtered)
         return ", ".join(f"{s.model}: {s.median_mm:.3g} mm" for s in stats.values())
+
+
+def _image_shape(cal: Calibration) -> tuple[int, int]:
+    """``cal.image_shape``, which ``Calibration.__post_init__`` always sets (never None)."""
+    shape = cal.image_shape
+    assert shape is not None, "Calibration.__post_init__ sets image_shape"
+    return shape
 
 
 def _check_depths(depths: NDArray[np.float64]) -> None:
@@ -858,6 +1049,29 @@ def calibrate(
     Returns
     -------
     Calibration
+        The filtered maps, the residual maps of every compared model and the metadata.
+
+    Raises
+    ------
+    InputError
+        Mismatched shapes; fewer than 2 positions (or fewer than a model needs); a depth of 0
+        or repeated; a filter window or border that does not fit the image; an unknown model.
+
+    References
+    ----------
+    Thesis Sec. 2.4-2.5 (Eq. 2.10, 2.15) and Sec. 4.1 (filtering, border).
+
+    Examples
+    --------
+    Three plate positions of a rig with ``K = 0.5`` mm/rad, no filtering:
+
+    >>> ref = np.zeros((2, 3))
+    >>> phases = np.stack([ref + h / 0.5 for h in (2.0, 4.0, 6.0)])
+    >>> cal = calibrate(ref, phases, [2.0, 4.0, 6.0], window_px=1, border_px=0)
+    >>> float(cal.k_map[0, 0]), float(cal.height(ref + 3.0)[1, 2])
+    (0.5, 1.5)
+    >>> cal.describe_residuals()
+    'linear: 0 mm'
     """
     _check_model(model)
     ref = np.asarray(reference_phase, dtype=np.float64)
@@ -929,7 +1143,16 @@ def calibrate(
 # compatibility of a calibration with a measurement
 # --------------------------------------------------------------------------------------------
 class CalibrationMismatchError(HdrFringeError):
-    """A calibration does not fit a measurement (fringe set, image size or bit depth)."""
+    """A calibration does not fit a measurement (fringe set, image size or bit depth).
+
+    Raised by :func:`check_compatible`; its message lists every difference.
+
+    Examples
+    --------
+    >>> err = CalibrationMismatchError("calibration does not fit this measurement: ...")
+    >>> isinstance(err, HdrFringeError)
+    True
+    """
 
 
 def _fmt(v: Any) -> str:
@@ -955,11 +1178,13 @@ def check_compatible(
     Parameters
     ----------
     cal : Calibration
+        The calibration to use.
     spec : FringeSpec
         Fringe set of the measurement.
     image_shape : (int, int)
         Camera image (height, width) of the measurement.
     camera_bit_depth : int
+        Camera bit depth of the measurement.
     source : str or path-like, optional
         Where the calibration came from, for the message.
 
@@ -997,7 +1222,7 @@ def check_compatible(
             diffs.append(("pitch", f"{c.pitch_px:g} px", f"{spec.pitch_px:g} px"))
     shape = (int(image_shape[0]), int(image_shape[1]))
     if cal.image_shape != shape:
-        ch, cw = cal.image_shape
+        ch, cw = _image_shape(cal)
         diffs.append(("image size", f"{cw}x{ch}", f"{shape[1]}x{shape[0]}"))
     if cal.camera_bit_depth is not None and cal.camera_bit_depth != int(camera_bit_depth):
         diffs.append(

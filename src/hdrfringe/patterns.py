@@ -24,15 +24,29 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hdrfringe._validation import check_bit_depth, full_scale
 from hdrfringe.errors import InputError
 
 if TYPE_CHECKING:
     from hdrfringe.frames import FringeFrame
 
+__all__ = [
+    "ORIENTATIONS",
+    "PATTERNS",
+    "FringeSpec",
+    "Orientation",
+    "PatternKind",
+    "fringe_gray",
+    "fringe_profile",
+    "precompensate_gamma",
+]
+
 PatternKind = Literal["sinusoidal", "triangular"]
 Orientation = Literal["vertical", "horizontal"]
 
+#: The fringe patterns, as :attr:`FringeSpec.pattern` spells them.
 PATTERNS: tuple[str, ...] = ("sinusoidal", "triangular")
+#: The fringe orientations, as :attr:`FringeSpec.orientation` spells them.
 ORIENTATIONS: tuple[str, ...] = ("vertical", "horizontal")
 
 
@@ -50,6 +64,11 @@ def fringe_profile(t: ArrayLike, pattern: str) -> NDArray[np.float64]:
     -------
     ndarray
         Values in [-1, 1].
+
+    References
+    ----------
+    Thesis Eq. 2.1 (``cos``) and Eq. 2.5 (the triangle, shifted by a quarter pitch so that it
+    peaks at 0 like the cosine); Eq. 3.1 calls it ``f(x)``.
 
     Examples
     --------
@@ -71,6 +90,7 @@ class FringeSpec:
     Parameters
     ----------
     pattern : {"sinusoidal", "triangular"}
+        Fringe profile (:func:`fringe_profile`).
     steps : int
         Number of phase shifts N (N >= 3 sinusoidal, N >= 2 triangular).
     pitch_px : float
@@ -79,7 +99,25 @@ class FringeSpec:
         "vertical": the pattern varies along the projector's x axis (columns).
     imin, migl : float
         Minimum and maximum input gray level (thesis Eq. 3.8-3.9: ``a = (migl + imin)/2``,
-        ``b = (migl - imin)/2``).
+        ``b = (migl - imin)/2``), ``0 <= imin < migl``.
+
+    Raises
+    ------
+    InputError
+        When a field is outside the ranges above.
+
+    References
+    ----------
+    Thesis Eq. 2.1 and Eq. 2.5 (the patterns), Eq. 2.3 and Eq. 2.7 (the shifts, see
+    :attr:`shifts`), Eq. 3.8-3.10 (the gray range; MIGL is the thesis's ``I_max``).
+
+    Examples
+    --------
+    >>> spec = FringeSpec("sinusoidal", steps=4, pitch_px=8, imin=0, migl=200)
+    >>> spec.shifts.round(4).tolist()
+    [0.0, 1.5708, 3.1416, 4.7124]
+    >>> spec.with_migl(150).label()
+    's4_p8_v_i0_g150'
     """
 
     pattern: PatternKind = "sinusoidal"
@@ -155,6 +193,19 @@ def fringe_gray(coord: ArrayLike, spec: FringeSpec, shift: int) -> NDArray[np.fl
     -------
     ndarray
         Gray level in [imin, migl] (float).
+
+    References
+    ----------
+    Thesis Eq. 2.1 and Eq. 3.1 with ``a``, ``b`` from Eq. 3.8-3.9 (sinusoidal; the N = 4 case is
+    Eq. 6.1), Eq. 2.5 with the shifts of Eq. 2.7 (triangular).
+
+    Examples
+    --------
+    A 4-step sinusoidal set of pitch 8 between gray levels 0 and 200, at x = 0..3 for shift 1:
+
+    >>> spec = FringeSpec("sinusoidal", steps=4, pitch_px=8, imin=0, migl=200)
+    >>> fringe_gray([0, 1, 2, 3], spec, shift=1).round(2).tolist()
+    [100.0, 29.29, 0.0, 29.29]
     """
     if not (0 <= shift < spec.steps):
         raise InputError(
@@ -185,14 +236,31 @@ def precompensate_gamma(
     Returns
     -------
     ndarray of uint8 or uint16
+        uint8 for ``bit_depth <= 8``.
+
+    Raises
+    ------
+    InputError
+        When ``gamma_hat`` is not a positive number or ``bit_depth`` is not an integer 1..16.
+
+    References
+    ----------
+    Thesis Sec. 2.6, Eq. 2.17 (with the projector's nonlinearity ``w = u^gamma`` of Eq. 2.16,
+    the light becomes proportional to ``gray``).
+
+    Examples
+    --------
+    >>> precompensate_gamma([0.0, 63.75, 127.5, 255.0], gamma_hat=2.0).tolist()
+    [0, 128, 180, 255]
+    >>> precompensate_gamma([99.6, 1000.0], bit_depth=10).tolist()
+    [100, 1000]
     """
     if not (math.isfinite(gamma_hat) and gamma_hat > 0):
         raise InputError(f"gamma pre-compensation must be a positive number, got {gamma_hat}")
-    if bit_depth not in range(1, 17):
-        raise InputError(f"projector bit depth must be 1..16, got {bit_depth}")
-    full = float(2**bit_depth - 1)
+    bits = check_bit_depth(bit_depth, "projector bit depth")
+    full = float(full_scale(bits))
     g = np.clip(np.asarray(gray, dtype=np.float64), 0.0, full)
     if gamma_hat != 1.0:
         g = full * (g / full) ** (1.0 / gamma_hat)
-    dtype = np.uint8 if bit_depth <= 8 else np.uint16
+    dtype = np.uint8 if bits <= 8 else np.uint16
     return np.rint(g).astype(dtype)

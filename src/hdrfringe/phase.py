@@ -56,9 +56,9 @@ F64 = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class PhaseResult:
-    """Everything decoded from one phase-shifted set.
+    """Everything decoded from one phase-shifted set (what :func:`decode_set` returns).
 
-    Attributes
+    Parameters
     ----------
     wrapped_phase : ndarray
         ``2*pi*x/p mod 2*pi`` in [0, 2*pi); NaN where ``valid`` is False.
@@ -74,6 +74,24 @@ class PhaseResult:
         Pixels whose phase is trusted (enough modulation, no rejected saturation, inside mask).
     spec : FringeSpec or None
         The set's pattern specification, when known.
+
+    References
+    ----------
+    Thesis Eq. 2.2 (phase), Eq. 3.4-3.6 (quality maps), Sec. 5.1 (saturation).
+
+    Examples
+    --------
+    A full-range 3-step set of pitch 6: at pixels 0, 2 and 4 one shift peaks at 255, so they
+    are saturated and, by default, invalid.
+
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> spec = FringeSpec("sinusoidal", 3, 6.0, imin=0, migl=255)
+    >>> imgs = np.stack([fringe_gray(np.arange(6.0), spec, k) for k in range(3)])[:, None]
+    >>> res = decode_set(np.rint(imgs).astype(np.uint8), spec, bit_depth=8)
+    >>> res.wrapped_phase.shape, res.saturation_count.tolist()
+    ((1, 6), [[1, 0, 1, 0, 1, 0]])
+    >>> res.valid.tolist()
+    [[False, True, False, True, False, True]]
     """
 
     wrapped_phase: F64
@@ -86,7 +104,23 @@ class PhaseResult:
 
 
 def wrap_phase(phase: ArrayLike) -> F64:
-    """Wrap to [0, 2*pi) exactly: ``np.mod`` alone can return 2*pi for tiny negative inputs."""
+    """Wrap to [0, 2*pi) exactly: ``np.mod`` alone can return 2*pi for tiny negative inputs.
+
+    Parameters
+    ----------
+    phase : array_like
+        Phase in radians, any real values.
+
+    Returns
+    -------
+    ndarray of float64
+        ``phase mod 2*pi``, in [0, 2*pi) (a result that rounds to 2*pi becomes 0).
+
+    Examples
+    --------
+    >>> wrap_phase([-1e-18, 7.0, -np.pi]).round(4).tolist()
+    [0.0, 0.7168, 3.1416]
+    """
     out = np.mod(np.asarray(phase, dtype=np.float64), TWO_PI)
     out[out >= TWO_PI] = 0.0
     return out
@@ -295,6 +329,7 @@ def triangular_2step(
     Parameters
     ----------
     images : array_like, shape (2, H, W)
+        Shift 0 and shift 1 (half a period apart).
     orientation : {"vertical", "horizontal"}
         Fringe orientation: "vertical" means the phase grows along camera rows (axis 1).
     direction : {1, -1}
@@ -312,6 +347,24 @@ def triangular_2step(
         ``I_m / 2``.
     mean_intensity : ndarray
         ``(I_1 + I_2) / 2``, which equals ``I_min + I_m/2`` exactly for this pattern.
+
+    References
+    ----------
+    Thesis Eq. 2.8 (intensity ratio), Eq. 2.6 (``I_m``), Sec. 2.3.
+
+    Examples
+    --------
+    Two rows of a pitch-16 set: the unfolded phase gives back the projector coordinate.
+
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> spec = FringeSpec("triangular", 2, 16.0, imin=0, migl=200)
+    >>> x = np.arange(32.0)
+    >>> imgs = np.stack([fringe_gray(x, spec, k) for k in range(2)])[:, None]
+    >>> phi, folded, b, a = triangular_2step(imgs, envelope_px=16)
+    >>> bool(np.allclose(phi[0] * 16 / (2 * np.pi), x % 16)), float(folded.max())
+    (True, 3.141592653589793)
+    >>> float(b[0, 0]), float(a[0, 0])
+    (100.0, 100.0)
     """
     stack = as_stack(images, what="triangular 2-step", n_min=2)
     if stack.shape[0] != 2:
@@ -355,7 +408,29 @@ def _wave_mid_level(f: F64, phase: F64, modulation: F64, pattern: str) -> F64:
 
 
 def data_modulation(modulation: ArrayLike, mean_intensity: ArrayLike) -> F64:
-    """Data modulation ``psi = I' / I''`` (thesis Eq. 3.6); NaN where ``I'' <= 0``."""
+    """Data modulation ``psi = I' / I''`` (thesis Eq. 3.6); NaN where ``I'' <= 0``.
+
+    Parameters
+    ----------
+    modulation : array_like
+        Intensity modulation I' (Eq. 3.4).
+    mean_intensity : array_like
+        Average intensity I'' (Eq. 3.5), broadcastable with ``modulation``.
+
+    Returns
+    -------
+    ndarray of float64
+        ``psi``, shape of the broadcast inputs.
+
+    References
+    ----------
+    Thesis Sec. 3.3, Eq. 3.6.
+
+    Examples
+    --------
+    >>> data_modulation([50.0, 20.0, 5.0], [100.0, 0.0, 10.0]).tolist()
+    [0.5, nan, 0.5]
+    """
     b = np.asarray(modulation, dtype=np.float64)
     a = np.asarray(mean_intensity, dtype=np.float64)
     out = np.full(np.broadcast_shapes(a.shape, b.shape), np.nan)
@@ -368,6 +443,21 @@ def default_min_modulation(bit_depth: int) -> float:
     With Gaussian read noise sigma, the phase noise of N-step decoding is about
     ``sqrt(2/N) * sigma / I'``; at ``I' = 2`` DN and sigma = 1 DN that is 0.4-0.6 rad, the point
     below which the phase carries little more than noise.
+
+    Parameters
+    ----------
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    float
+        ``2 * (2^B - 1) / 255`` DN.
+
+    Examples
+    --------
+    >>> default_min_modulation(8), round(default_min_modulation(12), 2)
+    (2.0, 32.12)
     """
     return 2.0 * full_scale(bit_depth) / 255.0
 

@@ -35,7 +35,49 @@ __all__ = ["FamilyResult", "FolderPhase", "decode_captures", "group_families"]
 
 @dataclass
 class FamilyResult:
-    """Unwrapped (and, when possible, absolute) phase of one family of sets."""
+    """Unwrapped (and, when possible, absolute) phase of one family of sets.
+
+    Parameters
+    ----------
+    orientation : {"vertical", "horizontal"}
+        Fringe orientation of the family.
+    pitch_px : float
+        Pitch of the finest set, the one the phases refer to (``2*pi*x/pitch_px``).
+    sets : list of FringeSet
+        The family's sets, coarse to fine (:func:`group_families`).
+    unwrapped_phase : ndarray of float64, shape (H, W)
+        Unwrapped phase of the finest set (radians, NaN invalid).
+    absolute_phase : ndarray of float64, shape (H, W), or None
+        Absolute phase ``2*pi*x/pitch_px``; None when the captures cannot fix it (no
+        centerline frame and no set spanning the projector).
+    method : str
+        How the phase was unwrapped, for reports.
+    absolute_method : str or None
+        How the absolute phase was obtained, for reports; None with ``absolute_phase``.
+
+    References
+    ----------
+    Thesis Sec. 2.4 (unwrapping), Sec. 2.5, Eq. 2.12-2.13 (absolute phase).
+
+    Examples
+    --------
+    Pitches 1024 and 16 px on a 1024 px wide projector: the coarse set needs no unwrapping and
+    gives the fine one its fringe order, so the phase is absolute without a centerline.
+
+    >>> from hdrfringe.captures import ProjectorInfo
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> frames = [f for p in (1024.0, 16.0) for f in FringeSpec(pitch_px=p, migl=200).frames()]
+    >>> x = np.tile(np.arange(32.0), (2, 1))
+    >>> images = np.stack([np.rint(fringe_gray(x, f.spec, f.shift)) for f in frames])
+    >>> caps = Captures(frames, images.astype(np.uint8), 8, projector=ProjectorInfo(width=1024))
+    >>> fam = decode_captures(caps).primary
+    >>> fam.orientation, fam.pitch_px
+    ('vertical', 16.0)
+    >>> fam.method
+    'temporal 1024 -> 16 px (coarse set spans the projector with one period first)'
+    >>> fam.absolute_method, bool(np.allclose(fam.absolute_phase * 16 / (2 * np.pi), x, atol=0.05))
+    ('one-period coarse set', True)
+    """
 
     orientation: str
     pitch_px: float
@@ -48,7 +90,39 @@ class FamilyResult:
 
 @dataclass
 class FolderPhase:
-    """Everything :func:`decode_captures` computed."""
+    """Everything :func:`decode_captures` computed.
+
+    Parameters
+    ----------
+    set_results : dict of str to PhaseResult
+        The decoded phase and quality maps of every fringe set, by set label.
+    sets : list of FringeSet
+        The fringe sets of the captures, in capture order.
+    families : list of FamilyResult
+        Unwrapped (and absolute) phase per family, primary family first.
+    notes : list of str
+        What could not be done and why (e.g. no centerline frame for an absolute phase).
+
+    Attributes
+    ----------
+    primary : FamilyResult or None
+        The first family (vertical at the highest MIGL), None without fringe sets.
+
+    Examples
+    --------
+    One set of pitch 16 px and no centerline frame: unwrapped spatially, not absolute.
+
+    >>> from hdrfringe.captures import ProjectorInfo
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> spec = FringeSpec(steps=4, pitch_px=16.0, migl=200)
+    >>> x = np.tile(np.arange(32.0), (2, 1))
+    >>> images = np.stack([np.rint(fringe_gray(x, spec, k)) for k in range(4)]).astype(np.uint8)
+    >>> out = decode_captures(Captures(spec.frames(), images, 8, projector=ProjectorInfo()))
+    >>> list(out.set_results), out.primary.method, out.primary.absolute_phase
+    (['s4_p16_v_i40_g200'], 'spatial', None)
+    >>> out.notes
+    ['vertical fringes: no vertical centerline frame, so no absolute phase']
+    """
 
     set_results: dict[str, PhaseResult]
     sets: list[FringeSet]
@@ -57,6 +131,7 @@ class FolderPhase:
 
     @property
     def primary(self) -> FamilyResult | None:
+        """The primary family (the first of :attr:`families`), None when there is none."""
         return self.families[0] if self.families else None
 
 
@@ -138,9 +213,9 @@ def decode_captures(
     FolderPhase
         Per-set results and, per family, the unwrapped and absolute phase.
 
-    Notes
-    -----
-    Thesis Eq. 2.2/2.4 (wrapped phase), Sec. 2.3 (unwrapping), Eq. 2.12-2.13 (absolute phase
+    References
+    ----------
+    Thesis Eq. 2.2/2.4 (wrapped phase), Sec. 2.4 (unwrapping), Eq. 2.12-2.13 (absolute phase
     from a centerline).
 
     Examples

@@ -42,7 +42,8 @@ class CameraGeometry:
 
     References
     ----------
-    Thesis Sec. 2.1 (the measurement setup: camera perpendicular to the reference plane).
+    Thesis Sec. 2.1 (the measurement setup, Fig. 2.1) and Sec. 3.4.3 (the rig's camera, 1.9 m
+    from the reference plane).
 
     Examples
     --------
@@ -68,6 +69,7 @@ class CameraGeometry:
         return self.standoff_mm / self.focal_px
 
     def to_manifest(self) -> dict[str, Any]:
+        """The manifest's ``camera`` entry (inverse of :meth:`from_manifest`)."""
         out: dict[str, Any] = {"focal_px": self.focal_px, "standoff_mm": self.standoff_mm}
         if self.cx is not None:
             out["cx"] = self.cx

@@ -200,6 +200,10 @@ def unwrap_spatial(
 
     The result is deterministic (the unwrapper's random generator is seeded).
 
+    References
+    ----------
+    Thesis Sec. 2.4 and Fig. 2.4 (phase unwrapping in the measurement process).
+
     Examples
     --------
     >>> x = np.linspace(0.0, 40.0, 200)
@@ -283,7 +287,7 @@ def unwrap_spatial(
 class TemporalUnwrapResult:
     """All levels of a hierarchical temporal unwrap (see :func:`unwrap_temporal_levels`).
 
-    Attributes
+    Parameters
     ----------
     phase : ndarray
         Unwrapped phase of the finest pitch (the last level), radians.
@@ -295,6 +299,16 @@ class TemporalUnwrapResult:
     residual : ndarray
         Per pixel, the largest of ``level_residuals`` (zeros for a single level). Near ``pi``
         the fringe order was a coin toss; near 0 it was unambiguous.
+
+    Examples
+    --------
+    >>> x = np.array([3.0, 100.5, 900.25])
+    >>> phis = [np.mod(2 * np.pi * x / p, 2 * np.pi) for p in (1024, 128, 16)]
+    >>> res = unwrap_temporal_levels(phis, [1024, 128, 16])
+    >>> len(res.levels), len(res.level_residuals), res.levels[-1] is res.phase
+    (3, 2, True)
+    >>> (res.phase * 16 / (2 * np.pi)).tolist(), float(res.residual.max()) < 1e-9
+    ([3.0, 100.5, 900.25], True)
     """
 
     phase: NDArray[np.float64]
@@ -353,6 +367,21 @@ def unwrap_temporal_levels(
     ``coarse_unwrapped=False`` the coarsest pitch must exceed the projector extent seen by the
     camera with some margin: a pixel whose true ``x`` is near 0 or ``p_0`` can decode to the
     other end of ``[0, 2*pi)`` and be off by ``p_0/p_k`` fringes.
+
+    Examples
+    --------
+    Three pitches; the middle pixel's finest phase is corrupted by 2 rad, which the consistency
+    residual exposes and ``max_residual`` rejects:
+
+    >>> x = np.array([3.0, 100.5, 900.25])
+    >>> phis = [np.mod(2 * np.pi * x / p, 2 * np.pi) for p in (1024, 128, 16)]
+    >>> phis[2][1] += 2.0
+    >>> res = unwrap_temporal_levels(phis, [1024, 128, 16])
+    >>> res.residual.round(3).tolist()
+    [0.0, 2.0, 0.0]
+    >>> out = unwrap_temporal_levels(phis, [1024, 128, 16], max_residual=1.0).phase
+    >>> (out * 16 / (2 * np.pi)).round(3).tolist()
+    [3.0, nan, 900.25]
     """
     n = len(wrapped_phases)
     if n == 0:
@@ -419,6 +448,30 @@ def unwrap_temporal(
     the method (``Phi_k = phi_k + 2*pi*round((Phi_{k-1}*p_{k-1}/p_k - phi_k)/(2*pi))``), the
     parameters and the errors. When the coarsest map spans the field within one period, the
     result is the absolute phase ``2*pi*x/p`` of the contract, no centerline needed.
+
+    Parameters
+    ----------
+    wrapped_phases : sequence of array_like
+        Wrapped phase maps (radians, contract convention, NaN invalid), coarsest pitch first,
+        all of the same shape.
+    pitches : sequence of float
+        Fringe pitch of each map in projector pixels, strictly decreasing, same length.
+    coarse_unwrapped : bool
+        True if ``wrapped_phases[0]`` is already unwrapped (used as is, not reduced mod 2*pi).
+    max_residual : float, optional
+        Reliability threshold in radians, in ``(0, pi]``: pixels whose fringe order is less
+        certain are NaN.
+
+    Returns
+    -------
+    ndarray of float64
+        Unwrapped phase of the finest pitch (``pitches[-1]``), shape of the maps; NaN where
+        any level is NaN or the residual exceeds ``max_residual``.
+
+    Raises
+    ------
+    InputError
+        As :func:`unwrap_temporal_levels`.
 
     Examples
     --------
@@ -539,6 +592,23 @@ def detect_centerline(
     The brightest feature of each row is taken to be the line, so a specular highlight brighter
     than the line in the same row is mistaken for it; masking such regions avoids that. The
     estimate is unbiased for a symmetric line profile on a locally constant background.
+
+    References
+    ----------
+    Thesis Sec. 2.5: the centerline image whose middle pixels are the zero phase reference
+    (the method of Zhang and Huang, thesis ref. [60]).
+
+    Examples
+    --------
+    A Gaussian line at column 12.3 in row 0; row 1 has no line:
+
+    >>> cols = np.arange(24.0)
+    >>> img = np.tile(10 + 200 * np.exp(-0.5 * ((cols - 12.3) / 1.2) ** 2), (2, 1))
+    >>> img[1] = 10
+    >>> detect_centerline(img).round(3).tolist()
+    [12.3, nan]
+    >>> detect_centerline(img, method="halfmax").round(2).tolist()
+    [12.29, nan]
     """
     _check_orientation(orientation)
     if method not in ("gaussian", "halfmax"):
@@ -651,6 +721,7 @@ def centerline_phase(
     line_positions : array_like
         Output of :func:`detect_centerline`: shape (H,) for "vertical", (W,) for "horizontal".
     orientation : {"vertical", "horizontal"}
+        Orientation of the line (as for :func:`detect_centerline`).
     statistic : {"mean", "median"}
         "mean" is Eq. 2.12; "median" resists a few wrong line pixels.
 
@@ -663,6 +734,20 @@ def centerline_phase(
     ------
     InputError
         Shape mismatch, bad orientation or statistic, or no line pixel with a valid phase.
+
+    References
+    ----------
+    Thesis Sec. 2.5, Eq. 2.12.
+
+    Examples
+    --------
+    A phase map of pitch 4 that grows by pi/2 per column; the line is found at columns 1 and 2.5
+    of rows 0 and 1, and not in row 2:
+
+    >>> phase = np.tile(np.arange(5.0) * np.pi / 2, (3, 1))
+    >>> phi_c = centerline_phase(phase, [1.0, 2.5, np.nan])
+    >>> round(phi_c / (np.pi / 2), 6)
+    1.75
     """
     _check_orientation(orientation)
     if statistic not in ("mean", "median"):
@@ -735,6 +820,7 @@ def absolute_phase(
     pitch : float
         Fringe pitch of the phase map in projector pixels.
     method : {"round", "subtract"}
+        "round": add the nearest multiple of 2*pi (default); "subtract": Eq. 2.13 as printed.
 
     Returns
     -------
@@ -745,6 +831,10 @@ def absolute_phase(
     ------
     InputError
         Non-finite ``phi_c`` or ``position``, non-positive pitch, unknown method.
+
+    References
+    ----------
+    Thesis Sec. 2.5, Eq. 2.13.
 
     Examples
     --------
@@ -799,15 +889,46 @@ def absolute_phase_from_centerline(
         Projector coordinate of the line.
     pitch : float
         Fringe pitch in projector pixels.
+    orientation : {"vertical", "horizontal"}
+        Orientation of the fringes and the line.
+    mask : array_like of bool, shape (H, W), optional
+        Pixels the line detection may use (:func:`detect_centerline`).
+    min_contrast : float
+        Minimum line contrast (:func:`detect_centerline`).
+    min_snr : float
+        Minimum line signal-to-noise ratio (:func:`detect_centerline`).
+    line_method : {"gaussian", "halfmax"}
+        Sub-pixel line estimator (``method`` of :func:`detect_centerline`).
+    statistic : {"mean", "median"}
+        Average over the line (:func:`centerline_phase`).
+    method : {"round", "subtract"}
+        How the centerline phase is applied (:func:`absolute_phase`).
 
     Returns
     -------
     ndarray of float64, shape (H, W)
+        Absolute phase ``2*pi*x/p`` (contract convention); NaN where ``unwrapped`` is NaN.
 
     Raises
     ------
     InputError
         As the chained functions; in particular when no line pixel with a valid phase is found.
+
+    References
+    ----------
+    Thesis Sec. 2.5, Eq. 2.12 and 2.13.
+
+    Examples
+    --------
+    A relative phase of pitch 32 that is 3 fringes off, and a line at projector column 102.3
+    seen at camera column 12.3: the camera columns 0..3 see projector columns 90..93.
+
+    >>> cols = np.arange(24.0)
+    >>> line_img = np.tile(10 + 200 * np.exp(-0.5 * ((cols - 12.3) / 1.2) ** 2), (2, 1))
+    >>> relative = np.tile(2 * np.pi * (cols + 90) / 32 - 3 * 2 * np.pi, (2, 1))
+    >>> out = absolute_phase_from_centerline(relative, line_img, position=102.3, pitch=32)
+    >>> (out[0, :4] * 32 / (2 * np.pi)).round(6).tolist()
+    [90.0, 91.0, 92.0, 93.0]
     """
     u = np.asarray(unwrapped)
     c = np.asarray(centerline_image)

@@ -44,7 +44,9 @@ __all__ = [
     "save_calibration",
 ]
 
+#: Value of the root ``format`` attribute of every calibration file.
 FORMAT_NAME = "hdrfringe-calibration"
+#: Layout version written, and the only one read.
 FORMAT_VERSION = 1
 
 _COEFFICIENT_NAMES = {
@@ -63,7 +65,18 @@ _COMPRESSION: dict[str, Any] = {"compression": "gzip", "compression_opts": 4}
 
 
 class CalibrationFileError(HdrFringeError):
-    """A calibration file is missing, unreadable, foreign, of another version or incomplete."""
+    """A calibration file is missing, unreadable, foreign, of another version or incomplete.
+
+    Raised by :func:`load_calibration`; the message names the file and what to do.
+
+    Examples
+    --------
+    >>> try:
+    ...     load_calibration("no/such/calibration.h5")
+    ... except CalibrationFileError as err:
+    ...     print(err)
+    no/such/calibration.h5: calibration file not found; check the path or calibrate first
+    """
 
 
 # --------------------------------------------------------------------------------------------
@@ -150,7 +163,9 @@ def _write(f: Any, cal: Calibration) -> None:
     _set_str(attrs, "equation", _EQUATIONS[cal.model])
     attrs.create("filter_window_px", np.int64(cal.filter_window_px))
     attrs.create("border_px", np.int64(cal.border_px))
-    height, width = cal.image_shape
+    shape = cal.image_shape
+    assert shape is not None, "Calibration.__post_init__ sets image_shape"
+    height, width = shape
     attrs.create("image_height", np.int64(height))
     attrs.create("image_width", np.int64(width))
     attrs.create("n_positions", np.int64(cal.depths_mm.size))
@@ -200,6 +215,7 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     path : str or Path
         Target file (conventionally ``*.h5``); parent folders are created.
     cal : Calibration
+        The calibration to store.
     force : bool
         Replace an existing file; without it an existing file raises
         :class:`~hdrfringe.errors.OutputExistsError`.
@@ -208,6 +224,28 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     -------
     Path
         The written file.
+
+    Raises
+    ------
+    OutputExistsError
+        ``path`` exists (and ``force`` is False) or is a folder.
+    InputError
+        ``cal`` is not a :class:`~hdrfringe.calibration.Calibration`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hdrfringe.calibration import Calibration
+    >>> cal = Calibration("linear", np.full((2, 3), 0.5), None, np.zeros((2, 3)),
+    ...                   np.array([2.0, 4.0]), provenance={"operator": "doctest"})
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = save_calibration(Path(tmp) / "cal.h5", cal)
+    ...     back = load_calibration(path)
+    >>> path.name, back.model, back.image_shape, back.provenance
+    ('cal.h5', 'linear', (2, 3), {'operator': 'doctest'})
+    >>> bool(np.array_equal(back.k_map, cal.k_map))
+    True
     """
     import h5py
 
@@ -330,11 +368,36 @@ def _read(f: Any, where: str) -> Calibration:
 def load_calibration(path: str | Path) -> Calibration:
     """Read a calibration written by :func:`save_calibration`.
 
+    Parameters
+    ----------
+    path : str or Path
+        The calibration file (HDF5, format ``hdrfringe-calibration``, version 1).
+
+    Returns
+    -------
+    Calibration
+        The calibration as saved, checked by the
+        :class:`~hdrfringe.calibration.Calibration` constructor.
+
     Raises
     ------
     CalibrationFileError
         Missing file, not HDF5 or corrupt, an HDF5 file of something else, an unsupported
         version, or missing/inconsistent contents; the message says which and what to do.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from hdrfringe.calibration import Calibration
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> cal = Calibration("rational", np.full((2, 2), 0.5), np.ones((2, 2, 2)),
+    ...                   np.zeros((2, 2)), np.array([2.0, 4.0, 6.0]),
+    ...                   spec=FringeSpec("sinusoidal", 4, 12.0), camera_bit_depth=12)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     back = load_calibration(save_calibration(Path(tmp) / "cal.h5", cal))
+    >>> back.model, back.coefficients.shape, back.spec.label(), back.camera_bit_depth
+    ('rational', (2, 2, 2), 's4_p12_v_i40_g255', 12)
     """
     import h5py
 
@@ -368,7 +431,30 @@ def load_calibration(path: str | Path) -> Calibration:
 
 
 def coefficient_names(model: str) -> tuple[str, ...]:
-    """Names of the coefficient maps stored for ``model`` (``("K",)`` for linear)."""
+    """Names of the coefficient maps stored for ``model`` (``("K",)`` for linear).
+
+    The names are the attribute ``names`` of the file's ``/coefficients`` dataset, in order.
+
+    Parameters
+    ----------
+    model : {"linear", "rational", "poly2", "poly3"}
+        Calibration model (see :func:`hdrfringe.calibration.fit_model`).
+
+    Returns
+    -------
+    tuple of str
+        One name per coefficient map.
+
+    Raises
+    ------
+    InputError
+        Unknown model.
+
+    Examples
+    --------
+    >>> coefficient_names("linear"), coefficient_names("rational"), coefficient_names("poly3")
+    (('K',), ('a', 'b'), ('c1', 'c2', 'c3'))
+    """
     if model == "linear":
         return ("K",)
     if model not in N_COEFFICIENTS:

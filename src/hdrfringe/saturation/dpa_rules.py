@@ -49,7 +49,7 @@ LOWEST_MIGL_TOLERANCE = 1e-4
 class SaturationCDF:
     """Histogram of unsaturation MIGLs and its CDF over decreasing MIGL (thesis Sec. 6.1.3).
 
-    Attributes
+    Parameters
     ----------
     counts : ndarray of int64, length ``migl0 + 1``
         ``counts[m]``: pixels expected to become unsaturated at MIGL ``m``. Only
@@ -62,6 +62,23 @@ class SaturationCDF:
         Lowest MIGL the strategy may use.
     beyond : int
         Pixels expected to stay saturated even at ``lowest_migl`` (in ``total`` only).
+
+    References
+    ----------
+    Thesis Sec. 6.1 and 6.1.3 (the CDF of the saturated intensities over the MIGL).
+
+    Examples
+    --------
+    Four pixels saturated at MIGL 255; three unsaturate at 250, 240 and 230, one is unknown:
+
+    >>> counts = np.zeros(256, dtype=np.int64)
+    >>> counts[[230, 240, 250]] = 1
+    >>> cdf = SaturationCDF(counts, total=4, migl0=255, lowest_migl=41)
+    >>> cdf.at(255), cdf.at(245), cdf.at(230), cdf.accounted
+    (0.0, 0.25, 0.75, 3)
+    >>> more = cdf.add([236.4])  # the unknown one, unsaturated at MIGL 236.4
+    >>> more.at(236), more.at(230), cdf.add([-np.inf]).beyond  # or never (below lowest_migl)
+    (0.75, 1.0, 1)
     """
 
     counts: NDArray[np.int64]
@@ -162,8 +179,32 @@ def saturated_intensity_cdf(
     offset : array_like, optional
         ``A`` per pixel for the scaled model (e.g. ``sinusoid_trough`` of the same images).
     model : {"scaled", "thesis"}
+        Conversion of intensities to MIGL, the one the correction was trained with.
     lowest_migl : float, optional
         Lowest MIGL the strategy may use; default ``imin + 1``.
+
+    Returns
+    -------
+    SaturationCDF
+        The initial CDF; ``total`` counts every saturated pixel, estimable or not.
+
+    Raises
+    ------
+    InputError
+        Mismatched shapes, an unknown model, a non-integer ``migl0`` or a bad ``lowest_migl``.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (and Eq. 6.3 for the ``"thesis"`` conversion).
+
+    Examples
+    --------
+    Four saturated pixels, one not estimable; under Eq. 6.3 a peak of 260 DN at MIGL 255
+    unsaturates at MIGL 250:
+
+    >>> cdf = saturated_intensity_cdf([260.0, 270.0, 280.0, np.nan], 255, 40, model="thesis")
+    >>> cdf.total, np.flatnonzero(cdf.counts).tolist(), cdf.at(240)
+    (4, [230, 240, 250], 0.5)
     """
     est = np.asarray(estimates, dtype=np.float64)
     sat = np.ones(est.shape, dtype=bool) if saturated is None else np.asarray(saturated, bool)
@@ -198,6 +239,32 @@ def index_image_cdf(
 
     Each pixel saturated at ``migl0`` counts at its ``N``; negative or non-finite ``N`` (never
     unsaturated) count in ``beyond``.
+
+    Parameters
+    ----------
+    index_image : array_like (H, W)
+        ``N(x, y)`` from LPA with step 1 (negative or non-finite: never unsaturated).
+    saturated : array_like of bool (H, W)
+        Pixels saturated at ``migl0``.
+    migl0 : float
+        Initial MIGL (an integer).
+    lowest_migl : float
+        Lowest MIGL of the CDF.
+
+    Returns
+    -------
+    SaturationCDF
+        The CDF of the pixels' actual unsaturation MIGLs.
+
+    References
+    ----------
+    Thesis Sec. 6.3, Fig. 6.3 (actual and estimated CDF); Sec. 5.1 (the index image).
+
+    Examples
+    --------
+    >>> cdf = index_image_cdf([[250, 240, -1, 255]], [[True, True, True, False]], 255, 41)
+    >>> cdf.total, cdf.beyond, cdf.at(240)
+    (3, 1, 0.6666666666666666)
     """
     idx = np.asarray(index_image, dtype=np.float64)
     sat = np.asarray(saturated, dtype=bool)
@@ -224,7 +291,34 @@ def threshold_rule(
     cdf: SaturationCDF, migl: float, last_captured_cdf_value: float, threshold: float
 ) -> bool:
     """Thesis Sec. 6.1.3, threshold percentage: capture at ``migl`` when the CDF has grown by
-    more than ``threshold`` (a fraction: 0.1 for 10 %) since the last captured MIGL."""
+    more than ``threshold`` (a fraction: 0.1 for 10 %) since the last captured MIGL.
+
+    Parameters
+    ----------
+    cdf : SaturationCDF
+        The current CDF.
+    migl : float
+        Candidate MIGL.
+    last_captured_cdf_value : float
+        CDF value at the last captured MIGL.
+    threshold : float
+        Fraction in [0, 1].
+
+    Returns
+    -------
+    bool
+        True when the rule asks for a capture at ``migl``.
+
+    References
+    ----------
+    Thesis Sec. 6.1 and 6.1.3.
+
+    Examples
+    --------
+    >>> cdf = saturated_intensity_cdf([260.0, 270.0, 280.0, np.nan], 255, 40, model="thesis")
+    >>> threshold_rule(cdf, 250, 0.0, 0.2), threshold_rule(cdf, 250, 0.0, 0.3)
+    (True, False)
+    """
     t = _check_fraction("threshold", threshold)
     return cdf.at(migl) - float(last_captured_cdf_value) > t
 
@@ -238,6 +332,32 @@ def lowest_migl_rule(
     No estimated pixel becomes unsaturated below ``migl`` then, so the threshold rule would never
     fire again and the MIGL would stop falling; capturing here lets the CDF updates add the
     pixels that could not be estimated so far.
+
+    Parameters
+    ----------
+    cdf : SaturationCDF
+        The current CDF.
+    migl : float
+        Candidate MIGL.
+    tolerance : float
+        Fraction in [0, 1]; the thesis uses 0.01 %.
+
+    Returns
+    -------
+    bool
+        True when the rule asks for a capture at ``migl``.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3.
+
+    Examples
+    --------
+    Estimated pixels unsaturate at 250, 240 and 230: below 231 none is left to come.
+
+    >>> cdf = saturated_intensity_cdf([260.0, 270.0, 280.0, np.nan], 255, 40, model="thesis")
+    >>> lowest_migl_rule(cdf, 231), lowest_migl_rule(cdf, 230)
+    (False, True)
     """
     tol = _check_fraction("tolerance", tolerance)
     return cdf.at(cdf.lowest_migl) - cdf.at(migl) < tol
@@ -250,7 +370,38 @@ def capture_rule(
     threshold: float,
     lowest_tolerance: float | None = LOWEST_MIGL_TOLERANCE,
 ) -> str | None:
-    """Which rule asks for a capture at ``migl``: ``"threshold"``, ``"lowest"`` or None."""
+    """Which rule asks for a capture at ``migl``: ``"threshold"``, ``"lowest"`` or None.
+
+    Parameters
+    ----------
+    cdf : SaturationCDF
+        The current CDF.
+    migl : float
+        Candidate MIGL.
+    last_captured_cdf_value : float
+        CDF value at the last captured MIGL.
+    threshold : float
+        Fraction for :func:`threshold_rule`.
+    lowest_tolerance : float or None
+        Tolerance for :func:`lowest_migl_rule`; None turns that rule off.
+
+    Returns
+    -------
+    str or None
+        ``"threshold"`` (checked first), ``"lowest"``, or None for no capture.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3.
+
+    Examples
+    --------
+    >>> cdf = saturated_intensity_cdf([260.0, 270.0, 280.0, np.nan], 255, 40, model="thesis")
+    >>> capture_rule(cdf, 240, 0.25, 0.2), capture_rule(cdf, 230, 0.5, 0.3)
+    ('threshold', 'lowest')
+    >>> capture_rule(cdf, 230, 0.5, 0.3, lowest_tolerance=None) is None
+    True
+    """
     if threshold_rule(cdf, migl, last_captured_cdf_value, threshold):
         return "threshold"
     if lowest_tolerance is not None and lowest_migl_rule(cdf, migl, lowest_tolerance):
@@ -283,12 +434,28 @@ def next_capture_migl(
         CDF value at the last capture; default ``cdf.at(current_migl)``.
     threshold : float
         Fraction (0.1 and 0.2 in the thesis's experiments).
+    lowest_tolerance : float or None
+        Tolerance of the lowest-MIGL rule (thesis: 0.01 %); None turns the rule off.
 
     Returns
     -------
     int or None
         The MIGL, or None when ``current_migl`` is already at the lowest MIGL (or, with the
         lowest-MIGL rule off, when no MIGL down to the lowest satisfies the threshold rule).
+
+    References
+    ----------
+    Thesis Sec. 6.1 and 6.1.3.
+
+    Examples
+    --------
+    Estimated pixels unsaturate at 250, 240 and 230 (a quarter each); threshold 20 %:
+
+    >>> cdf = saturated_intensity_cdf([260.0, 270.0, 280.0, np.nan], 255, 40, model="thesis")
+    >>> [next_capture_migl(cdf, m, threshold=0.2) for m in (255, 250, 240)]
+    [250, 240, 230]
+    >>> next_capture_migl(cdf, 230, threshold=0.2), next_capture_migl(cdf, 41, threshold=0.2)
+    (229, None)
     """
     _check_fraction("threshold", threshold)
     last = cdf.at(current_migl) if last_captured_cdf_value is None else last_captured_cdf_value
@@ -335,19 +502,38 @@ def update_cdf_with_newly_estimable(
     Parameters
     ----------
     cdf : SaturationCDF
+        The CDF before the update.
     pending : array_like of bool (H, W)
+        Pixels saturated at ``migl0`` and not yet in the histogram.
     estimates : array_like (H, W)
         Corrected peak estimates from the set at ``capture_migl``; NaN where not estimable.
     n_saturated : array_like (H, W)
         Saturated shifts per pixel at ``capture_migl``.
     capture_migl, imin : float
-    offset, model, bit_depth
+        The MIGL just captured and the pattern's minimum input gray.
+    bit_depth, offset, model
         As for :func:`saturated_intensity_cdf` (``offset`` from the same set).
 
     Returns
     -------
     (SaturationCDF, ndarray of bool)
         The updated CDF and the pixels still pending.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (the first of the two updates).
+
+    Examples
+    --------
+    Pixel 2 had two saturated shifts at 255; at MIGL 240 it has one and its peak estimate is
+    262 DN, so (Eq. 6.3) it unsaturates at 233:
+
+    >>> cdf = saturated_intensity_cdf([260.0, 270.0, np.nan], 255, 40, model="thesis")
+    >>> new, pending = update_cdf_with_newly_estimable(
+    ...     cdf, [False, False, True], [np.nan, np.nan, 262.0], [0, 0, 1], 240, 40,
+    ...     model="thesis")
+    >>> np.flatnonzero(new.counts).tolist(), pending.tolist()
+    ([233, 240, 250], [False, False, False])
     """
     pend, nsat = _masks(pending, n_saturated)
     est = np.asarray(estimates, dtype=np.float64)
@@ -372,10 +558,32 @@ def update_cdf_with_newly_unsaturated(
     Pixels still ``pending`` (never estimated) with no saturated shift at ``capture_migl`` are
     added to the histogram at ``capture_migl``.
 
+    Parameters
+    ----------
+    cdf : SaturationCDF
+        The CDF before the update.
+    pending : array_like of bool (H, W)
+        Pixels saturated at ``migl0`` and not yet in the histogram.
+    n_saturated : array_like (H, W)
+        Saturated shifts per pixel at ``capture_migl``.
+    capture_migl : float
+        The MIGL just captured.
+
     Returns
     -------
     (SaturationCDF, ndarray of bool)
         The updated CDF and the pixels still pending.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (the second of the two updates).
+
+    Examples
+    --------
+    >>> cdf = saturated_intensity_cdf([260.0, 270.0, np.nan], 255, 40, model="thesis")
+    >>> new, pending = update_cdf_with_newly_unsaturated(cdf, [False, False, True], [0, 0, 0], 230)
+    >>> np.flatnonzero(new.counts).tolist(), new.at(230), pending.tolist()
+    ([230, 240, 250], 1.0, [False, False, False])
     """
     pend, nsat = _masks(pending, n_saturated)
     new = pend & (nsat == 0)
@@ -390,14 +598,27 @@ def update_cdf_with_newly_unsaturated(
 class DPAState:
     """What the DPA loop carries between captures.
 
-    Attributes
+    Parameters
     ----------
     cdf : SaturationCDF
+        The CDF after the last capture's updates.
     pending : ndarray of bool (H, W)
         Saturated at ``migl0``, not yet in the histogram.
     last_captured_migl : int
+        The MIGL of the last capture.
     captures : tuple of (int, str)
         MIGLs captured so far with the rule that asked for them (``"initial"`` first).
+
+    References
+    ----------
+    Thesis Sec. 6.1 and 6.1.3.
+
+    Examples
+    --------
+    >>> state = initial_dpa_state([[260.0, 270.0, np.nan, 100.0]], [[1, 1, 2, 0]], 255, 40,
+    ...                           model="thesis")
+    >>> state.pending.tolist(), state.captures, state.last_captured_cdf_value
+    ([[False, False, True, False]], ((255, 'initial'),), 0.0)
     """
 
     cdf: SaturationCDF
@@ -423,7 +644,39 @@ def initial_dpa_state(
     lowest_migl: float | None = None,
 ) -> DPAState:
     """State after the set at ``migl0``: the initial CDF (:func:`saturated_intensity_cdf`) over
-    the pixels with ``n_saturated > 0``; those without a finite estimate are pending."""
+    the pixels with ``n_saturated > 0``; those without a finite estimate are pending.
+
+    Parameters
+    ----------
+    estimates : array_like (H, W)
+        Corrected peak estimates at ``migl0``; NaN where not estimable.
+    n_saturated : array_like (H, W)
+        Saturated shifts per pixel at ``migl0``.
+    migl0 : float
+        Initial MIGL (an integer).
+    imin : float
+        The pattern's minimum input gray.
+    bit_depth, offset, model, lowest_migl
+        As for :func:`saturated_intensity_cdf`.
+
+    Returns
+    -------
+    DPAState
+        The initial CDF, the pending pixels, and ``migl0`` as the first capture.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (the initial estimate of the CDF).
+
+    Examples
+    --------
+    Three of four pixels saturated, one of them with too many saturated shifts to estimate:
+
+    >>> state = initial_dpa_state([[260.0, 270.0, np.nan, 100.0]], [[1, 1, 2, 0]], 255, 40,
+    ...                           model="thesis")
+    >>> state.cdf.total, state.cdf.accounted, state.pending.tolist()
+    (3, 2, [[False, False, True, False]])
+    """
     nsat = np.asarray(n_saturated)
     est = np.asarray(estimates, dtype=np.float64)
     sat = nsat > 0
@@ -452,7 +705,45 @@ def update_dpa_state(
     offset: ArrayLike | None = None,
     model: TruthModel = "scaled",
 ) -> DPAState:
-    """Both CDF updates after a capture at ``capture_migl``, in the thesis's order."""
+    """Both CDF updates after a capture at ``capture_migl``, in the thesis's order.
+
+    :func:`update_cdf_with_newly_estimable`, then :func:`update_cdf_with_newly_unsaturated`.
+
+    Parameters
+    ----------
+    state : DPAState
+        The state before the capture.
+    estimates : array_like (H, W)
+        Corrected peak estimates from the set at ``capture_migl``; NaN where not estimable.
+    n_saturated : array_like (H, W)
+        Saturated shifts per pixel at ``capture_migl``.
+    capture_migl : float
+        The MIGL just captured.
+    imin : float
+        The pattern's minimum input gray.
+    rule : str
+        The rule that asked for the capture (recorded in ``captures``).
+    bit_depth, offset, model
+        As for :func:`saturated_intensity_cdf`.
+
+    Returns
+    -------
+    DPAState
+        The updated state, with ``capture_migl`` as the last capture.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3.
+
+    Examples
+    --------
+    >>> state = initial_dpa_state([[260.0, 270.0, np.nan, 100.0]], [[1, 1, 2, 0]], 255, 40,
+    ...                           model="thesis")
+    >>> state = update_dpa_state(state, [[np.nan, np.nan, 262.0, np.nan]], [[0, 0, 1, 0]],
+    ...                          240, 40, rule="threshold", model="thesis")
+    >>> state.captures, state.pending.tolist(), round(state.last_captured_cdf_value, 3)
+    (((255, 'initial'), (240, 'threshold')), [[False, False, False, False]], 0.667)
+    """
     cdf, pending = update_cdf_with_newly_estimable(
         state.cdf,
         state.pending,

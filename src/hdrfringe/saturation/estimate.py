@@ -30,10 +30,10 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 import numpy as np
 from numpy.polynomial import Polynomial
@@ -47,11 +47,12 @@ from hdrfringe._validation import (
     unsaturated_mask,
 )
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.frames import UniformFrame
+from hdrfringe.frames import Frame, UniformFrame
 from hdrfringe.patterns import FringeSpec
 
 __all__ = [
     "CORRECTION_FORMAT",
+    "TRUTH_MODELS",
     "CorrectionPolynomial",
     "TrainingData",
     "TruthModel",
@@ -59,6 +60,8 @@ __all__ = [
     "estimate_saturated_eq62",
     "estimate_saturated_lsq",
     "fit_unsaturated_sinusoid",
+    "peak_and_trough",
+    "saturated_peak_lower_bound",
     "saturation_pattern",
     "sinusoid_trough",
     "train_correction",
@@ -73,6 +76,7 @@ F64 = NDArray[np.float64]
 #: How an MIGL index converts to a true intensity (and back): see :func:`true_peak_thesis` and
 #: :func:`true_peak_scaled`.
 TruthModel = Literal["scaled", "thesis"]
+#: The truth models by name (the values of :data:`TruthModel`).
 TRUTH_MODELS: tuple[str, ...] = ("scaled", "thesis")
 
 #: ``format`` tag of a saved correction polynomial.
@@ -81,6 +85,17 @@ _CORRECTION_VERSION = 1
 
 #: Largest number of shifts handled (saturation patterns are bit masks).
 _MAX_STEPS = 16
+
+
+class _CapturingRig(Protocol):
+    """What :func:`training_data_from_rig` needs of a rig (any :class:`hdrfringe.rig.base.Rig`
+    has it): its camera bit depth and ``capture(frames)`` returning an (n, H, W) image stack.
+    Declared here so that this core module does not depend on the acquisition layer."""
+
+    @property
+    def camera_bit_depth(self) -> int: ...
+
+    def capture(self, frames: Sequence[Frame]) -> NDArray[np.integer]: ...
 
 
 # --------------------------------------------------------------------------------------------
@@ -95,7 +110,29 @@ def _stack(images: ArrayLike, bit_depth: int, what: str, n_min: int = 3) -> F64:
 
 def saturation_pattern(images: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
     """Saturated samples, (N, H, W) bool: value ``>= 2^B - 1`` (the contract's ``== 2^B - 1``
-    for integer images; float stacks clipped at full scale behave the same)."""
+    for integer images; float stacks clipped at full scale behave the same).
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W), 1 <= N <= 16
+        Phase-shifted images (integer, or float clipped at ``2^B - 1``).
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    ndarray of bool, shape (N, H, W)
+        True where the sample is saturated (:func:`hdrfringe._validation.is_saturated`).
+
+    References
+    ----------
+    Thesis Sec. 5.1 (a saturated intensity equals ``2^B - 1``).
+
+    Examples
+    --------
+    >>> saturation_pattern(np.array([[[255, 10]], [[254, 255]]], np.uint8), 8).tolist()
+    [[[True, False]], [[False, True]]]
+    """
     stack = _stack(images, bit_depth, "saturation pattern", n_min=1)
     return is_saturated(stack, bit_depth)
 
@@ -136,6 +173,22 @@ def estimate_saturated_eq62(
     stack : ndarray (4, H, W), only with ``return_stack``
         Observed samples with the estimate in place of the saturated one; NaN columns where
         ``peak`` is NaN.
+
+    References
+    ----------
+    Thesis Sec. 6.1.1, Eq. 6.1-6.2.
+
+    Examples
+    --------
+    Two pixels of an 8-bit camera: true shifts (270, 150, 30, 150), the first clipped at 255,
+    and (269.7, 128.3, 130.3, 271.7), two of them clipped:
+
+    >>> images = np.array([[[255, 255]], [[150, 128]], [[30, 130]], [[150, 255]]], np.uint8)
+    >>> estimate_saturated_eq62(images, 8).tolist()
+    [[270.0, nan]]
+    >>> peak, stack = estimate_saturated_eq62(images, 8, return_stack=True)
+    >>> stack[:, 0, 0].tolist()
+    [270.0, 150.0, 30.0, 150.0]
     """
     stack = _stack(images, bit_depth, "Eq. 6.2 estimate")
     if stack.shape[0] != 4:
@@ -219,6 +272,21 @@ def estimate_saturated_lsq(
     stack : ndarray (N, H, W), only with ``return_stack``
         Observed samples with predictions in place of the saturated ones; NaN where not
         estimable.
+
+    References
+    ----------
+    Thesis Sec. 6.1.1 (``3 + m`` shifts for ``m`` saturated ones; Eq. 6.2 for N = 4, m = 1).
+
+    Examples
+    --------
+    A 5-step pixel whose true shifts are ``200 + 100 cos(0.3 + 2 pi k / 5)`` =
+    (295.5, 201.4, 105.3, 140.1, 257.6): two are clipped at 255 and the three others, rounded,
+    give the peak back within a fraction of a gray level.
+
+    >>> images = np.array([255, 201, 105, 140, 255], np.uint8)[:, None, None]
+    >>> peak, stack = estimate_saturated_lsq(images, 8, return_stack=True)
+    >>> peak.round(1).tolist(), stack[:, 0, 0].round(1).tolist()
+    ([[295.3]], [295.3, 201.0, 105.0, 140.0, 257.6])
     """
     stack = _stack(images, bit_depth, "least-squares saturated estimate")
     _, est, _ = _estimate_lsq(stack, bit_depth)
@@ -230,8 +298,36 @@ def peak_and_trough(
     images: ArrayLike, bit_depth: int, pixels: ArrayLike | None = None
 ) -> tuple[F64, F64]:
     """:func:`estimate_saturated_lsq`'s peak and :func:`sinusoid_trough` from one fit, only at
-    ``pixels`` (bool (H, W); default all), NaN elsewhere: what the DPA loop needs per capture
-    for the pixels still pending, without fitting the whole image twice."""
+    ``pixels``: what the DPA loop needs per capture for the pixels still pending, without
+    fitting the whole image twice.
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W), 3 <= N <= 16
+        Shift k at index k.
+    bit_depth : int
+        Camera bit depth B.
+    pixels : array_like of bool, shape (H, W), optional
+        Pixels to fit; default all.
+
+    Returns
+    -------
+    peak : ndarray (H, W)
+        As :func:`estimate_saturated_lsq`; NaN outside ``pixels``.
+    trough : ndarray (H, W)
+        As :func:`sinusoid_trough`; NaN outside ``pixels``.
+
+    References
+    ----------
+    Thesis Sec. 6.1.1.
+
+    Examples
+    --------
+    >>> images = np.array([[[255, 255]], [[150, 150]], [[30, 30]], [[150, 150]]], np.uint8)
+    >>> peak, trough = peak_and_trough(images, 8, pixels=[[True, False]])
+    >>> peak.tolist(), trough.tolist()
+    ([[270.0, nan]], [[30.0, nan]])
+    """
     stack = _stack(images, bit_depth, "saturated estimate")
     shape = stack.shape[1:]
     peak = np.full(shape, np.nan)
@@ -262,11 +358,27 @@ def saturated_peak_lower_bound(images: ArrayLike, bit_depth: int) -> F64:
     The bound holds whatever the phase, amplitude and offset, up to the rounding of the
     unsaturated samples (at most 1.5 DN); noise on them moves it by about their noise.
 
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W), 3 <= N <= 16
+        Shift k at index k.
+    bit_depth : int
+        Camera bit depth B.
+
     Returns
     -------
     ndarray (H, W)
         The bound where at least one shift is saturated and at least one is not; NaN elsewhere
         (nothing saturated, or every shift saturated: no information beyond ``F``).
+
+    Examples
+    --------
+    Pixel 0 is 4-step with three shifts clipped (bound ``2F - I_u``); pixel 1 has true shifts
+    (269.7, 128.3, 130.3, 271.7), two clipped, too many for :func:`estimate_saturated_lsq`:
+
+    >>> images = np.array([[[255, 255]], [[255, 128]], [[200, 130]], [[255, 255]]], np.uint8)
+    >>> saturated_peak_lower_bound(images, 8).tolist()
+    [[310.0, 257.0]]
     """
     stack = _stack(images, bit_depth, "saturated peak bound")
     full = float(full_scale(bit_depth))
@@ -289,6 +401,29 @@ def fit_unsaturated_sinusoid(images: ArrayLike, bit_depth: int) -> tuple[F64, F6
 
     The phase follows the contract (``I_k = a + b cos(phi + 2*pi*k/N)``, phi in [0, 2*pi)). NaN
     where more than N - 3 shifts are saturated.
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W), 3 <= N <= 16
+        Shift k at index k.
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    a, b, phi : ndarray (H, W)
+        Mean, amplitude and phase (radians) of the fitted sinusoid.
+
+    References
+    ----------
+    Thesis Eq. 2.1 (the model) and Sec. 6.1.1 (fitting the unsaturated shifts).
+
+    Examples
+    --------
+    >>> images = np.array([255, 150, 30, 150], np.uint8)[:, None, None]
+    >>> a, b, phi = fit_unsaturated_sinusoid(images, 8)
+    >>> float(a[0, 0]), float(b[0, 0]), round(float(phi[0, 0]), 6)
+    (150.0, 120.0, 0.0)
     """
     stack = _stack(images, bit_depth, "sinusoid fit")
     coef, _, _ = _estimate_lsq(stack, bit_depth)
@@ -305,6 +440,24 @@ def sinusoid_trough(images: ArrayLike, bit_depth: int) -> F64:
     (the offset of the MIGL scaling in :func:`true_peak_scaled` and :func:`unsaturation_migl`).
     Blur lowers ``b`` slightly, so it reads a little high for fine pitches (about 1 % of ``b``
     at a 20 px pitch on the virtual rig). NaN where more than N - 3 shifts are saturated.
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W), 3 <= N <= 16
+        Shift k at index k.
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    ndarray (H, W)
+        ``a - b`` in DN.
+
+    Examples
+    --------
+    >>> images = np.array([255, 150, 30, 150], np.uint8)[:, None, None]
+    >>> sinusoid_trough(images, 8).tolist()
+    [[30.0]]
     """
     a, b, _ = fit_unsaturated_sinusoid(images, bit_depth)
     return a - b
@@ -333,6 +486,24 @@ def true_peak_thesis(index_image: ArrayLike, bit_depth: int, top_migl: float = 2
         ``N(x, y)``: the highest MIGL at which all shifts of the pixel are unsaturated (LPA with
         step 1 from ``top_migl``). Negative or non-finite values mark pixels never unsaturated;
         they give NaN.
+    bit_depth : int
+        Camera bit depth B.
+    top_migl : float
+        The initial MIGL of the LPA sweep.
+
+    Returns
+    -------
+    ndarray of float64 (H, W)
+        ``I**`` in DN; NaN where the pixel never unsaturated.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2, Eq. 6.3.
+
+    Examples
+    --------
+    >>> true_peak_thesis(np.array([[250, 231, -1]]), 8).tolist()
+    [[260.0, 279.0, nan]]
     """
     full = full_scale(bit_depth)
     idx = _index(index_image)
@@ -374,10 +545,34 @@ def true_peak_scaled(
     migl_of_images : array_like (H, W) or float
         The MIGL each pixel's samples were captured at, e.g. the index image ``N(x, y)``;
         negative, non-finite or ``<= imin``: NaN out.
+    bit_depth : int
+        Camera bit depth B.
+    top_migl : float
+        The MIGL the truth refers to (the initial MIGL).
+    imin : float
+        The pattern's minimum input gray.
     offset : array_like (H, W), optional
         ``A`` per pixel, e.g. an image captured under uniform ``imin``. Default: the trough
         ``a - b`` of the sinusoid fitted to ``images`` (:func:`sinusoid_trough`; blur makes it
         read about 1 % of ``b`` high, which biases ``I**`` by about -1 DN on the virtual rig).
+
+    Returns
+    -------
+    ndarray of float64 (H, W)
+        ``I**`` in DN; NaN where a sample is saturated or the MIGL is unusable.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2 (the role of Eq. 6.3, with its assumptions replaced as above).
+
+    Examples
+    --------
+    A camera ``I = 10 + 1.2 g`` (so ``A = 58``), a pixel whose shifts at MIGL 200 see the grays
+    (200, 120, 40, 120): its peak at MIGL 255 would be ``10 + 1.2 * 255 = 316``.
+
+    >>> images = np.array([250.0, 154.0, 58.0, 154.0])[:, None, None]
+    >>> true_peak_scaled(images, 200.0, 8).tolist()
+    [[316.0]]
     """
     stack = _stack(images, bit_depth, "scaled true peak")
     shape = stack.shape[1:]
@@ -421,6 +616,47 @@ def unsaturation_migl(
       ``A``, never unsaturate: ``-inf``.
 
     The integer MIGL at which the pixel is first unsaturated is ``floor(m)``. NaN in, NaN out.
+
+    Parameters
+    ----------
+    peak : array_like
+        True (estimated) peak intensities in DN at ``capture_migl``.
+    capture_migl : float
+        The MIGL the peaks refer to.
+    imin : float
+        The pattern's minimum input gray.
+    bit_depth : int
+        Camera bit depth B.
+    model : {"scaled", "thesis"}
+        The truth model (the one the correction polynomial was trained with).
+    offset : array_like, optional
+        ``A`` per pixel (broadcast to ``peak``); required by the scaled model.
+
+    Returns
+    -------
+    ndarray of float64
+        The continuous MIGL ``m``, shape of ``peak``; ``-inf`` where the pixel never
+        unsaturates.
+
+    Raises
+    ------
+    InputError
+        Unknown model, or the scaled model without ``offset``.
+
+    References
+    ----------
+    Thesis Sec. 6.1.3 (converting the saturated intensities to MIGL for the CDF); the
+    ``"thesis"`` model inverts Eq. 6.3.
+
+    Examples
+    --------
+    A peak of 270 DN at MIGL 255 under Eq. 6.3, and a pixel ``I = 10 + 1.2 g`` (peak 316, offset
+    58) under the scaled model, whose peak reads 253.6 at MIGL 203 and rounds below 255:
+
+    >>> unsaturation_migl([270.0], 255, 40, 8, model="thesis").tolist()
+    [240.0]
+    >>> unsaturation_migl([316.0], 255, 40, 8, offset=58.0).tolist()
+    [203.75]
     """
     if model not in TRUTH_MODELS:
         raise InputError(f"unknown truth model {model!r}; use one of {', '.join(TRUTH_MODELS)}")
@@ -457,12 +693,13 @@ class CorrectionPolynomial:
     with the estimate clipped to the training ``domain`` (constant extrapolation): a polynomial
     fitted over a few tens of DN must not be extrapolated to brighter scenes.
 
-    Attributes
+    Parameters
     ----------
     coefficients : tuple of float
         Coefficients in the scaled variable (``numpy.polynomial.Polynomial`` convention, lowest
         degree first), mapping ``domain`` onto ``window``.
     domain, window : (float, float)
+        Range of the training estimates (DN), and the range it is mapped onto.
     order : int
         Polynomial degree.
     truth : {"scaled", "thesis"}
@@ -473,9 +710,27 @@ class CorrectionPolynomial:
     n_samples : int
         Training pixels.
     bit_depth : int
+        Camera bit depth B of the training data.
     top_migl, imin : float
+        Initial MIGL and minimum input gray of the training set.
     metadata : dict
         Anything else worth keeping (rig description, pitch, seed ...), JSON-friendly.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2, Eq. 6.4 and Fig. 6.2.
+
+    Examples
+    --------
+    ``eps`` rising from -1 DN at 255 to 3 DN at 355 (coefficients in the scaled variable):
+
+    >>> poly = CorrectionPolynomial((1.0, 2.0), domain=(255.0, 355.0))
+    >>> poly.error([255.0, 305.0, 400.0]).tolist()
+    [-1.0, 1.0, 3.0]
+    >>> poly.apply([305.0, np.nan]).tolist()
+    [304.0, nan]
+    >>> CorrectionPolynomial.from_dict(poly.to_dict()) == poly
+    True
     """
 
     coefficients: tuple[float, ...]
@@ -522,6 +777,7 @@ class CorrectionPolynomial:
         return cls((0.0,), (full, 2.0 * full), order=0, bit_depth=bit_depth)
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly dict (what :meth:`save` writes; non-finite RMSEs become None)."""
         return {
             "format": CORRECTION_FORMAT,
             "version": _CORRECTION_VERSION,
@@ -543,6 +799,7 @@ class CorrectionPolynomial:
     def from_dict(
         cls, data: Mapping[str, Any], where: str = "correction data"
     ) -> CorrectionPolynomial:
+        """The polynomial from :meth:`to_dict`'s dict, checked; ``where`` names it in errors."""
         if not isinstance(data, Mapping) or data.get("format") != CORRECTION_FORMAT:
             raise InputError(
                 f"{where} is not a correction polynomial (format must be {CORRECTION_FORMAT!r}); "
@@ -638,6 +895,43 @@ def correction_samples(
     Eq. 6.3 (:func:`true_peak_thesis`) or :func:`true_peak_scaled` from ``unsaturated_images``
     captured at ``unsaturated_migl`` (default: the index image, i.e. ``unsaturated_images`` is
     the LPA composite).
+
+    Parameters
+    ----------
+    index_image : array_like (H, W)
+        ``N(x, y)`` from LPA with step 1 down from ``top_migl``.
+    images_at_top : array_like (N, H, W)
+        The set captured at ``top_migl``.
+    bit_depth : int
+        Camera bit depth B.
+    top_migl, imin : float
+        Initial MIGL and the pattern's minimum input gray.
+    truth : {"scaled", "thesis"}
+        Training truth (see :func:`train_correction`).
+    unsaturated_images, unsaturated_migl, offset : array_like, optional
+        For the scaled truth (see :func:`true_peak_scaled`).
+    mask : array_like (H, W) of bool, optional
+        Pixels allowed.
+
+    Returns
+    -------
+    estimate, truth : ndarray of float64 (n,)
+        The estimate and the truth ``I**`` of each usable pixel, in DN.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2, Eq. 6.2-6.4.
+
+    Examples
+    --------
+    Five pixels with one clipped shift (Eq. 6.2 gives ``E``) and their LPA index ``N``:
+
+    >>> E = np.array([260.5, 271.5, 282.5, 293.5, 304.5])
+    >>> top = np.stack([np.full(5, 255.0), np.full(5, 160.0), 320 - E, np.full(5, 160.0)])
+    >>> index = np.array([[250, 240, 230, 220, 210]])
+    >>> est, true = correction_samples(index, top[:, None], 8, truth="thesis")
+    >>> est.tolist(), true.tolist()
+    ([260.5, 271.5, 282.5, 293.5, 304.5], [260.0, 270.0, 280.0, 290.0, 300.0])
     """
     if truth not in TRUTH_MODELS:
         raise InputError(f"unknown truth model {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
@@ -712,6 +1006,34 @@ def train_correction(
         Pixels allowed in the training set.
     metadata : mapping, optional
         Stored with the polynomial (JSON-friendly values).
+
+    Returns
+    -------
+    CorrectionPolynomial
+        The fitted polynomial, with the training RMSE before and after correction.
+
+    Raises
+    ------
+    InputError
+        Bad order, or too few usable pixels for the order.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2, Eq. 6.3-6.4 and Fig. 6.2.
+
+    Examples
+    --------
+    Estimates that overshoot the Eq. 6.3 truth by 10 % of its excess over 255 DN: a straight
+    line removes the error.
+
+    >>> E = np.array([260.5, 271.5, 282.5, 293.5, 304.5])
+    >>> top = np.stack([np.full(5, 255.0), np.full(5, 160.0), 320 - E, np.full(5, 160.0)])
+    >>> index = np.array([[250, 240, 230, 220, 210]])
+    >>> poly = train_correction(index, top[:, None], 8, order=1, truth="thesis")
+    >>> poly.n_samples, round(poly.rmse_before, 3), round(poly.rmse_after, 9)
+    (5, 2.872, 0.0)
+    >>> poly.apply([282.5]).round(9).tolist()
+    [280.0]
     """
     if isinstance(order, bool) or int(order) != order or not 0 <= order <= 6:
         raise InputError(f"correction polynomial order must be an integer 0..6, got {order!r}")
@@ -758,7 +1080,7 @@ def train_correction(
 class TrainingData:
     """An LPA step-1 sweep: what :func:`train_correction` needs, plus simulation ground truth.
 
-    Attributes
+    Parameters
     ----------
     index_image : ndarray (H, W) int32
         ``N(x, y)``: highest MIGL at which all shifts are unsaturated; -1 if none in the sweep.
@@ -781,8 +1103,33 @@ class TrainingData:
     spec : FringeSpec
         The set at the top MIGL.
     bit_depth : int
+        Camera bit depth B.
     sets_captured : int
         Phase-shifted sets captured by the sweep.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2 (the training data: LPA with a step of one gray level).
+
+    Examples
+    --------
+    A sweep on a small virtual camera (see :func:`training_data_from_rig`) whose response keeps
+    a residual nonlinearity ``g^1.2``: 26 pixels are usable, their estimates (DN) span 253..367,
+    and the correction trained on them reduces the error:
+
+    >>> class Rig:
+    ...     camera_bit_depth = 8
+    ...     def capture(self, frames):
+    ...         gain = np.linspace(1.1, 1.6, 40)
+    ...         light = [gain * 255 * (f.gray(np.arange(40.0)) / 255) ** 1.2 for f in frames]
+    ...         return np.clip(np.rint(light), 0, 255).astype(np.uint8)[:, None, :]
+    >>> data = training_data_from_rig(Rig())
+    >>> est, true = data.samples()
+    >>> est.size, float(est.min()), float(est.max())
+    (26, 253.0, 367.0)
+    >>> poly = data.train(order=2)
+    >>> round(poly.rmse_before, 1), round(poly.rmse_after, 1)
+    (8.7, 3.5)
     """
 
     index_image: NDArray[np.int32]
@@ -811,7 +1158,8 @@ class TrainingData:
         self, *, truth: TruthModel = "scaled", source: str = "reference", **kwargs: Any
     ) -> tuple[F64, F64]:
         """:func:`correction_samples` on this sweep (``source``: which unsaturated set the
-        scaled truth uses, the independent ``"reference"`` or the ``"composite"``)."""
+        scaled truth uses, the independent ``"reference"`` or the ``"composite"``; ``kwargs``
+        go to :func:`correction_samples`)."""
         kwargs.setdefault("offset", self.offset)
         return correction_samples(
             self.index_image,
@@ -856,7 +1204,7 @@ class TrainingData:
 
 
 def training_data_from_rig(
-    rig: Any,
+    rig: _CapturingRig,
     spec: FringeSpec | None = None,
     *,
     lowest_migl: float | None = None,
@@ -873,7 +1221,9 @@ def training_data_from_rig(
     Parameters
     ----------
     rig : Rig
-        Anything with ``capture(frames)`` and ``camera_bit_depth``.
+        Anything with ``capture(frames)`` and ``camera_bit_depth`` (every
+        :class:`hdrfringe.rig.base.Rig`); when it also has ``expected_signal(frames)``, the
+        noise-free signal at the top MIGL is kept.
     spec : FringeSpec, optional
         Sinusoidal set at the top MIGL. Default: the thesis's training set, 4-step, 20 px pitch,
         vertical, imin 40, MIGL 255.
@@ -886,6 +1236,38 @@ def training_data_from_rig(
     offset_captures : int
         Uniform ``imin`` images averaged into ``offset`` (0: none, the scaled truth then takes
         the offset from the sinusoid fit).
+
+    Returns
+    -------
+    TrainingData
+        The index image, the sets at the top MIGL, the composite and the reference, the offset.
+
+    Raises
+    ------
+    InputError
+        A non-sinusoidal or non-integer top set, or a bad ``lowest_migl`` or ``margin``.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2 (training data: LPA with a constant step of one gray level, a 4-step
+    sinusoidal pattern of pitch 20 px) and Sec. 5.1 (LPA, the index image ``N(x, y)``).
+
+    Examples
+    --------
+    A virtual 8-bit camera looking at 40 pixels of a 4-step, 20 px set, with a gain rising from
+    1.1 to 1.6 along the row and a residual nonlinearity ``g^1.2``:
+
+    >>> class Rig:
+    ...     camera_bit_depth = 8
+    ...     def capture(self, frames):
+    ...         gain = np.linspace(1.1, 1.6, 40)
+    ...         light = [gain * 255 * (f.gray(np.arange(40.0)) / 255) ** 1.2 for f in frames]
+    ...         return np.clip(np.rint(light), 0, 255).astype(np.uint8)[:, None, :]
+    >>> data = training_data_from_rig(Rig())
+    >>> data.sets_captured, int(data.index_image.min()), int(data.index_image.max())
+    (91, 175, 250)
+    >>> bool(np.all(data.reference_migl == data.index_image - 10)), data.offset.shape
+    (True, (1, 40))
     """
     if spec is None:
         spec = FringeSpec("sinusoidal", 4, 20.0, "vertical", 40.0, 255.0)
