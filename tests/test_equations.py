@@ -1,4 +1,4 @@
-"""One implementation per thesis equation: the index (docs/equations.md) cannot rot, and the
+"""One implementation per thesis equation: the index (docs/architecture.md, "Thesis equations and their one function") cannot rot, and the
 shared implementations (camera readout, Eq. 4.1) give each caller's numbers in its precision.
 
 References here are written out from the formulas, not produced by the code under test.
@@ -22,7 +22,7 @@ from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 
 ROOT = Path(__file__).resolve().parents[1]
-INDEX = ROOT / "docs" / "equations.md"
+INDEX = ROOT / "docs" / "architecture.md"
 #: The equations the code must index (issue 10), besides any the source cites.
 REQUIRED = (
     [f"2.{k}" for k in range(1, 18)]
@@ -80,7 +80,7 @@ def _index_problems(index: Path = INDEX) -> list[str]:
 def test_every_name_in_the_equation_index_exists() -> None:
     assert len(_rows()) >= 30
     problems = _index_problems()
-    assert not problems, "docs/equations.md:\n" + "\n".join(problems)
+    assert not problems, "docs/architecture.md equation index:\n" + "\n".join(problems)
 
 
 def test_every_cited_equation_is_indexed() -> None:
@@ -91,7 +91,7 @@ def test_every_cited_equation_is_indexed() -> None:
             cited.update(re.findall(r"\d+\.\d+", match.group()))
     indexed = {label.removeprefix("Eq. ") for label in _rows()}
     missing = sorted(cited - indexed, key=lambda s: tuple(map(int, s.split("."))))
-    assert not missing, f"equations cited but not in docs/equations.md: {missing}"
+    assert not missing, f"equations cited but not in the equation index of docs/architecture.md: {missing}"
 
 
 def test_the_index_check_rejects_a_bad_index(tmp_path: Path) -> None:
