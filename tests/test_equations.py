@@ -1,4 +1,4 @@
-"""One implementation per thesis equation: the index (docs/architecture.md, "Thesis equations and their one function") cannot rot, and the
+"""One implementation per thesis equation: the index (in docs/architecture.md) cannot rot, and the
 shared implementations (camera readout, Eq. 4.1) give each caller's numbers in its precision.
 
 References here are written out from the formulas, not produced by the code under test.
@@ -91,7 +91,7 @@ def test_every_cited_equation_is_indexed() -> None:
             cited.update(re.findall(r"\d+\.\d+", match.group()))
     indexed = {label.removeprefix("Eq. ") for label in _rows()}
     missing = sorted(cited - indexed, key=lambda s: tuple(map(int, s.split("."))))
-    assert not missing, f"equations cited but not in the equation index of docs/architecture.md: {missing}"
+    assert not missing, f"equations cited but not in docs/architecture.md's index: {missing}"
 
 
 def test_the_index_check_rejects_a_bad_index(tmp_path: Path) -> None:
