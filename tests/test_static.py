@@ -27,11 +27,6 @@ PENDING_MYPY: set[str] = {
     "hdrfringe.cli.measure",
     "hdrfringe.demo",
     "hdrfringe.io.calibration_file",
-    "hdrfringe.reproduce.adaptive_report",
-    "hdrfringe.reproduce.ch4",
-    "hdrfringe.reproduce.ch4_report",
-    "hdrfringe.reproduce.engine",
-    "hdrfringe.reproduce.runner",
     "hdrfringe.rig.camera",
     "hdrfringe.rig.scenes",
 }
@@ -142,13 +137,6 @@ PENDING_ALL: set[str] = {
     "hdrfringe.io.pattern_folder",
     "hdrfringe.measurement",
     "hdrfringe.patterns",
-    "hdrfringe.reproduce",
-    "hdrfringe.reproduce.adaptive",
-    "hdrfringe.reproduce.adaptive_report",
-    "hdrfringe.reproduce.ch4",
-    "hdrfringe.reproduce.ch4_report",
-    "hdrfringe.reproduce.engine",
-    "hdrfringe.reproduce.runner",
     "hdrfringe.saturation",
 }
 

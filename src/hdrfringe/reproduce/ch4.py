@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 
 from hdrfringe.calibration import Calibration, calibrate, measurement_mask
 from hdrfringe.errors import InputError
+from hdrfringe.frames import Frame
 from hdrfringe.patterns import FringeSpec, PatternKind
 from hdrfringe.phase import saturation_count, wrapped_phase
 from hdrfringe.rig.camera import sensor_readout
@@ -472,7 +473,7 @@ class PlateSweep:
         """
         return self.frames_signal(self.spec.with_migl(float(migl)).frames(), lux)
 
-    def frames_signal(self, frames: Sequence[Any], lux: float = 0.0) -> NDArray[np.float32]:
+    def frames_signal(self, frames: Sequence[Frame], lux: float = 0.0) -> NDArray[np.float32]:
         """Noise-free signal (float32) of any frames periodic with the pitch.
 
         Parameters
