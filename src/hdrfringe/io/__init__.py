@@ -1,1 +1,21 @@
-"""Input and output: capture folders, result folders, map files."""
+"""Input and output: capture folders, result folders, map files.
+
+One module per kind of file; import from the module, e.g.
+``from hdrfringe.io.results import write_map_tiff``:
+
+* :mod:`~hdrfringe.io.captures`: capture folders (docs/capture_format.md) to and from
+  :class:`~hdrfringe.captures.Captures`.
+* :mod:`~hdrfringe.io.pattern_folder`: pattern folders for a real projector.
+* :mod:`~hdrfringe.io.calibration_file`: phase-to-height calibration files.
+* :mod:`~hdrfringe.io.results`: result folders written atomically, float32 TIFF maps, PNG
+  previews.
+* :mod:`~hdrfringe.io.phase_maps`: the phase stage's maps in a result folder.
+* :mod:`~hdrfringe.io.measurement_outputs`: a measurement's maps, point cloud and report.
+* :mod:`~hdrfringe.io.point_cloud`: PLY point clouds.
+* :mod:`~hdrfringe.io.plots`: the library's figures as PNG files.
+
+The package itself exports nothing, so importing it does not import the readers and writers
+(nor their third-party libraries).
+"""
+
+__all__: list[str] = []

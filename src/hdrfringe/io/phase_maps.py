@@ -12,6 +12,8 @@ from hdrfringe.io.results import write_map_tiff, write_preview_png
 from hdrfringe.phase import PhaseResult
 from hdrfringe.process import FolderPhase
 
+__all__ = ["SET_MAPS", "write_phase_maps"]
+
 #: (file stem, attribute of PhaseResult, colour map, unit label)
 SET_MAPS: tuple[tuple[str, str, str, str], ...] = (
     ("wrapped_phase", "wrapped_phase", "twilight", "rad"),
@@ -43,8 +45,50 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     ``data_modulation.tiff``, ``saturation_count.tiff`` (+ PNG previews). Several sets: the same
     names with ``__<set label>`` appended for every set, and the unsuffixed names for the finest
     set of the primary family. ``unwrapped_phase.tiff`` and ``absolute_phase.tiff`` belong to the
-    primary family; a second (horizontal) family gets ``_horizontal`` appended.
-    Returns the summary that is also written to ``phase_summary.json``.
+    primary family; a second (horizontal) family gets ``_horizontal`` appended. Maps are float32
+    TIFF with NaN where invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md
+    describes each.
+
+    Parameters
+    ----------
+    out : Path
+        Folder to write into, existing and empty (e.g. the staging folder of
+        :func:`~hdrfringe.io.results.staged_output_dir`).
+    decoded : FolderPhase
+        From :func:`hdrfringe.process.decode_captures`.
+    source : str
+        Where the captures came from (e.g. the capture folder), recorded in the summary.
+
+    Returns
+    -------
+    dict
+        The summary also written to ``phase_summary.json``: ``source``; ``sets`` (per set its
+        pattern, steps, pitch, orientation, gray range, valid and saturated fractions);
+        ``families`` (per family its sets, unwrapping and absolute-phase method and files);
+        ``notes``; ``files`` (every map and preview written, sorted).
+
+    References
+    ----------
+    Thesis Eq. 2.2 and 2.4 (wrapped phase), Eq. 2.8 and 2.9 (triangular intensity ratio),
+    Eq. 3.4-3.6 (modulation, mean intensity, data modulation), Eq. 2.12-2.13 (absolute phase).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.captures import Captures, ProjectorInfo
+    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
+    >>> from hdrfringe.process import decode_captures
+    >>> spec = FringeSpec("sinusoidal", 4, 1024.0, migl=200.0)
+    >>> x = np.tile(np.arange(16.0), (4, 1))
+    >>> images = np.stack([np.rint(fringe_gray(x, spec, k)) for k in range(4)]).astype(np.uint8)
+    >>> decoded = decode_captures(Captures(spec.frames(), images, 8, projector=ProjectorInfo()))
+    >>> out = Path(tempfile.mkdtemp())
+    >>> summary = write_phase_maps(out, decoded, "in memory")
+    >>> [f for f in summary["files"] if f.endswith(".tiff")]  # doctest: +NORMALIZE_WHITESPACE
+    ['absolute_phase.tiff', 'data_modulation.tiff', 'mean_intensity.tiff', 'modulation.tiff',
+     'saturation_count.tiff', 'unwrapped_phase.tiff', 'wrapped_phase.tiff']
+    >>> summary["sets"][0]["valid_fraction"], (out / "phase_summary.json").is_file()
+    (1.0, True)
     """
     files: list[str] = []
     primary = decoded.primary

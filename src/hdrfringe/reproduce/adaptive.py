@@ -30,16 +30,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe._validation import saturation_count
-from hdrfringe.calibration import measurement_mask
+from hdrfringe.calibration import Calibration, measurement_mask
 from hdrfringe.captures import CameraSettings, ProjectorInfo
 from hdrfringe.errors import InputError
-from hdrfringe.frames import FringeFrame
+from hdrfringe.frames import Frame, FringeFrame
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.reproduce.ch4 import (
     SWEEP_DTYPE,
@@ -55,8 +55,30 @@ from hdrfringe.reproduce.ch4 import (
 )
 from hdrfringe.rig.base import RigBase
 from hdrfringe.rig.camera import sensor_readout
-from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
+from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, Scene, checkerboard, white_plate
 from hdrfringe.saturation.estimate import CorrectionPolynomial
+
+if TYPE_CHECKING:
+    from hdrfringe.reproduce.engine import SweepGrid, Variable
+    from hdrfringe.saturation.dpa_rules import SaturationCDF
+    from hdrfringe.strategies.base import StrategyResult
+
+__all__ = [
+    "CDF_MIGLS",
+    "CHECKERBOARD_DEPTHS_MM",
+    "DPA_METHODS",
+    "LPA_STEPS_CH5",
+    "PLATE_LUX",
+    "TRAINING_DEPTH_MM",
+    "TRAINING_PITCH",
+    "Experiment",
+    "SweepRig",
+    "adaptive_cell",
+    "adaptive_grid",
+    "adaptive_task",
+    "experiments",
+    "train_correction",
+]
 
 #: Added light of the white-plate experiments (Sec. 5.2.1, 6.2).
 PLATE_LUX = 600.0
@@ -68,11 +90,12 @@ CDF_MIGLS: tuple[float, ...] = tuple(float(m) for m in range(255, 59, -1))
 class Experiment:
     """One pixel-wise adaptive experiment: scene, lighting, calibration plate and methods.
 
-    Attributes
+    Parameters
     ----------
     name : str
         Store name (``<name>.zarr``).
     scene : {"white_plate", "checkerboard"}
+        The scene measured.
     lux : float
         Added ambient light.
     black_aperture : bool
@@ -88,6 +111,16 @@ class Experiment:
         The method whose index image is broken down by MIGL (Fig. 5.6).
     level_migls : tuple of float
         The MIGLs of that breakdown.
+
+    References
+    ----------
+    Thesis Sec. 5.2.1, 5.2.2 and 6.2 (the three experiments).
+
+    Examples
+    --------
+    >>> board = experiments(quick=True)["checkerboard"]
+    >>> board.scene, board.calibration_plate < 1.0, board.methods[:3]
+    ('checkerboard', True, ('lpa-1', 'lpa-2', 'lpa-3'))
     """
 
     name: str
@@ -103,7 +136,18 @@ class Experiment:
     level_migls: tuple[float, ...] = ()
 
     def setup(self, base: Ch4Setup) -> Ch4Setup:
-        """``base`` with the experiment's aperture."""
+        """``base`` with the experiment's aperture.
+
+        Parameters
+        ----------
+        base : Ch4Setup
+            The reproduction's setup.
+
+        Returns
+        -------
+        Ch4Setup
+            ``base`` itself, or with the camera opened for the black plate (Sec. 5.2.2).
+        """
         if not self.black_aperture:
             return base
         cam = base.camera_model().with_aperture_for(BLACK_PLATE_REFLECTIVITY)
@@ -113,9 +157,22 @@ class Experiment:
 
     @property
     def calibration_plate(self) -> float:
+        """Reflectivity of the calibration plate: the black plate with the opened aperture."""
         return BLACK_PLATE_REFLECTIVITY if self.black_aperture else WHITE_PLATE
 
-    def scene_at(self, depth_mm: float) -> Any:
+    def scene_at(self, depth_mm: float) -> Scene:
+        """The experiment's scene at a position.
+
+        Parameters
+        ----------
+        depth_mm : float
+            Plate or board position.
+
+        Returns
+        -------
+        Scene
+            The white plate or the checkerboard there.
+        """
         if self.scene == "checkerboard":
             return checkerboard(depth_mm)
         return white_plate(depth_mm)
@@ -133,7 +190,23 @@ DPA_METHODS: tuple[str, ...] = ("dpa-10", "dpa-20", "dpab-10", "dpab-20")
 
 
 def experiments(quick: bool = False) -> dict[str, Experiment]:
-    """The three experiments, on the thesis's grid or the reduced ``quick`` one."""
+    """The three experiments, on the thesis's grid or the reduced ``quick`` one.
+
+    Parameters
+    ----------
+    quick : bool
+        The reduced grid (fewer pitches, depths and uniform MIGLs).
+
+    Returns
+    -------
+    dict of str to Experiment
+        ``ch5_plate``, ``checkerboard`` and ``ch6_plate``.
+
+    Examples
+    --------
+    >>> {name: len(e.pitches) * len(e.depths_mm) for name, e in experiments(quick=True).items()}
+    {'ch5_plate': 12, 'checkerboard': 9, 'ch6_plate': 9}
+    """
     board_pitches = (8, 14, 20) if quick else tuple(range(5, 21))
     board_depths = (10.0, 18.0, 26.0) if quick else CHECKERBOARD_DEPTHS_MM
     plate_levels = _migls(255, 60, 5)
@@ -186,6 +259,27 @@ class SweepRig(RigBase):
     images are drawn from a generator seeded by ``key`` and the MIGL, and kept, so every
     strategy that asks for a MIGL gets the same images (the thesis processed one captured sweep
     with every method). ``sets_rendered`` counts distinct sets.
+
+    Parameters
+    ----------
+    sweep : PlateSweep
+        The noise-free signals of the position.
+    setup : Ch4Setup
+        Camera settings and seed.
+    lux : float
+        Added ambient light.
+    key : tuple
+        The cell's coordinates, for its noise (:func:`~hdrfringe.reproduce.ch4.cell_rng`).
+
+    Examples
+    --------
+    >>> setup = Ch4Setup(width=32, height=24, camera_field_mm=16.0)
+    >>> spec = pattern_spec("sinusoidal-4", 8)
+    >>> rig = SweepRig(PlateSweep(18.0, setup, spec), setup, 600.0, ("doc", 8, 18.0))
+    >>> a = rig.capture(spec.with_migl(205.0).frames())
+    >>> b = rig.capture(spec.with_migl(205.0).frames())
+    >>> a.shape, a.dtype, a is b, rig.sets_rendered
+    ((4, 24, 32), dtype('uint8'), True, 1)
     """
 
     def __init__(self, sweep: PlateSweep, setup: Ch4Setup, lux: float, key: tuple[Any, ...]):
@@ -201,20 +295,41 @@ class SweepRig(RigBase):
 
     @property
     def sets_rendered(self) -> int:
+        """Number of distinct sets captured so far."""
         return len(self._sets)
 
-    def capture(self, frames: Sequence[Any], settings: CameraSettings | None = None) -> NDArray:
-        """The set's images at the frames' MIGL (camera settings: the reference only)."""
+    def capture(self, frames: Sequence[Frame], settings: CameraSettings | None = None) -> NDArray:
+        """The set's images at the frames' MIGL (camera settings: the reference only).
+
+        Parameters
+        ----------
+        frames : sequence of Frame
+            The fringe frames of ``sweep.spec`` at one MIGL, in shift order.
+        settings : CameraSettings, optional
+            Only the reference settings (or None) are accepted.
+
+        Returns
+        -------
+        ndarray, shape (N, H, W)
+            The set's images in the camera's dtype, the same array each time that MIGL is
+            asked for.
+
+        Raises
+        ------
+        InputError
+            Other camera settings, frames that are not this set's, or no frames.
+        """
         if settings is not None and settings != CameraSettings():
             raise InputError("the sweep rig captures at the reference camera settings only")
         frames = list(frames)
-        if not frames or not all(isinstance(f, FringeFrame) for f in frames):
+        fringes = [f for f in frames if isinstance(f, FringeFrame)]
+        if not fringes or len(fringes) != len(frames):
             raise InputError("the sweep rig captures fringe sets only")
-        migl = float(frames[0].spec.migl)
-        if frames != self.sweep.spec.with_migl(migl).frames():
+        migl = float(fringes[0].spec.migl)
+        if fringes != self.sweep.spec.with_migl(migl).frames():
             raise InputError(
                 f"the sweep rig holds {self.sweep.spec.label()} only; asked for "
-                f"{frames[0].spec.label()}"
+                f"{fringes[0].spec.label()}"
             )
         if migl not in self._sets:
             signal = self.sweep.signal(migl, self.lux)
@@ -225,7 +340,7 @@ class SweepRig(RigBase):
 
 def _run_method(
     method: str, rig: SweepRig, spec: FringeSpec, correction: CorrectionPolynomial
-) -> Any:
+) -> StrategyResult:
     from hdrfringe.strategies.dpa import dpa
     from hdrfringe.strategies.lpa import lpa
 
@@ -244,7 +359,7 @@ def _run_method(
 
 
 def _errors(
-    images: NDArray, spec: FringeSpec, sweep: PlateSweep, cal: Any, mask: NDArray[np.bool_]
+    images: NDArray, spec: FringeSpec, sweep: PlateSweep, cal: Calibration, mask: NDArray[np.bool_]
 ) -> NDArray[np.float64]:
     phase = orders_from_expected(sweep_phase(images, spec), sweep.expected_phase)
     return (cal.height(phase) - sweep.truth_height_mm)[mask]
@@ -257,7 +372,7 @@ def _stats(err: NDArray[np.float64]) -> tuple[float, float, float]:
     return float(np.sqrt(np.mean(err * err))), float(np.mean(err)), float(np.std(err))
 
 
-def _cdf_values(cdf: Any) -> NDArray[np.float64]:
+def _cdf_values(cdf: SaturationCDF) -> NDArray[np.float64]:
     values = cdf.values
     return np.array([values[int(m)] if int(m) < values.size else 1.0 for m in CDF_MIGLS])
 
@@ -272,6 +387,21 @@ def adaptive_cell(
 ) -> dict[str, NDArray[np.float64]]:
     """Every method of ``exp`` on one MIGL sweep of one pattern, pitch and depth.
 
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment.
+    pattern : str
+        Pattern name (:data:`~hdrfringe.reproduce.ch4.ALL_PATTERNS`).
+    pitch : int
+        Fringe pitch in projector pixels.
+    depth_mm : float
+        Scene position.
+    base : Ch4Setup
+        The reproduction's setup (the experiment may open the aperture).
+    correction : CorrectionPolynomial
+        DPA's error correction (:func:`train_correction`).
+
     Returns
     -------
     dict
@@ -282,6 +412,10 @@ def adaptive_cell(
         ``level_fraction``, ``level_rmse_mm``, ``level_mean_error_mm``; per method and CDF MIGL
         (DPA only, NaN otherwise): ``cdf_initial`` and ``cdf_final``; per CDF MIGL, the actual
         CDF from LPA's step-1 index (``cdf_actual``, NaN without an ``lpa-1`` method).
+
+    References
+    ----------
+    Thesis Sec. 5.2 (LPA, Eq. 5.1), Sec. 6.2-6.3 (DPA), Sec. 6.1.3 (the CDFs).
     """
     setup = exp.setup(base)
     spec = pattern_spec(pattern, pitch, setup.imin)
@@ -362,6 +496,22 @@ def train_correction(base: Ch4Setup, order: int = 2) -> CorrectionPolynomial:
     LPA with a step of 1 on the white plate under 600 lx at a pitch of 20 px (the live virtual
     rig, the same camera as the sweeps): every saturated pixel's true peak against its Eq. 6.2
     estimate (:meth:`~hdrfringe.saturation.estimate.TrainingData.train`). Deterministic.
+
+    Parameters
+    ----------
+    base : Ch4Setup
+        The reproduction's setup (its camera and seed).
+    order : int
+        Polynomial order.
+
+    Returns
+    -------
+    CorrectionPolynomial
+        With the RMSE of the estimate before and after correction.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2, Eq. 6.2-6.4.
     """
     from hdrfringe.rig.simulated import Lighting
     from hdrfringe.saturation.estimate import training_data_from_rig
@@ -377,9 +527,29 @@ def train_correction(base: Ch4Setup, order: int = 2) -> CorrectionPolynomial:
 # --------------------------------------------------------------------------------------------
 # sweep grids and tasks
 # --------------------------------------------------------------------------------------------
-def adaptive_grid(exp: Experiment, quick: bool = False) -> Any:
+def adaptive_grid(exp: Experiment, quick: bool = False) -> SweepGrid:
     """The sweep of ``exp``: one task per pattern, pitch and depth; methods, uniform MIGLs,
-    level MIGLs and CDF MIGLs are trailing dims of the variables."""
+    level MIGLs and CDF MIGLs are trailing dims of the variables.
+
+    Parameters
+    ----------
+    exp : Experiment
+        The experiment.
+    quick : bool
+        Recorded in the grid's attributes (the grid itself comes from ``exp``).
+
+    Returns
+    -------
+    SweepGrid
+        Computed by :func:`adaptive_task`; the variables are the keys of
+        :func:`adaptive_cell`'s result.
+
+    Examples
+    --------
+    >>> grid = adaptive_grid(experiments(quick=True)["ch5_plate"], quick=True)
+    >>> grid.n_blocks, grid.block_shape(grid.variables[0])
+    (36, (1,))
+    """
     from hdrfringe.reproduce.engine import SweepGrid, Variable
 
     methods = {"strategy": list(exp.methods)}
@@ -387,7 +557,7 @@ def adaptive_grid(exp: Experiment, quick: bool = False) -> Any:
     levels = {"index_migl": list(exp.level_migls or (0.0,))}
     cdf = {"cdf_migl": list(CDF_MIGLS)}
 
-    def var(name: str, dims: dict[str, list[Any]], units: str, long_name: str) -> Any:
+    def var(name: str, dims: dict[str, list[Any]], units: str, long_name: str) -> Variable:
         attrs = {"long_name": long_name} | ({"units": units} if units else {})
         return Variable(name, extra_dims=dims, attrs=attrs)
 
@@ -426,7 +596,21 @@ def adaptive_grid(exp: Experiment, quick: bool = False) -> Any:
 
 
 def adaptive_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArray]:
-    """Engine task: one pattern, pitch and depth of an experiment (:func:`adaptive_cell`)."""
+    """Engine task: one pattern, pitch and depth of an experiment (:func:`adaptive_cell`).
+
+    Parameters
+    ----------
+    coords : dict
+        The block's ``pattern``, ``pitch`` and ``depth_mm`` (of :func:`adaptive_grid`).
+    params : dict
+        ``setup`` (:meth:`Ch4Setup.to_dict`), ``experiment`` (its name), ``quick`` and
+        ``correction`` (:meth:`CorrectionPolynomial.to_dict`).
+
+    Returns
+    -------
+    dict
+        As :func:`adaptive_cell`.
+    """
     exp = experiments(bool(params["quick"]))[params["experiment"]]
     return adaptive_cell(
         exp,

@@ -7,12 +7,46 @@ Inputs are the Datasets of :mod:`hdrfringe.reproduce.adaptive` (``ch5_plate``,
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from hdrfringe.reproduce.ch4_report import _header, _markdown, _plt, _side_by_side
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from matplotlib.figure import Figure
+
+__all__ = [
+    "CH6_MIN_PITCH",
+    "FIG_6_3_PITCH",
+    "TABLE_5_1_PITCH",
+    "TABLE_5_2_PITCH",
+    "THESIS_TABLE_5_1",
+    "THESIS_TABLE_5_2",
+    "THESIS_TABLE_6_1",
+    "THESIS_TABLE_6_2",
+    "THESIS_TRADEOFF_CHECKERBOARD",
+    "differences_markdown",
+    "figure_5_3",
+    "figure_5_4",
+    "figure_5_5",
+    "figure_5_6",
+    "figure_5_8",
+    "figure_6_3",
+    "figures",
+    "method_label",
+    "pooled_levels",
+    "table_5_1",
+    "table_5_2",
+    "table_6",
+    "tables_markdown",
+    "uniform_tradeoff",
+]
 
 #: Table 5.1 (white plate, 600 lx, pitch 6): pattern -> (LPA S=5, MIGL 255, trade-off) RMSE mm.
 THESIS_TABLE_5_1: dict[str, tuple[float, float, float]] = {
@@ -58,7 +92,24 @@ FIG_6_3_PITCH = 8
 
 
 def method_label(method: str) -> str:
-    """``lpa-15`` -> ``LPA S=15``, ``dpa-10`` -> ``DPA 10 %``."""
+    """The label of a method name in tables and legends.
+
+    Parameters
+    ----------
+    method : str
+        ``"lpa-S"``, ``"dpa-P"`` or ``"dpab-P"`` (:class:`hdrfringe.reproduce.adaptive.Experiment`);
+        anything else is returned unchanged.
+
+    Returns
+    -------
+    str
+        E.g. ``LPA S=15``, ``DPA 10 %``.
+
+    Examples
+    --------
+    >>> method_label("lpa-15"), method_label("dpa-10"), method_label("dpab-20")
+    ('LPA S=15', 'DPA 10 %', 'DPA 20 % + bound (ours)')
+    """
     kind, _, value = method.partition("-")
     if kind == "lpa":
         return f"LPA S={value}"
@@ -69,9 +120,36 @@ def method_label(method: str) -> str:
     return method
 
 
-def uniform_tradeoff(ds: Any, pitch: int, pattern: str | None = None) -> tuple[float, int]:
+def uniform_tradeoff(ds: xr.Dataset, pitch: int, pattern: str | None = None) -> tuple[float, int]:
     """(trade-off MIGL, its index) of the uniform sets at ``pitch``: the lowest mean RMSE over
-    depth (the thesis's search of Sec. 4.2; the highest MIGL on ties)."""
+    depth (the thesis's search of Sec. 4.2; the highest MIGL on ties).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An adaptive sweep (:func:`hdrfringe.reproduce.adaptive.adaptive_grid`), with
+        ``uniform_rmse_mm`` over pattern, pitch, depth and uniform MIGL.
+    pitch : int
+        The pitch searched.
+    pattern : str, optional
+        The pattern searched (default the first).
+
+    Returns
+    -------
+    tuple of (float, int)
+        The trade-off MIGL and its index along ``uniform_migl``.
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> rmse = [[[[0.9, 0.4, 0.6], [0.7, 0.4, 0.8]]]]
+    >>> ds = xr.Dataset(
+    ...     {"uniform_rmse_mm": (("pattern", "pitch", "depth_mm", "uniform_migl"), rmse)},
+    ...     coords={"pitch": [8], "uniform_migl": [255.0, 250.0, 245.0]},
+    ... )
+    >>> uniform_tradeoff(ds, 8)
+    (250.0, 1)
+    """
     sel = ds["uniform_rmse_mm"].sel(pitch=pitch)
     sel = sel.isel(pattern=0) if pattern is None else sel.sel(pattern=pattern)
     curve = sel.mean("depth_mm").values
@@ -81,9 +159,28 @@ def uniform_tradeoff(ds: Any, pitch: int, pattern: str | None = None) -> tuple[f
     return float(migls[i]), i
 
 
-def table_5_1(plate: Any, pitch: int = TABLE_5_1_PITCH) -> list[dict[str, Any]]:
-    """Per pattern at ``pitch``: mean RMSE over depth of LPA S=5, MIGL 255 and the trade-off."""
-    rows = []
+def table_5_1(plate: xr.Dataset, pitch: int = TABLE_5_1_PITCH) -> list[dict[str, Any]]:
+    """Table 5.1: per pattern at ``pitch``, the mean RMSE over depth of LPA S=5, MIGL 255 and
+    the uniform trade-off.
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` sweep.
+    pitch : int
+        The pitch of the table (the thesis: 6 px).
+
+    Returns
+    -------
+    list of dict
+        Per pattern: ``pattern``, ``ours`` (LPA S=5, MIGL 255, trade-off RMSE in mm),
+        ``tradeoff_migl`` and ``thesis`` (:data:`THESIS_TABLE_5_1`, None where it has no row).
+
+    References
+    ----------
+    Thesis Sec. 5.2.1, Table 5.1.
+    """
+    rows: list[dict[str, Any]] = []
     for pattern in plate["pattern"].values:
         p = str(pattern)
         cell = plate.sel(pattern=p, pitch=pitch).mean("depth_mm")
@@ -99,11 +196,29 @@ def table_5_1(plate: Any, pitch: int = TABLE_5_1_PITCH) -> list[dict[str, Any]]:
     return rows
 
 
-def table_5_2(board: Any, pitch: int = TABLE_5_2_PITCH) -> list[dict[str, Any]]:
-    """Per method at ``pitch`` on the checkerboard: mean sets, RMSE and error std over depth,
-    then the uniform trade-off MIGL measured alone."""
+def table_5_2(board: xr.Dataset, pitch: int = TABLE_5_2_PITCH) -> list[dict[str, Any]]:
+    """Table 5.2: per method at ``pitch`` on the checkerboard, the mean sets, RMSE and error std
+    over depth, then the uniform trade-off MIGL measured alone.
+
+    Parameters
+    ----------
+    board : xarray.Dataset
+        The ``checkerboard`` sweep.
+    pitch : int
+        The pitch of the table (the thesis: 8 px).
+
+    Returns
+    -------
+    list of dict
+        Per method, then ``"uniform"``: ``method``, ``ours`` (sets, RMSE, std in mm) and
+        ``thesis`` (:data:`THESIS_TABLE_5_2`); the uniform row also has ``tradeoff_migl``.
+
+    References
+    ----------
+    Thesis Sec. 5.2.2, Table 5.2.
+    """
     cell = board.sel(pitch=pitch).isel(pattern=0).mean("depth_mm")
-    rows = []
+    rows: list[dict[str, Any]] = []
     for method in board["strategy"].values:
         m = str(method)
         c = cell.sel(strategy=m)
@@ -122,9 +237,27 @@ def table_5_2(board: Any, pitch: int = TABLE_5_2_PITCH) -> list[dict[str, Any]]:
     return rows
 
 
-def table_6(ds: Any, thesis: dict[str, tuple[float, ...]]) -> list[dict[str, Any]]:
+def table_6(ds: xr.Dataset, thesis: Mapping[str, tuple[float, ...]]) -> list[dict[str, Any]]:
     """Tables 6.1 / 6.2: per method, means over pitch (6..20) and depth of sets, bias, error
-    std and RMSE."""
+    std and RMSE.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The ``ch6_plate`` (Table 6.1) or ``checkerboard`` (Table 6.2) sweep.
+    thesis : mapping of str to tuple of float
+        The thesis's table (:data:`THESIS_TABLE_6_1` or :data:`THESIS_TABLE_6_2`).
+
+    Returns
+    -------
+    list of dict
+        Per method: ``method``, ``ours`` (sets, bias, std, RMSE) and ``thesis`` (None for a
+        method the thesis did not run).
+
+    References
+    ----------
+    Thesis Sec. 6.3, Tables 6.1 and 6.2.
+    """
     sel = ds.sel(pitch=ds["pitch"] >= CH6_MIN_PITCH).isel(pattern=0)
     mean = sel.mean(("pitch", "depth_mm"))
     rows = []
@@ -137,10 +270,31 @@ def table_6(ds: Any, thesis: dict[str, tuple[float, ...]]) -> list[dict[str, Any
 
 
 def tables_markdown(
-    plate: Any | None, board: Any | None, plate4: Any | None, board6: Any | None = None
+    plate: xr.Dataset | None,
+    board: xr.Dataset | None,
+    plate4: xr.Dataset | None,
+    board6: xr.Dataset | None = None,
 ) -> dict[str, str]:
     """Tables 5.1 and 5.2 (``plate``, ``board``: the Ch. 5 sweeps) and 6.1 and 6.2 (``plate4``,
-    ``board6``: the Ch. 6 sweeps) as Markdown, those whose sweeps are given."""
+    ``board6``: the Ch. 6 sweeps) as Markdown, those whose sweeps are given.
+
+    Parameters
+    ----------
+    plate : xarray.Dataset or None
+        The ``ch5_plate`` sweep (Table 5.1).
+    board : xarray.Dataset or None
+        The ``checkerboard`` sweep, for Ch. 5 (Table 5.2).
+    plate4 : xarray.Dataset or None
+        The ``ch6_plate`` sweep (Table 6.1).
+    board6 : xarray.Dataset or None
+        The ``checkerboard`` sweep, for Ch. 6 (Table 6.2).
+
+    Returns
+    -------
+    dict of str to str
+        ``"5.1"``, ``"5.2"``, ``"6.1"``, ``"6.2"`` (those given): Markdown tables, thesis
+        beside ours with the ratio.
+    """
     mm = "{:.3f}"
     out: dict[str, str] = {}
     if plate is not None:
@@ -184,30 +338,43 @@ def tables_markdown(
 
 
 def differences_markdown(
-    plate: Any | None, board: Any | None, plate4: Any | None, board6: Any | None = None
+    plate: xr.Dataset | None,
+    board: xr.Dataset | None,
+    plate4: xr.Dataset | None,
+    board6: xr.Dataset | None = None,
 ) -> str:
-    """What differs from the thesis in Ch. 5 and 6, with this run's numbers (arguments as
-    :func:`tables_markdown`)."""
+    """What differs from the thesis in Ch. 5 and 6, with this run's numbers.
+
+    Parameters
+    ----------
+    plate, board, plate4, board6 : xarray.Dataset or None
+        As :func:`tables_markdown`.
+
+    Returns
+    -------
+    str
+        A Markdown bullet list.
+    """
     lines = []
     if plate is not None:
-        t = table_5_1(plate)
+        t51 = table_5_1(plate)
         lines.append(
             "* **Table 5.1.** LPA S=5 against the uniform trade-off at pitch 6: "
-            + ", ".join(f"{r['pattern']} {r['ours'][0] / r['ours'][2]:.2f}x" for r in t)
+            + ", ".join(f"{r['pattern']} {r['ours'][0] / r['ours'][2]:.2f}x" for r in t51)
             + " (thesis: "
             + ", ".join(
-                f"{r['thesis'][0] / r['thesis'][2]:.2f}x" for r in t if r["thesis"] is not None
+                f"{r['thesis'][0] / r['thesis'][2]:.2f}x" for r in t51 if r["thesis"] is not None
             )
             + "). The thesis measured its trade-off in Ch. 4, on other captures; here both come "
             "from the same sweep, so the difference left is the method's alone."
         )
     if board is not None:
-        t = {r["method"]: r for r in table_5_2(board)}
-        s1, s45, uni = t["lpa-1"]["ours"], t["lpa-45"]["ours"], t["uniform"]["ours"]
+        t52 = {r["method"]: r for r in table_5_2(board)}
+        s1, s45, uni = t52["lpa-1"]["ours"], t52["lpa-45"]["ours"], t52["uniform"]["ours"]
         lines.append(
             f"* **Table 5.2.** On the checkerboard at pitch 8 the error std grows from "
             f"{s1[2]:.3f} mm (S=1) to {s45[2]:.3f} mm (S=45) and the uniform trade-off "
-            f"(MIGL {t['uniform']['tradeoff_migl']:.0f}) reaches {uni[2]:.3f} mm, the thesis's "
+            f"(MIGL {t52['uniform']['tradeoff_migl']:.0f}) reaches {uni[2]:.3f} mm, the thesis's "
             "order. The RMSE is dominated by a bias common to every method (the linear "
             "calibration model's residual at each depth, Eq. 2.15), so its spread is smaller "
             "than the std's."
@@ -261,14 +428,22 @@ def differences_markdown(
 # --------------------------------------------------------------------------------------------
 # figures
 # --------------------------------------------------------------------------------------------
-def _save(fig: Any, path: Path) -> None:
+def _save(fig: Figure, path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path)
     _plt().close(fig)
 
 
-def figure_5_3(plate: Any, path: Path) -> None:
-    """Fig. 5.3: LPA S=5 RMSE over pitch and depth, one contour panel per pattern."""
+def figure_5_3(plate: xr.Dataset, path: Path) -> None:
+    """Fig. 5.3: LPA S=5 RMSE over pitch and depth, one contour panel per pattern.
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` sweep.
+    path : Path
+        PNG file to write.
+    """
     plt = _plt()
     patterns = [str(p) for p in plate["pattern"].values]
     fig, axes = plt.subplots(1, len(patterns), figsize=(5 * len(patterns), 4), dpi=100)
@@ -280,8 +455,16 @@ def figure_5_3(plate: Any, path: Path) -> None:
     _save(fig, path)
 
 
-def figure_5_4(plate: Any, path: Path) -> None:
-    """Fig. 5.4: LPA S=5 mean RMSE over depth against pitch, per pattern."""
+def figure_5_4(plate: xr.Dataset, path: Path) -> None:
+    """Fig. 5.4: LPA S=5 mean RMSE over depth against pitch, per pattern.
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` sweep.
+    path : Path
+        PNG file to write.
+    """
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
     mean = plate["rmse_mm"].sel(strategy="lpa-5").mean("depth_mm")
@@ -293,9 +476,19 @@ def figure_5_4(plate: Any, path: Path) -> None:
     _save(fig, path)
 
 
-def figure_5_5(plate: Any, path: Path, pitch: int = TABLE_5_1_PITCH) -> None:
+def figure_5_5(plate: xr.Dataset, path: Path, pitch: int = TABLE_5_1_PITCH) -> None:
     """Fig. 5.5: RMSE against depth at pitch 6: MIGL 255 (solid), trade-off (dashed), LPA S=5
-    (dotted), per pattern."""
+    (dotted), per pattern.
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` sweep.
+    path : Path
+        PNG file to write.
+    pitch : int
+        The pitch shown.
+    """
     plt = _plt()
     patterns = [str(p) for p in plate["pattern"].values]
     fig, axes = plt.subplots(1, len(patterns), figsize=(5 * len(patterns), 3.6), dpi=100)
@@ -311,9 +504,24 @@ def figure_5_5(plate: Any, path: Path, pitch: int = TABLE_5_1_PITCH) -> None:
     _save(fig, path)
 
 
-def pooled_levels(plate: Any, pattern: str, pitch: int) -> dict[str, Any]:
+def pooled_levels(plate: xr.Dataset, pattern: str, pitch: int) -> dict[str, Any]:
     """Fig. 5.6's data: per index MIGL, the pixel fraction and the RMSE, mean error and std of
-    the pixels composed from it, pooled over depth (every depth measures as many pixels)."""
+    the pixels composed from it, pooled over depth (every depth measures as many pixels).
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` sweep (its ``level_*`` variables).
+    pattern : str
+        The pattern.
+    pitch : int
+        The pitch.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``migl`` (the index MIGLs holding pixels), ``fraction``, ``rmse``, ``mean``, ``std``.
+    """
     cell = plate.sel(pattern=pattern, pitch=pitch)
     f = cell["level_fraction"].values  # (depth, level)
     rmse = cell["level_rmse_mm"].values
@@ -333,9 +541,19 @@ def pooled_levels(plate: Any, pattern: str, pitch: int) -> dict[str, Any]:
     }
 
 
-def figure_5_6(plate: Any, path: Path, pitch: int = TABLE_5_1_PITCH) -> None:
+def figure_5_6(plate: xr.Dataset, path: Path, pitch: int = TABLE_5_1_PITCH) -> None:
     """Fig. 5.6: per LPA step, RMSE (and mean +- std) of the pixels composed from it, and the
-    pie chart of pixels per MIGL, per pattern (rows)."""
+    pie chart of pixels per MIGL, per pattern (rows).
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` sweep.
+    path : Path
+        PNG file to write.
+    pitch : int
+        The pitch shown.
+    """
     plt = _plt()
     patterns = [str(p) for p in plate["pattern"].values]
     fig, axes = plt.subplots(len(patterns), 2, figsize=(10, 3.4 * len(patterns)), dpi=100)
@@ -365,7 +583,9 @@ def figure_5_6(plate: Any, path: Path, pitch: int = TABLE_5_1_PITCH) -> None:
     _save(fig, path)
 
 
-def _per_pitch(ds: Any, path: Path, var: str, methods: list[str], ylabel: str, title: str) -> None:
+def _per_pitch(
+    ds: xr.Dataset, path: Path, var: str, methods: list[str], ylabel: str, title: str
+) -> None:
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4), dpi=100)
     mean = ds[var].isel(pattern=0).mean("depth_mm")
@@ -379,9 +599,19 @@ def _per_pitch(ds: Any, path: Path, var: str, methods: list[str], ylabel: str, t
     _save(fig, path)
 
 
-def figure_5_8(board: Any, path: Path, pitch: int = TABLE_5_2_PITCH) -> None:
+def figure_5_8(board: xr.Dataset, path: Path, pitch: int = TABLE_5_2_PITCH) -> None:
     """Fig. 5.8: checkerboard at pitch 8, RMSE and error std against depth for LPA S=1, S=15
-    and the uniform trade-off."""
+    and the uniform trade-off.
+
+    Parameters
+    ----------
+    board : xarray.Dataset
+        The ``checkerboard`` sweep.
+    path : Path
+        PNG file to write.
+    pitch : int
+        The pitch shown.
+    """
     plt = _plt()
     cell = board.sel(pitch=pitch).isel(pattern=0)
     t_migl, i = uniform_tradeoff(board, pitch)
@@ -400,14 +630,28 @@ def figure_5_8(board: Any, path: Path, pitch: int = TABLE_5_2_PITCH) -> None:
     _save(fig, path)
 
 
-def _nearest(values: Any, target: float) -> Any:
+def _nearest(values: ArrayLike, target: float) -> Any:
     values = np.asarray(values)
     return values[int(np.argmin(np.abs(values - target)))]
 
 
-def figure_6_3(datasets: dict[str, Any], path: Path, pitch: int = FIG_6_3_PITCH) -> None:
+def figure_6_3(datasets: Mapping[str, xr.Dataset], path: Path, pitch: int = FIG_6_3_PITCH) -> None:
     """Fig. 6.3: actual CDF (LPA step-1 index image) against DPA's estimated CDF (from the first
-    set, and after the last update), white plate and checkerboard, middle depth."""
+    set, and after the last update), white plate and checkerboard, middle depth.
+
+    Parameters
+    ----------
+    datasets : mapping of str to xarray.Dataset
+        Panel title -> sweep with ``dpa-10`` and ``lpa-1`` among its strategies.
+    path : Path
+        PNG file to write.
+    pitch : int
+        The pitch shown (the nearest swept one).
+
+    References
+    ----------
+    Thesis Sec. 6.1.3, Fig. 6.3.
+    """
     plt = _plt()
     fig, axes = plt.subplots(1, len(datasets), figsize=(6 * len(datasets), 4), dpi=100)
     for ax, (name, ds) in zip(np.atleast_1d(axes), datasets.items(), strict=True):
@@ -440,16 +684,28 @@ def figure_6_3(datasets: dict[str, Any], path: Path, pitch: int = FIG_6_3_PITCH)
 
 
 def figures(
-    plate: Any | None,
-    board: Any | None,
-    plate4: Any | None,
-    board6: Any | None,
+    plate: xr.Dataset | None,
+    board: xr.Dataset | None,
+    plate4: xr.Dataset | None,
+    board6: xr.Dataset | None,
     folder: Path,
 ) -> list[str]:
-    """Write the Ch. 5 and 6 figures whose sweeps are given (arguments as
-    :func:`tables_markdown`); return their file names."""
+    """Write the Ch. 5 and 6 figures whose sweeps are given; return their file names.
+
+    Parameters
+    ----------
+    plate, board, plate4, board6 : xarray.Dataset or None
+        As :func:`tables_markdown`.
+    folder : Path
+        Folder of the PNG files (created).
+
+    Returns
+    -------
+    list of str
+        The file names written, named after the thesis's figures.
+    """
     folder.mkdir(parents=True, exist_ok=True)
-    draw: dict[str, Any] = {}
+    draw: dict[str, Callable[[Path], None]] = {}
     if plate is not None:
         draw |= {
             "fig5_3_lpa_rmse_map.png": lambda p: figure_5_3(plate, p),
@@ -468,8 +724,8 @@ def figures(
             ),
             "fig5_8_checkerboard_pitch8.png": lambda p: figure_5_8(board, p),
         }
-    ch6 = {"white plate, 600 lx": plate4, "checkerboard": board6}
-    ch6 = {k: v for k, v in ch6.items() if v is not None and "dpa-10" in v["strategy"].values}
+    given = {"white plate, 600 lx": plate4, "checkerboard": board6}
+    ch6 = {k: v for k, v in given.items() if v is not None and "dpa-10" in v["strategy"].values}
     if ch6:
         draw["fig6_3_cdf.png"] = lambda p: figure_6_3(ch6, p)
     for key, ds in (("a", plate4), ("b", board6)):
@@ -484,10 +740,8 @@ def figures(
             ("6_5", "std_mm", "mean error std (mm)"),
             ("6_6", "sets", "sets captured"),
         ):
-            draw[f"fig{fig}{key}_{var}.png"] = (
-                lambda p, ds=ds, var=var, ylabel=ylabel, methods=methods, name=name: _per_pitch(
-                    ds, p, var, methods, ylabel, f"{name}, 4-step"
-                )
+            draw[f"fig{fig}{key}_{var}.png"] = partial(
+                _per_pitch, ds, var=var, methods=methods, ylabel=ylabel, title=f"{name}, 4-step"
             )
     for name, f in draw.items():
         f(folder / name)

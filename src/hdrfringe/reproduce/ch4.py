@@ -32,31 +32,72 @@ import hashlib
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe.calibration import Calibration, calibrate, measurement_mask
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
+from hdrfringe.frames import Frame
+from hdrfringe.patterns import FringeSpec, PatternKind
 from hdrfringe.phase import saturation_count, wrapped_phase
 from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.modify import lux_to_dn, modify_intensity
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, Scene, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
 
+if TYPE_CHECKING:
+    from hdrfringe.reproduce.engine import SweepGrid
+
+__all__ = [
+    "ALL_PATTERNS",
+    "PATTERNS",
+    "QUICK_ADDED_LUX",
+    "QUICK_DEPTHS_MM",
+    "QUICK_MIGLS",
+    "QUICK_NOISE_SIGMA",
+    "QUICK_PITCHES",
+    "QUICK_SETUP",
+    "SATURATED_SHIFTS",
+    "SIMULATION_PITCH",
+    "SWEEP_DTYPE",
+    "THESIS_ADDED_LUX",
+    "THESIS_DEPTHS_MM",
+    "THESIS_IMIN",
+    "THESIS_LUX",
+    "THESIS_MIGLS",
+    "THESIS_NOISE_SIGMA",
+    "THESIS_PITCHES",
+    "TWO_PI",
+    "WHITE_PLATE",
+    "Ch4Setup",
+    "PlateSweep",
+    "calibrate_pattern",
+    "cell_rng",
+    "ch4_block",
+    "ch4_grid",
+    "ch4_modified_block",
+    "ch4_simulation_grid",
+    "ch4_simulation_task",
+    "ch4_task",
+    "depth_normals",
+    "orders_from_expected",
+    "pattern_spec",
+    "sweep_phase",
+]
+
 TWO_PI = 2.0 * np.pi
 
 #: The three patterns of Ch. 4: name -> (pattern, steps).
-PATTERNS: dict[str, tuple[str, int]] = {
+PATTERNS: dict[str, tuple[PatternKind, int]] = {
     "sinusoidal-3": ("sinusoidal", 3),
     "triangular-3": ("triangular", 3),
     "triangular-2": ("triangular", 2),
 }
 #: Every pattern a reproduction measures: Ch. 4's and the sinusoidal 4-step of Sec. 5.2.2 and
 #: Ch. 6 (DPA needs the fourth shift to estimate a saturated one).
-ALL_PATTERNS: dict[str, tuple[str, int]] = {**PATTERNS, "sinusoidal-4": ("sinusoidal", 4)}
+ALL_PATTERNS: dict[str, tuple[PatternKind, int]] = {**PATTERNS, "sinusoidal-4": ("sinusoidal", 4)}
 #: Sec. 4.1 grid.
 THESIS_PITCHES: tuple[int, ...] = tuple(range(4, 21))
 THESIS_MIGLS: tuple[float, ...] = tuple(float(m) for m in range(255, 104, -5))
@@ -77,7 +118,7 @@ SATURATED_SHIFTS: tuple[int, ...] = (1, 2, 3)
 class Ch4Setup:
     """Rig and processing settings shared by every cell of a Ch. 4 sweep.
 
-    Attributes
+    Parameters
     ----------
     width, height : int
         Camera resolution (the thesis: 648 x 494).
@@ -92,6 +133,17 @@ class Ch4Setup:
         Calibration filter window and unfiltered border (Sec. 4.1: 21 and 10).
     camera : dict
         Further :class:`CameraModel` arguments (e.g. ``read_noise_dn8``).
+
+    References
+    ----------
+    Thesis Sec. 4.1 (the experiment), Sec. 3.4.3 (the rig).
+
+    Examples
+    --------
+    >>> QUICK_SETUP.camera_model().bit_depth, (QUICK_SETUP.height, QUICK_SETUP.width)
+    (8, (247, 324))
+    >>> Ch4Setup(**QUICK_SETUP.to_dict()) == QUICK_SETUP
+    True
     """
 
     width: int = 648
@@ -104,10 +156,30 @@ class Ch4Setup:
     camera: dict[str, Any] = field(default_factory=dict)
 
     def camera_model(self) -> CameraModel:
+        """The virtual camera: this resolution and the ``camera`` arguments.
+
+        Returns
+        -------
+        CameraModel
+            The camera of every capture of the sweep.
+        """
         return CameraModel(width=self.width, height=self.height, **self.camera)
 
     def rig(self, depth_mm: float, scene: Scene | None = None) -> SimulatedRig:
-        """The virtual rig looking at ``scene`` (default the white plate at ``depth_mm``), 0 lx."""
+        """The virtual rig looking at ``scene`` (default the white plate at ``depth_mm``), 0 lx.
+
+        Parameters
+        ----------
+        depth_mm : float
+            Plate position (ignored when ``scene`` is given).
+        scene : Scene, optional
+            Another scene (e.g. the checkerboard of Sec. 5.2.2).
+
+        Returns
+        -------
+        SimulatedRig
+            With this setup's camera, field of view and seed, no added light.
+        """
         return SimulatedRig(
             white_plate(float(depth_mm)) if scene is None else scene,
             camera=self.camera_model(),
@@ -116,6 +188,13 @@ class Ch4Setup:
         )
 
     def to_dict(self) -> dict[str, Any]:
+        """The settings as plain JSON values: a sweep's ``params["setup"]``.
+
+        Returns
+        -------
+        dict
+            The constructor arguments; ``Ch4Setup(**setup.to_dict()) == setup``.
+        """
         return {
             "width": self.width,
             "height": self.height,
@@ -129,7 +208,33 @@ class Ch4Setup:
 
 
 def pattern_spec(pattern: str, pitch: float, imin: float = THESIS_IMIN) -> FringeSpec:
-    """The vertical fringe set of a pattern name (:data:`ALL_PATTERNS`) at MIGL 255."""
+    """The vertical fringe set of a pattern name (:data:`ALL_PATTERNS`) at MIGL 255.
+
+    Parameters
+    ----------
+    pattern : str
+        A key of :data:`ALL_PATTERNS`, e.g. ``"sinusoidal-3"``.
+    pitch : float
+        Fringe pitch in projector pixels.
+    imin : float
+        Minimum input gray level.
+
+    Returns
+    -------
+    FringeSpec
+        Vertical fringes from ``imin`` to 255.
+
+    Raises
+    ------
+    InputError
+        If ``pattern`` is not a key of :data:`ALL_PATTERNS`.
+
+    Examples
+    --------
+    >>> spec = pattern_spec("triangular-2", 6)
+    >>> spec.pattern, spec.steps, spec.pitch_px, spec.orientation, spec.migl
+    ('triangular', 2, 6.0, 'vertical', 255.0)
+    """
     if pattern not in ALL_PATTERNS:
         raise InputError(f"unknown pattern {pattern!r}; use one of {', '.join(ALL_PATTERNS)}")
     kind, steps = ALL_PATTERNS[pattern]
@@ -152,6 +257,7 @@ def sweep_phase(images: NDArray, spec: FringeSpec) -> NDArray:
     Returns
     -------
     ndarray, shape (H, W)
+        The wrapped phase (float32 for sinusoidal sets, float64 for triangular ones).
 
     Examples
     --------
@@ -170,12 +276,55 @@ def sweep_phase(images: NDArray, spec: FringeSpec) -> NDArray:
 
 
 def orders_from_expected(wrapped: NDArray, expected: NDArray) -> NDArray[np.float64]:
-    """Absolute phase: ``wrapped`` plus the multiple of 2 pi closest to ``expected``."""
+    """Absolute phase: ``wrapped`` plus the multiple of 2 pi closest to ``expected``.
+
+    The fringe orders of the sweeps come from the known plate position (the micrometer
+    reading), so the phase error is measured without unwrapping failures mixed in.
+
+    Parameters
+    ----------
+    wrapped : ndarray
+        Wrapped phase in [0, 2 pi).
+    expected : ndarray
+        The true absolute phase (same shape, or broadcastable).
+
+    Returns
+    -------
+    ndarray
+        ``wrapped + 2 pi k`` with the integer ``k`` that brings it closest to ``expected``.
+
+    Examples
+    --------
+    >>> orders_from_expected(np.array([0.5, 6.0]), np.array([13.0, 5.9])).round(3)
+    array([13.066,  6.   ])
+    """
     return wrapped + TWO_PI * np.round((expected - wrapped) / TWO_PI)
 
 
 def cell_rng(setup: Ch4Setup, *key: Any) -> np.random.Generator:
-    """A generator that depends only on the setup's seed and the cell's coordinates."""
+    """A generator that depends only on the setup's seed and the cell's coordinates.
+
+    Parameters
+    ----------
+    setup : Ch4Setup
+        Its ``seed`` is the sweep's seed.
+    *key
+        The cell's coordinates (anything with a stable ``repr``: strings, numbers, tuples).
+
+    Returns
+    -------
+    numpy.random.Generator
+        PCG64 seeded by the seed and a SHA-256 of ``repr(key)``: the same cell gives the same
+        draws in any process, in any order.
+
+    Examples
+    --------
+    >>> a = cell_rng(QUICK_SETUP, "sinusoidal-3", 6.0, 18.0).integers(1000, size=3)
+    >>> b = cell_rng(QUICK_SETUP, "sinusoidal-3", 6.0, 18.0).integers(1000, size=3)
+    >>> c = cell_rng(QUICK_SETUP, "sinusoidal-3", 6.0, 20.0).integers(1000, size=3)
+    >>> bool((a == b).all()), bool((a == c).all())
+    (True, False)
+    """
     digest = hashlib.sha256(repr(key).encode()).digest()
     words = [int.from_bytes(digest[i : i + 4], "little") for i in range(0, 16, 4)]
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence([setup.seed, *words])))
@@ -198,6 +347,33 @@ def depth_normals(
     correlated, so comparisons over MIGL and light are paired (the trade-off search compares
     exactly those) while the means over the 25 positions average independent draws. Drawing
     once per position instead of once per cell removes what was the sweep's largest cost.
+
+    Parameters
+    ----------
+    setup : Ch4Setup
+        The sweep's settings (its seed).
+    spec : FringeSpec
+        The set (its pitch and number of steps).
+    pattern : str
+        Pattern name (:data:`ALL_PATTERNS`).
+    depth_mm : float
+        Plate position.
+    shape : tuple of int
+        Image shape (H, W).
+    *tag : str
+        Distinguishes independent draws of one position (e.g. ``"eq4.1"`` for the added noise
+        of Sec. 4.3).
+
+    Returns
+    -------
+    ndarray, shape (N, H, W), float32
+        Standard normal draws.
+
+    Examples
+    --------
+    >>> z = depth_normals(QUICK_SETUP, pattern_spec("sinusoidal-3", 6), "sinusoidal-3", 6.0, (2, 3))
+    >>> z.shape, z.dtype
+    ((3, 2, 3), dtype('float32'))
     """
     rng = cell_rng(setup, *tag, pattern, float(spec.pitch_px), float(depth_mm))
     return rng.standard_normal((spec.steps, *shape), dtype=SWEEP_DTYPE)
@@ -207,8 +383,41 @@ class PlateSweep:
     """Noise-free signals of one plate position (or any flat-lit scene) for any MIGL and
     ambient light.
 
-    ``scene`` replaces the white plate at ``depth_mm`` (e.g. the checkerboard of Sec. 5.2.2);
-    ``truth_height_mm`` is its true height map.
+    The rig is linear from projected light to signal (thesis Eq. 3.3 before noise), so the
+    response to each projector-pixel residue modulo the pitch, computed once, turns every frame
+    into one weighted sum.
+
+    Parameters
+    ----------
+    depth_mm : float
+        Plate position.
+    setup : Ch4Setup
+        Camera and rig settings.
+    spec : FringeSpec
+        The fringe set; its pitch must be a whole number of pixels.
+    scene : Scene, optional
+        Replaces the white plate at ``depth_mm`` (e.g. the checkerboard of Sec. 5.2.2).
+
+    Attributes
+    ----------
+    expected_phase : ndarray
+        The true absolute phase of each camera pixel.
+    truth_height_mm : ndarray
+        The scene's true height map.
+
+    Raises
+    ------
+    InputError
+        If the pitch is not a whole number of pixels.
+
+    Examples
+    --------
+    >>> setup = Ch4Setup(width=32, height=24, camera_field_mm=16.0)
+    >>> plate = PlateSweep(18.0, setup, pattern_spec("sinusoidal-3", 6))
+    >>> plate.signal(255.0).shape, plate.signal(255.0).dtype
+    ((3, 24, 32), dtype('float32'))
+    >>> bool((plate.signal(205.0) < plate.signal(255.0)).all())
+    True
     """
 
     def __init__(
@@ -230,20 +439,55 @@ class PlateSweep:
         self.truth_height_mm = truth.height_mm
 
     def ambient(self, lux: float) -> NDArray:
-        """Ambient signal (DN) with ``lux`` of added light (0 lx: the rig's own)."""
+        """Ambient signal (DN) with ``lux`` of added light (0 lx: the rig's own).
+
+        Parameters
+        ----------
+        lux : float
+            Added ambient light in lx.
+
+        Returns
+        -------
+        ndarray, shape (H, W), float32
+            The ambient part of the signal (computed once per level, then kept).
+        """
         if lux not in self._ambient:
             lit = self.rig.replace(lighting=Lighting(ambient_lux=float(lux)))
             self._ambient[lux] = lit.ambient_signal().astype(np.float32)
         return self._ambient[lux]
 
     def signal(self, migl: float, lux: float = 0.0) -> NDArray[np.float32]:
-        """Noise-free signal (float32) of the set at ``migl`` with ``lux`` of added light,
-        (N, H, W)."""
+        """Noise-free signal (float32) of the set at ``migl`` with ``lux`` of added light.
+
+        Parameters
+        ----------
+        migl : float
+            Maximum input gray level of the set.
+        lux : float
+            Added ambient light in lx.
+
+        Returns
+        -------
+        ndarray, shape (N, H, W), float32
+            Signal in DN before noise, rounding and clipping.
+        """
         return self.frames_signal(self.spec.with_migl(float(migl)).frames(), lux)
 
-    def frames_signal(self, frames: Sequence[Any], lux: float = 0.0) -> NDArray[np.float32]:
-        """Noise-free signal (float32) of any frames periodic with the pitch (fringe frames of
-        this set at any MIGL, uniform frames), (n, H, W)."""
+    def frames_signal(self, frames: Sequence[Frame], lux: float = 0.0) -> NDArray[np.float32]:
+        """Noise-free signal (float32) of any frames periodic with the pitch.
+
+        Parameters
+        ----------
+        frames : sequence of Frame
+            Fringe frames of this set at any MIGL, uniform frames.
+        lux : float
+            Added ambient light in lx.
+
+        Returns
+        -------
+        ndarray, shape (n, H, W), float32
+            Signal in DN before noise, rounding and clipping.
+        """
         light = np.stack([self.rig.periodic_light(f, self.period) for f in frames])
         shape = (len(frames), *self.rig.image_shape)
         out = (light.astype(np.float32) @ self._basis).reshape(shape)
@@ -265,14 +509,35 @@ def calibrate_pattern(
     plate_reflectivity: float = WHITE_PLATE,
 ) -> tuple[Calibration, NDArray[np.float64]]:
     """The Sec. 4.1 calibration of one pattern and pitch: reference plane and the plate
-    positions at MIGL 255, 0 lx, linear model (Eq. 2.15), filtered. Returns the calibration
-    and the reference plane's absolute phase.
-
-    ``plate_reflectivity``: the calibration plate (white, or the black plate of Sec. 5.2.2
-    with the camera opened for it through ``setup.camera``).
+    positions at MIGL 255, 0 lx, linear model (Eq. 2.15), filtered.
 
     Deterministic, so a worker keeps its last few calibrations: blocks that share a pattern
     and pitch (the Sec. 4.3 blocks, one per depth) calibrate once per worker process.
+
+    Parameters
+    ----------
+    pattern : str
+        Pattern name (:data:`ALL_PATTERNS`).
+    pitch : float
+        Fringe pitch in projector pixels (whole).
+    setup : Ch4Setup
+        Camera, filter window and border (Sec. 4.1: 21 and 10 px).
+    depths_mm : sequence of float
+        Plate positions of the calibration.
+    plate_reflectivity : float
+        The calibration plate: white, or the black plate of Sec. 5.2.2 with the camera opened
+        for it through ``setup.camera``.
+
+    Returns
+    -------
+    Calibration
+        The linear phase-to-height calibration.
+    ndarray
+        The reference plane's absolute phase.
+
+    References
+    ----------
+    Thesis Sec. 4.1 (procedure), Eq. 2.15 (least-squares K), Sec. 2.5.
     """
     key = json.dumps(
         [pattern, float(pitch), setup.to_dict(), [float(d) for d in depths_mm], plate_reflectivity]
@@ -342,12 +607,27 @@ def ch4_block(
 ) -> dict[str, NDArray[np.float64]]:
     """Every Sec. 4.2 measurement of one pattern and pitch.
 
+    Parameters
+    ----------
+    pattern : str
+        Pattern name (:data:`PATTERNS`).
+    pitch : float
+        Fringe pitch in projector pixels (whole).
+    luxes, migls, depths_mm : sequence of float
+        Added ambient light (lx), MIGLs and plate positions measured.
+    setup : Ch4Setup
+        Camera and processing settings.
+
     Returns
     -------
     dict
         ``rmse_mm`` and ``mean_error_mm`` of shape (lux, MIGL, depth), and
         ``saturated_fraction`` of shape (lux, MIGL, depth, 3): the fraction of measurement
         pixels saturated in exactly 1, 2 and 3 of the shifts (Fig. 4.5).
+
+    References
+    ----------
+    Thesis Sec. 4.1-4.2.
     """
     spec = pattern_spec(pattern, pitch, setup.imin)
     cam = setup.camera_model()
@@ -391,13 +671,34 @@ def ch4_modified_block(
     :func:`depth_normals`: the levels differ by sigma alone, so the RMSE-against-sigma curves
     of Table 4.2 are not blurred by independent draws).
 
-    ``calibration_depths_mm`` (default ``depths_mm``): the plate positions of the calibration,
-    when the block measures only some of them.
+    Parameters
+    ----------
+    pattern : str
+        Pattern name (:data:`PATTERNS`).
+    pitch : float
+        Fringe pitch in projector pixels (whole).
+    added_lux : sequence of float
+        Simulated added light levels (lx).
+    noise_sigma : sequence of float
+        Standard deviations of the simulated Gaussian noise (DN).
+    migls, depths_mm : sequence of float
+        MIGLs and plate positions measured.
+    setup : Ch4Setup
+        Camera and processing settings.
+    noise_lux : float
+        Added light of the noise simulation.
+    calibration_depths_mm : sequence of float, optional
+        The plate positions of the calibration (default ``depths_mm``), when the block
+        measures only some of them.
 
     Returns
     -------
     dict
         ``rmse_light_mm`` (added lux, MIGL, depth) and ``rmse_noise_mm`` (sigma, MIGL, depth).
+
+    References
+    ----------
+    Thesis Sec. 4.3, Eq. 4.1.
     """
     spec = pattern_spec(pattern, pitch, setup.imin)
     cam = setup.camera_model()
@@ -438,8 +739,26 @@ QUICK_NOISE_SIGMA: tuple[float, ...] = (1.0, 4.0, 8.0)
 SIMULATION_PITCH = 6
 
 
-def ch4_grid(quick: bool = False) -> Any:
-    """The Sec. 4.2 sweep: dims pattern, pitch (one task each) x lux, MIGL, depth."""
+def ch4_grid(quick: bool = False) -> SweepGrid:
+    """The Sec. 4.2 sweep: dims pattern, pitch (one task each) x lux, MIGL, depth.
+
+    Parameters
+    ----------
+    quick : bool
+        The reduced grid (:data:`QUICK_PITCHES`, :data:`QUICK_MIGLS`, :data:`QUICK_DEPTHS_MM`)
+        instead of the thesis's (Sec. 4.1).
+
+    Returns
+    -------
+    SweepGrid
+        Variables ``rmse_mm``, ``mean_error_mm`` and ``saturated_fraction``; computed by
+        :func:`ch4_task`.
+
+    Examples
+    --------
+    >>> ch4_grid().n_blocks, ch4_grid(quick=True).n_blocks
+    (51, 12)
+    """
     from hdrfringe.reproduce.engine import SweepGrid, Variable
 
     return SweepGrid(
@@ -465,7 +784,21 @@ def ch4_grid(quick: bool = False) -> Any:
 
 
 def ch4_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArray]:
-    """Engine task: one pattern and pitch (see :func:`ch4_block`)."""
+    """Engine task: one pattern and pitch (see :func:`ch4_block`).
+
+    Parameters
+    ----------
+    coords : dict
+        The block's coordinates (:meth:`SweepGrid.block_coords
+        <hdrfringe.reproduce.engine.SweepGrid.block_coords>` of :func:`ch4_grid`).
+    params : dict
+        ``{"setup": Ch4Setup.to_dict()}``.
+
+    Returns
+    -------
+    dict
+        The block's variables, as :func:`ch4_block`.
+    """
     return ch4_block(
         coords["pattern"],
         coords["pitch"],
@@ -476,10 +809,28 @@ def ch4_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArra
     )
 
 
-def ch4_simulation_grid(quick: bool = False) -> Any:
+def ch4_simulation_grid(quick: bool = False) -> SweepGrid:
     """The Sec. 4.3 sweep at pitch 6: dims pattern and depth (one task each: enough tasks to
     keep every worker busy) x MIGL, and the added light / noise levels as trailing dims of
-    their variables."""
+    their variables.
+
+    Parameters
+    ----------
+    quick : bool
+        The reduced grid instead of the thesis's.
+
+    Returns
+    -------
+    SweepGrid
+        Variables ``rmse_light_mm`` and ``rmse_noise_mm``; computed by
+        :func:`ch4_simulation_task`.
+
+    Examples
+    --------
+    >>> grid = ch4_simulation_grid(quick=True)
+    >>> grid.n_blocks, [grid.block_shape(v) for v in grid.variables]
+    (12, [(11, 3), (11, 3)])
+    """
     from hdrfringe.reproduce.engine import SweepGrid, Variable
 
     return SweepGrid(
@@ -512,7 +863,22 @@ def ch4_simulation_grid(quick: bool = False) -> Any:
 
 
 def ch4_simulation_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, NDArray]:
-    """Engine task: the Sec. 4.3 simulations of one pattern (:func:`ch4_modified_block`)."""
+    """Engine task: the Sec. 4.3 simulations of one pattern and depth
+    (:func:`ch4_modified_block`).
+
+    Parameters
+    ----------
+    coords : dict
+        The block's coordinates (of :func:`ch4_simulation_grid`).
+    params : dict
+        ``setup`` (:meth:`Ch4Setup.to_dict`), ``added_lux``, ``noise_sigma`` and
+        ``calibration_depths_mm``.
+
+    Returns
+    -------
+    dict
+        ``rmse_light_mm`` (MIGL, added lux) and ``rmse_noise_mm`` (MIGL, sigma).
+    """
     setup = Ch4Setup(**params["setup"])
     out = ch4_modified_block(
         coords["pattern"],

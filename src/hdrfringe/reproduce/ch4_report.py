@@ -6,11 +6,36 @@ print them side by side; every figure is a matplotlib PNG named after the thesis
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = [
+    "THESIS_TABLE_4_1",
+    "THESIS_TABLE_4_2",
+    "THESIS_TABLE_4_3",
+    "differences_markdown",
+    "figure_depth_maps",
+    "figure_measured_vs_simulated",
+    "figure_patterns_by_pitch",
+    "figure_pitch6",
+    "figure_rmse_maps",
+    "figure_saturation_by_pitch",
+    "figure_simulation",
+    "figures",
+    "table_4_1",
+    "table_4_2",
+    "table_4_3",
+    "tables_markdown",
+    "tradeoff",
+]
 
 #: Thesis Table 4.1 (simulation, sinusoidal 3-step, pitch 6): lux -> (trade-off MIGL, RMSE at
 #: 255, RMSE at the trade-off), mm.
@@ -46,8 +71,34 @@ def _ratio(ours: float, thesis: float) -> float:
     return float(ours) / float(thesis) if thesis else float("nan")
 
 
-def tradeoff(curve: Any) -> tuple[float, float]:
-    """(MIGL, value) of the minimum of a 1-D DataArray over ``migl`` (highest MIGL on ties)."""
+def tradeoff(curve: xr.DataArray) -> tuple[float, float]:
+    """(MIGL, value) of the minimum of a 1-D DataArray over ``migl`` (highest MIGL on ties).
+
+    The trade-off MIGL of thesis Sec. 4.2: lowering the MIGL removes saturation until the
+    noise of the lower signal outweighs it; the minimum of the mean RMSE marks the best
+    compromise. NaN cells (not computed) are ignored.
+
+    Parameters
+    ----------
+    curve : xarray.DataArray
+        Values (e.g. mean RMSE in mm) along a ``migl`` dimension.
+
+    Returns
+    -------
+    tuple of float
+        The MIGL of the minimum and the minimum.
+
+    References
+    ----------
+    Thesis Sec. 4.2.2-4.2.3, Fig. 4.13 (the trade-off point).
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> rmse = xr.DataArray([0.9, 0.3, 0.3, 0.5], coords={"migl": [255.0, 240.0, 225.0, 210.0]})
+    >>> tradeoff(rmse)
+    (240.0, 0.3)
+    """
     values = np.asarray(curve.values, dtype=np.float64)
     migls = np.asarray(curve["migl"].values, dtype=np.float64)
     best = np.nanmin(values)
@@ -55,9 +106,25 @@ def tradeoff(curve: Any) -> tuple[float, float]:
     return float(migls[i]), float(values[i])
 
 
-def table_4_3(ds: Any, pitch: int = 6) -> list[dict[str, Any]]:
-    """Per pattern at ``pitch``: trade-off MIGL at 600 lx, RMSE at 255 (0 and 600 lx) and at the
-    trade-off, each beside the thesis."""
+def table_4_3(ds: xr.Dataset, pitch: int = 6) -> list[dict[str, Any]]:
+    """Table 4.3: per pattern at ``pitch``, the trade-off MIGL at 600 lx, the RMSE at 255 (0 and
+    600 lx) and at the trade-off, each beside the thesis.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep (:func:`hdrfringe.reproduce.ch4.ch4_grid`); its ``rmse_mm`` is
+        averaged over depth.
+    pitch : int
+        The pitch of the table (the thesis: 6 px).
+
+    Returns
+    -------
+    list of dict
+        Per pattern: ``pattern``, ``ours`` (trade-off MIGL, RMSE 255 at 0 lx, RMSE 255 at
+        600 lx, RMSE at the trade-off) and ``thesis`` (the same from
+        :data:`THESIS_TABLE_4_3`, None for a pattern the thesis did not measure).
+    """
     mean = ds["rmse_mm"].sel(pitch=pitch).mean("depth_mm")
     rows = []
     for pattern in ds["pattern"].values:
@@ -74,8 +141,23 @@ def table_4_3(ds: Any, pitch: int = 6) -> list[dict[str, Any]]:
     return rows
 
 
-def table_4_1(sim: Any, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
-    """Per added light: trade-off MIGL, RMSE at 255 and at the trade-off (Eq. 4.1 simulation)."""
+def table_4_1(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
+    """Table 4.1: per added light, the trade-off MIGL, the RMSE at 255 and at the trade-off
+    (Eq. 4.1 simulation).
+
+    Parameters
+    ----------
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep (:func:`hdrfringe.reproduce.ch4.ch4_simulation_grid`).
+    pattern : str
+        The pattern of the table (the thesis: sinusoidal 3-step).
+
+    Returns
+    -------
+    list of dict
+        Per added light: ``lux``, ``ours`` (trade-off MIGL, RMSE at 255, RMSE at the
+        trade-off) and ``thesis`` (:data:`THESIS_TABLE_4_1`, None where it has no row).
+    """
     mean = sim["rmse_light_mm"].sel(pattern=pattern).mean("depth_mm")
     rows = []
     for lux in mean["added_lux"].values:
@@ -86,8 +168,22 @@ def table_4_1(sim: Any, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
     return rows
 
 
-def table_4_2(sim: Any, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
-    """Per noise sigma at 600 lx: trade-off MIGL and the RMSE there."""
+def table_4_2(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
+    """Table 4.2: per noise sigma at 600 lx, the trade-off MIGL and the RMSE there.
+
+    Parameters
+    ----------
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep (:func:`hdrfringe.reproduce.ch4.ch4_simulation_grid`).
+    pattern : str
+        The pattern of the table (the thesis: sinusoidal 3-step).
+
+    Returns
+    -------
+    list of dict
+        Per sigma: ``sigma``, ``ours`` (trade-off MIGL, RMSE there) and ``thesis``
+        (:data:`THESIS_TABLE_4_2`, None where it has no row).
+    """
     mean = sim["rmse_noise_mm"].sel(pattern=pattern).mean("depth_mm")
     rows = []
     for sigma in mean["noise_sigma"].values:
@@ -122,8 +218,21 @@ def _header(first: str, quantities: Sequence[str]) -> list[str]:
     return [first] + [f"{q} {c}" for q in quantities for c in ("thesis", "ours", "ratio")]
 
 
-def tables_markdown(ds: Any, sim: Any) -> dict[str, str]:
-    """Tables 4.1, 4.2 and 4.3 as Markdown, thesis beside ours with the ratio ours/thesis."""
+def tables_markdown(ds: xr.Dataset, sim: xr.Dataset) -> dict[str, str]:
+    """Tables 4.1, 4.2 and 4.3 as Markdown, thesis beside ours with the ratio ours/thesis.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep (Table 4.3).
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep (Tables 4.1 and 4.2).
+
+    Returns
+    -------
+    dict of str to str
+        ``"4.1"``, ``"4.2"``, ``"4.3"``: each table as a Markdown table.
+    """
     mm = "{:.3f}"
     level = "{:.0f}"
     return {
@@ -162,8 +271,21 @@ def tables_markdown(ds: Any, sim: Any) -> dict[str, str]:
     }
 
 
-def differences_markdown(ds: Any, sim: Any) -> str:
-    """What differs from the thesis and why, with the ratios of this run."""
+def differences_markdown(ds: xr.Dataset, sim: xr.Dataset) -> str:
+    """What differs from the thesis and why, with the ratios of this run.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep.
+
+    Returns
+    -------
+    str
+        A Markdown bullet list (empty when no table has a thesis value to compare).
+    """
     ratios = []
     for r in table_4_3(ds):
         if r["thesis"]:
@@ -203,7 +325,7 @@ def differences_markdown(ds: Any, sim: Any) -> str:
 # --------------------------------------------------------------------------------------------
 # figures
 # --------------------------------------------------------------------------------------------
-def _plt() -> Any:
+def _plt() -> ModuleType:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -212,9 +334,19 @@ def _plt() -> Any:
     return plt
 
 
-def figure_rmse_maps(ds: Any, path: Path, lux: float) -> None:
+def figure_rmse_maps(ds: xr.Dataset, path: Path, lux: float) -> None:
     """Fig. 4.2-4.4 (0 lx) and 4.6-4.8 (600 lx): mean RMSE over depth against pitch and MIGL,
-    one contour panel per pattern."""
+    one contour panel per pattern.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    path : Path
+        PNG file to write.
+    lux : float
+        The added light shown (0 or 600 lx).
+    """
     plt = _plt()
     mean = ds["rmse_mm"].sel(lux=lux).mean("depth_mm")
     patterns = [str(p) for p in ds["pattern"].values]
@@ -230,8 +362,18 @@ def figure_rmse_maps(ds: Any, path: Path, lux: float) -> None:
     plt.close(fig)
 
 
-def figure_saturation_by_pitch(ds: Any, path: Path, migl: float = 255.0) -> None:
-    """Fig. 4.5: percentage of pixels saturated in 1, 2, 3 shifts at 600 lx, by pitch."""
+def figure_saturation_by_pitch(ds: xr.Dataset, path: Path, migl: float = 255.0) -> None:
+    """Fig. 4.5: percentage of pixels saturated in 1, 2, 3 shifts at 600 lx, by pitch.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    path : Path
+        PNG file to write.
+    migl : float
+        The MIGL shown.
+    """
     plt = _plt()
     sat = ds["saturated_fraction"].sel(lux=600.0, migl=migl).mean("depth_mm") * 100
     patterns = [str(p) for p in ds["pattern"].values]
@@ -250,8 +392,18 @@ def figure_saturation_by_pitch(ds: Any, path: Path, migl: float = 255.0) -> None
     plt.close(fig)
 
 
-def figure_pitch6(ds: Any, path: Path, pitch: int = 6) -> None:
-    """Fig. 4.13: mean RMSE against MIGL at pitch 6, 0 and 600 lx, per pattern."""
+def figure_pitch6(ds: xr.Dataset, path: Path, pitch: int = 6) -> None:
+    """Fig. 4.13: mean RMSE against MIGL at pitch 6, 0 and 600 lx, per pattern.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    path : Path
+        PNG file to write.
+    pitch : int
+        The pitch shown.
+    """
     plt = _plt()
     mean = ds["rmse_mm"].sel(pitch=pitch).mean("depth_mm")
     patterns = [str(p) for p in ds["pattern"].values]
@@ -267,8 +419,22 @@ def figure_pitch6(ds: Any, path: Path, pitch: int = 6) -> None:
     plt.close(fig)
 
 
-def figure_simulation(sim: Any, path: Path, var: str, dim: str, unit: str) -> None:
-    """Fig. 4.15 (added light) / 4.16 (noise): mean RMSE against MIGL per level and pattern."""
+def figure_simulation(sim: xr.Dataset, path: Path, var: str, dim: str, unit: str) -> None:
+    """Fig. 4.15 (added light) / 4.16 (noise): mean RMSE against MIGL per level and pattern.
+
+    Parameters
+    ----------
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep.
+    path : Path
+        PNG file to write.
+    var : str
+        The variable shown: ``"rmse_light_mm"`` or ``"rmse_noise_mm"``.
+    dim : str
+        Its level dimension: ``"added_lux"`` or ``"noise_sigma"``.
+    unit : str
+        Unit of the levels in the legend.
+    """
     plt = _plt()
     mean = sim[var].mean("depth_mm")
     patterns = [str(p) for p in sim["pattern"].values]
@@ -284,9 +450,21 @@ def figure_simulation(sim: Any, path: Path, var: str, dim: str, unit: str) -> No
     plt.close(fig)
 
 
-def figure_depth_maps(ds: Any, path: Path, pattern: str, migls: Sequence[float]) -> None:
+def figure_depth_maps(ds: xr.Dataset, path: Path, pattern: str, migls: Sequence[float]) -> None:
     """Fig. 4.9-4.11: RMSE over pitch and depth at 600 lx for one pattern, one contour panel per
-    MIGL (the thesis: 255 and 225)."""
+    MIGL (the thesis: 255 and 225).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    path : Path
+        PNG file to write.
+    pattern : str
+        The pattern shown.
+    migls : sequence of float
+        One panel per MIGL.
+    """
     plt = _plt()
     fig, axes = plt.subplots(1, len(migls), figsize=(5 * len(migls), 4), dpi=100)
     for ax, m in zip(np.atleast_1d(axes), migls, strict=True):
@@ -300,9 +478,19 @@ def figure_depth_maps(ds: Any, path: Path, pattern: str, migls: Sequence[float])
     plt.close(fig)
 
 
-def figure_patterns_by_pitch(ds: Any, path: Path, migls: Sequence[float]) -> None:
+def figure_patterns_by_pitch(ds: xr.Dataset, path: Path, migls: Sequence[float]) -> None:
     """Fig. 4.12: mean RMSE over depth against pitch at 600 lx, one panel per MIGL, one line
-    per pattern."""
+    per pattern.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    path : Path
+        PNG file to write.
+    migls : sequence of float
+        One panel per MIGL.
+    """
     plt = _plt()
     mean = ds["rmse_mm"].sel(lux=600.0).mean("depth_mm")
     fig, axes = plt.subplots(1, len(migls), figsize=(5.5 * len(migls), 3.8), dpi=100)
@@ -317,9 +505,23 @@ def figure_patterns_by_pitch(ds: Any, path: Path, migls: Sequence[float]) -> Non
     plt.close(fig)
 
 
-def figure_measured_vs_simulated(ds: Any, sim: Any, path: Path, sigma: float = 1.0) -> None:
+def figure_measured_vs_simulated(
+    ds: xr.Dataset, sim: xr.Dataset, path: Path, sigma: float = 1.0
+) -> None:
     """Fig. 4.17: RMSE against depth at pitch 6 and MIGL 255: measured with 0 and 600 lx, and
-    the Eq. 4.1 simulation of 600 lx with noise sigma 1, per pattern."""
+    the Eq. 4.1 simulation of 600 lx with noise sigma 1, per pattern.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep (its ``pitch`` attribute is the pitch shown).
+    path : Path
+        PNG file to write.
+    sigma : float
+        The simulated noise level shown.
+    """
     plt = _plt()
     pitch = int(sim.attrs.get("pitch", 6))
     patterns = [str(p) for p in ds["pattern"].values]
@@ -337,17 +539,32 @@ def figure_measured_vs_simulated(ds: Any, sim: Any, path: Path, sigma: float = 1
     plt.close(fig)
 
 
-def figures(ds: Any, sim: Any, folder: Path) -> list[str]:
-    """Write the Ch. 4 figures into ``folder``; return their file names."""
+def figures(ds: xr.Dataset, sim: xr.Dataset, folder: Path) -> list[str]:
+    """Write the Ch. 4 figures into ``folder``; return their file names.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep.
+    folder : Path
+        Folder of the PNG files (created).
+
+    Returns
+    -------
+    list of str
+        The file names written, named after the thesis's figures.
+    """
     folder.mkdir(parents=True, exist_ok=True)
     migls = [m for m in (255.0, 225.0) if m in ds["migl"].values]
-    written = {
+    written: dict[str, Callable[[Path], None]] = {
         "fig4_2-4_4_rmse_0lx.png": lambda p: figure_rmse_maps(ds, p, 0.0),
         "fig4_6-4_8_rmse_600lx.png": lambda p: figure_rmse_maps(ds, p, 600.0),
         "fig4_5_saturation_by_pitch.png": lambda p: figure_saturation_by_pitch(ds, p),
         **{
-            f"fig4_{9 + i}_{pattern}_depth_maps.png": (
-                lambda p, pattern=pattern: figure_depth_maps(ds, p, pattern, migls)
+            f"fig4_{9 + i}_{pattern}_depth_maps.png": partial(
+                figure_depth_maps, ds, pattern=pattern, migls=migls
             )
             for i, pattern in enumerate(str(x) for x in ds["pattern"].values)
         },

@@ -54,6 +54,25 @@ if TYPE_CHECKING:
     from dask.distributed import Client
     from rich.progress import Progress
 
+__all__ = [
+    "DONE_VAR",
+    "LOG_EVERY_S",
+    "RUNTIME_ATTRS",
+    "WORKER_ENV",
+    "WORKER_ENV_KEY",
+    "ZARR_FORMAT",
+    "BlockFunc",
+    "Coord",
+    "SweepError",
+    "SweepGrid",
+    "SweepStatus",
+    "Variable",
+    "open_results",
+    "run_sweep",
+    "sweep_identity",
+    "sweep_status",
+]
+
 log = logging.getLogger(__name__)
 
 #: Name of the per-block flag variable (dims: the split dims; 1 once the block is stored).
@@ -176,6 +195,19 @@ class Variable:
         object.__setattr__(self, "attrs", dict(self.attrs))
 
     def to_json(self) -> dict[str, Any]:
+        """Plain-JSON description (order kept), part of :meth:`SweepGrid.to_json`.
+
+        Returns
+        -------
+        dict
+            ``name``, ``dtype``, ``extra_dims`` (a list of ``[dim, coordinates]`` pairs),
+            ``fill`` and ``attrs``.
+
+        Examples
+        --------
+        >>> Variable("sets", dtype="int16", fill=-1).to_json()
+        {'name': 'sets', 'dtype': 'int16', 'extra_dims': [], 'fill': -1, 'attrs': {}}
+        """
         return {
             "name": self.name,
             "dtype": self.dtype,
@@ -235,7 +267,7 @@ class SweepGrid:
         if len(set(names)) != len(names):
             raise InputError(f"variable names repeat: {names}")
         taken = set(dims) | {DONE_VAR}
-        extra: dict[str, tuple[Coord, ...]] = {}
+        extra: dict[str, Sequence[Coord]] = {}
         for v in variables:
             if v.name in taken:
                 raise InputError(
@@ -269,6 +301,7 @@ class SweepGrid:
 
     @property
     def n_blocks(self) -> int:
+        """Number of blocks, i.e. of tasks (1 when every dim is a block dim)."""
         return math.prod(self.blocks_shape)
 
     def block_indices(self) -> Iterator[tuple[int, ...]]:
@@ -382,12 +415,38 @@ def _function_name(func: BlockFunc) -> str:
 def sweep_identity(grid: SweepGrid, func: BlockFunc, params: Mapping[str, Any]) -> dict[str, str]:
     """The attributes that identify a sweep, with their fingerprint.
 
+    Parameters
+    ----------
+    grid : SweepGrid
+        The sweep's grid.
+    func : callable
+        The task function: a top-level function (recorded by ``module:qualname``).
+    params : mapping
+        The settings passed to every task (JSON values: numbers, strings, lists, dicts; numpy
+        scalars and arrays are converted).
+
     Returns
     -------
     dict
         ``sweep_grid`` and ``sweep_params`` (canonical JSON), ``sweep_function``
         (``module:qualname``), ``hdrfringe_version`` and ``sweep_fingerprint``, the SHA-256 of
         all four. A store is resumed only by a sweep with the same fingerprint.
+
+    Raises
+    ------
+    InputError
+        If ``func`` is not a top-level function or ``params`` holds a value that is not JSON.
+
+    Examples
+    --------
+    >>> def task(coords, params):
+    ...     return {"rmse_mm": np.full(len(coords["migl"]), params["seed"] * 0.1)}
+    >>> grid = SweepGrid({"pitch": [6, 8], "migl": [255.0, 205.0]}, [Variable("rmse_mm")], ["migl"])
+    >>> a = sweep_identity(grid, task, {"seed": 0})
+    >>> a["sweep_function"], len(a["sweep_fingerprint"])
+    ('hdrfringe.reproduce.engine:task', 64)
+    >>> a == sweep_identity(grid, task, {"seed": 0}), a == sweep_identity(grid, task, {"seed": 1})
+    (True, False)
     """
     from hdrfringe import __version__
 
@@ -515,7 +574,16 @@ def _open_or_create(path: Path, grid: SweepGrid, ident: Mapping[str, str]) -> za
 
 
 def _done_flags(group: zarr.Group) -> NDArray[np.bool_]:
-    return np.asarray(group[DONE_VAR][...], dtype=bool)
+    """The ``block_done`` flags of an open sweep store, as a bool array over the split dims."""
+    import zarr
+
+    flags = group[DONE_VAR]
+    if not isinstance(flags, zarr.Array):
+        raise InputError(
+            f"{group.store_path}: {DONE_VAR!r} is a group, not an array: the sweep store is "
+            "damaged; remove it and rerun the sweep"
+        )
+    return np.asarray(flags[...], dtype=bool)
 
 
 # --------------------------------------------------------------------------- results
@@ -523,16 +591,22 @@ def _done_flags(group: zarr.Group) -> NDArray[np.bool_]:
 
 @dataclass(frozen=True)
 class SweepStatus:
-    """How far a stored sweep has got.
+    """How far a stored sweep has got (made by :func:`sweep_status`).
 
-    Attributes
+    Parameters
     ----------
     total, done : int
         Blocks in the grid and blocks stored.
     missing : tuple of dict
         The split-dim coordinates of each block not stored yet, in grid order.
     fingerprint : str
-        The store's sweep fingerprint.
+        The store's sweep fingerprint (:func:`sweep_identity`).
+
+    Examples
+    --------
+    >>> status = SweepStatus(4, 3, ({"pattern": "sin", "pitch": 8},), "ab12")
+    >>> str(status), status.complete
+    ('3 of 4 blocks done, 1 missing', False)
     """
 
     total: int
@@ -542,6 +616,7 @@ class SweepStatus:
 
     @property
     def complete(self) -> bool:
+        """True when every block is stored."""
         return not self.missing
 
     def __str__(self) -> str:
@@ -558,6 +633,16 @@ def _stored_sweep(path: Path) -> tuple[dict[str, Any], SweepGrid]:
 
 def sweep_status(store_path: str | os.PathLike[str]) -> SweepStatus:
     """Count the done and missing blocks of a sweep store (cheap: reads the flags only).
+
+    Parameters
+    ----------
+    store_path : path
+        The sweep's Zarr store (a folder written by :func:`run_sweep`).
+
+    Returns
+    -------
+    SweepStatus
+        Blocks in the grid, blocks stored, the coordinates of those missing, the fingerprint.
 
     Raises
     ------
@@ -584,6 +669,17 @@ def open_results(store_path: str | os.PathLike[str]) -> xr.Dataset:
     The variables have the grid's dims then their extra dims, in the grid's order, with
     NaN (or the integer fill) in the cells of blocks not done; ``block_done`` flags the blocks
     stored. String coordinates come back as NumPy ``str`` arrays.
+
+    Parameters
+    ----------
+    store_path : path
+        The sweep's Zarr store (a folder written by :func:`run_sweep`).
+
+    Returns
+    -------
+    xarray.Dataset
+        The grid's variables and ``block_done``, with the grid's coordinates and the store's
+        attributes (the grid's, and the sweep identity of :func:`sweep_identity`).
 
     Raises
     ------

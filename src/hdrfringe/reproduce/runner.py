@@ -14,12 +14,24 @@ import json
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hdrfringe import __version__
 from hdrfringe.errors import InputError, OutputExistsError
 
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from hdrfringe.reproduce.engine import BlockFunc, SweepGrid
+
+    #: How the experiments run a sweep: ``run(store, grid, task, params) -> Dataset``.
+    _Run = Callable[[Path, SweepGrid, BlockFunc, dict[str, Any]], xr.Dataset]
+
+__all__ = ["ADAPTIVE_SWEEPS", "CHAPTERS", "MARKER", "reproduce"]
+
+#: The file that marks a folder as a reproduction (what was run, with which grid).
 MARKER = "reproduce.json"
+#: The chapters a reproduction can run.
 CHAPTERS: tuple[str, ...] = ("ch4", "ch5", "ch6")
 #: The adaptive sweeps each chapter reads (:mod:`hdrfringe.reproduce.adaptive`).
 ADAPTIVE_SWEEPS: dict[str, tuple[str, ...]] = {
@@ -50,9 +62,7 @@ def _check_folder(out: Path, force: bool, quick: bool) -> None:
             )
 
 
-def _ch4(
-    out: Path, quick: bool, run: Callable[..., Any], timings: dict[str, float]
-) -> dict[str, Any]:
+def _ch4(out: Path, quick: bool, run: _Run, timings: dict[str, float]) -> dict[str, Any]:
     from hdrfringe.reproduce import ch4, ch4_report
 
     setup = ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
@@ -92,7 +102,7 @@ def _adaptive(
     out: Path,
     chapters: Sequence[str],
     quick: bool,
-    run: Callable[..., Any],
+    run: _Run,
     timings: dict[str, float],
 ) -> dict[str, Any]:
     from hdrfringe.measurement import THESIS_CORRECTION_RMSE
@@ -168,15 +178,43 @@ def reproduce(
 ) -> dict[str, Any]:
     """Run the experiments of ``chapters`` into ``out`` and write the report; return its data.
 
+    Each experiment is a resumable sweep (:func:`hdrfringe.reproduce.engine.run_sweep`); the
+    report (``report.md``, ``report.html``, ``tables.json``, ``figures/``) puts every table
+    beside the thesis's, with the ratio ours / thesis.
+
     Parameters
     ----------
     chapters : sequence of {"ch4", "ch5", "ch6"}
+        The chapters to reproduce.
     out : Path
         Reproduction folder (created; resumed when it holds an earlier run).
     quick : bool
         The reduced grid (tests and a first look; minutes on two cores).
     scheduler : str, optional
         Address of a dask scheduler; default a local cluster of ``n_workers`` processes.
+    n_workers : int, optional
+        Size of the local cluster (default: the CPU count).
+    progress : bool
+        Show a progress bar per sweep on stderr (only when it is a terminal).
+    force : bool
+        Write into a non-empty folder that is not a reproduction.
+
+    Returns
+    -------
+    dict
+        Per part run (``"ch4"``, ``"adaptive"``): its Markdown tables, differences, figure
+        names and table data; ``"timings_s"``: seconds per sweep in this run.
+
+    Raises
+    ------
+    InputError
+        An unknown chapter, ``out`` a file, or a reproduction made on the other grid.
+    OutputExistsError
+        ``out`` a non-empty folder that is not a reproduction, without ``force``.
+
+    References
+    ----------
+    Thesis Ch. 4 (Sec. 4.1-4.3), Ch. 5 (Sec. 5.2) and Ch. 6 (Sec. 6.2-6.3).
     """
     from hdrfringe.reproduce.engine import run_sweep
 
@@ -192,7 +230,7 @@ def reproduce(
         encoding="utf-8",
     )
 
-    def run(store: Path, grid: Any, func: Any, params: dict[str, Any]) -> Any:
+    def run(store: Path, grid: SweepGrid, func: BlockFunc, params: dict[str, Any]) -> xr.Dataset:
         return run_sweep(
             store, grid, func, params, scheduler=scheduler, n_workers=n_workers, progress=progress
         )
