@@ -32,8 +32,6 @@ PENDING_MYPY: set[str] = {
     "hdrfringe.reproduce.ch4_report",
     "hdrfringe.reproduce.engine",
     "hdrfringe.reproduce.runner",
-    "hdrfringe.rig.camera",
-    "hdrfringe.rig.scenes",
 }
 
 #: numpydoc checks required of every public function and class: a docstring (GL08), every
@@ -48,9 +46,6 @@ FRONT_ENDS = ("hdrfringe.cli", "hdrfringe.demo", "hdrfringe.reproduce")
 PENDING_DOCS: set[str] = {
     "hdrfringe.calibration",
     "hdrfringe.errors",
-    "hdrfringe.gamma.model",
-    "hdrfringe.gamma.nonlinearity",
-    "hdrfringe.gamma.selection",
     "hdrfringe.io.calibration_file",
     "hdrfringe.io.captures",
     "hdrfringe.io.pattern_folder",
@@ -60,17 +55,8 @@ PENDING_DOCS: set[str] = {
     "hdrfringe.patterns",
     "hdrfringe.phase",
     "hdrfringe.process",
-    "hdrfringe.rig.base",
-    "hdrfringe.rig.camera",
-    "hdrfringe.rig.modify",
-    "hdrfringe.rig.scenes",
-    "hdrfringe.rig.simulated",
     "hdrfringe.saturation.dpa_rules",
     "hdrfringe.saturation.estimate",
-    "hdrfringe.strategies.base",
-    "hdrfringe.strategies.dpa",
-    "hdrfringe.strategies.lpa",
-    "hdrfringe.strategies.uniform",
     "hdrfringe.unwrap",
 }
 
