@@ -49,7 +49,7 @@ class GammaFit:
     Made by :func:`~hdrfringe.gamma.fit_gamma_uniform` and
     :func:`~hdrfringe.gamma.fit_gamma_fringes`.
 
-    Attributes
+    Parameters
     ----------
     gamma : float
         The projector's own gamma (Eq. 2.16), independent of any pre-compensation the captures

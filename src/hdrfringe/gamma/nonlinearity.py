@@ -36,7 +36,7 @@ class Nonlinearity:
 
     Made by :func:`line_deviation` and :func:`measure_nonlinearity`.
 
-    Attributes
+    Parameters
     ----------
     max_percent, rms_percent : float
         Largest and RMS deviation from the line, in percent of the captured range: the line's

@@ -29,7 +29,7 @@ class GammaSetSelection(Generic[SetItem]):
 
     Made by :func:`select_gamma_sets`.
 
-    Attributes
+    Parameters
     ----------
     sets : tuple
         The usable items, as given (same order): ready for

@@ -29,9 +29,15 @@ from hdrfringe.frames import Frame
 __all__ = ["Rig", "RigBase"]
 
 
+# A protocol has no constructor: numpydoc reads the (*args, **kwargs) of typing.Protocol as one.
 @runtime_checkable
-class Rig(Protocol):
+class Rig(Protocol):  # numpydoc ignore=PR01
     """Anything that can project frames and return camera images.
+
+    A structural type: a rig need not inherit from it, only have these members (most rigs
+    inherit the housekeeping from :class:`RigBase`). The four descriptive members are read-only
+    for the code that drives a rig: a rig may store them as plain attributes or compute them as
+    properties.
 
     Attributes
     ----------
@@ -44,12 +50,47 @@ class Rig(Protocol):
     camera_settings : CameraSettings
         The settings a capture uses when it is given none (a field left None: the rig does not
         know or set it, e.g. a replayed folder that records no exposure).
+
+    References
+    ----------
+    Thesis Sec. 3.4.3 (the camera-projector measurement system a rig stands for).
+
+    Examples
+    --------
+    A rig whose camera sees a constant gray, built on :class:`RigBase`:
+
+    >>> from hdrfringe.frames import UniformFrame
+    >>> class Gray(RigBase):
+    ...     camera_bit_depth, image_shape, projector = 8, (2, 3), ProjectorInfo()
+    ...
+    ...     def capture(self, frames, settings=None):
+    ...         return np.full((len(frames), *self.image_shape), 100, np.uint8)
+    >>> isinstance(Gray(), Rig)
+    True
+    >>> with Gray() as rig:
+    ...     rig.capture([UniformFrame(128.0), UniformFrame(64.0)]).shape
+    (2, 2, 3)
     """
 
-    camera_bit_depth: int
-    image_shape: tuple[int, int]
-    projector: ProjectorInfo
-    camera_settings: CameraSettings
+    @property
+    def camera_bit_depth(self) -> int:
+        """Sensor bit depth B; a pixel is saturated at ``2**B - 1``."""
+        ...
+
+    @property
+    def image_shape(self) -> tuple[int, int]:
+        """Camera image (height, width)."""
+        ...
+
+    @property
+    def projector(self) -> ProjectorInfo:
+        """Projector input description, including the gamma pre-compensation in use."""
+        ...
+
+    @property
+    def camera_settings(self) -> CameraSettings:
+        """The settings a capture uses when it is given none."""
+        ...
 
     def open(self) -> None:
         """Acquire what the rig needs (devices, windows); a rig is usable after it."""

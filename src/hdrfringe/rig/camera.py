@@ -24,7 +24,8 @@ from hdrfringe.errors import InputError
 __all__ = ["SensorParameters", "sensor_readout"]
 
 
-class SensorParameters(Protocol):
+# A protocol has no constructor: numpydoc reads the (*args, **kwargs) of typing.Protocol as one.
+class SensorParameters(Protocol):  # numpydoc ignore=PR01
     """What :func:`sensor_readout` needs of a camera (a
     :class:`~hdrfringe.rig.simulated.CameraModel`).
 
@@ -38,6 +39,10 @@ class SensorParameters(Protocol):
         Saturation value ``2^B - 1``.
     dtype : type
         Integer type of the images (uint8 for B <= 8, else uint16).
+
+    References
+    ----------
+    Thesis Sec. 3.1 (saturation at ``2^B - 1``).
 
     Examples
     --------
@@ -120,12 +125,17 @@ def sensor_readout(
     Thesis Eq. 3.3 (the signal) and Sec. 3.1 (saturation at ``2^B - 1``).
     """
     dt = np.dtype(dtype)
-    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+    scalar: type[np.float32] | type[np.float64]
+    if dt == np.dtype(np.float32):
+        scalar = np.float32
+    elif dt == np.dtype(np.float64):
+        scalar = np.float64
+    else:
         raise InputError(f"sensor readout: dtype must be float32 or float64, got {dt}")
     s = np.asarray(signal).astype(dt, copy=False)
-    read = dt.type(camera.read_noise_dn * gain)
+    read = scalar(camera.read_noise_dn * gain)
     well = camera.full_well_e
-    shot = dt.type((camera.full_scale / well if well is not None else 0.0) * gain)
+    shot = scalar((camera.full_scale / well if well is not None else 0.0) * gain)
     if read > 0 or shot > 0:
         if normals is not None:
             z = np.asarray(normals).astype(dt, copy=False)
@@ -135,7 +145,7 @@ def sensor_readout(
                     f"{s.shape}; give one draw per signal value"
                 )
         elif rng is not None:
-            z = rng.standard_normal(s.shape, dtype=dt)
+            z = rng.standard_normal(s.shape, dtype=scalar)
         else:
             raise InputError(
                 "sensor readout: the camera has read or shot noise; give a generator (rng) "

@@ -31,10 +31,26 @@ _THESIS_DN_PER_LUX = 0.17
 def lux_to_dn(lux: ArrayLike, bit_depth: int, dn_per_lux: float = _THESIS_DN_PER_LUX) -> NDArray:
     """Camera DN at bit depth B for an illuminance in lux (8-bit slope scaled by (2^B-1)/255).
 
+    Parameters
+    ----------
+    lux : float or array_like
+        Added illuminance on the white plate, in lux.
+    bit_depth : int
+        Camera bit depth B of the DN returned.
+    dn_per_lux : float
+        8-bit gray levels per lux (thesis 0.17).
+
+    Returns
+    -------
+    ndarray of float64
+        ``lux * dn_per_lux * (2^B - 1) / 255``, same shape as ``lux``.
+
     Examples
     --------
     >>> round(float(lux_to_dn(600, 8)), 9)
     102.0
+    >>> lux_to_dn([0, 100], 12).round(3).tolist()  # the same light at 12 bits
+    [0.0, 273.0]
 
     References
     ----------

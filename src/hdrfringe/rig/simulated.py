@@ -54,7 +54,7 @@ from numpy.typing import NDArray
 from scipy.ndimage import gaussian_filter, gaussian_filter1d
 from scipy.special import erf
 
-from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.captures import CameraSettings, Captures, ProjectorInfo
 from hdrfringe.errors import InputError
 from hdrfringe.frames import (
     IMAGE_FRAMES,
@@ -238,6 +238,16 @@ class ProjectorModel:
         :func:`~hdrfringe.patterns.render_frame`. "continuous": the pattern is evaluated
         analytically at the continuous projector coordinate (then gamma-pre-compensated and
         rounded at Bp bits), i.e. a projector with infinitely many pixels.
+
+    References
+    ----------
+    Thesis Eq. 2.16 (the projector's gamma) and Sec. 3.4.3 (the InFocus LP600 of the rig).
+
+    Examples
+    --------
+    >>> proj = ProjectorModel(gamma=2.0, black_level=0.0)
+    >>> proj.light(np.array([0, 128, 255])).round(4).tolist()
+    [0.0, 0.252, 1.0]
     """
 
     width: int = 1024
@@ -274,7 +284,19 @@ class ProjectorModel:
         return 2**self.bit_depth - 1
 
     def light(self, sent: NDArray[Any]) -> NDArray[np.float64]:
-        """Projected light (1 = full white) for integer input grays ``sent`` (Eq. 2.16)."""
+        """Projected light (1 = full white) for integer input grays ``sent`` (Eq. 2.16).
+
+        Parameters
+        ----------
+        sent : ndarray
+            Input grays sent to the projector, ``0..2^Bp - 1``.
+
+        Returns
+        -------
+        ndarray of float64
+            ``b + (1 - b) * (sent / (2^Bp - 1)) ** gamma`` with ``b`` the black level, same
+            shape as ``sent``.
+        """
         w = np.asarray(sent, dtype=np.float64) / self.full_scale
         return self.black_level + (1.0 - self.black_level) * w**self.gamma
 
@@ -306,6 +328,16 @@ class RigGeometry:
         focal length); larger than the camera field so every depth stays lit.
     lambertian_shading : bool
         Irradiance ``S = cos(incidence) / cos(angle) * (D / distance)^2``; False: ``S = 1``.
+
+    References
+    ----------
+    Thesis Sec. 3.4.3 (1.9 m standoff, projector-camera angle about 15 degrees).
+
+    Examples
+    --------
+    >>> geo = RigGeometry()
+    >>> round(geo.projector_distance, 1), geo.camera_focal_px(648)
+    (1967.0, 3847.5)
     """
 
     standoff_mm: float = 1900.0
@@ -328,6 +360,7 @@ class RigGeometry:
 
     @property
     def angle_rad(self) -> float:
+        """Projector-camera angle in radians."""
         return math.radians(self.angle_deg)
 
     @property
@@ -339,10 +372,12 @@ class RigGeometry:
 
     @property
     def camera_center(self) -> NDArray[np.float64]:
+        """Camera centre in world coordinates (mm), shape (3,)."""
         return np.array([0.0, 0.0, self.standoff_mm])
 
     @property
     def projector_center(self) -> NDArray[np.float64]:
+        """Projector centre in world coordinates (mm), shape (3,)."""
         t = self.angle_rad
         return self.projector_distance * np.array([-math.sin(t), 0.0, math.cos(t)])
 
@@ -353,11 +388,33 @@ class RigGeometry:
         return np.array([[c, 0.0, s], [0.0, -1.0, 0.0], [s, 0.0, -c]])
 
     def camera_focal_px(self, width: int) -> float:
-        """Camera focal length in pixels for an image ``width`` pixels wide."""
+        """Camera focal length in pixels for an image ``width`` pixels wide.
+
+        Parameters
+        ----------
+        width : int
+            Camera image width in pixels.
+
+        Returns
+        -------
+        float
+            ``width * standoff_mm / camera_field_mm``.
+        """
         return width * self.standoff_mm / self.camera_field_mm
 
     def projector_focal_px(self, width: int) -> float:
-        """Projector focal length in pixels for an image ``width`` pixels wide."""
+        """Projector focal length in pixels for an image ``width`` pixels wide.
+
+        Parameters
+        ----------
+        width : int
+            Projector image width in pixels.
+
+        Returns
+        -------
+        float
+            ``width * projector_distance / projector_field_mm``.
+        """
         return width * self.projector_distance / self.projector_field_mm
 
 
@@ -378,6 +435,21 @@ class Lighting:
         and by ``white_level / REFERENCE_WHITE_LEVEL`` (a more open aperture sees more ambient).
     direct_dn_per_lux : float
         The same coefficient for the direct ambient light.
+
+    References
+    ----------
+    Thesis Eq. 3.3 (``a1``, ``a2``), Sec. 4.2 (about 600 lx added) and Fig. 4.14c
+    (0.17 gray level/lux).
+
+    Examples
+    --------
+    600 lx on the white plate adds ``600 * 0.17 = 102`` gray levels at 8 bits:
+
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> cam = CameraModel(width=8, height=6)
+    >>> rig = SimulatedRig(white_plate(), camera=cam, lighting=Lighting(ambient_lux=600))
+    >>> round(float(rig.ambient_signal().mean()), 6)
+    102.0
     """
 
     ambient_lux: float = 0.0
@@ -394,16 +466,33 @@ class Lighting:
 class GroundTruth:
     """What the virtual rig knows per camera pixel (arrays of shape (height, width)).
 
-    Attributes
+    Made by :meth:`SimulatedRig.truth` (read-only arrays).
+
+    Parameters
     ----------
-    height_mm : surface height above the reference plane where the pixel's ray hits the scene.
-    u, v : continuous projector column and row seen by the pixel (pixel centres at integers).
-    reflectivity : diffuse reflectivity ``r`` there.
-    shading : irradiance factor ``S`` (cosine of incidence and inverse-square falloff).
-    specular : Blinn-Phong gain ``k_s (n.h)^m`` there (0 for matte scenes).
-    x_mm, y_mm : world coordinates of the surface point.
-    valid : the ray hit the surface, the point faces camera and projector, is not in the
+    height_mm : ndarray of float64
+        Surface height above the reference plane where the pixel's ray hits the scene.
+    u, v : ndarray of float64
+        Continuous projector column and row seen by the pixel (pixel centres at integers).
+    reflectivity : ndarray of float64
+        Diffuse reflectivity ``r`` there (thesis Eq. 3.2).
+    shading : ndarray of float64
+        Irradiance factor ``S`` (cosine of incidence and inverse-square falloff).
+    specular : ndarray of float64
+        Blinn-Phong gain ``k_s (n.h)^m`` there (0 for matte scenes).
+    x_mm, y_mm : ndarray of float64
+        World coordinates of the surface point.
+    valid : ndarray of bool
+        The ray hit the surface, the point faces camera and projector, is not in the
         projector's shadow, and lies inside the projector image.
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> rig = SimulatedRig(white_plate(12.0), camera=CameraModel(width=8, height=6))
+    >>> truth = rig.truth()
+    >>> truth.height_mm.shape, float(truth.height_mm.max()), bool(truth.valid.all())
+    ((6, 8), 12.0, True)
     """
 
     height_mm: NDArray[np.float64]
@@ -927,16 +1016,23 @@ class SimulatedRig(RigBase):
             out[k] = self._signal(frame, settings)
         return out
 
-    def capture_folder(self, frames: Sequence[Frame]) -> Any:
+    def capture_folder(self, frames: Sequence[Frame]) -> Captures:
         """Capture ``frames`` into an in-memory :class:`~hdrfringe.captures.Captures`, as
         ``simulate`` would write it.
 
         The captures carry the scene, the camera geometry (``focal_px``, ``standoff_mm``) and
         the ground-truth height map (``truth_height_mm``), so they can be calibrated on or
         measured directly; their ``name`` is the scene's.
-        """
-        from hdrfringe.captures import Captures
 
+        Parameters
+        ----------
+        frames : sequence of Frame
+            What the projector shows, in order.
+
+        Returns
+        -------
+        Captures
+        """
         frames = list(frames)
         return Captures(
             frames,
@@ -1238,5 +1334,31 @@ class SimulatedRig(RigBase):
 
 
 def simulate_frames(rig: SimulatedRig, frames: Sequence[Frame]) -> NDArray[np.integer]:
-    """Capture ``frames`` with ``rig`` (the same as ``rig.capture(frames)``)."""
+    """Capture ``frames`` with ``rig`` (the same as ``rig.capture(frames)``).
+
+    Parameters
+    ----------
+    rig : SimulatedRig
+        The virtual rig, at its own camera settings.
+    frames : sequence of Frame
+        What the projector shows, in order.
+
+    Returns
+    -------
+    ndarray, shape (n, height, width)
+        uint8 for B <= 8, else uint16; values in ``[0, 2^B - 1]``.
+
+    References
+    ----------
+    Thesis Eq. 3.3 (the signal), then the sensor readout (Sec. 3.1: clipping at ``2^B - 1``).
+
+    Examples
+    --------
+    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=8, height=6))
+    >>> imgs = simulate_frames(rig, [UniformFrame(0.0), UniformFrame(255.0)])
+    >>> imgs.shape, imgs.dtype.name, bool(imgs[1].mean() > imgs[0].mean())
+    ((2, 6, 8), 'uint8', True)
+    """
     return rig.capture(frames)

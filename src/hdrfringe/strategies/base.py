@@ -77,7 +77,7 @@ _OPTION = re.compile(r"--[a-z][a-z0-9-]*\Z")
 class CapturedSet:
     """One fringe set a strategy captured, and what was set for it.
 
-    Attributes
+    Parameters
     ----------
     migl : float or None
         The highest input gray level the set was projected at (thesis Ch. 4-6); None when the
@@ -102,7 +102,7 @@ class CapturedSet:
 class StrategyResult:
     """What a strategy returns: the composite and a record of what it captured.
 
-    Attributes
+    Parameters
     ----------
     images : ndarray (N, H, W)
         Composite phase-shifted images (camera dtype), shift 0 first.
@@ -238,8 +238,9 @@ class StrategyResult:
 # ---------------------------------------------------------------------------------------------
 
 
+# A protocol has no constructor: numpydoc reads the (*args, **kwargs) of typing.Protocol as one.
 @runtime_checkable
-class Strategy(Protocol):
+class Strategy(Protocol):  # numpydoc ignore=PR01
     """A saturation-avoidance strategy (thesis Ch. 4-6), as the registry holds it.
 
     Attributes
@@ -567,7 +568,7 @@ def param_values(params: Any) -> dict[str, Any]:
 class StrategyOption:
     """One command-line option of the strategies (:func:`cli_options`).
 
-    Attributes
+    Parameters
     ----------
     option : str
         The option, e.g. ``"--step"``.
@@ -783,6 +784,10 @@ def check_fringe_spec(spec: FringeSpec, rig: Rig) -> None:
     >>> from hdrfringe.rig.simulated import SimulatedRig
     >>> from hdrfringe.rig.scenes import white_plate
     >>> check_fringe_spec(FringeSpec("sinusoidal", 4, 8.0), SimulatedRig(white_plate()))
+    >>> check_fringe_spec(FringeSpec("sinusoidal", 4, 8.0, migl=300), SimulatedRig(white_plate()))
+    Traceback (most recent call last):
+        ...
+    hdrfringe.errors.InputError: highest MIGL 300 exceeds the projector's 255
     """
     if not isinstance(spec, FringeSpec):
         raise InputError(f"strategy needs a FringeSpec, got {type(spec).__name__}")
@@ -810,10 +815,11 @@ def capture_set(rig: Rig, spec: FringeSpec, migl: float) -> NDArray:
 
     Examples
     --------
-    >>> from hdrfringe.rig.simulated import SimulatedRig
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
     >>> from hdrfringe.rig.scenes import white_plate
-    >>> capture_set(SimulatedRig(white_plate()), FringeSpec("sinusoidal", 4, 8.0), 200).shape
-    (4, 494, 648)
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48))
+    >>> capture_set(rig, FringeSpec("sinusoidal", 4, 8.0), 200).shape
+    (4, 48, 64)
     """
     return rig.capture(spec.with_migl(float(migl)).frames())
 

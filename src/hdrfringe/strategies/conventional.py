@@ -41,11 +41,12 @@ def conventional(rig: Rig, spec: FringeSpec) -> StrategyResult:
 
     Examples
     --------
-    >>> from hdrfringe.rig.simulated import SimulatedRig
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
     >>> from hdrfringe.rig.scenes import white_plate
-    >>> res = conventional(SimulatedRig(white_plate()), FringeSpec("sinusoidal", 4, 8.0))
-    >>> res.migls, res.images.shape
-    ([255.0], (4, 494, 648))
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48))
+    >>> res = conventional(rig, FringeSpec("sinusoidal", 4, 8.0))
+    >>> res.migls, res.images.shape, res.newly_unsaturated  # no pixel saturates
+    ([255.0], (4, 48, 64), [3072])
     """
     check_fringe_spec(spec, rig)
     imgs = capture_set(rig, spec, spec.migl)

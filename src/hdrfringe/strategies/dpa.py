@@ -165,9 +165,10 @@ def dpa(
 
     Examples
     --------
-    >>> from hdrfringe.rig.simulated import Lighting, SimulatedRig
+    >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
     >>> from hdrfringe.rig.scenes import white_plate
-    >>> rig = SimulatedRig(white_plate(), lighting=Lighting(ambient_lux=600))
+    >>> cam = CameraModel(width=64, height=48)  # a small camera keeps the example fast
+    >>> rig = SimulatedRig(white_plate(), camera=cam, lighting=Lighting(ambient_lux=600))
     >>> res = dpa(rig, FringeSpec("sinusoidal", 4, 8.0), threshold=0.2)
     >>> res.details["rules"][0], res.migls[0], bool(res.never_unsaturated.any())
     ('initial', 255.0, False)
@@ -271,6 +272,23 @@ def dpa(
 @dataclass(frozen=True)
 class DPAParams:
     """Parameters of :func:`dpa`.
+
+    Parameters
+    ----------
+    threshold : float
+        CDF gain since the last capture that triggers the next one (``--threshold``; 0.1 and
+        0.2 in the thesis).
+    correction : CorrectionPolynomial, optional
+        The trained error correction (``--correction``, Sec. 6.1.2); None: the identity.
+    min_migl : float, optional
+        Lowest MIGL (default ``imin + 20``).
+    bound_pending : bool
+        Beyond the thesis: where the CDF is flat, jump to the highest MIGL at which the pixels
+        too saturated to estimate could unsaturate (``--bound-pending``; see :func:`dpa`).
+
+    References
+    ----------
+    Thesis Ch. 6 (Sec. 6.1.2-6.1.3).
 
     Examples
     --------

@@ -61,9 +61,10 @@ def lpa(
 
     Examples
     --------
-    >>> from hdrfringe.rig.simulated import Lighting, SimulatedRig
+    >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
     >>> from hdrfringe.rig.scenes import white_plate
-    >>> rig = SimulatedRig(white_plate(), lighting=Lighting(ambient_lux=600))
+    >>> cam = CameraModel(width=64, height=48)  # a small camera keeps the example fast
+    >>> rig = SimulatedRig(white_plate(), camera=cam, lighting=Lighting(ambient_lux=600))
     >>> res = lpa(rig, FringeSpec("sinusoidal", 4, 8.0), step=30)
     >>> res.migls[:3], bool(res.never_unsaturated.any())
     ([255.0, 225.0, 195.0], False)
@@ -103,6 +104,17 @@ def lpa(
 @dataclass(frozen=True)
 class LPAParams:
     """Parameters of :func:`lpa`.
+
+    Parameters
+    ----------
+    step : float
+        The MIGL step S in gray levels, > 0 (``--step``).
+    min_migl : float, optional
+        Lowest MIGL (default ``imin + 20``).
+
+    References
+    ----------
+    Thesis Sec. 5.1 (the constant step) and Sec. 5.2.2 (steps of 1 to 45 gray levels).
 
     Examples
     --------

@@ -75,9 +75,10 @@ def uniform(
 
     Examples
     --------
-    >>> from hdrfringe.rig.simulated import Lighting, SimulatedRig
+    >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
     >>> from hdrfringe.rig.scenes import white_plate
-    >>> rig = SimulatedRig(white_plate(), lighting=Lighting(ambient_lux=600))
+    >>> cam = CameraModel(width=64, height=48)  # a small camera keeps the example fast
+    >>> rig = SimulatedRig(white_plate(), camera=cam, lighting=Lighting(ambient_lux=600))
     >>> res = uniform(rig, FringeSpec("sinusoidal", 4, 8.0), migl=180.0)
     >>> res.migls, res.details["chosen_migl"]
     ([255.0, 180.0], 180.0)
@@ -138,6 +139,21 @@ def uniform(
 @dataclass(frozen=True)
 class UniformParams:
     """Parameters of :func:`uniform`.
+
+    Parameters
+    ----------
+    migl : float, optional
+        The trade-off MIGL (``--uniform-migl``); None: found automatically.
+    tolerance : float
+        Saturated fraction allowed, 0..1 (``--tolerance``).
+    min_migl : float, optional
+        Lowest MIGL (default ``imin + 20``).
+    candidates : sequence of float, optional
+        The MIGLs the automatic search may use (default every integer MIGL).
+
+    References
+    ----------
+    Thesis Ch. 4, Sec. 4.2 (the trade-off MIGL).
 
     Examples
     --------
