@@ -36,7 +36,6 @@ FRONT_ENDS = ("hdrfringe.cli", "hdrfringe.demo", "hdrfringe.reproduce")
 
 #: Modules whose docstrings are still to complete (issue 10, step "numpydoc").
 PENDING_DOCS: set[str] = {
-    "hdrfringe.io.captures",
     "hdrfringe.measurement",
 }
 

@@ -237,6 +237,17 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     ------
     CaptureFormatError
         A missing or unparsable manifest or any field breaking the contract.
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> frames = [{"file": "./g.png", "kind": "uniform", "level": 128}]
+    >>> manifest = {"format": "hdrfringe-captures", "version": 1,
+    ...             "camera": {"bit_depth": 8}, "frames": frames}
+    >>> _ = (folder / "manifest.json").write_text(json.dumps(manifest))
+    >>> read_manifest(folder)["frames"][0]["file"]
+    'g.png'
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -341,6 +352,19 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
     ------
     CaptureFormatError
         A missing, unreadable, multi-channel (other than RGB), non-integer or out-of-range image.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import imageio.v3 as iio
+    >>> path = Path(tempfile.mkdtemp()) / "img.png"
+    >>> iio.imwrite(path, np.array([[0, 17], [254, 255]], dtype=np.uint8))
+    >>> load_image(path, 8).tolist()
+    [[0, 17], [254, 255]]
+    >>> load_image(path, 7)  # 255 is above 2^7 - 1
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.CaptureFormatError: ...
     """
     path = Path(path)
     if not path.is_file():
@@ -846,6 +870,19 @@ def simulate_to_folder(
     -------
     ndarray
         The captured images.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(12.0), camera=CameraModel(width=32, height=24))
+    >>> out = Path(tempfile.mkdtemp()) / "caps"
+    >>> simulate_to_folder(out, rig, FringeSpec(steps=3).frames()).shape
+    (3, 24, 32)
+    >>> read_capture_folder(out).scene["depth_mm"]
+    12.0
     """
     frames = list(frames)
     images = rig.capture(frames)
