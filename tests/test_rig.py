@@ -587,3 +587,23 @@ def test_replay_rig_takes_settings_and_refuses_exposures_it_does_not_hold():
             replay.capture([UniformFrame(200)], CameraSettings(5.0))
         with pytest.raises(CaptureFormatError, match="no camera gain"):
             replay.capture([gray], CameraSettings(gain_db=6.0))
+
+
+def test_replay_rig_replays_recorded_gains():
+    """With gains recorded per frame (format version 2) the replay returns the image taken at
+    the asked gain, and names the held gains when asked for another."""
+    from hdrfringe.captures import CameraSettings, Captures
+    from hdrfringe.errors import CaptureFormatError
+    from hdrfringe.rig.replay import ReplayRig
+
+    rig = SimulatedRig(white_plate(5.0), camera=small_camera())
+    gray = UniformFrame(100)
+    low, high = CameraSettings(gain_db=0.0), CameraSettings(gain_db=6.0)
+    images = np.concatenate([rig.capture([gray], low), rig.capture([gray], high)])
+    assert images[1].mean() > 1.9 * images[0].mean()  # 6 dB: about twice the signal
+    caps = Captures([gray, gray], images, 8, gain_db=(0.0, 6.0))
+    replay = ReplayRig(caps)
+    np.testing.assert_array_equal(replay.capture([gray], high)[0], images[1])
+    np.testing.assert_array_equal(replay.capture([gray], low)[0], images[0])
+    with pytest.raises(CaptureFormatError, match="at gain 0 dB, 6 dB, not at 3 dB"):
+        replay.capture([gray], CameraSettings(gain_db=3.0))

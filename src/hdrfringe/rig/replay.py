@@ -42,7 +42,7 @@ class ReplayRig(RigBase):
 
     ``capture(frames, settings)`` with an exposure time returns the frame captured at exactly
     that exposure (the per-frame ``exposure_ms``) and refuses an exposure the captures do not
-    hold; a gain cannot be replayed (captures record none).
+    hold; the same for a gain (format version 2 records one per frame).
 
     Parameters
     ----------
@@ -89,7 +89,8 @@ class ReplayRig(RigBase):
         ----------
         frames : sequence of Frame
         settings : CameraSettings, optional
-            An exposure time selects the frame captured at exactly that exposure.
+            An exposure time (a gain) selects the frame captured at exactly that exposure
+            (gain), as recorded per frame in the captures.
 
         Returns
         -------
@@ -98,19 +99,16 @@ class ReplayRig(RigBase):
         Raises
         ------
         CaptureFormatError
-            A frame (or exposure) the captures do not hold, or a gain.
+            A frame, exposure or gain the captures do not hold.
         """
         settings = self.resolve_settings(settings)
-        if settings.gain_db is not None:
-            raise CaptureFormatError(
-                f"{self.captures.name}: captures record no camera gain, so a replay "
-                f"cannot apply {settings.gain_db:g} dB; leave gain_db None"
-            )
         idx = []
         for f in frames:
             i = self._index.get(_key(f))
             if i is not None and settings.exposure_ms is not None:
                 i = self._at_exposure(f, settings.exposure_ms)
+            if i is not None and settings.gain_db is not None:
+                i = self._at_gain(f, settings)
             if i is None:
                 what = f.manifest_entry("")
                 what.pop("file")
@@ -122,22 +120,45 @@ class ReplayRig(RigBase):
         self.captured += len(idx)
         return np.stack([self.captures.images[i] for i in idx])
 
+    def _held(self, frame: Frame) -> list[int]:
+        key = _key(frame)
+        return [i for i, f in enumerate(self.captures.frames) if _key(f) == key]
+
     def _at_exposure(self, frame: Frame, exposure_ms: float) -> int:
         """Index of ``frame`` captured at ``exposure_ms``; refuses an exposure not held."""
-        key = _key(frame)
         c = self.captures
-        held = {
-            float(e): i
-            for i, (f, e) in enumerate(zip(c.frames, c.exposure_ms, strict=True))
-            if e is not None and _key(f) == key
-        }
+        held = {float(e): i for i in self._held(frame) if (e := c.exposure_ms[i]) is not None}
         if float(exposure_ms) not in held:
             have = ", ".join(f"{e:g} ms" for e in sorted(held)) or "no recorded exposure"
             raise CaptureFormatError(
-                f"{c.name}: the replay folder holds frame {json.loads(key)} at {have}, "
+                f"{c.name}: the replay folder holds frame {json.loads(_key(frame))} at {have}, "
                 f"not at {exposure_ms:g} ms; ask for a held exposure or capture that one"
             )
         return held[float(exposure_ms)]
+
+    def _at_gain(self, frame: Frame, settings: CameraSettings) -> int:
+        """Index of ``frame`` captured at the settings' gain (and exposure, when given)."""
+        c = self.captures
+        held = {
+            float(g): i
+            for i in self._held(frame)
+            if (g := c.gain_db[i]) is not None
+            and (settings.exposure_ms is None or c.exposure_ms[i] == settings.exposure_ms)
+        }
+        assert settings.gain_db is not None
+        if not held:
+            raise CaptureFormatError(
+                f"{c.name}: the captures record no camera gain for frame "
+                f"{json.loads(_key(frame))}, so a replay cannot apply {settings.gain_db:g} dB; "
+                "leave gain_db None"
+            )
+        if float(settings.gain_db) not in held:
+            have = ", ".join(f"{g:g} dB" for g in sorted(held))
+            raise CaptureFormatError(
+                f"{c.name}: the replay folder holds frame {json.loads(_key(frame))} at gain "
+                f"{have}, not at {settings.gain_db:g} dB; ask for a held gain or capture that one"
+            )
+        return held[float(settings.gain_db)]
 
     def available_migls(self) -> list[float]:
         """MIGLs of the fringe frames the captures hold, highest first.
