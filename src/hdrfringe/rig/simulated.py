@@ -54,6 +54,7 @@ from numpy.typing import NDArray
 from scipy.ndimage import gaussian_filter, gaussian_filter1d
 from scipy.special import erf
 
+from hdrfringe._validation import full_scale
 from hdrfringe.captures import CameraSettings, Captures, ProjectorInfo
 from hdrfringe.errors import InputError
 from hdrfringe.frames import (
@@ -181,7 +182,7 @@ class CameraModel:
     @property
     def full_scale(self) -> int:
         """Saturation value ``2^B - 1``."""
-        return 2**self.bit_depth - 1
+        return full_scale(self.bit_depth)
 
     @property
     def dtype(self) -> type[np.unsignedinteger]:
@@ -281,7 +282,7 @@ class ProjectorModel:
     @property
     def full_scale(self) -> int:
         """Maximum input gray ``2^Bp - 1``."""
-        return 2**self.bit_depth - 1
+        return full_scale(self.bit_depth, "projector bit depth")
 
     def light(self, sent: NDArray[Any]) -> NDArray[np.float64]:
         """Projected light (1 = full white) for integer input grays ``sent`` (Eq. 2.16).
