@@ -11,8 +11,8 @@ import pytest
 from hdrfringe.calibration import filter_map, fit_linear_k, measurement_mask
 from hdrfringe.captures import Captures
 from hdrfringe.frames import CenterlineFrame, Frame
-from hdrfringe.measurement import calibrate_captures, measure_folder
 from hdrfringe.patterns import FringeSpec
+from hdrfringe.pipeline import MeasurementMetrics, calibrate, measure
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, mask, white_plate
 from hdrfringe.rig.simulated import SimulatedRig
 
@@ -43,8 +43,8 @@ def series(spec: FringeSpec, *, noise: bool, seed: int) -> list[Captures]:
     return [captured(plate_rig(d, noise=noise, seed=seed), fr) for d in (0.0, *DEPTHS)]
 
 
-def pooled_rmse(results: list[dict]) -> float:
-    return float(np.sqrt(np.mean([r["rmse_mm"] ** 2 for r in results])))
+def pooled_rmse(results: list[MeasurementMetrics]) -> float:
+    return float(np.sqrt(np.mean([r.rmse_mm**2 for r in results])))
 
 
 def test_linear_model_error_matches_geometry_and_rational_is_5x_lower() -> None:
@@ -61,10 +61,10 @@ def test_linear_model_error_matches_geometry_and_rational_is_5x_lower() -> None:
     spec = FringeSpec("sinusoidal", 4, 8.0)
     folders = series(spec, noise=False, seed=0)
     assert all(f.images.max() < 255 for f in folders)  # nothing saturated
-    lin = calibrate_captures(folders, model="linear")
-    rat = calibrate_captures(folders, model="rational")
-    measured_lin = pooled_rmse([measure_folder(f, lin).metrics for f in folders[1:]])
-    measured_rat = pooled_rmse([measure_folder(f, rat).metrics for f in folders[1:]])
+    lin = calibrate(folders, model="linear")
+    rat = calibrate(folders, model="rational")
+    measured_lin = pooled_rmse([measure(f, lin).metrics for f in folders[1:]])
+    measured_rat = pooled_rmse([measure(f, rat).metrics for f in folders[1:]])
 
     u = [plate_rig(d, noise=False, seed=0).truth().u for d in (0.0, *DEPTHS)]
     dphi = np.stack([2 * np.pi * (uj - u[0]) / spec.pitch_px for uj in u[1:]])
@@ -88,9 +88,9 @@ def test_thesis_conditions_white_plate(pattern: str, steps: int, tmp_path) -> No
     Calibrated on one capture series, measured on a second one (other noise) at the 25 depths.
     """
     spec = FringeSpec(pattern, steps, 6.0)  # type: ignore[arg-type]
-    cal = calibrate_captures(series(spec, noise=True, seed=11), model="linear")
-    results = [measure_folder(f, cal).metrics for f in series(spec, noise=True, seed=12)[1:]]
-    mean_rmse = float(np.mean([r["rmse_mm"] for r in results]))
+    cal = calibrate(series(spec, noise=True, seed=11), model="linear")
+    results = [measure(f, cal).metrics for f in series(spec, noise=True, seed=12)[1:]]
+    mean_rmse = float(np.mean([r.rmse_mm for r in results]))
     thesis = THESIS_TABLE_4_3[(pattern, steps)]
     line = (
         f"{pattern} {steps}-step, pitch 6, 0 lx, MIGL 255: mean RMSE over 25 depths "
@@ -98,7 +98,7 @@ def test_thesis_conditions_white_plate(pattern: str, steps: int, tmp_path) -> No
     )
     print("\n" + line)
     (tmp_path / "report.json").write_text(json.dumps({"line": line}))
-    assert min(r["valid_fraction"] for r in results) > 0.99
+    assert min(r.valid_fraction for r in results) > 0.99
     assert mean_rmse < 0.5
 
 
@@ -114,20 +114,20 @@ def test_mask_height_matches_truth_and_ply_opens(tmp_path) -> None:
     import trimesh
 
     from hdrfringe.io.measurement_outputs import write_height_outputs
-    from hdrfringe.measurement import calibration_geometry
+    from hdrfringe.pipeline import calibration_geometry
 
     spec = FringeSpec("sinusoidal", 4, 8.0)
-    cal = calibrate_captures(series(spec, noise=True, seed=3), model="rational")
+    cal = calibrate(series(spec, noise=True, seed=3), model="rational")
     rig = SimulatedRig(mask(), seed=4)
-    res = measure_folder(captured(rig, frames_for(spec)), cal)
+    res = measure(captured(rig, frames_for(spec)), cal)
     m = res.metrics
     print(
-        f"\nmask vs truth: RMSE {m['rmse_mm']:.4f} mm, bias {m['bias_mm']:+.4f} mm, "
-        f"max {m['max_abs_mm']:.3f} mm, valid {100 * m['valid_fraction']:.2f} %"
+        f"\nmask vs truth: RMSE {m.rmse_mm:.4f} mm, bias {m.bias_mm:+.4f} mm, "
+        f"max {m.max_abs_mm:.3f} mm, valid {100 * m.valid_fraction:.2f} %"
     )
-    assert m["valid_fraction"] > 0.99
-    assert m["rmse_mm"] < 0.15
-    assert abs(m["bias_mm"]) < 0.05
+    assert m.valid_fraction > 0.99
+    assert m.rmse_mm < 0.15
+    assert abs(m.bias_mm) < 0.05
     write_height_outputs(tmp_path, res.height_mm, calibration_geometry(cal))
     cloud = trimesh.load(tmp_path / "points.ply")
     pts = np.asarray(cloud.vertices)
