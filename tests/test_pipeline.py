@@ -1,20 +1,33 @@
-"""Calibration and height measurement on the virtual rig (thesis Sec. 2.4-2.5, 4.1, Table 4.3)."""
+"""The pipeline on the virtual rig: calibration and height (thesis Sec. 2.4-2.5, 4.1, Table 4.3),
+measure on captures, on the live rig with a strategy and on a replayed sweep, the writer."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from hdrfringe.calibration import filter_map, fit_linear_k, measurement_mask
+from hdrfringe.calibration import (
+    Calibration,
+    CalibrationMismatchError,
+    filter_map,
+    fit_linear_k,
+    measurement_mask,
+)
 from hdrfringe.captures import Captures
+from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.frames import CenterlineFrame, Frame
+from hdrfringe.io.measurement_outputs import write_measurement, write_strategy_outputs
+from hdrfringe.io.results import read_map_tiff
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.pipeline import MeasurementMetrics, calibrate, measure
+from hdrfringe.pipeline import MeasurementMetrics, calibrate, measure, strategy_summary
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, mask, white_plate
-from hdrfringe.rig.simulated import SimulatedRig
+from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+from hdrfringe.strategies import CapturedSet, StrategyResult
+from hdrfringe.strategies.lpa import lpa
 
 DEPTHS = np.array(THESIS_CALIBRATION_DEPTHS_MM)
 #: Thesis Table 4.3, white plate, 0 lx, MIGL 255, pitch 6: mean RMSE over the 25 depths (mm).
@@ -135,3 +148,191 @@ def test_mask_height_matches_truth_and_ply_opens(tmp_path) -> None:
     # x, y in mm at the camera's 0.49 mm/px: the field is about 320 x 244 mm
     assert 300 < np.ptp(pts[:, 0]) < 340 and 220 < np.ptp(pts[:, 1]) < 260
     assert np.nanmax(res.height_mm) == pytest.approx(pts[:, 2].max(), abs=1e-3)
+
+
+# ---------------------------------------------------------------------------------------------
+# pipeline.measure on captures, on the live rig with a strategy, on a replayed sweep
+# ---------------------------------------------------------------------------------------------
+
+#: A quarter-resolution camera (same field of view): fast. At 6.3 projector px per camera px a
+#: pitch of 8 would alias, so the family is 1024 px (one period: absolute) and 64 px.
+SMALL = CameraModel(width=162, height=124)
+SMALL_SPECS = [FringeSpec("sinusoidal", 4, p) for p in (1024.0, 64.0)]
+SMALL_FRAMES = [f for s in SMALL_SPECS for f in s.frames()]
+
+
+def small_rig(depth: float = 25.0, lux: float = 0.0, seed: int = 0) -> SimulatedRig:
+    return SimulatedRig(white_plate(depth), camera=SMALL, lighting=Lighting(lux), seed=seed)
+
+
+@pytest.fixture(scope="module")
+def small_cal() -> Calibration:
+    plates = [small_rig(d, seed=5).capture_folder(SMALL_FRAMES) for d in (0, 10, 20, 30, 40)]
+    return calibrate(plates, model="rational")
+
+
+def errors_by_hand(height: np.ndarray, truth: np.ndarray, border: int) -> tuple:
+    """Bias, std, RMSE and count of the finite errors inside the border (numpy only)."""
+    err = (height - truth)[border:-border, border:-border]
+    err = err[np.isfinite(err)]
+    return float(err.mean()), float(err.std()), float(np.sqrt(np.mean(err**2))), err.size
+
+
+def assert_errors_match(m: MeasurementMetrics, height: np.ndarray, truth: np.ndarray) -> None:
+    bias, std, rmse, n = errors_by_hand(height, truth, m.border_px)
+    assert m.n_pixels == n > 0
+    assert m.bias_mm == pytest.approx(bias, rel=1e-9, abs=1e-12)
+    assert m.std_mm == pytest.approx(std, rel=1e-9)
+    assert m.rmse_mm == pytest.approx(rmse, rel=1e-9)
+
+
+def test_measure_captures_metrics_against_the_rig_truth(small_cal: Calibration) -> None:
+    """Partly saturated plate (250 lx): saturated pixels are invalid, the rest measured; every
+    figure recomputed here from the images, the height and the rig's ground truth."""
+    rig = small_rig(17.0, lux=250, seed=9)
+    caps = rig.capture_folder(SMALL_FRAMES)
+    res = measure(caps, small_cal, label="plate at 17 mm")
+    m = res.metrics
+    saturated = (caps.images >= 255).any(axis=0)
+    inside = np.zeros(saturated.shape, bool)
+    inside[10:-10, 10:-10] = True
+    assert m.saturated_fraction == float(saturated.mean()) and 0.1 < m.saturated_fraction < 0.3
+    assert m.saturated_fraction_measurement_pixels == pytest.approx(saturated[inside].mean())
+    assert m.valid_fraction == pytest.approx(np.isfinite(res.height_mm)[inside].mean())
+    assert not np.isfinite(res.height_mm[saturated]).any()  # saturated pixels are invalid
+    assert m.truth == "truth_height_mm map" and m.source == "plate at 17 mm"
+    assert_errors_match(m, res.height_mm, rig.truth().height_mm)
+    # and the heights are right: measured 0.31 mm RMSE (the noise grows with the 64 px pitch);
+    # a wrong fringe order or calibration costs millimetres
+    assert m.rmse_mm < 0.5 and abs(m.bias_mm) < 0.05
+    assert m.strategy is None and m.live_rig is None and res.strategy_results == ()
+    x, y, z = res.points()  # camera geometry recorded with the calibration: mm
+    assert (
+        np.nanmax(x) - np.nanmin(x) > 250
+        and np.nanmax(y) - np.nanmin(y) > 180
+        and np.array_equal(z, res.height_mm, equal_nan=True)
+    )
+
+
+def test_measure_live_rig_with_a_strategy(small_cal: Calibration) -> None:
+    """LPA per pitch on the live rig = LPA run by hand on the same rig (same seed, same images);
+    the typed metrics sum its sets and measure against the rig's truth."""
+    res = measure(
+        small_rig(lux=600), small_cal, method="lpa", params={"step": 10.0}, specs=SMALL_SPECS
+    )
+    by_hand = small_rig(lux=600)
+    ref = [lpa(by_hand, s, step=10.0) for s in SMALL_SPECS]
+    assert np.array_equal(res.captures.images, np.concatenate([r.images for r in ref]))
+    s = res.metrics.strategy
+    assert s is not None and s.method == "lpa" and s.index_quantity == "migl"
+    assert s.values == tuple(tuple(r.migls) for r in ref) and len(s.values[1]) > 3
+    assert s.sets_captured == sum(len(r.migls) for r in ref) and s.images_captured == 4 * (
+        s.sets_captured
+    )
+    assert s.never_unsaturated_fraction == float(ref[-1].never_unsaturated.mean()) == 0.0
+    m = res.metrics
+    assert m.valid_fraction == 1.0 and m.saturated_fraction == 0.0
+    assert_errors_match(m, res.height_mm, by_hand.truth().height_mm)
+    assert m.live_rig["scene"]["name"] == "white_plate" and m.live_rig["seed"] == 0
+    assert m.source == "white_plate" and res.dpa is None and m.dpa is None
+
+
+def test_a_mismatched_calibration_is_refused_before_capturing(
+    small_cal: Calibration, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rig = small_rig()
+    calls: list[int] = []
+    capture = rig.capture
+    monkeypatch.setattr(rig, "capture", lambda *a, **k: calls.append(1) or capture(*a, **k))
+    with pytest.raises(CalibrationMismatchError, match=r"pitch 64 px \(calibration\) vs 32 px"):
+        measure(rig, small_cal, method="lpa", specs=[FringeSpec("sinusoidal", 4, 32.0)])
+    assert calls == []
+    measure(rig, None, method="lpa", specs=[FringeSpec("sinusoidal", 4, 32.0)])
+    assert calls  # the spy sees captures
+
+
+@pytest.fixture(scope="module")
+def replayed(small_cal: Calibration) -> tuple:
+    """DPA replayed on a step-1 sweep 255..150 of the plate under 600 lx, and live on the same
+    rig after its noise is reset (same images for the same frames)."""
+    rig = small_rig(lux=600)
+    frames = [f for m in range(255, 149, -1) for s in SMALL_SPECS for f in s.with_migl(m).frames()]
+    sweep = rig.capture_folder(frames)
+    rig.reset_noise()
+    replay = measure(sweep, small_cal, method="dpa")
+    live = measure(rig, small_cal, method="dpa", specs=SMALL_SPECS)
+    return replay, live, rig
+
+
+def test_replayed_sweep_equals_the_live_run(replayed: tuple) -> None:
+    replay, live, rig = replayed
+    assert np.array_equal(replay.captures.images, live.captures.images)
+    assert replay.metrics.strategy == live.metrics.strategy
+    assert replay.metrics.strategy.sets_captured > 2 * len(SMALL_SPECS)
+    assert replay.metrics.rmse_mm == live.metrics.rmse_mm
+    assert_errors_match(replay.metrics, replay.height_mm, rig.truth().height_mm)
+    assert replay.metrics.live_rig is None and live.metrics.live_rig is not None
+    # DPA's analysis: only the replay holds every integer MIGL, for LPA step 1's exact CDF
+    assert all(c.exact is not None for c in replay.dpa) and all(c.exact is None for c in live.dpa)
+    for block, res in ((replay.metrics.dpa, replay), (live.metrics.dpa, live)):
+        assert block.correction == "none (identity)" and block.threshold == 0.1
+        assert [list(e.rules) for e in block.sets] == [
+            r.details["rules"] for r in res.strategy_results
+        ]
+        assert [[c["migl"] for c in e.captures] for e in block.sets] == [
+            r.migls for r in res.strategy_results
+        ]
+
+
+def test_write_measurement_round_trip(tmp_path: Path, replayed: tuple) -> None:
+    replay = replayed[0]
+    out = tmp_path / "out"
+    files = write_measurement(replay, out)
+    assert files == sorted(p.name for p in out.iterdir())
+    assert {"height.tiff", "points.ply", "migl_index.tiff", "migl_pie.png", "dpa_cdf.png"} <= set(
+        files
+    )
+    written = json.loads((out / "metrics.json").read_text())
+    assert written == replay.metrics.to_dict()
+    assert written["migls"] == [list(v) for v in replay.metrics.strategy.values]
+    assert "max_abs_difference_initial_vs_exact" in written["dpa"]["sets"][1]
+    height32 = replay.height_mm.astype(np.float32)  # the TIFF holds float32
+    assert np.array_equal(read_map_tiff(out / "height.tiff"), height32, equal_nan=True)
+    with pytest.raises(OutputExistsError, match="--force"):
+        write_measurement(replay, out)
+
+
+def test_metrics_are_strict_json_and_name_what_varied(tmp_path: Path) -> None:
+    """No valid pixel: the error figures are NaN in memory, null in metrics.json. A strategy
+    that varies the exposure gets its index map and values named after it."""
+    nan = float("nan")
+    m = MeasurementMetrics(
+        "x", model="linear", border_px=10, valid_fraction=0.0, truth="scene.depth_mm = 4",
+        bias_mm=nan, std_mm=nan, rmse_mm=nan, max_abs_mm=nan, n_pixels=0,
+    )  # fmt: skip
+    assert json.loads(json.dumps(m.to_dict(), allow_nan=False))["rmse_mm"] is None
+    index = np.array([[10.0, 2.5]], np.float32)
+    res = StrategyResult(
+        images=np.zeros((4, 1, 2), np.uint8), spec=FringeSpec("sinusoidal", 4, 8.0),
+        captured=[CapturedSet(exposure_ms=10.0), CapturedSet(exposure_ms=2.5)], index_map=index,
+        newly_unsaturated=[1, 1], never_unsaturated=np.zeros((1, 2), bool), method="exposures",
+        index_quantity="exposure_ms",
+    )  # fmt: skip
+    d = strategy_summary([res]).to_dict()
+    assert d["index_quantity"] == "exposure_ms" and d["exposures_ms"] == [10.0, 2.5]
+    assert "migls" not in d
+    names = write_strategy_outputs(tmp_path, [res])
+    assert names == ["exposure_ms_index.tiff", "exposure_ms_index.png", "exposure_ms_pie.png"]
+    assert np.array_equal(read_map_tiff(tmp_path / "exposure_ms_index.tiff"), index)
+
+
+def test_measure_refuses_what_it_cannot_use(small_cal: Calibration) -> None:
+    caps = small_rig().capture_folder(SMALL_FRAMES)
+    with pytest.raises(InputError, match="params given without a method"):
+        measure(caps, params={"step": 5.0})
+    with pytest.raises(InputError, match="needs specs"):
+        measure(small_rig(), method="lpa")
+    with pytest.raises(InputError, match="takes Captures or a Rig"):
+        measure("some/folder")  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="lpa has no parameter 'threshold'"):
+        measure(caps, method="lpa", params={"threshold": 0.1})

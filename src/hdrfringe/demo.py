@@ -24,11 +24,12 @@
 4. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
    table of RMSE per scene and model; per study scene and method the files of ``hdrfringe
-   measure --method`` (:func:`hdrfringe.io.measurement_outputs.write_measurement`: phase maps,
-   height, PLY, the MIGL index map and pie chart, for DPA its CDF figure, Fig. 6.3, and
-   ``metrics.json`` with ``sets_captured``, ``images_captured``, ``migls``, plus the study's
-   ``params`` and ``rmse_mm_saturated_kept``); a figure comparing the methods and a table of
-   RMSE, valid fraction, sets and images captured (docs/saturation.md).
+   measure --method`` but the phase maps
+   (:func:`hdrfringe.io.measurement_outputs.write_measurement`: height, PLY, the MIGL index
+   map and pie chart, for DPA its CDF figure, Fig. 6.3, and ``metrics.json`` with
+   ``sets_captured``, ``images_captured``, ``migls``, plus the study's ``params`` and
+   ``rmse_mm_saturated_kept``); a figure comparing the methods and a table of RMSE, valid
+   fraction, sets and images captured (docs/saturation.md).
 """
 
 from __future__ import annotations
@@ -245,7 +246,7 @@ def _study_run(
         rules = [rule for r in results for rule in r.details["rules"]]
         row["dpa_rules"] = {k: rules.count(k) for k in ("initial", "threshold", "lowest", "bound")}
     extra = {"params": params, "rmse_mm_saturated_kept": row["rmse_mm_saturated_kept"]}
-    write_measurement(res, out, extra_metrics=extra)
+    write_measurement(res, out, extra_metrics=extra, phase_maps=False)
     error = res.height_mm - rig.truth().height_mm
     return row, error, results[-1].migl_index
 

@@ -135,6 +135,7 @@ def write_measurement(
     *,
     force: bool = False,
     extra_metrics: Mapping[str, Any] | None = None,
+    phase_maps: bool = True,
 ) -> list[str]:
     """Write a measurement's result folder, staged: complete or not at all.
 
@@ -156,6 +157,9 @@ def write_measurement(
     extra_metrics : mapping, optional
         Entries added at the end of ``metrics.json`` (the demo adds its strategy parameters);
         JSON-friendly values.
+    phase_maps : bool
+        Write the phase maps and ``phase_summary.json`` (False: the demo's strategy study,
+        ten measurements compared by their height and index maps).
 
     Returns
     -------
@@ -188,7 +192,8 @@ def write_measurement(
     (True, True)
     """
     with staged_output_dir(out, force=force) as tmp:
-        write_phase_maps(tmp, result.decoded, result.metrics.source)
+        if phase_maps:
+            write_phase_maps(tmp, result.decoded, result.metrics.source)
         if result.height_mm is not None:  # its note is in the metrics already
             write_height_outputs(tmp, result.height_mm, result.geometry)
         if result.strategy_results:
