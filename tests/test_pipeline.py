@@ -330,9 +330,24 @@ def test_measure_refuses_what_it_cannot_use(small_cal: Calibration) -> None:
     caps = small_rig().capture_folder(SMALL_FRAMES)
     with pytest.raises(InputError, match="params given without a method"):
         measure(caps, params={"step": 5.0})
+    with pytest.raises(InputError, match="centerline given without a method"):
+        measure(caps, centerline=CenterlineFrame(512, "vertical", 255))
     with pytest.raises(InputError, match="needs specs"):
         measure(small_rig(), method="lpa")
     with pytest.raises(InputError, match="takes Captures or a Rig"):
         measure("some/folder")  # type: ignore[arg-type]
     with pytest.raises(InputError, match="lpa has no parameter 'threshold'"):
         measure(caps, method="lpa", params={"threshold": 0.1})
+
+
+def test_the_docs_python_api_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """docs/measurement.md's "Python API" example runs as written and writes its folder."""
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "measurement.md").read_text(encoding="utf-8")
+    code = text.split("## Python API", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(code, "docs/measurement.md", "exec"), scope)
+    m = scope["result"].metrics
+    assert m.strategy.method == "dpa" and m.valid_fraction > 0.99 and m.rmse_mm < 0.5
+    assert "dpa_cdf.png" in scope["files"] and (tmp_path / "out" / "metrics.json").is_file()

@@ -191,7 +191,7 @@ class RigDescription:
     name: str
     scene: dict[str, Any]
     camera: dict[str, Any]
-    truth_height_mm: NDArray[np.float64] | None = field(default=None, repr=False)
+    truth_height_mm: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
     parameters: dict[str, Any] | None = None
 
 
@@ -257,6 +257,7 @@ def composite_captures(
     params: Any = None,
     *,
     centerline: Frame | None = None,
+    description: RigDescription | None = None,
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
     """Run a strategy for every set in ``specs`` on ``rig`` and assemble the composites.
 
@@ -273,6 +274,8 @@ def composite_captures(
         :func:`~hdrfringe.strategies.make_params`); None: the defaults.
     centerline : Frame, optional
         Captured once, after the sets.
+    description : RigDescription, optional
+        What the captures carry about the rig; default :func:`describe_rig`.
 
     Returns
     -------
@@ -298,7 +301,7 @@ def composite_captures(
     ('white_plate', 4, [255.0, 235.0, 215.0])
     """
     strategy, p = get_strategy(method), _strategy_params(method, params)
-    desc = describe_rig(rig)
+    desc = describe_rig(rig) if description is None else description
     frames: list[Frame] = []
     images = []
     results = []
@@ -560,7 +563,7 @@ class MeasurementMetrics:
         return _json_safe(d)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class MeasurementResult:
     """What :func:`measure` returns.
 
@@ -817,7 +820,11 @@ def measure(
     replay: Captures | None = None
     if isinstance(source, Captures):
         if method is None:
-            given = [n for n, v in (("params", params), ("specs", specs)) if v is not None]
+            given = [
+                n
+                for n, v in (("params", params), ("specs", specs), ("centerline", centerline))
+                if v is not None
+            ]
             if given or sources:
                 raise InputError(
                     f"{', '.join(given or ['param_sources'])} given without a method; give "
@@ -847,7 +854,9 @@ def measure(
                 source=calibration_source,
             )
         description = describe_rig(source)
-        caps, results = composite_captures(source, specs, method, p, centerline=centerline)
+        caps, results = composite_captures(
+            source, specs, method, p, centerline=centerline, description=description
+        )
     else:
         raise InputError(
             f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
