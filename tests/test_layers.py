@@ -49,10 +49,9 @@ LAYERS: dict[str, int] = {
     "strategies": ACQUISITION,
     "strategies.*": ACQUISITION,
     "pipeline": ACQUISITION,
-    # 2 I/O: files in and out; measurement orchestrates and still reads capture folders
+    # 2 I/O: files in and out
     "io": IO,
     "io.*": IO,
-    "measurement": IO,
     # 3 front ends
     "cli": FRONT_END,
     "cli.*": FRONT_END,

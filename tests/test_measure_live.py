@@ -19,8 +19,8 @@ from hdrfringe.captures import Captures
 from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.measurement import calibrate_captures
 from hdrfringe.patterns import FringeSpec
+from hdrfringe.pipeline import calibrate
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.saturation.estimate import CorrectionPolynomial, training_data_from_rig
@@ -39,7 +39,7 @@ def calibration(tmp_path_factory: pytest.TempPathFactory) -> Path:
     ]
     folders = [SimulatedRig(white_plate(d)).capture_folder(frames) for d in (0, 8, 16, 24)]
     path = tmp_path_factory.mktemp("cal") / "cal.h5"
-    save_calibration(path, calibrate_captures(folders, model="rational"))
+    save_calibration(path, calibrate(folders, model="rational"))
     return path
 
 

@@ -23,8 +23,8 @@ import pytest
 
 from hdrfringe._validation import unsaturated_mask
 from hdrfringe.errors import InputError
-from hdrfringe.measurement import simulated_composite
 from hdrfringe.patterns import FringeSpec
+from hdrfringe.pipeline import composite_captures
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
@@ -118,7 +118,7 @@ def test_a_registered_strategy_is_listed_and_runs_like_a_builtin(toy: str) -> No
     assert make_params(toy) == EveryOtherSetParams(stride=10.0)
     assert get_strategy(toy).describe(make_params(toy, stride=20.0)) == "every other set, stride 20"
     # measurement's composite path, as measure and the demo use it
-    folder, results = simulated_composite(lit_rig(), [SPEC], toy, stride=20.0)
+    folder, results = composite_captures(lit_rig(), [SPEC], toy, {"stride": 20.0})
     (res,) = results
     ref = lpa(lit_rig(), SPEC, step=40.0)  # the same sets: LPA with twice the stride
     assert res.method == toy and res.migls == ref.migls and len(res.migls) >= 3
@@ -130,7 +130,7 @@ def test_a_registered_strategy_is_listed_and_runs_like_a_builtin(toy: str) -> No
     unregister(toy)
     try:
         with pytest.raises(InputError, match="unknown method 'every-other-set'"):
-            simulated_composite(lit_rig(), [SPEC], toy)
+            composite_captures(lit_rig(), [SPEC], toy)
     finally:
         register(EveryOtherSet)
 
@@ -207,7 +207,7 @@ def test_the_docs_worked_example_is_a_working_strategy() -> None:
         exec(compile(code, "docs/saturation.md", "exec"), module.__dict__)
         assert "two-set" in available_strategies()
         assert [o.option for o in cli_options() if "two-set" in o.fields] == ["--low-migl"]
-        _, (res,) = simulated_composite(lit_rig(), [SPEC], "two-set", low_migl=180.0)
+        _, (res,) = composite_captures(lit_rig(), [SPEC], "two-set", {"low_migl": 180.0})
         top, low = capture_set(lit_rig(), SPEC, 255), capture_set(lit_rig(), SPEC, 180)
         keep = unsaturated_mask(top, 8)
         assert not keep.all()  # saturated at 255: the second set is captured

@@ -7,13 +7,13 @@ import pytest
 
 from hdrfringe.captures import Captures
 from hdrfringe.frames import CenterlineFrame
-from hdrfringe.measurement import calibrate_captures, measure_folder, tradeoff_search
 from hdrfringe.patterns import FringeSpec
+from hdrfringe.pipeline import calibrate, measure, tradeoff_search
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
 from hdrfringe.strategies.lpa import lpa
 from hdrfringe.strategies.uniform import uniform
-from tests.test_measurement import series
+from tests.test_pipeline import series
 
 SPEC = FringeSpec("sinusoidal", 3, 6.0)  # thesis Table 4.3 / 5.1 conditions
 LINE = [CenterlineFrame(512, "vertical", 255)]
@@ -23,7 +23,7 @@ DEPTHS = (10.0, 26.0, 42.0)
 @pytest.fixture(scope="module")
 def calibration():
     # the thesis's linear model, calibrated at 0 lx and MIGL 255 (Sec. 4.1)
-    return calibrate_captures(series(SPEC, noise=True, seed=11), model="linear")
+    return calibrate(series(SPEC, noise=True, seed=11), model="linear")
 
 
 def _measure_strategy(strategy, depth: float, seed: int, calibration) -> float:
@@ -38,7 +38,7 @@ def _measure_strategy(strategy, depth: float, seed: int, calibration) -> float:
         scene=rig.scene.to_manifest(),
         maps={"truth_height_mm": rig.truth().height_mm},
     )
-    return measure_folder(folder, calibration, reject_saturated=False).metrics["rmse_mm"]
+    return measure(folder, calibration, reject_saturated=False).metrics.rmse_mm
 
 
 def test_white_plate_600_lux_tradeoff_and_lpa(calibration) -> None:

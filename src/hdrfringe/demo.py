@@ -19,15 +19,17 @@
    (S = 5 on the plate as in Table 5.1, S = 15 on the checkerboard as in Table 5.2) and DPA
    (10 % threshold, no correction polynomial), and DPA with the pending-pixel bound (beyond the
    thesis: ``bound_pending``, fewer sets where the CDF is flat). Every strategy runs per pitch
-   (:func:`~hdrfringe.measurement.simulated_composite`); the composite is measured like any
+   (:func:`hdrfringe.pipeline.measure` on the live rig); the composite is measured like any
    capture folder.
 4. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
-   table of RMSE per scene and model; per study scene and method ``metrics.json`` (with
-   ``sets_captured``, ``images_captured``, ``migls``), ``height.tiff``, the MIGL index map and
-   pie chart (:func:`~hdrfringe.io.measurement_outputs.write_strategy_outputs`), for DPA its
-   CDF figure (Fig. 6.3); a figure comparing the methods and a table of RMSE, valid fraction,
-   sets and images captured (docs/saturation.md).
+   table of RMSE per scene and model; per study scene and method the files of ``hdrfringe
+   measure --method`` but the phase maps
+   (:func:`hdrfringe.io.measurement_outputs.write_measurement`: height, PLY, the MIGL index
+   map and pie chart, for DPA its CDF figure, Fig. 6.3, and ``metrics.json`` with
+   ``sets_captured``, ``images_captured``, ``migls``, plus the study's ``params`` and
+   ``rmse_mm_saturated_kept``); a figure comparing the methods and a table of RMSE, valid
+   fraction, sets and images captured (docs/saturation.md).
 """
 
 from __future__ import annotations
@@ -40,24 +42,13 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from hdrfringe import pipeline
 from hdrfringe.calibration import Calibration
 from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.io.measurement_outputs import (
-    write_dpa_outputs,
-    write_height_outputs,
-    write_strategy_outputs,
-)
-from hdrfringe.io.phase_maps import write_phase_maps
-from hdrfringe.io.results import check_output_dir, staged_output_dir, write_map_tiff
-from hdrfringe.measurement import (
-    calibrate_captures,
-    calibration_geometry,
-    dpa_cdfs,
-    measure_folder,
-    simulated_composite,
-)
+from hdrfringe.io.measurement_outputs import write_measurement
+from hdrfringe.io.results import check_output_dir, staged_output_dir
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import (
     BLACK_PLATE_REFLECTIVITY,
@@ -126,7 +117,7 @@ def _calibrations(seed: int, black: bool, progress: Any) -> dict[str, Calibratio
     for d in (0.0, *THESIS_CALIBRATION_DEPTHS_MM):
         folders.append(_rig(plate(d), seed, black).capture_folder(frames))
         progress()
-    return {m: calibrate_captures(folders, model=m) for m in ("linear", "rational")}
+    return {m: pipeline.calibrate(folders, model=m) for m in ("linear", "rational")}
 
 
 def _figure_3d(path: Path, height: np.ndarray, title: str) -> None:
@@ -226,46 +217,36 @@ def _study_run(
     measure outputs into ``out``; returns the summary row, the height error and the finest
     pitch's MIGL index map."""
     rig = _rig(scene, seed, black, lux)
-    folder, results = simulated_composite(
-        rig, demo_specs(), method, centerline=CENTERLINE, **params
+    res = pipeline.measure(
+        rig, cal, method=method, params=params, specs=demo_specs(), centerline=CENTERLINE
     )
-    res = measure_folder(folder, cal)
+    results, strategy = res.strategy_results, res.metrics.strategy
+    assert strategy is not None and res.height_mm is not None
     # Saturated pixels are invalid by default; the thesis (Ch. 4) measured them as they are, so
     # that saturation error counts: both figures where the composite still saturates.
     kept = res
-    if res.metrics.get("saturated_fraction", 0.0) > 0:
-        kept = measure_folder(folder, cal, reject_saturated=False)
-    out.mkdir(parents=True)
-    strategy = write_strategy_outputs(out, results)
-    assert res.height_mm is not None
-    write_map_tiff(out / "height.tiff", res.height_mm)
+    if (res.metrics.saturated_fraction or 0.0) > 0:
+        kept = pipeline.measure(res.captures, cal, reject_saturated=False)
     row: dict[str, Any] = {
         "params": params,
-        "sets_captured": strategy["sets_captured"],
-        "images_captured": strategy["images_captured"],
+        "sets_captured": strategy.sets_captured,
+        "images_captured": strategy.images_captured,
         "sets_per_pitch": {f"{r.spec.pitch_px:g}": r.sets_captured for r in results},
-        "migls": strategy["migls"],
-        "never_unsaturated_fraction": strategy["never_unsaturated_fraction"],  # finest pitch
-        "saturated_fraction": res.metrics["saturated_fraction_measurement_pixels"],
-        "valid_fraction": res.metrics["valid_fraction"],
-        "rmse_mm": res.metrics["rmse_mm"],
-        "rmse_mm_saturated_kept": kept.metrics["rmse_mm"],
-        "valid_fraction_saturated_kept": kept.metrics["valid_fraction"],
+        "migls": strategy.to_dict()["migls"],
+        "never_unsaturated_fraction": strategy.never_unsaturated_fraction,  # finest pitch
+        "saturated_fraction": res.metrics.saturated_fraction_measurement_pixels,
+        "valid_fraction": res.metrics.valid_fraction,
+        "rmse_mm": res.metrics.rmse_mm,
+        "rmse_mm_saturated_kept": kept.metrics.rmse_mm,
+        "valid_fraction_saturated_kept": kept.metrics.valid_fraction,
     }
     if method == "uniform":
         row["uniform_migl"] = [r.details["chosen_migl"] for r in results]
-    metrics = {**res.metrics, **strategy, "params": params}
-    if method == "dpa":  # as measure --method dpa: Fig. 6.3 and the metrics dpa block
-        metrics["dpa"] = write_dpa_outputs(
-            out,
-            [dpa_cdfs(r) for r in results],
-            threshold=params["threshold"],
-            correction="none (identity)",
-        )
+    if method == "dpa":
         rules = [rule for r in results for rule in r.details["rules"]]
         row["dpa_rules"] = {k: rules.count(k) for k in ("initial", "threshold", "lowest", "bound")}
-    metrics["rmse_mm_saturated_kept"] = row["rmse_mm_saturated_kept"]
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=1) + "\n", encoding="utf-8")
+    extra = {"params": params, "rmse_mm_saturated_kept": row["rmse_mm_saturated_kept"]}
+    write_measurement(res, out, extra_metrics=extra, phase_maps=False)
     error = res.height_mm - rig.truth().height_mm
     return row, error, results[-1].migl_index
 
@@ -397,22 +378,16 @@ def run_demo(
             sdir.mkdir()
             write_capture_folder(sdir / "captures", caps, extra={"simulator": rig.to_manifest()})
             cal_set = cals["white"]
-            results = {m: measure_folder(caps, c) for m, c in cal_set.items()}
+            label = str(output / name / "captures")
+            results = {m: pipeline.measure(caps, c, label=label) for m, c in cal_set.items()}
             best = results["rational"]
-            (sdir / "measurement").mkdir()
-            write_phase_maps(sdir / "measurement", best.decoded, str(sdir / "captures"))
-            write_height_outputs(
-                sdir / "measurement", best.height_mm, calibration_geometry(cal_set["rational"])
-            )
-            (sdir / "measurement" / "metrics.json").write_text(
-                json.dumps(best.metrics, indent=1) + "\n", encoding="utf-8"
-            )
+            write_measurement(best, sdir / "measurement")
             summary["scenes"][name] = {
                 "aperture": "black plate" if black else "white plate",
-                "saturated_fraction": best.metrics["saturated_fraction"],
-                "valid_fraction": best.metrics["valid_fraction"],
-                "rmse_mm": {m: r.metrics["rmse_mm"] for m, r in results.items()},
-                "bias_mm": {m: r.metrics["bias_mm"] for m, r in results.items()},
+                "saturated_fraction": best.metrics.saturated_fraction,
+                "valid_fraction": best.metrics.valid_fraction,
+                "rmse_mm": {m: r.metrics.rmse_mm for m, r in results.items()},
+                "bias_mm": {m: r.metrics.bias_mm for m, r in results.items()},
             }
             if name in ("white_plate_25mm", "mask", "checkerboard"):
                 err = best.height_mm - rig.truth().height_mm

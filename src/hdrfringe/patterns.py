@@ -264,3 +264,33 @@ def precompensate_gamma(
         g = full * (g / full) ** (1.0 / gamma_hat)
     dtype = np.uint8 if bits <= 8 else np.uint16
     return np.rint(g).astype(dtype)
+
+
+def same_fringes(a: FringeSpec, b: FringeSpec) -> bool:
+    """Whether two sets have the same fringes: pattern, steps, pitch and orientation.
+
+    The gray range (``imin``, ``migl``) may differ: a MIGL sweep holds the same fringes at many
+    MIGLs, and a calibration serves any MIGL (thesis Sec. 4.1).
+
+    Parameters
+    ----------
+    a, b : FringeSpec
+        The sets compared.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> same_fringes(FringeSpec("sinusoidal", 4, 8.0), FringeSpec("sinusoidal", 4, 8.0, migl=200))
+    True
+    >>> same_fringes(FringeSpec("sinusoidal", 4, 8.0), FringeSpec("sinusoidal", 3, 8.0))
+    False
+    """
+    return (a.pattern, a.steps, a.pitch_px, a.orientation) == (
+        b.pattern,
+        b.steps,
+        b.pitch_px,
+        b.orientation,
+    )

@@ -33,8 +33,8 @@ def calibrate(
     """Per-pixel phase-to-height calibration from a plate at known depths (Sec. 2.5, 4.1)."""
     from hdrfringe.calibration import MODELS
     from hdrfringe.errors import OutputExistsError
+    from hdrfringe.io.calibrate_folders import calibrate_folders, expand_capture_dirs
     from hdrfringe.io.calibration_file import save_calibration
-    from hdrfringe.measurement import calibrate_folders, expand_capture_dirs
 
     if model not in MODELS:
         raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")

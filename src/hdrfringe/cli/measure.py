@@ -3,14 +3,24 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, parse_floats, progress_bar
+from hdrfringe.cli._app import app, console, handle_errors, progress_bar
+from hdrfringe.cli._measure_options import (
+    CalibrationOpt,
+    ForceOpt,
+    MeasureFolderArg,
+    MeasureMiglOpt,
+    MeasurePitchOpt,
+    MethodOpt,
+    OutputOpt,
+    live_fringes,
+    strategy_params,
+)
 from hdrfringe.cli._options import (
     LIVE_OPTIONS,
-    LIVE_PANEL,
     LiveAmbientOpt,
     LiveApertureOpt,
     LiveCenterlineOpt,
@@ -24,17 +34,12 @@ from hdrfringe.cli._options import (
     LiveStepsOpt,
     RigOpt,
     check_source,
-    given_options,
     simulated_rig,
 )
-from hdrfringe.cli._strategy_options import (
-    method_help,
-    strategy_file_readers,
-    with_strategy_options,
-)
+from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.errors import InputError
 
-__all__ = ["measure"]
+__all__ = ["measure", "print_summary"]
 
 
 @app.command()
@@ -42,17 +47,10 @@ __all__ = ["measure"]
 @with_strategy_options
 def measure(
     ctx: typer.Context,
-    folder: Annotated[
-        Path | None,
-        typer.Argument(help="Capture folder of the part (or a MIGL sweep with --method)."),
-    ] = None,
-    output: Annotated[
-        Path | None, typer.Option("-o", "--output", help="Output folder (required).")
-    ] = None,
-    calibration: Annotated[
-        Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
-    ] = None,
-    method: Annotated[str | None, typer.Option(help=method_help())] = None,
+    folder: MeasureFolderArg = None,
+    output: OutputOpt = None,
+    calibration: CalibrationOpt = None,
+    method: MethodOpt = None,
     rig: RigOpt = None,
     scene: LiveSceneOpt = "white_plate",
     depth_mm: LiveDepthOpt = None,
@@ -63,18 +61,11 @@ def measure(
     seed: LiveSeedOpt = 0,
     pattern: LivePatternOpt = "sinusoidal",
     steps: LiveStepsOpt = 4,
-    pitch: Annotated[
-        str,
-        typer.Option(
-            help="Pitch(es) in projector px, comma-separated; the strategy runs per pitch and "
-            "the coarse pitches unwrap the finest temporally (the demo's 1024,64,8).",
-            rich_help_panel=LIVE_PANEL,
-        ),
-    ] = "1024,64,8",
+    pitch: MeasurePitchOpt = "1024,64,8",
     imin: LiveIminOpt = 40.0,
-    migl: Annotated[float, typer.Option(help="Highest MIGL.", rich_help_panel=LIVE_PANEL)] = 255.0,
+    migl: MeasureMiglOpt = 255.0,
     centerline: LiveCenterlineOpt = True,
-    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+    force: ForceOpt = False,
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -87,127 +78,75 @@ def measure(
     """
     import json
 
-    from hdrfringe.calibration import check_compatible
+    from hdrfringe import pipeline
     from hdrfringe.io.calibration_file import load_calibration
-    from hdrfringe.io.measurement_outputs import write_height_outputs
-    from hdrfringe.io.phase_maps import write_phase_maps
-    from hdrfringe.io.results import check_output_dir, staged_output_dir
-    from hdrfringe.measurement import calibration_geometry, measure_folder
-    from hdrfringe.strategies import cli_options, param_values, params_from_options
+    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.measurement_outputs import write_measurement
+    from hdrfringe.io.results import check_output_dir
 
     live = check_source(ctx, folder, rig, LIVE_OPTIONS)
     if output is None:
         raise InputError("no output folder: give -o/--output OUT")
     if live and method is None:
         method = "conventional"
-    given = {  # the strategy options on the command line (this command's: built at import)
-        o.option: strategy_options[o.dest]
-        for o in cli_options()
-        if o.dest in strategy_options and given_options(ctx, (o.dest,))
-    }
-    params = params_from_options(
-        method, given, readers={t: read for t, (read, _) in strategy_file_readers().items()}
-    )
+    params, sources = strategy_params(ctx, method, strategy_options)
     check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
-    replay = None
-    strategy_results: list[Any] = []
+    kwargs: dict[str, Any] = {
+        "method": method,
+        "params": params,
+        "param_sources": sources,
+        "calibration_source": None if calibration is None else str(calibration),
+    }
     if live:
-        from hdrfringe.frames import CenterlineFrame
-        from hdrfringe.measurement import simulated_composite
-        from hdrfringe.patterns import FringeSpec
-
         sim = simulated_rig(
-            scene,
-            depth_mm=depth_mm,
-            ambient_lux=ambient_lux,
-            noise=noise,
-            aperture=aperture,
-            gamma=gamma,
-            seed=seed,
-        )
-        pitches = sorted(set(parse_floats(pitch, "--pitch")), reverse=True)
-        specs = [FringeSpec(pattern, steps, p, "vertical", imin, migl) for p in pitches]  # type: ignore[arg-type]
-        if cal is not None:  # refuse a mismatched calibration before capturing anything
-            check_compatible(
-                cal, specs[-1], sim.image_shape, sim.camera_bit_depth, source=str(calibration)
-            )
-        full = 2**sim.projector.bit_depth - 1
-        line = CenterlineFrame(sim.projector.width // 2, "vertical", full) if centerline else None
-        source = f"live virtual rig: {json.dumps(sim.scene.to_manifest())}, {ambient_lux:g} lx"
-        assert method is not None  # the live rig defaults to conventional
+            scene, depth_mm=depth_mm, ambient_lux=ambient_lux, noise=noise, aperture=aperture,
+            gamma=gamma, seed=seed,
+        )  # fmt: skip
+        specs, line = live_fringes(sim.projector, pattern, steps, pitch, imin, migl, centerline)
+        label = f"live virtual rig: {json.dumps(sim.scene.to_manifest())}, {ambient_lux:g} lx"
         with progress_bar() as prog:
             prog.add_task(f"{method} on the virtual rig ({scene})", total=None)
-            caps, strategy_results = simulated_composite(
-                sim, specs, method, centerline=line, **param_values(params)
-            )
+            result = pipeline.measure(sim, cal, specs=specs, centerline=line, label=label, **kwargs)
     else:
-        from hdrfringe.io.captures import read_capture_folder
-
         assert folder is not None
-        source = str(folder)
-        caps = read_capture_folder(folder)
-        if method is not None:
-            from hdrfringe.measurement import composite_folder
+        result = pipeline.measure(read_capture_folder(folder), cal, label=str(folder), **kwargs)
+    write_measurement(result, output, force=force)
+    print_summary(result, output)
 
-            replay = caps
-            caps, strategy_results = composite_folder(caps, method, **param_values(params))
-    result = measure_folder(
-        caps, cal, calibration_source=None if calibration is None else str(calibration)
-    )
-    result.metrics["source"] = source
-    if live:
-        result.metrics["live_rig"] = {"scene": sim.scene.to_manifest(), **sim.to_manifest()}
-    with staged_output_dir(output, force=force) as tmp:
-        summary = write_phase_maps(tmp, result.decoded, source)
-        notes = list(summary["notes"])
-        if result.height_mm is not None and cal is not None:
-            notes += write_height_outputs(tmp, result.height_mm, calibration_geometry(cal))
-        if strategy_results:
-            from hdrfringe.io.measurement_outputs import write_strategy_outputs
 
-            result.metrics.update(write_strategy_outputs(tmp, strategy_results))
-        if method == "dpa":
-            from hdrfringe.io.measurement_outputs import write_dpa_outputs
-            from hdrfringe.measurement import dpa_cdfs
+def print_summary(result: Any, output: Path) -> None:
+    """The lines ``measure`` prints: sets captured, DPA's CDF gap, height error, notes.
 
-            correction = given.get("--correction")
-            result.metrics["dpa"] = write_dpa_outputs(
-                tmp,
-                [dpa_cdfs(r, replay) for r in strategy_results],
-                threshold=params.threshold,
-                correction=str(correction) if correction is not None else "none (identity)",
-            )
-            result.metrics["dpa"]["bound_pending"] = params.bound_pending
-        result.metrics["skipped"] = result.skipped
-        result.metrics["notes"] = notes
-        (tmp / "metrics.json").write_text(
-            json.dumps(result.metrics, indent=1) + "\n", encoding="utf-8"
-        )
+    Parameters
+    ----------
+    result : MeasurementResult
+        What :func:`hdrfringe.pipeline.measure` returned.
+    output : Path
+        The result folder written.
+    """
     m = result.metrics
-    if strategy_results:
+    if m.strategy is not None:
+        s = m.strategy
+        console.print(f"{s.method}: {s.sets_captured} sets, {s.images_captured} images captured")
+    for entry in m.dpa.sets if m.dpa is not None else ():
+        if entry.max_abs_difference_initial_vs_actual is not None:
+            extra = ""
+            if entry.max_abs_difference_initial_vs_exact is not None:
+                extra = f", vs exact {entry.max_abs_difference_initial_vs_exact:.3f}"
+            console.print(
+                f"DPA {entry.set}: max |estimated CDF (first set) - actual| "
+                f"{entry.max_abs_difference_initial_vs_actual:.3f} at captured MIGLs" + extra
+            )
+    if m.truth is not None:
         console.print(
-            f"{m['method']}: {m['sets_captured']} sets, {m['images_captured']} images captured"
+            f"height vs {m.truth}: RMSE {m.rmse_mm:.4f} mm, bias {m.bias_mm:+.4f} mm, "
+            f"std {m.std_mm:.4f} mm over {m.n_pixels} pixels"
         )
-    if "dpa" in m:
-        for entry in m["dpa"]["sets"]:
-            if "max_abs_difference_initial_vs_actual" in entry:
-                extra = ""
-                if "max_abs_difference_initial_vs_exact" in entry:
-                    extra = f", vs exact {entry['max_abs_difference_initial_vs_exact']:.3f}"
-                console.print(
-                    f"DPA {entry['set']}: max |estimated CDF (first set) - actual| "
-                    f"{entry['max_abs_difference_initial_vs_actual']:.3f} at captured MIGLs" + extra
-                )
-    if "rmse_mm" in m:
-        console.print(
-            f"height vs {m['truth']}: RMSE {m['rmse_mm']:.4f} mm, bias {m['bias_mm']:+.4f} mm, "
-            f"std {m['std_mm']:.4f} mm over {m['n_pixels']} pixels"
-        )
-    if "valid_fraction" in m:
-        console.print(f"valid {100 * m['valid_fraction']:.1f} % of measurement pixels")
-    for sk in result.skipped:
+    if m.valid_fraction is not None:
+        console.print(f"valid {100 * m.valid_fraction:.1f} % of measurement pixels")
+    for sk in m.skipped:
         console.print(f"skipped: {sk}")
-    for note in notes:
+    for note in m.notes:
         console.print(f"note: {note}")
     console.print(f"wrote {output}")

@@ -1,8 +1,8 @@
 """Figures written as PNG files: the gamma mapping, the MIGL pie chart, DPA's saturation CDFs.
 
 Every figure of the library is drawn here, with matplotlib's Agg backend (no display needed);
-matplotlib is imported when a figure is drawn, not when this module is imported. The core
-modules compute what is plotted (:mod:`hdrfringe.gamma`, :mod:`hdrfringe.measurement`) and
+matplotlib is imported when a figure is drawn, not when this module is imported. The modules
+that compute what is plotted (:mod:`hdrfringe.gamma`, :mod:`hdrfringe.strategies.dpa_analysis`)
 never import matplotlib.
 
 * :func:`plot_gamma_mapping`: thesis Fig. 2.6 b/c, input gray -> captured intensity without
@@ -26,8 +26,8 @@ from hdrfringe._validation import full_scale
 from hdrfringe.gamma import GammaFit, line_deviation, measure_nonlinearity
 
 if TYPE_CHECKING:
-    from hdrfringe.measurement import DPACDFs
     from hdrfringe.saturation.dpa_rules import SaturationCDF
+    from hdrfringe.strategies.dpa_analysis import DPACDFs
 
 __all__ = ["plot_dpa_cdfs", "plot_gamma_mapping", "plot_migl_pie"]
 
@@ -220,7 +220,7 @@ def plot_dpa_cdfs(
     path : str or Path
         PNG file to write.
     all_cdfs : sequence of DPACDFs
-        One per pitch, coarsest first (:func:`hdrfringe.measurement.dpa_cdfs`).
+        One per pitch, coarsest first (:func:`hdrfringe.strategies.dpa_analysis.dpa_cdfs`).
     threshold : float
         DPA's threshold (a fraction), for the titles.
     dpi : int
@@ -239,7 +239,7 @@ def plot_dpa_cdfs(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.measurement import DPACDFs
+    >>> from hdrfringe.strategies.dpa_analysis import DPACDFs
     >>> from hdrfringe.patterns import FringeSpec
     >>> nothing = DPACDFs(FringeSpec("sinusoidal", 4, 8.0), [255.0], ["initial"], 0)
     >>> out = plot_dpa_cdfs(Path(tempfile.mkdtemp()) / "dpa_cdf.png", [nothing], threshold=0.1)

@@ -457,10 +457,10 @@ def adaptive_cell(
             out["cdf_initial"][i] = _cdf_values(res.details["initial_cdf"])
             out["cdf_final"][i] = _cdf_values(res.details["final_cdf"])
         if method == "lpa-1" and saturated_at_top.any():  # Fig. 6.3's actual CDF
-            from hdrfringe.measurement import _index_without_never
             from hdrfringe.saturation.dpa_rules import index_image_cdf
+            from hdrfringe.strategies.dpa_analysis import index_without_never
 
-            idx = _index_without_never(res)
+            idx = index_without_never(res)
             actual = index_image_cdf(idx, saturated_at_top, spec.migl, CDF_MIGLS[-1])
             out["cdf_actual"] = _cdf_values(actual)
         if method == exp.level_method:

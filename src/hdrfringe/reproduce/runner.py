@@ -105,9 +105,9 @@ def _adaptive(
     run: _Run,
     timings: dict[str, float],
 ) -> dict[str, Any]:
-    from hdrfringe.measurement import THESIS_CORRECTION_RMSE
     from hdrfringe.reproduce import adaptive, adaptive_report, ch4
     from hdrfringe.saturation.estimate import CorrectionPolynomial
+    from hdrfringe.strategies.dpa_training import THESIS_CORRECTION_RMSE
 
     setup = ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
     names = [n for c in chapters for n in ADAPTIVE_SWEEPS.get(c, ())]

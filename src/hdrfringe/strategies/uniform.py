@@ -37,7 +37,7 @@ def uniform(
     The set at the highest MIGL is captured first; if its saturated fraction is at most
     ``tolerance`` it is the result (requirement 4). Otherwise one MIGL is used for every pixel:
     ``migl`` when given (the trade-off MIGL from
-    :func:`~hdrfringe.measurement.tradeoff_search`), else the highest MIGL whose saturated
+    :func:`~hdrfringe.pipeline.tradeoff_search`), else the highest MIGL whose saturated
     fraction is at most ``tolerance``, found by bisection over integer MIGLs between
     ``min_migl`` and the top (the saturated fraction never increases as the MIGL falls), which
     needs about log2(range) sets. ``candidates`` restricts the search to given MIGLs (a replayed

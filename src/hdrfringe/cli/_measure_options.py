@@ -1,0 +1,190 @@
+"""Options of ``measure`` and ``train-correction``, and the inputs they build for the library.
+
+The option types are declared here so the command modules stay a short list of parameters;
+:func:`strategy_params` turns measure's strategy options into the strategy's ``Params``,
+:func:`live_fringes` its fringe options into the sets the live rig captures.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from hdrfringe.cli._app import parse_floats
+from hdrfringe.cli._options import LIVE_PANEL, given_options
+from hdrfringe.cli._strategy_options import method_help, strategy_file_readers
+from hdrfringe.errors import OutputExistsError
+
+__all__ = [
+    "CalibrationOpt",
+    "ForceOpt",
+    "MarginOpt",
+    "MeasureFolderArg",
+    "MeasureMiglOpt",
+    "MeasurePitchOpt",
+    "MethodOpt",
+    "OrderOpt",
+    "OutputOpt",
+    "TrainAmbientOpt",
+    "TrainFolderArg",
+    "TrainForceOpt",
+    "TrainMiglOpt",
+    "TrainOutputOpt",
+    "TrainPitchOpt",
+    "TrainStepsOpt",
+    "TruthOpt",
+    "check_output_file",
+    "live_fringes",
+    "strategy_params",
+]
+
+# --- measure --------------------------------------------------------------------------------
+MeasureFolderArg = Annotated[
+    Path | None, typer.Argument(help="Capture folder of the part (or a MIGL sweep with --method).")
+]
+OutputOpt = Annotated[Path | None, typer.Option("-o", "--output", help="Output folder (required).")]
+CalibrationOpt = Annotated[
+    Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
+]
+MethodOpt = Annotated[str | None, typer.Option(help=method_help())]
+MeasurePitchOpt = Annotated[
+    str,
+    typer.Option(
+        help="Pitch(es) in projector px, comma-separated; the strategy runs per pitch and "
+        "the coarse pitches unwrap the finest temporally (the demo's 1024,64,8).",
+        rich_help_panel=LIVE_PANEL,
+    ),
+]
+MeasureMiglOpt = Annotated[float, typer.Option(help="Highest MIGL.", rich_help_panel=LIVE_PANEL)]
+ForceOpt = Annotated[bool, typer.Option(help="Replace an existing output folder.")]
+
+# --- train-correction -----------------------------------------------------------------------
+TrainFolderArg = Annotated[
+    Path | None,
+    typer.Argument(help="A step-1 MIGL sweep folder (simulate --migl-sweep 255:60:1)."),
+]
+TrainOutputOpt = Annotated[
+    Path | None, typer.Option("-o", "--output", help="Correction polynomial file (.json).")
+]
+TrainAmbientOpt = Annotated[
+    float,
+    typer.Option(
+        help="Added ambient light in lux (saturates the white plate).", rich_help_panel=LIVE_PANEL
+    ),
+]
+TrainStepsOpt = Annotated[
+    int, typer.Option(help="Number of phase shifts N (>= 4).", rich_help_panel=LIVE_PANEL)
+]
+TrainPitchOpt = Annotated[
+    float | None,
+    typer.Option(
+        help="Pitch in projector px (live default 20, the thesis's; a folder: pick "
+        "one of its pitches)."
+    ),
+]
+TrainMiglOpt = Annotated[
+    float, typer.Option(help="Top MIGL of the sweep.", rich_help_panel=LIVE_PANEL)
+]
+OrderOpt = Annotated[int, typer.Option(help="Polynomial degree (thesis: low order).")]
+TruthOpt = Annotated[
+    str,
+    typer.Option(help="Training truth: scaled (the pixel's own response) or thesis (Eq. 6.3)."),
+]
+MarginOpt = Annotated[
+    int, typer.Option(help="Gray levels below N(x, y) of each pixel's reference set.")
+]
+TrainForceOpt = Annotated[bool, typer.Option(help="Replace an existing file.")]
+
+
+def strategy_params(
+    ctx: typer.Context, method: str | None, options: dict[str, Any]
+) -> tuple[Any, dict[str, str]]:
+    """The strategy's ``Params`` from the strategy options given, and the files they named.
+
+    Parameters
+    ----------
+    ctx : typer.Context
+        The command's context (which options were given, not left at their default).
+    method : str or None
+        The strategy; None: no strategy (its exclusive options are refused).
+    options : dict
+        The command's strategy options by Python name (``**strategy_options``).
+
+    Returns
+    -------
+    params : Params or None
+        :func:`hdrfringe.strategies.params_from_options`.
+    sources : dict
+        Field name -> the file given for it (e.g. ``{"correction": "corr.json"}``).
+    """
+    from hdrfringe.strategies import cli_options, params_from_options
+
+    readers = strategy_file_readers()
+    given = {  # the strategy options on the command line (this command's: built at import)
+        o.option: options[o.dest]
+        for o in cli_options()
+        if o.dest in options and given_options(ctx, (o.dest,))
+    }
+    params = params_from_options(
+        method, given, readers={t: read for t, (read, _) in readers.items()}
+    )
+    sources = {
+        o.fields[method]: str(given[o.option])
+        for o in cli_options()
+        if method in o.fields and isinstance(given.get(o.option), Path)
+    }
+    return params, sources
+
+
+def live_fringes(
+    projector: Any,
+    pattern: str,
+    steps: int,
+    pitch: str,
+    imin: float,
+    migl: float,
+    centerline: bool,
+) -> tuple[list[Any], Any]:
+    """The vertical sets (one per pitch, coarsest first) and the centerline of the live rig.
+
+    Parameters
+    ----------
+    projector : ProjectorInfo
+        The rig's projector (the centerline sits at its middle column, at full white).
+    pattern, steps, imin, migl
+        The fringe options.
+    pitch : str
+        ``--pitch``: comma-separated pitches.
+    centerline : bool
+        Whether to capture a centerline.
+
+    Returns
+    -------
+    specs : list of FringeSpec
+    line : CenterlineFrame or None
+    """
+    from hdrfringe._validation import full_scale
+    from hdrfringe.frames import CenterlineFrame
+    from hdrfringe.patterns import FringeSpec
+
+    pitches = sorted(set(parse_floats(pitch, "--pitch")), reverse=True)
+    specs = [FringeSpec(pattern, steps, p, "vertical", imin, migl) for p in pitches]  # type: ignore[arg-type]
+    full = full_scale(projector.bit_depth)
+    line = CenterlineFrame(projector.width // 2, "vertical", full) if centerline else None
+    return specs, line
+
+
+def check_output_file(output: Path, force: bool) -> None:
+    """Refuse an existing file without ``force``, and a folder in its place.
+
+    Parameters
+    ----------
+    output : Path
+    force : bool
+    """
+    if output.exists() and not force:
+        raise OutputExistsError(f"{output}: exists; pass --force to replace it")
+    if output.is_dir():
+        raise OutputExistsError(f"{output}: is a folder; give a file name such as corr.json")

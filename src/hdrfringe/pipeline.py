@@ -1,0 +1,1127 @@
+"""The measurement pipeline: captures or a rig in, calibration, heights and metrics out.
+
+* :func:`measure`: captures (or the live rig a saturation-avoidance strategy drives) ->
+  absolute phase (:func:`hdrfringe.process.decode_captures`) -> height with a calibration
+  (Eq. 2.10-2.11 or the non-linear model) -> :class:`MeasurementResult`: the captures measured,
+  the decoded phase, the height map, the points (:meth:`MeasurementResult.points`), the typed
+  :class:`MeasurementMetrics` (error against the truth the captures or the rig know) and, with a
+  strategy, its results and, for DPA, the CDF analysis of thesis Fig. 6.3.
+* :func:`calibrate`: flat-plate captures at known ``scene.depth_mm`` -> :class:`Calibration`
+  (Eq. 2.10, 2.15 and the non-linear models, Sec. 4.1 filtering) with provenance.
+* :func:`composite_captures`: a strategy run per fringe set on a rig, as captures.
+* :func:`tradeoff_search`: the uniform trade-off search of thesis Sec. 4.2.
+
+Nothing here reads or writes files: :mod:`hdrfringe.io.captures` reads capture folders,
+:func:`hdrfringe.io.measurement_outputs.write_measurement` writes a result folder
+(docs/measurement.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdrfringe import __version__
+from hdrfringe.calibration import Calibration, check_compatible
+from hdrfringe.calibration import calibrate as fit_calibration
+from hdrfringe.captures import Captures
+from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.frames import Frame
+from hdrfringe.patterns import FringeSpec, same_fringes
+from hdrfringe.process import FolderPhase, decode_captures, group_families
+from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
+from hdrfringe.rig.base import Rig
+from hdrfringe.rig.replay import ReplayRig
+from hdrfringe.strategies import StrategyResult, get_strategy, make_params
+from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
+
+__all__ = [
+    "NO_CALIBRATION",
+    "NO_GEOMETRY",
+    "MeasurementMetrics",
+    "MeasurementResult",
+    "RigDescription",
+    "SceneRig",
+    "StrategySummary",
+    "calibrate",
+    "calibration_geometry",
+    "composite_captures",
+    "describe_rig",
+    "height_points",
+    "measure",
+    "strategy_summary",
+    "tradeoff_search",
+]
+
+#: The stage a measurement without a calibration skips (``metrics.skipped``).
+NO_CALIBRATION = "height (no --calibration given)"
+#: The note of a measurement whose calibration records no camera geometry (``metrics.notes``).
+NO_GEOMETRY = (
+    "the calibration records no camera geometry (focal_px, standoff_mm): points.ply has "
+    "x and y in pixels"
+)
+
+F64 = NDArray[np.float64]
+
+
+# ---------------------------------------------------------------------------------------------
+# geometry
+# ---------------------------------------------------------------------------------------------
+
+
+def calibration_geometry(cal: Calibration) -> CameraGeometry | None:
+    """Camera geometry recorded with a calibration (from its reference-plane captures).
+
+    Parameters
+    ----------
+    cal : Calibration
+
+    Returns
+    -------
+    CameraGeometry or None
+        None when the reference-plane captures recorded no ``focal_px`` and ``standoff_mm``.
+
+    References
+    ----------
+    Thesis Sec. 2.1 (the camera perpendicular to the reference plane).
+
+    Examples
+    --------
+    >>> cal = Calibration("linear", np.ones((2, 3)), None, np.zeros((2, 3)), np.array([2.0]))
+    >>> calibration_geometry(cal) is None
+    True
+    """
+    entry = cal.provenance.get("camera_geometry")
+    return CameraGeometry.from_manifest(entry) if isinstance(entry, dict) else None
+
+
+def height_points(
+    height_mm: NDArray[np.float64], geometry: CameraGeometry | None
+) -> tuple[F64, F64, F64]:
+    """x, y, z maps of a height map: mm from the camera geometry, else pixels.
+
+    Parameters
+    ----------
+    height_mm : ndarray (H, W)
+        Height in mm (NaN = invalid).
+    geometry : CameraGeometry or None
+        The camera's pinhole geometry. None: x is the column and y minus the row, in pixels.
+
+    Returns
+    -------
+    x, y, z : ndarray (H, W)
+        ``z`` is the height (:func:`hdrfringe.reconstruct.points_from_height` with a geometry).
+
+    References
+    ----------
+    Thesis Sec. 2.4, Eq. 2.11 (the height map).
+
+    Examples
+    --------
+    >>> x, y, z = height_points(np.zeros((2, 3)), None)
+    >>> x[1].tolist(), y[:, 0].tolist()
+    ([0.0, 1.0, 2.0], [-0.0, -1.0])
+    """
+    if geometry is not None:
+        return points_from_height(height_mm, geometry)
+    rows_cols = np.indices(np.shape(height_mm), dtype=np.float64)
+    return rows_cols[1], -rows_cols[0], np.asarray(height_mm, dtype=np.float64)
+
+
+# ---------------------------------------------------------------------------------------------
+# what a rig looks at
+# ---------------------------------------------------------------------------------------------
+
+
+@runtime_checkable
+class SceneRig(Protocol):
+    """A rig that knows what it looks at (the virtual rig,
+    :class:`~hdrfringe.rig.simulated.SimulatedRig`).
+
+    Attributes
+    ----------
+    scene
+        Has ``name`` and ``to_manifest()`` (the scene description of a capture manifest).
+    """
+
+    scene: Any
+
+    def camera_manifest(self) -> dict[str, Any]:
+        """The camera description of a capture manifest (``focal_px``, ``standoff_mm``)."""
+        ...
+
+    def truth(self) -> Any:
+        """Ground truth per camera pixel; has ``height_mm`` (H, W)."""
+        ...
+
+    def to_manifest(self) -> dict[str, Any]:
+        """Every parameter of the rig, JSON-friendly."""
+        ...
+
+
+@dataclass(frozen=True)
+class RigDescription:
+    """What captures made on a rig carry about it.
+
+    Attributes
+    ----------
+    name : str
+        Name of the captures (the scene's, or the replayed captures').
+    scene, camera : dict
+        Scene and camera description of a capture manifest.
+    truth_height_mm : ndarray or None
+        Ground-truth height map (gives a measurement its error metrics).
+    parameters : dict or None
+        The live rig's scene and every parameter (``metrics.live_rig``); None for a replay.
+
+    Examples
+    --------
+    >>> RigDescription("plate", {}, {}, None, None).name
+    'plate'
+    """
+
+    name: str
+    scene: dict[str, Any]
+    camera: dict[str, Any]
+    truth_height_mm: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    parameters: dict[str, Any] | None = None
+
+
+def describe_rig(rig: Rig) -> RigDescription:
+    """The description of a rig: from its captures (replay), its scene (:class:`SceneRig`), or
+    nothing.
+
+    Parameters
+    ----------
+    rig : Rig
+
+    Returns
+    -------
+    RigDescription
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import SimulatedRig
+    >>> desc = describe_rig(SimulatedRig(white_plate(12.0)))
+    >>> desc.name, desc.scene["depth_mm"], desc.truth_height_mm.shape
+    ('white_plate', 12.0, (494, 648))
+    """
+    if isinstance(rig, ReplayRig):
+        c = rig.captures
+        return RigDescription(c.name, dict(c.scene), dict(c.camera), c.map("truth_height_mm"))
+    if isinstance(rig, SceneRig):
+        scene = rig.scene.to_manifest()
+        return RigDescription(
+            rig.scene.name,
+            dict(scene),
+            dict(rig.camera_manifest()),
+            rig.truth().height_mm,
+            {"scene": scene, **rig.to_manifest()},
+        )
+    return RigDescription("<memory>", {}, {})
+
+
+# ---------------------------------------------------------------------------------------------
+# strategies on a rig
+# ---------------------------------------------------------------------------------------------
+
+
+def _strategy_params(method: str, params: Any) -> Any:
+    """``params`` as the strategy's ``Params`` (a mapping goes through :func:`make_params`)."""
+    strategy = get_strategy(method)
+    if params is None:
+        return make_params(method)
+    if isinstance(params, strategy.Params):
+        return params
+    if isinstance(params, Mapping):
+        return make_params(method, **params)
+    raise InputError(
+        f"params of {method} must be a {strategy.Params.__name__} or a mapping of its fields, "
+        f"got {type(params).__name__}"
+    )
+
+
+def composite_captures(
+    rig: Rig,
+    specs: Sequence[FringeSpec],
+    method: str,
+    params: Any = None,
+    *,
+    centerline: Frame | None = None,
+    description: RigDescription | None = None,
+) -> tuple[Captures, tuple[StrategyResult, ...]]:
+    """Run a strategy for every set in ``specs`` on ``rig`` and assemble the composites.
+
+    Parameters
+    ----------
+    rig : Rig
+        Live or replayed (:class:`~hdrfringe.rig.replay.ReplayRig`).
+    specs : sequence of FringeSpec
+        The sets at their highest MIGL (e.g. one per pitch, coarse first).
+    method : str
+        A registered strategy (:func:`hdrfringe.strategies.available_strategies`).
+    params : Params or mapping, optional
+        Its parameters (a mapping by field name goes through
+        :func:`~hdrfringe.strategies.make_params`); None: the defaults.
+    centerline : Frame, optional
+        Captured once, after the sets.
+    description : RigDescription, optional
+        What the captures carry about the rig; default :func:`describe_rig`.
+
+    Returns
+    -------
+    captures : Captures
+        Each set labelled at its highest MIGL, then the centerline; with the scene, camera
+        description, ground truth and name the rig offers (:func:`describe_rig`).
+    results : tuple of StrategyResult
+        One per spec.
+
+    References
+    ----------
+    Thesis Ch. 4-6 (the strategies) and Eq. 5.1 (the composite).
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=81, height=62),
+    ...                    lighting=Lighting(ambient_lux=600))
+    >>> caps, (res,) = composite_captures(rig, [FringeSpec("sinusoidal", 4, 8.0)], "lpa",
+    ...                                   {"step": 20.0})
+    >>> caps.name, len(caps.frames), res.migls[:3]
+    ('white_plate', 4, [255.0, 235.0, 215.0])
+    """
+    strategy, p = get_strategy(method), _strategy_params(method, params)
+    desc = describe_rig(rig) if description is None else description
+    frames: list[Frame] = []
+    images = []
+    results = []
+    for spec in specs:
+        res = strategy.run(rig, spec, p)
+        results.append(res)
+        frames += spec.frames()
+        images.append(res.images)
+    if centerline is not None:
+        frames.append(centerline)
+        images.append(rig.capture([centerline]))
+    dtype = np.result_type(*[i.dtype for i in images])
+    stack = np.concatenate([i.astype(dtype, copy=False) for i in images])
+    out = Captures(
+        frames,
+        stack,
+        rig.camera_bit_depth,
+        projector=rig.projector,
+        scene=desc.scene,
+        camera=desc.camera,
+        maps={} if desc.truth_height_mm is None else {"truth_height_mm": desc.truth_height_mm},
+        name=desc.name,
+    )
+    return out, tuple(results)
+
+
+# ---------------------------------------------------------------------------------------------
+# metrics and result
+# ---------------------------------------------------------------------------------------------
+
+
+def _json_safe(value: Any) -> Any:
+    """``value`` with non-finite floats as None and tuples as lists (valid JSON)."""
+    if isinstance(value, Mapping):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+@dataclass(frozen=True)
+class StrategySummary:
+    """What a strategy captured, summed over the pitches of a measurement.
+
+    Attributes
+    ----------
+    method : str
+        The strategy's registry name.
+    sets_captured, images_captured : int
+        Summed over the pitches.
+    index_quantity : str
+        What varied between the sets (``"migl"`` or ``"exposure_ms"``,
+        :attr:`StrategyResult.index_quantity <hdrfringe.strategies.StrategyResult>`).
+    values : tuple
+        That quantity of every set, in capture order: one tuple per pitch (coarsest first)
+        when there are several, else the sets of the one pitch.
+    never_unsaturated_fraction : float
+        Finest pitch: pixels saturated in every set captured.
+
+    References
+    ----------
+    Thesis Sec. 5.1 (the composite and its MIGL index).
+
+    Examples
+    --------
+    >>> s = StrategySummary("lpa", 3, 12, "migl", (255.0, 250.0, 245.0), 0.0)
+    >>> s.to_dict()["migls"]
+    [255.0, 250.0, 245.0]
+    """
+
+    method: str
+    sets_captured: int
+    images_captured: int
+    index_quantity: str
+    values: tuple[Any, ...]
+    never_unsaturated_fraction: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``metrics.json`` keys: ``method``, ``sets_captured``, ``images_captured``, the
+        values as ``migls`` (or ``index_quantity`` and ``exposures_ms`` for an exposure
+        strategy), ``never_unsaturated_fraction``.
+
+        Returns
+        -------
+        dict
+
+        Examples
+        --------
+        >>> StrategySummary("x", 1, 4, "exposure_ms", (20.0,), 0.0).to_dict()["exposures_ms"]
+        [20.0]
+        """
+        out: dict[str, Any] = {
+            "method": self.method,
+            "sets_captured": self.sets_captured,
+            "images_captured": self.images_captured,
+        }
+        if self.index_quantity == "migl":
+            out["migls"] = _json_safe(self.values)
+        else:
+            out["index_quantity"] = self.index_quantity
+            out[f"{self.index_quantity.removesuffix('_ms')}s_ms"] = _json_safe(self.values)
+        out["never_unsaturated_fraction"] = self.never_unsaturated_fraction
+        return out
+
+
+def strategy_summary(results: Sequence[StrategyResult]) -> StrategySummary:
+    """The :class:`StrategySummary` of one result per pitch.
+
+    Parameters
+    ----------
+    results : sequence of StrategyResult
+        One per pitch of the measured family, coarsest first.
+
+    Returns
+    -------
+    StrategySummary
+
+    Examples
+    --------
+    >>> from hdrfringe.strategies import CapturedSet
+    >>> res = StrategyResult(
+    ...     images=np.zeros((4, 2, 2), np.uint8), spec=FringeSpec("sinusoidal", 4, 8.0),
+    ...     captured=[CapturedSet(migl=m) for m in (255.0, 240.0)],
+    ...     index_map=np.full((2, 2), 240.0, np.float32), newly_unsaturated=[0, 4],
+    ...     never_unsaturated=np.zeros((2, 2), bool), method="lpa")
+    >>> s = strategy_summary([res])
+    >>> s.images_captured, s.values
+    (8, (255.0, 240.0))
+    """
+    fine = min(results, key=lambda r: r.spec.pitch_px)
+    q = fine.index_quantity
+
+    def values(r: StrategyResult) -> tuple[float | None, ...]:
+        return tuple(None if getattr(s, q) is None else float(getattr(s, q)) for s in r.captured)
+
+    return StrategySummary(
+        method=fine.method,
+        sets_captured=int(sum(r.sets_captured for r in results)),
+        images_captured=int(sum(r.images_captured for r in results)),
+        index_quantity=q,
+        values=tuple(values(r) for r in results) if len(results) > 1 else values(fine),
+        never_unsaturated_fraction=float(fine.never_unsaturated.mean()),
+    )
+
+
+@dataclass(frozen=True)
+class MeasurementMetrics:
+    """Every figure of a measurement (``metrics.json``, docs/measurement.md).
+
+    Fields are None where they do not apply (no primary fringe family, no calibration, no
+    truth, no strategy).
+
+    Attributes
+    ----------
+    source : str
+        What was measured (a folder, the live rig).
+    saturated_fraction : float or None
+        Pixels with a saturated shift in any set of the primary family.
+    phase_valid_fraction : float or None
+        Valid pixels of the finest set's phase.
+    model : str or None
+        Calibration model.
+    border_px : int or None
+        The calibration's unfiltered border, excluded from the measurement pixels (Sec. 4.1).
+    valid_fraction : float or None
+        Valid heights among the measurement pixels.
+    saturated_fraction_measurement_pixels : float or None
+        ``saturated_fraction`` over the measurement pixels.
+    truth : str or None
+        What the errors are against (a ``truth_height_mm`` map or ``scene.depth_mm``).
+    bias_mm, std_mm, rmse_mm, max_abs_mm : float or None
+        Height error over the valid measurement pixels (NaN when none is valid).
+    n_pixels : int or None
+        Valid measurement pixels.
+    live_rig : dict or None
+        A live rig's scene and every parameter.
+    strategy : StrategySummary or None
+        What the strategy captured.
+    dpa : DPAMetrics or None
+        DPA's CDFs against the actual ones (thesis Fig. 6.3).
+    skipped : tuple of str
+        Stages not run, and why.
+    notes : tuple of str
+        What the decoding and the outputs need said.
+
+    References
+    ----------
+    Thesis Sec. 4.1 (RMSE over the measurement pixels, the 10 px border).
+
+    Examples
+    --------
+    >>> m = MeasurementMetrics("part", saturated_fraction=0.0, phase_valid_fraction=1.0)
+    >>> list(m.to_dict())
+    ['source', 'saturated_fraction', 'phase_valid_fraction', 'skipped', 'notes']
+    """
+
+    source: str
+    saturated_fraction: float | None = None
+    phase_valid_fraction: float | None = None
+    model: str | None = None
+    border_px: int | None = None
+    valid_fraction: float | None = None
+    saturated_fraction_measurement_pixels: float | None = None
+    truth: str | None = None
+    bias_mm: float | None = None
+    std_mm: float | None = None
+    rmse_mm: float | None = None
+    max_abs_mm: float | None = None
+    n_pixels: int | None = None
+    live_rig: Mapping[str, Any] | None = None
+    strategy: StrategySummary | None = None
+    dpa: DPAMetrics | None = None
+    skipped: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """``metrics.json``: the fields that apply, in a fixed order, JSON-safe.
+
+        Non-finite floats (an RMSE over no valid pixel) become None (JSON ``null``); the
+        strategy's keys are at the top level (:meth:`StrategySummary.to_dict`).
+
+        Returns
+        -------
+        dict
+
+        Examples
+        --------
+        >>> m = MeasurementMetrics("part", model="linear", border_px=10, valid_fraction=0.0,
+        ...                        truth="scene.depth_mm = 4", rmse_mm=float("nan"))
+        >>> m.to_dict()["rmse_mm"] is None
+        True
+        """
+        d: dict[str, Any] = {"source": self.source}
+        if self.saturated_fraction is not None:
+            d["saturated_fraction"] = self.saturated_fraction
+            d["phase_valid_fraction"] = self.phase_valid_fraction
+        if self.model is not None:
+            d["model"] = self.model
+            d["border_px"] = self.border_px
+            d["valid_fraction"] = self.valid_fraction
+            if self.saturated_fraction_measurement_pixels is not None:
+                d["saturated_fraction_measurement_pixels"] = (
+                    self.saturated_fraction_measurement_pixels
+                )
+        if self.truth is not None:
+            d["truth"] = self.truth
+            for key in ("bias_mm", "std_mm", "rmse_mm", "max_abs_mm", "n_pixels"):
+                d[key] = getattr(self, key)
+        if self.live_rig is not None:
+            d["live_rig"] = self.live_rig
+        if self.strategy is not None:
+            d.update(self.strategy.to_dict())
+        if self.dpa is not None:
+            d["dpa"] = self.dpa.to_dict()
+        d["skipped"] = list(self.skipped)
+        d["notes"] = list(self.notes)
+        return _json_safe(d)
+
+
+@dataclass(frozen=True, eq=False)
+class MeasurementResult:
+    """What :func:`measure` returns.
+
+    Attributes
+    ----------
+    captures : Captures
+        The captures measured: the input, or the strategy's composite.
+    decoded : FolderPhase
+        Their phases (:func:`hdrfringe.process.decode_captures`).
+    height_mm : ndarray (H, W) or None
+        Height in mm (NaN = invalid); None without a calibration.
+    calibration : Calibration or None
+    metrics : MeasurementMetrics
+    strategy_results : tuple of StrategyResult
+        One per pitch with a strategy, coarsest first; empty without.
+    dpa : tuple of DPACDFs or None
+        DPA's CDFs (thesis Fig. 6.3), one per pitch; None for another method.
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=81, height=62))
+    >>> frames = [f for p in (1024.0, 64.0) for f in FringeSpec("sinusoidal", 4, p).frames()]
+    >>> res = measure(rig.capture_folder(frames))
+    >>> res.height_mm is None, res.skipped, res.metrics.saturated_fraction
+    (True, ('height (no --calibration given)',), 0.0)
+    """
+
+    captures: Captures
+    decoded: FolderPhase
+    height_mm: NDArray[np.float64] | None
+    calibration: Calibration | None
+    metrics: MeasurementMetrics
+    strategy_results: tuple[StrategyResult, ...] = ()
+    dpa: tuple[DPACDFs, ...] | None = None
+
+    @property
+    def skipped(self) -> tuple[str, ...]:
+        """Stages not run, and why (``metrics.skipped``)."""
+        return self.metrics.skipped
+
+    @property
+    def notes(self) -> tuple[str, ...]:
+        """What the decoding and the outputs need said (``metrics.notes``)."""
+        return self.metrics.notes
+
+    @property
+    def geometry(self) -> CameraGeometry | None:
+        """The calibration's camera geometry (:func:`calibration_geometry`), if any."""
+        return None if self.calibration is None else calibration_geometry(self.calibration)
+
+    def points(self) -> tuple[F64, F64, F64]:
+        """x, y, z maps of the height (:func:`height_points` with the calibration's geometry).
+
+        Returns
+        -------
+        x, y, z : ndarray (H, W)
+            In mm with a recorded camera geometry; else x and y in pixels.
+
+        Raises
+        ------
+        InputError
+            Without a height map (no calibration).
+        """
+        if self.height_mm is None:
+            raise InputError("no height map to place: measure with a calibration")
+        return height_points(self.height_mm, self.geometry)
+
+
+# ---------------------------------------------------------------------------------------------
+# measuring
+# ---------------------------------------------------------------------------------------------
+
+
+def _absolute_phase(captures: Captures, decoded: FolderPhase) -> tuple[F64, FringeSpec]:
+    """Absolute phase of the primary family and the spec of its finest set, or a clear error."""
+    fam = decoded.primary
+    if fam is None:
+        raise CaptureFormatError(
+            f"{captures.name}: no fringe sets; add a complete phase-shifted set"
+        )
+    if fam.absolute_phase is None:
+        raise CaptureFormatError(
+            f"{captures.name}: cannot make the phase absolute: add a {fam.orientation} "
+            "centerline frame or a set whose pitch spans the projector (one period)"
+        )
+    return fam.absolute_phase, fam.sets[-1].spec
+
+
+def _measure_captures(
+    caps: Captures,
+    calibration: Calibration | None,
+    reject_saturated: bool,
+    calibration_source: str | None,
+) -> tuple[FolderPhase, F64 | None, dict[str, Any]]:
+    """Decode; with a calibration, height and its errors. Returns the metrics fields."""
+    decoded = decode_captures(caps, reject_saturated=reject_saturated)
+    fam = decoded.primary
+    fields: dict[str, Any] = {}
+    sat = np.zeros(caps.image_shape, bool)
+    if fam is not None:
+        for s in fam.sets:
+            sat |= decoded.set_results[s.label].saturation_count > 0
+        fields["saturated_fraction"] = float(sat.mean())
+        fields["phase_valid_fraction"] = float(decoded.set_results[fam.sets[-1].label].valid.mean())
+    if calibration is None:
+        return decoded, None, fields
+    phi, spec = _absolute_phase(caps, decoded)
+    check_compatible(
+        calibration, spec, caps.image_shape, caps.camera_bit_depth, source=calibration_source
+    )
+    height = calibration.height(phi)
+    inside = calibration.measurement_mask()
+    fields["model"] = calibration.model
+    fields["border_px"] = calibration.border_px
+    fields["valid_fraction"] = float(np.isfinite(height)[inside].mean())
+    fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat[inside]))
+    truth = caps.map("truth_height_mm")
+    if truth is not None:
+        fields["truth"] = "truth_height_mm map"
+        fields.update(height_errors(height, truth, inside))
+    elif "depth_mm" in caps.scene:
+        fields["truth"] = f"scene.depth_mm = {float(caps.scene['depth_mm']):g}"
+        fields.update(height_errors(height, float(caps.scene["depth_mm"]), inside))
+    return decoded, height, fields
+
+
+def _replay(
+    captures: Captures,
+    calibration: Calibration | None,
+    method: str,
+    params: Any,
+    specs: Sequence[FringeSpec] | None,
+    centerline: Frame | None,
+    calibration_source: str | None,
+) -> tuple[Captures, tuple[StrategyResult, ...]]:
+    """A strategy on a :class:`ReplayRig` over a MIGL sweep: the primary family's pitches at
+    the top MIGL (or ``specs``), with its first centerline of that orientation."""
+    if not captures.sets:
+        raise CaptureFormatError(f"{captures.name}: no fringe sets to run a strategy on")
+    family = group_families(captures.sets)[0]
+    if specs is None:
+        specs = [s.spec for s in family]
+    if centerline is None:
+        orientation = family[0].spec.orientation
+        lines = [f for f, _ in captures.centerlines() if f.orientation == orientation]
+        centerline = lines[0] if lines else None
+    if calibration is not None:  # refused before the strategy runs
+        finest = min(specs, key=lambda s: s.pitch_px)
+        check_compatible(
+            calibration,
+            finest,
+            captures.image_shape,
+            captures.camera_bit_depth,
+            source=calibration_source,
+        )
+    rig = ReplayRig(captures)
+    if method == "uniform" and params.migl is None and params.candidates is None:
+        params = dataclasses.replace(params, candidates=rig.available_migls())
+    return composite_captures(rig, specs, method, params, centerline=centerline)
+
+
+def _correction_label(params: Any, sources: Mapping[str, str]) -> str:
+    if "correction" in sources:
+        return str(sources["correction"])
+    return "none (identity)" if params.correction is None else "given (not from a file)"
+
+
+def measure(
+    source: Captures | Rig,
+    calibration: Calibration | None = None,
+    *,
+    method: str | None = None,
+    params: Any = None,
+    specs: Sequence[FringeSpec] | None = None,
+    centerline: Frame | None = None,
+    reject_saturated: bool = True,
+    label: str | None = None,
+    calibration_source: str | None = None,
+    param_sources: Mapping[str, str] | None = None,
+) -> MeasurementResult:
+    """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
+
+    * Captures without ``method``: decoded and measured as they are.
+    * Captures with ``method``: a MIGL sweep; the strategy runs on a
+      :class:`~hdrfringe.rig.replay.ReplayRig` over it for every pitch of its primary family
+      (or ``specs``) at its highest MIGL, with its first centerline of that orientation (or
+      ``centerline``), and the composite is measured.
+    * A rig: the strategy (default ``conventional``) runs live for every set in ``specs``, then
+      ``centerline`` is captured once; the scene, camera description and ground truth come
+      from the rig when it offers them (:func:`describe_rig`).
+
+    A calibration that does not fit (fringes, image size, bit depth) is refused before anything
+    is captured or replayed. Saturated pixels are invalid unless ``reject_saturated`` is False.
+
+    Parameters
+    ----------
+    source : Captures or Rig
+        What to measure.
+    calibration : Calibration, optional
+        Without it the phase is decoded and the height skipped.
+    method : str, optional
+        A registered strategy (:func:`hdrfringe.strategies.available_strategies`).
+    params : Params or mapping, optional
+        The strategy's parameters (:func:`hdrfringe.strategies.make_params` fields).
+    specs : sequence of FringeSpec, optional
+        The sets a strategy captures (required for a rig), coarsest first.
+    centerline : Frame, optional
+        Centerline frame for the absolute phase (Eq. 2.12-2.13).
+    reject_saturated : bool
+        Invalidate pixels with a saturated shift (the thesis, Ch. 4, kept them).
+    label : str, optional
+        How the metrics name the source; default the captures' name (the scene's for a rig).
+    calibration_source : str, optional
+        Where the calibration came from, for a mismatch message.
+    param_sources : mapping, optional
+        Where parameters read from files came from, by field name (DPA's ``correction``: the
+        metrics record it).
+
+    Returns
+    -------
+    MeasurementResult
+
+    Raises
+    ------
+    InputError
+        Strategy options without a method, a rig without ``specs``, an unknown method or
+        parameter, a source that is neither captures nor a rig.
+    CalibrationMismatchError
+        A calibration that does not fit the measurement.
+    CaptureFormatError
+        Captures without fringe sets, or whose phase cannot be made absolute for a height.
+
+    References
+    ----------
+    Thesis Sec. 2.4-2.5 (height), 4.1 (measurement pixels), Ch. 4-6 (the strategies).
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=81, height=62),
+    ...                    lighting=Lighting(ambient_lux=600))
+    >>> res = measure(rig, method="lpa", params={"step": 20.0},
+    ...               specs=[FringeSpec("sinusoidal", 4, 8.0)])
+    >>> res.metrics.strategy.method, res.metrics.strategy.values[:2]
+    ('lpa', (255.0, 235.0))
+    """
+    sources = dict(param_sources or {})
+    description: RigDescription | None = None
+    p: Any = None
+    results: tuple[StrategyResult, ...] = ()
+    replay: Captures | None = None
+    if isinstance(source, Captures):
+        if method is None:
+            given = [
+                n
+                for n, v in (("params", params), ("specs", specs), ("centerline", centerline))
+                if v is not None
+            ]
+            if given or sources:
+                raise InputError(
+                    f"{', '.join(given or ['param_sources'])} given without a method; give "
+                    "method= to replay the captures with a strategy, or drop them"
+                )
+            caps = source
+        else:
+            p = _strategy_params(method, params)
+            replay = source
+            caps, results = _replay(
+                source, calibration, method, p, specs, centerline, calibration_source
+            )
+    elif isinstance(source, Rig):
+        method = "conventional" if method is None else method
+        p = _strategy_params(method, params)
+        if not specs:
+            raise InputError(
+                "measuring on a rig needs specs: the fringe sets to capture (e.g. one per pitch)"
+            )
+        if calibration is not None:  # refused before anything is captured
+            finest = min(specs, key=lambda s: s.pitch_px)
+            check_compatible(
+                calibration,
+                finest,
+                source.image_shape,
+                source.camera_bit_depth,
+                source=calibration_source,
+            )
+        description = describe_rig(source)
+        caps, results = composite_captures(
+            source, specs, method, p, centerline=centerline, description=description
+        )
+    else:
+        raise InputError(
+            f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
+            "folder with hdrfringe.io.captures.read_capture_folder"
+        )
+    decoded, height, fields = _measure_captures(
+        caps, calibration, reject_saturated, calibration_source
+    )
+    dpa = None
+    if method == "dpa":
+        dpa = tuple(dpa_cdfs(r, replay) for r in results)
+        fields["dpa"] = DPAMetrics.of(
+            dpa,
+            threshold=p.threshold,
+            correction=_correction_label(p, sources),
+            bound_pending=p.bound_pending,
+        )
+    notes = list(decoded.notes)
+    if height is not None and calibration is not None and calibration_geometry(calibration) is None:
+        notes.append(NO_GEOMETRY)
+    metrics = MeasurementMetrics(
+        source=caps.name if label is None else label,
+        live_rig=None if description is None else description.parameters,
+        strategy=strategy_summary(results) if results else None,
+        skipped=(NO_CALIBRATION,) if calibration is None else (),
+        notes=tuple(notes),
+        **fields,
+    )
+    return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa)
+
+
+# ---------------------------------------------------------------------------------------------
+# calibrating
+# ---------------------------------------------------------------------------------------------
+
+
+def calibrate(
+    captures: Sequence[Captures],
+    *,
+    model: str = "linear",
+    window_px: int = 21,
+    border_px: int = 10,
+    progress: Callable[[], object] | None = None,
+) -> Calibration:
+    """Calibrate from flat-plate captures at known depths (thesis Sec. 2.5, 4.1).
+
+    Every captures must give ``scene.depth_mm``; exactly one is at 0 (the reference plane);
+    depths must be distinct; all must share the fringes, image size and camera bit depth.
+    Everything is checked before any fitting. Each is decoded to the absolute phase of its
+    primary family (a centerline or a one-period set, docs/phase.md).
+
+    Parameters
+    ----------
+    captures : sequence of Captures
+        The reference plane and at least 2 plate positions.
+    model : {"linear", "rational", "poly2", "poly3"}
+        The phase-to-height model (:func:`hdrfringe.calibration.calibrate`).
+    window_px, border_px : int
+        Median and mean filter window and the unfiltered border (Sec. 4.1: 21 and 10).
+    progress : callable, optional
+        Called once per captures decoded.
+
+    Returns
+    -------
+    Calibration
+        Its provenance records the package version, the date, each input's ``name`` (resolved
+        as a path), depth and :meth:`Captures.content_hash
+        <hdrfringe.captures.Captures.content_hash>`, and the reference plane's camera geometry.
+
+    Raises
+    ------
+    InputError
+        Too few positions, no or several reference planes, duplicate depths, mismatched image
+        sizes, bit depths or fringes.
+    CaptureFormatError
+        No ``scene.depth_mm``, or a phase that cannot be made absolute.
+
+    References
+    ----------
+    Thesis Sec. 2.5 (Eq. 2.10, 2.15) and Sec. 4.1 (filtering, the border).
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> frames = [f for p in (1024.0, 64.0) for f in FringeSpec("sinusoidal", 4, p).frames()]
+    >>> camera = CameraModel(width=81, height=62)  # small: fast (the default is 648 x 494)
+    >>> plates = [SimulatedRig(white_plate(d), camera=camera).capture_folder(frames)
+    ...           for d in (0.0, 10.0, 20.0)]
+    >>> cal = calibrate(plates)
+    >>> cal.model, cal.depths_mm.tolist(), cal.spec.pitch_px
+    ('linear', [10.0, 20.0], 64.0)
+    """
+    folders = list(captures)
+    if len(folders) < 3:
+        raise InputError(
+            f"calibration needs the reference plane and at least 2 plate positions, got "
+            f"{len(folders)} folder(s); give more plate positions"
+        )
+    depths = []
+    for f in folders:
+        d = f.scene.get("depth_mm")
+        if d is None:
+            raise CaptureFormatError(
+                f"{f.name}: manifest has no scene.depth_mm; calibration folders must state the "
+                "plate depth (0 for the reference plane)"
+            )
+        depths.append(float(d))
+    refs = [f for f, d in zip(folders, depths, strict=True) if d == 0.0]
+    if not refs:
+        raise InputError(
+            "no reference plane: none of the folders has scene.depth_mm = 0; add the "
+            "reference-plane captures"
+        )
+    if len(refs) > 1:
+        raise InputError(
+            f"several reference planes (depth 0): {', '.join(r.name for r in refs)}; keep one"
+        )
+    seen: dict[float, str] = {}  # duplicate depths, named by folder
+    for f, d in zip(folders, depths, strict=True):
+        if d in seen:
+            raise InputError(
+                f"duplicate depth {d:g} mm in {seen[d]} and {f.name}; each position once"
+            )
+        seen[d] = f.name
+    ref = refs[0]
+    for f in folders[1:] if folders[0] is ref else folders:
+        if f.image_shape != ref.image_shape:
+            raise InputError(
+                f"{f.name}: images are {f.image_shape[1]}x{f.image_shape[0]} but the reference "
+                f"plane's are {ref.image_shape[1]}x{ref.image_shape[0]}; use one camera setting"
+            )
+        if f.camera_bit_depth != ref.camera_bit_depth:
+            raise InputError(
+                f"{f.name}: camera bit depth {f.camera_bit_depth} differs from the reference "
+                f"plane's {ref.camera_bit_depth}"
+            )
+    phases: dict[int, F64] = {}
+    spec0: FringeSpec | None = None
+    for f in folders:
+        phi, spec = _absolute_phase(f, decode_captures(f))
+        if spec0 is None:
+            spec0 = spec
+        elif not same_fringes(spec, spec0):
+            raise InputError(
+                f"{f.name}: fringes {spec.label()} differ from {spec0.label()} in the other "
+                "folders; calibrate with one pattern, steps, pitch and orientation"
+            )
+        phases[id(f)] = phi
+        if progress is not None:
+            progress()
+    assert spec0 is not None
+    order = sorted(
+        ((d, f) for d, f in zip(depths, folders, strict=True) if f is not ref), key=lambda t: t[0]
+    )
+    geometry = CameraGeometry.from_manifest(ref.camera)
+    provenance: dict[str, Any] = {
+        "package_version": __version__,
+        "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "inputs": {
+            f"{i:02d}": {
+                "path": str(Path(f.name).resolve()),
+                "depth_mm": d,
+                "sha256": f.content_hash(),
+            }
+            for i, (d, f) in enumerate([(0.0, ref), *order])
+        },
+    }
+    if geometry is not None:
+        provenance["camera_geometry"] = geometry.to_manifest()
+    gamma = ref.projector.gamma_precompensation if ref.projector is not None else 1.0
+    return fit_calibration(
+        phases[id(ref)],
+        np.stack([phases[id(f)] for _, f in order]),
+        np.array([d for d, _ in order]),
+        model=model,
+        window_px=window_px,
+        border_px=border_px,
+        spec=spec0,
+        gamma_precompensation=gamma,
+        camera_bit_depth=ref.camera_bit_depth,
+        provenance=provenance,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# the uniform trade-off search (thesis Sec. 4.2)
+# ---------------------------------------------------------------------------------------------
+
+
+def _nan_if_none(x: float | None) -> float:
+    return float("nan") if x is None else float(x)
+
+
+def tradeoff_search(
+    rig: Rig,
+    spec: FringeSpec,
+    calibration: Calibration,
+    migls: Sequence[float] | range,
+    *,
+    extra_frames: Sequence[Frame] | None = None,
+) -> dict[str, Any]:
+    """The thesis's uniform trade-off search (Sec. 4.2): sweep the MIGL on a known target.
+
+    For every MIGL a set is captured (with ``extra_frames``, e.g. the centerline, captured once)
+    and measured with the calibration, *keeping* saturated pixels as the thesis did, so that
+    saturation error counts; the RMSE against the target's truth (a ``truth_height_mm`` map or
+    ``scene.depth_mm`` the rig describes, :func:`describe_rig`) is recorded and the MIGL of the
+    lowest RMSE (the highest among equals) is the trade-off point.
+
+    Parameters
+    ----------
+    rig : Rig
+        A rig that knows its target (e.g. the virtual rig).
+    spec : FringeSpec
+        The set; its MIGL is replaced by each of ``migls``.
+    calibration : Calibration
+    migls : sequence of float
+        MIGLs to try.
+    extra_frames : sequence of Frame, optional
+        Captured once and added to every set (e.g. a centerline).
+
+    Returns
+    -------
+    dict
+        ``rmse_mm`` {migl: RMSE}, ``saturated_fraction`` {migl: fraction}, ``best_migl``.
+
+    References
+    ----------
+    Thesis Sec. 4.2 and Fig. 4.13 (RMSE against the MIGL).
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> camera = CameraModel(width=81, height=62)
+    >>> spec = FringeSpec("sinusoidal", 4, 1024.0)  # one period: absolute without a centerline
+    >>> cal = calibrate([SimulatedRig(white_plate(d), camera=camera).capture_folder(spec.frames())
+    ...                  for d in (0.0, 10.0, 20.0)])
+    >>> found = tradeoff_search(SimulatedRig(white_plate(5.0), camera=camera), spec, cal,
+    ...                         [255, 200])
+    >>> sorted(found["rmse_mm"]), found["best_migl"]
+    ([200.0, 255.0], 255.0)
+    """
+    extra = list(extra_frames or [])
+    extra_imgs = rig.capture(extra) if extra else None
+    desc = describe_rig(rig)
+    truth = desc.truth_height_mm
+    rmse: dict[float, float] = {}
+    sat: dict[float, float] = {}
+    for m in migls:
+        frames = spec.with_migl(float(m)).frames()
+        imgs = rig.capture(frames)
+        if extra_imgs is not None:
+            imgs = np.concatenate([imgs, extra_imgs])
+        folder = Captures(
+            [*frames, *extra],
+            imgs,
+            rig.camera_bit_depth,
+            projector=rig.projector,
+            scene=desc.scene,
+            maps={} if truth is None else {"truth_height_mm": truth},
+        )
+        res = measure(folder, calibration, reject_saturated=False)
+        rmse[float(m)] = _nan_if_none(res.metrics.rmse_mm)
+        sat[float(m)] = _nan_if_none(res.metrics.saturated_fraction)
+    best = min(rmse, key=lambda k: (np.nan_to_num(rmse[k], nan=np.inf), -k))
+    return {"rmse_mm": rmse, "saturated_fraction": sat, "best_migl": best}
