@@ -142,7 +142,7 @@ def height_points(
 
 
 @runtime_checkable
-class SceneRig(Protocol):
+class SceneRig(Protocol):  # numpydoc ignore=PR01
     """A rig that knows what it looks at (the virtual rig,
     :class:`~hdrfringe.rig.simulated.SimulatedRig`).
 
@@ -150,6 +150,14 @@ class SceneRig(Protocol):
     ----------
     scene
         Has ``name`` and ``to_manifest()`` (the scene description of a capture manifest).
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(5.0), camera=CameraModel(width=32, height=24))
+    >>> isinstance(rig, SceneRig), describe_rig(rig).name
+    (True, 'white_plate')
     """
 
     scene: Any
@@ -171,7 +179,7 @@ class SceneRig(Protocol):
 class RigDescription:
     """What captures made on a rig carry about it.
 
-    Attributes
+    Parameters
     ----------
     name : str
         Name of the captures (the scene's, or the replayed captures').
@@ -348,7 +356,7 @@ def _json_safe(value: Any) -> Any:
 class StrategySummary:
     """What a strategy captured, summed over the pitches of a measurement.
 
-    Attributes
+    Parameters
     ----------
     method : str
         The strategy's registry name.
@@ -456,7 +464,7 @@ class MeasurementMetrics:
     Fields are None where they do not apply (no primary fringe family, no calibration, no
     truth, no strategy).
 
-    Attributes
+    Parameters
     ----------
     source : str
         What was measured (a folder, the live rig).
@@ -567,7 +575,7 @@ class MeasurementMetrics:
 class MeasurementResult:
     """What :func:`measure` returns.
 
-    Attributes
+    Parameters
     ----------
     captures : Captures
         The captures measured: the input, or the strategy's composite.

@@ -38,7 +38,7 @@ __all__ = [
 class DPACDFs:
     """The CDFs of thesis Fig. 6.3 for one DPA set.
 
-    Attributes
+    Parameters
     ----------
     spec : FringeSpec
         The set at its highest MIGL.
@@ -206,7 +206,7 @@ def dpa_cdfs(result: StrategyResult, replay: Captures | None = None) -> DPACDFs:
 class DPASetMetrics:
     """The metrics entry of one DPA set: rules and CDFs at each captured MIGL.
 
-    Attributes
+    Parameters
     ----------
     set : str
         The set's label (:meth:`FringeSpec.label`, at its highest MIGL).
@@ -350,7 +350,7 @@ def dpa_set_metrics(cdfs: DPACDFs) -> DPASetMetrics:
 class DPAMetrics:
     """The ``dpa`` block of a DPA measurement's metrics: settings and one entry per pitch.
 
-    Attributes
+    Parameters
     ----------
     threshold : float
         DPA's threshold (a fraction).
