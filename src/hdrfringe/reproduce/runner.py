@@ -19,6 +19,8 @@ from typing import Any
 from hdrfringe import __version__
 from hdrfringe.errors import InputError, OutputExistsError
 
+__all__ = ["ADAPTIVE_SWEEPS", "CHAPTERS", "MARKER", "parse_chapters", "reproduce"]
+
 MARKER = "reproduce.json"
 CHAPTERS: tuple[str, ...] = ("ch4", "ch5", "ch6")
 #: The adaptive sweeps each chapter reads (:mod:`hdrfringe.reproduce.adaptive`).
@@ -26,6 +28,26 @@ ADAPTIVE_SWEEPS: dict[str, tuple[str, ...]] = {
     "ch5": ("ch5_plate", "checkerboard"),
     "ch6": ("ch6_plate", "checkerboard"),
 }
+
+
+def parse_chapters(text: str) -> list[str]:
+    """The chapters a command line names: ``all``, or names joined by commas (``ch5,ch6``).
+
+    Parameters
+    ----------
+    text : str
+        ``all`` or a comma-separated list; names are checked by :func:`reproduce`.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> parse_chapters("all"), parse_chapters("ch5, ch6")
+    (['ch4', 'ch5', 'ch6'], ['ch5', 'ch6'])
+    """
+    return list(CHAPTERS) if text == "all" else [c.strip() for c in text.split(",")]
 
 
 def _check_folder(out: Path, force: bool, quick: bool) -> None:
@@ -177,6 +199,24 @@ def reproduce(
         The reduced grid (tests and a first look; minutes on two cores).
     scheduler : str, optional
         Address of a dask scheduler; default a local cluster of ``n_workers`` processes.
+    n_workers : int, optional
+        Worker processes of the local cluster (at least 1; default the CPU count).
+    progress : bool
+        Show a progress bar per sweep.
+    force : bool
+        Write into a non-empty folder that is not a reproduction.
+
+    Returns
+    -------
+    dict
+        The report's data, with ``timings_s`` (seconds per sweep).
+
+    Raises
+    ------
+    InputError
+        An unknown chapter, ``n_workers`` below 1, or a folder holding the other grid.
+    OutputExistsError
+        A non-empty folder that is not a reproduction, without ``force``.
     """
     from hdrfringe.reproduce.engine import run_sweep
 
@@ -185,6 +225,8 @@ def reproduce(
         raise InputError(
             f"unknown chapter(s) {unknown or chapters}; use {', '.join(CHAPTERS)} or all"
         )
+    if n_workers is not None and n_workers < 1:
+        raise InputError(f"--workers (n_workers) must be at least 1, got {n_workers}")
     _check_folder(out, force, quick)
     out.mkdir(parents=True, exist_ok=True)
     (out / MARKER).write_text(
