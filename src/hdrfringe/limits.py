@@ -76,7 +76,8 @@ def check_count(count: float, limit: int, what: str, *, fix: str = "") -> int:
     4
     """
     if not math.isfinite(count) or count > limit:
-        shown = f"{count:.3g}" if isinstance(count, float) else str(count)
+        exact = not isinstance(count, float) or (math.isfinite(count) and count < 1e15)
+        shown = str(int(count)) if exact else f"{count:.3g}"
         raise InputError(
             f"{shown} {what}: more than the limit of {limit}" + (f"; {fix}" if fix else "")
         )

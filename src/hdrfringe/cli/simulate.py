@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated
 
@@ -89,15 +91,14 @@ def simulate(
 
     check_output_dir(output, force)
     orients = parse_orientations(orientation)
-    depths: list[float | None] = [depth_mm]
+    depths: Sequence[float | None] = [depth_mm]
     if series is not None:
-        depths = [
-            *series_depths(parse_range(series, "--series", MAX_SERIES_FOLDERS), reference=reference)
-        ]
+        series_mm = parse_range(series, "--series", MAX_SERIES_FOLDERS)
+        depths = series_depths(series_mm, reference=reference)
     rig_options = {"ambient_lux": ambient_lux, "noise": noise, "shot_noise": shot_noise}
     rig_options |= {"aperture": aperture, "gamma": gamma, "bit_depth": bit_depth, "ideal": ideal}
     rigs = [virtual_rig(scene, depth_mm=d, seed=seed, **rig_options) for d in depths]
-    modification = IntensityModification(add_lux, add_dn, add_noise, seed)
+    mod = IntensityModification(add_lux, add_dn, add_noise, seed)
     frames = fringe_program(
         pattern,
         steps,
@@ -113,14 +114,9 @@ def simulate(
     names = None if series is None else [series_folder_name(scene, d or 0.0) for d in depths]
     with progress_bar() as prog:
         task = prog.add_task(f"simulating {scene}", total=len(frames) * len(rigs))
+        tick = functools.partial(prog.advance, task)
         done = write_simulation(
-            output,
-            rigs,
-            frames,
-            folder_names=names,
-            modification=modification,
-            force=force,
-            progress=lambda: prog.advance(task),
+            output, rigs, frames, folder_names=names, modification=mod, force=force, progress=tick
         )
     what = f"{len(rigs)} capture folders" if series is not None else "a capture folder"
     console.print(
