@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import doctest
 import importlib
+import re
 
 import pytest
 
@@ -65,6 +66,7 @@ def test_program_centerline_options_and_no_centerline() -> None:
         *_set("triangular", 2, 10.0, "horizontal", 10.0, 200.0),
         CenterlineFrame(7.5, "horizontal", 200.0),
     ]
+    assert fringe_program(projector=proj, centerline_position=63.0)[-1].position == 63.0
     assert fringe_program(projector=proj, centerline=False) == _set(
         "sinusoidal", 3, 8.0, "vertical", 40.0, 255.0
     )
@@ -97,12 +99,30 @@ def test_level_bits_convert_8_bit_levels_for_a_16_bit_projector() -> None:
         ({"pitches": [8.0] * 2500, "steps": 4}, f"limit of {MAX_PROGRAM_FRAMES}"),
         ({"grays": [1.0] * MAX_PROGRAM_FRAMES}, "frames in the program"),
         ({"migls": [300.0]}, "300"),  # above the 8-bit projector's range
+        ({"grays": [-5.0]}, "gray level -5 is outside the projector's 0..255"),
+        ({"grays": [256.0]}, "gray level 256 is outside"),
+        ({"pitches": [8.0, 16.0, 8.0]}, "pitch 8 appears twice"),
+        ({"migls": [255.0, 255.0]}, "MIGL 255 appears twice"),
+        ({"orientations": ["vertical"] * 2}, "orientation vertical appears twice"),
+        (
+            {"centerline_position": -3.0},
+            "centerline position -3 is outside the projector's 0..1023",
+        ),
+        ({"centerline_position": 1024.0}, "centerline position 1024 is outside"),
+        ({"centerline_position": float("nan")}, "centerline position nan"),
     ],
 )
 def test_program_refusals(kwargs: dict, match: str) -> None:
-    with pytest.raises(InputError, match=match) as err:
+    with pytest.raises(InputError, match=re.escape(match)) as err:
         fringe_program(projector=ProjectorInfo(), **kwargs)
     assert "\n" not in str(err.value)
+
+
+def test_program_names_the_projector_bit_depth() -> None:
+    with pytest.raises(InputError, match=r"projector bit depth must be an integer 1\.\.16, got 0"):
+        fringe_program(projector=ProjectorInfo(bit_depth=0))
+    with pytest.raises(InputError, match="level_bits must be"):
+        fringe_program(projector=ProjectorInfo(), level_bits=40)
 
 
 def test_a_program_at_the_frame_limit_is_built() -> None:

@@ -17,6 +17,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from hdrfringe._validation import full_scale
@@ -129,8 +130,9 @@ def fringe_program(
     ------
     InputError
         An unknown orientation or pattern, too few or too many steps, an empty list of pitches
-        or MIGLs, more than :data:`~hdrfringe.limits.MAX_PROGRAM_FRAMES` frames, a level
-        outside the projector's range.
+        or MIGLs, a pitch, MIGL or orientation given twice, more than
+        :data:`~hdrfringe.limits.MAX_PROGRAM_FRAMES` frames, a level outside the projector's
+        range, a centerline position off the projector.
 
     References
     ----------
@@ -160,11 +162,25 @@ def fringe_program(
         "frames in the program",
         fix="use fewer steps, pitches, MIGLs or gray levels",
     )
-    full = full_scale(projector.bit_depth)
+    full = full_scale(projector.bit_depth, "projector bit depth")
+    given = None if level_bits is None else full_scale(level_bits, "level_bits")
 
     def level(g: float) -> float:
-        return g if level_bits is None else g * full / full_scale(level_bits)
+        return g if given is None else g * full / given
 
+    for what, values in (("pitch", pitches), ("MIGL", migls), ("orientation", orientations)):
+        seen: set[object] = set()
+        for v in values:
+            if v in seen:
+                shown = v if isinstance(v, str) else f"{v:g}"
+                raise InputError(f"{what} {shown} appears twice in the program; give each once")
+            seen.add(v)
+    for g in grays:
+        if not 0 <= level(g) <= full:
+            raise InputError(
+                f"gray level {g:g} is outside the projector's 0..{full} "
+                f"({projector.bit_depth} bits); give levels within it"
+            )
     frames: list[Frame] = []
     for o in orientations:
         for m in migls:
@@ -173,6 +189,11 @@ def fringe_program(
         if centerline:
             extent = projector.width if o == "vertical" else projector.height
             pos = extent // 2 if centerline_position is None else centerline_position
+            if not (math.isfinite(pos) and 0 <= pos <= extent - 1):
+                raise InputError(
+                    f"centerline position {pos:g} is outside the projector's 0..{extent - 1} px "
+                    f"({o} fringes); give a position on the projector"
+                )
             lvl = full if centerline_level is None else level(centerline_level)
             frames.append(CenterlineFrame(pos, o, lvl))  # type: ignore[arg-type]
     frames += [UniformFrame(level(g)) for g in grays]
