@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -149,3 +150,70 @@ def test_patterns_bad_options(tmp_path: Path, args: list[str]) -> None:
     res = run_cli(*[a.format(out=out) for a in args])
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert not out.exists()
+
+
+# --- resource limits and hostile numbers (issue 11, items 4 and 9) ------------------------------
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["simulate", "white_plate", "--steps", "100000"], "100000 phase shifts"),
+        (["simulate", "white_plate", "--steps", "1001"], "more than the limit of 1000"),
+        (["simulate", "white_plate", "--migl-sweep", "255:0:1e-6"], "limit of 10000"),
+        (["simulate", "white_plate", "--series", "0:1e9:1"], "limit of 1000"),
+        (["simulate", "white_plate", "--series", "0:1e300:1e-300"], "inf values in --series"),
+        (["simulate", "white_plate", "--pitch", "9" * 400], "--pitch: '99999"),
+        (["simulate", "white_plate", "--migl", "nan"], "give finite numbers"),
+        (["simulate", "white_plate", "--seed", "-1"], "seed must be a non-negative integer"),
+        (["simulate", "white_plate", "--orientation", "diag"], "unknown orientation 'diag'"),
+        (["patterns", "--width", "1000000", "--height", "1000000"], "limit of 67108864"),
+        (["patterns", "--steps", "100000"], "more than the limit of 1000"),
+        (["modify", "{src}", "--seed", "-1", "--noise", "1"], "seed must be a non-negative"),
+        (["reproduce", "ch4", "--workers", "0"], "--workers (n_workers) must be at least 1"),
+    ],
+)
+def test_limits_and_bad_numbers_are_one_line_errors(
+    capture_folder: Path, tmp_path: Path, args: list[str], needle: str
+) -> None:
+    out = tmp_path / "out"
+    before = _tree(capture_folder)
+    res = run_cli(*[a.format(src=capture_folder) for a in args], "-o", str(out), timeout=60)
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr
+    assert needle in lines[0] and "Traceback" not in res.stderr
+    assert len(lines[0]) < 300  # a 400-digit number is not echoed whole
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["caps"]  # no staging left
+    assert _tree(capture_folder) == before
+
+
+def test_parse_range_and_floats() -> None:
+    from hdrfringe.cli._app import parse_floats, parse_range
+    from hdrfringe.errors import InputError
+
+    assert parse_range("2:6:2", "--x") == [2.0, 4.0, 6.0]
+    assert parse_range("255:252:1", "--x") == [255.0, 254.0, 253.0, 252.0]  # downwards
+    assert parse_range("255:252:-1", "--x") == [255.0, 254.0, 253.0, 252.0]
+    assert parse_range("8, 64", "--x") == parse_floats("8,64", "--x") == [8.0, 64.0]
+    assert parse_range("0:1:0.1", "--x")[-1] == 1.0
+    assert len(parse_range("1:10000:1", "--x")) == 10_000  # at the limit
+    assert len(parse_range("1:5:1", "--x", max_count=5)) == 5
+    for text, kwargs, match in [
+        ("0:10000:1", {}, "10001 values in --x 0:10000:1: more than the limit of 10000"),
+        ("1:6:1", {"max_count": 5}, "more than the limit of 5"),
+        ("0:1:1e-300", {}, "limit of 10000"),
+        ("nan:1:1", {}, "holds nan"),
+        ("0:inf:1", {}, "holds inf"),
+        ("5:1:0", {}, "empty range"),
+        ("a:b:c", {}, "cannot read 'a:b:c'"),
+        ("1,2,1e999", {}, "holds inf"),
+        (",", {}, "empty list"),
+    ]:
+        with pytest.raises(InputError, match=re.escape(match)):
+            parse_range(text, "--x", **kwargs)

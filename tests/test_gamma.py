@@ -15,18 +15,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.errors import InputError
+from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.errors import CaptureFormatError, InputError, OutputExistsError
 from hdrfringe.frames import UniformFrame
 from hdrfringe.gamma import (
     MIN_FRINGE_PITCH_PX,
+    MIN_UNIFORM_LEVELS,
     GammaFit,
     fit_gamma_fringes,
     fit_gamma_uniform,
+    gamma_report,
     measure_nonlinearity,
     predicted_nonlinearity,
     residual_nonlinearity,
     select_gamma_sets,
+    uniform_gray_means,
 )
+from hdrfringe.io.gamma_outputs import write_gamma_outputs
 from hdrfringe.io.plots import plot_gamma_mapping
 from hdrfringe.patterns import FringeSpec, fringe_gray, precompensate_gamma
 from tests.conftest import realdata_path, run_cli
@@ -391,6 +396,100 @@ def test_gamma_package_is_core_math() -> None:
                 continue
             bad = [n for n in names if n.startswith(forbidden)]
             assert not bad, f"{file.name} imports {bad}"
+
+
+# ---------------------------------------------------------------------------------------------
+# the report of a set of captures (what the command computes) and its output folder
+# ---------------------------------------------------------------------------------------------
+
+
+def report_captures(n_levels: int = len(LEVELS)) -> tuple[Captures, list, list]:
+    """Uniform grays (gamma 2.2), a narrow 4-step set and two wide sets pre-distorted with 0.75
+    and 1.25, 40 x 60 pixels; also returns the wide sets and the uniform images."""
+    shape = (40, 60)
+    wide, _, _ = fringe_sets(2.2, (0.75, 1.25), shape=shape)
+    narrow, _, _ = fringe_sets(2.2, (1.0,), shape=shape, pitch=8.0, steps=4)
+    levels = LEVELS[:n_levels]
+    grays = uniform_images(levels, 2.2, scale=220.0, shape=shape)
+    frames, images, gp = [UniformFrame(g) for g in levels], [grays], [None] * len(levels)
+    for spec, gh, imgs in narrow + wide:
+        frames += spec.frames()
+        images.append(imgs)
+        gp += [gh] * spec.steps
+    caps = Captures(
+        frames,
+        np.concatenate(images),
+        8,
+        projector=ProjectorInfo(gamma_precompensation=1.0),
+        gamma_precompensation=gp,
+    )
+    return caps, wide, list(grays)
+
+
+def test_uniform_gray_means_rule() -> None:
+    """At least 4 distinct levels; the mean over the centre half of the image only."""
+    images = np.zeros((5, 8, 12), np.uint8)
+    images[:, 2:6, 3:9] = np.arange(10, 60, 10)[:, None, None]  # the centre half
+    images[:, 0, :] = 250  # outside it
+    caps = Captures([UniformFrame(g) for g in (0, 10, 20, 30, 30)], images, 8)
+    levels, means = uniform_gray_means(caps)
+    assert levels.tolist() == [0, 10, 20, 30, 30] and means.tolist() == [10, 20, 30, 40, 50]
+    three = Captures([UniformFrame(g) for g in (0, 10, 20, 20)], images[:4], 8)
+    assert MIN_UNIFORM_LEVELS == 4 and uniform_gray_means(three) is None
+
+
+def test_gamma_report_fits_uniform_grays_and_wide_sets_only() -> None:
+    caps, wide, grays = report_captures()
+    rep = gamma_report(caps, source="bench")
+    means = np.array([g[10:30, 15:45].mean() for g in grays])
+    ref_u = fit_gamma_uniform(LEVELS, means, camera_bit_depth=8, projector_bit_depth=8)
+    ref_f = fit_gamma_fringes(wide, camera_bit_depth=8, projector_bit_depth=8)
+    assert rep.uniform_fit is not None and rep.fringe_fit is not None and rep.fitted
+    assert rep.report["uniform"]["gamma"] == ref_u.gamma == pytest.approx(2.2, rel=0.01)
+    assert rep.report["fringes"]["gamma"] == ref_f.gamma == pytest.approx(2.2, rel=0.01)
+    assert rep.report["source"] == "bench"
+    assert rep.report["fringes"]["sets"] == [s.label for s in caps.sets[1:]]
+    nl = rep.report["uniform"]["residual_nonlinearity_percent"]
+    assert nl["precompensated_with_fit"] == predicted_nonlinearity(ref_u, ref_u.gamma)[0]
+    assert nl["precompensated_with_1"] == nl["no_precompensation"] > 10.0
+    assert [line.split(":")[0] for line in rep.lines] == [
+        "uniform grays",
+        "residual nonlinearity (max, % of range)",
+        "note",
+        "fringe shape",
+    ]
+    assert caps.sets[0].label in rep.lines[2] and "narrower than 32 px" in rep.lines[2]
+    rep.check_fitted()
+    json.dumps(rep.report, allow_nan=False)  # standard JSON
+
+
+def test_gamma_report_with_nothing_to_fit() -> None:
+    caps, _, _ = report_captures(n_levels=3)
+    only_narrow = Captures(caps.frames[:7], caps.images[:7], 8, gamma_precompensation=[None] * 7)
+    rep = gamma_report(only_narrow, source="folder x")
+    assert not rep.fitted and rep.report == {"source": "folder x"} and len(rep.lines) == 1
+    with pytest.raises(CaptureFormatError, match="folder x: nothing to fit"):
+        rep.check_fitted()
+
+
+def test_write_gamma_outputs(tmp_path: Path) -> None:
+    caps, _, _ = report_captures()
+    rep = gamma_report(caps, source="bench")
+    out = write_gamma_outputs(tmp_path / "g", rep)
+    assert json.loads((out / "gamma.json").read_text()) == rep.report
+    assert (out / "gamma_mapping.png").stat().st_size > 10_000
+    (out / "keep.txt").write_text("mine")
+    with pytest.raises(OutputExistsError):
+        write_gamma_outputs(out, rep)
+    assert (out / "keep.txt").read_text() == "mine"
+    n = len(LEVELS)
+    fringes = caps.frames[n:], caps.images[n:]
+    fringes_only = gamma_report(
+        Captures(*fringes, 8, gamma_precompensation=caps.gamma_precompensation[n:]), source="f"
+    )
+    assert fringes_only.uniform_fit is None
+    out = write_gamma_outputs(out, fringes_only, force=True)
+    assert sorted(p.name for p in out.iterdir()) == ["gamma.json"]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -31,6 +31,8 @@ LAYERS: dict[str, int] = {
     "_validation": CORE,
     "patterns": CORE,
     "frames": CORE,
+    "limits": CORE,
+    "programs": CORE,
     "captures": CORE,
     "phase": CORE,
     "unwrap": CORE,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import sys
 from collections.abc import Callable
 from typing import Annotated, Any, TypeVar
@@ -13,6 +14,7 @@ from rich.console import Console
 
 from hdrfringe import __version__
 from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.limits import MAX_PROGRAM_FRAMES, check_count
 
 __all__ = [
     "F",
@@ -91,7 +93,7 @@ def progress_bar() -> Any:
 
 
 def parse_floats(text: str, what: str) -> list[float]:
-
+    """A comma-separated list of finite numbers (``8,64``) given for option ``what``."""
     try:
         vals = [float(v) for v in text.replace(" ", "").split(",") if v]
     except ValueError:
@@ -100,11 +102,22 @@ def parse_floats(text: str, what: str) -> list[float]:
         ) from None
     if not vals:
         raise InputError(f"{what}: empty list; give at least one value")
+    _check_finite(vals, text, what)
     return vals
 
 
-def parse_range(text: str, what: str) -> list[float]:
-    """``start:stop:step`` (stop included) or a comma-separated list."""
+def _check_finite(vals: list[float], text: str, what: str) -> None:
+    bad = next((v for v in vals if not math.isfinite(v)), None)
+    if bad is not None:
+        shown = text if len(text) <= 40 else f"{text[:20]}...{text[-8:]}"
+        raise InputError(f"{what}: {shown!r} holds {bad}; give finite numbers")
+
+
+def parse_range(text: str, what: str, max_count: int = MAX_PROGRAM_FRAMES) -> list[float]:
+    """``start:stop:step`` (stop included) or a comma-separated list.
+
+    A range of more than ``max_count`` values is refused before it is built.
+    """
 
     if ":" not in text:
         return parse_floats(text, what)
@@ -114,9 +127,13 @@ def parse_range(text: str, what: str) -> list[float]:
         raise InputError(
             f"{what}: cannot read {text!r}; use start:stop:step, e.g. 2:50:2"
         ) from None
+    _check_finite([start, stop, step], text, what)
     if step != 0 and (stop - start) * step < 0:
         step = -step  # 255:60:1 means downwards
     if step == 0:
         raise InputError(f"{what}: {text!r} is an empty range; use e.g. 2:50:2 or 255:60:-5")
-    n = int(np.floor((stop - start) / step + 1e-9)) + 1
+    count = float(np.floor((stop - start) / step + 1e-9)) + 1
+    n = check_count(
+        count, max_count, f"values in {what} {text}", fix="use a larger step or a shorter range"
+    )
     return [round(start + i * step, 9) for i in range(n)]

@@ -39,17 +39,8 @@ __all__ = [
     "check_source",
     "given_options",
     "option_pair",
-    "scene_params",
-    "simulated_rig",
+    "parse_orientations",
 ]
-
-
-def scene_params(scene: str, depth_mm: float | None) -> dict[str, Any]:
-    if depth_mm is None:
-        return {}
-    if scene in ("mask", "glossy"):
-        return {"base_mm": depth_mm}
-    return {"depth_mm": depth_mm}
 
 
 # Options of the virtual rig and its fringes, declared once for simulate, measure --rig sim and
@@ -106,61 +97,11 @@ LIVE_OPTIONS = (
 )
 
 
-def simulated_rig(
-    scene: str,
-    *,
-    depth_mm: float | None = None,
-    ambient_lux: float = 0.0,
-    noise: float = 1.0,
-    shot_noise: bool = True,
-    aperture: str = "auto",
-    gamma: float = 2.812,
-    bit_depth: int = 8,
-    ideal: bool = False,
-    seed: int = 0,
-) -> Any:
-    """The virtual rig the scene options describe (simulate, measure and train-correction).
-
-    Parameters
-    ----------
-    scene : str
-        Scene name (:func:`hdrfringe.rig.scenes.make_scene`).
-    depth_mm : float, optional
-        Plate or board depth; base height for mask and glossy. None: the scene's default.
-    ambient_lux, noise, shot_noise, gamma, bit_depth, seed
-        Added ambient light (lux), read noise (8-bit gray levels), photon shot noise, gamma
-        pre-compensation of the patterns, camera bit depth, noise seed.
-    aperture : {"auto", "white", "black"}
-        ``white``: the default camera (a white plate peaks at 80 %); ``black``: opened for the
-        black plate (thesis Sec. 5.2.2); ``auto``: black for checkerboard and black_plate.
-    ideal : bool
-        :meth:`SimulatedRig.ideal` (no noise or blur, 16-bit camera and projector).
-
-    Returns
-    -------
-    SimulatedRig
-    """
-    import dataclasses
-
-    from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, make_scene
-    from hdrfringe.rig.simulated import Lighting, SimulatedRig
-
-    if aperture not in ("auto", "white", "black"):
-        raise InputError(f"unknown aperture {aperture!r}; use auto, white or black")
-    lighting = Lighting(ambient_lux=ambient_lux)
-    sc = make_scene(scene, **scene_params(scene, depth_mm))
-    if ideal:
-        return SimulatedRig.ideal(sc, lighting=lighting, seed=seed)
-    rig = SimulatedRig(sc, lighting=lighting, gamma_precompensation=gamma, seed=seed)
-    cam = dataclasses.replace(
-        rig.camera,
-        bit_depth=bit_depth,
-        read_noise_dn8=noise,
-        full_well_e=rig.camera.full_well_e if shot_noise else None,
-    )
-    if aperture == "black" or (aperture == "auto" and scene in ("checkerboard", "black_plate")):
-        cam = cam.with_aperture_for(BLACK_PLATE_REFLECTIVITY)
-    return rig.replace(camera=cam)
+def parse_orientations(text: str) -> list[str]:
+    """``--orientation``: vertical, horizontal, or both (vertical, then horizontal)."""
+    if text not in ("vertical", "horizontal", "both"):
+        raise InputError(f"unknown orientation {text!r}; use vertical, horizontal or both")
+    return ["vertical", "horizontal"] if text == "both" else [text]
 
 
 def given_options(ctx: typer.Context, names: tuple[str, ...]) -> list[str]:

@@ -34,7 +34,6 @@ from hdrfringe.cli._options import (
     LiveStepsOpt,
     RigOpt,
     check_source,
-    simulated_rig,
 )
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.errors import InputError
@@ -99,7 +98,9 @@ def measure(
         "calibration_source": None if calibration is None else str(calibration),
     }
     if live:
-        sim = simulated_rig(
+        from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
+
+        sim = virtual_rig(
             scene, depth_mm=depth_mm, ambient_lux=ambient_lux, noise=noise, aperture=aperture,
             gamma=gamma, seed=seed,
         )  # fmt: skip

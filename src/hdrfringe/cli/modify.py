@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors
@@ -25,39 +24,12 @@ def modify(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Add light and noise to existing captures with clipping at 2^B - 1 (thesis Eq. 4.1)."""
-    import dataclasses
+    from hdrfringe.io.modify_folder import modify_capture_folder
+    from hdrfringe.rig.acquire import IntensityModification
 
-    from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
-    from hdrfringe.io.results import check_output_dir
-    from hdrfringe.rig.modify import modify_captures
-
-    check_output_dir(output, force)
-    caps = read_capture_folder(folder)
-    manifest = read_manifest(folder)  # the fields Captures does not keep: file names, extras
-    out = modify_captures(
-        caps.images,
-        caps.camera_bit_depth,
-        add_dn=add_dn,
-        add_lux=add_lux or None,
-        noise_sigma=noise,
-        seed=seed,
+    modification = IntensityModification(add_lux, add_dn, noise, seed)
+    done = modify_capture_folder(folder, output, modification, force=force)
+    console.print(
+        f"wrote {done.n_images} modified captures to {output} "
+        f"({100 * done.saturated_fraction:.1f} % saturated)"
     )
-    extra = {
-        k: v
-        for k, v in manifest.items()
-        if k not in ("format", "version", "camera", "projector", "scene", "frames", "maps")
-    }
-    extra["modification"] = {
-        "source": str(folder),
-        "add_lux": add_lux,
-        "add_dn": add_dn,
-        "noise_sigma": noise,
-        "seed": seed,
-        "equation": "thesis Eq. 4.1",
-    }
-    names = [Path(e["file"]).stem for e in manifest["frames"]]
-    write_capture_folder(
-        output, dataclasses.replace(caps, images=out), names=names, extra=extra, force=force
-    )
-    sat = float(np.mean((out == 2**caps.camera_bit_depth - 1).any(axis=0)))
-    console.print(f"wrote {len(names)} modified captures to {output} ({100 * sat:.1f} % saturated)")

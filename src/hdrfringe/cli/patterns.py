@@ -39,23 +39,23 @@ def patterns(
 ) -> None:
     """Generate fringe patterns (and centerline/uniform images) for a projector."""
     from hdrfringe.captures import ProjectorInfo
-    from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame, render_frame
     from hdrfringe.io.pattern_folder import write_pattern_folder
-    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.programs import check_projector_size, fringe_program
 
-    projector = ProjectorInfo(width, height, bit_depth, gamma)
-    frames: list[Frame] = []
-    for p in parse_floats(pitch, "--pitch"):
-        spec = FringeSpec(pattern, steps, p, orientation, imin, migl)  # type: ignore[arg-type]
-        frames += spec.frames()
-    if centerline:
-        extent = width if orientation == "vertical" else height
-        pos = extent // 2 if centerline_position is None else centerline_position
-        frames.append(CenterlineFrame(pos, orientation, migl))  # type: ignore[arg-type]
-    if gray:
-        frames += [UniformFrame(g) for g in parse_floats(gray, "--gray")]
-    for f in frames:  # validate everything (levels vs bit depth) before writing
-        render_frame(f, 1, 1, gamma, bit_depth)
+    projector = check_projector_size(ProjectorInfo(width, height, bit_depth, gamma))
+    frames = fringe_program(  # every level checked against the projector before writing
+        pattern,
+        steps,
+        parse_floats(pitch, "--pitch"),
+        [orientation],
+        imin,
+        [migl],
+        projector=projector,
+        centerline=centerline,
+        centerline_position=centerline_position,
+        centerline_level=migl,
+        grays=parse_floats(gray, "--gray") if gray else (),
+    )
     with progress_bar() as prog:
         task = prog.add_task("writing patterns", total=len(frames))
         write_pattern_folder(

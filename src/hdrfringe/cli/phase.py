@@ -26,6 +26,7 @@ def phase(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
+    from hdrfringe.errors import CaptureFormatError
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import check_output_dir, staged_output_dir
@@ -34,8 +35,6 @@ def phase(
     check_output_dir(output, force)
     captures = read_capture_folder(folder)
     if not captures.sets:
-        from hdrfringe.errors import CaptureFormatError
-
         raise CaptureFormatError(
             f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"
         )

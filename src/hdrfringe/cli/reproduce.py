@@ -8,7 +8,6 @@ from typing import Annotated
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors
-from hdrfringe.errors import InputError
 
 __all__ = ["reproduce"]
 
@@ -37,10 +36,9 @@ def reproduce(
 ) -> None:
     """Run the thesis's experiments on the virtual rig as resumable sweeps (Dask, Zarr) and
     write tables beside the thesis's, figures and a report. Rerun to resume."""
-    from hdrfringe.reproduce.runner import CHAPTERS
+    from hdrfringe.reproduce.runner import parse_chapters
     from hdrfringe.reproduce.runner import reproduce as run
 
-    chapters = list(CHAPTERS) if chapter == "all" else [c.strip() for c in chapter.split(",")]
     if not console.is_terminal:  # no progress bar: progress lines on stderr instead
         import logging
         import sys
@@ -51,10 +49,8 @@ def reproduce(
             handler.setFormatter(logging.Formatter("%(asctime)s %(message)s", "%H:%M:%S"))
             logger.addHandler(handler)
         logger.setLevel(logging.INFO)
-    if workers is not None and workers < 1:
-        raise InputError(f"--workers must be at least 1, got {workers}")
     res = run(
-        chapters,
+        parse_chapters(chapter),
         output,
         quick=quick,
         scheduler=scheduler,

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
-import numpy as np
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors, parse_floats, parse_range, progress_bar
@@ -22,9 +23,8 @@ from hdrfringe.cli._options import (
     PitchOpt,
     SeedOpt,
     StepsOpt,
-    simulated_rig,
+    parse_orientations,
 )
-from hdrfringe.errors import InputError
 
 __all__ = ["simulate"]
 
@@ -82,97 +82,44 @@ def simulate(
     geometry, so measurements can report their error. With --series, DIR holds one folder per
     depth (a calibration series: reference plane + positions).
     """
-    from hdrfringe.captures import Captures
-    from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
-    from hdrfringe.io.captures import write_capture_folder
-    from hdrfringe.io.results import check_output_dir, staged_output_dir
-    from hdrfringe.patterns import FringeSpec
-    from hdrfringe.rig.modify import modify_captures
+    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.io.simulation import series_depths, series_folder_name, write_simulation
+    from hdrfringe.limits import MAX_SERIES_FOLDERS
+    from hdrfringe.programs import fringe_program
+    from hdrfringe.rig.acquire import IntensityModification
+    from hdrfringe.rig.factory import virtual_rig
 
     check_output_dir(output, force)
-    if orientation not in ("vertical", "horizontal", "both"):
-        raise InputError(f"unknown orientation {orientation!r}; use vertical, horizontal or both")
+    orients = parse_orientations(orientation)
+    depths: Sequence[float | None] = [depth_mm]
     if series is not None:
-        depths = parse_range(series, "--series")
-        if reference and 0.0 not in depths:
-            depths = [0.0, *depths]
-    else:
-        depths = [depth_mm]
-    rigs = [  # validates every scene before anything is captured
-        simulated_rig(
-            scene,
-            depth_mm=d,
-            ambient_lux=ambient_lux,
-            noise=noise,
-            shot_noise=shot_noise,
-            aperture=aperture,
-            gamma=gamma,
-            bit_depth=bit_depth,
-            ideal=ideal,
-            seed=seed,
-        )
-        for d in depths
-    ]
-    rig0 = rigs[0]
-    full = 2**rig0.projector.bit_depth - 1
-    orients = ["vertical", "horizontal"] if orientation == "both" else [orientation]
-    frames: list[Frame] = []
-    for o in orients:
-        for m in parse_range(migl_sweep or migl, "--migl"):
-            m_proj = m * full / 255.0 if ideal else m
-            i_proj = imin * full / 255.0 if ideal else imin
-            for p in parse_floats(pitch, "--pitch"):
-                frames += FringeSpec(pattern, steps, p, o, i_proj, m_proj).frames()  # type: ignore[arg-type]
-        if centerline:
-            extent = rig0.projector.width if o == "vertical" else rig0.projector.height
-            frames.append(CenterlineFrame(extent // 2, o, full))  # type: ignore[arg-type]
-    if gray:
-        frames += [
-            UniformFrame(g * full / 255.0 if ideal else g) for g in parse_floats(gray, "--gray")
-        ]
-    modified = None
-    if add_lux or add_dn or add_noise:
-        modified = {
-            "add_lux": add_lux,
-            "add_dn": add_dn,
-            "noise_sigma": add_noise,
-            "equation": "thesis Eq. 4.1",
-        }
-    sat_fractions = []
-    with staged_output_dir(output, force=force) as tmp, progress_bar() as prog:
+        series_mm = parse_range(series, "--series", MAX_SERIES_FOLDERS)
+        depths = series_depths(series_mm, reference=reference)
+    rig_options = {"ambient_lux": ambient_lux, "noise": noise, "shot_noise": shot_noise}
+    rig_options |= {"aperture": aperture, "gamma": gamma, "bit_depth": bit_depth, "ideal": ideal}
+    rigs = [virtual_rig(scene, depth_mm=d, seed=seed, **rig_options) for d in depths]
+    mod = IntensityModification(add_lux, add_dn, add_noise, seed)
+    frames = fringe_program(
+        pattern,
+        steps,
+        parse_floats(pitch, "--pitch"),
+        orients,
+        imin,
+        parse_range(migl_sweep or migl, "--migl"),
+        projector=rigs[0].projector,
+        centerline=centerline,
+        grays=parse_floats(gray, "--gray") if gray else (),
+        level_bits=8 if ideal else None,
+    )
+    names = None if series is None else [series_folder_name(scene, d or 0.0) for d in depths]
+    with progress_bar() as prog:
         task = prog.add_task(f"simulating {scene}", total=len(frames) * len(rigs))
-        for d, rig in zip(depths, rigs, strict=True):
-            images = []
-            for f in frames:
-                images.append(rig.capture([f])[0])
-                prog.advance(task)
-            stack = np.stack(images)
-            if modified:
-                stack = modify_captures(
-                    stack,
-                    rig.camera_bit_depth,
-                    add_dn=add_dn,
-                    add_lux=add_lux or None,
-                    noise_sigma=add_noise,
-                    seed=seed,
-                )
-            extra: dict[str, Any] = {"simulator": rig.to_manifest()}
-            if modified:
-                extra["modification"] = modified
-            target = tmp if series is None else tmp / f"{scene}_{(d or 0.0):06.2f}mm"
-            captures = Captures(
-                frames,
-                stack,
-                rig.camera_bit_depth,
-                projector=rig.projector,
-                scene=rig.scene.to_manifest(),
-                camera=rig.camera_manifest(),
-                maps={"truth_height_mm": rig.truth().height_mm},
-            )
-            write_capture_folder(target, captures, extra=extra, force=True)
-            sat_fractions.append(float(np.mean((stack == 2**rig.camera_bit_depth - 1).any(axis=0))))
+        tick = functools.partial(prog.advance, task)
+        done = write_simulation(
+            output, rigs, frames, folder_names=names, modification=mod, force=force, progress=tick
+        )
     what = f"{len(rigs)} capture folders" if series is not None else "a capture folder"
     console.print(
         f"wrote {what} of {scene} ({len(frames)} images each) to {output}; "
-        f"{100 * max(sat_fractions):.1f} % of pixels saturated in at least one image"
+        f"{100 * done.max_saturated_fraction:.1f} % of pixels saturated in at least one image"
     )

@@ -29,7 +29,6 @@ from hdrfringe.cli._options import (
     LiveSeedOpt,
     RigOpt,
     check_source,
-    simulated_rig,
 )
 from hdrfringe.errors import InputError
 
@@ -81,7 +80,9 @@ def train_correction(
         raise InputError(f"unknown truth {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
     check_output_file(output, force)
     if live:
-        sim = simulated_rig(
+        from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
+
+        sim = virtual_rig(
             scene, depth_mm=depth_mm, ambient_lux=ambient_lux, noise=noise, aperture=aperture,
             gamma=gamma, seed=seed,
         )  # fmt: skip

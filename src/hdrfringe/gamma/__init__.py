@@ -23,6 +23,9 @@ of arrays: reading capture folders is the caller's business, and the plot of the
   :func:`line_deviation` (:mod:`~hdrfringe.gamma.nonlinearity`): how far input -> captured is
   from a straight line after pre-compensation, in percent of the captured range: measured from
   captures, or predicted from a fit.
+* :func:`gamma_report` (:mod:`~hdrfringe.gamma.report`): every fit a set of captures allows,
+  as the ``hdrfringe gamma`` command reports it (:class:`GammaReport`; the uniform-gray rule is
+  :func:`uniform_gray_means`).
 * :class:`GammaFit` and the defaults (:mod:`~hdrfringe.gamma.model`).
 
 Examples
@@ -50,6 +53,12 @@ from hdrfringe.gamma.nonlinearity import (
     predicted_nonlinearity,
     residual_nonlinearity,
 )
+from hdrfringe.gamma.report import (
+    MIN_UNIFORM_LEVELS,
+    GammaReport,
+    gamma_report,
+    uniform_gray_means,
+)
 from hdrfringe.gamma.selection import GammaSetSelection, select_gamma_sets
 from hdrfringe.gamma.uniform import fit_gamma_uniform
 
@@ -58,14 +67,18 @@ __all__ = [
     "MAX_CLIPPED_FRACTION",
     "MIN_FRINGE_PITCH_PX",
     "MIN_MODULATION_FRACTION",
+    "MIN_UNIFORM_LEVELS",
     "GammaFit",
+    "GammaReport",
     "GammaSetSelection",
     "Nonlinearity",
     "fit_gamma_fringes",
     "fit_gamma_uniform",
+    "gamma_report",
     "line_deviation",
     "measure_nonlinearity",
     "predicted_nonlinearity",
     "residual_nonlinearity",
     "select_gamma_sets",
+    "uniform_gray_means",
 ]

@@ -35,6 +35,7 @@ from hdrfringe.captures import (
 from hdrfringe.errors import CaptureFormatError
 from hdrfringe.frames import IMAGE_FRAMES, Frame
 from hdrfringe.io.results import read_map_tiff, staged_output_dir, write_map_tiff
+from hdrfringe.limits import MAX_PROJECTOR_PIXELS
 from hdrfringe.patterns import ORIENTATIONS, PATTERNS
 
 if TYPE_CHECKING:
@@ -68,7 +69,7 @@ _KINDS = {
 _DATA_FIELDS = {"pixelwise_fringe": "migl_map", "image": "image"}
 #: Most projector pixels a folder with side files may declare (a side file is checked against
 #: the projector from its header, before decoding): 2^26, twice an 8K projector's 33 Mpx.
-MAX_SIDE_FILE_PIXELS = 1 << 26
+MAX_SIDE_FILE_PIXELS = MAX_PROJECTOR_PIXELS
 #: Side-file containers read, by dtype (float32 only in TIFF).
 _SIDE_DTYPES = {
     ".png": (np.dtype(np.uint8), np.dtype(np.uint16)),

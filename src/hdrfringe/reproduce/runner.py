@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     #: How the experiments run a sweep: ``run(store, grid, task, params) -> Dataset``.
     _Run = Callable[[Path, SweepGrid, BlockFunc, dict[str, Any]], xr.Dataset]
 
-__all__ = ["ADAPTIVE_SWEEPS", "CHAPTERS", "MARKER", "reproduce"]
+__all__ = ["ADAPTIVE_SWEEPS", "CHAPTERS", "MARKER", "parse_chapters", "reproduce"]
 
 #: The file that marks a folder as a reproduction (what was run, with which grid).
 MARKER = "reproduce.json"
@@ -38,6 +38,26 @@ ADAPTIVE_SWEEPS: dict[str, tuple[str, ...]] = {
     "ch5": ("ch5_plate", "checkerboard"),
     "ch6": ("ch6_plate", "checkerboard"),
 }
+
+
+def parse_chapters(text: str) -> list[str]:
+    """The chapters a command line names: ``all``, or names joined by commas (``ch5,ch6``).
+
+    Parameters
+    ----------
+    text : str
+        ``all`` or a comma-separated list; names are checked by :func:`reproduce`.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> parse_chapters("all"), parse_chapters("ch5, ch6")
+    (['ch4', 'ch5', 'ch6'], ['ch5', 'ch6'])
+    """
+    return list(CHAPTERS) if text == "all" else [c.strip() for c in text.split(",")]
 
 
 def _check_folder(out: Path, force: bool, quick: bool) -> None:
@@ -193,7 +213,7 @@ def reproduce(
     scheduler : str, optional
         Address of a dask scheduler; default a local cluster of ``n_workers`` processes.
     n_workers : int, optional
-        Size of the local cluster (default: the CPU count).
+        Worker processes of the local cluster (at least 1; default the CPU count).
     progress : bool
         Show a progress bar per sweep on stderr (only when it is a terminal).
     force : bool
@@ -208,7 +228,8 @@ def reproduce(
     Raises
     ------
     InputError
-        An unknown chapter, ``out`` a file, or a reproduction made on the other grid.
+        An unknown chapter, ``n_workers`` below 1, ``out`` a file, or a reproduction made on
+        the other grid.
     OutputExistsError
         ``out`` a non-empty folder that is not a reproduction, without ``force``.
 
@@ -223,6 +244,8 @@ def reproduce(
         raise InputError(
             f"unknown chapter(s) {unknown or chapters}; use {', '.join(CHAPTERS)} or all"
         )
+    if n_workers is not None and n_workers < 1:
+        raise InputError(f"--workers (n_workers) must be at least 1, got {n_workers}")
     _check_folder(out, force, quick)
     out.mkdir(parents=True, exist_ok=True)
     (out / MARKER).write_text(

@@ -1,0 +1,223 @@
+"""The gamma report of a set of captures: every fit the captures allow, and its summary.
+
+:func:`gamma_report` is what ``hdrfringe gamma`` computes (thesis Sec. 2.6, Eq. 2.16): a fit of
+the uniform grays when there are at least :data:`MIN_UNIFORM_LEVELS` distinct levels
+(:func:`uniform_gray_means`: the mean over the centre half of each image), with the residual
+nonlinearity it predicts, and a shape fit of the wide sinusoidal sets
+(:func:`~hdrfringe.gamma.select_gamma_sets`). It works on :class:`~hdrfringe.captures.Captures`
+in memory; writing ``gamma.json`` and the plot is
+:func:`hdrfringe.io.gamma_outputs.write_gamma_outputs`.
+
+Examples
+--------
+>>> import numpy as np
+>>> from hdrfringe.captures import Captures
+>>> from hdrfringe.frames import UniformFrame
+>>> levels = [0, 64, 128, 192, 255]
+>>> images = np.stack([np.full((4, 4), 10 + 200 * (g / 255) ** 2.2) for g in levels])
+>>> caps = Captures([UniformFrame(g) for g in levels], np.rint(images).astype(np.uint8), 8)
+>>> rep = gamma_report(caps, source="demo")
+>>> round(rep.uniform_fit.gamma, 1), sorted(rep.report)
+(2.2, ['source', 'uniform'])
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdrfringe.captures import Captures
+from hdrfringe.errors import CaptureFormatError
+from hdrfringe.gamma.fringes import fit_gamma_fringes
+from hdrfringe.gamma.model import GammaFit
+from hdrfringe.gamma.nonlinearity import predicted_nonlinearity
+from hdrfringe.gamma.selection import select_gamma_sets
+from hdrfringe.gamma.uniform import fit_gamma_uniform
+
+__all__ = ["MIN_UNIFORM_LEVELS", "GammaReport", "gamma_report", "uniform_gray_means"]
+
+#: Distinct uniform gray levels needed for a uniform fit (offset, scale, gamma and a check).
+MIN_UNIFORM_LEVELS = 4
+
+
+def uniform_gray_means(
+    captures: Captures,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """The uniform frames' gray levels and mean captured intensity over the centre half.
+
+    Parameters
+    ----------
+    captures : Captures
+        Any captures; only the uniform frames are used.
+
+    Returns
+    -------
+    (levels, means) : pair of ndarray, or None
+        One entry per uniform frame (in frame order): its input gray level, and the mean DN
+        over rows ``h//4 : 3h//4`` and columns ``w//4 : 3w//4``. None when the uniform frames
+        have fewer than :data:`MIN_UNIFORM_LEVELS` distinct levels.
+
+    References
+    ----------
+    Thesis Sec. 2.6, Fig. 2.6 (input gray to captured intensity).
+
+    Examples
+    --------
+    >>> from hdrfringe.frames import UniformFrame
+    >>> images = np.zeros((4, 4, 4), np.uint8)
+    >>> images[:, 1:3, 1:3] = [[[10]], [[20]], [[30]], [[40]]]  # the centre half
+    >>> caps = Captures([UniformFrame(g) for g in (0, 50, 100, 150)], images, 8)
+    >>> uniform_gray_means(caps)[1].tolist()
+    [10.0, 20.0, 30.0, 40.0]
+    """
+    uniforms = captures.uniforms()
+    if len({f.level for f, _ in uniforms}) < MIN_UNIFORM_LEVELS:
+        return None
+    h, w = captures.image_shape
+    roi = (slice(h // 4, 3 * h // 4), slice(w // 4, 3 * w // 4))
+    levels = np.array([f.level for f, _ in uniforms])
+    means = np.array([float(np.mean(img[roi])) for _, img in uniforms])
+    return levels, means
+
+
+@dataclass(frozen=True, eq=False)
+class GammaReport:
+    """Every gamma fit a set of captures allows (made by :func:`gamma_report`).
+
+    Attributes
+    ----------
+    report : dict
+        JSON-ready: ``source``, and ``uniform`` and/or ``fringes`` when fitted (the content of
+        ``gamma.json``).
+    uniform_fit, fringe_fit : GammaFit or None
+        The fits (None when the captures do not allow one).
+    lines : tuple of str
+        The human summary, one line each, in order (fits, notes).
+    """
+
+    report: dict[str, Any]
+    uniform_fit: GammaFit | None
+    fringe_fit: GammaFit | None
+    lines: tuple[str, ...]
+
+    @property
+    def fitted(self) -> bool:
+        """True when at least one fit was made."""
+        return self.uniform_fit is not None or self.fringe_fit is not None
+
+    def check_fitted(self) -> None:
+        """Refuse captures that allowed no fit.
+
+        Raises
+        ------
+        CaptureFormatError
+            Neither uniform grays at enough levels nor fittable sinusoidal sets.
+        """
+        if not self.fitted:
+            raise CaptureFormatError(
+                f"{self.report['source']}: nothing to fit: give uniform frames at >= "
+                f"{MIN_UNIFORM_LEVELS} gray levels, or sinusoidal sets at two pre-compensation "
+                "exponents (frame field gamma_precompensation) or with >= 4 steps"
+            )
+
+
+def gamma_report(captures: Captures, *, source: str) -> GammaReport:
+    """Fit the projector gamma with everything the captures allow (uniform grays, fringes).
+
+    Uniform grays (:func:`uniform_gray_means`) give :func:`~hdrfringe.gamma.fit_gamma_uniform`
+    and the residual nonlinearity predicted after pre-compensation with the fit, with the
+    captures' own exponent and without any. Sinusoidal sets chosen by
+    :func:`~hdrfringe.gamma.select_gamma_sets` (wide ones: narrow fringes are reshaped by
+    projector pixels and blur, which a shape fit would read as gamma) give
+    :func:`~hdrfringe.gamma.fit_gamma_fringes`.
+
+    Parameters
+    ----------
+    captures : Captures
+        The captures (projector bit depth and pre-compensation from ``captures.projector``;
+        8 bits and 1.0 when it is unknown; a set's own exponent wins).
+    source : str
+        Where they came from (recorded in the report and named in messages).
+
+    Returns
+    -------
+    GammaReport
+        Call :meth:`GammaReport.check_fitted` to refuse captures that allowed no fit.
+
+    References
+    ----------
+    Thesis Sec. 2.6, Eq. 2.16-2.17; docs/gamma.md.
+
+    Examples
+    --------
+    >>> from hdrfringe.frames import UniformFrame
+    >>> caps = Captures([UniformFrame(128)], np.zeros((1, 2, 2), np.uint8), 8)
+    >>> rep = gamma_report(caps, source="one gray")
+    >>> rep.fitted, rep.report
+    (False, {'source': 'one gray'})
+    """
+    proj_bits = captures.projector.bit_depth if captures.projector else 8
+    gh0 = captures.projector.gamma_precompensation if captures.projector else 1.0
+    report: dict[str, Any] = {"source": source}
+    lines: list[str] = []
+    uniform_fit = fringe_fit = None
+    means = uniform_gray_means(captures)
+    if means is not None:
+        uniform_fit = fit_gamma_uniform(
+            *means,
+            camera_bit_depth=captures.camera_bit_depth,
+            projector_bit_depth=proj_bits,
+            gamma_precompensation=gh0,
+        )
+        mx_fit, rms_fit = predicted_nonlinearity(uniform_fit, uniform_fit.gamma)
+        mx_cur, _ = predicted_nonlinearity(uniform_fit, gh0)
+        mx_none, _ = predicted_nonlinearity(uniform_fit, 1.0)
+        report["uniform"] = {
+            "gamma": uniform_fit.gamma,
+            "stderr": uniform_fit.stderr,
+            "offset_dn": uniform_fit.offset,
+            "scale_dn": uniform_fit.scale,
+            "rms_residual_dn": uniform_fit.rms_residual,
+            "levels_used": uniform_fit.n_samples,
+            "residual_nonlinearity_percent": {
+                "precompensated_with_fit": mx_fit,
+                "precompensated_with_fit_rms": rms_fit,
+                f"precompensated_with_{gh0:g}": mx_cur,
+                "no_precompensation": mx_none,
+            },
+        }
+        lines += [
+            f"uniform grays: gamma = {uniform_fit.gamma:.4f} +- {uniform_fit.stderr:.4f} "
+            f"(rms residual {uniform_fit.rms_residual:.2f} DN, {uniform_fit.n_samples} levels)",
+            f"residual nonlinearity (max, % of range): {mx_fit:.2f} % pre-compensated with the "
+            f"fit, {mx_cur:.2f} % with {gh0:g}, {mx_none:.2f} % without",
+        ]
+    sets = captures.sets
+    chosen = select_gamma_sets([(s.spec, s.gamma_precompensation or gh0) for s in sets])
+    if chosen.too_narrow:
+        lines.append(
+            f"note: fringe sets narrower than {chosen.min_pitch_px:g} px not used for gamma: "
+            + ", ".join(sets[i].label for i in chosen.too_narrow)
+        )
+    if chosen.fittable:
+        used = [sets[i] for i in chosen.used]
+        fringe_fit = fit_gamma_fringes(
+            [(s.spec, s.gamma_precompensation or gh0, captures.set_images(s)) for s in used],
+            camera_bit_depth=captures.camera_bit_depth,
+            projector_bit_depth=proj_bits,
+        )
+        report["fringes"] = {
+            "gamma": fringe_fit.gamma,
+            "stderr": fringe_fit.stderr,
+            "rms_residual_dn": fringe_fit.rms_residual,
+            "pixels_used": fringe_fit.n_samples,
+            "sets": [s.label for s in used],
+        }
+        lines.append(
+            f"fringe shape: gamma = {fringe_fit.gamma:.4f} +- {fringe_fit.stderr:.4f} "
+            f"(rms residual {fringe_fit.rms_residual:.2f} DN over {fringe_fit.n_samples} pixels)"
+        )
+    return GammaReport(report, uniform_fit, fringe_fit, tuple(lines))

@@ -1,0 +1,109 @@
+"""Eq. 4.1 on a capture folder: read it, add light and noise, write a new folder.
+
+The new folder keeps everything the old one records: frames and their file names, projector,
+camera, scene, maps (e.g. the true height), and any additional manifest fields; its manifest
+adds a ``modification`` entry naming the source folder and the parameters.
+
+Examples
+--------
+>>> import tempfile
+>>> import numpy as np
+>>> from hdrfringe.captures import Captures
+>>> from hdrfringe.frames import UniformFrame
+>>> from hdrfringe.io.captures import read_capture_folder, write_capture_folder
+>>> from hdrfringe.rig.acquire import IntensityModification
+>>> caps = Captures([UniformFrame(128)], np.array([[[100, 200]]], np.uint8), 8)
+>>> with tempfile.TemporaryDirectory() as tmp:
+...     src = write_capture_folder(Path(tmp) / "caps", caps)
+...     done = modify_capture_folder(src, Path(tmp) / "mod", IntensityModification(add_lux=600))
+...     images = read_capture_folder(done.path).images
+>>> images.tolist(), done.saturated_fraction
+([[[202, 255]]], 0.5)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hdrfringe._validation import is_saturated
+from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
+from hdrfringe.io.results import check_output_dir
+from hdrfringe.rig.acquire import IntensityModification
+
+__all__ = ["ModifiedFolder", "modify_capture_folder"]
+
+#: Top-level manifest fields the captures write themselves (the rest is carried over as is).
+_CONTRACT_FIELDS = ("format", "version", "camera", "projector", "scene", "frames", "maps")
+
+
+@dataclass(frozen=True)
+class ModifiedFolder:
+    """What :func:`modify_capture_folder` wrote.
+
+    Attributes
+    ----------
+    path : Path
+        The new capture folder.
+    n_images : int
+        Images written.
+    saturated_fraction : float
+        Fraction of pixels saturated in at least one modified image.
+    """
+
+    path: Path
+    n_images: int
+    saturated_fraction: float
+
+
+def modify_capture_folder(
+    folder: str | Path,
+    output: str | Path,
+    modification: IntensityModification,
+    *,
+    force: bool = False,
+) -> ModifiedFolder:
+    """Apply thesis Eq. 4.1 to every image of a capture folder and write the result.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The capture folder to read (left unchanged).
+    output : str or Path
+        The new folder; refused (before anything is read) if it exists and is not empty,
+        unless ``force``.
+    modification : IntensityModification
+        Added lux, DN and noise, with clipping at ``2^B - 1``.
+    force : bool
+        Replace an existing non-empty output folder.
+
+    Returns
+    -------
+    ModifiedFolder
+
+    Raises
+    ------
+    OutputExistsError
+        ``output`` exists and is not empty, without ``force``.
+    CaptureFormatError
+        ``folder`` is not a valid capture folder.
+
+    References
+    ----------
+    Thesis Eq. 4.1, Sec. 4.3.1.
+    """
+    check_output_dir(output, force)
+    caps = read_capture_folder(folder)
+    manifest = read_manifest(folder)  # the fields Captures does not keep: file names, extras
+    images = modification.apply(caps.images, caps.camera_bit_depth)
+    extra = {k: v for k, v in manifest.items() if k not in _CONTRACT_FIELDS}
+    extra["modification"] = {"source": str(folder), **modification.to_manifest()}
+    names = [Path(e["file"]).stem for e in manifest["frames"]]
+    write_capture_folder(
+        output, dataclasses.replace(caps, images=images), names=names, extra=extra, force=force
+    )
+    sat = is_saturated(images, caps.camera_bit_depth).any(axis=0)
+    return ModifiedFolder(Path(output), len(names), float(np.mean(sat)))

@@ -1,0 +1,198 @@
+"""Capture folders from the virtual rig: one folder, or a series of folders (one per depth).
+
+:func:`write_simulation` captures a program on one or several virtual rigs
+(:func:`hdrfringe.rig.acquire.simulated_captures`), optionally with Eq. 4.1 applied, and writes
+capture folders that record the rig (manifest field ``simulator``), the modification
+(``modification``) and the scene's true height map (``truth_height_mm.tiff``). A series (the
+thesis's calibration positions) is a folder holding one capture folder per depth, named by
+:func:`series_folder_name`; the whole output is staged and moved into place only when complete.
+
+Examples
+--------
+>>> series_depths([2.0, 4.0]), series_folder_name("white_plate", 2.0)
+([0.0, 2.0, 4.0], 'white_plate_002.00mm')
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hdrfringe._validation import is_saturated
+from hdrfringe.errors import InputError
+from hdrfringe.frames import Frame
+from hdrfringe.io.captures import write_capture_folder
+from hdrfringe.io.results import staged_output_dir
+from hdrfringe.limits import MAX_SERIES_FOLDERS, check_count
+from hdrfringe.rig.acquire import IntensityModification, simulated_captures
+from hdrfringe.rig.simulated import SimulatedRig
+
+__all__ = ["SimulationWritten", "series_depths", "series_folder_name", "write_simulation"]
+
+
+def series_depths(depths: Sequence[float], *, reference: bool = True) -> list[float]:
+    """The depths of a calibration series: ``depths``, after the reference plane when asked.
+
+    Parameters
+    ----------
+    depths : sequence of float
+        Plate positions in mm (thesis Sec. 2.7: 2 to 50 mm in steps of 2).
+    reference : bool
+        Put the reference plane (depth 0) first, unless ``depths`` holds it already.
+
+    Returns
+    -------
+    list of float
+
+    Raises
+    ------
+    InputError
+        More than :data:`~hdrfringe.limits.MAX_SERIES_FOLDERS` depths, or none.
+
+    Examples
+    --------
+    >>> series_depths([0.0, 5.0]), series_depths([5.0], reference=False)
+    ([0.0, 5.0], [5.0])
+    """
+    out = [float(d) for d in depths]
+    if not out:
+        raise InputError("a series needs at least one depth")
+    if reference and 0.0 not in out:
+        out = [0.0, *out]
+    check_count(
+        len(out), MAX_SERIES_FOLDERS, "capture folders in the series", fix="give fewer depths"
+    )
+    return out
+
+
+def series_folder_name(scene: str, depth_mm: float) -> str:
+    """The name of a series' capture folder at one depth: ``<scene>_<depth, 000.00>mm``.
+
+    Parameters
+    ----------
+    scene : str
+        Scene name.
+    depth_mm : float
+        Plate depth in mm.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> series_folder_name("checkerboard", 12.5)
+    'checkerboard_012.50mm'
+    """
+    return f"{scene}_{depth_mm:06.2f}mm"
+
+
+@dataclass(frozen=True)
+class SimulationWritten:
+    """What :func:`write_simulation` wrote.
+
+    Attributes
+    ----------
+    path : Path
+        The output folder.
+    folders : tuple of Path
+        The capture folders (``(path,)`` for a single folder).
+    images_per_folder : int
+        Frames captured into each folder.
+    saturated_fractions : tuple of float
+        Per folder, the fraction of pixels saturated in at least one image.
+    """
+
+    path: Path
+    folders: tuple[Path, ...]
+    images_per_folder: int
+    saturated_fractions: tuple[float, ...]
+
+    @property
+    def max_saturated_fraction(self) -> float:
+        """The largest of :attr:`saturated_fractions`."""
+        return max(self.saturated_fractions)
+
+
+def write_simulation(
+    path: str | Path,
+    rigs: Sequence[SimulatedRig],
+    frames: Sequence[Frame],
+    *,
+    folder_names: Sequence[str] | None = None,
+    modification: IntensityModification | None = None,
+    force: bool = False,
+    progress: Callable[[], Any] | None = None,
+) -> SimulationWritten:
+    """Capture ``frames`` on each rig and write capture folders (staged: all or nothing).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output folder; refused if it exists and is not empty, unless ``force``.
+    rigs : sequence of SimulatedRig
+        One rig per capture folder (e.g. one per depth of a series).
+    frames : sequence of Frame
+        The program each rig captures.
+    folder_names : sequence of str, optional
+        One sub-folder name per rig (a series). None: exactly one rig, written at ``path``.
+    modification : IntensityModification, optional
+        Eq. 4.1 applied to every folder's captures and recorded in its manifest.
+    force : bool
+        Replace an existing non-empty output folder.
+    progress : callable, optional
+        Called once per captured frame.
+
+    Returns
+    -------
+    SimulationWritten
+
+    Raises
+    ------
+    InputError
+        No rig, several rigs without folder names, or names that do not match the rigs.
+
+    References
+    ----------
+    Thesis Sec. 2.7 (calibration positions), Eq. 4.1 (the modification).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.rig.factory import virtual_rig
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     done = write_simulation(Path(tmp) / "caps", [virtual_rig("white_plate")],
+    ...                             [UniformFrame(128)])
+    ...     names = sorted(p.name for p in done.path.iterdir())
+    >>> names, done.images_per_folder, done.max_saturated_fraction
+    (['gray_128.png', 'manifest.json', 'truth_height_mm.tiff'], 1, 0.0)
+    """
+    frames = list(frames)
+    if not rigs:
+        raise InputError("no rig to capture with; give at least one")
+    if folder_names is None and len(rigs) != 1:
+        raise InputError(f"{len(rigs)} rigs need one folder name each; give folder_names")
+    if folder_names is not None and len(folder_names) != len(rigs):
+        raise InputError(f"{len(folder_names)} folder names for {len(rigs)} rigs; give one each")
+    out = Path(path)
+    fractions: list[float] = []
+    folders: list[Path] = []
+    with staged_output_dir(out, force=force) as tmp:
+        for i, rig in enumerate(rigs):
+            captures = simulated_captures(rig, frames, modification=modification, progress=progress)
+            extra: dict[str, Any] = {"simulator": rig.to_manifest()}
+            if modification is not None and not modification.is_identity:
+                extra["modification"] = modification.to_manifest(with_seed=False)
+            name = None if folder_names is None else folder_names[i]
+            write_capture_folder(
+                tmp if name is None else tmp / name, captures, extra=extra, force=True
+            )
+            folders.append(out if name is None else out / name)
+            sat = is_saturated(captures.images, captures.camera_bit_depth).any(axis=0)
+            fractions.append(float(np.mean(sat)))
+    return SimulationWritten(out, tuple(folders), len(frames), tuple(fractions))
