@@ -24,6 +24,7 @@ from .io.calibration_file import load_calibration as load_calibration
 from .io.calibration_file import save_calibration as save_calibration
 from .io.captures import read_capture_folder as read_capture_folder
 from .io.captures import write_capture_folder as write_capture_folder
+from .io.measurement_outputs import write_measurement as write_measurement
 from .patterns import FringeSpec as FringeSpec
 from .patterns import fringe_gray as fringe_gray
 from .patterns import fringe_profile as fringe_profile
@@ -36,12 +37,18 @@ from .phase import sinusoidal_phase as sinusoidal_phase
 from .phase import triangular_2step as triangular_2step
 from .phase import triangular_3step as triangular_3step
 from .phase import wrapped_phase as wrapped_phase
+from .pipeline import MeasurementMetrics as MeasurementMetrics
+from .pipeline import MeasurementResult as MeasurementResult
+from .pipeline import calibrate as calibrate
+from .pipeline import measure as measure
 from .process import decode_captures as decode_captures
+from .programs import fringe_program as fringe_program
 from .reconstruct import CameraGeometry as CameraGeometry
 from .reconstruct import height_errors as height_errors
 from .reconstruct import points_from_height as points_from_height
 from .rig.base import Rig as Rig
 from .rig.base import RigBase as RigBase
+from .rig.factory import virtual_rig as virtual_rig
 from .rig.modify import modify_captures as modify_captures
 from .rig.replay import ReplayRig as ReplayRig
 from .rig.scenes import black_plate as black_plate
