@@ -87,15 +87,35 @@ def uniform_gray_means(
 class GammaReport:
     """Every gamma fit a set of captures allows (made by :func:`gamma_report`).
 
-    Attributes
+    Parameters
     ----------
     report : dict
         JSON-ready: ``source``, and ``uniform`` and/or ``fringes`` when fitted (the content of
         ``gamma.json``).
-    uniform_fit, fringe_fit : GammaFit or None
-        The fits (None when the captures do not allow one).
+    uniform_fit : GammaFit or None
+        The fit of the uniform grays (None when the captures do not allow one).
+    fringe_fit : GammaFit or None
+        The shape fit of the sinusoidal sets (None when the captures do not allow one).
     lines : tuple of str
         The human summary, one line each, in order (fits, notes).
+
+    References
+    ----------
+    Thesis Sec. 2.6, Eq. 2.16-2.17.
+
+    Examples
+    --------
+    >>> from hdrfringe.frames import UniformFrame
+    >>> levels = [0, 64, 128, 192, 255]
+    >>> images = np.stack([np.full((4, 4), 10 + 200 * (g / 255) ** 2.2) for g in levels])
+    >>> caps = Captures([UniformFrame(g) for g in levels], np.rint(images).astype(np.uint8), 8)
+    >>> rep = gamma_report(caps, source="demo")
+    >>> rep.fitted, rep.fringe_fit is None, rep.lines[0][:29]
+    (True, True, 'uniform grays: gamma = 2.2023')
+    >>> GammaReport({"source": "empty"}, None, None, ()).check_fitted()
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.CaptureFormatError: empty: nothing to fit: give uniform frames at >= 4 ...
     """
 
     report: dict[str, Any]

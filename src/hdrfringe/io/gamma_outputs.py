@@ -50,6 +50,23 @@ def write_gamma_outputs(path: str | Path, report: GammaReport, *, force: bool = 
     References
     ----------
     Thesis Sec. 2.6, Fig. 2.6 b/c.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> from hdrfringe.captures import Captures
+    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.gamma import gamma_report
+    >>> levels = [0, 64, 128, 192, 255]
+    >>> images = np.stack([np.full((4, 4), 10 + 200 * (g / 255) ** 2.2) for g in levels])
+    >>> caps = Captures([UniformFrame(g) for g in levels], np.rint(images).astype(np.uint8), 8)
+    >>> out = write_gamma_outputs(Path(tempfile.mkdtemp()) / "g", gamma_report(caps, source="x"))
+    >>> written = json.loads((out / "gamma.json").read_text(encoding="utf-8"))
+    >>> written["source"], round(written["uniform"]["gamma"], 2), written["uniform"]["levels_used"]
+    ('x', 2.2, 5)
+    >>> (out / "gamma_mapping.png").is_file()
+    True
     """
     with staged_output_dir(path, force=force) as tmp:
         text = json.dumps(report.report, indent=1) + "\n"

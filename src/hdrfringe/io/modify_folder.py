@@ -44,7 +44,7 @@ _CONTRACT_FIELDS = ("format", "version", "camera", "projector", "scene", "frames
 class ModifiedFolder:
     """What :func:`modify_capture_folder` wrote.
 
-    Attributes
+    Parameters
     ----------
     path : Path
         The new capture folder.
@@ -52,6 +52,20 @@ class ModifiedFolder:
         Images written.
     saturated_fraction : float
         Fraction of pixels saturated in at least one modified image.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.io.captures import simulate_to_folder
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=32, height=24))
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate_to_folder(tmp / "caps", rig, FringeSpec(steps=3).frames())
+    >>> done = modify_capture_folder(tmp / "caps", tmp / "mod", IntensityModification())
+    >>> done == ModifiedFolder(tmp / "mod", 3, 0.0)  # nothing added: nothing saturates
+    True
     """
 
     path: Path
@@ -94,6 +108,23 @@ def modify_capture_folder(
     References
     ----------
     Thesis Eq. 4.1, Sec. 4.3.1.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.io.captures import simulate_to_folder
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=32, height=24))
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> int(simulate_to_folder(tmp / "caps", rig, FringeSpec(steps=3).frames()).max())
+    186
+    >>> done = modify_capture_folder(tmp / "caps", tmp / "mod", IntensityModification(add_lux=600))
+    >>> done.n_images, round(done.saturated_fraction, 3)  # 186 + 0.17 * 600 clips at 255
+    (3, 0.954)
+    >>> read_manifest(done.path)["modification"]["add_lux"], read_manifest(tmp / "caps")["scene"]
+    (600.0, {'name': 'white_plate', 'depth_mm': 0.0, 'reflectivity': 1.0})
     """
     check_output_dir(output, force)
     caps = read_capture_folder(folder)

@@ -95,7 +95,7 @@ def series_folder_name(scene: str, depth_mm: float) -> str:
 class SimulationWritten:
     """What :func:`write_simulation` wrote.
 
-    Attributes
+    Parameters
     ----------
     path : Path
         The output folder.
@@ -105,6 +105,31 @@ class SimulationWritten:
         Frames captured into each folder.
     saturated_fractions : tuple of float
         Per folder, the fraction of pixels saturated in at least one image.
+
+    References
+    ----------
+    Thesis Sec. 2.7 (calibration positions).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> depths = series_depths([2.0])
+    >>> camera = CameraModel(width=32, height=24)
+    >>> rigs = [SimulatedRig(white_plate(d), camera=camera) for d in depths]
+    >>> done = write_simulation(
+    ...     Path(tempfile.mkdtemp()) / "series",
+    ...     rigs,
+    ...     FringeSpec(steps=3).frames(),
+    ...     folder_names=[series_folder_name("white_plate", d) for d in depths],
+    ...     modification=IntensityModification(add_lux=600),
+    ... )
+    >>> [f.relative_to(done.path).as_posix() for f in done.folders], done.images_per_folder
+    (['white_plate_000.00mm', 'white_plate_002.00mm'], 3)
+    >>> [round(s, 3) for s in done.saturated_fractions], round(done.max_saturated_fraction, 3)
+    ([0.954, 0.852], 0.954)
     """
 
     path: Path
