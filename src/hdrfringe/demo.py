@@ -62,6 +62,16 @@ from hdrfringe.rig.scenes import (
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
 from hdrfringe.strategies import get_strategy, make_params
 
+__all__ = [
+    "DPA_THRESHOLD",
+    "PITCHES",
+    "STUDY_RUNS",
+    "demo_frames",
+    "demo_specs",
+    "run_demo",
+    "study_scenes",
+]
+
 PITCHES = (1024.0, 64.0, 8.0)
 CENTERLINE = CenterlineFrame(512, "vertical", 255)
 
@@ -381,6 +391,9 @@ def run_demo(
             label = str(output / name / "captures")
             results = {m: pipeline.measure(caps, c, label=label) for m, c in cal_set.items()}
             best = results["rational"]
+            # a calibrated measurement of a scene with fringes always has both
+            assert best.height_mm is not None and best.decoded.primary is not None
+            height, primary = best.height_mm, best.decoded.primary
             write_measurement(best, sdir / "measurement")
             summary["scenes"][name] = {
                 "aperture": "black plate" if black else "white plate",
@@ -390,16 +403,16 @@ def run_demo(
                 "bias_mm": {m: r.metrics.bias_mm for m, r in results.items()},
             }
             if name in ("white_plate_25mm", "mask", "checkerboard"):
-                err = best.height_mm - rig.truth().height_mm
+                err = height - rig.truth().height_mm
                 panels += [
-                    (f"{name}: height", best.height_mm, "viridis", "mm"),
+                    (f"{name}: height", height, "viridis", "mm"),
                     (f"{name}: error (rational)", err, "coolwarm", "mm"),
                     (
                         f"{name}: saturated shifts",
                         np.logical_or.reduce(
                             [
                                 best.decoded.set_results[s.label].saturation_count > 0
-                                for s in best.decoded.primary.sets
+                                for s in primary.sets
                             ]
                         ).astype(float),
                         "inferno",
@@ -407,7 +420,7 @@ def run_demo(
                     ),
                 ]
             if name == "mask":
-                _figure_3d(tmp / "mask_3d.png", best.height_mm, "mask, measured height")
+                _figure_3d(tmp / "mask_3d.png", height, "mask, measured height")
             prog.advance(task)
         _overview(tmp / "overview.png", panels)
         n_study = len(study_scenes()) * len(STUDY_RUNS)
