@@ -18,6 +18,7 @@ from hdrfringe.phase import (
     triangular_3step,
     wrapped_phase,
 )
+from tests.conftest import synthetic_set
 
 TWO_PI = 2 * np.pi
 
@@ -228,3 +229,20 @@ def test_triangular_3step_phase_does_not_depend_on_the_quality_maps() -> None:
     phi, b, a = triangular_3step(imgs, quality=False)
     assert b is None and a is None
     assert np.array_equal(phi, triangular_3step(imgs)[0], equal_nan=True)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_a_batch_of_sets_decodes_as_each_set_alone(dtype) -> None:
+    """One call on (N, n_sets, H, W) gives each set's phase, modulation and mean maps."""
+    rng = np.random.default_rng(3)
+    sets = []
+    for pitch in (7.0, 13.0, 31.0):
+        imgs, _ = synthetic_set(FringeSpec("sinusoidal", 5, pitch, "vertical", 40, 255))
+        sets.append(np.clip(imgs + rng.integers(0, 3, imgs.shape), 0, 255))
+    batch = sinusoidal_phase(np.stack(sets, axis=1), dtype=dtype)
+    tol = 1e-12 if dtype == np.float64 else 1e-5
+    for k, imgs in enumerate(sets):
+        alone = sinusoidal_phase(imgs, dtype=dtype)
+        for got, want in zip(batch, alone, strict=True):
+            assert got.shape == (3, *imgs.shape[1:]) and got.dtype == dtype
+            np.testing.assert_allclose(got[k], want, rtol=0, atol=tol)

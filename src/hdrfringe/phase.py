@@ -145,8 +145,10 @@ def sinusoidal_phase(
 
     Parameters
     ----------
-    images : array_like, shape (N, H, W)
-        Shift k at index k, ``delta_k = 2*pi*k/N``, N >= 3.
+    images : array_like, shape (N, H, W) or (N, ..., H, W)
+        Shift k at index k, ``delta_k = 2*pi*k/N``, N >= 3. Extra axes after the first make a
+        batch of sets with the same N (e.g. ``(N, n_sets, H, W)``), decoded in one call; every
+        returned map then has the shape ``images.shape[1:]``.
     dtype : {float64, float32}
         Precision of the computation and of the returned maps.
     quality : bool
@@ -171,19 +173,25 @@ def sinusoidal_phase(
     >>> fast, _, _ = sinusoidal_phase(imgs, dtype=np.float32, quality=False)
     >>> fast.dtype, bool(np.allclose(fast, phi, atol=1e-5))
     (dtype('float32'), True)
+    >>> batch, _, _ = sinusoidal_phase(np.stack([imgs, imgs[..., ::-1]], axis=1))
+    >>> batch.shape, bool(np.allclose(batch[0], phi) and np.allclose(batch[1], phi[..., ::-1]))
+    ((2, 1, 7), True)
 
     References
     ----------
     Thesis Eq. 2.2 (phase), Eq. 3.4 and 3.5 (quality maps).
     """
-    stack = as_stack(images, what="sinusoidal phase", n_min=3)
+    arr = np.asarray(images)
+    shape = arr.shape[1:]
+    if arr.ndim > 3:  # a batch of sets: checked as one (N, rows, W) stack
+        arr = arr.reshape(arr.shape[0], -1, arr.shape[-1])
+    stack = as_stack(arr, what="sinusoidal phase", n_min=3)
     dt = _float_dtype(dtype, "sinusoidal phase")
     n = stack.shape[0]
     delta = TWO_PI * np.arange(n) / n
     flat = stack.reshape(n, -1).astype(dt, copy=False)
     s = np.sin(delta).astype(dt, copy=False) @ flat
     c = np.cos(delta).astype(dt, copy=False) @ flat
-    shape = stack.shape[1:]
     modulation = mean = None
     # In place, few temporaries (benchmarks/README.md): sqrt(S^2 + C^2) instead of np.hypot
     # (same value within an ulp, 5x faster), and [0, 2*pi) wrapping of atan2's (-pi, pi] by
