@@ -56,8 +56,54 @@ __all__ = [
 ]
 
 
+class _LineFrameMethods:
+    """What the line frames share: they vary along one projector axis, so a full image is one
+    rendered line broadcast along the other axis (the separable fast path)."""
+
+    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _check_levels(self, bit_depth: int) -> None:
+        """Refuse gray levels the projector cannot show (none to check by default)."""
+
+    def gray_at(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+        """Linear gray level at continuous projector coordinates (column ``u``, row ``v``).
+
+        Parameters
+        ----------
+        u, v : array_like
+            Projector column and row, broadcast together.
+
+        Returns
+        -------
+        ndarray of float64
+        """
+        return _line_gray_at(self, u, v)
+
+    def render(
+        self, width: int, height: int, gamma_hat: float = 1.0, bit_depth: int = 8
+    ) -> NDArray[np.integer]:
+        """Projector input image, shape (height, width); see :func:`render_frame`.
+
+        Parameters
+        ----------
+        width, height : int
+            Projector resolution.
+        gamma_hat : float
+            Gamma pre-compensation exponent (1.0: none).
+        bit_depth : int
+            Projector input bit depth.
+
+        Returns
+        -------
+        ndarray of uint8 or uint16
+        """
+        self._check_levels(bit_depth)
+        return _render_line(self, width, height, gamma_hat, bit_depth)
+
+
 @dataclass(frozen=True)
-class FringeFrame:
+class FringeFrame(_LineFrameMethods):
     """Shift ``shift`` of the fringe set ``spec`` (a line frame).
 
     Parameters
@@ -97,45 +143,13 @@ class FringeFrame:
         """
         return fringe_gray(coord, self.spec, self.shift)
 
-    def gray_at(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
-        """Linear gray level at continuous projector coordinates (column ``u``, row ``v``).
-
-        Parameters
-        ----------
-        u, v : array_like
-            Projector column and row, broadcast together.
-
-        Returns
-        -------
-        ndarray of float64
-        """
-        return _line_gray_at(self, u, v)
-
-    def render(
-        self, width: int, height: int, gamma_hat: float = 1.0, bit_depth: int = 8
-    ) -> NDArray[np.integer]:
-        """Projector input image, shape (height, width); see :func:`render_frame`.
-
-        Parameters
-        ----------
-        width, height : int
-            Projector resolution.
-        gamma_hat : float
-            Gamma pre-compensation exponent (1.0: none).
-        bit_depth : int
-            Projector input bit depth.
-
-        Returns
-        -------
-        ndarray of uint8 or uint16
-        """
+    def _check_levels(self, bit_depth: int) -> None:
         full = full_scale(bit_depth, "projector bit depth")
         if self.spec.migl > full:
             raise InputError(
                 f"migl {self.spec.migl:g} exceeds the projector's maximum {full} at "
                 f"{bit_depth} bits"
             )
-        return _render_line(self, width, height, gamma_hat, bit_depth)
 
     def manifest_entry(self, file: str) -> dict[str, Any]:
         """The frame's capture-manifest entry (docs/capture_format.md).
@@ -173,7 +187,7 @@ class FringeFrame:
 
 
 @dataclass(frozen=True)
-class CenterlineFrame:
+class CenterlineFrame(_LineFrameMethods):
     """A single bright line at projector coordinate ``position`` on a dark image (Sec. 2.5).
 
     The line is ``width_px`` projector pixels wide at gray level ``migl``; the rest is at gray
@@ -234,40 +248,6 @@ class CenterlineFrame:
         inside = np.abs(x - self.position) < half
         return np.where(inside, float(self.migl), float(self.background))
 
-    def gray_at(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
-        """Linear gray level at continuous projector coordinates (column ``u``, row ``v``).
-
-        Parameters
-        ----------
-        u, v : array_like
-            Projector column and row, broadcast together.
-
-        Returns
-        -------
-        ndarray of float64
-        """
-        return _line_gray_at(self, u, v)
-
-    def render(
-        self, width: int, height: int, gamma_hat: float = 1.0, bit_depth: int = 8
-    ) -> NDArray[np.integer]:
-        """Projector input image, shape (height, width); see :func:`render_frame`.
-
-        Parameters
-        ----------
-        width, height : int
-            Projector resolution.
-        gamma_hat : float
-            Gamma pre-compensation exponent (1.0: none).
-        bit_depth : int
-            Projector input bit depth.
-
-        Returns
-        -------
-        ndarray of uint8 or uint16
-        """
-        return _render_line(self, width, height, gamma_hat, bit_depth)
-
     def manifest_entry(self, file: str) -> dict[str, Any]:
         """The frame's capture-manifest entry (docs/capture_format.md).
 
@@ -301,7 +281,7 @@ class CenterlineFrame:
 
 
 @dataclass(frozen=True)
-class UniformFrame:
+class UniformFrame(_LineFrameMethods):
     """The whole projector at input gray ``level``.
 
     Parameters
@@ -336,40 +316,6 @@ class UniformFrame:
         ndarray of float64
         """
         return np.full(np.shape(coord), float(self.level))
-
-    def gray_at(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
-        """The level at continuous projector coordinates (column ``u``, row ``v``).
-
-        Parameters
-        ----------
-        u, v : array_like
-            Projector column and row, broadcast together.
-
-        Returns
-        -------
-        ndarray of float64
-        """
-        return _line_gray_at(self, u, v)
-
-    def render(
-        self, width: int, height: int, gamma_hat: float = 1.0, bit_depth: int = 8
-    ) -> NDArray[np.integer]:
-        """Projector input image, shape (height, width); see :func:`render_frame`.
-
-        Parameters
-        ----------
-        width, height : int
-            Projector resolution.
-        gamma_hat : float
-            Gamma pre-compensation exponent (1.0: none).
-        bit_depth : int
-            Projector input bit depth.
-
-        Returns
-        -------
-        ndarray of uint8 or uint16
-        """
-        return _render_line(self, width, height, gamma_hat, bit_depth)
 
     def manifest_entry(self, file: str) -> dict[str, Any]:
         """The frame's capture-manifest entry (docs/capture_format.md).
@@ -977,13 +923,13 @@ def _spec_from_entry(entry: dict[str, Any]) -> FringeSpec:
     )
 
 
-def _line_gray_at(frame: LineFrame, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+def _line_gray_at(frame: Any, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     uu, vv = np.broadcast_arrays(np.asarray(u, np.float64), np.asarray(v, np.float64))
     return frame.gray(uu if frame_axis(frame) == "vertical" else vv)
 
 
 def _render_line(
-    frame: LineFrame, width: int, height: int, gamma_hat: float, bit_depth: int
+    frame: Any, width: int, height: int, gamma_hat: float, bit_depth: int
 ) -> NDArray[np.integer]:
     """The separable path: one line along the frame's axis, broadcast to the full image."""
     if width < 1 or height < 1:

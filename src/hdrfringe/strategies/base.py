@@ -44,6 +44,7 @@ from hdrfringe.rig.base import Rig
 
 __all__ = [
     "CapturedSet",
+    "FunctionStrategy",
     "Strategy",
     "StrategyOption",
     "StrategyResult",
@@ -298,6 +299,60 @@ class Strategy(Protocol):  # numpydoc ignore=PR01
         str
         """
         ...
+
+
+class FunctionStrategy:
+    """Base of a strategy whose work is one function, ``function(rig, spec, **params)``.
+
+    A subclass sets ``name``, ``title``, ``help``, ``Params`` (a frozen dataclass whose fields
+    are the function's keyword arguments) and ``function``; :meth:`run` passes the parameters'
+    fields as keywords, and :meth:`describe` gives the name unless the subclass labels runs
+    itself. The built-in strategies are written this way.
+
+    Examples
+    --------
+    >>> from hdrfringe.strategies.lpa import LPA, LPAParams
+    >>> isinstance(LPA(), FunctionStrategy), LPA().describe(LPAParams(step=5.0))
+    (True, 'LPA S=5')
+    """
+
+    name: str
+    title: str
+    help: str
+    Params: type
+    function: Callable[..., StrategyResult]
+
+    def run(self, rig: Rig, spec: FringeSpec, params: Any) -> StrategyResult:
+        """Run the strategy's function with the fields of ``params`` as keyword arguments.
+
+        Parameters
+        ----------
+        rig : Rig
+            Any rig (virtual, replay, hardware).
+        spec : FringeSpec
+            The set, at its highest MIGL.
+        params : Params
+            The strategy's parameters.
+
+        Returns
+        -------
+        StrategyResult
+        """
+        return type(self).function(rig, spec, **param_values(params))
+
+    def describe(self, params: Any) -> str:
+        """Label of a run: the strategy's name.
+
+        Parameters
+        ----------
+        params : Params
+            The strategy's parameters (unused here; subclasses label runs by them).
+
+        Returns
+        -------
+        str
+        """
+        return self.name
 
 
 _REGISTRY: dict[str, Strategy] = {}

@@ -11,6 +11,7 @@ from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
+    FunctionStrategy,
     StrategyResult,
     capture_set,
     check_fringe_spec,
@@ -74,7 +75,7 @@ class ConventionalParams:
 
 
 @register
-class Conventional:
+class Conventional(FunctionStrategy):
     """The registry's ``conventional``: :func:`conventional`.
 
     Examples
@@ -87,40 +88,4 @@ class Conventional:
     title = "Conventional"
     help = "one set at the highest MIGL"
     Params = ConventionalParams
-
-    def run(self, rig: Rig, spec: FringeSpec, params: ConventionalParams) -> StrategyResult:
-        """Run :func:`conventional` with ``params``.
-
-        Parameters
-        ----------
-        rig : Rig
-            Any rig (virtual, replay, hardware).
-        spec : FringeSpec
-            The set, at its highest MIGL.
-        params : ConventionalParams
-            The parameters.
-
-        Returns
-        -------
-        StrategyResult
-        """
-        return conventional(rig, spec)
-
-    def describe(self, params: ConventionalParams) -> str:
-        """Label of a run: ``"conventional"``.
-
-        Parameters
-        ----------
-        params : ConventionalParams
-            The parameters.
-
-        Returns
-        -------
-        str
-
-        Examples
-        --------
-        >>> Conventional().describe(ConventionalParams())
-        'conventional'
-        """
-        return "conventional"
+    function = staticmethod(conventional)

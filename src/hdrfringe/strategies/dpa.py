@@ -34,6 +34,7 @@ from hdrfringe.saturation.estimate import (
 )
 from hdrfringe.strategies.base import (
     CapturedSet,
+    FunctionStrategy,
     StrategyResult,
     default_min_migl,
     merge_into_composite,
@@ -322,7 +323,7 @@ class DPAParams:
 
 
 @register
-class DPA:
+class DPA(FunctionStrategy):
     """The registry's ``dpa``: :func:`dpa`.
 
     Examples
@@ -337,31 +338,7 @@ class DPA:
         "dynamic pixel-wise adaptive (Ch. 6): sets where the estimated CDF says pixels unsaturate"
     )
     Params = DPAParams
-
-    def run(self, rig: Rig, spec: FringeSpec, params: DPAParams) -> StrategyResult:
-        """Run :func:`dpa` with ``params``.
-
-        Parameters
-        ----------
-        rig : Rig
-            Any rig (virtual, replay, hardware).
-        spec : FringeSpec
-            The set, at its highest MIGL.
-        params : DPAParams
-            The parameters.
-
-        Returns
-        -------
-        StrategyResult
-        """
-        return dpa(
-            rig,
-            spec,
-            threshold=params.threshold,
-            correction=params.correction,
-            min_migl=params.min_migl,
-            bound_pending=params.bound_pending,
-        )
+    function = staticmethod(dpa)
 
     def describe(self, params: DPAParams) -> str:
         """Label of a run: ``"DPA <threshold> %"``, with ``" + bound"`` for ``bound_pending``.

@@ -12,6 +12,7 @@ from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
+    FunctionStrategy,
     StrategyResult,
     capture_set,
     check_fringe_spec,
@@ -131,7 +132,7 @@ class LPAParams:
 
 
 @register
-class LPA:
+class LPA(FunctionStrategy):
     """The registry's ``lpa``: :func:`lpa`.
 
     Examples
@@ -144,24 +145,7 @@ class LPA:
     title = "LPA"
     help = "linear pixel-wise adaptive (Ch. 5): sets every S gray levels down from the top"
     Params = LPAParams
-
-    def run(self, rig: Rig, spec: FringeSpec, params: LPAParams) -> StrategyResult:
-        """Run :func:`lpa` with ``params``.
-
-        Parameters
-        ----------
-        rig : Rig
-            Any rig (virtual, replay, hardware).
-        spec : FringeSpec
-            The set, at its highest MIGL.
-        params : LPAParams
-            The parameters.
-
-        Returns
-        -------
-        StrategyResult
-        """
-        return lpa(rig, spec, step=params.step, min_migl=params.min_migl)
+    function = staticmethod(lpa)
 
     def describe(self, params: LPAParams) -> str:
         """Label of a run: ``"LPA S=<step>"``.

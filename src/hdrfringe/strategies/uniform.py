@@ -13,6 +13,7 @@ from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
+    FunctionStrategy,
     StrategyResult,
     capture_set,
     check_fringe_spec,
@@ -182,7 +183,7 @@ class UniformParams:
 
 
 @register
-class Uniform:
+class Uniform(FunctionStrategy):
     """The registry's ``uniform``: :func:`uniform`.
 
     Examples
@@ -195,31 +196,7 @@ class Uniform:
     title = "Uniform"
     help = "one MIGL for every pixel (Ch. 4): given, or the highest that does not saturate"
     Params = UniformParams
-
-    def run(self, rig: Rig, spec: FringeSpec, params: UniformParams) -> StrategyResult:
-        """Run :func:`uniform` with ``params``.
-
-        Parameters
-        ----------
-        rig : Rig
-            Any rig (virtual, replay, hardware).
-        spec : FringeSpec
-            The set, at its highest MIGL.
-        params : UniformParams
-            The parameters.
-
-        Returns
-        -------
-        StrategyResult
-        """
-        return uniform(
-            rig,
-            spec,
-            migl=params.migl,
-            tolerance=params.tolerance,
-            min_migl=params.min_migl,
-            candidates=params.candidates,
-        )
+    function = staticmethod(uniform)
 
     def describe(self, params: UniformParams) -> str:
         """Label of a run: ``"uniform auto"``, or ``"uniform MIGL <m>"`` with a given MIGL.
