@@ -94,10 +94,10 @@ def _check_numbers(value: Any, where: str) -> None:
                 f"{where}: field '{field}' holds a number of {len(v.text)} characters, more than "
                 f"the limit of {MAX_NUMBER_DIGITS}; write it with fewer digits"
             )
-        if isinstance(v, dict):
-            stack.extend((item, f"{path}.{key}") for key, item in v.items())
+        if isinstance(v, dict):  # reversed: the first in the file is reported
+            stack.extend((item, f"{path}.{key}") for key, item in reversed(v.items()))
         elif isinstance(v, list):
-            stack.extend((item, f"{path}[{i}]") for i, item in enumerate(v))
+            stack.extend((item, f"{path}[{i}]") for i, item in reversed(list(enumerate(v))))
 
 
 def load_json_bounded(path: str | Path) -> Any:
