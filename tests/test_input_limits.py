@@ -346,3 +346,21 @@ def _cli_refuses_after_escape(folder: Path, link: Path, outside: Path) -> None:
     link.unlink()
     link.symlink_to(os.path.relpath(outside / link.name, folder))
     _cli_refuses(folder, link.name, "outside the capture folder")
+
+
+def test_docs_list_every_reader_limit() -> None:
+    """docs/capture_format.md's Limits section names each bound the reader checks."""
+    docs = Path(__file__).resolve().parents[1] / "docs" / "capture_format.md"
+    text = docs.read_text(encoding="utf-8")
+    section = text[text.index("## Limits") : text.index("## In memory")]
+    for name in (
+        "MAX_MANIFEST_BYTES",
+        "MAX_JSON_DEPTH",
+        "MAX_NUMBER_DIGITS",
+        "MAX_PROGRAM_FRAMES",
+        "MAX_STEPS",
+        "MAX_IMAGE_PIXELS",
+        "MAX_FOLDER_PIXELS",
+        "MAX_PROJECTOR_PIXELS",
+    ):
+        assert f"`{name}`" in section, name
