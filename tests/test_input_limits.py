@@ -364,3 +364,26 @@ def test_docs_list_every_reader_limit() -> None:
         "MAX_PROJECTOR_PIXELS",
     ):
         assert f"`{name}`" in section, name
+
+
+def _png_header_only(path: Path, width: int, height: int) -> None:
+    """A PNG whose header declares width x height 8-bit gray pixels and holds no pixel data."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        crc = zlib.crc32(kind + data)
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("side", [12000, 60000])  # under and over Pillow's own bomb limit
+def test_huge_declared_png_is_refused_by_our_limit(
+    capture_folder: Path, recwarn: pytest.WarningsRecorder, side: int
+) -> None:
+    name = _manifest(capture_folder)["frames"][0]["file"]
+    _png_header_only(capture_folder / name, side, side)
+    with pytest.raises(CaptureFormatError) as exc:
+        read_capture_folder(capture_folder)
+    _one_line(exc, name, "declares", "more than", str(MAX_IMAGE_PIXELS))
+    assert not recwarn.list  # Pillow's decompression-bomb warning is not shown
