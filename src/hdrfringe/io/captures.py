@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import posixpath
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -34,8 +35,14 @@ from hdrfringe.captures import (
 )
 from hdrfringe.errors import CaptureFormatError
 from hdrfringe.frames import IMAGE_FRAMES, Frame
-from hdrfringe.io.results import read_map_tiff, staged_output_dir, write_map_tiff
-from hdrfringe.limits import MAX_PROJECTOR_PIXELS
+from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
+from hdrfringe.io.results import staged_output_dir, write_map_tiff
+from hdrfringe.limits import (
+    MAX_FOLDER_PIXELS,
+    MAX_PROGRAM_FRAMES,
+    MAX_PROJECTOR_PIXELS,
+    MAX_STEPS,
+)
 from hdrfringe.patterns import ORIENTATIONS, PATTERNS
 
 if TYPE_CHECKING:
@@ -76,6 +83,9 @@ _SIDE_DTYPES = {
     ".tif": (np.dtype(np.float32), np.dtype(np.uint8), np.dtype(np.uint16)),
     ".tiff": (np.dtype(np.float32), np.dtype(np.uint8), np.dtype(np.uint16)),
 }
+
+#: Pixel types of the maps listed in ``maps`` (what write_map_tiff writes, and float64).
+_MAP_DTYPES = tuple(np.dtype(t) for t in (np.float32, np.float64, np.uint8, np.uint16))
 
 #: Luma weights (ITU-R BT.601) used when a capture is an RGB image.
 RGB_LUMA_WEIGHTS = (0.299, 0.587, 0.114)
@@ -133,10 +143,23 @@ def _safe_relpath(file: Any, where: str, key: str = "file") -> str:
     return norm
 
 
+def _confined(folder: Path, rel: str, what: str) -> Path:
+    """``folder / rel``, refused when it (through any symlink) resolves outside the folder."""
+    path = folder / rel
+    root = folder.resolve()
+    target = path.resolve()
+    if target != root and not target.is_relative_to(root):
+        raise CaptureFormatError(
+            f"{path}: {what} resolves to {target}, outside the capture folder (a symlink); "
+            "copy the file into the folder"
+        )
+    return path
+
+
 def _check_fringe_fields(entry: dict[str, Any], where: str) -> None:
     pattern = _choice(entry, "pattern", where, PATTERNS)
     min_steps = 3 if pattern == "sinusoidal" else 2
-    steps = _integer(entry, "steps", where, min_steps, 1000)
+    steps = _integer(entry, "steps", where, min_steps, MAX_STEPS)
     _integer(entry, "shift", where, 0, steps - 1)
     _number(entry, "pitch", where, positive=True)
     _choice(entry, "orientation", where, ORIENTATIONS)
@@ -261,10 +284,7 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
             f"{folder}: no manifest.json; a capture folder needs one listing its frames "
             "(see docs/capture_format.md)"
         )
-    try:
-        manifest = json.loads(mpath.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CaptureFormatError(f"{mpath}: not valid JSON ({exc}); fix or regenerate it") from None
+    manifest = load_json_bounded(_confined(folder, "manifest.json", "manifest"))
     where = str(mpath)
     if not isinstance(manifest, dict):
         raise _fail(where, "top level is not a JSON object", "see docs/capture_format.md")
@@ -287,6 +307,9 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     if not isinstance(camera, dict):
         raise _fail(where, "'camera' is not an object", 'use {"bit_depth": B}')
     _integer(camera, "bit_depth", f"{where} camera", 1, 16)
+    for key in ("focal_px", "standoff_mm"):  # the camera geometry, where given
+        if key in camera:
+            _number(camera, key, f"{where} camera", positive=True)
     projector = manifest.get("projector")
     if projector is not None:
         if not isinstance(projector, dict):
@@ -307,6 +330,12 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     frames = _require(manifest, "frames", where)
     if not isinstance(frames, list) or not frames:
         raise _fail(where, "'frames' must be a non-empty list", "list one entry per image")
+    if len(frames) > MAX_PROGRAM_FRAMES:
+        raise _fail(
+            where,
+            f"{len(frames)} frames, more than the limit of {MAX_PROGRAM_FRAMES}",
+            "split the captures into several folders",
+        )
     manifest = dict(manifest)
     manifest["frames"] = [_validate_frame(e, i, version) for i, e in enumerate(frames)]
     with_data = [i for i, e in enumerate(manifest["frames"]) if e["kind"] in _DATA_FIELDS]
@@ -372,6 +401,8 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
         raise CaptureFormatError(
             f"{path}: image file named in the manifest does not exist; add it or fix the manifest"
         )
+    header = probe_image(path)  # size from the header, before any pixel is decoded
+    _check_image_layout(path, header.shape, header.dtype)
     try:
         if path.suffix.lower() in (".tif", ".tiff"):
             import tifffile
@@ -379,16 +410,24 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
             img = tifffile.imread(path)
         else:
             import imageio.v3 as iio
+            from PIL import Image
 
-            img = iio.imread(path)
+            with warnings.catch_warnings():  # within MAX_IMAGE_PIXELS, checked above
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                img = iio.imread(path)
     except Exception as exc:  # any decoder failure: truncated, corrupt, not an image
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise CaptureFormatError(
-            f"{path}: cannot read the image ({reason}); the file is corrupt or truncated: "
-            "recapture or re-export it"
+            f"{path}: cannot read the image ({reason_of(exc)}); the file is corrupt or "
+            "truncated: recapture or re-export it"
         ) from None
     img = np.asarray(img)
+    _check_image_layout(path, img.shape, img.dtype)
     full = full_scale(bit_depth)
+    if img.dtype.kind == "i" and img.size and img.min() < 0:
+        raise CaptureFormatError(
+            f"{path}: values go down to {int(img.min())}; camera counts are never negative: "
+            "store them as unsigned integers"
+        )
     if img.ndim == 3 and img.shape[-1] in (3, 4):
         rgb = img[..., :3]
         if rgb.max(initial=0) > full:
@@ -399,16 +438,6 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
         luma = rgb.astype(np.float32) @ np.asarray(RGB_LUMA_WEIGHTS, dtype=np.float32)
         luma[is_saturated(rgb, bit_depth).any(axis=-1)] = full
         return luma
-    if img.ndim != 2:
-        raise CaptureFormatError(
-            f"{path}: image has shape {img.shape}; captures must be single-channel "
-            "(or RGB, converted to luma)"
-        )
-    if img.dtype.kind not in "ui":
-        raise CaptureFormatError(
-            f"{path}: image dtype {img.dtype} is not an integer 8- or 16-bit container; "
-            "store camera counts as 8- or 16-bit integers"
-        )
     if img.max(initial=0) > full:
         raise CaptureFormatError(
             f"{path}: values reach {int(img.max())}, above 2^B - 1 = {full} for camera bit "
@@ -417,21 +446,48 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
     return img
 
 
+def _check_image_layout(path: Path, shape: tuple[int, ...], dtype: np.dtype) -> None:
+    """A capture image is (H, W) or RGB(A) (H, W, 3|4) of 8- or 16-bit integers."""
+    if not (len(shape) == 2 or (len(shape) == 3 and shape[-1] in (3, 4))):
+        raise CaptureFormatError(
+            f"{path}: image has shape {tuple(shape)}; captures must be single-channel "
+            "(or RGB, converted to luma)"
+        )
+    if dtype.kind not in "ui" or dtype.itemsize > 2:
+        raise CaptureFormatError(
+            f"{path}: image dtype {dtype} is not an integer 8- or 16-bit container; "
+            "store camera counts as 8- or 16-bit integers"
+        )
+
+
 def _read_map(path: Path, key: str, shape: tuple[int, ...]) -> NDArray:
-    """One float map listed in the manifest's ``maps``, checked against the image size."""
+    """One map listed in the manifest's ``maps``, its size and type checked from the header
+    against the images before it is decoded."""
+    header = probe_image(path, f"map {key!r}")
+    _check_map(path, header.shape, header.dtype, shape)
     try:
-        data = read_map_tiff(path)
-    except Exception as exc:  # any decoder failure: truncated, corrupt, not a TIFF
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        import tifffile
+
+        data = np.asarray(tifffile.imread(path))
+    except Exception as exc:  # any decoder failure: truncated, corrupt data
+        reason = reason_of(exc)
         raise CaptureFormatError(
             f"{path}: cannot read map {key!r} ({reason}); regenerate it or remove the 'maps' entry"
         ) from None
-    if data.shape != shape:
-        got = f"{data.shape[1]}x{data.shape[0]}" if data.ndim == 2 else f"of shape {data.shape}"
-        raise CaptureFormatError(
-            f"{path}: map is {got} but the images are {shape[1]}x{shape[0]}; regenerate it"
-        )
+    _check_map(path, data.shape, data.dtype, shape)
     return data
+
+
+def _check_map(path: Path, got: tuple[int, ...], dtype: np.dtype, shape: tuple[int, ...]) -> None:
+    if tuple(got) != tuple(shape):
+        size = f"{got[1]}x{got[0]}" if len(got) == 2 else f"of shape {tuple(got)}"
+        raise CaptureFormatError(
+            f"{path}: map is {size} but the images are {shape[1]}x{shape[0]}; regenerate it"
+        )
+    if dtype not in _MAP_DTYPES:
+        raise CaptureFormatError(
+            f"{path}: map holds {dtype} values; store float32 (or 8- or 16-bit integers)"
+        )
 
 
 def _side_file_header(path: Path, suffix: str) -> tuple[tuple[int, ...], str]:
@@ -573,7 +629,8 @@ class _SideFileLoader:
     def __call__(self, rel: str) -> NDArray[Any]:
         rel = _safe_relpath(rel, f"{self.folder / 'manifest.json'} side file", "side file")
         if rel not in self._cache:
-            self._cache[rel] = load_side_file(self.folder / rel, self.projector)
+            path = _confined(self.folder, rel, "side file")
+            self._cache[rel] = load_side_file(path, self.projector)
         return self._cache[rel]
 
 
@@ -625,18 +682,29 @@ def read_capture_folder(path: str | Path) -> Captures:
                 f"manifest frame {i} names {side} as its side file, but it is the camera image of "
                 f"frame {seen[side]}; keep projector data and camera images in separate files"
             )
-    images: list[NDArray] = []
-    shape0: tuple[int, ...] | None = None
-    for entry in entries:
-        img = load_image(folder / entry["file"], bit_depth)
-        if shape0 is None:
-            shape0 = img.shape
-        elif img.shape != shape0:
+    # every image's size from its header before any is decoded: one size, bounded in total
+    paths = [_confined(folder, entry["file"], "image") for entry in entries]
+    for path in paths:
+        if not path.is_file():
             raise CaptureFormatError(
-                f"{folder / entry['file']}: image is {img.shape[1]}x{img.shape[0]} but "
-                f"{entries[0]['file']} is {shape0[1]}x{shape0[0]}; all images of a folder must "
-                "have one size"
+                f"{path}: image file named in the manifest does not exist; add it or fix the "
+                "manifest"
             )
+    shape0: tuple[int, ...] = probe_image(paths[0]).shape[:2]
+    for path in paths:
+        header = probe_image(path)
+        _check_image_layout(path, header.shape, header.dtype)
+        _check_size(path, header.shape[:2], shape0, entries[0]["file"])
+    total = len(paths) * math.prod(shape0)
+    if total > MAX_FOLDER_PIXELS:
+        raise CaptureFormatError(
+            f"{folder}: {len(paths)} images of {shape0[1]}x{shape0[0]} are {total} pixels, more "
+            f"than the limit of {MAX_FOLDER_PIXELS}; split the captures into several folders"
+        )
+    images: list[NDArray] = []
+    for path in paths:
+        img = load_image(path, bit_depth)
+        _check_size(path, img.shape[:2], shape0, entries[0]["file"])
         images.append(img)
     kinds = {im.dtype for im in images}
     dtype = np.result_type(*kinds) if len(kinds) > 1 else images[0].dtype
@@ -656,12 +724,20 @@ def read_capture_folder(path: str | Path) -> Captures:
                 f"{folder / 'manifest.json'}: map {key!r} names {file!r}, which is not a TIFF file "
                 "in the folder; fix or remove the 'maps' entry"
             )
-        maps[key] = _read_map(folder / rel, key, stack.shape[1:])
+        maps[key] = _read_map(_confined(folder, rel, f"map {key!r}"), key, stack.shape[1:])
     projector = manifest.get("projector")
     loader = None
     if projector is not None:
         loader = _SideFileLoader(folder, ProjectorInfo.from_manifest(projector))
     return Captures.from_manifest(manifest, stack, maps, name=str(folder), load_array=loader)
+
+
+def _check_size(path: Path, got: tuple[int, ...], shape0: tuple[int, ...], first: str) -> None:
+    if tuple(got) != tuple(shape0):
+        raise CaptureFormatError(
+            f"{path}: image is {got[1]}x{got[0]} but {first} is {shape0[1]}x{shape0[0]}; all "
+            "images of a folder must have one size"
+        )
 
 
 def _default_stems(frames: Sequence[Frame]) -> list[str]:

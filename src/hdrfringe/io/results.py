@@ -174,7 +174,7 @@ def write_map_tiff(path: str | Path, data: ArrayLike) -> None:
 
 
 def read_map_tiff(path: str | Path) -> np.ndarray:
-    """Read a map written by :func:`write_map_tiff`.
+    """Read a map written by :func:`write_map_tiff`, its size checked from the header first.
 
     Parameters
     ----------
@@ -185,6 +185,13 @@ def read_map_tiff(path: str | Path) -> np.ndarray:
     -------
     ndarray
         The map in its stored dtype (float32 for float and bool maps).
+
+    Raises
+    ------
+    CaptureFormatError
+        A truncated, corrupt or non-TIFF file, or a header declaring more than
+        :data:`hdrfringe.limits.MAX_IMAGE_PIXELS` pixels (refused before decoding), in one line
+        naming the file.
 
     Examples
     --------
@@ -197,7 +204,17 @@ def read_map_tiff(path: str | Path) -> np.ndarray:
     """
     import tifffile
 
-    return tifffile.imread(path)
+    from hdrfringe.errors import CaptureFormatError
+    from hdrfringe.io._read_limits import probe_image, reason_of
+
+    probe_image(path, "the map")
+    try:
+        return tifffile.imread(path)
+    except Exception as exc:  # any decoder failure: truncated, corrupt data
+        raise CaptureFormatError(
+            f"{path}: cannot read the map ({reason_of(exc)}); the file is corrupt or "
+            "truncated: regenerate it"
+        ) from None
 
 
 def write_preview_png(

@@ -1,0 +1,282 @@
+"""Bounded readers for hostile input: a JSON file and image headers, checked before decoding.
+
+:func:`load_json_bounded` refuses a file above :data:`~hdrfringe.limits.MAX_MANIFEST_BYTES`
+before reading it, nesting beyond :data:`~hdrfringe.limits.MAX_JSON_DEPTH` before parsing it (the
+standard parser would recurse until :class:`RecursionError`), and number literals longer than
+:data:`~hdrfringe.limits.MAX_NUMBER_DIGITS` (which would raise ``ValueError`` from the integer
+digit limit, or ``OverflowError`` when converted to float), naming the field that holds one.
+:func:`probe_image` reads an image's shape and pixel type from its header only and refuses one
+above :data:`~hdrfringe.limits.MAX_IMAGE_PIXELS`, so a small file declaring a huge image costs
+nothing. Every failure is one :class:`~hdrfringe.errors.CaptureFormatError` line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from hdrfringe.errors import CaptureFormatError
+from hdrfringe.limits import (
+    MAX_IMAGE_PIXELS,
+    MAX_JSON_DEPTH,
+    MAX_MANIFEST_BYTES,
+    MAX_NUMBER_DIGITS,
+)
+
+__all__ = ["ImageHeader", "load_json_bounded", "probe_image", "reason_of"]
+
+#: A JSON string literal (unrolled loop: linear time, no backtracking).
+_JSON_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
+_BRACKETS = re.compile(r"[\[\]{}]")
+
+
+class _LongNumber:
+    """A number literal longer than MAX_NUMBER_DIGITS, kept as text until its field is known."""
+
+    def __init__(self, text: str) -> None:
+        self.text = text
+
+
+def _number_hook(text: str, convert: type) -> Any:
+    if len(text) > MAX_NUMBER_DIGITS:
+        return _LongNumber(text)
+    return convert(text)
+
+
+def reason_of(exc: BaseException) -> str:
+    """The first line of an exception's message, or its type name when it has none.
+
+    Parameters
+    ----------
+    exc : BaseException
+        Any exception, e.g. from a decoder.
+
+    Returns
+    -------
+    str
+        One line, to quote inside a one-line error.
+
+    Examples
+    --------
+    >>> reason_of(ValueError("bad\\nmore"))
+    'bad'
+    >>> reason_of(KeyError())
+    'KeyError'
+    """
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _check_depth(text: str, where: str) -> None:
+    depth = 0
+    for m in _BRACKETS.finditer(_JSON_STRING.sub("", text)):
+        depth += 1 if m.group() in "[{" else -1
+        if depth > MAX_JSON_DEPTH:
+            raise CaptureFormatError(
+                f"{where}: arrays and objects nested more than {MAX_JSON_DEPTH} deep, the limit; "
+                "fix or regenerate the file"
+            )
+
+
+def _check_numbers(value: Any, where: str) -> None:
+    stack: list[tuple[Any, str]] = [(value, "")]
+    while stack:
+        v, path = stack.pop()
+        if isinstance(v, _LongNumber):
+            field = path.lstrip(".") or "the top level"
+            raise CaptureFormatError(
+                f"{where}: field '{field}' holds a number of {len(v.text)} characters, more than "
+                f"the limit of {MAX_NUMBER_DIGITS}; write it with fewer digits"
+            )
+        if isinstance(v, dict):  # reversed: the first in the file is reported
+            stack.extend((item, f"{path}.{key}") for key, item in reversed(v.items()))
+        elif isinstance(v, list):
+            stack.extend((item, f"{path}[{i}]") for i, item in reversed(list(enumerate(v))))
+
+
+def load_json_bounded(path: str | Path) -> Any:
+    """Parse a JSON file within the manifest limits, refusing hostile content in one line.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file (a capture folder's ``manifest.json``).
+
+    Returns
+    -------
+    Any
+        The parsed value; numbers are int or float (``NaN``/``Infinity`` literals are kept
+        as float: the fields that must be finite refuse them).
+
+    Raises
+    ------
+    CaptureFormatError
+        A file above :data:`~hdrfringe.limits.MAX_MANIFEST_BYTES`, not UTF-8, not JSON, nested
+        beyond :data:`~hdrfringe.limits.MAX_JSON_DEPTH`, or with a number literal longer than
+        :data:`~hdrfringe.limits.MAX_NUMBER_DIGITS` (the message names its field).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> path = Path(tempfile.mkdtemp()) / "m.json"
+    >>> _ = path.write_text('{"frames": [{"pitch": 8.5}]}')
+    >>> load_json_bounded(path)
+    {'frames': [{'pitch': 8.5}]}
+    >>> _ = path.write_text('{"frames": [{"pitch": 1' + "0" * 400 + '}]}')
+    >>> load_json_bounded(path)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.CaptureFormatError: ...: field 'frames[0].pitch' holds a number of 401 ...
+    """
+    path = Path(path)
+    where = str(path)
+    size = path.stat().st_size
+    if size > MAX_MANIFEST_BYTES:
+        raise CaptureFormatError(
+            f"{where}: {size} bytes, more than the limit of {MAX_MANIFEST_BYTES}; a manifest "
+            "lists frames, it holds no image data"
+        )
+    with path.open("rb") as fh:  # read at most the limit, even if the file grew meanwhile
+        raw = fh.read(MAX_MANIFEST_BYTES + 1)
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise CaptureFormatError(f"{where}: not UTF-8 text ({exc}); fix or regenerate it") from None
+    _check_depth(text, where)
+    try:
+        value = json.loads(
+            text,
+            parse_int=lambda t: _number_hook(t, int),
+            parse_float=lambda t: _number_hook(t, float),
+        )
+    except json.JSONDecodeError as exc:
+        raise CaptureFormatError(f"{where}: not valid JSON ({exc}); fix or regenerate it") from None
+    except (ValueError, RecursionError) as exc:  # not expected after the checks above
+        raise CaptureFormatError(
+            f"{where}: cannot parse ({reason_of(exc)}); fix or regenerate it"
+        ) from None
+    _check_numbers(value, where)
+    return value
+
+
+class ImageHeader:
+    """Shape and pixel type of an image, read from its header without decoding pixels.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        What decoding would return: (H, W), (H, W, channels), or (pages, H, W) for a
+        multi-page TIFF.
+    dtype : numpy.dtype
+        The decoded pixel type.
+
+    Examples
+    --------
+    >>> ImageHeader((4, 5), np.dtype(np.uint8)).pixels
+    20
+    """
+
+    def __init__(self, shape: tuple[int, ...], dtype: np.dtype) -> None:
+        self.shape = tuple(int(n) for n in shape)
+        self.dtype = np.dtype(dtype)
+
+    @property
+    def pixels(self) -> int:
+        """Height x width (x pages); colour channels (a last axis of 3 or 4) not counted."""
+        shape = self.shape
+        if len(shape) == 3 and shape[-1] in (3, 4):
+            shape = shape[:-1]
+        return math.prod(shape)
+
+
+_PIL_DTYPES = {
+    "1": np.bool_,
+    "L": np.uint8,
+    "P": np.uint8,
+    "LA": np.uint8,
+    "RGB": np.uint8,
+    "RGBA": np.uint8,
+    "I;16": np.uint16,
+    "I;16B": np.uint16,
+    "I;16L": np.uint16,
+    "I": np.int32,
+    "F": np.float32,
+}
+
+
+def probe_image(path: str | Path, what: str = "the image") -> ImageHeader:
+    """Read a PNG or TIFF's shape and pixel type from its header and check the pixel limit.
+
+    TIFF (``.tif``, ``.tiff``) headers are read with tifffile (the first series, as
+    ``tifffile.imread`` decodes it), others with Pillow; Pillow's decompression-bomb warning is
+    silenced here, as :data:`~hdrfringe.limits.MAX_IMAGE_PIXELS` is the bound that applies.
+
+    Parameters
+    ----------
+    path : str or Path
+        The image file.
+    what : str
+        What the file is, for messages (``"the image"``, ``"map 'truth_height_mm'"``).
+
+    Returns
+    -------
+    ImageHeader
+        Shape and dtype decoding would give.
+
+    Raises
+    ------
+    CaptureFormatError
+        An unreadable header (truncated, corrupt, not that format), or more pixels than
+        :data:`~hdrfringe.limits.MAX_IMAGE_PIXELS`.
+
+    Examples
+    --------
+    >>> import tempfile, tifffile
+    >>> path = Path(tempfile.mkdtemp()) / "m.tiff"
+    >>> tifffile.imwrite(path, np.zeros((3, 4), np.float32))
+    >>> h = probe_image(path, "the map")
+    >>> h.shape, h.dtype
+    ((3, 4), dtype('float32'))
+    """
+    path = Path(path)
+    try:
+        if path.suffix.lower() in (".tif", ".tiff"):
+            import tifffile
+
+            with tifffile.TiffFile(path) as tif:
+                series = tif.series[0]
+                header = ImageHeader(series.shape, series.dtype)
+        else:
+            from PIL import Image
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(path) as im:
+                    width, height = im.size
+                    bands = len(im.getbands())
+                    dtype = _PIL_DTYPES.get(im.mode, np.uint8)
+            shape = (height, width) if bands == 1 else (height, width, bands)
+            header = ImageHeader(shape, np.dtype(dtype))
+    except Exception as exc:  # any header parser failure: truncated, corrupt, not an image
+        if type(exc).__name__ == "DecompressionBombError":  # Pillow: above 2 x 89 Mpx
+            raise CaptureFormatError(
+                f"{path}: {what} declares more than {MAX_IMAGE_PIXELS} pixels, the limit "
+                f"({reason_of(exc)}); store images of at most that size"
+            ) from None
+        raise CaptureFormatError(
+            f"{path}: cannot read {what} ({reason_of(exc)}); the file is corrupt, truncated "
+            "or not a PNG/TIFF: regenerate it"
+        ) from None
+    if header.pixels > MAX_IMAGE_PIXELS:
+        raise CaptureFormatError(
+            f"{path}: {what} declares {'x'.join(map(str, header.shape))} = {header.pixels} "
+            f"pixels, more than the limit of {MAX_IMAGE_PIXELS}; store images of at most that "
+            "size"
+        )
+    return header
