@@ -1,0 +1,177 @@
+"""Damaged or hostile inputs (issue 11): calibrations, the Dask scheduler address, small cases.
+
+Each case failed on the code before issue 11 (exit 0 with wrong numbers, a traceback or a
+hang); each now gives a one-line error, exit 2, and writes nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hdrfringe.calibration import Calibration, calibrate, check_calibration
+from hdrfringe.errors import InputError
+from hdrfringe.io.calibration_file import (
+    CalibrationFileError,
+    load_calibration,
+    save_calibration,
+)
+from tests.conftest import run_cli
+
+
+def _one_line_failure(res, *needles: str) -> None:
+    assert res.returncode == 2, res.stdout + res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr
+    assert "Traceback" not in res.stderr
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
+# --------------------------------------------------------------------------------------------
+# calibrations: finite, sane values on write and on read
+# --------------------------------------------------------------------------------------------
+SHAPE = (30, 40)
+DEPTHS = np.array([2.0, 4.0, 6.0, 8.0])
+
+
+def _synthetic_cal(model: str = "rational") -> Calibration:
+    """A calibration of a rig with a column-dependent ``h = dphi / (a + b dphi)``."""
+    yy, xx = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]].astype(float)
+    a = 2.0 + 0.01 * xx
+    b = 0.002 + 0.0001 * yy
+    ref = 0.3 * xx
+    phases = np.stack([ref + a * h / (1 - b * h) for h in DEPTHS])
+    return calibrate(ref, phases, DEPTHS, model=model, window_px=5, border_px=2)
+
+
+@pytest.fixture(scope="module")
+def good_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return save_calibration(tmp_path_factory.mktemp("cal") / "good.h5", _synthetic_cal())
+
+
+def _damaged(good: Path, tmp_path: Path, dataset: str, value: float, name: str) -> Path:
+    import h5py
+
+    path = tmp_path / name
+    shutil.copyfile(good, path)
+    with h5py.File(path, "r+") as f:
+        data = f[dataset][()]
+        data[...] = value
+        f[dataset][...] = data
+    return path
+
+
+def test_good_calibration_passes_and_round_trips(good_file: Path) -> None:
+    cal = load_calibration(good_file)
+    check_calibration(cal)
+    assert cal.model == "rational" and np.isfinite(cal.k_map).all()
+
+
+@pytest.mark.parametrize(
+    ("dataset", "value", "needle"),
+    [
+        ("coefficients", np.inf, "/coefficients holds +-inf"),
+        ("k_map", np.inf, "/k_map holds +-inf"),
+        ("k_map", np.nan, "finite at 0 of"),
+        ("coefficients", np.nan, "finite at 0 of"),
+        ("reference_phase", np.nan, "finite at 0 of"),
+        ("k_map", 1e-30, "/k_map gives a median phase shift"),
+        ("coefficients", 1e12, "/coefficients (rational) give"),
+        ("residual_rms_mm/rational", np.nan, "/residual_rms_mm/rational has a median of nan"),
+        ("residual_rms_mm/rational", 1e6, "/residual_rms_mm/rational has a median of 1e+06"),
+        ("depths_mm", np.nan, "/depths_mm must be finite"),
+    ],
+)
+def test_damaged_calibration_refused_on_read(
+    good_file: Path, tmp_path: Path, dataset: str, value: float, needle: str
+) -> None:
+    path = _damaged(good_file, tmp_path, dataset, value, "bad.h5")
+    with pytest.raises(CalibrationFileError) as info:
+        load_calibration(path)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(str(path)) and needle in msg, msg
+    assert "recalibrate" in msg or "depths" in msg
+
+
+def test_damaged_calibration_refused_on_write(tmp_path: Path) -> None:
+    good = _synthetic_cal("linear")
+    bad = Calibration(
+        "linear",
+        np.full(SHAPE, np.inf),
+        None,
+        good.reference_phase,
+        good.depths_mm,
+        border_px=2,
+    )
+    out = tmp_path / "bad.h5"
+    with pytest.raises(InputError, match=r"refusing to write.*/k_map holds"):
+        save_calibration(out, bad)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_calibrate_refuses_an_absurd_depth_before_computing() -> None:
+    ref = np.zeros(SHAPE)
+    phases = np.stack([ref + 1.0, ref + 2.0])
+    with pytest.raises(InputError, match="depth 1e\\+300 mm, beyond 1e\\+06 mm"):
+        calibrate(ref, phases, [2.0, 1e300])
+
+
+def test_calibrate_refuses_a_result_without_usable_pixels() -> None:
+    ref = np.zeros(SHAPE)
+    phases = np.full((2, *SHAPE), np.nan)
+    with pytest.raises(InputError, match="finite at 0 of"):
+        calibrate(ref, phases, [2.0, 4.0], window_px=5, border_px=2)
+
+
+def test_sane_bounds_keep_noisy_and_partly_invalid_calibrations() -> None:
+    """The bounds accept a noisy calibration with 95 % of its pixels invalid."""
+    rng = np.random.default_rng(1)
+    xx = np.mgrid[0 : SHAPE[0], 0 : SHAPE[1]][1].astype(float)
+    ref = 0.3 * xx
+    phases = np.stack([ref + h / 0.4 for h in DEPTHS]) + rng.normal(0, 0.2, (4, *SHAPE))
+    phases[:, rng.random(SHAPE) < 0.95] = np.nan
+    for model in ("linear", "rational", "poly2", "poly3"):
+        cal = calibrate(ref, phases, DEPTHS, model=model, window_px=1, border_px=0)
+        check_calibration(cal)
+
+
+@pytest.fixture(scope="module")
+def plates(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("plates") / "series"
+    res = run_cli(
+        "simulate", "white_plate", "-o", str(root), "--series", "0,4,8", "--steps", "3",
+        "--pitch", "6",
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    return root
+
+
+def test_cli_measure_with_inf_coefficients_refused(
+    plates: Path, good_file: Path, tmp_path: Path
+) -> None:
+    """Before: "valid 100 %" and every height 0 mm."""
+    path = _damaged(good_file, tmp_path, "coefficients", np.inf, "inf.h5")
+    out = tmp_path / "m"
+    folder = sorted(plates.iterdir())[1]
+    res = run_cli("measure", str(folder), "-c", str(path), "-o", str(out))
+    _one_line_failure(res, "inf.h5", "/coefficients")
+    assert not out.exists()
+
+
+def test_cli_calibrate_with_depth_1e300_refused(plates: Path, tmp_path: Path) -> None:
+    """Before: wrote a calibration whose residual was "nan mm"."""
+    series = tmp_path / "series"
+    shutil.copytree(plates, series)
+    manifest = sorted(series.iterdir())[2] / "manifest.json"
+    data = json.loads(manifest.read_text())
+    data["scene"]["depth_mm"] = 1e300
+    manifest.write_text(json.dumps(data))
+    out = tmp_path / "cal.h5"
+    res = run_cli("calibrate", str(series), "-o", str(out))
+    _one_line_failure(res, "1e+300 mm")
+    assert not out.exists() and not list(tmp_path.glob(".cal.h5*"))
