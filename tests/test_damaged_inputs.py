@@ -27,6 +27,7 @@ from hdrfringe.io.calibration_file import (
     save_calibration,
 )
 from hdrfringe.reproduce.engine import SCHEDULER_TIMEOUT_S, check_scheduler
+from hdrfringe.unwrap import centerline_phase
 from tests.conftest import run_cli
 
 
@@ -263,3 +264,57 @@ def test_cli_reproduce_with_a_bad_scheduler_writes_nothing(
         assert time.monotonic() - start < SCHEDULER_TIMEOUT_S + 8
     _one_line_failure(res, "no Dask scheduler answered", address)
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------------------------
+# options blamed on the centerline before: each now names itself
+# --------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def sweep(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("sweep") / "sweep"
+    res = run_cli(
+        "simulate", "white_plate", "-o", str(root), "--migl-sweep", "255:155:50", "--steps",
+        "3", "--pitch", "6", "--ambient-lux", "600",
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    return root
+
+
+@pytest.mark.parametrize("value", ["5", "-0.1", "nan"])
+def test_cli_tolerance_out_of_range_names_the_option(
+    sweep: Path, tmp_path: Path, value: str
+) -> None:
+    out = tmp_path / "m"
+    res = run_cli(
+        "measure", str(sweep), "--method", "uniform", "--tolerance", value, "-o", str(out)
+    )
+    _one_line_failure(res, "--tolerance", "[0, 1]")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("value", ["nan", "-1", "inf", "200"])
+def test_cli_min_modulation_out_of_range_names_the_option(
+    plates: Path, tmp_path: Path, value: str
+) -> None:
+    out = tmp_path / "p"
+    folder = sorted(plates.iterdir())[1]
+    res = run_cli("phase", str(folder), "--min-modulation", value, "-o", str(out))
+    _one_line_failure(res, "--min-modulation", "0..127.5")
+    assert "centerline" not in res.stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("phase", "positions", "needle"),
+    [
+        (np.full((3, 5), np.nan), [1.0, 2.0, 3.0], "phase map has no valid pixel"),
+        (np.ones((3, 5)), [np.nan, -4.0, 9.0], "not detected in any image row"),
+        (np.where(np.arange(5) < 3, np.nan, 1.0) * np.ones((3, 1)), [1.0, 2.0, 1.5], "crosses"),
+    ],
+)
+def test_centerline_failure_names_its_cause(
+    phase: np.ndarray, positions: list[float], needle: str
+) -> None:
+    with pytest.raises(InputError, match="N_c = 0") as info:
+        centerline_phase(phase, positions)
+    assert needle in str(info.value)
