@@ -318,3 +318,40 @@ def test_centerline_failure_names_its_cause(
     with pytest.raises(InputError, match="N_c = 0") as info:
         centerline_phase(phase, positions)
     assert needle in str(info.value)
+
+
+# --------------------------------------------------------------------------------------------
+# absolute phase keeps float64 precision at large centerline positions
+# --------------------------------------------------------------------------------------------
+def test_absolute_phase_file_not_quantised_at_a_large_centerline_position(tmp_path: Path) -> None:
+    """Before: absolute_phase.tiff was float32, ~4e-3 rad off at projector column 150000."""
+    from hdrfringe.captures import Captures, ProjectorInfo
+    from hdrfringe.frames import CenterlineFrame
+    from hdrfringe.io.phase_maps import write_phase_maps
+    from hdrfringe.io.results import read_map_tiff
+    from hdrfringe.patterns import FringeSpec, fringe_gray
+    from hdrfringe.process import decode_captures
+
+    pos, pitch = 150000.0, 8.0
+    spec = FringeSpec("sinusoidal", 4, pitch, "vertical", 40.0, 250.0)
+    x = np.tile(pos - 16 + np.arange(64.0) * 0.5, (8, 1))  # projector column of each pixel
+    fringes = [np.rint(fringe_gray(x, spec, k)) for k in range(4)]
+    line = 10 + 240 * np.exp(-(((x - pos) / 1.5) ** 2))
+    caps = Captures(
+        [*spec.frames(), CenterlineFrame(pos, "vertical", 255)],
+        np.stack([*fringes, line]).astype(np.uint8),
+        8,
+        projector=ProjectorInfo(width=200000, height=768),
+    )
+    decoded = decode_captures(caps)
+    absolute = decoded.primary.absolute_phase
+    truth = 2 * np.pi * x / pitch
+    assert absolute.dtype == np.float64
+    assert np.nanmax(np.abs(absolute - truth)) < 5e-3  # 8-bit rounding of the fringes only
+    write_phase_maps(tmp_path, decoded, "memory")
+    back = read_map_tiff(tmp_path / "absolute_phase.tiff")
+    ok = np.isfinite(absolute)
+    assert ok.mean() > 0.9 and np.array_equal(np.isfinite(back), ok)
+    # the file keeps float64: no quantisation (float32 spacing at 1.2e5 rad is 7.8e-3 rad)
+    assert np.abs(back[ok] - absolute[ok]).max() <= np.spacing(np.abs(truth).max())
+    assert np.abs(absolute[ok].astype(np.float32) - absolute[ok]).max() > 1e-3

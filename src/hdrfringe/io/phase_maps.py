@@ -38,6 +38,14 @@ def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> No
         files += [f"{name}.tiff", f"{name}.png"]
 
 
+def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
+    """An absolute phase map as float64 TIFF: it grows as ``2 pi x / p``, and float32 (24-bit
+    mantissa) would quantise it to ~0.008 rad at a centerline at 150000 projector px, pitch 8."""
+    import tifffile
+
+    tifffile.imwrite(path, np.asarray(data, dtype=np.float64), compression="zlib")
+
+
 def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, Any]:
     """Write every map of a decoded folder into ``out`` (an existing, empty staging folder).
 
@@ -46,7 +54,8 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     names with ``__<set label>`` appended for every set, and the unsuffixed names for the finest
     set of the primary family. ``unwrapped_phase.tiff`` and ``absolute_phase.tiff`` belong to the
     primary family; a second (horizontal) family gets ``_horizontal`` appended. Maps are float32
-    TIFF with NaN where invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md
+    TIFF (absolute phase: float64, which keeps its fraction of a fringe at any projector
+    coordinate) with NaN where invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md
     describes each.
 
     Parameters
@@ -115,7 +124,7 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
         }
         if fam.absolute_phase is not None:
             aname = f"absolute_phase{suffix}"
-            write_map_tiff(out / f"{aname}.tiff", fam.absolute_phase)
+            _write_float64_tiff(out / f"{aname}.tiff", fam.absolute_phase)
             write_preview_png(out / f"{aname}.png", fam.absolute_phase, title=aname, label="rad")
             files += [f"{aname}.tiff", f"{aname}.png"]
             entry["absolute_phase"] = f"{aname}.tiff"
