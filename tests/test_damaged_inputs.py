@@ -355,3 +355,44 @@ def test_absolute_phase_file_not_quantised_at_a_large_centerline_position(tmp_pa
     # the file keeps float64: no quantisation (float32 spacing at 1.2e5 rad is 7.8e-3 rad)
     assert np.abs(back[ok] - absolute[ok]).max() <= np.spacing(np.abs(truth).max())
     assert np.abs(absolute[ok].astype(np.float32) - absolute[ok]).max() > 1e-3
+
+
+# --------------------------------------------------------------------------------------------
+# degenerate gamma fits: a warning, and a refusal where the fit cannot be a gamma
+# --------------------------------------------------------------------------------------------
+def _uniform_captures(response, seed: int = 0):
+    from hdrfringe.captures import Captures
+    from hdrfringe.frames import UniformFrame
+
+    levels = [0, 64, 128, 192, 255]
+    rng = np.random.default_rng(seed)
+    images = np.stack([np.full((4, 4), response(g)) + rng.normal(0, 1, (4, 4)) for g in levels])
+    images = np.clip(np.rint(images), 0, 255).astype(np.uint8)
+    return Captures([UniformFrame(g) for g in levels], images, 8)
+
+
+def test_degenerate_gamma_fit_is_reported_with_a_warning() -> None:
+    from hdrfringe.gamma.report import gamma_report
+
+    good = gamma_report(_uniform_captures(lambda g: 10 + 200 * (g / 255) ** 2.2), source="good")
+    assert good.report["uniform"]["degenerate"] is False
+    assert not any("degenerate" in line for line in good.lines)
+    # a camera that barely responds: gamma 0.51 +- 0.33
+    weak = gamma_report(_uniform_captures(lambda g: 100 + 0.01 * g), source="weak")
+    u = weak.report["uniform"]
+    assert u["degenerate"] is True and u["stderr"] > 0.25 * u["gamma"]
+    warning = [line for line in weak.lines if line.startswith("warning:")]
+    assert len(warning) == 1 and "uniform-gray fit is degenerate" in warning[0]
+    json.dumps(weak.report, allow_nan=False)
+
+
+def test_gamma_fit_on_its_bound_is_refused(tmp_path: Path) -> None:
+    """Before: a flat response was reported as gamma = 0.05 +- 2.4, exit 0."""
+    from hdrfringe.io.captures import write_capture_folder
+
+    folder = tmp_path / "flat"
+    write_capture_folder(folder, _uniform_captures(lambda g: 100 + 0 * g))
+    out = tmp_path / "g"
+    res = run_cli("gamma", str(folder), "-o", str(out))
+    _one_line_failure(res, "uniform-gray fit gives gamma = 0.05", "cannot be a projector gamma")
+    assert not out.exists()
