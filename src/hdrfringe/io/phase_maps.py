@@ -39,8 +39,9 @@ def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> No
 
 
 def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
-    """An absolute phase map as float64 TIFF: it grows as ``2 pi x / p``, and float32 (24-bit
-    mantissa) would quantise it to ~0.008 rad at a centerline at 150000 projector px, pitch 8."""
+    """An unwrapped or absolute phase map as float64 TIFF: it grows as ``2 pi x / p``, and
+    float32 (24-bit mantissa) would quantise it to ~0.008 rad at projector column 150000 with
+    pitch 8 (temporal or one-period unwrapping gives the absolute phase itself)."""
     import tifffile
 
     tifffile.imwrite(path, np.asarray(data, dtype=np.float64), compression="zlib")
@@ -54,9 +55,9 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     names with ``__<set label>`` appended for every set, and the unsuffixed names for the finest
     set of the primary family. ``unwrapped_phase.tiff`` and ``absolute_phase.tiff`` belong to the
     primary family; a second (horizontal) family gets ``_horizontal`` appended. Maps are float32
-    TIFF (absolute phase: float64, which keeps its fraction of a fringe at any projector
-    coordinate) with NaN where invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md
-    describes each.
+    TIFF (unwrapped and absolute phase: float64, which keeps its fraction of a fringe at any
+    projector coordinate) with NaN where invalid
+    (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md describes each.
 
     Parameters
     ----------
@@ -112,7 +113,7 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     for i, fam in enumerate(decoded.families):
         suffix = "" if i == 0 else f"_{fam.orientation}"
         name = f"unwrapped_phase{suffix}"
-        write_map_tiff(out / f"{name}.tiff", fam.unwrapped_phase)
+        _write_float64_tiff(out / f"{name}.tiff", fam.unwrapped_phase)
         write_preview_png(out / f"{name}.png", fam.unwrapped_phase, title=name, label="rad")
         files += [f"{name}.tiff", f"{name}.png"]
         entry: dict[str, Any] = {
