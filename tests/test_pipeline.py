@@ -351,3 +351,22 @@ def test_the_docs_python_api_example_runs(tmp_path: Path, monkeypatch: pytest.Mo
     m = scope["result"].metrics
     assert m.strategy.method == "dpa" and m.valid_fraction > 0.99 and m.rmse_mm < 0.5
     assert "dpa_cdf.png" in scope["files"] and (tmp_path / "out" / "metrics.json").is_file()
+
+
+def test_valid_fraction_is_the_heights_not_the_truth_maps(small_cal: Calibration) -> None:
+    """docs/measurement.md: valid_fraction is the finite fraction of the height over the
+    measurement pixels. Before issue 11, a truth map with NaN overwrote it with the fraction
+    where height and truth are both finite."""
+    from dataclasses import replace
+
+    caps = small_rig(17.0, seed=3).capture_folder(SMALL_FRAMES)
+    truth = caps.maps["truth_height_mm"].copy()
+    truth[:, : truth.shape[1] // 2] = np.nan  # ground truth known on the right half only
+    res = measure(replace(caps, maps={**caps.maps, "truth_height_mm": truth}), small_cal)
+    inside = small_cal.measurement_mask()
+    height_valid = np.isfinite(res.height_mm)[inside].mean()
+    assert height_valid > 0.9
+    assert res.metrics.valid_fraction == pytest.approx(height_valid)
+    assert res.metrics.n_pixels == int(
+        (np.isfinite(res.height_mm) & np.isfinite(truth))[inside].sum()
+    )

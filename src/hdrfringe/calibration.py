@@ -46,6 +46,7 @@ __all__ = [
     "CalibrationMismatchError",
     "ResidualStats",
     "calibrate",
+    "check_calibration",
     "check_compatible",
     "evaluate_model",
     "filter_coefficients",
@@ -69,6 +70,22 @@ DEFAULT_BORDER_PX = 10
 # Determinant below which a per-pixel normal matrix (columns scaled to unit norm, so the
 # determinant lies in [0, 1]) is treated as singular: the pixel gets NaN coefficients.
 _SINGULAR_DET = 1e-13
+#: Sanity bounds a calibration must meet on write and on read (:func:`check_calibration`).
+#: Largest plate depth magnitude in mm (1 km: far beyond any bench rig, far below overflow).
+MAX_DEPTH_MM = 1e6
+#: Largest reference phase magnitude in rad (a projector of 1e5 px at a 2 px pitch spans
+#: ~3e5 rad; float64 still resolves 1e-7 rad at 1e9).
+MAX_PHASE_RAD = 1e9
+#: Least fraction of the measurement pixels where the reference phase, K and the model's
+#: coefficients are all finite (a plate filling 1 % of the view is still a calibration).
+MIN_USABLE_FRACTION = 0.01
+#: Range of the median phase shift ``|d_max / K|`` of the deepest plate, in rad: below it the
+#: heights are all ~0, above it the phase does not depend on height.
+PHASE_SHIFT_RANGE_RAD = (1e-3, 1e7)
+#: Range of the median ratio of the model's height to the linear height at that shift: the
+#: non-linear models correct K by a few per cent on a real rig, never by a factor of 2.
+MODEL_RATIO_RANGE = (0.5, 2.0)
+
 # Output rows per block of the sliding-window median (bounds the temporary to ~10 MB).
 _MEDIAN_BLOCK_ROWS = 8
 
@@ -982,6 +999,12 @@ def _check_depths(depths: NDArray[np.float64]) -> None:
         raise InputError(f"depths must be a 1-D list of mm, got shape {depths.shape}")
     if not np.all(np.isfinite(depths)):
         raise InputError(f"depths must be finite numbers in mm, got {depths.tolist()}")
+    far = np.flatnonzero(np.abs(depths) > MAX_DEPTH_MM)
+    if far.size:
+        raise InputError(
+            f"plate position {int(far[0]) + 1} has depth {depths[far[0]]:g} mm, beyond "
+            f"{MAX_DEPTH_MM:g} mm; give plate depths in mm"
+        )
     zero = np.flatnonzero(depths == 0)
     if zero.size:
         raise InputError(
@@ -1055,7 +1078,9 @@ def calibrate(
     ------
     InputError
         Mismatched shapes; fewer than 2 positions (or fewer than a model needs); a depth of 0
-        or repeated; a filter window or border that does not fit the image; an unknown model.
+        or repeated or beyond :data:`MAX_DEPTH_MM`; a filter window or border that does not fit
+        the image; an unknown model; a result that fails :func:`check_calibration` (e.g. too
+        few valid pixels, or a fit that does not reproduce the depths).
 
     References
     ----------
@@ -1122,7 +1147,7 @@ def calibrate(
     for name in models:
         res_f[name] = _residual_rms(samples, filtered[name], name).astype(np.float32)
         res_u[name] = _residual_rms(samples, fitted[name], name).astype(np.float32)
-    return Calibration(
+    cal = Calibration(
         model=model,
         k_map=filtered["linear"][0],
         coefficients=None if model == "linear" else filtered[model],
@@ -1137,6 +1162,160 @@ def calibrate(
         camera_bit_depth=camera_bit_depth,
         provenance=dict(provenance or {}),
     )
+    check_calibration(cal)
+    return cal
+
+
+# --------------------------------------------------------------------------------------------
+# sanity of a calibration (on write and on read)
+# --------------------------------------------------------------------------------------------
+def _no_inf(arr: NDArray[Any], dataset: str, where: str) -> None:
+    n_inf = int(np.count_nonzero(np.isinf(arr)))
+    if n_inf:
+        raise InputError(
+            f"{where}: {dataset} holds +-inf at {n_inf} value(s) (invalid pixels are NaN, never "
+            "inf); the calibration is damaged, recalibrate"
+        )
+
+
+def check_calibration(cal: Calibration, where: str = "calibration") -> None:
+    """Refuse a calibration that is damaged or cannot give heights (checked on write and read).
+
+    :class:`Calibration` checks shapes and types; this checks the values. A calibration passes
+    when all of these hold (the constants are module attributes):
+
+    - every depth is finite, non-zero, distinct and at most :data:`MAX_DEPTH_MM` in magnitude;
+    - no map holds +-inf (NaN marks an invalid pixel; :func:`calibrate` never writes inf);
+      the reference phase is at most :data:`MAX_PHASE_RAD` in magnitude;
+    - at least :data:`MIN_USABLE_FRACTION` of the measurement pixels (:func:`measurement_mask`)
+      are usable: reference phase, ``K`` and the model's coefficients all finite;
+    - over the usable pixels, the median phase shift ``|d_max / K|`` of the deepest plate lies
+      in :data:`PHASE_SHIFT_RANGE_RAD` (``K`` neither ~0 nor huge), and for a non-linear model
+      the median of its height at that shift divided by ``d_max`` lies in
+      :data:`MODEL_RATIO_RANGE` (the model agrees with its own ``K``);
+    - every residual map is >= 0 where finite, and the model's own residual map (when stored)
+      has a finite median over the measurement pixels no larger than ``max |depth|``.
+
+    Parameters
+    ----------
+    cal : Calibration
+        The calibration to check.
+    where : str
+        What to name in the message (a file path when reading).
+
+    Raises
+    ------
+    InputError
+        One line naming ``where``, the dataset at fault and the fix.
+
+    Notes
+    -----
+    Thesis Sec. 2.5 (Eq. 2.10-2.15): a height is ``K dphi``; a ``K`` that is not finite, ~0 or
+    absurdly large, or a model that disagrees with it, gives heights that look valid but are not.
+
+    Examples
+    --------
+    >>> good = Calibration("linear", np.full((2, 3), 0.5), None, np.zeros((2, 3)),
+    ...                    np.array([2.0, 4.0]), border_px=0)
+    >>> check_calibration(good)
+    >>> bad = Calibration("linear", np.full((2, 3), np.inf), None, np.zeros((2, 3)),
+    ...                   np.array([2.0, 4.0]), border_px=0)
+    >>> try:
+    ...     check_calibration(bad, "cal.h5")
+    ... except InputError as exc:
+    ...     print(str(exc).split(" (")[0])
+    cal.h5: /k_map holds +-inf at 6 value(s)
+    """
+    depths = cal.depths_mm
+    if depths.size == 0 or not np.all(np.isfinite(depths)):
+        raise InputError(
+            f"{where}: /depths_mm must be finite numbers in mm, got {depths.tolist()}; "
+            "recalibrate with the plate depths"
+        )
+    if np.any(depths == 0) or np.unique(depths).size != depths.size:
+        raise InputError(
+            f"{where}: /depths_mm {depths.tolist()} has a zero or repeated depth; the "
+            "calibration is damaged, recalibrate"
+        )
+    d_max = float(depths[np.argmax(np.abs(depths))])
+    if abs(d_max) > MAX_DEPTH_MM:
+        raise InputError(
+            f"{where}: /depths_mm reaches {d_max:g} mm, beyond {MAX_DEPTH_MM:g} mm; give plate "
+            "depths in mm"
+        )
+    ref = cal.reference_phase
+    _no_inf(ref, "/reference_phase", where)
+    _no_inf(cal.k_map, "/k_map", where)
+    if cal.coefficients is not None:
+        _no_inf(cal.coefficients, "/coefficients", where)
+    big = np.nanmax(np.abs(ref)) if np.isfinite(ref).any() else 0.0
+    if big > MAX_PHASE_RAD:
+        raise InputError(
+            f"{where}: /reference_phase reaches {big:g} rad, beyond {MAX_PHASE_RAD:g} rad; the "
+            "calibration is damaged, recalibrate"
+        )
+    mask = cal.measurement_mask()
+    usable = mask & np.isfinite(ref) & np.isfinite(cal.k_map)
+    if cal.coefficients is not None:
+        usable &= np.isfinite(cal.coefficients).all(axis=0)
+    n_mask = int(np.count_nonzero(mask))
+    n_usable = int(np.count_nonzero(usable))
+    if n_usable < MIN_USABLE_FRACTION * n_mask or n_usable == 0:
+        datasets = "/reference_phase, /k_map" + (
+            "" if cal.coefficients is None else ", /coefficients"
+        )
+        raise InputError(
+            f"{where}: {datasets} are finite at {n_usable} of {n_mask} measurement pixels "
+            f"(fewer than {MIN_USABLE_FRACTION:.0%}); the calibration is empty or damaged, "
+            "recalibrate with the plate filling the view"
+        )
+    k = cal.k_map[usable]
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        shift = float(np.median(np.abs(d_max / k)))
+    lo, hi = PHASE_SHIFT_RANGE_RAD
+    if not lo <= shift <= hi:
+        raise InputError(
+            f"{where}: /k_map gives a median phase shift of {shift:.3g} rad for the "
+            f"{d_max:g} mm plate, outside {lo:g}..{hi:g} rad (K is ~0 or absurdly large); the "
+            "calibration is damaged, recalibrate"
+        )
+    if cal.coefficients is not None:
+        coef = cal.coefficients[:, usable][:, None, :]
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+            dphi = (d_max / k)[None, :]
+        ratio = evaluate_model(coef, dphi, cal.model)[0] / d_max
+        ratio = ratio[np.isfinite(ratio)]
+        med = float(np.median(ratio)) if ratio.size else math.nan
+        rlo, rhi = MODEL_RATIO_RANGE
+        if not rlo <= med <= rhi:
+            raise InputError(
+                f"{where}: /coefficients ({cal.model}) give {med:.3g} times the linear height "
+                f"at the {d_max:g} mm plate, outside {rlo:g}..{rhi:g}; the calibration is "
+                "damaged, recalibrate"
+            )
+    limit = float(np.max(np.abs(depths)))
+    for group, maps in (
+        ("residual_rms_mm", cal.residual_rms_mm),
+        ("residual_rms_unfiltered_mm", cal.residual_rms_unfiltered_mm),
+    ):
+        for name, rms in maps.items():
+            dataset = f"/{group}/{name}"
+            _no_inf(rms, dataset, where)
+            if np.any(rms < 0):
+                raise InputError(
+                    f"{where}: {dataset} holds negative RMS values; the calibration is "
+                    "damaged, recalibrate"
+                )
+            if group == "residual_rms_mm" and name == cal.model:
+                vals = rms[mask]
+                vals = vals[np.isfinite(vals)]
+                med = float(np.median(vals)) if vals.size else math.nan
+                if not med <= limit:
+                    raise InputError(
+                        f"{where}: {dataset} has a median of {med:.3g} mm (the fit failed: "
+                        f"not finite or above the {limit:g} mm depth range); check the plate "
+                        "depths and captures and recalibrate"
+                    )
 
 
 # --------------------------------------------------------------------------------------------

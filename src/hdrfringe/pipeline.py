@@ -691,12 +691,17 @@ def _measure_captures(
     fields["valid_fraction"] = float(np.isfinite(height)[inside].mean())
     fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat[inside]))
     truth = caps.map("truth_height_mm")
+    errors: dict[str, Any] = {}
     if truth is not None:
         fields["truth"] = "truth_height_mm map"
-        fields.update(height_errors(height, truth, inside))
+        errors = height_errors(height, truth, inside)
     elif "depth_mm" in caps.scene:
         fields["truth"] = f"scene.depth_mm = {float(caps.scene['depth_mm']):g}"
-        fields.update(height_errors(height, float(caps.scene["depth_mm"]), inside))
+        errors = height_errors(height, float(caps.scene["depth_mm"]), inside)
+    # valid_fraction is the height's (docs/measurement.md); the errors' own counts the pixels
+    # where the truth is finite too and must not replace it (n_pixels reports that).
+    errors.pop("valid_fraction", None)
+    fields.update(errors)
     return decoded, height, fields
 
 

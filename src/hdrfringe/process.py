@@ -20,13 +20,16 @@ Rules (documented in docs/phase.md):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._validation import full_scale
 from hdrfringe.captures import Captures, FringeSet
+from hdrfringe.errors import InputError
 from hdrfringe.phase import PhaseResult, decode_set
 from hdrfringe.unwrap import absolute_phase_from_centerline, unwrap_spatial, unwrap_temporal
 
@@ -213,6 +216,12 @@ def decode_captures(
     FolderPhase
         Per-set results and, per family, the unwrapped and absolute phase.
 
+    Raises
+    ------
+    InputError
+        ``min_modulation`` not a number of DN in ``0 .. full_scale / 2`` (NaN made every pixel
+        invalid and was blamed on the centerline).
+
     References
     ----------
     Thesis Eq. 2.2/2.4 (wrapped phase), Sec. 2.4 (unwrapping), Eq. 2.12-2.13 (absolute phase
@@ -230,6 +239,15 @@ def decode_captures(
     >>> decoded.primary.absolute_method
     'one-period coarse set'
     """
+    if min_modulation is not None:
+        thr = float(min_modulation)
+        top = full_scale(captures.camera_bit_depth) / 2  # I' of a full-swing fringe
+        if not (math.isfinite(thr) and 0.0 <= thr <= top):
+            raise InputError(
+                f"--min-modulation (min_modulation) must be a number of DN in 0..{top:g} (the "
+                f"largest modulation of a {captures.camera_bit_depth}-bit camera), got "
+                f"{min_modulation}; omit it for the default"
+            )
     results: dict[str, PhaseResult] = {}
     for s in captures.sets:
         results[s.label] = decode_set(

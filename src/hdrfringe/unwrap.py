@@ -775,6 +775,18 @@ def centerline_phase(
     samples = np.where(frac > 0, (1.0 - frac) * v0 + frac * v1, v0)
     samples = samples[np.isfinite(samples)]
     if samples.size == 0:
+        # Name the actual cause: a wholly invalid phase map is not the centerline's fault.
+        if not np.isfinite(phase).any():
+            raise InputError(
+                "the unwrapped phase map has no valid pixel, so the centerline has no phase "
+                "(N_c = 0); check the exposure, saturation and the modulation threshold "
+                "(--min-modulation)"
+            )
+        if rows.size == 0:
+            raise InputError(
+                "the centerline was not detected in any image row or column (N_c = 0); check "
+                "that the centerline frame shows the line and that it lies inside the image"
+            )
         raise InputError(
             "no centerline pixel has a valid unwrapped phase (N_c = 0); check that the line was "
             "detected and that it crosses the valid part of the phase map"

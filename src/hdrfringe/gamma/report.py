@@ -23,6 +23,7 @@ Examples
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,17 +31,88 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe.captures import Captures
-from hdrfringe.errors import CaptureFormatError
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.gamma.fringes import fit_gamma_fringes
 from hdrfringe.gamma.model import GammaFit
 from hdrfringe.gamma.nonlinearity import predicted_nonlinearity
 from hdrfringe.gamma.selection import select_gamma_sets
 from hdrfringe.gamma.uniform import fit_gamma_uniform
 
-__all__ = ["MIN_UNIFORM_LEVELS", "GammaReport", "gamma_report", "uniform_gray_means"]
+__all__ = [
+    "DEGENERATE_RELATIVE_STDERR",
+    "GAMMA_FIT_BOUNDS",
+    "MIN_UNIFORM_LEVELS",
+    "GammaReport",
+    "check_gamma_fit",
+    "gamma_report",
+    "uniform_gray_means",
+]
 
 #: Distinct uniform gray levels needed for a uniform fit (offset, scale, gamma and a check).
 MIN_UNIFORM_LEVELS = 4
+#: The range the fits search (``fit_gamma_uniform``, ``fit_gamma_fringes``): a fit that ends
+#: on either end did not find a gamma.
+GAMMA_FIT_BOUNDS = (0.05, 20.0)
+#: A fit whose standard error exceeds this fraction of its gamma is reported as degenerate
+#: (the captures hardly constrain gamma; e.g. 0.30 +- 257).
+DEGENERATE_RELATIVE_STDERR = 0.25
+
+
+def check_gamma_fit(fit: GammaFit, what: str, source: str) -> bool:
+    """Refuse a fit that cannot be a gamma; say whether it is degenerate.
+
+    Parameters
+    ----------
+    fit : GammaFit
+        A uniform-gray or fringe-shape fit.
+    what : str
+        Which fit, for the message (e.g. ``"uniform-gray"``).
+    source : str
+        Where the captures came from, for the message.
+
+    Returns
+    -------
+    bool
+        True when the standard error is not finite or above
+        :data:`DEGENERATE_RELATIVE_STDERR` times gamma (report it with a warning).
+
+    Raises
+    ------
+    InputError
+        Gamma not finite or on an end of :data:`GAMMA_FIT_BOUNDS` (the search found no
+        minimum), or a uniform fit whose camera signal does not rise with the gray level.
+
+    References
+    ----------
+    Thesis Sec. 2.6, Eq. 2.16 (the model fitted).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> g = np.arange(0, 256, 16.0)
+    >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
+    >>> check_gamma_fit(fit, "uniform-gray", "demo")
+    False
+    >>> check_gamma_fit(replace(fit, gamma=0.3, stderr=257.0), "uniform-gray", "demo")
+    True
+    """
+    lo, hi = GAMMA_FIT_BOUNDS
+    g = fit.gamma
+    at_bound = math.isfinite(g) and (g <= lo * (1 + 1e-6) or g >= hi * (1 - 1e-6))
+    flat = fit.method == "uniform" and not fit.scale > 0
+    if not math.isfinite(g) or at_bound or flat:
+        why = (
+            "the camera signal does not rise with the gray level"
+            if flat or g <= lo * (1 + 1e-6)
+            else "the fit found no minimum"
+        )
+        raise InputError(
+            f"{source}: the {what} fit gives gamma = {g:.4g}, on the end of the searched range "
+            f"{lo:g}..{hi:g} ({why}), which cannot be a projector gamma; check that the "
+            "projector lights the view and the exposure is neither black nor saturated"
+        )
+    se = fit.stderr
+    return not (math.isfinite(se) and se <= DEGENERATE_RELATIVE_STDERR * g)
 
 
 def uniform_gray_means(
@@ -144,6 +216,14 @@ class GammaReport:
             )
 
 
+def _degenerate_note(fit: GammaFit, what: str) -> str:
+    return (
+        f"warning: the {what} fit is degenerate (gamma {fit.gamma:.2f} +- {fit.stderr:.3g}): "
+        "the captures hardly constrain gamma; do not use it, capture more levels or sets "
+        "spanning the camera's range"
+    )
+
+
 def gamma_report(captures: Captures, *, source: str) -> GammaReport:
     """Fit the projector gamma with everything the captures allow (uniform grays, fringes).
 
@@ -195,9 +275,11 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
         mx_fit, rms_fit = predicted_nonlinearity(uniform_fit, uniform_fit.gamma)
         mx_cur, _ = predicted_nonlinearity(uniform_fit, gh0)
         mx_none, _ = predicted_nonlinearity(uniform_fit, 1.0)
+        u_degenerate = check_gamma_fit(uniform_fit, "uniform-gray", source)
         report["uniform"] = {
             "gamma": uniform_fit.gamma,
-            "stderr": uniform_fit.stderr,
+            "stderr": uniform_fit.stderr if math.isfinite(uniform_fit.stderr) else None,
+            "degenerate": u_degenerate,
             "offset_dn": uniform_fit.offset,
             "scale_dn": uniform_fit.scale,
             "rms_residual_dn": uniform_fit.rms_residual,
@@ -215,6 +297,8 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
             f"residual nonlinearity (max, % of range): {mx_fit:.2f} % pre-compensated with the "
             f"fit, {mx_cur:.2f} % with {gh0:g}, {mx_none:.2f} % without",
         ]
+        if u_degenerate:
+            lines.append(_degenerate_note(uniform_fit, "uniform-gray"))
     sets = captures.sets
     chosen = select_gamma_sets([(s.spec, s.gamma_precompensation or gh0) for s in sets])
     if chosen.too_narrow:
@@ -229,9 +313,11 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
             camera_bit_depth=captures.camera_bit_depth,
             projector_bit_depth=proj_bits,
         )
+        f_degenerate = check_gamma_fit(fringe_fit, "fringe-shape", source)
         report["fringes"] = {
             "gamma": fringe_fit.gamma,
-            "stderr": fringe_fit.stderr,
+            "stderr": fringe_fit.stderr if math.isfinite(fringe_fit.stderr) else None,
+            "degenerate": f_degenerate,
             "rms_residual_dn": fringe_fit.rms_residual,
             "pixels_used": fringe_fit.n_samples,
             "sets": [s.label for s in used],
@@ -240,4 +326,6 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
             f"fringe shape: gamma = {fringe_fit.gamma:.4f} +- {fringe_fit.stderr:.4f} "
             f"(rms residual {fringe_fit.rms_residual:.2f} DN over {fringe_fit.n_samples} pixels)"
         )
+        if f_degenerate:
+            lines.append(_degenerate_note(fringe_fit, "fringe-shape"))
     return GammaReport(report, uniform_fit, fringe_fit, tuple(lines))

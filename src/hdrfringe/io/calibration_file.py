@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.calibration import MODELS, N_COEFFICIENTS, Calibration
+from hdrfringe.calibration import MODELS, N_COEFFICIENTS, Calibration, check_calibration
 from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
 from hdrfringe.patterns import FringeSpec
 
@@ -230,7 +230,8 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     OutputExistsError
         ``path`` exists (and ``force`` is False) or is a folder.
     InputError
-        ``cal`` is not a :class:`~hdrfringe.calibration.Calibration`.
+        ``cal`` is not a :class:`~hdrfringe.calibration.Calibration`, or fails
+        :func:`~hdrfringe.calibration.check_calibration` (non-finite or insane values).
 
     Examples
     --------
@@ -238,7 +239,7 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     >>> from pathlib import Path
     >>> from hdrfringe.calibration import Calibration
     >>> cal = Calibration("linear", np.full((2, 3), 0.5), None, np.zeros((2, 3)),
-    ...                   np.array([2.0, 4.0]), provenance={"operator": "doctest"})
+    ...                   np.array([2.0, 4.0]), border_px=0, provenance={"operator": "doctest"})
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     path = save_calibration(Path(tmp) / "cal.h5", cal)
     ...     back = load_calibration(path)
@@ -252,6 +253,7 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     if not isinstance(cal, Calibration):
         raise InputError(f"expected a Calibration, got {type(cal).__name__}")
     out = Path(path)
+    check_calibration(cal, f"{out}: refusing to write the calibration")
     if out.is_dir():
         raise OutputExistsError(f"{out}: is a folder; give a file path for the calibration")
     if out.exists() and not force:
@@ -383,7 +385,9 @@ def load_calibration(path: str | Path) -> Calibration:
     ------
     CalibrationFileError
         Missing file, not HDF5 or corrupt, an HDF5 file of something else, an unsupported
-        version, or missing/inconsistent contents; the message says which and what to do.
+        version, missing/inconsistent contents, or values that fail
+        :func:`~hdrfringe.calibration.check_calibration` (inf, all-NaN maps, a K or model that
+        cannot give heights, a failed residual); the message says which and what to do.
 
     Examples
     --------
@@ -391,8 +395,9 @@ def load_calibration(path: str | Path) -> Calibration:
     >>> from pathlib import Path
     >>> from hdrfringe.calibration import Calibration
     >>> from hdrfringe.patterns import FringeSpec
-    >>> cal = Calibration("rational", np.full((2, 2), 0.5), np.ones((2, 2, 2)),
-    ...                   np.zeros((2, 2)), np.array([2.0, 4.0, 6.0]),
+    >>> coef = np.stack([np.full((2, 2), 2.0), np.full((2, 2), 0.01)])  # h ~ dphi / 2
+    >>> cal = Calibration("rational", np.full((2, 2), 0.5), coef,
+    ...                   np.zeros((2, 2)), np.array([2.0, 4.0, 6.0]), border_px=0,
     ...                   spec=FringeSpec("sinusoidal", 4, 12.0), camera_bit_depth=12)
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     back = load_calibration(save_calibration(Path(tmp) / "cal.h5", cal))
@@ -420,7 +425,7 @@ def load_calibration(path: str | Path) -> Calibration:
         ) from exc
     try:
         with f:
-            return _read(f, str(src))
+            cal = _read(f, str(src))
     except CalibrationFileError:
         raise
     except (InputError, KeyError, ValueError, TypeError, OSError, UnicodeDecodeError) as exc:
@@ -428,6 +433,11 @@ def load_calibration(path: str | Path) -> Calibration:
         raise CalibrationFileError(
             f"{src}: calibration file is damaged or inconsistent ({reason}); recalibrate"
         ) from exc
+    try:
+        check_calibration(cal, str(src))
+    except InputError as exc:
+        raise CalibrationFileError(str(exc)) from exc
+    return cal
 
 
 def coefficient_names(model: str) -> tuple[str, ...]:

@@ -38,6 +38,15 @@ def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> No
         files += [f"{name}.tiff", f"{name}.png"]
 
 
+def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
+    """An unwrapped or absolute phase map as float64 TIFF: it grows as ``2 pi x / p``, and
+    float32 (24-bit mantissa) would quantise it to ~0.008 rad at projector column 150000 with
+    pitch 8 (temporal or one-period unwrapping gives the absolute phase itself)."""
+    import tifffile
+
+    tifffile.imwrite(path, np.asarray(data, dtype=np.float64), compression="zlib")
+
+
 def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, Any]:
     """Write every map of a decoded folder into ``out`` (an existing, empty staging folder).
 
@@ -46,8 +55,9 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     names with ``__<set label>`` appended for every set, and the unsuffixed names for the finest
     set of the primary family. ``unwrapped_phase.tiff`` and ``absolute_phase.tiff`` belong to the
     primary family; a second (horizontal) family gets ``_horizontal`` appended. Maps are float32
-    TIFF with NaN where invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md
-    describes each.
+    TIFF (unwrapped and absolute phase: float64, which keeps its fraction of a fringe at any
+    projector coordinate) with NaN where invalid
+    (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md describes each.
 
     Parameters
     ----------
@@ -103,7 +113,7 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     for i, fam in enumerate(decoded.families):
         suffix = "" if i == 0 else f"_{fam.orientation}"
         name = f"unwrapped_phase{suffix}"
-        write_map_tiff(out / f"{name}.tiff", fam.unwrapped_phase)
+        _write_float64_tiff(out / f"{name}.tiff", fam.unwrapped_phase)
         write_preview_png(out / f"{name}.png", fam.unwrapped_phase, title=name, label="rad")
         files += [f"{name}.tiff", f"{name}.png"]
         entry: dict[str, Any] = {
@@ -115,7 +125,7 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
         }
         if fam.absolute_phase is not None:
             aname = f"absolute_phase{suffix}"
-            write_map_tiff(out / f"{aname}.tiff", fam.absolute_phase)
+            _write_float64_tiff(out / f"{aname}.tiff", fam.absolute_phase)
             write_preview_png(out / f"{aname}.png", fam.absolute_phase, title=aname, label="rad")
             files += [f"{aname}.tiff", f"{aname}.png"]
             entry["absolute_phase"] = f"{aname}.tiff"

@@ -58,6 +58,7 @@ __all__ = [
     "DONE_VAR",
     "LOG_EVERY_S",
     "RUNTIME_ATTRS",
+    "SCHEDULER_TIMEOUT_S",
     "WORKER_ENV",
     "WORKER_ENV_KEY",
     "ZARR_FORMAT",
@@ -67,6 +68,7 @@ __all__ = [
     "SweepGrid",
     "SweepStatus",
     "Variable",
+    "check_scheduler",
     "open_results",
     "run_sweep",
     "sweep_identity",
@@ -711,6 +713,90 @@ WORKER_ENV: dict[str, str] = {"MALLOC_MMAP_THRESHOLD_": str(2**30)}
 WORKER_ENV_KEY = "distributed.nanny.pre-spawn-environ"
 
 
+#: Seconds :func:`check_scheduler` waits for a scheduler address to answer.
+SCHEDULER_TIMEOUT_S = 10.0
+
+
+async def _scheduler_identity(address: str) -> Any:
+    from distributed.comm import connect
+
+    comm = await connect(address, timeout=SCHEDULER_TIMEOUT_S)
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
+    """Check that ``address`` answers as a Dask scheduler within ``timeout`` seconds.
+
+    Connects with Dask's own comm layer and asks for the peer's identity (the ``identity``
+    operation of every Dask server); the answer must say ``type = "Scheduler"``. Meant to run
+    before anything is written, so a wrong address costs nothing.
+
+    Parameters
+    ----------
+    address : str
+        Scheduler address, e.g. ``"tcp://10.0.0.5:8786"``.
+    timeout : float
+        Seconds to wait for the connection and the answer.
+
+    Raises
+    ------
+    InputError
+        One line: nothing answers, the peer stays silent, speaks another protocol (a web
+        server, an SSH daemon), or is a Dask server other than a scheduler.
+
+    Notes
+    -----
+    Not in the thesis: the sweeps (thesis Ch. 4-6) run on Dask (``docs/reproduce.md``).
+
+    Examples
+    --------
+    >>> import socket
+    >>> with socket.socket() as s:  # a port nothing listens on
+    ...     s.bind(("127.0.0.1", 0))
+    ...     port = s.getsockname()[1]
+    >>> try:
+    ...     check_scheduler(f"tcp://127.0.0.1:{port}", timeout=2)
+    ... except InputError as exc:
+    ...     print(str(exc).replace(str(port), "PORT").split(" (")[0])
+    no Dask scheduler answered at 'tcp://127.0.0.1:PORT' within 2 s
+    """
+    import asyncio
+    import concurrent.futures
+
+    hint = "check the address (e.g. tcp://host:8786) and that `dask scheduler` runs there"
+
+    def probe() -> Any:
+        return asyncio.run(asyncio.wait_for(_scheduler_identity(address), timeout))
+
+    # A thread of its own: the caller may be inside a running event loop (a notebook).
+    pool = concurrent.futures.ThreadPoolExecutor(1)
+    try:
+        reply = pool.submit(probe).result(timeout + 5)
+    except (TimeoutError, concurrent.futures.TimeoutError):
+        raise InputError(
+            f"no Dask scheduler answered at {address!r} within {timeout:g} s (nothing listens, "
+            f"or it is silent); {hint}"
+        ) from None
+    except MemoryError:  # a non-Dask peer's bytes read as a gigantic frame length
+        raise InputError(
+            f"no Dask scheduler answered at {address!r} (the peer speaks another protocol); {hint}"
+        ) from None
+    except Exception as exc:  # connection refused, bad address, a protocol error
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+        raise InputError(f"no Dask scheduler answered at {address!r} ({reason}); {hint}") from None
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    if kind != "Scheduler":
+        raise InputError(
+            f"no Dask scheduler answered at {address!r} (the peer is {kind or 'not Dask'}); {hint}"
+        )
+
+
 @contextlib.contextmanager
 def _connect(scheduler: str | Client | None, n_workers: int | None) -> Iterator[Client]:
     """A client: the one given, one on the scheduler at an address, or a new local cluster
@@ -911,6 +997,8 @@ def run_sweep(
     if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
         raise InputError(f"retries must be a whole number >= 0, got {retries!r}")
     ident = sweep_identity(grid, func, params)
+    if isinstance(scheduler, str):
+        check_scheduler(scheduler)  # before the store is created
     path = Path(store_path)
     group = _open_or_create(path, grid, ident)
     arrays = {name: group[name] for name in [*(v.name for v in grid.variables), DONE_VAR]}

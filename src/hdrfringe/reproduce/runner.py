@@ -228,8 +228,10 @@ def reproduce(
     Raises
     ------
     InputError
-        An unknown chapter, ``n_workers`` below 1, ``out`` a file, or a reproduction made on
-        the other grid.
+        An unknown chapter, ``n_workers`` below 1, ``out`` a file, a reproduction made on
+        the other grid, or a ``scheduler`` address that does not answer as a Dask scheduler
+        within :data:`~hdrfringe.reproduce.engine.SCHEDULER_TIMEOUT_S` (checked before
+        anything is written).
     OutputExistsError
         ``out`` a non-empty folder that is not a reproduction, without ``force``.
 
@@ -237,7 +239,7 @@ def reproduce(
     ----------
     Thesis Ch. 4 (Sec. 4.1-4.3), Ch. 5 (Sec. 5.2) and Ch. 6 (Sec. 6.2-6.3).
     """
-    from hdrfringe.reproduce.engine import run_sweep
+    from hdrfringe.reproduce.engine import check_scheduler, run_sweep
 
     unknown = [c for c in chapters if c not in CHAPTERS]
     if unknown or not chapters:
@@ -247,6 +249,8 @@ def reproduce(
     if n_workers is not None and n_workers < 1:
         raise InputError(f"--workers (n_workers) must be at least 1, got {n_workers}")
     _check_folder(out, force, quick)
+    if scheduler is not None:
+        check_scheduler(scheduler)  # before anything is written
     out.mkdir(parents=True, exist_ok=True)
     (out / MARKER).write_text(
         json.dumps({"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}) + "\n",

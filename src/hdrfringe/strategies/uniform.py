@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -58,7 +59,8 @@ def uniform(
     migl : float, optional
         The trade-off MIGL; None: found automatically.
     tolerance : float
-        Saturated fraction allowed (0..1).
+        Saturated fraction allowed (0..1; anything else raises
+        :class:`~hdrfringe.errors.InputError` naming ``--tolerance``).
     min_migl : float, optional
         Lowest MIGL (default ``imin + 20``).
     candidates : sequence of float, optional
@@ -84,6 +86,13 @@ def uniform(
     >>> res.migls, res.details["chosen_migl"]
     ([255.0, 180.0], 180.0)
     """
+    tol = float(tolerance)
+    if not (math.isfinite(tol) and 0.0 <= tol <= 1.0):
+        hint = f"; give {tol / 100:g} for {tol:g} %" if 1.0 < tol <= 100.0 else ""
+        raise InputError(
+            f"--tolerance (uniform: saturated fraction allowed) must be a fraction in [0, 1], "
+            f"got {tolerance}{hint}"
+        )
     check_fringe_spec(spec, rig)
     bits = rig.camera_bit_depth
     lo_limit = default_min_migl(spec) if min_migl is None else float(min_migl)
