@@ -445,7 +445,10 @@ def test_staging_of_a_live_run_is_reported(caps: Path, tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------
 _SLOW_SAVE = textwrap.dedent(
     """
-    import sys, time
+    import signal, sys, time
+    # a shell that starts jobs in the background hands them SIGINT ignored: restore the
+    # terminal's default, under which Ctrl-C raises KeyboardInterrupt
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     import numpy as np
     import hdrfringe.io.calibrate_folders as cf
     import hdrfringe.io.calibration_file as calfile

@@ -319,8 +319,9 @@ def _deferred_sigint() -> Iterator[Callable[[], bool]]:
     import threading
 
     hit: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield lambda: False
+    ignored = signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None)
+    if threading.current_thread() is not threading.main_thread() or ignored:
+        yield lambda: False  # not ours to set, or SIGINT ignored on purpose: leave it so
         return
     old = signal.signal(signal.SIGINT, lambda signum, frame: hit.append(signum))
     try:
