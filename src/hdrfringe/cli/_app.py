@@ -42,7 +42,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 
 def handle_errors(func: F) -> F:
-    """Turn an HdrFringeError into a one-line message and exit code 2."""
+    """Turn an HdrFringeError into a one-line message and exit code 2, Ctrl-C into exit code 130."""
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
@@ -52,6 +52,9 @@ def handle_errors(func: F) -> F:
             msg = " ".join(str(exc).split())
             err_console.print(f"[bold red]error:[/] {msg}", markup=True, highlight=False)
             raise typer.Exit(code=2) from None
+        except KeyboardInterrupt:  # Ctrl-C: nothing written (outputs are staged); shell's 130
+            err_console.print("interrupted: nothing was written", highlight=False)
+            raise typer.Exit(code=130) from None
 
     return wrapper  # type: ignore[return-value]
 

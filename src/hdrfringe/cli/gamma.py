@@ -30,9 +30,10 @@ def gamma(
     from hdrfringe.gamma import gamma_report
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.gamma_outputs import write_gamma_outputs
-    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
 
     if output is not None:
+        check_output_against_inputs(output, [folder])
         check_output_dir(output, force)
     report = gamma_report(read_capture_folder(folder), source=str(folder))
     for line in report.lines:

@@ -81,7 +81,7 @@ def measure(
     from hdrfringe.io.calibration_file import load_calibration
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.measurement_outputs import write_measurement
-    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
 
     live = check_source(ctx, folder, rig, LIVE_OPTIONS)
     if output is None:
@@ -89,6 +89,7 @@ def measure(
     if live and method is None:
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
+    check_output_against_inputs(output, [folder, calibration, *sources.values()])
     check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
     kwargs: dict[str, Any] = {

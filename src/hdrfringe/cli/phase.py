@@ -29,9 +29,14 @@ def phase(
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.phase_maps import write_phase_maps
-    from hdrfringe.io.results import check_output_dir, staged_output_dir
+    from hdrfringe.io.results import (
+        check_output_against_inputs,
+        check_output_dir,
+        staged_output_dir,
+    )
     from hdrfringe.process import decode_captures
 
+    check_output_against_inputs(output, [folder])
     check_output_dir(output, force)
     captures = read_capture_folder(folder)
     if not captures.sets:

@@ -78,7 +78,11 @@ def train_correction(
         raise InputError("no output file: give -o/--output FILE.json")
     if truth not in TRUTH_MODELS:
         raise InputError(f"unknown truth {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
+    from hdrfringe.io.results import check_output_against_inputs, check_writable
+
+    check_output_against_inputs(output, [folder])
     check_output_file(output, force)
+    check_writable(output)
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
 

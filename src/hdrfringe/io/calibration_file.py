@@ -25,7 +25,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -250,6 +250,8 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     """
     import h5py
 
+    from hdrfringe.io.results import check_writable, current_umask, sigterm_cleanup
+
     if not isinstance(cal, Calibration):
         raise InputError(f"expected a Calibration, got {type(cal).__name__}")
     out = Path(path)
@@ -260,19 +262,76 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
         raise OutputExistsError(
             f"{out}: calibration file exists; pass --force to replace it or choose another path"
         )
+    check_writable(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    try:
-        with h5py.File(tmp, "w", track_order=True) as f:
-            _write(f, cal)
-        os.replace(tmp, out)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
+    with sigterm_cleanup(), _deferred_sigint() as interrupted:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
+        os.close(fd)
+        tmp = Path(tmp_name)
+        try:
+            os.chmod(tmp, 0o666 & ~current_umask())
+            with h5py.File(tmp, "w", track_order=True) as f:
+                _write(f, cal)
+            if interrupted():
+                raise KeyboardInterrupt
+            _move_into_place(tmp, out, force)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            raise
     return out
+
+
+def _move_into_place(tmp: Path, out: Path, force: bool) -> None:
+    """Rename the complete file to ``out``; without ``force`` never replace a file that
+    appeared meanwhile (a hard link cannot replace: it fails if ``out`` exists)."""
+    if force:
+        os.replace(tmp, out)
+        return
+    try:
+        os.link(tmp, out)
+    except FileExistsError:
+        raise OutputExistsError(
+            f"{out}: appeared while the calibration was being written; it was left untouched "
+            "and nothing was written"
+        ) from None
+    except OSError:  # no hard links here: claim the name exclusively, then replace the claim
+        try:
+            os.close(os.open(out, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+        except FileExistsError:
+            raise OutputExistsError(
+                f"{out}: appeared while the calibration was being written; it was left "
+                "untouched and nothing was written"
+            ) from None
+        os.replace(tmp, out)
+        return
+    tmp.unlink()
+
+
+@contextlib.contextmanager
+def _deferred_sigint() -> Iterator[Callable[[], bool]]:
+    """Hold back SIGINT while HDF5 is written; yield "was it pressed?"; re-raise it after.
+
+    A KeyboardInterrupt raised inside h5py's C code can be reported as "ignored" and lost,
+    so the command would end 0 with the file written. Here the signal only sets a flag; the
+    caller checks it before the final rename and, if set, removes the temporary file and raises
+    KeyboardInterrupt (exit code 130 from the command line).
+    """
+    import signal
+    import threading
+
+    hit: list[int] = []
+    ignored = signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None)
+    if threading.current_thread() is not threading.main_thread() or ignored:
+        yield lambda: False  # not ours to set, or SIGINT ignored on purpose: leave it so
+        return
+    old = signal.signal(signal.SIGINT, lambda signum, frame: hit.append(signum))
+    try:
+        yield lambda: bool(hit)
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if hit:
+        raise KeyboardInterrupt
 
 
 # --------------------------------------------------------------------------------------------

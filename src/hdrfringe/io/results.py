@@ -1,37 +1,238 @@
 """Result folders and map files: staged writing, float32 TIFF maps, PNG previews.
 
 Outputs are written into a hidden staging folder beside the target and moved into place only
-when complete, so a failure never leaves a half-written result, and an existing result is
-replaced only with ``force``.
+when complete, so a failure never leaves a half-written result. The guarantees (see
+``docs/safety.md``):
+
+- an output that is, contains or lies inside an input is refused before any work
+  (:func:`check_output_against_inputs`);
+- the target is checked before the work (exists, writable) and its identity recorded; the final
+  move never replaces anything but the folder that was checked: without ``force`` it fails if
+  the target appeared meanwhile, with ``force`` it replaces only the same folder (device and
+  inode) that was checked;
+- SIGTERM while staging removes the staging folder and exits with code 143; a staging folder
+  left by a killed run (its marker names a dead process) is removed by the next run on the same
+  target, one of a live run makes the next run refuse;
+- folders and files follow the umask.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import errno
+import os
 import shutil
+import signal
 import tempfile
-from collections.abc import Iterator
+import threading
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from hdrfringe.errors import OutputExistsError
+from hdrfringe.errors import InputError, OutputExistsError
 
 __all__ = [
+    "SIGTERM_EXIT_CODE",
+    "STAGING_INFIX",
+    "check_output_against_inputs",
     "check_output_dir",
+    "check_writable",
+    "current_umask",
     "read_map_tiff",
+    "rename_noreplace",
+    "sigterm_cleanup",
     "staged_output_dir",
     "write_map_tiff",
     "write_preview_png",
 ]
 
+SIGTERM_EXIT_CODE = 143
+"""Exit code of a run stopped by SIGTERM while writing (128 + 15, as a shell reports it)."""
+
+STAGING_INFIX = ".staging-"
+"""A staging folder of ``out`` is named ``.{out.name}.staging-{PID}-{random}``: the PID of the
+writing process marks it, so a later run can tell a killed run's leftovers from a live run."""
+
+# target (absolute, resolved) -> (device, inode) of the folder checked, or None if absent.
+_checked: dict[Path, tuple[int, int] | None] = {}
+_checked_lock = threading.Lock()
+
+
+def _resolved(path: str | Path) -> Path:
+    return Path(os.path.realpath(os.path.abspath(path)))
+
+
+def current_umask() -> int:
+    """The process's file-mode creation mask, read without changing it where possible.
+
+    Returns
+    -------
+    int
+        The umask, e.g. ``0o022``.
+
+    Examples
+    --------
+    >>> old = os.umask(0o027)
+    >>> oct(current_umask())
+    '0o27'
+    >>> _ = os.umask(old)
+    """
+    with contextlib.suppress(OSError, ValueError):
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    mask = os.umask(0o022)  # no /proc: the classic read (briefly sets it, then restores it)
+    os.umask(mask)
+    return mask
+
+
+def check_output_against_inputs(output: str | Path, inputs: Iterable[str | Path | None]) -> None:
+    """Refuse an output that is, contains or lies inside one of the inputs.
+
+    Paths are resolved (symbolic links, ``..``) before they are compared, so ``-o X/../X`` or a
+    link to ``X`` is caught as well. This is the check each command makes before any work, so
+    ``--force`` can never replace (delete) the data the command reads.
+
+    Parameters
+    ----------
+    output : str or Path
+        The output folder or file a command is about to write.
+    inputs : iterable of str, Path or None
+        Every capture folder, calibration file or correction file the command reads (None
+        entries are ignored).
+
+    Raises
+    ------
+    InputError
+        If the output and an input overlap; the message names both paths.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> check_output_against_inputs(root / "out", [root / "captures", None])
+    >>> check_output_against_inputs(root / "captures" / "sub", [root / "captures"])
+    ... # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: ...sub: output is inside the input .../captures; ...
+    """
+    out = _resolved(output)
+    for item in inputs:
+        if item is None:
+            continue
+        src = _resolved(item)
+        if out == src:
+            how = "is the input"
+        elif out.is_relative_to(src):
+            how = "is inside the input"
+        elif src.is_relative_to(out):
+            how = "contains the input"
+        else:
+            continue
+        raise InputError(
+            f"{output}: output {how} {item}; choose an output path outside every input"
+        )
+
+
+def check_writable(path: str | Path) -> None:
+    """Refuse an output path whose folder cannot be written, before any work.
+
+    The nearest existing ancestor of ``path`` must be a folder in which a folder can be created
+    (tried for real with a probe that is removed at once, so read-only and immutable folders and
+    read-only file systems are caught, also for root). The working directory and its ancestors
+    are refused as outputs (they cannot be replaced).
+
+    Parameters
+    ----------
+    path : str or Path
+        The output folder or file.
+
+    Raises
+    ------
+    OutputExistsError
+        If the output is the working directory or an ancestor of it, or the file system root.
+    InputError
+        If an ancestor is a file, or the folder is not writable.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> check_writable(root / "a" / "b")
+    >>> (root / "f").write_text("x")
+    1
+    >>> check_writable(root / "f" / "out")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: ...out: cannot write there: ...f is a file, not a folder; ...
+    """
+    out = _resolved(path)
+    if out.parent == out:
+        raise OutputExistsError(f"{path}: the file system root cannot be an output")
+    with contextlib.suppress(OSError):
+        if Path.cwd().resolve().is_relative_to(out):
+            raise OutputExistsError(
+                f"{path}: is the working directory or contains it and cannot be replaced; "
+                "give a subfolder or another path"
+            )
+    parent = out.parent
+    while not parent.exists() and parent.parent != parent:
+        if parent.is_symlink():  # dangling link: cannot create through it
+            break
+        parent = parent.parent
+    if not parent.is_dir():
+        raise InputError(
+            f"{path}: cannot write there: {parent} is a file, not a folder; choose another path"
+        )
+    try:
+        probe = tempfile.mkdtemp(prefix=".hdrfringe-probe-", dir=parent)
+        os.rmdir(probe)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise InputError(
+            f"{path}: cannot write in {parent} ({reason}); choose a writable output path"
+        ) from None
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _clear_stale_staging(out: Path, path: str | Path) -> None:
+    """Remove staging folders of ``out`` left by dead processes; refuse one of a live run."""
+    with contextlib.suppress(OSError):
+        for entry in out.parent.glob(f".{out.name}{STAGING_INFIX}*"):
+            try:
+                pid = int(entry.name[len(out.name) + 1 + len(STAGING_INFIX) :].split("-")[0])
+            except ValueError:
+                continue  # not named by this version: not ours to judge
+            if pid == os.getpid():
+                continue
+            if _pid_alive(pid):
+                raise OutputExistsError(
+                    f"{path}: another run (PID {pid}) is writing this output ({entry.name}); "
+                    "wait for it, or remove that folder if the process is not hdrfringe"
+                )
+            shutil.rmtree(entry, ignore_errors=True)
+
 
 def check_output_dir(path: str | Path, force: bool) -> Path:
-    """Refuse an existing non-empty output folder unless ``force``; refuse a file in the way.
+    """Check an output folder before any work and record what was checked.
 
-    Nothing is created or removed: this is the check a command makes before any work, so that
-    a run that would be refused at the end is refused at once.
+    Refuses a file in the way, an existing non-empty folder unless ``force``, an unwritable
+    location (:func:`check_writable`) and a target another live run is writing; removes staging
+    folders left by killed runs. The identity of what is there (device and inode of the
+    folder, or nothing) is recorded: :func:`staged_output_dir` later replaces only that.
 
     Parameters
     ----------
@@ -48,7 +249,10 @@ def check_output_dir(path: str | Path, force: bool) -> Path:
     Raises
     ------
     OutputExistsError
-        If ``path`` is a file, or a non-empty folder and ``force`` is false.
+        If ``path`` is a file, or a non-empty folder and ``force`` is false, or is being
+        written by another run.
+    InputError
+        If the location is not writable.
 
     Examples
     --------
@@ -74,7 +278,152 @@ def check_output_dir(path: str | Path, force: bool) -> Path:
             f"{out}: output folder exists and is not empty; pass --force to replace it "
             "or choose another path"
         )
+    check_writable(out)
+    target = _resolved(out)
+    _clear_stale_staging(target, out)
+    try:
+        st = os.lstat(target)
+        ident: tuple[int, int] | None = (st.st_dev, st.st_ino)
+    except FileNotFoundError:
+        ident = None
+    with _checked_lock:
+        _checked[target] = ident
     return out
+
+
+_RENAME_NOREPLACE = 1
+_AT_FDCWD = -100
+
+
+def rename_noreplace(src: str | Path, dst: str | Path) -> None:
+    """Rename ``src`` to ``dst`` atomically, failing if ``dst`` exists (even an empty folder).
+
+    ``os.rename`` of a folder onto an existing empty folder succeeds on Linux, so it cannot
+    guard a target. This uses ``renameat2(..., RENAME_NOREPLACE)`` (Linux >= 3.15, one atomic
+    step, the folder appears complete); where that is unavailable (other systems, file systems
+    without it) it falls back to claiming ``dst`` with ``os.mkdir`` (atomic: fails if anything is
+    there) and moving the entries of ``src`` into it.
+
+    Parameters
+    ----------
+    src, dst : str or Path
+        Source and (non-existent) destination on one file system.
+
+    Raises
+    ------
+    FileExistsError
+        If ``dst`` exists.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> (root / "a").mkdir(); (root / "b").mkdir()
+    >>> rename_noreplace(root / "a", root / "b")
+    Traceback (most recent call last):
+    ...
+    FileExistsError: [Errno 17] File exists: ...
+    >>> rename_noreplace(root / "a", root / "c"); sorted(p.name for p in root.iterdir())
+    ['b', 'c']
+    """
+    s, d = os.fsencode(os.fspath(src)), os.fsencode(os.fspath(dst))
+    fn = None
+    with contextlib.suppress(OSError, AttributeError):
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    if fn is not None:
+        if fn(_AT_FDCWD, s, _AT_FDCWD, d, _RENAME_NOREPLACE) == 0:
+            return
+        err = ctypes.get_errno()
+        if err not in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP):
+            raise OSError(err, os.strerror(err), os.fspath(dst))
+    os.mkdir(d)  # atomic claim: FileExistsError if anything is there
+    try:
+        for entry in os.listdir(s):
+            os.rename(os.path.join(s, entry), os.path.join(d, entry))
+        os.rmdir(s)
+    except BaseException:
+        shutil.rmtree(d, ignore_errors=True)
+        raise
+
+
+@contextlib.contextmanager
+def sigterm_cleanup() -> Iterator[None]:
+    """Within the block, SIGTERM raises ``SystemExit(143)`` so cleanup code runs.
+
+    Only the main thread can set signal handlers; elsewhere this does nothing. The previous
+    handler is restored on exit.
+
+    Yields
+    ------
+    None
+
+    Examples
+    --------
+    >>> with sigterm_cleanup():
+    ...     signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    True
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _stop(signum: int, frame: object) -> None:
+        raise SystemExit(SIGTERM_EXIT_CODE)
+
+    old = signal.signal(signal.SIGTERM, _stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _finish(
+    tmp: Path, target: Path, path: str | Path, ident: tuple[int, int] | None, force: bool
+) -> None:
+    """Move the complete staging folder to ``target``, replacing only the checked folder."""
+    try:
+        st = os.lstat(target)
+        now: tuple[int, int] | None = (st.st_dev, st.st_ino)
+    except FileNotFoundError:
+        now = None
+    if now is None:
+        try:
+            rename_noreplace(tmp, target)
+        except FileExistsError:
+            raise OutputExistsError(
+                f"{path}: appeared while this run was writing; it was left untouched and "
+                "nothing was written"
+            ) from None
+        return
+    if now != ident:
+        raise OutputExistsError(
+            f"{path}: was created or replaced while this run was writing; it was left "
+            "untouched and nothing was written"
+        )
+    if not force:  # the empty folder checked at start: remove it only if still empty
+        try:
+            os.rmdir(target)
+        except OSError:
+            raise OutputExistsError(
+                f"{path}: files appeared in the output folder while this run was writing; it "
+                "was left untouched and nothing was written"
+            ) from None
+        _finish(tmp, target, path, None, force)
+        return
+    # the folder checked at start (force): move it aside, then claim the name
+    backup = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
+    backup.rmdir()
+    os.rename(target, backup)
+    try:
+        rename_noreplace(tmp, target)
+    except FileExistsError:
+        with contextlib.suppress(OSError):
+            rename_noreplace(backup, target)
+        raise OutputExistsError(
+            f"{path}: appeared while this run was writing; it was left untouched and nothing "
+            "was written"
+        ) from None
+    shutil.rmtree(backup, ignore_errors=True)
 
 
 @contextlib.contextmanager
@@ -82,8 +431,12 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     """Write a folder atomically: yield a staging folder, then move it to ``path``.
 
     The staging folder is a hidden sibling of ``path`` (same file system, so the final move is
-    a rename). On any exception the staging folder is removed and ``path`` is left untouched;
-    on success an existing ``path`` (allowed by ``force``) is replaced by the new folder.
+    a rename), named with this process's PID (:data:`STAGING_INFIX`). On any exception, and
+    on SIGTERM (exit code 143), the staging folder is removed and ``path`` is left untouched.
+    On success the folder is moved into place with a rename that cannot replace anything
+    (:func:`rename_noreplace`); an existing ``path`` is replaced only if it is the very folder
+    that was checked (by :func:`check_output_dir`, at the start of the command or on entry
+    here), so a folder created or swapped meanwhile is never touched.
 
     Parameters
     ----------
@@ -101,7 +454,7 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     Raises
     ------
     OutputExistsError
-        As :func:`check_output_dir`.
+        As :func:`check_output_dir`, or if the target changed while writing.
 
     Examples
     --------
@@ -121,22 +474,24 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     >>> sorted(p.name for p in root.iterdir())
     ['result']
     """
-    out = check_output_dir(path, force)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.staging-", dir=out.parent))
-    try:
-        yield tmp
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    if out.exists():
-        backup = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-        backup.rmdir()
-        out.rename(backup)
-        tmp.rename(out)
-        shutil.rmtree(backup, ignore_errors=True)
-    else:
-        tmp.rename(out)
+    target = _resolved(path)
+    with _checked_lock:
+        known = target in _checked
+    if not known:  # not checked at the start of the command: check now
+        check_output_dir(path, force)
+    with _checked_lock:
+        ident = _checked.pop(target, None)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with sigterm_cleanup():
+        prefix = f".{target.name}{STAGING_INFIX}{os.getpid()}-"
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
+        try:
+            os.chmod(tmp, 0o777 & ~current_umask())
+            yield tmp
+            _finish(tmp, target, path, ident, force)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
 
 
 def write_map_tiff(path: str | Path, data: ArrayLike) -> None:
