@@ -455,7 +455,7 @@ _SLOW_SAVE = textwrap.dedent(
     from hdrfringe.calibration import Calibration
     from hdrfringe.cli import app
 
-    cal = Calibration("linear", np.full((2, 3), 0.5), None, np.zeros((2, 3)),
+    cal = Calibration("linear", np.full((30, 30), 0.5), None, np.zeros((30, 30)),
                       np.array([2.0, 4.0]), provenance={"test": "sigint"})
     cf.expand_capture_dirs = lambda folders: list(folders)
     cf.calibrate_folders = lambda folders, **kwargs: cal
@@ -509,7 +509,7 @@ def test_output_modes_follow_the_umask(
     from hdrfringe.calibration import Calibration
     from hdrfringe.io.calibration_file import save_calibration
 
-    cal = Calibration("linear", np.full((2, 3), 0.5), None, np.zeros((2, 3)), np.array([2.0]))
+    cal = Calibration("linear", np.full((30, 30), 0.5), None, np.zeros((30, 30)), np.array([2.0]))
     old = os.umask(umask)
     try:
         path = save_calibration(tmp_path / "cal.h5", cal)
