@@ -27,10 +27,12 @@ if TYPE_CHECKING:
     #: How the experiments run a sweep: ``run(store, grid, task, params) -> Dataset``.
     _Run = Callable[[Path, SweepGrid, BlockFunc, dict[str, Any]], xr.Dataset]
 
-__all__ = ["ADAPTIVE_SWEEPS", "CHAPTERS", "MARKER", "parse_chapters", "reproduce"]
+__all__ = ["ADAPTIVE_SWEEPS", "CHAPTERS", "MARKER", "MAX_WORKERS", "parse_chapters", "reproduce"]
 
 #: The file that marks a folder as a reproduction (what was run, with which grid).
 MARKER = "reproduce.json"
+#: Most local-cluster worker processes ``--workers`` may ask for (a larger cluster: --scheduler).
+MAX_WORKERS = 1024
 #: The chapters a reproduction can run.
 CHAPTERS: tuple[str, ...] = ("ch4", "ch5", "ch6")
 #: The adaptive sweeps each chapter reads (:mod:`hdrfringe.reproduce.adaptive`).
@@ -228,10 +230,10 @@ def reproduce(
     Raises
     ------
     InputError
-        An unknown chapter, ``n_workers`` below 1, ``out`` a file, a reproduction made on
-        the other grid, or a ``scheduler`` address that does not answer as a Dask scheduler
-        within :data:`~hdrfringe.reproduce.engine.SCHEDULER_TIMEOUT_S` (checked before
-        anything is written).
+        An unknown chapter, ``n_workers`` outside 1..:data:`MAX_WORKERS`, ``out`` a file, a
+        reproduction made on the other grid, or a ``scheduler`` address that does not answer
+        as a Dask scheduler within :data:`~hdrfringe.reproduce.engine.SCHEDULER_TIMEOUT_S`
+        (checked before anything is written).
     OutputExistsError
         ``out`` a non-empty folder that is not a reproduction, without ``force``.
 
@@ -248,6 +250,11 @@ def reproduce(
         )
     if n_workers is not None and n_workers < 1:
         raise InputError(f"--workers (n_workers) must be at least 1, got {n_workers}")
+    if n_workers is not None and n_workers > MAX_WORKERS:
+        raise InputError(
+            f"--workers (n_workers) {str(n_workers)[:20]}: more than the limit of {MAX_WORKERS}"
+            " local worker processes; give fewer, or --scheduler for a larger cluster"
+        )
     _check_folder(out, force, quick)
     if scheduler is not None:
         check_scheduler(scheduler)  # before anything is written
