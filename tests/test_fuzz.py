@@ -246,6 +246,14 @@ CASES: list[tuple[str, list[str]]] = [
     ),
     # --- train-correction ---------------------------------------------------------------
     ("train-missing-folder", ["train-correction", "{r}/nowhere", "-o", "{r}/k.json"]),
+    (
+        "train-order-negative",
+        ["train-correction", "--rig", "sim", "-o", "{r}/k.json", "--order", "-1"],
+    ),
+    (
+        "train-order-huge",
+        ["train-correction", "--rig", "sim", "-o", "{r}/k.json", "--order", "9" * 400],
+    ),
     ("train-pitch-nan", ["train-correction", "--rig", "sim", "-o", "{r}/k.json", "--pitch", "nan"]),
     (
         "train-unknown-truth",

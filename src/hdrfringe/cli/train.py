@@ -65,7 +65,11 @@ def train_correction(
     estimate's error. Live (--rig sim; white plate under 600 lx by default) or from a step-1
     MIGL sweep FOLDER. Use the file with measure --method dpa --correction FILE.
     """
-    from hdrfringe.saturation.estimate import TRUTH_MODELS, training_data_from_rig
+    from hdrfringe.saturation.estimate import (
+        TRUTH_MODELS,
+        check_correction_order,
+        training_data_from_rig,
+    )
     from hdrfringe.strategies.dpa_training import (
         THESIS_CORRECTION_RMSE,
         training_data_from_folder,
@@ -78,6 +82,7 @@ def train_correction(
         raise InputError("no output file: give -o/--output FILE.json")
     if truth not in TRUTH_MODELS:
         raise InputError(f"unknown truth {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
+    check_correction_order(order)  # before the (slow) training captures
     from hdrfringe.io.results import check_output_against_inputs, check_writable
 
     check_output_against_inputs(output, [folder])

@@ -56,6 +56,7 @@ __all__ = [
     "CorrectionPolynomial",
     "TrainingData",
     "TruthModel",
+    "check_correction_order",
     "correction_samples",
     "estimate_saturated_eq62",
     "estimate_saturated_lsq",
@@ -963,6 +964,43 @@ def correction_samples(
     return estimate[use], true[use]
 
 
+def check_correction_order(order: object) -> int:
+    """The degree of DPA's correction polynomial, checked: an integer 0..6 (Sec. 6.1.2).
+
+    Front ends call it before capturing training data, so a bad degree fails at once.
+
+    Parameters
+    ----------
+    order : int
+        Polynomial degree.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        When ``order`` is not an integer in 0..6.
+
+    Examples
+    --------
+    >>> check_correction_order(2)
+    2
+    >>> check_correction_order(-1)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: correction polynomial order must be an integer 0..6, got -1
+
+    References
+    ----------
+    Thesis Sec. 6.1.2 (the error-correction polynomial, of low order).
+    """
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or not 0 <= order <= 6:
+        raise InputError(f"correction polynomial order must be an integer 0..6, got {order!r}")
+    return int(order)
+
+
 def train_correction(
     index_image: ArrayLike,
     images_at_top: ArrayLike,
@@ -1035,8 +1073,7 @@ def train_correction(
     >>> poly.apply([282.5]).round(9).tolist()
     [280.0]
     """
-    if isinstance(order, bool) or int(order) != order or not 0 <= order <= 6:
-        raise InputError(f"correction polynomial order must be an integer 0..6, got {order!r}")
+    check_correction_order(order)
     est, true = correction_samples(
         index_image,
         images_at_top,
