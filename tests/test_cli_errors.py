@@ -217,3 +217,12 @@ def test_parse_range_and_floats() -> None:
     ]:
         with pytest.raises(InputError, match=re.escape(match)):
             parse_range(text, "--x", **kwargs)
+
+
+def test_error_text_with_brackets_prints_verbatim(tmp_path: Path) -> None:
+    # The CLI prints errors through rich; a path with "[bold]" or "[a-z]" in it must not be
+    # taken for markup (it was: "[camera]" vanished from a message).
+    missing = tmp_path / "run[bold]" / "caps[a-z]"
+    res = run_cli("phase", str(missing), "-o", str(tmp_path / "out"))
+    assert res.returncode == 2, res.stderr
+    assert "run[bold]" in res.stderr and "caps[a-z]" in res.stderr, res.stderr

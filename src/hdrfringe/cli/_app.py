@@ -11,6 +11,7 @@ from typing import Annotated, Any, TypeVar
 import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from hdrfringe import __version__
 from hdrfringe.errors import HdrFringeError, InputError
@@ -50,7 +51,8 @@ def handle_errors(func: F) -> F:
             return func(*args, **kwargs)
         except HdrFringeError as exc:
             msg = " ".join(str(exc).split())
-            err_console.print(f"[bold red]error:[/] {msg}", markup=True, highlight=False)
+            # The message is user text (paths, regexes): escaped, so "[a-z]" prints verbatim.
+            err_console.print(f"[bold red]error:[/] {escape(msg)}", markup=True, highlight=False)
             raise typer.Exit(code=2) from None
         except KeyboardInterrupt:  # Ctrl-C: nothing written (outputs are staged); shell's 130
             err_console.print("interrupted: nothing was written", highlight=False)
