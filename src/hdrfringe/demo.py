@@ -351,7 +351,7 @@ def run_demo(
     from rich.progress import Progress
 
     console = console or Console()
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     frames = demo_frames()
     scenes: list[tuple[str, Scene, bool]] = [
         ("white_plate_10mm", white_plate(10.0), False),

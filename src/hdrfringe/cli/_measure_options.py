@@ -15,7 +15,6 @@ import typer
 from hdrfringe.cli._app import parse_floats
 from hdrfringe.cli._options import LIVE_PANEL, given_options
 from hdrfringe.cli._strategy_options import method_help, strategy_file_readers
-from hdrfringe.errors import OutputExistsError
 
 __all__ = [
     "CalibrationOpt",
@@ -35,7 +34,6 @@ __all__ = [
     "TrainPitchOpt",
     "TrainStepsOpt",
     "TruthOpt",
-    "check_output_file",
     "live_fringes",
     "strategy_params",
 ]
@@ -174,17 +172,3 @@ def live_fringes(
     full = full_scale(projector.bit_depth)
     line = CenterlineFrame(projector.width // 2, "vertical", full) if centerline else None
     return specs, line
-
-
-def check_output_file(output: Path, force: bool) -> None:
-    """Refuse an existing file without ``force``, and a folder in its place.
-
-    Parameters
-    ----------
-    output : Path
-    force : bool
-    """
-    if output.exists() and not force:
-        raise OutputExistsError(f"{output}: exists; pass --force to replace it")
-    if output.is_dir():
-        raise OutputExistsError(f"{output}: is a folder; give a file name such as corr.json")

@@ -34,7 +34,7 @@ def gamma(
 
     if output is not None:
         check_output_against_inputs(output, [folder])
-        check_output_dir(output, force)
+        output = check_output_dir(output, force)
     report = gamma_report(read_capture_folder(folder), source=str(folder))
     for line in report.lines:
         console.print(line)

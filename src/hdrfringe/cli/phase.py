@@ -37,7 +37,7 @@ def phase(
     from hdrfringe.process import decode_captures
 
     check_output_against_inputs(output, [folder])
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
     if not captures.sets:
         raise CaptureFormatError(

@@ -89,7 +89,7 @@ def simulate(
     from hdrfringe.rig.acquire import IntensityModification
     from hdrfringe.rig.factory import virtual_rig
 
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     orients = parse_orientations(orientation)
     depths: Sequence[float | None] = [depth_mm]
     if series is not None:

@@ -126,7 +126,7 @@ def modify_capture_folder(
     >>> read_manifest(done.path)["modification"]["add_lux"], read_manifest(tmp / "caps")["scene"]
     (600.0, {'name': 'white_plate', 'depth_mm': 0.0, 'reflectivity': 1.0})
     """
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     caps = read_capture_folder(folder)
     manifest = read_manifest(folder)  # the fields Captures does not keep: file names, extras
     images = modification.apply(caps.images, caps.camera_bit_depth)
