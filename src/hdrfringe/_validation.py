@@ -26,6 +26,7 @@ __all__ = [
     "check_bit_depth",
     "check_min_modulation",
     "check_tolerance",
+    "describe_saturated",
     "full_scale",
     "is_saturated",
     "saturation_count",
@@ -338,3 +339,43 @@ def check_min_modulation(value: object, bit_depth: int) -> float | None:
             "default"
         )
     return thr
+
+
+def describe_saturated(count: int, total: int) -> str:
+    """How hdrfringe reports saturated pixels: the count, then the share of ``total``.
+
+    A share alone hides small counts ("0.0 %" when 311 of 4.4 million pixels clip); the share
+    is given to two significant digits below 1 %.
+
+    Parameters
+    ----------
+    count : int
+        Saturated pixels (:func:`is_saturated` in at least one image).
+    total : int
+        Pixels they are counted among.
+
+    Returns
+    -------
+    str
+        E.g. ``"311 px (0.0071 %)"``.
+
+    Examples
+    --------
+    >>> describe_saturated(311, 4_400_000), describe_saturated(0, 100)
+    ('311 px (0.0071 %)', '0 px (0 %)')
+    >>> describe_saturated(2_000_000, 4_400_000)
+    '2000000 px (45.5 %)'
+    """
+    count, total = int(count), int(total)
+    if total <= 0:
+        return f"{count} px"
+    pct = 100.0 * count / total
+    if count == 0:
+        share = "0"
+    elif pct >= 1.0:
+        share = f"{pct:.1f}"
+    else:
+        share = np.format_float_positional(
+            pct, precision=2, unique=False, fractional=False, trim="-"
+        )
+    return f"{count} px ({share} %)"
