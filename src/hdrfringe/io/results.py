@@ -87,6 +87,14 @@ class CheckedOutput(_PathBase):
     other's state, and nothing is left behind in a long-lived session. A path derived from it
     (``out / "x"``, ``Path(out)``) is a plain, unchecked path.
 
+    Parameters
+    ----------
+    *args : str or path-like
+        Path segments, as for :class:`~pathlib.Path`; made so, the object is unchecked: use
+        :meth:`record` (or the check functions).
+    **kwargs
+        As for :class:`~pathlib.Path`.
+
     Attributes
     ----------
     identity : (int, int) or None
