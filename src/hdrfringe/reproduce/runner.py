@@ -282,7 +282,7 @@ def reproduce(
     _check_folder(out, force, quick)
     if scheduler is not None:
         check_scheduler(scheduler)  # before anything is written
-    check_writable(out)
+    check_writable(out / MARKER)  # an entry can be made in out (resumed, never replaced)
     out.mkdir(parents=True, exist_ok=True)
     marker = {"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}
     _write_text(out / MARKER, json.dumps(marker) + "\n")
