@@ -222,6 +222,10 @@ CASES: list[tuple[str, list[str]]] = [
             "nan",
         ],
     ),
+    (
+        "measure-option-of-another-method",
+        ["measure", "{r}/caps", "-c", "{r}/good.h5", "-o", "{o}", "--tolerance", "nan"],
+    ),
     # --- measure --rig sim --------------------------------------------------------------
     ("measure-rig-unknown", ["measure", "--rig", "laser", "-c", "{r}/good.h5", "-o", "{o}"]),
     (

@@ -458,7 +458,14 @@ def test_gamma_report_fits_uniform_grays_and_wide_sets_only() -> None:
         "residual nonlinearity (max, % of range)",
         "note",
         "fringe shape",
+        "residual nonlinearity (max, % of range)",
     ]
+    fnl = rep.report["fringes"]["residual_nonlinearity_percent"]
+    assert fnl["precompensated_with_fit"] == predicted_nonlinearity(ref_f, ref_f.gamma)[0] < 1.0
+    assert fnl["no_precompensation"] > 10.0
+    measured = measure_nonlinearity(ref_f.sent, ref_f.dn, ref_f.gamma, captured_with=1.0, bins=32)
+    assert fnl["measured_precompensated_with_fit"] == pytest.approx(measured.max_percent)
+    assert rep.report["warnings"] == [] and not rep.report["fringes"]["residual_large"]
     assert caps.sets[0].label in rep.lines[2] and "narrower than 32 px" in rep.lines[2]
     rep.check_fitted()
     json.dumps(rep.report, allow_nan=False)  # standard JSON
@@ -478,6 +485,13 @@ def test_write_gamma_outputs(tmp_path: Path) -> None:
     rep = gamma_report(caps, source="bench")
     out = write_gamma_outputs(tmp_path / "g", rep)
     assert json.loads((out / "gamma.json").read_text()) == rep.report
+    assert sorted(p.name for p in out.iterdir()) == [
+        "gamma.json",
+        "gamma_mapping.png",
+        "gamma_mapping_fringes.png",
+        "gamma_nonlinearity.png",
+        "gamma_nonlinearity_fringes.png",
+    ]
     assert (out / "gamma_mapping.png").stat().st_size > 10_000
     (out / "keep.txt").write_text("mine")
     with pytest.raises(OutputExistsError):
@@ -489,8 +503,34 @@ def test_write_gamma_outputs(tmp_path: Path) -> None:
         Captures(*fringes, 8, gamma_precompensation=caps.gamma_precompensation[n:]), source="f"
     )
     assert fringes_only.uniform_fit is None
-    out = write_gamma_outputs(out, fringes_only, force=True)
-    assert sorted(p.name for p in out.iterdir()) == ["gamma.json"]
+    out = write_gamma_outputs(out, fringes_only, force=True)  # wrote no plot before
+    names = ["gamma.json", "gamma_mapping_fringes.png", "gamma_nonlinearity_fringes.png"]
+    assert sorted(p.name for p in out.iterdir()) == names
+    assert all((out / n).stat().st_size > 10_000 for n in names[1:])
+
+
+def test_large_fit_residual_is_reported_with_a_warning() -> None:
+    """A light switched on for one of the grays (+40 DN): gamma moves to 2.14 and the rms
+    residual, 9.1 DN or 4.6 % of the 197 DN signal range, says the power law does not describe
+    the captures. The same captures without the disturbance: 0.06 DN (0.03 %), no warning."""
+    from hdrfringe.gamma.report import LARGE_RESIDUAL_FRACTION
+
+    *_, grays = report_captures()
+    n = len(LEVELS)
+    clean = Captures([UniformFrame(g) for g in LEVELS], np.stack(grays), 8)
+    lit = np.stack(grays).astype(np.int64)
+    lit[n // 2] += 40  # 40 DN of extra light on one capture
+    disturbed = Captures([UniformFrame(g) for g in LEVELS], lit.clip(0, 255).astype(np.uint8), 8)
+    ok, bad = gamma_report(clean, source="clean"), gamma_report(disturbed, source="lit")
+    assert ok.report["uniform"]["residual_large"] is False and ok.report["warnings"] == []
+    assert not any(line.startswith("warning:") for line in ok.lines)
+    u = bad.report["uniform"]
+    assert u["rms_residual_dn"] > LARGE_RESIDUAL_FRACTION * u["scale_dn"]
+    assert u["residual_large"] is True and u["degenerate"] is False
+    warnings = [line for line in bad.lines if line.startswith("warning:")]
+    assert len(warnings) == 1 and "rms residual" in warnings[0]
+    assert bad.report["warnings"] == warnings
+    json.dumps(bad.report, allow_nan=False)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -523,6 +563,32 @@ def test_gamma_cli_on_uniform_folder_skips_narrow_fringes(tmp_path: Path) -> Non
     assert "fringes" not in report
     assert report["uniform"]["gamma"] == pytest.approx(THESIS_GAMMA, rel=0.01)
     assert (out / "gamma_mapping.png").is_file()
+
+
+def test_gamma_cli_on_fringe_captures_writes_the_plots(tmp_path: Path) -> None:
+    """Fringe captures alone (the two wide pre-distorted sets): the help and the README
+    promise the plot; before, only gamma.json was written."""
+    from hdrfringe.io.captures import write_capture_folder
+
+    caps, _, _ = report_captures()
+    n = len(LEVELS) + 4  # the grays and the narrow set left out
+    folder = tmp_path / "fringes"
+    fringes = Captures(
+        caps.frames[n:],
+        caps.images[n:],
+        8,
+        projector=ProjectorInfo(gamma_precompensation=1.0),
+        gamma_precompensation=caps.gamma_precompensation[n:],
+    )
+    write_capture_folder(folder, fringes)
+    out = tmp_path / "g"
+    res = run_cli("gamma", str(folder), "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    assert "fringe shape: gamma = 2.2" in res.stdout and "warning" not in res.stdout
+    names = ["gamma.json", "gamma_mapping_fringes.png", "gamma_nonlinearity_fringes.png"]
+    assert sorted(p.name for p in out.iterdir()) == names
+    report = json.loads((out / "gamma.json").read_text())
+    assert report["warnings"] == [] and report["fringes"]["residual_large"] is False
 
 
 # ---------------------------------------------------------------------------------------------

@@ -116,8 +116,7 @@ def test_live_strategies_on_white_plate_600lx(
         "8",
         "--method",
         method,
-        "--step",
-        "5",
+        *(["--step", "5"] if method == "lpa" else []),  # LPA's alone
         "-c",
         str(calibration),
         "-o",

@@ -25,8 +25,10 @@ from hdrfringe.io.results import (
     SIGTERM_EXIT_CODE,
     check_output_against_inputs,
     check_output_dir,
+    check_output_file,
     rename_noreplace,
     staged_output_dir,
+    staged_output_file,
 )
 from hdrfringe.patterns import FringeSpec
 from tests.conftest import synthetic_set
@@ -149,8 +151,7 @@ def test_rename_noreplace_refuses_an_empty_folder(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("force", [False, True])
 def test_folder_appearing_while_writing_is_untouched(tmp_path: Path, force: bool) -> None:
-    out = tmp_path / "out"
-    check_output_dir(out, force)  # the command's check at start: nothing there
+    out = check_output_dir(tmp_path / "out", force)  # the command's check at start: nothing there
     with pytest.raises(OutputExistsError, match="while this run was writing"):
         with staged_output_dir(out, force=force) as tmp:
             (tmp / "result.txt").write_text("ours")
@@ -165,7 +166,7 @@ def test_force_replaces_only_the_folder_checked(tmp_path: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()
     (out / "old.txt").write_text("old result")
-    check_output_dir(out, True)
+    out = check_output_dir(out, True)
     out.rename(tmp_path / "moved")  # swapped for another folder during the run
     out.mkdir()
     (out / "user.txt").write_text("the user's")
@@ -175,7 +176,7 @@ def test_force_replaces_only_the_folder_checked(tmp_path: Path) -> None:
     assert (out / "user.txt").read_text() == "the user's"
     assert _staging_left(tmp_path) == []
     # and the folder that was checked is replaced
-    check_output_dir(out, True)
+    out = check_output_dir(out, True)
     with staged_output_dir(out, force=True) as tmp:
         (tmp / "result.txt").write_text("ours")
     assert sorted(p.name for p in out.iterdir()) == ["result.txt"]
@@ -185,7 +186,7 @@ def test_force_replaces_only_the_folder_checked(tmp_path: Path) -> None:
 def test_empty_folder_filled_while_writing_is_untouched(tmp_path: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()
-    check_output_dir(out, False)  # an empty folder is accepted without --force
+    out = check_output_dir(out, False)  # an empty folder is accepted without --force
     with pytest.raises(OutputExistsError, match="files appeared"):
         with staged_output_dir(out, force=False) as tmp:
             (tmp / "result.txt").write_text("ours")
@@ -525,3 +526,161 @@ def test_sigterm_handler_is_restored(tmp_path: Path) -> None:
         assert signal.getsignal(signal.SIGTERM) is not before
     assert signal.getsignal(signal.SIGTERM) is before
     time.sleep(0)
+
+
+# ------------------------------------------------------------------------------------------
+# 7. what was checked travels with the output path: no state shared between writers
+# ------------------------------------------------------------------------------------------
+def test_two_writers_in_one_process_do_not_share_state(tmp_path: Path) -> None:
+    """Two ``--force`` writers checked the same folder; the first replaces it. The second
+    must be refused (it would replace a result it never checked), whatever the first did.
+    With a module-level record the first writer's use dropped the second's record, which was
+    then re-taken on entry and the first result silently replaced."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "old.txt").write_text("old result")
+    first, second = check_output_dir(out, True), check_output_dir(out, True)
+    with staged_output_dir(first, force=True) as tmp:
+        (tmp / "result.txt").write_text("first")
+    with pytest.raises(OutputExistsError, match="created or replaced"):
+        with staged_output_dir(second, force=True) as tmp:
+            (tmp / "result.txt").write_text("second")
+    assert (out / "result.txt").read_text() == "first"
+    assert _staging_left(tmp_path) == []
+
+
+def test_an_unused_check_leaves_nothing_behind(tmp_path: Path) -> None:
+    """A check whose writer never ran (the command failed in between) must not bind a later,
+    unrelated write to the same path in the same session (a stale module-level record did:
+    this ``force`` write was refused because of a check made before the folder existed)."""
+    out = tmp_path / "out"
+    check_output_dir(out, False)  # nothing there; its writer never runs
+    out.mkdir()
+    (out / "old.txt").write_text("made later")
+    with staged_output_dir(out, force=True) as tmp:  # a plain path: checked on entry
+        (tmp / "result.txt").write_text("new")
+    assert sorted(p.name for p in out.iterdir()) == ["result.txt"]
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def _killed_replace(tmp_path: Path, *, target: bool, staging: bool) -> tuple[Path, Path]:
+    """What a ``--force`` replace killed between its two renames leaves beside ``out``."""
+    pid = _dead_pid()
+    out = tmp_path / "out"
+    old = tmp_path / f".out.old-{pid}-abc123"
+    old.mkdir()
+    (old / "result.txt").write_text("previous output")
+    if staging:
+        stage = tmp_path / f".out.staging-{pid}-def456"
+        stage.mkdir()
+        (stage / "result.txt").write_text("complete new output")
+    if target:
+        out.mkdir()
+        (out / "result.txt").write_text("in place")
+    return out, old
+
+
+def test_previous_output_of_a_killed_replace_is_moved_back(tmp_path: Path) -> None:
+    out, _ = _killed_replace(tmp_path, target=False, staging=True)
+    with pytest.raises(OutputExistsError, match="not empty"):  # restored first, then judged
+        check_output_dir(out, False)
+    assert (out / "result.txt").read_text() == "previous output"
+    assert _staging_left(tmp_path) == []
+
+
+def test_previous_output_of_a_completed_replace_is_removed(tmp_path: Path) -> None:
+    out, old = _killed_replace(tmp_path, target=True, staging=False)
+    assert old.is_dir()
+    check_output_dir(out, True)
+    assert (out / "result.txt").read_text() == "in place"
+    assert _staging_left(tmp_path) == []
+
+
+def test_previous_output_is_reported_when_the_output_was_made_again(tmp_path: Path) -> None:
+    out, old = _killed_replace(tmp_path, target=True, staging=True)
+    with pytest.raises(OutputExistsError, match=old.name):
+        check_output_dir(out, True)
+    assert (old / "result.txt").read_text() == "previous output"  # never the only copy
+    assert (out / "result.txt").read_text() == "in place"
+
+
+def test_killed_force_replace_is_recovered_by_the_next_command(caps: Path, tmp_path: Path) -> None:
+    """The command line: a rerun without --force finds the old output back in place and
+    refuses to replace it; with --force it replaces it and leaves nothing beside it."""
+    out, _ = _killed_replace(tmp_path, target=False, staging=True)
+    line = _one_line_error(_run("phase", str(caps), "-o", str(out)))
+    assert "not empty" in line, line
+    assert (out / "result.txt").read_text() == "previous output"
+    res = _run("phase", str(caps), "-o", str(out), "--force")
+    assert res.returncode == 0, res.stderr
+    assert (out / "phase_summary.json").is_file() and not (out / "result.txt").exists()
+    assert _staging_left(tmp_path) == []
+
+
+# ------------------------------------------------------------------------------------------
+# 8. single files: atomic, refused when present, replaced only as checked
+# ------------------------------------------------------------------------------------------
+def test_file_appearing_while_writing_is_untouched(tmp_path: Path) -> None:
+    for force in (False, True):
+        out = check_output_file(tmp_path / f"k{force}.json", force)
+        with pytest.raises(OutputExistsError, match="while this run was writing"):
+            with staged_output_file(out, force=force) as tmp:
+                tmp.write_text("ours")
+                Path(out).write_text("the user's")
+        assert Path(out).read_text() == "the user's"
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+_FAILING_WRITE = textwrap.dedent(
+    """
+    import pathlib, sys
+    from hdrfringe.cli import app
+
+    original = pathlib.Path.write_text
+
+    def half_then_full_disk(self, data, *args, **kwargs):  # ENOSPC half-way through the JSON
+        if self.name.endswith(".tmp") or self.suffix == ".json":
+            original(self, data[: len(data) // 2], *args, **kwargs)
+            raise OSError(28, "No space left on device")
+        return original(self, data, *args, **kwargs)
+
+    pathlib.Path.write_text = half_then_full_disk
+    app(sys.argv[1:], prog_name="hdrfringe")
+    """
+)
+
+
+def test_train_correction_replaces_its_file_atomically(tmp_path: Path) -> None:
+    """A write that fails half-way (disk full) must leave the existing file intact (it was
+    truncated and half-written when the JSON went straight to the target)."""
+    out = tmp_path / "corr.json"
+    out.write_text('{"previous": "polynomial"}\n')
+    driver = tmp_path / "failing_write.py"
+    driver.write_text(_FAILING_WRITE)
+    res = subprocess.run(
+        [
+            sys.executable,
+            str(driver),
+            "train-correction",
+            "--rig",
+            "sim",
+            "-o",
+            str(out),
+            "--force",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert res.returncode != 0
+    assert out.read_text() == '{"previous": "polynomial"}\n'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["corr.json", "failing_write.py"]
+    ok = _run("train-correction", "--rig", "sim", "-o", str(out), "--force")
+    assert ok.returncode == 0, ok.stderr
+    assert '"coefficients"' in out.read_text()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["corr.json", "failing_write.py"]

@@ -97,3 +97,50 @@ def test_refuses_to_mix_the_quick_and_the_full_grid(quick_run) -> None:
     res = run_cli("reproduce", "ch4", "-o", str(quick_run))
     assert res.returncode == 2 and "holds a reproduction on --quick" in res.stderr
     assert (quick_run / "reproduce.json").read_text() == marker
+
+
+_SLOW_FIGURES = """
+import sys, time
+import hdrfringe.reproduce.adaptive_report as ar
+from hdrfringe.cli import app
+
+def slow(*args, **kwargs):  # Ch. 4's figures are rendered by now; stop in Ch. 5-6's
+    print("figures", flush=True)
+    time.sleep(60)
+
+ar.figures = slow
+app(sys.argv[1:], prog_name="hdrfringe")
+"""
+
+
+def test_sigterm_while_rendering_leaves_the_previous_report_untouched(
+    quick_run: Path, tmp_path: Path
+) -> None:
+    """The report (figures, tables, report.md/html) is staged: a run stopped half-way leaves
+    the previous one as it was (figures were overwritten one by one in place before, and
+    SIGTERM ended the run without cleanup), while the stores stay resumable."""
+    import shutil
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "repro"
+    shutil.copytree(quick_run, out)
+    report = [out / "figures", out / "tables.json", out / "report.md", out / "report.html"]
+    report += sorted((out / "figures").iterdir())
+    before = {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in report}
+    driver = tmp_path / "slow_figures.py"
+    driver.write_text(_SLOW_FIGURES)
+    proc = subprocess.Popen(
+        [sys.executable, str(driver), "reproduce", "all", "--quick", "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    assert proc.stdout.readline().strip() == "figures", proc.stderr.read()
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=60) == 143, proc.stderr.read()
+    assert {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in report} == before
+    assert [p.name for p in out.iterdir() if p.name.startswith(".")] == []
+    assert all(sweep_status(out / s).complete for s in ("ch4.zarr", "checkerboard.zarr"))

@@ -1,11 +1,75 @@
-"""measure --method on a replayed MIGL sweep (simulate --migl-sweep), end to end."""
+"""measure --method on a replayed MIGL sweep (simulate --migl-sweep), end to end; strategy
+options given for a method that does not take them are refused; the range checks of
+--tolerance and --min-modulation are the library's, word for word."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
+import numpy as np
+import pytest
+
+from hdrfringe.errors import InputError
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.phase import decode_set
+from hdrfringe.strategies import make_params
 from tests.conftest import run_cli
+
+
+def _one_line_error(res) -> str:  # type: ignore[no-untyped-def]
+    assert res.returncode == 2, (res.returncode, res.stderr)
+    assert "Traceback" not in res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr
+    return " ".join(lines[0].removeprefix("error:").split())
+
+
+@pytest.mark.parametrize(
+    ("args", "option", "takers"),
+    [
+        (["--tolerance", "nan"], "--tolerance", "--method uniform"),  # refused, not range-checked
+        (["--tolerance", "0.1"], "--tolerance", "--method uniform"),
+        (["--method", "lpa", "--tolerance", "0.1"], "--tolerance", "--method uniform"),
+        (["--method", "uniform", "--step", "5"], "--step", "--method lpa"),
+        (["--method", "dpa", "--uniform-migl", "180"], "--uniform-migl", "--method uniform"),
+        (["--method", "lpa", "--threshold", "0.2"], "--threshold", "--method dpa"),
+        (["--method", "uniform", "--no-bound-pending"], "--no-bound-pending", "--method dpa"),
+    ],
+)
+def test_an_option_of_another_method_is_refused(
+    tmp_path: Path, args: list[str], option: str, takers: str
+) -> None:
+    """It was silently ignored (exit 0, the run used another strategy than the option
+    implies). Refused before the rig is made: one line naming the option and its methods."""
+    out = tmp_path / "out"
+    line = _one_line_error(run_cli("measure", "--rig", "sim", "-o", str(out), *args))
+    assert option.replace("--no-", "--") in line and takers in line, line
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("value", [5.0, -0.1, float("nan")])
+def test_tolerance_is_refused_by_the_library_as_by_the_command_line(
+    tmp_path: Path, value: float
+) -> None:
+    with pytest.raises(InputError) as exc:
+        make_params("uniform", tolerance=value)
+    res = run_cli("measure", "--rig", "sim", "--method", "uniform", "--tolerance", str(value),
+                  "-o", str(tmp_path / "out"))  # fmt: skip
+    assert _one_line_error(res) == str(exc.value)
+
+
+@pytest.mark.parametrize("value", [float("nan"), -1.0, 200.0])
+def test_min_modulation_is_refused_by_decode_set_as_by_the_command_line(
+    tmp_path: Path, value: float
+) -> None:
+    spec = FringeSpec("sinusoidal", 4, 8.0)
+    with pytest.raises(InputError) as exc:  # decode_set did not check: NaN -> all invalid
+        decode_set(np.full((4, 6, 8), 100, np.uint8), spec, 8, min_modulation=value)
+    caps = tmp_path / "caps"
+    assert run_cli("simulate", "white_plate", "-o", str(caps), "--steps", "4").returncode == 0
+    res = run_cli("phase", str(caps), "--min-modulation", str(value), "-o", str(tmp_path / "p"))
+    assert _one_line_error(res) == str(exc.value)
 
 
 def test_measure_methods_on_a_checkerboard_sweep(tmp_path: Path) -> None:
@@ -42,8 +106,7 @@ def test_measure_methods_on_a_checkerboard_sweep(tmp_path: Path) -> None:
             str(out),
             "--method",
             method,
-            "--step",
-            "15",
+            *(["--step", "15"] if method == "lpa" else []),  # --step is LPA's alone
         )
         assert res.returncode == 0, res.stderr
         metrics[method] = json.loads((out / "metrics.json").read_text())

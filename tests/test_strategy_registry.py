@@ -165,10 +165,13 @@ def test_the_toy_strategy_through_the_command_line(tmp_path: Path) -> None:
     m = json.loads((out / "metrics.json").read_text())
     assert m["method"] == "every-other-set" and m["sets_captured"] == len(m["migls"]) >= 3
     assert (out / "migl_index.tiff").is_file()
-    # --stride belongs to the toy: with another method it is ignored, as --step is; LPA with
-    # twice the stride captures the same sets
+    # --stride belongs to the toy: with another method it is refused (as --step is with the
+    # toy); LPA with twice the stride captures the same sets
     args[-1] = str(tmp_path / "lpa")
     res = cli("measure", *args, "--method", "lpa", "--step", "40", "--stride", "5")
+    assert res.returncode == 2 and "--stride is an Every-other-set option" in res.stderr
+    assert not (tmp_path / "lpa").exists()
+    res = cli("measure", *args, "--method", "lpa", "--step", "40")
     assert res.returncode == 0, res.stderr
     ref = json.loads((tmp_path / "lpa" / "metrics.json").read_text())
     assert ref["method"] == "lpa" and ref["migls"] == m["migls"]

@@ -13,6 +13,8 @@ what is wrong and how to fix it.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -22,6 +24,9 @@ __all__ = [
     "MAX_BIT_DEPTH",
     "as_stack",
     "check_bit_depth",
+    "check_min_modulation",
+    "check_tolerance",
+    "describe_saturated",
     "full_scale",
     "is_saturated",
     "saturation_count",
@@ -232,3 +237,145 @@ def as_stack(
                 "check the image type"
             )
     return arr
+
+
+def check_tolerance(value: object) -> float:
+    """Check the uniform strategy's saturated fraction allowed (``--tolerance``): 0..1.
+
+    The one check of this value: :class:`~hdrfringe.strategies.uniform.UniformParams`, the
+    function :func:`~hdrfringe.strategies.uniform.uniform` and so the command line use it, so
+    each refuses the same values with the same message.
+
+    Parameters
+    ----------
+    value : float
+        The fraction of measurement pixels allowed to saturate.
+
+    Returns
+    -------
+    float
+        ``value`` as a float.
+
+    Raises
+    ------
+    InputError
+        Not a finite number in [0, 1] (a percentage such as 5 is pointed out).
+
+    References
+    ----------
+    Thesis Ch. 4, Sec. 4.2 (the trade-off MIGL the tolerance selects).
+
+    Examples
+    --------
+    >>> check_tolerance(0.01)
+    0.01
+    >>> check_tolerance(5)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: --tolerance ... in [0, 1], got 5; give 0.05 for 5 %
+    """
+    try:
+        tol = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError):
+        tol = math.nan
+    if not (math.isfinite(tol) and 0.0 <= tol <= 1.0):
+        hint = f"; give {tol / 100:g} for {tol:g} %" if 1.0 < tol <= 100.0 else ""
+        raise InputError(
+            f"--tolerance (uniform: saturated fraction allowed) must be a fraction in [0, 1], "
+            f"got {value}{hint}"
+        )
+    return tol
+
+
+def check_min_modulation(value: object, bit_depth: int) -> float | None:
+    """Check a minimum modulation ``I'`` (``--min-modulation``): DN in ``0 .. (2^B - 1) / 2``.
+
+    The one check of this value, used by :func:`hdrfringe.phase.decode_set` and
+    :func:`hdrfringe.process.decode_captures` (and so the command line). A full-swing fringe
+    has ``I' = (2^B - 1) / 2``; a larger threshold, a negative one or NaN would make every
+    pixel invalid (NaN) or accept noise.
+
+    Parameters
+    ----------
+    value : float or None
+        The threshold in DN; None: the default (returned as None).
+    bit_depth : int
+        Camera bit depth B.
+
+    Returns
+    -------
+    float or None
+        ``value`` as a float, or None.
+
+    Raises
+    ------
+    InputError
+        Not a finite number of DN in the range.
+
+    References
+    ----------
+    Thesis Eq. 2.8 (the modulation), Sec. 3.3 (the quality threshold).
+
+    Examples
+    --------
+    >>> check_min_modulation(12, 8), check_min_modulation(None, 8)
+    (12.0, None)
+    >>> check_min_modulation(float("nan"), 8)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: --min-modulation (min_modulation) must be ... in 0..127.5 ...
+    """
+    if value is None:
+        return None
+    top = full_scale(bit_depth) / 2  # I' of a full-swing fringe
+    try:
+        thr = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError):
+        thr = math.nan
+    if not (math.isfinite(thr) and 0.0 <= thr <= top):
+        raise InputError(
+            f"--min-modulation (min_modulation) must be a number of DN in 0..{top:g} (the "
+            f"largest modulation of a {bit_depth}-bit camera), got {value}; omit it for the "
+            "default"
+        )
+    return thr
+
+
+def describe_saturated(count: int, total: int) -> str:
+    """How hdrfringe reports saturated pixels: the count, then the share of ``total``.
+
+    A share alone hides small counts ("0.0 %" when 311 of 4.4 million pixels clip); the share
+    is given to two significant digits below 1 %.
+
+    Parameters
+    ----------
+    count : int
+        Saturated pixels (:func:`is_saturated` in at least one image).
+    total : int
+        Pixels they are counted among.
+
+    Returns
+    -------
+    str
+        E.g. ``"311 px (0.0071 %)"``.
+
+    Examples
+    --------
+    >>> describe_saturated(311, 4_400_000), describe_saturated(0, 100)
+    ('311 px (0.0071 %)', '0 px (0 %)')
+    >>> describe_saturated(2_000_000, 4_400_000)
+    '2000000 px (45.5 %)'
+    """
+    count, total = int(count), int(total)
+    if total <= 0:
+        return f"{count} px"
+    pct = 100.0 * count / total
+    if count == 0:
+        share = "0"
+    elif pct >= 1.0:
+        share = f"{pct:.1f}"
+    else:
+        share = np.format_float_positional(
+            pct, precision=2, unique=False, fractional=False, trim="-"
+        )
+    return f"{count} px ({share} %)"

@@ -43,6 +43,7 @@ from rich.console import Console
 from rich.table import Table
 
 from hdrfringe import pipeline
+from hdrfringe._validation import describe_saturated
 from hdrfringe.calibration import Calibration
 from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.io.calibration_file import save_calibration
@@ -351,7 +352,7 @@ def run_demo(
     from rich.progress import Progress
 
     console = console or Console()
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     frames = demo_frames()
     scenes: list[tuple[str, Scene, bool]] = [
         ("white_plate_10mm", white_plate(10.0), False),
@@ -395,9 +396,12 @@ def run_demo(
             assert best.height_mm is not None and best.decoded.primary is not None
             height, primary = best.height_mm, best.decoded.primary
             write_measurement(best, sdir / "measurement")
+            n_pixels = caps.image_shape[0] * caps.image_shape[1]  # saturated_fraction: of these
             summary["scenes"][name] = {
                 "aperture": "black plate" if black else "white plate",
                 "saturated_fraction": best.metrics.saturated_fraction,
+                "saturated_pixels": round((best.metrics.saturated_fraction or 0.0) * n_pixels),
+                "n_pixels": n_pixels,
                 "valid_fraction": best.metrics.valid_fraction,
                 "rmse_mm": {m: r.metrics.rmse_mm for m, r in results.items()},
                 "bias_mm": {m: r.metrics.bias_mm for m, r in results.items()},
@@ -448,7 +452,7 @@ def run_demo(
     for name, st in summary["scenes"].items():
         table.add_row(
             name,
-            f"{100 * st['saturated_fraction']:.1f} %",
+            describe_saturated(st["saturated_pixels"], st["n_pixels"]),
             f"{100 * st['valid_fraction']:.1f} %",
             f"{st['rmse_mm']['linear']:.3f} mm",
             f"{st['rmse_mm']['rational']:.3f} mm",

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, DTypeLike, NDArray
 from scipy import ndimage
 
-from hdrfringe._validation import as_stack, full_scale, saturation_count
+from hdrfringe._validation import as_stack, check_min_modulation, full_scale, saturation_count
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec, fringe_profile
 
@@ -604,7 +604,9 @@ def decode_set(
     phase, modulation, mean = _decode(stack, spec, np.float64, True, direction)
     assert modulation is not None and mean is not None
     sat = saturation_count(stack, bit_depth)
-    thr = default_min_modulation(bit_depth) if min_modulation is None else float(min_modulation)
+    thr = check_min_modulation(min_modulation, bit_depth)
+    if thr is None:
+        thr = default_min_modulation(bit_depth)
     valid = np.isfinite(phase) & (modulation >= thr)
     if reject_saturated:
         valid &= sat == 0

@@ -20,16 +20,14 @@ Rules (documented in docs/phase.md):
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import full_scale
+from hdrfringe._validation import check_min_modulation
 from hdrfringe.captures import Captures, FringeSet
-from hdrfringe.errors import InputError
 from hdrfringe.phase import PhaseResult, decode_set
 from hdrfringe.unwrap import absolute_phase_from_centerline, unwrap_spatial, unwrap_temporal
 
@@ -239,15 +237,7 @@ def decode_captures(
     >>> decoded.primary.absolute_method
     'one-period coarse set'
     """
-    if min_modulation is not None:
-        thr = float(min_modulation)
-        top = full_scale(captures.camera_bit_depth) / 2  # I' of a full-swing fringe
-        if not (math.isfinite(thr) and 0.0 <= thr <= top):
-            raise InputError(
-                f"--min-modulation (min_modulation) must be a number of DN in 0..{top:g} (the "
-                f"largest modulation of a {captures.camera_bit_depth}-bit camera), got "
-                f"{min_modulation}; omit it for the default"
-            )
+    check_min_modulation(min_modulation, captures.camera_bit_depth)
     results: dict[str, PhaseResult] = {}
     for s in captures.sets:
         results[s.label] = decode_set(

@@ -15,7 +15,7 @@ import typer
 from hdrfringe.cli._app import parse_floats
 from hdrfringe.cli._options import LIVE_PANEL, given_options
 from hdrfringe.cli._strategy_options import method_help, strategy_file_readers
-from hdrfringe.errors import OutputExistsError
+from hdrfringe.errors import InputError
 
 __all__ = [
     "CalibrationOpt",
@@ -35,7 +35,6 @@ __all__ = [
     "TrainPitchOpt",
     "TrainStepsOpt",
     "TruthOpt",
-    "check_output_file",
     "live_fringes",
     "strategy_params",
 ]
@@ -103,6 +102,11 @@ def strategy_params(
 ) -> tuple[Any, dict[str, str]]:
     """The strategy's ``Params`` from the strategy options given, and the files they named.
 
+    A strategy option given on the command line for a method that does not take it (e.g.
+    ``--tolerance`` with ``--method lpa``, or without ``--method``) is refused, before its
+    value is read or checked: silently ignoring it would run something other than what was
+    asked for.
+
     Parameters
     ----------
     ctx : typer.Context
@@ -116,10 +120,16 @@ def strategy_params(
     -------
     params : Params or None
         :func:`hdrfringe.strategies.params_from_options`.
+
+    Raises
+    ------
+    InputError
+        A strategy option of another method, or a bad value.
     sources : dict
         Field name -> the file given for it (e.g. ``{"correction": "corr.json"}``).
     """
     from hdrfringe.strategies import cli_options, params_from_options
+    from hdrfringe.strategies.base import _article
 
     readers = strategy_file_readers()
     given = {  # the strategy options on the command line (this command's: built at import)
@@ -127,6 +137,14 @@ def strategy_params(
         for o in cli_options()
         if o.dest in options and given_options(ctx, (o.dest,))
     }
+    for o in cli_options():  # refused before any value is read or checked
+        if o.option in given and method not in o.fields:
+            titles = o.titles()  # the wording of the library's refusal of exclusive options
+            raise InputError(
+                f"{o.option} is {_article(titles[0])} {' or '.join(titles)} option; use it with "
+                f"--method {' or '.join(o.fields)} or leave it out (got "
+                f"{'no --method' if method is None else method})"
+            )
     params = params_from_options(
         method, given, readers={t: read for t, (read, _) in readers.items()}
     )
@@ -174,17 +192,3 @@ def live_fringes(
     full = full_scale(projector.bit_depth)
     line = CenterlineFrame(projector.width // 2, "vertical", full) if centerline else None
     return specs, line
-
-
-def check_output_file(output: Path, force: bool) -> None:
-    """Refuse an existing file without ``force``, and a folder in its place.
-
-    Parameters
-    ----------
-    output : Path
-    force : bool
-    """
-    if output.exists() and not force:
-        raise OutputExistsError(f"{output}: exists; pass --force to replace it")
-    if output.is_dir():
-        raise OutputExistsError(f"{output}: is a folder; give a file name such as corr.json")

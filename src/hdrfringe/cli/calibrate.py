@@ -35,7 +35,7 @@ def calibrate(
     from hdrfringe.errors import OutputExistsError
     from hdrfringe.io.calibrate_folders import calibrate_folders, expand_capture_dirs
     from hdrfringe.io.calibration_file import save_calibration
-    from hdrfringe.io.results import check_output_against_inputs, check_writable
+    from hdrfringe.io.results import check_output_against_inputs, check_output_file
 
     if model not in MODELS:
         raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
@@ -44,7 +44,7 @@ def calibrate(
         raise OutputExistsError(f"{output}: is a folder; give a file path for the calibration")
     if output.exists() and not force:
         raise OutputExistsError(f"{output}: exists; pass --force to replace it")
-    check_writable(output)
+    output = check_output_file(output, force)  # what is there now: replaced only if unchanged
     n = len(expand_capture_dirs(folders))
     with progress_bar() as prog:
         task = prog.add_task("decoding plate positions", total=n)

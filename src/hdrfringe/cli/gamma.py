@@ -17,7 +17,12 @@ __all__ = ["gamma"]
 def gamma(
     folder: Annotated[Path, typer.Argument(help="Capture folder with uniform grays or fringes.")],
     output: Annotated[
-        Path | None, typer.Option("-o", "--output", help="Folder for gamma.json and the plot.")
+        Path | None,
+        typer.Option(
+            "-o",
+            "--output",
+            help="Folder for gamma.json and the plots (mapping, nonlinearity).",
+        ),
     ] = None,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
@@ -25,7 +30,9 @@ def gamma(
 
     Uniform-gray frames (at least 4 unsaturated levels) give a direct fit of captured intensity
     against input gray; sinusoidal sets pre-distorted with known exponents give a fit of the
-    fringe shape. Both are reported when the folder allows.
+    fringe shape. Both are reported when the folder allows, each with its mapping plot and its
+    residual nonlinearity plot; a fit that is degenerate or leaves a large residual (over 2 %
+    of its signal range) is reported with a warning line, also listed in gamma.json.
     """
     from hdrfringe.gamma import gamma_report
     from hdrfringe.io.captures import read_capture_folder
@@ -34,7 +41,7 @@ def gamma(
 
     if output is not None:
         check_output_against_inputs(output, [folder])
-        check_output_dir(output, force)
+        output = check_output_dir(output, force)
     report = gamma_report(read_capture_folder(folder), source=str(folder))
     for line in report.lines:
         console.print(line)

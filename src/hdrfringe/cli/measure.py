@@ -90,7 +90,7 @@ def measure(
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
     check_output_against_inputs(output, [folder, calibration, *sources.values()])
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     cal = load_calibration(calibration) if calibration is not None else None
     kwargs: dict[str, Any] = {
         "method": method,

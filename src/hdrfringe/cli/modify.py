@@ -24,6 +24,7 @@ def modify(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Add light and noise to existing captures with clipping at 2^B - 1 (thesis Eq. 4.1)."""
+    from hdrfringe._validation import describe_saturated
     from hdrfringe.io.modify_folder import modify_capture_folder
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
     from hdrfringe.rig.acquire import IntensityModification
@@ -35,5 +36,5 @@ def modify(
     done = modify_capture_folder(folder, output, modification, force=force)
     console.print(
         f"wrote {done.n_images} modified captures to {output} "
-        f"({100 * done.saturated_fraction:.1f} % saturated)"
+        f"({describe_saturated(done.saturated_pixels, done.n_pixels)} saturated)"
     )

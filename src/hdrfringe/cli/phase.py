@@ -26,6 +26,7 @@ def phase(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
+    from hdrfringe._validation import describe_saturated
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.phase_maps import write_phase_maps
@@ -37,7 +38,7 @@ def phase(
     from hdrfringe.process import decode_captures
 
     check_output_against_inputs(output, [folder])
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
     if not captures.sets:
         raise CaptureFormatError(
@@ -48,10 +49,12 @@ def phase(
     )
     with staged_output_dir(output, force=force) as tmp:
         summary = write_phase_maps(tmp, decoded, str(folder))
+    n_pixels = captures.image_shape[0] * captures.image_shape[1]
     for s in summary["sets"]:
+        saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
         console.print(
             f"set {s['label']}: valid {100 * s['valid_fraction']:.1f} %, "
-            f"saturated {100 * s['saturated_fraction']:.1f} %"
+            f"saturated {describe_saturated(saturated, n_pixels)}"
         )
     for fam in summary["families"]:
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""

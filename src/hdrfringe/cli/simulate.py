@@ -82,6 +82,7 @@ def simulate(
     geometry, so measurements can report their error. With --series, DIR holds one folder per
     depth (a calibration series: reference plane + positions).
     """
+    from hdrfringe._validation import describe_saturated
     from hdrfringe.io.results import check_output_dir
     from hdrfringe.io.simulation import series_depths, series_folder_name, write_simulation
     from hdrfringe.limits import MAX_SERIES_FOLDERS
@@ -89,7 +90,7 @@ def simulate(
     from hdrfringe.rig.acquire import IntensityModification
     from hdrfringe.rig.factory import virtual_rig
 
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     orients = parse_orientations(orientation)
     depths: Sequence[float | None] = [depth_mm]
     if series is not None:
@@ -119,7 +120,10 @@ def simulate(
             output, rigs, frames, folder_names=names, modification=mod, force=force, progress=tick
         )
     what = f"{len(rigs)} capture folders" if series is not None else "a capture folder"
+    n_pixels = rigs[0].image_shape[0] * rigs[0].image_shape[1]
+    saturated = round(done.max_saturated_fraction * n_pixels)  # the fraction is count / n
     console.print(
         f"wrote {what} of {scene} ({len(frames)} images each) to {output}; "
-        f"{100 * done.max_saturated_fraction:.1f} % of pixels saturated in at least one image"
+        f"{describe_saturated(saturated, n_pixels)} saturated in at least one image"
+        + (" (the folder with the most)" if series is not None else "")
     )

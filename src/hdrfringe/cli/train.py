@@ -16,7 +16,6 @@ from hdrfringe.cli._measure_options import (
     TrainPitchOpt,
     TrainStepsOpt,
     TruthOpt,
-    check_output_file,
 )
 from hdrfringe.cli._options import (
     LIVE_OPTIONS,
@@ -83,11 +82,14 @@ def train_correction(
     if truth not in TRUTH_MODELS:
         raise InputError(f"unknown truth {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
     check_correction_order(order)  # before the (slow) training captures
-    from hdrfringe.io.results import check_output_against_inputs, check_writable
+    from hdrfringe.io.results import (
+        check_output_against_inputs,
+        check_output_file,
+        staged_output_file,
+    )
 
     check_output_against_inputs(output, [folder])
-    check_output_file(output, force)
-    check_writable(output)
+    output = check_output_file(output, force)  # before the work; the write replaces only this
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
 
@@ -107,7 +109,8 @@ def train_correction(
         source = str(folder)
         data = training_data_from_folder(read_capture_folder(folder), pitch, margin=margin)
     poly = data.train(order, truth=truth, metadata={"source": source})  # type: ignore[arg-type]
-    poly.save(output, force=force)
+    with staged_output_file(output, force=force) as tmp:  # atomic: complete or not at all
+        poly.save(tmp, force=True)  # (the temporary file exists already)
     before, after = THESIS_CORRECTION_RMSE
     console.print(
         f"trained on {poly.n_samples} saturated pixels of {data.spec.label()} "

@@ -17,8 +17,8 @@ Examples
 >>> images = np.stack([np.full((4, 4), 10 + 200 * (g / 255) ** 2.2) for g in levels])
 >>> caps = Captures([UniformFrame(g) for g in levels], np.rint(images).astype(np.uint8), 8)
 >>> rep = gamma_report(caps, source="demo")
->>> round(rep.uniform_fit.gamma, 1), sorted(rep.report)
-(2.2, ['source', 'uniform'])
+>>> round(rep.uniform_fit.gamma, 1), sorted(rep.report), rep.report["warnings"]
+(2.2, ['source', 'uniform', 'warnings'], [])
 """
 
 from __future__ import annotations
@@ -30,21 +30,25 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._validation import full_scale
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.gamma.fringes import fit_gamma_fringes
 from hdrfringe.gamma.model import GammaFit
-from hdrfringe.gamma.nonlinearity import predicted_nonlinearity
+from hdrfringe.gamma.nonlinearity import line_deviation, predicted_nonlinearity
 from hdrfringe.gamma.selection import select_gamma_sets
 from hdrfringe.gamma.uniform import fit_gamma_uniform
 
 __all__ = [
     "DEGENERATE_RELATIVE_STDERR",
+    "FRINGE_NONLINEARITY_BINS",
     "GAMMA_FIT_BOUNDS",
+    "LARGE_RESIDUAL_FRACTION",
     "MIN_UNIFORM_LEVELS",
     "GammaReport",
     "check_gamma_fit",
     "gamma_report",
+    "residual_is_large",
     "uniform_gray_means",
 ]
 
@@ -56,6 +60,14 @@ GAMMA_FIT_BOUNDS = (0.05, 20.0)
 #: A fit whose standard error exceeds this fraction of its gamma is reported as degenerate
 #: (the captures hardly constrain gamma; e.g. 0.30 +- 257).
 DEGENERATE_RELATIVE_STDERR = 0.25
+#: A fit whose RMS residual exceeds this fraction of its signal range (the fitted scale
+#: ``c1``, DN from gray 0 to full input) is reported with a warning: the power law does not
+#: describe the captures (a light that changed, clipping, a response far from a power law).
+#: Camera noise leaves far less: 0.4-0.6 % on kamino410's real fringes (1 DN of 172) and on
+#: the synthetic benches (docs/gamma.md).
+LARGE_RESIDUAL_FRACTION = 0.02
+#: Bins of the fringe samples' measured residual nonlinearity (median per bin of level).
+FRINGE_NONLINEARITY_BINS = 32
 
 
 def check_gamma_fit(fit: GammaFit, what: str, source: str) -> bool:
@@ -216,6 +228,46 @@ class GammaReport:
             )
 
 
+def residual_is_large(fit: GammaFit) -> bool:
+    """Whether a fit's RMS residual exceeds :data:`LARGE_RESIDUAL_FRACTION` of its signal range.
+
+    Parameters
+    ----------
+    fit : GammaFit
+        A uniform-gray or fringe-shape fit.
+
+    Returns
+    -------
+    bool
+        True when ``rms_residual > LARGE_RESIDUAL_FRACTION * scale`` (or either is not finite).
+
+    References
+    ----------
+    Thesis Sec. 2.6, Eq. 2.16 (the model whose residual it is).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> g = np.arange(0, 256, 16.0)
+    >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
+    >>> residual_is_large(fit), residual_is_large(replace(fit, rms_residual=6.0))
+    (False, True)
+    """
+    r, c = fit.rms_residual, fit.scale
+    return not (math.isfinite(r) and math.isfinite(c) and r <= LARGE_RESIDUAL_FRACTION * c)
+
+
+def _residual_note(fit: GammaFit, what: str) -> str:
+    share = 100 * fit.rms_residual / fit.scale if fit.scale > 0 else math.inf
+    return (
+        f"warning: the {what} fit leaves an rms residual of {fit.rms_residual:.3g} DN, "
+        f"{share:.2g} % of its {fit.scale:.0f} DN signal range (more than "
+        f"{100 * LARGE_RESIDUAL_FRACTION:g} %): the power law does not describe these captures "
+        "well (a light that changed, clipping, a response far from a power law); check the "
+        "plots before using this gamma"
+    )
+
+
 def _degenerate_note(fit: GammaFit, what: str) -> str:
     return (
         f"warning: the {what} fit is degenerate (gamma {fit.gamma:.2f} +- {fit.stderr:.3g}): "
@@ -263,6 +315,7 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
     gh0 = captures.projector.gamma_precompensation if captures.projector else 1.0
     report: dict[str, Any] = {"source": source}
     lines: list[str] = []
+    warnings: list[str] = []
     uniform_fit = fringe_fit = None
     means = uniform_gray_means(captures)
     if means is not None:
@@ -276,10 +329,12 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
         mx_cur, _ = predicted_nonlinearity(uniform_fit, gh0)
         mx_none, _ = predicted_nonlinearity(uniform_fit, 1.0)
         u_degenerate = check_gamma_fit(uniform_fit, "uniform-gray", source)
+        u_large = residual_is_large(uniform_fit)
         report["uniform"] = {
             "gamma": uniform_fit.gamma,
             "stderr": uniform_fit.stderr if math.isfinite(uniform_fit.stderr) else None,
             "degenerate": u_degenerate,
+            "residual_large": u_large,
             "offset_dn": uniform_fit.offset,
             "scale_dn": uniform_fit.scale,
             "rms_residual_dn": uniform_fit.rms_residual,
@@ -298,7 +353,10 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
             f"fit, {mx_cur:.2f} % with {gh0:g}, {mx_none:.2f} % without",
         ]
         if u_degenerate:
-            lines.append(_degenerate_note(uniform_fit, "uniform-gray"))
+            warnings.append(_degenerate_note(uniform_fit, "uniform-gray"))
+        elif u_large:  # one warning per fit: a degenerate one is not to be used at all
+            warnings.append(_residual_note(uniform_fit, "uniform-gray"))
+        lines += warnings
     sets = captures.sets
     chosen = select_gamma_sets([(s.spec, s.gamma_precompensation or gh0) for s in sets])
     if chosen.too_narrow:
@@ -314,18 +372,54 @@ def gamma_report(captures: Captures, *, source: str) -> GammaReport:
             projector_bit_depth=proj_bits,
         )
         f_degenerate = check_gamma_fit(fringe_fit, "fringe-shape", source)
+        f_large = residual_is_large(fringe_fit)
+        fx_fit, frms_fit = predicted_nonlinearity(fringe_fit, fringe_fit.gamma)
+        fx_none, _ = predicted_nonlinearity(fringe_fit, 1.0)
+        fx_meas = _measured_nonlinearity(fringe_fit)
         report["fringes"] = {
             "gamma": fringe_fit.gamma,
             "stderr": fringe_fit.stderr if math.isfinite(fringe_fit.stderr) else None,
             "degenerate": f_degenerate,
+            "residual_large": f_large,
             "rms_residual_dn": fringe_fit.rms_residual,
             "pixels_used": fringe_fit.n_samples,
             "sets": [s.label for s in used],
+            "residual_nonlinearity_percent": {
+                "precompensated_with_fit": fx_fit,
+                "precompensated_with_fit_rms": frms_fit,
+                "no_precompensation": fx_none,
+                "measured_precompensated_with_fit": fx_meas,
+            },
         }
-        lines.append(
+        lines += [
             f"fringe shape: gamma = {fringe_fit.gamma:.4f} +- {fringe_fit.stderr:.4f} "
-            f"(rms residual {fringe_fit.rms_residual:.2f} DN over {fringe_fit.n_samples} pixels)"
-        )
+            f"(rms residual {fringe_fit.rms_residual:.2f} DN over {fringe_fit.n_samples} pixels)",
+            f"residual nonlinearity (max, % of range): {fx_fit:.2f} % pre-compensated with the "
+            f"fit ({_percent(fx_meas)} measured from the samples), {fx_none:.2f} % without",
+        ]
+        fringe_warnings = []
         if f_degenerate:
-            lines.append(_degenerate_note(fringe_fit, "fringe-shape"))
+            fringe_warnings.append(_degenerate_note(fringe_fit, "fringe-shape"))
+        elif f_large:
+            fringe_warnings.append(_residual_note(fringe_fit, "fringe-shape"))
+        lines += fringe_warnings
+        warnings += fringe_warnings
+    if uniform_fit is not None or fringe_fit is not None:
+        report["warnings"] = warnings
     return GammaReport(report, uniform_fit, fringe_fit, tuple(lines))
+
+
+def _measured_nonlinearity(fit: GammaFit) -> float | None:
+    """Max nonlinearity (%) of the fringe samples re-indexed to pre-compensation with the fit
+    (docs/gamma.md, "Residual nonlinearity"); None when too few samples for the bins."""
+    full = float(full_scale(fit.projector_bit_depth, "projector bit depth"))
+    level = full * (np.clip(fit.sent, 0.0, full) / full) ** fit.gamma
+    try:
+        nl = line_deviation(level, fit.dn, bins=FRINGE_NONLINEARITY_BINS)
+    except InputError:
+        return None
+    return nl.max_percent if math.isfinite(nl.max_percent) else None
+
+
+def _percent(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.2f} %"

@@ -23,8 +23,6 @@ Only plain numeric datasets and attributes and fixed-length UTF-8 string attribu
 from __future__ import annotations
 
 import contextlib
-import os
-import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -208,7 +206,7 @@ def _write(f: Any, cal: Calibration) -> None:
 
 
 def save_calibration(path: str | Path, cal: Calibration, force: bool = False) -> Path:
-    """Write a calibration as HDF5, atomically (temporary file beside ``path``, then rename).
+    """Write a calibration as HDF5, atomically (:func:`hdrfringe.io.results.staged_output_file`).
 
     Parameters
     ----------
@@ -250,7 +248,7 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     """
     import h5py
 
-    from hdrfringe.io.results import check_writable, current_umask, sigterm_cleanup
+    from hdrfringe.io.results import staged_output_file
 
     if not isinstance(cal, Calibration):
         raise InputError(f"expected a Calibration, got {type(cal).__name__}")
@@ -262,50 +260,14 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
         raise OutputExistsError(
             f"{out}: calibration file exists; pass --force to replace it or choose another path"
         )
-    check_writable(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with sigterm_cleanup(), _deferred_sigint() as interrupted:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
-        os.close(fd)
-        tmp = Path(tmp_name)
-        try:
-            os.chmod(tmp, 0o666 & ~current_umask())
-            with h5py.File(tmp, "w", track_order=True) as f:
-                _write(f, cal)
-            if interrupted():
-                raise KeyboardInterrupt
-            _move_into_place(tmp, out, force)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
-            raise
+    # path may be the CheckedOutput of the command's start (check_output_file): then only the
+    # file checked there is replaced
+    with _deferred_sigint() as interrupted, staged_output_file(path, force=force) as tmp:
+        with h5py.File(tmp, "w", track_order=True) as f:
+            _write(f, cal)
+        if interrupted():
+            raise KeyboardInterrupt
     return out
-
-
-def _move_into_place(tmp: Path, out: Path, force: bool) -> None:
-    """Rename the complete file to ``out``; without ``force`` never replace a file that
-    appeared meanwhile (a hard link cannot replace: it fails if ``out`` exists)."""
-    if force:
-        os.replace(tmp, out)
-        return
-    try:
-        os.link(tmp, out)
-    except FileExistsError:
-        raise OutputExistsError(
-            f"{out}: appeared while the calibration was being written; it was left untouched "
-            "and nothing was written"
-        ) from None
-    except OSError:  # no hard links here: claim the name exclusively, then replace the claim
-        try:
-            os.close(os.open(out, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
-        except FileExistsError:
-            raise OutputExistsError(
-                f"{out}: appeared while the calibration was being written; it was left "
-                "untouched and nothing was written"
-            ) from None
-        os.replace(tmp, out)
-        return
-    tmp.unlink()
 
 
 @contextlib.contextmanager

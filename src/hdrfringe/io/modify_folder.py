@@ -24,7 +24,7 @@ Examples
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +52,8 @@ class ModifiedFolder:
         Images written.
     saturated_fraction : float
         Fraction of pixels saturated in at least one modified image.
+    saturated_pixels, n_pixels : int
+        That count, and the pixels of an image (not compared: the fraction says it).
 
     Examples
     --------
@@ -71,6 +73,8 @@ class ModifiedFolder:
     path: Path
     n_images: int
     saturated_fraction: float
+    saturated_pixels: int = field(default=0, compare=False)
+    n_pixels: int = field(default=0, compare=False)
 
 
 def modify_capture_folder(
@@ -126,7 +130,7 @@ def modify_capture_folder(
     >>> read_manifest(done.path)["modification"]["add_lux"], read_manifest(tmp / "caps")["scene"]
     (600.0, {'name': 'white_plate', 'depth_mm': 0.0, 'reflectivity': 1.0})
     """
-    check_output_dir(output, force)
+    output = check_output_dir(output, force)
     caps = read_capture_folder(folder)
     manifest = read_manifest(folder)  # the fields Captures does not keep: file names, extras
     images = modification.apply(caps.images, caps.camera_bit_depth)
@@ -137,4 +141,6 @@ def modify_capture_folder(
         output, dataclasses.replace(caps, images=images), names=names, extra=extra, force=force
     )
     sat = is_saturated(images, caps.camera_bit_depth).any(axis=0)
-    return ModifiedFolder(Path(output), len(names), float(np.mean(sat)))
+    return ModifiedFolder(
+        Path(output), len(names), float(np.mean(sat)), int(np.count_nonzero(sat)), int(sat.size)
+    )

@@ -6,13 +6,18 @@ when complete, so a failure never leaves a half-written result. The guarantees (
 
 - an output that is, contains or lies inside an input is refused before any work
   (:func:`check_output_against_inputs`);
-- the target is checked before the work (exists, writable) and its identity recorded; the final
-  move never replaces anything but the folder that was checked: without ``force`` it fails if
-  the target appeared meanwhile, with ``force`` it replaces only the same folder (device and
-  inode) that was checked;
+- the target is checked before the work (exists, writable) and its identity recorded in the
+  :class:`CheckedOutput` the check returns (no state is kept in this module): pass that object
+  on to the writer. The final move never replaces anything but what was checked: without
+  ``force`` it fails if the target appeared meanwhile, with ``force`` it replaces only the same
+  folder or file (device and inode) that was checked;
 - SIGTERM while staging removes the staging folder and exits with code 143; a staging folder
-  left by a killed run (its marker names a dead process) is removed by the next run on the same
-  target, one of a live run makes the next run refuse;
+  left by a killed run (its name holds a dead process's PID) is removed by the next run on the
+  same target, one of a live run makes the next run refuse; the previous output that a killed
+  ``force`` replace had moved aside (``.<name>.old-<PID>-*``) is moved back when the target is
+  missing, removed when the replace had completed, and reported otherwise;
+- a single file (:func:`staged_output_file`) is written to a temporary file beside it and moved
+  into place by a rename that cannot replace a file that appeared meanwhile;
 - folders and files follow the umask.
 """
 
@@ -28,6 +33,7 @@ import tempfile
 import threading
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,16 +41,20 @@ from numpy.typing import ArrayLike
 from hdrfringe.errors import InputError, OutputExistsError
 
 __all__ = [
+    "OLD_INFIX",
     "SIGTERM_EXIT_CODE",
     "STAGING_INFIX",
+    "CheckedOutput",
     "check_output_against_inputs",
     "check_output_dir",
+    "check_output_file",
     "check_writable",
     "current_umask",
     "read_map_tiff",
     "rename_noreplace",
     "sigterm_cleanup",
     "staged_output_dir",
+    "staged_output_file",
     "write_map_tiff",
     "write_preview_png",
 ]
@@ -56,9 +66,83 @@ STAGING_INFIX = ".staging-"
 """A staging folder of ``out`` is named ``.{out.name}.staging-{PID}-{random}``: the PID of the
 writing process marks it, so a later run can tell a killed run's leftovers from a live run."""
 
-# target (absolute, resolved) -> (device, inode) of the folder checked, or None if absent.
-_checked: dict[Path, tuple[int, int] | None] = {}
-_checked_lock = threading.Lock()
+OLD_INFIX = ".old-"
+"""A ``force`` replace moves the previous output aside as ``.{out.name}.old-{PID}-{random}``
+for the instant between its two renames; the PID tells a later run whether the replacing
+process is still alive."""
+
+if TYPE_CHECKING:
+    _PathBase = Path
+else:  # the concrete class (PosixPath or WindowsPath): Path itself cannot be subclassed
+    _PathBase = type(Path())  # before Python 3.12
+
+
+class CheckedOutput(_PathBase):
+    """An output path as checked before the work, carrying what was found there.
+
+    Made by :func:`check_output_dir` and :func:`check_output_file`; it is a
+    :class:`~pathlib.Path` (of the path given), so it can be passed wherever a path goes, and
+    :func:`staged_output_dir` / :func:`staged_output_file` read from it what was checked. The
+    check's result lives in this object only: two writers in one process never see each
+    other's state, and nothing is left behind in a long-lived session. A path derived from it
+    (``out / "x"``, ``Path(out)``) is a plain, unchecked path.
+
+    Parameters
+    ----------
+    *args : str or path-like
+        Path segments, as for :class:`~pathlib.Path`; made so, the object is unchecked: use
+        :meth:`record` (or the check functions).
+    **kwargs
+        As for :class:`~pathlib.Path`.
+
+    Attributes
+    ----------
+    identity : (int, int) or None
+        Device and inode of what was at the path when it was checked; None if nothing was.
+    checked : bool
+        True for an object made by a check (False for paths derived from it).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> out = check_output_dir(root / "result", force=False)
+    >>> isinstance(out, Path), out.name, out.checked, out.identity
+    (True, 'result', True, None)
+    >>> (out / "sub").checked
+    False
+    """
+
+    identity: tuple[int, int] | None = None
+    checked: bool = False
+
+    @classmethod
+    def record(cls, path: str | os.PathLike[str]) -> CheckedOutput:
+        """Check-time record of ``path``: what is there now (device and inode, or nothing).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The output path (kept as given, not resolved).
+
+        Returns
+        -------
+        CheckedOutput
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> CheckedOutput.record(tempfile.mkdtemp()).identity is not None
+        True
+        """
+        out = cls(os.fspath(path))
+        try:
+            st = os.lstat(_resolved(out))
+            out.identity = (st.st_dev, st.st_ino)
+        except FileNotFoundError:
+            out.identity = None
+        out.checked = True
+        return out
 
 
 def _resolved(path: str | Path) -> Path:
@@ -208,16 +292,51 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def _clear_stale_staging(out: Path, path: str | Path) -> None:
-    """Remove staging folders of ``out`` left by dead processes; refuse one of a live run."""
+def _marked_pid(entry: Path, out: Path, infix: str) -> int | None:
+    """The PID in the name of ``.{out.name}{infix}{PID}-{random}``; None if not named so."""
+    try:
+        return int(entry.name[len(out.name) + 1 + len(infix) :].split("-")[0])
+    except ValueError:
+        return None
+
+
+def _recover_leftovers(out: Path, path: str | Path) -> None:
+    """Deal with what killed runs left beside ``out``, before ``out`` itself is checked.
+
+    A staging folder of a dead process is removed (it never was an output); one of a live
+    process makes this run refuse. A previous output moved aside by a ``force`` replace that
+    was killed between its two renames (``.{name}.old-{PID}-*``, process dead) is the only copy
+    of that output when ``out`` is missing: it is moved back. When ``out`` exists and the dead
+    run left no staging folder, its replace completed and the old copy is removed (the user
+    asked for it to be replaced); when ``out`` exists *and* that run's staging folder is still
+    there, something else created ``out`` after the kill: the old copy is kept and reported.
+    """
     with contextlib.suppress(OSError):
-        for entry in out.parent.glob(f".{out.name}{STAGING_INFIX}*"):
-            try:
-                pid = int(entry.name[len(out.name) + 1 + len(STAGING_INFIX) :].split("-")[0])
-            except ValueError:
+        staging = {
+            entry: _marked_pid(entry, out, STAGING_INFIX)
+            for entry in out.parent.glob(f".{out.name}{STAGING_INFIX}*")
+        }
+        for entry in sorted(out.parent.glob(f".{out.name}{OLD_INFIX}*")):
+            pid = _marked_pid(entry, out, OLD_INFIX)
+            if pid is None or pid == os.getpid() or _pid_alive(pid):
+                continue  # not named by this version, or its run is still replacing
+            if not os.path.lexists(out):
+                try:
+                    rename_noreplace(entry, out)  # the only copy of the previous output
+                except FileExistsError:
+                    pass  # appeared just now: judged below
+                else:
+                    continue
+            if pid in staging.values():
+                raise OutputExistsError(
+                    f"{path}: {entry.name} beside it holds the previous output of a run killed "
+                    "while replacing it, and the output was created again since; move that "
+                    "folder back or remove it, then rerun"
+                )
+            shutil.rmtree(entry, ignore_errors=True)  # the replace had completed
+        for entry, pid in staging.items():
+            if pid is None or pid == os.getpid():
                 continue  # not named by this version: not ours to judge
-            if pid == os.getpid():
-                continue
             if _pid_alive(pid):
                 raise OutputExistsError(
                     f"{path}: another run (PID {pid}) is writing this output ({entry.name}); "
@@ -226,13 +345,15 @@ def _clear_stale_staging(out: Path, path: str | Path) -> None:
             shutil.rmtree(entry, ignore_errors=True)
 
 
-def check_output_dir(path: str | Path, force: bool) -> Path:
+def check_output_dir(path: str | Path, force: bool) -> CheckedOutput:
     """Check an output folder before any work and record what was checked.
 
     Refuses a file in the way, an existing non-empty folder unless ``force``, an unwritable
     location (:func:`check_writable`) and a target another live run is writing; removes staging
-    folders left by killed runs. The identity of what is there (device and inode of the
-    folder, or nothing) is recorded: :func:`staged_output_dir` later replaces only that.
+    folders left by killed runs and moves back a previous output that a killed ``force``
+    replace had moved aside. The identity of what is there (device and inode of the folder,
+    or nothing) is recorded in the returned :class:`CheckedOutput`: give that object to the
+    writer (:func:`staged_output_dir`), which then replaces only what was checked.
 
     Parameters
     ----------
@@ -243,8 +364,8 @@ def check_output_dir(path: str | Path, force: bool) -> Path:
 
     Returns
     -------
-    Path
-        ``path`` as a :class:`~pathlib.Path`.
+    CheckedOutput
+        ``path`` as a :class:`~pathlib.Path` that carries what was checked.
 
     Raises
     ------
@@ -271,6 +392,8 @@ def check_output_dir(path: str | Path, force: bool) -> Path:
     'new'
     """
     out = Path(path)
+    check_writable(out)
+    _recover_leftovers(_resolved(out), out)
     if out.exists() and not out.is_dir():
         raise OutputExistsError(f"{out}: exists and is not a folder; choose another output path")
     if out.is_dir() and any(out.iterdir()) and not force:
@@ -278,17 +401,61 @@ def check_output_dir(path: str | Path, force: bool) -> Path:
             f"{out}: output folder exists and is not empty; pass --force to replace it "
             "or choose another path"
         )
+    return CheckedOutput.record(path)
+
+
+def check_output_file(path: str | Path, force: bool) -> CheckedOutput:
+    """Check an output file before any work and record what was checked.
+
+    Refuses a folder in the way, an existing file unless ``force`` and an unwritable location
+    (:func:`check_writable`); removes temporary files of killed runs. Give the returned
+    :class:`CheckedOutput` to :func:`staged_output_file`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file a command is about to write.
+    force : bool
+        Accept an existing file (it will be replaced).
+
+    Returns
+    -------
+    CheckedOutput
+        ``path``, carrying what was there (device and inode of the file, or nothing).
+
+    Raises
+    ------
+    OutputExistsError
+        If ``path`` is a folder, or an existing file and ``force`` is false.
+    InputError
+        If the location is not writable.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> (root / "corr.json").write_text("{}")
+    2
+    >>> check_output_file(root / "corr.json", force=False)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.OutputExistsError: ...corr.json: exists; pass --force to replace it ...
+    >>> check_output_file(root / "corr.json", force=True).identity is not None
+    True
+    """
+    out = Path(path)
+    if out.is_dir():
+        raise OutputExistsError(f"{out}: is a folder; give a file name")
+    if os.path.lexists(out) and not force:
+        raise OutputExistsError(f"{out}: exists; pass --force to replace it or choose another path")
     check_writable(out)
     target = _resolved(out)
-    _clear_stale_staging(target, out)
-    try:
-        st = os.lstat(target)
-        ident: tuple[int, int] | None = (st.st_dev, st.st_ino)
-    except FileNotFoundError:
-        ident = None
-    with _checked_lock:
-        _checked[target] = ident
-    return out
+    with contextlib.suppress(OSError):
+        for entry in target.parent.glob(f".{target.name}{STAGING_INFIX}*"):
+            pid = _marked_pid(entry, target, STAGING_INFIX)
+            if pid is not None and pid != os.getpid() and not _pid_alive(pid):
+                entry.unlink()
+    return CheckedOutput.record(path)
 
 
 _RENAME_NOREPLACE = 1
@@ -411,7 +578,8 @@ def _finish(
         _finish(tmp, target, path, None, force)
         return
     # the folder checked at start (force): move it aside, then claim the name
-    backup = Path(tempfile.mkdtemp(prefix=f".{target.name}.old-", dir=target.parent))
+    prefix = f".{target.name}{OLD_INFIX}{os.getpid()}-"
+    backup = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
     backup.rmdir()
     os.rename(target, backup)
     try:
@@ -435,12 +603,14 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     on SIGTERM (exit code 143), the staging folder is removed and ``path`` is left untouched.
     On success the folder is moved into place with a rename that cannot replace anything
     (:func:`rename_noreplace`); an existing ``path`` is replaced only if it is the very folder
-    that was checked (by :func:`check_output_dir`, at the start of the command or on entry
-    here), so a folder created or swapped meanwhile is never touched.
+    that was checked, so a folder created or swapped meanwhile is never touched. What was
+    checked comes with ``path`` when it is the :class:`CheckedOutput` that
+    :func:`check_output_dir` returned at the start of the command; a plain path is checked on
+    entry here.
 
     Parameters
     ----------
-    path : str or Path
+    path : str, Path or CheckedOutput
         The output folder to create (its parents are created too).
     force : bool
         Replace an existing non-empty folder; without it one is refused
@@ -474,13 +644,11 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     >>> sorted(p.name for p in root.iterdir())
     ['result']
     """
+    checked = path if isinstance(path, CheckedOutput) and path.checked else None
+    if checked is None:  # not checked at the start of the command: check now
+        checked = check_output_dir(path, force)
+    ident = checked.identity
     target = _resolved(path)
-    with _checked_lock:
-        known = target in _checked
-    if not known:  # not checked at the start of the command: check now
-        check_output_dir(path, force)
-    with _checked_lock:
-        ident = _checked.pop(target, None)
     target.parent.mkdir(parents=True, exist_ok=True)
     with sigterm_cleanup():
         prefix = f".{target.name}{STAGING_INFIX}{os.getpid()}-"
@@ -491,6 +659,101 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
             _finish(tmp, target, path, ident, force)
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
+            raise
+
+
+def _finish_file(
+    tmp: Path, target: Path, path: str | Path, ident: tuple[int, int] | None, force: bool
+) -> None:
+    """Move the complete temporary file to ``target``, replacing only the file checked."""
+    appeared = (
+        f"{path}: appeared while this run was writing; it was left untouched and nothing was "
+        "written"
+    )
+    try:
+        st = os.lstat(target)
+        now: tuple[int, int] | None = (st.st_dev, st.st_ino)
+    except FileNotFoundError:
+        now = None
+    if now is None:
+        try:
+            os.link(tmp, target)  # a hard link cannot replace: fails if the name exists
+        except FileExistsError:
+            raise OutputExistsError(appeared) from None
+        except OSError:  # no hard links here: claim the name exclusively, then replace the claim
+            try:
+                os.close(os.open(target, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+            except FileExistsError:
+                raise OutputExistsError(appeared) from None
+            os.replace(tmp, target)
+            return
+        tmp.unlink()
+        return
+    if now != ident or not force or os.path.isdir(target):
+        raise OutputExistsError(
+            f"{path}: was created or replaced while this run was writing; it was left "
+            "untouched and nothing was written"
+        )
+    os.replace(tmp, target)  # the file checked at start (force): replaced in one step
+
+
+@contextlib.contextmanager
+def staged_output_file(path: str | Path, force: bool = False) -> Iterator[Path]:
+    """Write a file atomically: yield a temporary file beside ``path``, then move it there.
+
+    The temporary file ``.{name}.staging-{PID}-{random}.tmp`` is in the same folder (so the
+    move is a rename) and follows the umask. On any exception, and on SIGTERM (exit code 143),
+    it is removed and ``path`` is left untouched; one left by a killed run is removed by the
+    next check of the same output (:func:`check_output_file`). On success it is moved into
+    place: without ``force`` by a hard link that fails if a file appeared meanwhile, with
+    ``force`` by ``os.replace``, only if ``path`` is still the very file that was checked.
+
+    Parameters
+    ----------
+    path : str, Path or CheckedOutput
+        The file to write; a :class:`CheckedOutput` from :func:`check_output_file` at the start
+        of the command, or a plain path (checked on entry).
+    force : bool
+        Replace an existing file.
+
+    Yields
+    ------
+    Path
+        The temporary file (empty) to write.
+
+    Raises
+    ------
+    OutputExistsError
+        As :func:`check_output_file`, or if the target changed while writing.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> root = Path(tempfile.mkdtemp())
+    >>> with staged_output_file(root / "corr.json") as tmp:
+    ...     _ = tmp.write_text("{}")
+    ...     (root / "corr.json").exists()
+    False
+    >>> (root / "corr.json").read_text(), sorted(p.name for p in root.iterdir())
+    ('{}', ['corr.json'])
+    """
+    checked = path if isinstance(path, CheckedOutput) and path.checked else None
+    if checked is None:
+        checked = check_output_file(path, force)
+    target = _resolved(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with sigterm_cleanup():
+        prefix = f".{target.name}{STAGING_INFIX}{os.getpid()}-"
+        fd, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
+        os.close(fd)
+        tmp = Path(name)
+        try:
+            os.chmod(tmp, 0o666 & ~current_umask())
+            yield tmp
+            _finish_file(tmp, target, path, checked.identity, force)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
             raise
 
 

@@ -207,7 +207,7 @@ def write_simulation(
     out = Path(path)
     fractions: list[float] = []
     folders: list[Path] = []
-    with staged_output_dir(out, force=force) as tmp:
+    with staged_output_dir(path, force=force) as tmp:  # path may carry the start's check
         for i, rig in enumerate(rigs):
             captures = simulated_captures(rig, frames, modification=modification, progress=progress)
             extra: dict[str, Any] = {"simulator": rig.to_manifest()}

@@ -6,6 +6,16 @@ correction polynomial (``dpa_correction.json``), the figures, ``tables.json`` an
 ``report.md`` / ``report.html``, and a marker ``reproduce.json`` (what was run, with which
 grid). Rerunning into the same folder resumes the stores and
 regenerates the report; a folder that is not a reproduction is refused unless ``force``.
+
+Writing (docs/safety.md): the stores are written in place, block by block, each block's data
+before its done flag and each chunk file replaced atomically
+(:mod:`hdrfringe.reproduce.engine`), which is what makes a killed run resumable; staging them
+would throw that work away. Everything else is staged: ``reproduce.json``,
+``dpa_correction.json``, ``tables.json``, ``report.md`` and ``report.html`` are each written
+to a temporary file and renamed into place
+(:func:`~hdrfringe.io.results.staged_output_file`), and ``figures/`` is rendered into a
+staging folder that replaces the previous ``figures/`` only when the run completes
+(:func:`~hdrfringe.io.results.staged_output_dir`), before the report that shows them.
 """
 
 from __future__ import annotations
@@ -84,7 +94,17 @@ def _check_folder(out: Path, force: bool, quick: bool) -> None:
             )
 
 
-def _ch4(out: Path, quick: bool, run: _Run, timings: dict[str, float]) -> dict[str, Any]:
+def _write_text(path: Path, text: str) -> None:
+    """Replace ``path`` with ``text`` atomically (temporary file beside it, then a rename)."""
+    from hdrfringe.io.results import staged_output_file
+
+    with staged_output_file(path, force=True) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def _ch4(
+    out: Path, quick: bool, run: _Run, timings: dict[str, float], fig_dir: Path
+) -> dict[str, Any]:
     from hdrfringe.reproduce import ch4, ch4_report
 
     setup = ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
@@ -106,7 +126,7 @@ def _ch4(out: Path, quick: bool, run: _Run, timings: dict[str, float]) -> dict[s
         },
     )
     timings["ch4_simulation_s"] = time.perf_counter() - t0
-    figs = ch4_report.figures(ds, sim, out / "figures")
+    figs = ch4_report.figures(ds, sim, fig_dir)
     return {
         "tables": ch4_report.tables_markdown(ds, sim),
         "differences": ch4_report.differences_markdown(ds, sim),
@@ -126,7 +146,9 @@ def _adaptive(
     quick: bool,
     run: _Run,
     timings: dict[str, float],
+    fig_dir: Path,
 ) -> dict[str, Any]:
+    from hdrfringe.io.results import staged_output_file
     from hdrfringe.reproduce import adaptive, adaptive_report, ch4
     from hdrfringe.saturation.estimate import CorrectionPolynomial
     from hdrfringe.strategies.dpa_training import THESIS_CORRECTION_RMSE
@@ -140,7 +162,8 @@ def _adaptive(
     if corr_path.is_file() and CorrectionPolynomial.load(corr_path).to_dict() == corr.to_dict():
         pass  # same rig, same polynomial: keep the file
     else:
-        corr.save(corr_path, force=True)
+        with staged_output_file(corr_path, force=True) as tmp:
+            corr.save(tmp, force=True)
     timings["dpa_training_s"] = time.perf_counter() - t0
     exps = adaptive.experiments(quick)
     data: dict[str, Any] = {}
@@ -161,7 +184,7 @@ def _adaptive(
     plate, board, plate4 = (data.get(n) for n in ("ch5_plate", "checkerboard", "ch6_plate"))
     board5 = board if "ch5" in chapters else None
     board6 = board if "ch6" in chapters else None
-    figs = adaptive_report.figures(plate, board5, plate4, board6, out / "figures")
+    figs = adaptive_report.figures(plate, board5, plate4, board6, fig_dir)
     tables = adaptive_report.tables_markdown(plate, board5, plate4, board6)
     correction = {
         "rmse_before_dn": corr.rmse_before,
@@ -241,6 +264,7 @@ def reproduce(
     ----------
     Thesis Ch. 4 (Sec. 4.1-4.3), Ch. 5 (Sec. 5.2) and Ch. 6 (Sec. 6.2-6.3).
     """
+    from hdrfringe.io.results import check_writable, staged_output_dir
     from hdrfringe.reproduce.engine import check_scheduler, run_sweep
 
     unknown = [c for c in chapters if c not in CHAPTERS]
@@ -258,11 +282,10 @@ def reproduce(
     _check_folder(out, force, quick)
     if scheduler is not None:
         check_scheduler(scheduler)  # before anything is written
+    check_writable(out / MARKER)  # an entry can be made in out (resumed, never replaced)
     out.mkdir(parents=True, exist_ok=True)
-    (out / MARKER).write_text(
-        json.dumps({"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}) + "\n",
-        encoding="utf-8",
-    )
+    marker = {"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}
+    _write_text(out / MARKER, json.dumps(marker) + "\n")
 
     def run(store: Path, grid: SweepGrid, func: BlockFunc, params: dict[str, Any]) -> xr.Dataset:
         return run_sweep(
@@ -271,10 +294,12 @@ def reproduce(
 
     timings: dict[str, float] = {}
     results: dict[str, Any] = {}
-    if "ch4" in chapters:
-        results["ch4"] = _ch4(out, quick, run, timings)
-    if "ch5" in chapters or "ch6" in chapters:
-        results["adaptive"] = _adaptive(out, chapters, quick, run, timings)
+    # this run's figures replace figures/ (as its report replaces report.md) when it completes
+    with staged_output_dir(out / "figures", force=True) as fig_dir:
+        if "ch4" in chapters:
+            results["ch4"] = _ch4(out, quick, run, timings, fig_dir)
+        if "ch5" in chapters or "ch6" in chapters:
+            results["adaptive"] = _adaptive(out, chapters, quick, run, timings, fig_dir)
     results["timings_s"] = timings
     _write_report(out, results, quick)
     return results
@@ -315,7 +340,7 @@ def _adaptive_report(res: dict[str, Any], t: dict[str, float]) -> list[str]:
 
 def _write_report(out: Path, results: dict[str, Any], quick: bool) -> None:
     data = {k: v.get("data", v) if isinstance(v, dict) else v for k, v in results.items()}
-    (out / "tables.json").write_text(json.dumps(data, indent=1, default=float) + "\n", "utf-8")
+    tables = json.dumps(data, indent=1, default=float) + "\n"
     lines = [
         "# hdrfringe: reproduction of the thesis's experiments",
         "",
@@ -359,12 +384,12 @@ def _write_report(out: Path, results: dict[str, Any], quick: bool) -> None:
     import markdown
 
     text = "\n".join(lines) + "\n"
-    (out / "report.md").write_text(text, encoding="utf-8")
-    (out / "report.html").write_text(
+    html = (
         "<!doctype html><html><head><meta charset='utf-8'><title>hdrfringe reproduction</title>"
         "<style>table{border-collapse:collapse}td,th{border:1px solid #999;padding:2px 6px}"
         "img{max-width:100%}</style></head><body>\n"
         + markdown.markdown(text, extensions=["tables"])
-        + "\n</body></html>\n",
-        encoding="utf-8",
+        + "\n</body></html>\n"
     )
+    for name, content in (("tables.json", tables), ("report.md", text), ("report.html", html)):
+        _write_text(out / name, content)  # each complete or not at all

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from hdrfringe._validation import unsaturated_mask
+from hdrfringe._validation import check_tolerance, unsaturated_mask
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
@@ -86,13 +85,7 @@ def uniform(
     >>> res.migls, res.details["chosen_migl"]
     ([255.0, 180.0], 180.0)
     """
-    tol = float(tolerance)
-    if not (math.isfinite(tol) and 0.0 <= tol <= 1.0):
-        hint = f"; give {tol / 100:g} for {tol:g} %" if 1.0 < tol <= 100.0 else ""
-        raise InputError(
-            f"--tolerance (uniform: saturated fraction allowed) must be a fraction in [0, 1], "
-            f"got {tolerance}{hint}"
-        )
+    check_tolerance(tolerance)
     check_fringe_spec(spec, rig)
     bits = rig.camera_bit_depth
     lo_limit = default_min_migl(spec) if min_migl is None else float(min_migl)
@@ -169,6 +162,10 @@ class UniformParams:
     --------
     >>> UniformParams(migl=180.0).tolerance
     0.0
+    >>> UniformParams(tolerance=float("nan"))  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: --tolerance (uniform: saturated fraction allowed) must be ...
     """
 
     migl: float | None = field(
@@ -189,6 +186,10 @@ class UniformParams:
         default=None,
         metadata={"help": "the MIGLs the automatic search may use (default: every integer)."},
     )
+
+    def __post_init__(self) -> None:
+        """Refuse a tolerance outside 0..1 (:func:`hdrfringe._validation.check_tolerance`)."""
+        check_tolerance(self.tolerance)
 
 
 @register
