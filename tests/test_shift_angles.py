@@ -324,3 +324,149 @@ def test_frame_from_manifest_needs_the_sets_angles() -> None:
         frame_from_manifest(entry, shifts_deg=(0, 120, 240))
     frame = frame_from_manifest(entry, shifts_deg=(-120, 0, 120))
     assert frame.spec.shifts_deg == (-120, 0, 120) and frame.shift == 1
+
+
+# --- real data (../shared/realdata; skipped when absent) ---------------------------------------
+
+
+def _realdata_folder(tmp_path: Path, sources: list[Path], entries: list[dict], **top) -> Path:
+    """A version-3 capture folder under ``tmp_path`` holding copies of real images.
+
+    Copies, not symlinks: the folder reader refuses symlinks that resolve outside the folder
+    (docs/capture_format.md, "Limits"); nothing is written into the repository.
+    """
+    folder = tmp_path / "caps"
+    folder.mkdir()
+    for src, entry in zip(sources, entries, strict=True):
+        shutil.copyfile(src, folder / entry["file"])
+    manifest = {"format": "hdrfringe-captures", "version": 3, **top, "frames": entries}
+    (folder / "manifest.json").write_text(json.dumps(manifest, indent=1))
+    return folder
+
+
+def _fringe_entry(file: str, steps: int, shift: int, pitch: float, orientation: str, **extra):
+    return {
+        "file": file,
+        "kind": "fringe",
+        "pattern": "sinusoidal",
+        "steps": steps,
+        "shift": shift,
+        "pitch": pitch,
+        "orientation": orientation,
+        "imin": 0,
+        "migl": 255,
+        **extra,
+    }
+
+
+@pytest.mark.realdata
+def test_kamino410_object1_declared_shifts(tmp_path: Path) -> None:
+    """kamino410 object1 pat00-05: cos(2*pi*x/p + (phs-2)*2*pi/3), shifts -120/0/+120 degrees.
+
+    Read through a version-3 manifest with ``shift_deg`` and decoded by the least-squares path:
+    (a) equals the standard equal-shift decoder on the frames reordered to 0/120/240 (pat01,
+    pat02, pat00) to 1e-9 rad; (b) equals their own closed form (phase_shifting.py,
+    ``atan2(sqrt(3)*(I1 - I3), 2*I2 - I1 - I3)``, written out here) to 1e-9 rad; (c) the two
+    pitches agree: for phi_p = 2*pi*x/p, ``2*phi_66.67 - 3*phi_100 = 0`` (mod 2*pi).
+    """
+    from tests.conftest import realdata_path
+
+    root = realdata_path("kamino410", "object1")
+    pitches = (200.0 / 3.0, 100.0)
+    entries, sources = [], []
+    for s, pitch in enumerate(pitches):
+        for k, deg in enumerate((-120, 0, 120)):
+            name = f"pat{3 * s + k:02d}.png"
+            sources.append(root / name)
+            entries.append(_fringe_entry(name, 3, k, pitch, "vertical", shift_deg=deg))
+    folder = _realdata_folder(
+        tmp_path,
+        sources,
+        entries,
+        camera={"bit_depth": 8},
+        projector={"width": 1920, "height": 1080, "bit_depth": 8},
+    )
+    caps = read_capture_folder(folder)
+    assert [s.spec.shifts_deg for s in caps.sets] == [(-120.0, 0.0, 120.0)] * 2
+    phis = []
+    for fs in caps.sets:
+        imgs = caps.set_images(fs)
+        res = decode_set(imgs, fs.spec, 8)
+        ok = res.valid
+        assert ok.mean() > 0.3, ok.mean()
+        standard = FringeSpec("sinusoidal", 3, fs.spec.pitch_px, "vertical", 0, 255)
+        reordered = decode_set(imgs[[1, 2, 0]], standard, 8)
+        # validity agrees but where the modulation is the 2 DN threshold itself (8-bit counts
+        # give exactly 2.0 DN often, e.g. 0.4 % of pixels here) and rounding decides the side
+        differ = reordered.valid != ok
+        _, m_std, _ = sinusoidal_phase(imgs[[1, 2, 0]])
+        assert np.abs(m_std[differ] - 2.0).max(initial=0.0) < 1e-12
+        both = ok & reordered.valid
+        err = wrap_err(res.wrapped_phase[both], reordered.wrapped_phase[both])
+        assert err.max() < 1e-9, err.max()
+        assert np.allclose(res.modulation[both], reordered.modulation[both], rtol=1e-12, atol=0)
+        i1, i2, i3 = imgs.astype(np.float64)
+        theirs = np.arctan2(np.sqrt(3) * (i1 - i3), 2 * i2 - i1 - i3)
+        assert wrap_err(res.wrapped_phase[ok], theirs[ok]).max() < 1e-9
+        # the broken variant: the same frames read as the contract's 0/120/240
+        plain = wrapped_phase(imgs, standard)  # off by 120 degrees everywhere
+        assert np.median(wrap_err(plain[ok], theirs[ok])) > 1.0
+        phis.append(res)
+    a, b = phis
+    both = a.valid & b.valid
+    c = np.median(np.angle(np.exp(1j * (2 * a.wrapped_phase[both] - 3 * b.wrapped_phase[both]))))
+    print(f"[realdata] kamino410 object1: median(2*phi_66.67 - 3*phi_100) = {c:.4f} rad")
+    assert abs(c) < 0.1, c
+
+
+CHECKER_ROOT = ("thomriiii", "dec2025_checkerboard_saturated_4step")
+
+
+@pytest.mark.realdata
+def test_thomriiii_checkerboard_sine_offset_from_the_manifest(tmp_path: Path) -> None:
+    """thomriiii checkerboard: ``sin(2*pi*F*x + 2*pi*K/4)`` declared as phase_offset_deg = -90.
+
+    For phi_F = 2*pi*F*x + c at every frequency, ``2*phi_F - phi_2F = c``: docs/realdata.md
+    measured c = -pi/2 without the offset; with it declared in the manifest, c is ~0 for every
+    F pair and both orientations. The broken variant (offset left out) keeps -pi/2.
+    """
+    from tests.conftest import realdata_path
+
+    root = realdata_path(*CHECKER_ROOT, "images")
+    prefix = {"vertical": "scan", "horizontal": "scanh"}
+    freqs = (4, 8, 16, 32)
+    entries, sources = [], []
+    for o, pre in prefix.items():
+        for f in freqs:
+            for k in range(4):
+                name = f"{pre}_f{f:03d}_n{k:02d}.png"
+                sources.append(root / name)
+                entries.append(_fringe_entry(name, 4, k, 1024.0 / f, o, phase_offset_deg=-90))
+    folder = _realdata_folder(tmp_path, sources, entries, camera={"bit_depth": 8})
+    caps = read_capture_folder(folder)
+    assert len(caps.sets) == 8 and all(s.spec.phase_offset_deg == -90 for s in caps.sets)
+    by_key = {(s.spec.orientation, round(1024.0 / s.spec.pitch_px)): s for s in caps.sets}
+    for o in prefix:
+        res = {}
+        for f in freqs:
+            fs = by_key[o, f]
+            imgs = caps.set_images(fs)
+            res[f] = (
+                decode_set(imgs, fs.spec, 8, reject_saturated=False),
+                decode_set(imgs, replace_offset(fs.spec, 0.0), 8, reject_saturated=False),
+            )
+        for lo in (4, 8, 16):
+            for which, expect in ((0, 0.0), (1, -np.pi / 2)):
+                a, b = res[lo][which], res[2 * lo][which]
+                ok = a.valid & b.valid & (a.saturation_count == 0) & (b.saturation_count == 0)
+                d = 2 * a.wrapped_phase[ok] - b.wrapped_phase[ok]
+                c = float(np.median(np.angle(np.exp(1j * d))))
+                if which == 0:
+                    print(f"[realdata] checkerboard {o}: median(2*phi_{lo} - phi_{2 * lo}) {c:.4f}")
+                assert abs(c - expect) < 0.05, (o, lo, which, c)
+
+
+def replace_offset(spec: FringeSpec, offset: float) -> FringeSpec:
+    import dataclasses
+
+    return dataclasses.replace(spec, phase_offset_deg=offset)
