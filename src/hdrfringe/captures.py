@@ -342,73 +342,90 @@ def group_fringe_sets(
             key = ("map", frame.spec, frame.content_sha256, exposures[i], gammas[i], gains[i])
         groups.setdefault(key, []).append(i)
     sets: list[FringeSet] = []
+    problems: list[str] = []
     for key, idx in groups.items():
-        first = frames[idx[0]]
-        assert isinstance(first, FringeFrame | PixelwiseFringeFrame)
-        spec = first.spec
-        digest = first.content_sha256 if isinstance(first, PixelwiseFringeFrame) else None
-        exposure, gamma, gain = exposures[idx[0]], gammas[idx[0]], gains[idx[0]]
-        if key[0] == "label":
-            label = str(key[1])
-        else:
-            label = spec.label()
-            if digest is not None:
-                label = f"{label}_map{digest[:8]}"
-            if exposure is not None:
-                label = f"{label}_e{exposure:g}"
-            if gain is not None:
-                label = f"{label}_gain{gain:g}dB"
-            if gamma is not None:
-                label = f"{label}_gp{gamma:g}"
-        shifts = []
-        for i in idx:
-            f = frames[i]
-            assert isinstance(f, FringeFrame | PixelwiseFringeFrame)
-            if type(f) is not type(first):
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} is a {f.kind} frame but "
-                    f"{frame_names[idx[0]]} a {first.kind} frame; give each set one kind"
-                )
-            if f.spec != spec and replace(f.spec, phase_offset_deg=spec.phase_offset_deg) == spec:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has phase_offset_deg "
-                    f"{f.spec.phase_offset_deg:g} but {frame_names[idx[0]]} "
-                    f"{spec.phase_offset_deg:g}; all frames of a set must agree on the offset"
-                )
-            if f.spec != spec:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has a different pattern "
-                    "specification from the rest of its set; give each set one specification"
-                )
-            if isinstance(f, PixelwiseFringeFrame) and f.content_sha256 != digest:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has a different MIGL map from "
-                    f"{frame_names[idx[0]]}; give the frames of a set one map"
-                )
-            if gains[i] != gain:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has gain {gains[i]} dB but "
-                    f"{frame_names[idx[0]]} {gain} dB; give the frames of a set one gain"
-                )
-            shifts.append(f.shift)
-        if sorted(shifts) != list(range(spec.steps)):
-            raise CaptureFormatError(
-                f"set {label!r}: has shifts {sorted(shifts)} but a {spec.steps}-step set needs "
-                f"each of 0..{spec.steps - 1} exactly once; add or remove frames"
-            )
-        ordered = tuple(i for _, i in sorted(zip(shifts, idx, strict=True)))
-        sets.append(
-            FringeSet(
-                label,
-                spec,
-                ordered,
-                exposure,
-                None if gamma is None else float(gamma),
-                None if gain is None else float(gain),
-                digest,
-            )
-        )
+        try:
+            sets.append(_one_set(key, idx, frames, frame_names, exposures, gammas, gains))
+        except CaptureFormatError as exc:  # every set's problem, reported together
+            problems.extend(exc.problems)
+    if problems:
+        raise CaptureFormatError.from_problems(problems)
     return sets
+
+
+def _one_set(
+    key: tuple[Any, ...],
+    idx: list[int],
+    frames: Sequence[Frame],
+    frame_names: list[str],
+    exposures: tuple[Any, ...],
+    gammas: tuple[Any, ...],
+    gains: tuple[Any, ...],
+) -> FringeSet:
+    """One group of :func:`group_fringe_sets` checked and made a :class:`FringeSet`."""
+    first = frames[idx[0]]
+    assert isinstance(first, FringeFrame | PixelwiseFringeFrame)
+    spec = first.spec
+    digest = first.content_sha256 if isinstance(first, PixelwiseFringeFrame) else None
+    exposure, gamma, gain = exposures[idx[0]], gammas[idx[0]], gains[idx[0]]
+    if key[0] == "label":
+        label = str(key[1])
+    else:
+        label = spec.label()
+        if digest is not None:
+            label = f"{label}_map{digest[:8]}"
+        if exposure is not None:
+            label = f"{label}_e{exposure:g}"
+        if gain is not None:
+            label = f"{label}_gain{gain:g}dB"
+        if gamma is not None:
+            label = f"{label}_gp{gamma:g}"
+    shifts = []
+    for i in idx:
+        f = frames[i]
+        assert isinstance(f, FringeFrame | PixelwiseFringeFrame)
+        if type(f) is not type(first):
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} is a {f.kind} frame but "
+                f"{frame_names[idx[0]]} a {first.kind} frame; give each set one kind"
+            )
+        if f.spec != spec and replace(f.spec, phase_offset_deg=spec.phase_offset_deg) == spec:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has phase_offset_deg "
+                f"{f.spec.phase_offset_deg:g} but {frame_names[idx[0]]} "
+                f"{spec.phase_offset_deg:g}; all frames of a set must agree on the offset"
+            )
+        if f.spec != spec:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has a different pattern "
+                "specification from the rest of its set; give each set one specification"
+            )
+        if isinstance(f, PixelwiseFringeFrame) and f.content_sha256 != digest:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has a different MIGL map from "
+                f"{frame_names[idx[0]]}; give the frames of a set one map"
+            )
+        if gains[i] != gain:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has gain {gains[i]} dB but "
+                f"{frame_names[idx[0]]} {gain} dB; give the frames of a set one gain"
+            )
+        shifts.append(f.shift)
+    if sorted(shifts) != list(range(spec.steps)):
+        raise CaptureFormatError(
+            f"set {label!r}: has shifts {sorted(shifts)} but a {spec.steps}-step set needs "
+            f"each of 0..{spec.steps - 1} exactly once; add or remove frames"
+        )
+    ordered = tuple(i for _, i in sorted(zip(shifts, idx, strict=True)))
+    return FringeSet(
+        label,
+        spec,
+        ordered,
+        exposure,
+        None if gamma is None else float(gamma),
+        None if gain is None else float(gain),
+        digest,
+    )
 
 
 def _frame_or_fail(
