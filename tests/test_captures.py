@@ -282,3 +282,66 @@ def test_every_incomplete_set_is_reported() -> None:
         group_fringe_sets(frames)
     assert len(info.value.problems) == 2
     assert "s3_p8" in info.value.problems[0] and "s4_p9" in info.value.problems[1]
+
+
+# --- imin/migl optional on fringe frames (version 3, issue 12 point 8) -------------------------
+
+
+def _without_levels(tmp_path: Path, version: int = 3, drop=("imin", "migl"), bits: int | None = 10):
+    caps = Captures(SPEC.frames(), _images(3), 8)
+    folder = write_capture_folder(tmp_path / f"v{version}{''.join(drop)}", caps)
+    m = json.loads((folder / "manifest.json").read_text())
+    m["version"] = version
+    if bits is not None:
+        m["projector"] = {"bit_depth": bits}
+    for f in m["frames"]:
+        for key in drop:
+            del f[key]
+    (folder / "manifest.json").write_text(json.dumps(m))
+    return folder
+
+
+def test_version_3_fringes_may_leave_out_both_gray_levels(tmp_path: Path) -> None:
+    from hdrfringe.phase import decode_set
+
+    caps = read_capture_folder(_without_levels(tmp_path))
+    spec = caps.sets[0].spec
+    assert not spec.gray_levels_given and (spec.imin, spec.migl) == (0.0, 1023.0)  # 2^Bp - 1
+    assert caps.sets[0].label == "s3_p8_v"
+    # decoding does not use the levels: the same phase as the set with its levels
+    given = decode_set(caps.set_images(caps.sets[0]), SPEC, 8).wrapped_phase
+    assert np.array_equal(decode_set(caps.set_images(caps.sets[0]), spec, 8).wrapped_phase, given)
+    # without a projector bit depth, migl is 255; written back, the levels stay left out (v3)
+    assert read_capture_folder(_without_levels(tmp_path / "b", bits=None)).sets[0].spec.migl == 255
+    out = write_capture_folder(tmp_path / "back", caps)
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["version"] == 3 and all("imin" not in f and "migl" not in f for f in m["frames"])
+    assert read_capture_folder(out).sets[0].spec == spec
+
+
+@pytest.mark.parametrize(
+    ("version", "drop", "needle"),
+    [
+        (1, ("imin", "migl"), "missing field 'imin'"),
+        (2, ("imin", "migl"), "missing field 'imin'"),
+        (3, ("migl",), "gives 'imin' without 'migl'; give both gray levels or neither"),
+    ],
+)
+def test_gray_levels_are_required_before_version_3_and_both_or_neither(
+    tmp_path: Path, version, drop, needle
+) -> None:
+    with pytest.raises(CaptureFormatError, match=needle):
+        read_capture_folder(_without_levels(tmp_path, version, drop))
+
+
+def test_features_that_need_the_gray_levels_refuse_sets_without_them(tmp_path: Path) -> None:
+    from hdrfringe.gamma.fringes import fit_gamma_fringes
+    from hdrfringe.rig.replay import ReplayRig
+
+    caps = read_capture_folder(_without_levels(tmp_path))
+    with pytest.raises(CaptureFormatError, match=r"gives no imin/migl.*add imin and migl"):
+        ReplayRig(caps)
+    fs = caps.sets[0]
+    with pytest.raises(InputError, match=r"gives no imin/migl.*add imin and migl"):
+        fit_gamma_fringes([(fs.spec, 1.0, caps.set_images(fs))], camera_bit_depth=8)
+    ReplayRig(Captures(SPEC.frames(), _images(3), 8))  # with the levels: accepted

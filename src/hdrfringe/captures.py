@@ -433,12 +433,18 @@ def _frame_or_fail(
     i: int,
     load_array: Callable[[str], NDArray[Any]] | None,
     shifts_deg: tuple[float, ...] | None = None,
+    default_migl: float = 255.0,
 ) -> Frame:
-    """:func:`frame_from_manifest` with its errors naming the frame."""
+    """:func:`frame_from_manifest` with its errors naming the frame; a fringe frame without
+    gray levels gets ``default_migl`` (the projector's full scale)."""
     try:
         if shifts_deg is None:
-            return frame_from_manifest(entry, load_array)
-        return frame_from_manifest(entry, load_array, shifts_deg=shifts_deg)
+            frame = frame_from_manifest(entry, load_array)
+        else:
+            frame = frame_from_manifest(entry, load_array, shifts_deg=shifts_deg)
+        if isinstance(frame, FringeFrame) and not frame.spec.gray_levels_given:
+            frame = FringeFrame(replace(frame.spec, migl=default_migl), frame.shift)
+        return frame
     except HdrFringeError as exc:
         raise CaptureFormatError(f"manifest frame {i} ({entry.get('file')}): {exc}") from None
 
@@ -661,8 +667,9 @@ class Captures:
         """The capture-format version a folder of these captures needs.
 
         The lowest version that describes every frame (docs/capture_format.md): 3 when a
-        fringe set declares shift angles or a phase offset; else 2 when a frame has 2-D data
-        (:data:`hdrfringe.frames.IMAGE_FRAMES`) or records a gain; else 1.
+        fringe set declares shift angles or a phase offset, or leaves out its gray levels;
+        else 2 when a frame has 2-D data (:data:`hdrfringe.frames.IMAGE_FRAMES`) or records a
+        gain; else 1.
 
         Returns
         -------
@@ -679,8 +686,12 @@ class Captures:
         (1, 2)
         """
         needs = [1]
-        if any(isinstance(f, FringeFrame) and not f.spec.has_standard_phase for f in self.frames):
-            needs.append(3)  # shift angles, phase offset
+        if any(
+            isinstance(f, FringeFrame)
+            and not (f.spec.has_standard_phase and f.spec.gray_levels_given)
+            for f in self.frames
+        ):
+            needs.append(3)  # shift angles, phase offset, gray levels left out
         if any(isinstance(f, IMAGE_FRAMES) for f in self.frames):
             needs.append(2)
         if any(g is not None for g in self.gain_db):
@@ -873,11 +884,14 @@ class Captures:
         angled = {
             i for i, e in enumerate(entries) if e.get("kind") == "fringe" and "shift_deg" in e
         }
+        # a fringe entry without imin/migl (version 3) gets migl = the projector's 2^Bp - 1
+        proj = manifest.get("projector") or {}
+        full_p = float(full_scale(int(proj.get("bit_depth", 8)), "projector bit depth"))
         frames: list[Frame] = []
         for i, entry in enumerate(entries):
             if i in angled:
                 entry = {k: v for k, v in entry.items() if k != "shift_deg"}
-            frames.append(_frame_or_fail(entry, i, load_array))
+            frames.append(_frame_or_fail(entry, i, load_array, default_migl=full_p))
         fringe = [isinstance(f, FringeFrame | PixelwiseFringeFrame) for f in frames]
         exposure = tuple(e.get("exposure_ms") for e in entries)
         has_gain = manifest.get("version", FORMAT_VERSION) != 1  # no meaning in version 1
@@ -918,7 +932,7 @@ class Captures:
                         f"set {fs.label!r} ({', '.join(names[i] for i in idx)}): {exc}"
                     ) from None
                 for i in idx:
-                    frames[i] = _frame_or_fail(entries[i], i, load_array, angles)
+                    frames[i] = _frame_or_fail(entries[i], i, load_array, angles, full_p)
             group_fringe_sets(
                 frames,
                 exposure_ms=exposure,

@@ -304,6 +304,11 @@ def _grouped_sets(
                 f"fringe gamma fit: set {spec.label()} has gamma_hat {gh}; give its positive "
                 "pre-compensation exponent"
             )
+        if not spec.gray_levels_given:
+            raise InputError(
+                f"fringe gamma fit: set {spec.label()} gives no imin/migl, and the fit models the "
+                "pattern's gray levels; add imin and migl to the manifest's frames"
+            )
         if spec.migl > full_p:
             raise InputError(
                 f"fringe gamma fit: set {spec.label()} has migl {spec.migl:g} above the "

@@ -190,8 +190,20 @@ def _check_fringe_fields(entry: dict[str, Any], where: str, version: int = 1) ->
     _integer(entry, "shift", where, 0, steps - 1)
     _number(entry, "pitch", where, positive=True)
     _choice(entry, "orientation", where, ORIENTATIONS)
-    imin = _number(entry, "imin", where)
-    migl = _number(entry, "migl", where)
+    levels = [key for key in ("imin", "migl") if key in entry]
+    if version >= 3 and entry.get("kind") == "fringe" and len(levels) < 2:
+        # version 3: a fringe frame may leave out both (decoding does not use them)
+        if levels:
+            other = "migl" if levels[0] == "imin" else "imin"
+            raise _fail(
+                where,
+                f"gives '{levels[0]}' without '{other}'",
+                "give both gray levels or neither (then imin 0 and migl 2^Bp - 1 are assumed)",
+            )
+        imin, migl = 0.0, 1.0
+    else:
+        imin = _number(entry, "imin", where)
+        migl = _number(entry, "migl", where)
     if not 0 <= imin < migl:
         raise _fail(
             where,
