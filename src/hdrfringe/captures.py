@@ -47,6 +47,7 @@ __all__ = [
     "Captures",
     "FringeSet",
     "ProjectorInfo",
+    "frames_format_version",
     "group_fringe_sets",
 ]
 
@@ -428,6 +429,46 @@ def _one_set(
     )
 
 
+def frames_format_version(frames: Sequence[Frame], gain_db: Sequence[float | None] = ()) -> int:
+    """The lowest capture-format version that describes these frames (and gains).
+
+    The one place that decides it, for capture folders (:attr:`Captures.format_version`) and
+    pattern folders alike: 3 when a fringe set declares shift angles or a phase offset, or
+    leaves out its gray levels; else 2 when a frame has 2-D data
+    (:data:`hdrfringe.frames.IMAGE_FRAMES`) or a gain is recorded; else 1
+    (docs/capture_format.md).
+
+    Parameters
+    ----------
+    frames : sequence of Frame
+    gain_db : sequence of float or None, optional
+        Per-frame camera gains (None: not recorded).
+
+    Returns
+    -------
+    int
+        1, 2 or 3.
+
+    Examples
+    --------
+    >>> frames_format_version(FringeSpec(steps=3).frames())
+    1
+    >>> frames_format_version(FringeSpec(steps=3, phase_offset_deg=-90).frames())
+    3
+    """
+    needs = [1]
+    if any(
+        isinstance(f, FringeFrame) and not (f.spec.has_standard_phase and f.spec.gray_levels_given)
+        for f in frames
+    ):
+        needs.append(3)  # shift angles, phase offset, gray levels left out
+    if any(isinstance(f, IMAGE_FRAMES) for f in frames):
+        needs.append(2)
+    if any(g is not None for g in gain_db):
+        needs.append(2)
+    return max(needs)
+
+
 def _frame_or_fail(
     entry: dict[str, Any],
     i: int,
@@ -685,18 +726,7 @@ class Captures:
         >>> caps.format_version, dataclasses.replace(caps, gain_db=[6.0]).format_version
         (1, 2)
         """
-        needs = [1]
-        if any(
-            isinstance(f, FringeFrame)
-            and not (f.spec.has_standard_phase and f.spec.gray_levels_given)
-            for f in self.frames
-        ):
-            needs.append(3)  # shift angles, phase offset, gray levels left out
-        if any(isinstance(f, IMAGE_FRAMES) for f in self.frames):
-            needs.append(2)
-        if any(g is not None for g in self.gain_db):
-            needs.append(2)
-        return max(needs)
+        return frames_format_version(self.frames, self.gain_db)
 
     @property
     def image_shape(self) -> tuple[int, int]:
