@@ -382,10 +382,12 @@ def precompensate_gamma(
 
 
 def same_fringes(a: FringeSpec, b: FringeSpec) -> bool:
-    """Whether two sets have the same fringes: pattern, steps, pitch, orientation and phases.
+    """Whether two sets have the same fringes: pattern, steps, pitch and orientation.
 
     The gray range (``imin``, ``migl``) may differ: a MIGL sweep holds the same fringes at many
-    MIGLs, and a calibration serves any MIGL (thesis Sec. 4.1).
+    MIGLs, and a calibration serves any MIGL (thesis Sec. 4.1). So may the shift angles and the
+    phase offset (capture format version 3): every set decodes to ``2*pi*x/p`` whatever they
+    are, so a calibration made with one convention serves another.
 
     Parameters
     ----------
@@ -403,13 +405,11 @@ def same_fringes(a: FringeSpec, b: FringeSpec) -> bool:
     >>> same_fringes(FringeSpec("sinusoidal", 4, 8.0), FringeSpec("sinusoidal", 3, 8.0))
     False
     """
-    return (a.pattern, a.steps, a.pitch_px, a.orientation, a.shifts_deg, a.phase_offset_deg) == (
+    return (a.pattern, a.steps, a.pitch_px, a.orientation) == (
         b.pattern,
         b.steps,
         b.pitch_px,
         b.orientation,
-        b.shifts_deg,
-        b.phase_offset_deg,
     )
 
 
