@@ -509,3 +509,35 @@ def test_gamma_from_fringes_with_declared_phases() -> None:
     truth = SimulatedRig(white_plate(5.0)).projector_model.gamma
     fit = fit_gamma_fringes(sets, camera_bit_depth=8, max_pixels=5000)
     assert fit.gamma == pytest.approx(truth, rel=0.01)
+
+
+def test_a_version_3_folder_through_hdrfringe_phase(tmp_path: Path) -> None:
+    """Simulated sine and unequal-shift sets of one family, written as a version-3 folder: the
+    CLI's wrapped and absolute phase are the rig's 2*pi*u/p (the offset must be removed per set,
+    or temporal unwrapping from the coarse set would pick wrong fringe orders)."""
+    import tifffile
+
+    from hdrfringe.frames import CenterlineFrame
+    from hdrfringe.io.captures import simulate_to_folder
+    from hdrfringe.rig.scenes import white_plate
+    from hdrfringe.rig.simulated import SimulatedRig
+    from tests.conftest import run_cli
+
+    rig = SimulatedRig.ideal(white_plate(12.0))
+    levels = {"imin": 40 * 257, "migl": 65535}
+    fine = FringeSpec("sinusoidal", 4, 9.37, phase_offset_deg=-90, **levels)
+    coarse = FringeSpec("sinusoidal", 4, 61.0, shifts_deg=(0, 80, 190, 270), **levels)
+    frames = [*coarse.frames(), *fine.frames(), CenterlineFrame(512, "vertical", 65535)]
+    simulate_to_folder(tmp_path / "caps", rig, frames)
+    assert read_manifest(tmp_path / "caps")["version"] == 3
+    res = run_cli("phase", str(tmp_path / "caps"), "-o", str(tmp_path / "out"))
+    assert res.returncode == 0, res.stderr
+    truth = rig.truth()
+    wrapped = tifffile.imread(tmp_path / "out" / "wrapped_phase.tiff")  # the finest set's
+    ok = truth.valid & np.isfinite(wrapped)
+    assert ok.mean() > 0.99
+    assert wrap_err(wrapped, TWO_PI * truth.u / 9.37)[ok].max() < 1e-3
+    absolute = tifffile.imread(tmp_path / "out" / "absolute_phase.tiff")
+    ok = truth.valid & np.isfinite(absolute)
+    assert ok.mean() > 0.99
+    assert np.abs(absolute - TWO_PI * truth.u / 9.37)[ok].max() < 1e-3
