@@ -441,6 +441,7 @@ def frames_format_version(frames: Sequence[Frame], gain_db: Sequence[float | Non
     Parameters
     ----------
     frames : sequence of Frame
+        The frames a folder describes.
     gain_db : sequence of float or None, optional
         Per-frame camera gains (None: not recorded).
 
