@@ -102,6 +102,30 @@ def test_pixelwise_frames_refuse_shift_angles() -> None:
 # --- decoding --------------------------------------------------------------------------------
 
 
+def test_an_offset_alone_keeps_the_standard_modulation_bit_for_bit() -> None:
+    """A sine profile with the contract's angles: the phase is the standard one minus the
+    offset, and modulation and mean (hence validity at the threshold) are those of the standard
+    decode exactly; the least-squares route differs from them by rounding (~1e-13), which
+    flipped pixels sitting on the modulation threshold."""
+    rng = np.random.default_rng(5)
+    x = np.linspace(0, 40, 333)[None, :]
+    imgs = np.rint(
+        cosine_set(x, 9.0, [0, 90, 180, 270], offset_deg=-90) + rng.normal(0, 1, (4, 1, 333))
+    )
+    spec = FringeSpec("sinusoidal", 4, 9.0, imin=0, migl=255, phase_offset_deg=-90)
+    res = decode_set(imgs.astype(np.uint8), spec, 8, min_modulation=0)
+    std = decode_set(
+        imgs.astype(np.uint8),
+        FringeSpec("sinusoidal", 4, 9.0, imin=0, migl=255),
+        8,
+        min_modulation=0,
+    )
+    assert np.array_equal(res.modulation, std.modulation)
+    assert np.array_equal(res.mean_intensity, std.mean_intensity)
+    assert wrap_err(res.wrapped_phase, std.wrapped_phase + np.pi / 2).max() < 1e-12
+    assert res.wrapped_phase.min() >= 0 and res.wrapped_phase.max() < TWO_PI
+
+
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
 def test_least_squares_equals_the_closed_forms_for_equal_shifts(dtype) -> None:
     """For equal shifts the LS fit is Eq. 2.2: checked against the N = 3 and N = 4 closed forms

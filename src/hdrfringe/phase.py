@@ -613,6 +613,14 @@ def _decode(
     if spec.pattern == "sinusoidal":
         if spec.has_standard_phase:  # the contract's shifts: Eq. 2.2, as always
             return sinusoidal_phase(stack, dtype=dtype, quality=quality)
+        if spec.shifts_deg is None:
+            # The contract's angles with an offset (e.g. a sine profile): Eq. 2.2, then the
+            # offset removed. The same phase as the least-squares fit, and the same modulation
+            # and mean bit for bit as a standard set, so validity at the modulation threshold
+            # does not depend on how the profile was declared.
+            phase, modulation, mean = sinusoidal_phase(stack, dtype=dtype, quality=quality)
+            shifted = wrap_phase(phase.astype(np.float64) - np.radians(spec.phase_offset_deg))
+            return shifted.astype(phase.dtype, copy=False), modulation, mean
         shifts = np.degrees(spec.shifts) if spec.shifts_deg is None else spec.shifts_deg
         return sinusoidal_phase_ls(
             stack,
