@@ -379,7 +379,8 @@ def read_description(path: str | Path) -> Description:
     --------
     >>> import tempfile
     >>> p = Path(tempfile.mkdtemp()) / "d.toml"
-    >>> _ = p.write_text('[camera]\\nbit_depth = 8\\n[[uniform]]\\nfiles = "w.png"\\nlevel = 255\\n')
+    >>> _ = p.write_text('[camera]\\nbit_depth = 8\\n'
+    ...                  '[[uniform]]\\nfiles = "w.png"\\nlevel = 255\\n')
     >>> read_description(p).groups[0].kind
     'uniform'
     """

@@ -36,8 +36,8 @@ from hdrfringe.io.results import staged_output_dir
 from hdrfringe.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS, MAX_PROGRAM_FRAMES
 
 __all__ = [
-    "COPIED_SUFFIXES",
     "CONVERTED_SUFFIXES",
+    "COPIED_SUFFIXES",
     "MAX_IMAGES_SCANNED",
     "ImportReport",
     "discover_images",
@@ -200,7 +200,7 @@ def to_counts(
     >>> to_counts(np.array([[0.3]]), 8, 1.0, "ex")
     Traceback (most recent call last):
     ...
-    hdrfringe.errors.CaptureFormatError: ex: float values are not whole counts after scaling by 1 (0.3 becomes 0.3); set [camera] float_scale so that they are (docs/import.md), or store the counts as integers
+    hdrfringe.errors.CaptureFormatError: ex: float values are not whole counts after scaling ...
     """
     a = np.asarray(data)
     if a.ndim == 3 and a.shape[-1] == 4:
@@ -486,7 +486,8 @@ class _Writer:
         suffix = path.suffix.lower()
         if suffix in _STACK_SUFFIXES:
             raise InputError(
-                f"{label}: a numpy file named as an image; describe it with 'stack' (docs/import.md)"
+                f"{label}: a numpy file named as an image; describe it with 'stack' "
+                "(docs/import.md)"
             )
         if suffix in COPIED_SUFFIXES:
             header = probe_image(path)
