@@ -34,6 +34,7 @@ from .phase import data_modulation as data_modulation
 from .phase import decode_set as decode_set
 from .phase import saturation_count as saturation_count
 from .phase import sinusoidal_phase as sinusoidal_phase
+from .phase import sinusoidal_phase_ls as sinusoidal_phase_ls
 from .phase import triangular_2step as triangular_2step
 from .phase import triangular_3step as triangular_3step
 from .phase import wrapped_phase as wrapped_phase

@@ -16,7 +16,7 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -53,10 +53,10 @@ __all__ = [
 #: The capture manifest's ``format`` field (docs/capture_format.md).
 FORMAT_NAME = "hdrfringe-captures"
 #: The newest capture-folder contract version this hdrfringe reads and writes.
-FORMAT_VERSION = 2
-#: Every capture-folder contract version this hdrfringe reads. It writes version 1 whenever the
-#: captures fit in it (no 2-D frame, no gain), so folders stay readable by older readers.
-FORMAT_VERSIONS = (1, 2)
+FORMAT_VERSION = 3
+#: Every capture-folder contract version this hdrfringe reads. It writes the lowest version the
+#: captures fit in (:attr:`Captures.format_version`), so folders stay readable by older readers.
+FORMAT_VERSIONS = (1, 2, 3)
 #: The camera gains (dB) a frame may record, inclusive.
 GAIN_DB_RANGE = (-20.0, 48.0)
 
@@ -369,6 +369,12 @@ def group_fringe_sets(
                     f"set {label!r}: frame {frame_names[i]} is a {f.kind} frame but "
                     f"{frame_names[idx[0]]} a {first.kind} frame; give each set one kind"
                 )
+            if f.spec != spec and replace(f.spec, phase_offset_deg=spec.phase_offset_deg) == spec:
+                raise CaptureFormatError(
+                    f"set {label!r}: frame {frame_names[i]} has phase_offset_deg "
+                    f"{f.spec.phase_offset_deg:g} but {frame_names[idx[0]]} "
+                    f"{spec.phase_offset_deg:g}; all frames of a set must agree on the offset"
+                )
             if f.spec != spec:
                 raise CaptureFormatError(
                     f"set {label!r}: frame {frame_names[i]} has a different pattern "
@@ -403,6 +409,21 @@ def group_fringe_sets(
             )
         )
     return sets
+
+
+def _frame_or_fail(
+    entry: dict[str, Any],
+    i: int,
+    load_array: Callable[[str], NDArray[Any]] | None,
+    shifts_deg: tuple[float, ...] | None = None,
+) -> Frame:
+    """:func:`frame_from_manifest` with its errors naming the frame."""
+    try:
+        if shifts_deg is None:
+            return frame_from_manifest(entry, load_array)
+        return frame_from_manifest(entry, load_array, shifts_deg=shifts_deg)
+    except HdrFringeError as exc:
+        raise CaptureFormatError(f"manifest frame {i} ({entry.get('file')}): {exc}") from None
 
 
 def _check_projector_frames(
@@ -622,13 +643,14 @@ class Captures:
     def format_version(self) -> int:
         """The capture-format version a folder of these captures needs.
 
-        1 unless a frame has 2-D data (:data:`hdrfringe.frames.IMAGE_FRAMES`) or records a
-        gain, which only version 2 describes (docs/capture_format.md).
+        The lowest version that describes every frame (docs/capture_format.md): 3 when a
+        fringe set declares shift angles or a phase offset; else 2 when a frame has 2-D data
+        (:data:`hdrfringe.frames.IMAGE_FRAMES`) or records a gain; else 1.
 
         Returns
         -------
         int
-            1 or 2.
+            1, 2 or 3.
 
         Examples
         --------
@@ -639,11 +661,14 @@ class Captures:
         >>> caps.format_version, dataclasses.replace(caps, gain_db=[6.0]).format_version
         (1, 2)
         """
+        needs = [1]
+        if any(isinstance(f, FringeFrame) and not f.spec.has_standard_phase for f in self.frames):
+            needs.append(3)  # shift angles, phase offset
         if any(isinstance(f, IMAGE_FRAMES) for f in self.frames):
-            return 2
+            needs.append(2)
         if any(g is not None for g in self.gain_db):
-            return 2
-        return 1
+            needs.append(2)
+        return max(needs)
 
     @property
     def image_shape(self) -> tuple[int, int]:
@@ -826,14 +851,16 @@ class Captures:
         ({'focal_px': 800.0}, (5.0,))
         """
         entries = list(manifest["frames"])
+        # a fringe entry's shift_deg (version 3) gives one angle of its set: the frames are
+        # built without it, grouped, and rebuilt with their set's angles
+        angled = {
+            i for i, e in enumerate(entries) if e.get("kind") == "fringe" and "shift_deg" in e
+        }
         frames: list[Frame] = []
         for i, entry in enumerate(entries):
-            try:
-                frames.append(frame_from_manifest(entry, load_array))
-            except HdrFringeError as exc:
-                raise CaptureFormatError(
-                    f"manifest frame {i} ({entry.get('file')}): {exc}"
-                ) from None
+            if i in angled:
+                entry = {k: v for k, v in entry.items() if k != "shift_deg"}
+            frames.append(_frame_or_fail(entry, i, load_array))
         fringe = [isinstance(f, FringeFrame | PixelwiseFringeFrame) for f in frames]
         exposure = tuple(e.get("exposure_ms") for e in entries)
         has_gain = manifest.get("version", FORMAT_VERSION) != 1  # no meaning in version 1
@@ -843,15 +870,46 @@ class Captures:
             e.get("gamma_precompensation") if fr else None
             for e, fr in zip(entries, fringe, strict=True)
         )
+        names = [str(e.get("file", f"frame {i}")) for i, e in enumerate(entries)]
         # Validate the grouping first, so that its messages name the image files.
-        group_fringe_sets(
+        sets = group_fringe_sets(
             frames,
             exposure_ms=exposure,
             set_labels=labels,
             gamma_precompensation=gamma,
-            names=[str(e.get("file", f"frame {i}")) for i, e in enumerate(entries)],
+            names=names,
             gain_db=gain,
         )
+        if angled:
+            for fs in sets:
+                idx = fs.frame_indices
+                given = [i for i in idx if i in angled]
+                if not given:
+                    continue
+                if len(given) != len(idx):
+                    missing = next(i for i in idx if i not in angled)
+                    raise CaptureFormatError(
+                        f"set {fs.label!r}: frame {names[given[0]]} gives shift_deg but "
+                        f"{names[missing]} does not; give every frame of the set its shift_deg "
+                        "or none"
+                    )
+                angles = tuple(float(entries[i]["shift_deg"]) for i in idx)  # by shift index
+                try:
+                    replace(fs.spec, shifts_deg=angles)
+                except InputError as exc:
+                    raise CaptureFormatError(
+                        f"set {fs.label!r} ({', '.join(names[i] for i in idx)}): {exc}"
+                    ) from None
+                for i in idx:
+                    frames[i] = _frame_or_fail(entries[i], i, load_array, angles)
+            group_fringe_sets(
+                frames,
+                exposure_ms=exposure,
+                set_labels=labels,
+                gamma_precompensation=gamma,
+                names=names,
+                gain_db=gain,
+            )
         camera = manifest["camera"]
         projector = manifest.get("projector")
         return cls(

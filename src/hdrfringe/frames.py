@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -109,9 +109,10 @@ class FringeFrame(_LineFrameMethods):
     Parameters
     ----------
     spec : FringeSpec
-        Pattern, steps, pitch, orientation, imin and MIGL of the set.
+        Pattern, steps, pitch, orientation, imin and MIGL of the set, and for sinusoidal sets
+        its shift angles and phase offset (version 3 of the capture format).
     shift : int
-        Shift index i in 0..N-1.
+        Shift index i in 0..N-1 (its angle is ``spec.shifts[i]``).
 
     References
     ----------
@@ -122,6 +123,11 @@ class FringeFrame(_LineFrameMethods):
     >>> frame = FringeFrame(FringeSpec(steps=4, pitch_px=8.0, imin=0.0, migl=200.0), 0)
     >>> frame.gray([0.0, 4.0]).tolist()
     [200.0, 0.0]
+    >>> sine = FringeSpec(steps=3, pitch_px=8.0, imin=0.0, migl=200.0, phase_offset_deg=-90)
+    >>> FringeFrame(sine, 0).gray([0.0, 2.0]).round(6).tolist()
+    [100.0, 200.0]
+    >>> FringeFrame(sine, 0).manifest_entry("a.png")["phase_offset_deg"]
+    -90
     """
 
     spec: FringeSpec
@@ -164,7 +170,7 @@ class FringeFrame(_LineFrameMethods):
         dict
         """
         s = self.spec
-        return {
+        entry: dict[str, Any] = {
             "file": file,
             "kind": "fringe",
             "pattern": s.pattern,
@@ -175,6 +181,13 @@ class FringeFrame(_LineFrameMethods):
             "imin": _num(s.imin),
             "migl": _num(s.migl),
         }
+        # version 3 (docs/capture_format.md): only where the set needs them, so a standard set's
+        # entry stays the version-1 entry byte for byte
+        if s.shifts_deg is not None:
+            entry["shift_deg"] = _num(s.shifts_deg[self.shift])
+        if s.phase_offset_deg != 0.0:
+            entry["phase_offset_deg"] = _num(s.phase_offset_deg)
+        return entry
 
     def default_name(self) -> str:
         """A file-name-safe stem, e.g. ``s3_p6_v_i40_g255_0``.
@@ -395,6 +408,11 @@ class PixelwiseFringeFrame:
             raise InputError(
                 f"shift {self.shift} is outside 0..{self.spec.steps - 1} for a "
                 f"{self.spec.steps}-step set"
+            )
+        if not self.spec.has_standard_phase:
+            raise InputError(
+                "a pixelwise fringe follows the contract's equal shifts without phase offset; "
+                "leave shifts_deg and phase_offset_deg out of its spec"
             )
         data = _as_projector_array(self.migl_map, "migl_map")
         object.__setattr__(self, "shift", int(self.shift))
@@ -846,7 +864,10 @@ def sample_bilinear(image: ArrayLike, u: ArrayLike, v: ArrayLike) -> NDArray[np.
 
 
 def frame_from_manifest(
-    entry: dict[str, Any], load_array: Callable[[str], NDArray[Any]] | None = None
+    entry: dict[str, Any],
+    load_array: Callable[[str], NDArray[Any]] | None = None,
+    *,
+    shifts_deg: tuple[float, ...] | None = None,
 ) -> Frame:
     """Build a frame from a (validated) manifest entry of the capture-folder contract.
 
@@ -858,6 +879,11 @@ def frame_from_manifest(
         ``load_array(path)`` returns the 2-D array stored in the side file ``path`` (relative to
         the folder, as written in the entry). Needed for the version-2 kinds
         ``pixelwise_fringe`` and ``image`` only; the I/O layer passes its file reader.
+    shifts_deg : tuple of float, optional
+        For a ``fringe`` entry with ``shift_deg`` (version 3): the shift angles of its whole
+        set, by shift index (one entry gives only its own angle; the folder reader,
+        :meth:`hdrfringe.captures.Captures.from_manifest`, collects them per set). It must
+        agree with the entry's ``shift_deg``.
 
     Returns
     -------
@@ -866,7 +892,8 @@ def frame_from_manifest(
     Raises
     ------
     InputError
-        Unknown kind, or a version-2 kind without ``load_array``.
+        Unknown kind, a version-2 kind without ``load_array``, or a ``shift_deg`` entry without
+        (or disagreeing with) ``shifts_deg``.
     CaptureFormatError
         The side file does not hold the data the entry's ``content_sha256`` names.
 
@@ -874,10 +901,29 @@ def frame_from_manifest(
     --------
     >>> frame_from_manifest({"file": "g.png", "kind": "uniform", "level": 128})
     UniformFrame(level=128.0, kind='uniform')
+    >>> entry = {"file": "a.png", "kind": "fringe", "pattern": "sinusoidal", "steps": 3,
+    ...          "shift": 0, "pitch": 8.0, "orientation": "vertical", "imin": 0, "migl": 255,
+    ...          "shift_deg": -120, "phase_offset_deg": -90}
+    >>> frame_from_manifest(entry, shifts_deg=(-120, 0, 120)).spec.label()
+    's3_p8_v_i0_g255_o-90_d-120_0_120'
     """
     kind = entry["kind"]
     if kind == "fringe":
-        return FringeFrame(_spec_from_entry(entry), int(entry["shift"]))
+        shift = int(entry["shift"])
+        spec = _spec_from_entry(entry)
+        if "shift_deg" in entry:
+            if shifts_deg is None or len(shifts_deg) != spec.steps:
+                raise InputError(
+                    f"the entry gives shift_deg {entry['shift_deg']} but not its set's angles; "
+                    "pass shifts_deg (the folder reader collects them per set)"
+                )
+            if float(shifts_deg[shift]) != float(entry["shift_deg"]):
+                raise InputError(
+                    f"the entry gives shift_deg {entry['shift_deg']} for shift {shift} but its "
+                    f"set's angles give {shifts_deg[shift]}; make them agree"
+                )
+            spec = replace(spec, shifts_deg=tuple(shifts_deg))
+        return FringeFrame(spec, shift)
     if kind == "centerline":
         return CenterlineFrame(
             position=float(entry["position"]),
@@ -920,6 +966,7 @@ def _spec_from_entry(entry: dict[str, Any]) -> FringeSpec:
         orientation=entry["orientation"],
         imin=float(entry["imin"]),
         migl=float(entry["migl"]),
+        phase_offset_deg=float(entry.get("phase_offset_deg", 0.0)),
     )
 
 

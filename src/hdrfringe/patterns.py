@@ -12,13 +12,19 @@ phase shift ``delta_i = 2*pi*i/N``, Eq. 2.3) and ``1 - 4*|t - round(t)|`` for tr
 a projector of bit depth ``Bp`` after gamma pre-compensation (thesis Eq. 2.17) is
 ``round((2^Bp - 1) * (g / (2^Bp - 1)) ** (1 / gamma_hat))``.
 
+A sinusoidal set may declare other shift angles and a phase offset (capture format version 3,
+:attr:`FringeSpec.shifts_deg`, :attr:`FringeSpec.phase_offset_deg`): shift ``i`` then shows
+``cos(2*pi*x/p + phase_offset + delta_i)`` with ``delta_i = radians(shifts_deg[i])``, and
+decoding still returns ``2*pi*x/p`` (the offset removed).
+
 What the projector shows, frame by frame, is in :mod:`hdrfringe.frames`.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -100,11 +106,28 @@ class FringeSpec:
     imin, migl : float
         Minimum and maximum input gray level (thesis Eq. 3.8-3.9: ``a = (migl + imin)/2``,
         ``b = (migl - imin)/2``), ``0 <= imin < migl``.
+    shifts_deg : tuple of float, optional
+        Sinusoidal sets only: the phase shift of each shift index in degrees, ``delta_i =
+        radians(shifts_deg[i])``, N distinct values (modulo 360) in any order and sign, e.g.
+        ``(-120, 0, 120)``. None (default): the contract's equal shifts ``360*i/N``; a tuple
+        equal to those (modulo 360, within 1e-9 degrees) is stored as None, so it is the same
+        set.
+    phase_offset_deg : float
+        Sinusoidal sets only: a constant phase added to every shift, in degrees (0: the
+        contract's cosine). A sine profile ``sin(t) = cos(t - pi/2)`` is ``-90``.
 
     Raises
     ------
     InputError
-        When a field is outside the ranges above.
+        When a field is outside the ranges above, or a triangular set declares shift angles or
+        an offset.
+
+    Notes
+    -----
+    Shift ``i`` shows ``imin + (migl - imin) * (1 + cos(2*pi*x/p + phase_offset + delta_i))/2``
+    (docs/capture_format.md, "Version 3 extensions"); with the defaults this is the contract's
+    ``P((x + i*p/N)/p)``. Decoding returns ``2*pi*x/p`` whatever the shifts and offset
+    (:func:`hdrfringe.phase.decode_set`).
 
     References
     ----------
@@ -118,6 +141,10 @@ class FringeSpec:
     [0.0, 1.5708, 3.1416, 4.7124]
     >>> spec.with_migl(150).label()
     's4_p8_v_i0_g150'
+    >>> FringeSpec(steps=3, shifts_deg=(-120, 0, 120), phase_offset_deg=-90).label()
+    's3_p6_v_i40_g255_o-90_d-120_0_120'
+    >>> FringeSpec(steps=3, shifts_deg=(0, 120, -120)).shifts_deg is None  # the contract's
+    True
     """
 
     pattern: PatternKind = "sinusoidal"
@@ -126,6 +153,8 @@ class FringeSpec:
     orientation: Orientation = "vertical"
     imin: float = 40.0
     migl: float = 255.0
+    shifts_deg: tuple[float, ...] | None = None
+    phase_offset_deg: float = 0.0
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
@@ -151,17 +180,81 @@ class FringeSpec:
                 f"need 0 <= imin < migl, got imin={self.imin}, migl={self.migl}; "
                 "lower imin or raise migl"
             )
+        self._check_phase()
+
+    def _check_phase(self) -> None:
+        """Validate and normalise ``shifts_deg`` and ``phase_offset_deg`` (version 3)."""
+        offset = self.phase_offset_deg
+        if isinstance(offset, bool) or not isinstance(offset, int | float | np.number):
+            raise InputError(f"phase_offset_deg must be a number of degrees, got {offset!r}")
+        offset = float(offset)
+        if not math.isfinite(offset):
+            raise InputError(f"phase_offset_deg must be finite, got {offset}")
+        object.__setattr__(self, "phase_offset_deg", offset + 0.0)  # -0.0 -> 0.0
+        shifts = self.shifts_deg
+        if shifts is not None:
+            if isinstance(shifts, str) or not hasattr(shifts, "__len__"):
+                raise InputError(f"shifts_deg must be a sequence of degrees, got {shifts!r}")
+            values = []
+            for v in shifts:
+                if isinstance(v, bool) or not isinstance(v, int | float | np.number):
+                    raise InputError(f"shifts_deg must hold numbers of degrees, got {v!r}")
+                if not math.isfinite(float(v)):
+                    raise InputError(f"shifts_deg must be finite, got {v}")
+                values.append(float(v) + 0.0)
+            if len(values) != self.steps:
+                raise InputError(
+                    f"shifts_deg has {len(values)} angles for a {self.steps}-step set; give one "
+                    "per shift index"
+                )
+            wrapped = [round(v % 360.0, 9) % 360.0 for v in values]
+            if len(set(wrapped)) != len(wrapped):
+                raise InputError(
+                    f"shifts_deg {_fmt_degrees(values)} repeats an angle (modulo 360); the "
+                    "shifts of a set must be distinct"
+                )
+            equal = [360.0 * i / self.steps for i in range(self.steps)]
+            if all(abs(_wrap180(v - e)) <= 1e-9 for v, e in zip(values, equal, strict=True)):
+                shifts = None  # the contract's equal shifts: one representation
+            else:
+                shifts = tuple(values)
+            object.__setattr__(self, "shifts_deg", shifts)
+        if self.pattern != "sinusoidal" and (shifts is not None or offset != 0.0):
+            raise InputError(
+                f"{self.pattern} fringes follow the contract's shifts only; shifts_deg and "
+                "phase_offset_deg apply to sinusoidal sets (leave them out for this set)"
+            )
+
+    @property
+    def has_standard_phase(self) -> bool:
+        """Whether the set uses the contract's equal shifts and no phase offset.
+
+        Such sets are version 1 of the capture format; others need version 3.
+
+        Returns
+        -------
+        bool
+
+        Examples
+        --------
+        >>> FringeSpec().has_standard_phase, FringeSpec(phase_offset_deg=-90).has_standard_phase
+        (True, False)
+        """
+        return self.shifts_deg is None and self.phase_offset_deg == 0.0
 
     @property
     def shifts(self) -> NDArray[np.float64]:
-        """Phase shifts in radians, ``2*pi*i/N`` for i = 0..N-1."""
-        return 2.0 * np.pi * np.arange(self.steps) / self.steps
+        """Phase shifts ``delta_i`` in radians: ``2*pi*i/N``, or ``radians(shifts_deg)``.
+
+        The phase offset is not included (see :attr:`phase_offset_deg`).
+        """
+        if self.shifts_deg is None:
+            return 2.0 * np.pi * np.arange(self.steps) / self.steps
+        return np.radians(np.asarray(self.shifts_deg, dtype=np.float64))
 
     def with_migl(self, migl: float) -> FringeSpec:
         """The same set at another maximum input gray level."""
-        return FringeSpec(
-            self.pattern, self.steps, self.pitch_px, self.orientation, self.imin, migl
-        )
+        return replace(self, migl=migl)
 
     def frames(self) -> list[FringeFrame]:
         """The N frames of this set, shift 0 first."""
@@ -172,10 +265,19 @@ class FringeSpec:
     def label(self) -> str:
         """A short file-name-safe label, e.g. ``s4_p8_g255``."""
         pitch = f"{self.pitch_px:g}".replace(".", "p")
-        return (
+        label = (
             f"{self.pattern[0]}{self.steps}_p{pitch}_{self.orientation[0]}"
             f"_i{self.imin:g}_g{self.migl:g}"
         )
+        if self.phase_offset_deg != 0.0:
+            label += "_o" + f"{self.phase_offset_deg:g}".replace(".", "p")
+        if self.shifts_deg is not None:
+            if len(self.shifts_deg) <= 8:
+                label += "_d" + "_".join(f"{v:g}".replace(".", "p") for v in self.shifts_deg)
+            else:  # many shifts: a digest of the angles keeps the label short
+                text = ",".join(repr(v) for v in self.shifts_deg)
+                label += "_d" + hashlib.sha256(text.encode()).hexdigest()[:8]
+        return label
 
 
 def fringe_gray(coord: ArrayLike, spec: FringeSpec, shift: int) -> NDArray[np.float64]:
@@ -212,7 +314,14 @@ def fringe_gray(coord: ArrayLike, spec: FringeSpec, shift: int) -> NDArray[np.fl
             f"shift {shift} is outside 0..{spec.steps - 1} for a {spec.steps}-step set"
         )
     x = np.asarray(coord, dtype=np.float64)
-    t = (x + shift * spec.pitch_px / spec.steps) / spec.pitch_px
+    if spec.has_standard_phase:
+        t = (x + shift * spec.pitch_px / spec.steps) / spec.pitch_px
+    else:  # version 3: cos(2*pi*x/p + offset + delta_i), with the angles in periods
+        if spec.shifts_deg is not None:
+            turn = (spec.phase_offset_deg + spec.shifts_deg[shift]) / 360.0
+        else:
+            turn = spec.phase_offset_deg / 360.0 + shift / spec.steps
+        t = x / spec.pitch_px + turn
     return spec.imin + (spec.migl - spec.imin) * (1.0 + fringe_profile(t, spec.pattern)) / 2.0
 
 
@@ -267,7 +376,7 @@ def precompensate_gamma(
 
 
 def same_fringes(a: FringeSpec, b: FringeSpec) -> bool:
-    """Whether two sets have the same fringes: pattern, steps, pitch and orientation.
+    """Whether two sets have the same fringes: pattern, steps, pitch, orientation and phases.
 
     The gray range (``imin``, ``migl``) may differ: a MIGL sweep holds the same fringes at many
     MIGLs, and a calibration serves any MIGL (thesis Sec. 4.1).
@@ -288,9 +397,20 @@ def same_fringes(a: FringeSpec, b: FringeSpec) -> bool:
     >>> same_fringes(FringeSpec("sinusoidal", 4, 8.0), FringeSpec("sinusoidal", 3, 8.0))
     False
     """
-    return (a.pattern, a.steps, a.pitch_px, a.orientation) == (
+    return (a.pattern, a.steps, a.pitch_px, a.orientation, a.shifts_deg, a.phase_offset_deg) == (
         b.pattern,
         b.steps,
         b.pitch_px,
         b.orientation,
+        b.shifts_deg,
+        b.phase_offset_deg,
     )
+
+
+def _wrap180(deg: float) -> float:
+    """An angle in degrees wrapped to [-180, 180)."""
+    return (deg + 180.0) % 360.0 - 180.0
+
+
+def _fmt_degrees(values: list[float] | tuple[float, ...]) -> str:
+    return "(" + ", ".join(f"{v:g}" for v in values) + ")"

@@ -7,6 +7,10 @@ Conventions (capture-folder contract): the decoded phase is ``phi = 2*pi*x/p (mo
   patterns ``I_k = a + b*cos(phi + delta_k)``, ``delta_k = 2*pi*k/N`` (Eq. 2.1, 2.3, indices from
   0), ``S = sum I_k sin(delta_k) = -(N/2) b sin(phi)`` and ``C = sum I_k cos(delta_k) =
   (N/2) b cos(phi)``, so ``phi = atan2(-S, C)``.
+* Sinusoidal with other known shift angles or a phase offset (capture format version 3,
+  :attr:`FringeSpec.shifts_deg <hdrfringe.patterns.FringeSpec.shifts_deg>`): the generalised
+  least-squares fit of ``I_k = a + c cos(delta_k) - s sin(delta_k)``, ``phi = atan2(s, c) -
+  offset`` (:func:`sinusoidal_phase_ls`); exact for equal shifts, where it is Eq. 2.2.
 * Triangular 3-step: intensity ratio of thesis Eq. 2.9, rescaled from [0, 2N) to radians.
 * Triangular 2-step: intensity ratio of thesis Eq. 2.8. Two samples half a period apart determine
   only ``|P|`` and its sign, i.e. the *folded* phase ``min(phi, 2*pi - phi)``; the full phase is
@@ -18,6 +22,8 @@ the saturation count: the number of saturated shifts
 (:func:`hdrfringe._validation.saturation_count`, re-exported here).
 
 Each equation has one implementation: :func:`sinusoidal_phase` is the only Eq. 2.2 in hdrfringe
+(sets with the contract's equal shifts and no offset always take it, so their results do not
+depend on the least-squares path)
 (float64 with quality maps for the product, float32 phase alone for the reproduction's sweeps),
 and :func:`wrapped_phase` is the phase of any supported set, the sweeps' entry point.
 """
@@ -43,6 +49,7 @@ __all__ = [
     "default_min_modulation",
     "saturation_count",
     "sinusoidal_phase",
+    "sinusoidal_phase_ls",
     "triangular_2step",
     "triangular_3step",
     "wrap_phase",
@@ -208,6 +215,125 @@ def sinusoidal_phase(
     np.add(phase, two_pi, out=phase, where=phase <= 0)
     phase[phase >= two_pi] = 0
     return phase.reshape(shape), modulation, mean
+
+
+def sinusoidal_phase_ls(
+    images: ArrayLike,
+    shifts_deg: ArrayLike,
+    *,
+    phase_offset_deg: float = 0.0,
+    dtype: DTypeLike = np.float64,
+    quality: bool = True,
+) -> tuple[NDArray, NDArray | None, NDArray | None]:
+    """Wrapped phase of a sinusoidal set with any known shift angles (generalised phase shifting).
+
+    Shift k shows ``I_k = a + b cos(phi + offset + delta_k)``. Writing ``c = b cos(phi +
+    offset)`` and ``s = b sin(phi + offset)`` makes every pixel a linear least-squares problem
+    ``I_k = a + c cos(delta_k) - s sin(delta_k)``, solved for all pixels at once with the
+    pseudo-inverse of the N x 3 design matrix; then ``phi = atan2(s, c) - offset`` wrapped to
+    [0, 2*pi), the modulation is ``hypot(c, s)`` and the mean ``a``. For the contract's equal
+    shifts ``delta_k = 2*pi*k/N`` the normal matrix is ``diag(N, N/2, N/2)`` and this is exactly
+    Eq. 2.2 (:func:`sinusoidal_phase`, which :func:`decode_set` keeps using for such sets).
+
+    Parameters
+    ----------
+    images : array_like, shape (N, H, W) or (N, ..., H, W)
+        Image k taken with shift ``shifts_deg[k]``; N >= 3. Extra axes make a batch, as in
+        :func:`sinusoidal_phase`.
+    shifts_deg : array_like, shape (N,)
+        The shift angles ``delta_k`` in degrees, any order and sign; at least 3 distinct
+        (modulo 360), else the fit is degenerate and refused.
+    phase_offset_deg : float
+        A constant phase of every frame, in degrees (a sine profile: -90); removed from the
+        result.
+    dtype : {float64, float32}
+        Precision of the computation and of the returned maps (the pseudo-inverse is formed
+        in float64 either way).
+    quality : bool
+        Also return the modulation and mean maps (else None).
+
+    Returns
+    -------
+    phase : ndarray
+        ``2*pi*x/p`` wrapped to [0, 2*pi).
+    modulation : ndarray or None
+        ``b = hypot(c, s)`` (Eq. 3.4's I').
+    mean_intensity : ndarray or None
+        ``a`` (Eq. 3.5's I'').
+
+    Raises
+    ------
+    InputError
+        Fewer than 3 images, a shift count that is not N, non-finite angles, or angles whose
+        design matrix has rank < 3 (fewer than 3 distinct angles modulo 360).
+
+    References
+    ----------
+    Thesis Eq. 2.1-2.2 (the model and its equal-shift solution), Eq. 3.4-3.5 (quality maps);
+    the least-squares form is the standard generalised phase-shifting algorithm (e.g. Greivenkamp,
+    Opt. Eng. 23 (1984) 350).
+
+    Examples
+    --------
+    Four unequal shifts and a sine profile (offset -90 degrees):
+
+    >>> x = np.linspace(0, 20, 7)
+    >>> shifts = [0.0, 90.0, 200.0, 300.0]
+    >>> imgs = np.stack([100 + 50*np.cos(2*np.pi*x/8 + np.radians(d - 90)) for d in shifts])
+    >>> phi, b, a = sinusoidal_phase_ls(imgs[:, None], shifts, phase_offset_deg=-90)
+    >>> bool(np.allclose(phi[0], np.mod(2*np.pi*x/8, 2*np.pi))), float(b.mean().round(9))
+    (True, 50.0)
+    >>> sinusoidal_phase_ls(imgs[:3, None], [0, 360, 720])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: shift angles (0, 360, 720) degrees are degenerate: ...
+    """
+    arr = np.asarray(images)
+    shape = arr.shape[1:]
+    if arr.ndim > 3:
+        arr = arr.reshape(arr.shape[0], -1, arr.shape[-1])
+    stack = as_stack(arr, what="sinusoidal phase", n_min=3)
+    dt = _float_dtype(dtype, "sinusoidal phase")
+    n = stack.shape[0]
+    design = _ls_design(shifts_deg, n)
+    offset = float(phase_offset_deg)
+    if not np.isfinite(offset):
+        raise InputError(f"phase_offset_deg must be finite, got {phase_offset_deg}")
+    solve = np.linalg.pinv(design).astype(dt)  # (3, N): rows give a, c, s
+    flat = stack.reshape(n, -1).astype(dt, copy=False)
+    a, c, s = solve @ flat
+    phase = np.arctan2(s, c)
+    two_pi = dt.type(TWO_PI)
+    if offset != 0.0:
+        phase -= dt.type(np.radians(offset))
+    np.mod(phase, two_pi, out=phase)
+    phase[phase >= two_pi] = 0
+    phase += 0.0  # -0.0 -> +0.0
+    modulation = mean = None
+    if quality:
+        modulation = np.hypot(c, s).reshape(shape)
+        mean = a.reshape(shape)
+    return phase.reshape(shape), modulation, mean
+
+
+def _ls_design(shifts_deg: ArrayLike, n: int) -> F64:
+    """The N x 3 design matrix ``[1, cos(delta_k), -sin(delta_k)]``, refused when degenerate."""
+    deg = np.asarray(shifts_deg, dtype=np.float64).ravel()
+    text = "(" + ", ".join(f"{v:g}" for v in deg) + ")"
+    if deg.size != n:
+        raise InputError(f"{deg.size} shift angles {text} for {n} images; give one per image")
+    if not np.isfinite(deg).all():
+        raise InputError(f"shift angles {text} must be finite degrees")
+    delta = np.radians(deg)
+    design = np.column_stack([np.ones(n), np.cos(delta), -np.sin(delta)])
+    rank = int(np.linalg.matrix_rank(design))
+    if rank < 3:
+        raise InputError(
+            f"shift angles {text} degrees are degenerate: the least-squares design matrix has "
+            f"rank {rank} < 3 (fewer than 3 distinct angles modulo 360); use at least 3 "
+            "distinct shifts"
+        )
+    return design
 
 
 @cache
@@ -485,7 +611,16 @@ def _decode(
     """Phase and (with ``quality``) modulation and mean of a checked stack: the decoder that
     ``spec``'s pattern and steps choose."""
     if spec.pattern == "sinusoidal":
-        return sinusoidal_phase(stack, dtype=dtype, quality=quality)
+        if spec.has_standard_phase:  # the contract's shifts: Eq. 2.2, as always
+            return sinusoidal_phase(stack, dtype=dtype, quality=quality)
+        shifts = np.degrees(spec.shifts) if spec.shifts_deg is None else spec.shifts_deg
+        return sinusoidal_phase_ls(
+            stack,
+            shifts,
+            phase_offset_deg=spec.phase_offset_deg,
+            dtype=dtype,
+            quality=quality,
+        )
     if spec.steps not in (2, 3):
         raise InputError(
             f"triangular {spec.steps}-step decoding is not supported; use 2 or 3 steps "
@@ -511,7 +646,8 @@ def wrapped_phase(
 
     The phase of :func:`decode_set` without its quality maps and validity: what the
     reproduction's sweeps need, millions of times. Sinusoidal sets use :func:`sinusoidal_phase`
-    (Eq. 2.2) in ``dtype``; triangular sets :func:`triangular_3step` (Eq. 2.9) or
+    (Eq. 2.2) in ``dtype``, or :func:`sinusoidal_phase_ls` when the spec declares shift angles
+    or a phase offset; triangular sets :func:`triangular_3step` (Eq. 2.9) or
     :func:`triangular_2step` (Eq. 2.8), which compute in float64 only.
 
     Parameters
@@ -567,7 +703,8 @@ def decode_set(
     images : array_like, shape (N, H, W)
         Captured images, shift k at index k.
     spec : FringeSpec
-        What was projected (pattern and steps choose the algorithm).
+        What was projected (pattern and steps choose the algorithm; shift angles or a phase
+        offset choose the least-squares fit, :func:`sinusoidal_phase_ls`).
     bit_depth : int
         Camera bit depth B; values above ``2^B - 1`` are an error.
     mask : array_like of bool, optional

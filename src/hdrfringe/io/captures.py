@@ -1,5 +1,5 @@
-"""Capture folders (versions 1 and 2 of the contract in docs/capture_format.md): read, validate,
-write.
+"""Capture folders (versions 1, 2 and 3 of the contract in docs/capture_format.md): read,
+validate, write.
 
 A capture folder is a ``manifest.json`` plus the single-channel PNG or TIFF images it names and,
 in version 2, the side files holding the 2-D data of projector-image frames (MIGL maps, projector
@@ -8,7 +8,7 @@ validates everything (manifest fields, file paths, image sizes, bit depth, side 
 headers before decoding, content digests, complete fringe sets, maps) *before* any processing
 starts, so a bad folder fails with one clear :class:`~hdrfringe.errors.CaptureFormatError` and no
 output is written; :func:`write_capture_folder` writes a :class:`~hdrfringe.captures.Captures` as
-a folder, in version 1 whenever the captures fit in it.
+a folder, in the lowest version the captures fit in (version 1 whenever they can).
 """
 
 from __future__ import annotations
@@ -71,7 +71,10 @@ MAP_SUFFIXES = (".tif", ".tiff")
 _KINDS = {
     1: ("fringe", "centerline", "uniform"),
     2: ("fringe", "centerline", "uniform", "pixelwise_fringe", "image"),
+    3: ("fringe", "centerline", "uniform", "pixelwise_fringe", "image"),
 }
+#: Fringe-frame fields of version 3: the shift angle and the phase offset, in degrees.
+_PHASE_FIELDS = ("shift_deg", "phase_offset_deg")
 #: The manifest field naming the side file, per kind with 2-D data.
 _DATA_FIELDS = {"pixelwise_fringe": "migl_map", "image": "image"}
 #: Most projector pixels a folder with side files may declare (a side file is checked against
@@ -156,7 +159,31 @@ def _confined(folder: Path, rel: str, what: str) -> Path:
     return path
 
 
-def _check_fringe_fields(entry: dict[str, Any], where: str) -> None:
+def _check_phase_fields(
+    entry: dict[str, Any], kind: str, pattern: str, where: str, version: int
+) -> None:
+    """Version 3: a fringe frame's optional ``shift_deg`` and ``phase_offset_deg``."""
+    given = [key for key in _PHASE_FIELDS if key in entry]
+    if not given:
+        return
+    if version < 3:
+        raise _fail(
+            where,
+            f"field '{given[0]}' needs capture format version 3",
+            'set "version": 3 in the manifest (docs/capture_format.md)',
+        )
+    if kind != "fringe" or pattern != "sinusoidal":
+        raise _fail(
+            where,
+            f"field '{given[0]}' applies to sinusoidal fringe frames only, not a {pattern} "
+            f"{kind} frame",
+            "leave it out (the contract's shifts apply)",
+        )
+    for key in given:
+        _number(entry, key, where)
+
+
+def _check_fringe_fields(entry: dict[str, Any], where: str, version: int = 1) -> None:
     pattern = _choice(entry, "pattern", where, PATTERNS)
     min_steps = 3 if pattern == "sinusoidal" else 2
     steps = _integer(entry, "steps", where, min_steps, MAX_STEPS)
@@ -177,6 +204,7 @@ def _check_fringe_fields(entry: dict[str, Any], where: str) -> None:
         _number(entry, "gamma_precompensation", where, positive=True)
     if "set" in entry and not isinstance(entry["set"], str):
         raise _fail(where, f"field 'set' must be a string label, got {entry['set']!r}", "fix it")
+    _check_phase_fields(entry, str(entry.get("kind")), pattern, where, version)
 
 
 def _check_side_file_fields(entry: dict[str, Any], kind: str, where: str) -> str:
@@ -220,7 +248,7 @@ def _validate_frame(entry: Any, index: int, version: int) -> dict[str, Any]:
     out = dict(entry)
     out["file"] = file
     if kind in ("fringe", "pixelwise_fringe"):
-        _check_fringe_fields(entry, where)
+        _check_fringe_fields(entry, where, version)
     elif kind == "centerline":
         _choice(entry, "orientation", where, ORIENTATIONS)
         _number(entry, "position", where)
@@ -296,7 +324,8 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
         )
     version = manifest.get("version")
     if isinstance(version, bool) or version not in FORMAT_VERSIONS:
-        readable = " and ".join(str(v) for v in FORMAT_VERSIONS)
+        *head, last = (str(v) for v in FORMAT_VERSIONS)
+        readable = f"{', '.join(head)} and {last}" if head else last
         raise _fail(
             where,
             f"unsupported version {version!r}",
@@ -843,8 +872,10 @@ def write_capture_folder(
     """Write captures and their manifest as a capture folder.
 
     The folder is version 1 of the contract when the captures fit in it (no frame with 2-D
-    data, no gain), so such folders are the same, byte for byte, as before version 2 existed;
-    otherwise version 2 (:attr:`Captures.format_version`). Images go to PNG: 8-bit for
+    data, no gain, no shift angles or phase offset), so such folders are the same, byte for
+    byte, as before version 2 existed; otherwise the lowest version that describes them
+    (:attr:`Captures.format_version`: 2 for 2-D data or gains, 3 for shift angles or a phase
+    offset). Images go to PNG: 8-bit for
     ``camera_bit_depth <= 8``, 16-bit otherwise (float luma is rounded). Maps go beside them as
     float32 TIFF ``<key>.tiff``, listed in the manifest's ``maps``. The 2-D data of
     :class:`~hdrfringe.frames.PixelwiseFringeFrame` and :class:`~hdrfringe.frames.ImageFrame`
@@ -879,7 +910,7 @@ def write_capture_folder(
 
     Notes
     -----
-    docs/capture_format.md (versions 1 and 2).
+    docs/capture_format.md (versions 1, 2 and 3).
 
     Examples
     --------
