@@ -340,27 +340,46 @@ def _match_group(group: FrameGroup, files: Sequence[str], root: Path) -> list[_S
     return out
 
 
-def _resolve_fringe(entry: dict[str, Any], where: str) -> dict[str, Any]:
-    """The manifest entry of a fringe frame: shift index when the shift is one of 360*i/N and
-    there is no phase offset (capture format version 1), refused otherwise (needs version 3)."""
-    out = {k: v for k, v in entry.items() if not k.startswith("_")}
-    steps = int(entry["steps"])
-    shift = float(entry["_shift_deg"])
-    offset = float(entry["_offset_deg"])
-    idx = shift * steps / 360.0
-    i = round(idx)
-    if abs(idx - i) < 1e-9 and abs(math.remainder(offset, 360.0)) < 1e-9:
-        ordered = {}
-        for k, v in out.items():
-            ordered[k] = v
-            if k == "steps":
-                ordered["shift"] = i % steps
-        return ordered
-    raise InputError(
-        f"{where}: frame '{entry['_label']}' has shift {shift:g} deg and phase offset "
-        f"{offset:g} deg (sine profiles add -90), which a version 1 capture folder cannot hold "
-        f"(shifts 360*i/{steps}, no offset); this hdrfringe does not write version 3"
-    )
+def _resolve_fringes(frames: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The manifest entries of one group's fringe frames (docs/import.md, "Shifts").
+
+    Per set (orientation and pitch): when the shift angles are the contract's equal shifts
+    ``360*i/N`` in some order, each frame gets the index ``i`` of its angle and no ``shift_deg``
+    (so a -120/0/+120 set is version 1 when there is no phase offset); otherwise the frames keep
+    the description's order as shift indices and carry ``shift_deg`` (version 3). A nonzero
+    phase offset (a sine profile adds -90) is written as ``phase_offset_deg`` (version 3).
+    """
+    sets: dict[tuple[Any, ...], list[int]] = {}
+    for i, f in enumerate(frames):
+        sets.setdefault((f["orientation"], f["pitch"]), []).append(i)
+    out: list[dict[str, Any]] = [{} for _ in frames]
+    for members in sets.values():
+        steps = int(frames[members[0]]["steps"])
+        angles = [float(frames[i]["_shift_deg"]) for i in members]
+        idx = [a * steps / 360.0 for a in angles]
+        standard = [round(v) % steps for v in idx]
+        renumber = all(abs(v - round(v)) < 1e-9 for v in idx) and len(set(standard)) == steps
+        for k, i in enumerate(members):
+            f = frames[i]
+            entry: dict[str, Any] = {}
+            for key, value in f.items():
+                if key.startswith("_"):
+                    continue
+                entry[key] = value
+                if key == "steps":
+                    entry["shift"] = standard[k] if renumber else k
+            if not renumber:
+                entry["shift_deg"] = _plain(angles[k])
+            offset = float(f["_offset_deg"])
+            if abs(math.remainder(offset, 360.0)) > 1e-9:
+                entry["phase_offset_deg"] = _plain(offset)
+            out[i] = entry
+    return out
+
+
+def _plain(value: float) -> float | int:
+    """An integral float as int (``-120`` rather than ``-120.0`` in the manifest)."""
+    return int(value) if float(value).is_integer() else float(value)
 
 
 def _read_stack(root: Path, src: _Source, where: str) -> NDArray[Any]:
@@ -658,13 +677,14 @@ def import_captures(
         desc = read_description(desc_path)
         entries, sources, side = [], [], []
         for group in desc.groups:
-            group_sources = _match_group(group, files, root)
-            for frame in group.frames:
-                if frame["kind"] == "fringe":
-                    entries.append(_resolve_fringe(frame, group.where))
-                else:
-                    entries.append({k: v for k, v in frame.items() if not k.startswith("_")})
-            sources.extend(group_sources)
+            sources.extend(_match_group(group, files, root))
+            if group.kind == "fringe":
+                entries.extend(_resolve_fringes(group.frames))
+            else:
+                entries.extend(
+                    {k: v for k, v in frame.items() if not k.startswith("_")}
+                    for frame in group.frames
+                )
         projector = desc.projector
     owner: dict[_Source, int] = {}
     for i, src in enumerate(sources):
@@ -674,7 +694,11 @@ def import_captures(
                 f"{i + 1} in order); give each frame its own image"
             )
         owner[src] = i
-    version = 2 if any(e.get("kind") in ("pixelwise_fringe", "image") for e in entries) else 1
+    version = 1
+    if any(e.get("kind") in ("pixelwise_fringe", "image") for e in entries):
+        version = 2
+    if any("shift_deg" in e or "phase_offset_deg" in e for e in entries):
+        version = 3
     manifest: dict[str, Any] = {
         "format": FORMAT_NAME,
         "version": version,
