@@ -511,7 +511,15 @@ class _Writer:
         if suffix in COPIED_SUFFIXES:
             header = probe_image(path)
             if header.dtype.kind in "ui" and header.dtype.itemsize <= 2:
-                load_image(path, self.bit_depth)  # range, layout, RGB rule: refused here if bad
+                try:  # range, layout, the RGB rule: what the capture reader will check
+                    load_image(path, self.bit_depth)
+                except CaptureFormatError as exc:
+                    raise CaptureFormatError(
+                        str(exc).replace(
+                            "camera.bit_depth in the manifest",
+                            "[camera] bit_depth in the description",
+                        )
+                    ) from None
                 self._size(header.shape, label)
                 name = self._claim(src.rel, label)
                 target = self.stage / name
