@@ -293,7 +293,7 @@ class FrameGroup:
     index : int
         Position among the groups of its kind (0-based), for messages.
     where : str
-        The group's name in messages, e.g. ``"[[fringe]] 2"``.
+        The group's name in messages, e.g. ``"d.toml fringe group 2"``.
     files : Template or list of str or None
         Where the images are: a compiled template/regex, or explicit paths in frame order.
     stack : str or None
@@ -431,20 +431,20 @@ def parse_description(table: Mapping[str, Any], source: str) -> Description:
     _check_keys(table, _TOP_KEYS, source)
     camera = table.get("camera")
     if not isinstance(camera, dict):
-        raise _fail(source, "no [camera] table", "add [camera] with bit_depth = B")
-    _check_keys(camera, _CAMERA_KEYS, f"{source} [camera]")
+        raise _fail(source, "no camera table", "add a camera table with bit_depth = B")
+    _check_keys(camera, _CAMERA_KEYS, f"{source} camera")
     if "bit_depth" not in camera:
-        raise _fail(f"{source} [camera]", "missing 'bit_depth'", "give the sensor's bit depth")
-    bit_depth = _int(camera["bit_depth"], f"{source} [camera]", "bit_depth", 1, 16)
+        raise _fail(f"{source} camera", "missing 'bit_depth'", "give the sensor's bit depth")
+    bit_depth = _int(camera["bit_depth"], f"{source} camera", "bit_depth", 1, 16)
     float_scale = None
     if "float_scale" in camera:
         float_scale = _num(
-            camera["float_scale"], f"{source} [camera]", "float_scale", positive=True
+            camera["float_scale"], f"{source} camera", "float_scale", positive=True
         )
     projector_in = table.get("projector", {})
     if not isinstance(projector_in, dict):
-        raise _fail(source, "'projector' must be a table", "write [projector]")
-    pw = f"{source} [projector]"
+        raise _fail(source, "'projector' must be a table", "write it as a TOML table")
+    pw = f"{source} projector"
     _check_keys(projector_in, _PROJECTOR_KEYS, pw)
     projector: dict[str, Any] = {}
     for key in ("width", "height"):
@@ -459,15 +459,15 @@ def parse_description(table: Mapping[str, Any], source: str) -> Description:
     for kind in ("fringe", "uniform"):
         tables = table.get(kind, [])
         if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
-            raise _fail(source, f"'{kind}' must be tables", f"write each group as [[{kind}]]")
+            raise _fail(source, f"'{kind}' must be tables", f"write each {kind} group as a TOML table")
         for i, t in enumerate(tables):
-            where = f"{source} [[{kind}]] {i + 1}"
+            where = f"{source} {kind} group {i + 1}"
             if kind == "fringe":
                 groups.append(_fringe_group(t, i, where, projector))
             else:
                 groups.append(_uniform_group(t, i, where, projector))
     if not groups:
-        raise _fail(source, "no frame groups", "add [[fringe]] or [[uniform]] tables")
+        raise _fail(source, "no frame groups", "add fringe or uniform tables")
     total = sum(len(g.frames) for g in groups)
     if total > MAX_PROGRAM_FRAMES:
         raise _fail(
@@ -642,7 +642,7 @@ def _fringe_group(
                     raise _fail(
                         where,
                         f"'periods' needs the projector {extent_key} ({o} fringes)",
-                        f"add {extent_key} to [projector] or give 'pitch'",
+                        f"add {extent_key} to the projector table or give 'pitch'",
                     )
                 pitch = projector[extent_key] / value
             else:

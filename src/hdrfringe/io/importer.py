@@ -96,7 +96,7 @@ class _Source:
     axes: str = "nyx"
 
     def label(self) -> str:
-        return self.rel if self.index is None else f"{self.rel}[{self.index}]"
+        return self.rel if self.index is None else f"{self.rel} frame {self.index}"
 
 
 def natural_key(text: str) -> list[Any]:
@@ -216,7 +216,7 @@ def to_counts(
         if lo < 0 or hi > full:
             raise CaptureFormatError(
                 f"{where}: values span {lo}..{hi}, outside 0..{full} for camera bit depth "
-                f"{bit_depth}; fix [camera] bit_depth"
+                f"{bit_depth}; fix camera.bit_depth"
             )
         return a.astype(out_dtype)
     if a.dtype.kind != "f":
@@ -225,7 +225,7 @@ def to_counts(
         )
     if float_scale is None:
         raise CaptureFormatError(
-            f"{where}: float image; set [camera] float_scale (DN per unit: 1 when the floats "
+            f"{where}: float image; set camera.float_scale (DN per unit: 1 when the floats "
             f"hold counts, {full} when they hold 0..1) in the description (docs/import.md)"
         )
     dn = a.astype(np.float64) * float_scale
@@ -244,7 +244,7 @@ def to_counts(
         i = int(np.flatnonzero(bad.ravel())[0])
         raise CaptureFormatError(
             f"{where}: float values are not whole counts after scaling by {float_scale:g} "
-            f"({a.ravel()[i]:g} becomes {dn.ravel()[i]:g}); set [camera] float_scale so that "
+            f"({a.ravel()[i]:g} becomes {dn.ravel()[i]:g}); set camera.float_scale so that "
             "they are (docs/import.md), or store the counts as integers"
         )
     return np.clip(rounded, 0, full).astype(out_dtype)
@@ -517,7 +517,7 @@ class _Writer:
                     raise CaptureFormatError(
                         str(exc).replace(
                             "camera.bit_depth in the manifest",
-                            "[camera] bit_depth in the description",
+                            "camera.bit_depth in the description",
                         )
                     ) from None
                 self._size(header.shape, label)
@@ -680,7 +680,7 @@ def import_captures(
         if bit_depth is not None:
             raise InputError(
                 f"{desc_path}: --bit-depth is for pattern manifests; give the bit depth in the "
-                "description's [camera] table"
+                "description's camera table"
             )
         desc = read_description(desc_path)
         entries, sources, side = [], [], []
