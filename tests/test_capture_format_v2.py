@@ -250,7 +250,7 @@ def test_v1_gives_gain_no_meaning_and_refuses_2d_kinds(tmp_path: Path) -> None:
     _one_line_error(folder, "unknown kind ['image']; use one of 'fringe', 'centerline', 'uniform'")
 
 
-@pytest.mark.parametrize("version", [3, "2", -1, 0, True, None, 1.5, [1]])
+@pytest.mark.parametrize("version", [4, "2", -1, 0, True, None, 1.5, [1]])
 def test_unknown_versions_are_refused_naming_the_readable_ones(tmp_path: Path, version) -> None:
     folder = tmp_path / "caps"
     shutil.copytree(DATA / "capture_v1", folder)
