@@ -6,6 +6,7 @@ from .calibration import Calibration as Calibration
 from .captures import CameraSettings as CameraSettings
 from .captures import Captures as Captures
 from .captures import FringeSet as FringeSet
+from .captures import GrayCodeSet as GrayCodeSet
 from .captures import ProjectorInfo as ProjectorInfo
 from .errors import CaptureFormatError as CaptureFormatError
 from .errors import HdrFringeError as HdrFringeError
@@ -13,13 +14,17 @@ from .errors import InputError as InputError
 from .errors import OutputExistsError as OutputExistsError
 from .frames import CenterlineFrame as CenterlineFrame
 from .frames import FringeFrame as FringeFrame
+from .frames import GrayCodeFrame as GrayCodeFrame
 from .frames import ImageFrame as ImageFrame
 from .frames import PixelwiseFringeFrame as PixelwiseFringeFrame
 from .frames import UniformFrame as UniformFrame
+from .frames import opencv_graycode_frames as opencv_graycode_frames
 from .frames import render_frame as render_frame
 from .gamma import GammaFit as GammaFit
 from .gamma import fit_gamma_fringes as fit_gamma_fringes
 from .gamma import fit_gamma_uniform as fit_gamma_uniform
+from .graycode import absolute_phase_graycode as absolute_phase_graycode
+from .graycode import decode_graycode as decode_graycode
 from .io.calibration_file import load_calibration as load_calibration
 from .io.calibration_file import save_calibration as save_calibration
 from .io.captures import read_capture_folder as read_capture_folder
