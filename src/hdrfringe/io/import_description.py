@@ -36,16 +36,17 @@ __all__ = [
 
 #: The fields a file-name template may hold, per group kind.
 TEMPLATE_FIELDS = {
-    "fringe": ("orientation", "periods", "pitch", "step"),
-    "uniform": (),
+    "fringe": ("orientation", "periods", "pitch", "step", "index"),
+    "uniform": ("index",),
+    "graycode": ("orientation", "bit", "index"),
 }
 #: Largest description file read (a description lists groups, it holds no data).
 MAX_DESCRIPTION_BYTES = 1 << 20
 
-_TOP_KEYS = ("note", "camera", "projector", "fringe", "uniform")
+_TOP_KEYS = ("note", "camera", "projector", "fringe", "uniform", "graycode")
 _CAMERA_KEYS = ("bit_depth", "float_scale")
 _PROJECTOR_KEYS = ("width", "height", "bit_depth", "gamma_precompensation")
-_SOURCE_KEYS = ("files", "regex", "stack", "key", "axes", "stack_frames")
+_SOURCE_KEYS = ("files", "regex", "stack", "key", "axes", "stack_frames", "first_index")
 _FRINGE_KEYS = (
     *_SOURCE_KEYS,
     "note",
@@ -66,6 +67,22 @@ _FRINGE_KEYS = (
     "exposure_ms",
 )
 _UNIFORM_KEYS = (*_SOURCE_KEYS, "note", "level", "exposure_ms")
+_GRAYCODE_KEYS = (
+    *_SOURCE_KEYS,
+    "note",
+    "orientation",
+    "orientation_names",
+    "bits",
+    "stripe",
+    "code",
+    "inverse",
+    "bit_order",
+    "migl",
+    "convention",
+    "exposure_ms",
+)
+#: Gray-code word types (docs/capture_format.md, "Gray-code frames").
+_CODES = ("gray", "binary")
 _NUMBER = r"\d+(?:\.\d+)?"
 
 
@@ -285,11 +302,12 @@ def compile_template(
 
 @dataclass(frozen=True)
 class FrameGroup:
-    """One group of frames of a description (a ``[[fringe]]`` or ``[[uniform]]`` table).
+    """One group of frames of a description (a ``[[fringe]]``, ``[[graycode]]`` or ``[[uniform]]``
+    table).
 
     Parameters
     ----------
-    kind : {"fringe", "uniform"}
+    kind : {"fringe", "graycode", "uniform"}
     index : int
         Position among the groups of its kind (0-based), for messages.
     where : str
@@ -438,9 +456,7 @@ def parse_description(table: Mapping[str, Any], source: str) -> Description:
     bit_depth = _int(camera["bit_depth"], f"{source} camera", "bit_depth", 1, 16)
     float_scale = None
     if "float_scale" in camera:
-        float_scale = _num(
-            camera["float_scale"], f"{source} camera", "float_scale", positive=True
-        )
+        float_scale = _num(camera["float_scale"], f"{source} camera", "float_scale", positive=True)
     projector_in = table.get("projector", {})
     if not isinstance(projector_in, dict):
         raise _fail(source, "'projector' must be a table", "write it as a TOML table")
@@ -456,18 +472,23 @@ def parse_description(table: Mapping[str, Any], source: str) -> Description:
             projector_in["gamma_precompensation"], pw, "gamma_precompensation", positive=True
         )
     groups: list[FrameGroup] = []
-    for kind in ("fringe", "uniform"):
+    for kind in ("fringe", "graycode", "uniform"):
         tables = table.get(kind, [])
         if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
-            raise _fail(source, f"'{kind}' must be tables", f"write each {kind} group as a TOML table")
+            raise _fail(
+                source, f"'{kind}' must be tables", f"write each {kind} group as a TOML table"
+            )
         for i, t in enumerate(tables):
             where = f"{source} {kind} group {i + 1}"
             if kind == "fringe":
-                groups.append(_fringe_group(t, i, where, projector))
+                group = _fringe_group(t, i, where, projector)
+            elif kind == "graycode":
+                group = _graycode_group(t, i, where)
             else:
-                groups.append(_uniform_group(t, i, where, projector))
+                group = _uniform_group(t, i, where, projector)
+            groups.append(_number_frames(group, t, where))
     if not groups:
-        raise _fail(source, "no frame groups", "add fringe or uniform tables")
+        raise _fail(source, "no frame groups", "add fringe, graycode or uniform tables")
     total = sum(len(g.frames) for g in groups)
     if total > MAX_PROGRAM_FRAMES:
         raise _fail(
@@ -612,7 +633,7 @@ def _fringe_group(
     for k in ("gamma_precompensation", "exposure_ms"):
         if k in t:
             extra[k] = _num(t[k], where, k, positive=True)
-    if isinstance(files, Template):
+    if isinstance(files, Template) and "index" not in files.fields:
         present = set(files.fields)
         for fld, count in (
             ("orientation", len(orients)),
@@ -626,8 +647,9 @@ def _fringe_group(
                     f"{count} values of it",
                     f"add {{{fld}}} to the template",
                 )
+    if isinstance(files, Template):
         other = "pitch" if level_key == "periods" else "periods"
-        if other in present:
+        if other in files.fields:
             raise _fail(
                 where,
                 f"the template uses {{{other}}} but the group gives '{level_key}'",
@@ -697,3 +719,86 @@ def _uniform_group(
         for i in range(count)
     ]
     return FrameGroup("uniform", index, where, files, t.get("stack"), key, axes, sel, frames)
+
+
+def _number_frames(group: FrameGroup, t: Mapping[str, Any], where: str) -> FrameGroup:
+    """Give every frame its ``index`` (position in the group + ``first_index``)."""
+    first = _int(t.get("first_index", 0), where, "first_index", 0, 1 << 30)
+    for i, frame in enumerate(group.frames):
+        frame["_key"]["index"] = float(first + i)
+    return group
+
+
+def _graycode_group(t: Mapping[str, Any], index: int, where: str) -> FrameGroup:
+    _check_keys(t, _GRAYCODE_KEYS, where)
+    names = _orientation_names(t, where)
+    files = _source(t, "graycode", where, names)
+    key, axes, sel = _stack_fields(t, where)
+    orients = _list(t.get("orientation", "vertical"))
+    for o in orients:
+        if o not in ORIENTATIONS:
+            raise _fail(where, f"unknown orientation {o!r}", "use vertical or horizontal")
+    if len(set(orients)) != len(orients):
+        raise _fail(where, "an orientation is listed twice", "list each once")
+    if "bits" not in t:
+        raise _fail(where, "missing 'bits'", "give the number of bits of the code")
+    bits = _int(t["bits"], where, "bits", 1, 24)
+    if "stripe" not in t:
+        raise _fail(where, "missing 'stripe'", "give the finest stripe width in projector px")
+    stripe = _num(t["stripe"], where, "stripe", positive=True)
+    code = t.get("code", "gray")
+    if code not in _CODES:
+        raise _fail(where, f"unknown code {code!r}", f"use one of {', '.join(_CODES)}")
+    inverse = t.get("inverse", False)
+    if not isinstance(inverse, bool):
+        raise _fail(where, f"'inverse' must be true or false, got {inverse!r}", "fix it")
+    order = t.get("bit_order", "msb_first")
+    if order not in ("msb_first", "lsb_first"):
+        raise _fail(where, f"unknown bit_order {order!r}", "use msb_first or lsb_first")
+    entry: dict[str, Any] = {"kind": "graycode", "bits": bits, "stripe": _plain_num(stripe)}
+    if code != "gray":
+        entry["code"] = code
+    if "migl" in t:
+        entry["migl"] = _num(t["migl"], where, "migl", positive=True)
+    if "convention" in t:
+        if not isinstance(t["convention"], str):
+            raise _fail(where, "'convention' must be a string label", "fix it")
+        entry["convention"] = t["convention"]
+    if "exposure_ms" in t:
+        entry["exposure_ms"] = _num(t["exposure_ms"], where, "exposure_ms", positive=True)
+    if isinstance(files, Template) and "index" not in files.fields:
+        for fld, count in (("orientation", len(orients)), ("bit", bits)):
+            if count > 1 and fld not in files.fields:
+                raise _fail(
+                    where,
+                    f"the template {files.text!r} has no {{{fld}}} field but the group has "
+                    f"{count} values of it",
+                    f"add {{{fld}}} (or {{index}}) to the template",
+                )
+        if inverse:
+            raise _fail(
+                where,
+                f"the template {files.text!r} cannot tell a bit's pattern from its inverse",
+                "use {index} (frames counted in projection order), a list or a regex",
+            )
+    sequence = range(bits - 1, -1, -1) if order == "msb_first" else range(bits)
+    frames: list[dict[str, Any]] = []
+    for o in orients:
+        for b in sequence:
+            for inv in (False, True) if inverse else (False,):
+                frame = {**entry, "orientation": o, "bit": b}
+                if inverse:
+                    frame["inverse"] = inv
+                frame["_key"] = {"orientation": o, "bit": float(b)}
+                frame["_label"] = f"graycode {o} bit {b}" + (" inverse" if inv else "")
+                frames.append(frame)
+    # manifest field order: kind, orientation, bit, bits, stripe, ...
+    order_keys = ("kind", "orientation", "bit", "bits", "stripe", "inverse")
+    frames = [
+        {**{k: f[k] for k in order_keys if k in f}, **{k: v for k, v in f.items()}} for f in frames
+    ]
+    return FrameGroup("graycode", index, where, files, t.get("stack"), key, axes, sel, frames)
+
+
+def _plain_num(value: float) -> float | int:
+    return int(value) if float(value).is_integer() else float(value)

@@ -705,7 +705,9 @@ def import_captures(
     version = 1
     if any(e.get("kind") in ("pixelwise_fringe", "image") for e in entries):
         version = 2
-    if any("shift_deg" in e or "phase_offset_deg" in e for e in entries):
+    if any(
+        "shift_deg" in e or "phase_offset_deg" in e or e.get("kind") == "graycode" for e in entries
+    ):
         version = 3
     manifest: dict[str, Any] = {
         "format": FORMAT_NAME,
