@@ -29,6 +29,7 @@ from .io.calibration_file import load_calibration as load_calibration
 from .io.calibration_file import save_calibration as save_calibration
 from .io.captures import read_capture_folder as read_capture_folder
 from .io.captures import write_capture_folder as write_capture_folder
+from .io.importer import import_captures as import_captures
 from .io.measurement_outputs import write_measurement as write_measurement
 from .patterns import FringeSpec as FringeSpec
 from .patterns import fringe_gray as fringe_gray
