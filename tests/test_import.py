@@ -567,3 +567,118 @@ def test_description_api_errors(tmp_path: Path) -> None:
                 'pitch = 8\npattern = "triangular"\nprofile = "sine"\n',
             )
         )
+
+
+# =============================================================================================
+# Gray code
+# =============================================================================================
+
+
+def gray_bit_image(bit: int, stripe: float, *, inverse: bool = False) -> np.ndarray:
+    """Camera image of bit ``bit`` of the binary-reflected Gray code of the stripe index."""
+    m = np.floor(projector_x(slope=2.0) / stripe).astype(np.int64)
+    lit = ((m ^ (m >> 1)) >> bit) & 1 == 1
+    return np.where(lit != inverse, 220, 20).astype(np.uint8)
+
+
+def test_graycode_groups_bit_template_and_opencv_pairs(tmp_path: Path) -> None:
+    from hdrfringe.frames import GrayCodeFrame, opencv_graycode_frames
+
+    cam = tmp_path / "cam"
+    for b in range(3):  # file names carry the bit's significance
+        write(cam, f"v/gc{b}.png", gray_bit_image(b, 8.0))
+    n = 0
+    for count in (3, 2):  # OpenCV's flat numbering: 3 vertical then 2 horizontal bits, pairs
+        for b in range(count - 1, -1, -1):
+            for inv in (False, True):
+                write(cam, f"cv/pat{n:02d}.png", gray_bit_image(b, 8.0, inverse=inv))
+                n += 1
+    bits = """
+        [camera]
+        bit_depth = 8
+        [[graycode]]
+        files = "v/gc{bit}.png"
+        bits = 3
+        stripe = 8
+        """
+    cv = """
+        [camera]
+        bit_depth = 8
+        [[graycode]]
+        files = "cv/pat{index:02d}.png"
+        bits = 3
+        stripe = 8
+        inverse = true
+        convention = "opencv"
+        [[graycode]]
+        files = "cv/pat{index:02d}.png"
+        first_index = 6
+        orientation = "horizontal"
+        bits = 2
+        stripe = 8
+        inverse = true
+        convention = "opencv"
+        """
+    toml(tmp_path, bits, "bits.toml")
+    toml(tmp_path, cv, "cv.toml")
+    # both at once are two vertical codes: the capture reader's check refuses that
+    both = toml(tmp_path, cv + bits.replace("[camera]\n        bit_depth = 8\n", ""), "both.toml")
+    with pytest.raises(CaptureFormatError, match="has another code"):
+        import_captures(cam, both, tmp_path / "caps")
+    assert not (tmp_path / "caps").exists()
+
+    rep = import_captures(cam, tmp_path / "bits.toml", tmp_path / "caps_bits")
+    assert rep.manifest["version"] == 3
+    frames = read_capture_folder(tmp_path / "caps_bits").frames
+    assert frames == [GrayCodeFrame("vertical", b, 3, 8.0) for b in (2, 1, 0)]  # MSB first
+    assert [f["file"] for f in rep.manifest["frames"]] == ["v/gc2.png", "v/gc1.png", "v/gc0.png"]
+
+    rep = import_captures(cam, tmp_path / "cv.toml", tmp_path / "caps_cv")
+    caps = read_capture_folder(tmp_path / "caps_cv")
+    assert caps.frames == opencv_graycode_frames(64, 32, 8.0)  # OpenCV's 3 + 2 bits, in order
+    assert [f["file"] for f in rep.manifest["frames"]] == [f"cv/pat{i:02d}.png" for i in range(10)]
+    assert len(caps.graycode_sets()) == 2
+
+
+def test_graycode_missing_bit_refused(tmp_path: Path) -> None:
+    cam = tmp_path / "cam"
+    for b in (0, 2):  # bit 1 missing
+        write(cam, f"gc{b}.png", gray_bit_image(b, 8.0))
+    desc = toml(
+        tmp_path,
+        '[camera]\nbit_depth = 8\n[[graycode]]\nfiles = "gc{bit}.png"\nbits = 3\nstripe = 8\n',
+    )
+    assert_refused(tmp_path, cam, desc, "no image for frame 'graycode vertical bit 1'", "'gc1.png'")
+
+
+def test_graycode_pairs_need_index(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="cannot tell a bit's pattern from its inverse"):
+        read_description(
+            toml(
+                tmp_path,
+                '[camera]\nbit_depth = 8\n[[graycode]]\nfiles = "g{bit}.png"\nbits = 2\n'
+                "stripe = 4\ninverse = true\n",
+            )
+        )
+
+
+def test_pattern_manifest_with_side_files(tmp_path: Path) -> None:
+    """A version-2 pattern folder: its MIGL map is copied beside the camera images."""
+    from hdrfringe.captures import ProjectorInfo
+    from hdrfringe.frames import PixelwiseFringeFrame
+    from hdrfringe.io.pattern_folder import write_pattern_folder
+    from hdrfringe.patterns import FringeSpec
+
+    spec = FringeSpec(steps=3, pitch_px=8.0)
+    migl = np.full((12, 16), 200.0)
+    frames = [PixelwiseFringeFrame(spec, i, migl) for i in range(3)]
+    played = write_pattern_folder(tmp_path / "pat", frames, ProjectorInfo(16, 12, 8))
+    cam = tmp_path / "cam"
+    for i in range(3):
+        write(cam, f"c{i}.png", fringe_image(8, 120 * i))
+    rep = import_captures(cam, tmp_path / "pat" / "manifest.json", tmp_path / "caps", bit_depth=8)
+    assert rep.manifest["version"] == 2
+    side = played["frames"][0]["migl_map"]
+    assert (tmp_path / "caps" / side).read_bytes() == (tmp_path / "pat" / side).read_bytes()
+    caps = read_capture_folder(tmp_path / "caps")
+    assert caps.frames == frames

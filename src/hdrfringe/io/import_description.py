@@ -364,8 +364,8 @@ class Description:
     --------
     >>> d = parse_description({"camera": {"bit_depth": 12},
     ...                        "fringe": [{"files": "s{step}.png", "steps": 3, "pitch": 8}]}, "ex")
-    >>> len(d.groups[0].frames), d.groups[0].frames[2]["shift"]
-    (3, 2)
+    >>> len(d.groups[0].frames), d.groups[0].frames[2]["_shift_deg"]
+    (3, 240.0)
     """
 
     camera_bit_depth: int
