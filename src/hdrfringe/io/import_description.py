@@ -132,6 +132,8 @@ class Template:
         The fields it captures, in order.
     specs : dict
         Field -> Python format spec that the captured text must reproduce (``"03d"``).
+    orientation_names : dict
+        Text in file names -> orientation (``{"h": "horizontal"}``).
 
     Examples
     --------
@@ -359,6 +361,8 @@ class Description:
         In the description's order.
     source : str
         The description's path, for messages.
+    notes : list of str
+        The description's ``note``, if any.
 
     Examples
     --------
@@ -669,7 +673,7 @@ def _fringe_group(
                 pitch = projector[extent_key] / value
             else:
                 pitch = value
-            for k in range(steps):
+            for step in range(steps):
                 entry = {
                     "kind": "fringe",
                     "pattern": pattern,
@@ -680,14 +684,14 @@ def _fringe_group(
                     "migl": migl,
                     **extra,
                     # the phase convention of this frame, resolved by the importer
-                    "_shift_deg": sign * shifts[k],
+                    "_shift_deg": sign * shifts[step],
                     "_offset_deg": offset - (90.0 if profile == "sine" else 0.0),
                     "_key": {
                         "orientation": o,
                         level_key: value,
-                        "step": float(numbers[k]),
+                        "step": float(numbers[step]),
                     },
-                    "_label": f"{o} {level_key} {value:g} step {k}",
+                    "_label": f"{o} {level_key} {value:g} step {step}",
                 }
                 frames.append(entry)
     return FrameGroup("fringe", index, where, files, t.get("stack"), key, axes, sel, frames)

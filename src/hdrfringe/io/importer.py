@@ -231,10 +231,10 @@ def to_counts(
     dn = a.astype(np.float64) * float_scale
     if not np.isfinite(dn).all():
         raise CaptureFormatError(f"{where}: float image holds NaN or infinity; store counts")
-    lo, hi = (float(dn.min()), float(dn.max())) if dn.size else (0.0, 0.0)
-    if lo < 0 or hi > full + FLOAT_TOLERANCE_DN:
+    dlo, dhi = (float(dn.min()), float(dn.max())) if dn.size else (0.0, 0.0)
+    if dlo < 0 or dhi > full + FLOAT_TOLERANCE_DN:
         raise CaptureFormatError(
-            f"{where}: after scaling by {float_scale:g} the values span {lo:g}..{hi:g}, outside "
+            f"{where}: after scaling by {float_scale:g} the values span {dlo:g}..{dhi:g}, outside "
             f"0..{full} for camera bit depth {bit_depth}; fix float_scale or bit_depth"
         )
     rounded = np.rint(dn)
@@ -267,7 +267,7 @@ def _example_name(template: Template, key: dict[str, Any]) -> str:
     if template.regex.pattern != text or not template.fields:  # a plain template
         back = {v: k for k, v in template.orientation_names.items()}
         for name in template.fields:
-            value = key.get(name)
+            value = key[name]
             if name == "orientation":
                 shown = back.get(value, str(value))
             else:
