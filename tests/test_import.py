@@ -682,3 +682,24 @@ def test_pattern_manifest_with_side_files(tmp_path: Path) -> None:
     assert (tmp_path / "caps" / side).read_bytes() == (tmp_path / "pat" / side).read_bytes()
     caps = read_capture_folder(tmp_path / "caps")
     assert caps.frames == frames
+
+
+def test_npz_header_bomb_refused_before_inflating(tmp_path: Path) -> None:
+    """An .npz member whose header declares 2^33 pixels is refused from the header alone."""
+    import io
+    import zipfile
+
+    cam = tmp_path / "cam"
+    cam.mkdir()
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        header, {"descr": "|u1", "fortran_order": False, "shape": (2, 1 << 16, 1 << 16)}
+    )
+    with zipfile.ZipFile(cam / "bomb.npz", "w") as zf:
+        zf.writestr("frames.npy", header.getvalue())  # no data at all
+    desc = toml(
+        tmp_path,
+        '[camera]\nbit_depth = 8\n[[uniform]]\nstack = "bomb.npz"\nkey = "frames"\n'
+        "stack_frames = [0]\nlevel = 0\n",
+    )
+    assert_refused(tmp_path, cam, desc, "more than the 2147483648 pixels")

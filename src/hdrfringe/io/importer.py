@@ -382,6 +382,27 @@ def _plain(value: float) -> float | int:
     return int(value) if float(value).is_integer() else float(value)
 
 
+def _check_npz_member(path: Path, key: str) -> None:
+    """Refuse an ``.npz`` array larger than a folder may hold, from its header, before the
+    (possibly compressed) data is inflated."""
+    import zipfile
+
+    with zipfile.ZipFile(path) as zf, zf.open(f"{key}.npy") as f:
+        major, _ = np.lib.format.read_magic(f)
+        read = (
+            np.lib.format.read_array_header_1_0
+            if major == 1
+            else np.lib.format.read_array_header_2_0
+        )
+        shape, _, dtype = read(f)
+    pixels = math.prod(shape) // (3 if shape and shape[-1] == 3 else 1)
+    if pixels > MAX_FOLDER_PIXELS or np.dtype(dtype).itemsize > 8:
+        raise CaptureFormatError(
+            f"{path}: array {key!r} of shape {shape} holds more than the {MAX_FOLDER_PIXELS} "
+            "pixels a capture folder may hold; split it"
+        )
+
+
 def _read_stack(root: Path, src: _Source, where: str) -> NDArray[Any]:
     """The whole stack array, axes ordered (n, y, x)."""
     path = root / src.rel
@@ -400,6 +421,7 @@ def _read_stack(root: Path, src: _Source, where: str) -> NDArray[Any]:
                     raise InputError(
                         f"{where}: {src.rel} has no array {key!r} (it holds {names}); fix 'key'"
                     )
+                _check_npz_member(path, key)
                 arr = z[key]
         else:
             if src.key is not None:
