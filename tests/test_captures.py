@@ -214,3 +214,134 @@ def test_version_2_manifest_round_trip_in_memory() -> None:
     plain = Captures([UniformFrame(9)], _images(1), 8).to_manifest()
     plain["frames"][0]["gain_db"] = 6.0
     assert Captures.from_manifest(plain, _images(1)).gain_db == (None,)
+
+
+# --- every problem of a folder at once (issue 12 point 8) ----------------------------------------
+
+
+def _hand_written(tmp_path: Path) -> Path:
+    """A folder of two 3-step sets whose hand-written manifest has five unrelated mistakes."""
+    caps = Captures([*SPEC.frames(), *FringeSpec("sinusoidal", 3, 24.0).frames()], _images(6), 8)
+    folder = write_capture_folder(tmp_path / "caps", caps)
+    m = json.loads((folder / "manifest.json").read_text())
+    m["camera"]["focal_px"] = -3  # 1: camera
+    del m["frames"][0]["pitch"]  # 2: frame 0
+    m["frames"][2]["orientation"] = "diagonal"  # 3: frame 2
+    m["frames"][4]["file"] = m["frames"][3]["file"]  # 4: a file named twice
+    m["frames"][5]["file"] = "missing.png"  # 5: a file that does not exist
+    (folder / "manifest.json").write_text(json.dumps(m))
+    return folder
+
+
+def test_a_manifest_check_reports_every_problem_at_once(tmp_path: Path) -> None:
+    folder = _hand_written(tmp_path)
+    with pytest.raises(CaptureFormatError) as info:
+        read_capture_folder(folder)
+    err = info.value
+    assert len(err.problems) == 5, err.problems
+    expected = [
+        "focal_px",
+        "missing field 'pitch'",
+        "unknown orientation 'diagonal'",
+        "both name",
+        "missing.png: image file named in the manifest does not exist",
+    ]
+    for problem, needle in zip(err.problems, expected, strict=True):
+        assert needle in problem and "\n" not in problem, (needle, problem)
+    msg = str(err)
+    assert "\n" not in msg and msg.startswith(err.problems[0]) and "(and 4 more: " in msg
+    assert all(needle in msg for needle in expected)
+    # read_manifest (fields only) lists the three field problems
+    with pytest.raises(CaptureFormatError) as fields:
+        read_manifest(folder)
+    assert len(fields.value.problems) == 3
+    # the same one line from the command line, exit status 2, no output
+    from tests.conftest import run_cli
+
+    res = run_cli("phase", str(folder), "-o", str(tmp_path / "out"))
+    assert res.returncode == 2 and not (tmp_path / "out").exists()
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "(and 4 more: " in lines[0], res.stderr
+
+
+def test_one_mistake_repeated_stays_one_short_line() -> None:
+    problems = [f"m.json frame {i} (f{i}.png): missing field 'pitch'; add it" for i in range(200)]
+    err = CaptureFormatError.from_problems(problems)
+    assert err.problems == tuple(problems)
+    assert str(err) == (
+        f"{problems[0]} (and 199 more: m.json frame 1 (f1.png), m.json frame 2 (f2.png), "
+        "m.json frame 3 (f3.png) and 196 more: missing field 'pitch')"
+    )
+    one = CaptureFormatError.from_problems(problems[:1])
+    assert str(one) == problems[0] and one.problems == (problems[0],)
+
+
+def test_every_incomplete_set_is_reported() -> None:
+    frames = [*SPEC.frames()[:2], *FringeSpec("sinusoidal", 4, 9.0).frames()[1:]]
+    with pytest.raises(CaptureFormatError) as info:
+        group_fringe_sets(frames)
+    assert len(info.value.problems) == 2
+    assert "s3_p8" in info.value.problems[0] and "s4_p9" in info.value.problems[1]
+
+
+# --- imin/migl optional on fringe frames (version 3, issue 12 point 8) -------------------------
+
+
+def _without_levels(tmp_path: Path, version: int = 3, drop=("imin", "migl"), bits: int | None = 10):
+    caps = Captures(SPEC.frames(), _images(3), 8)
+    folder = write_capture_folder(tmp_path / f"v{version}{''.join(drop)}", caps)
+    m = json.loads((folder / "manifest.json").read_text())
+    m["version"] = version
+    if bits is not None:
+        m["projector"] = {"bit_depth": bits}
+    for f in m["frames"]:
+        for key in drop:
+            del f[key]
+    (folder / "manifest.json").write_text(json.dumps(m))
+    return folder
+
+
+def test_version_3_fringes_may_leave_out_both_gray_levels(tmp_path: Path) -> None:
+    from hdrfringe.phase import decode_set
+
+    caps = read_capture_folder(_without_levels(tmp_path))
+    spec = caps.sets[0].spec
+    assert not spec.gray_levels_given and (spec.imin, spec.migl) == (0.0, 1023.0)  # 2^Bp - 1
+    assert caps.sets[0].label == "s3_p8_v"
+    # decoding does not use the levels: the same phase as the set with its levels
+    given = decode_set(caps.set_images(caps.sets[0]), SPEC, 8).wrapped_phase
+    assert np.array_equal(decode_set(caps.set_images(caps.sets[0]), spec, 8).wrapped_phase, given)
+    # without a projector bit depth, migl is 255; written back, the levels stay left out (v3)
+    assert read_capture_folder(_without_levels(tmp_path / "b", bits=None)).sets[0].spec.migl == 255
+    out = write_capture_folder(tmp_path / "back", caps)
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["version"] == 3 and all("imin" not in f and "migl" not in f for f in m["frames"])
+    assert read_capture_folder(out).sets[0].spec == spec
+
+
+@pytest.mark.parametrize(
+    ("version", "drop", "needle"),
+    [
+        (1, ("imin", "migl"), "missing field 'imin'"),
+        (2, ("imin", "migl"), "missing field 'imin'"),
+        (3, ("migl",), "gives 'imin' without 'migl'; give both gray levels or neither"),
+    ],
+)
+def test_gray_levels_are_required_before_version_3_and_both_or_neither(
+    tmp_path: Path, version, drop, needle
+) -> None:
+    with pytest.raises(CaptureFormatError, match=needle):
+        read_capture_folder(_without_levels(tmp_path, version, drop))
+
+
+def test_features_that_need_the_gray_levels_refuse_sets_without_them(tmp_path: Path) -> None:
+    from hdrfringe.gamma.fringes import fit_gamma_fringes
+    from hdrfringe.rig.replay import ReplayRig
+
+    caps = read_capture_folder(_without_levels(tmp_path))
+    with pytest.raises(CaptureFormatError, match=r"gives no imin/migl.*add imin and migl"):
+        ReplayRig(caps)
+    fs = caps.sets[0]
+    with pytest.raises(InputError, match=r"gives no imin/migl.*add imin and migl"):
+        fit_gamma_fringes([(fs.spec, 1.0, caps.set_images(fs))], camera_bit_depth=8)
+    ReplayRig(Captures(SPEC.frames(), _images(3), 8))  # with the levels: accepted

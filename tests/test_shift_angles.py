@@ -49,7 +49,8 @@ def test_default_spec_is_unchanged_and_the_new_fields_change_the_label() -> None
     assert len(labels) == 3
     assert sine.label() == "s3_p8_v_i40_g255_o-90"
     assert kam.label() == "s3_p8_v_i40_g255_d-120_0_120"
-    assert not same_fringes(base, sine) and not same_fringes(base, kam)
+    # the same fringes for calibration and MIGL sweeps: every set decodes to 2*pi*x/p
+    assert same_fringes(base, sine) and same_fringes(base, kam) and base != sine != kam
     assert same_fringes(kam, kam.with_migl(200)) and kam.with_migl(200).shifts_deg == (-120, 0, 120)
     assert sine.with_migl(200).phase_offset_deg == -90
     # the contract's equal shifts, however written, are the standard set
@@ -324,3 +325,219 @@ def test_frame_from_manifest_needs_the_sets_angles() -> None:
         frame_from_manifest(entry, shifts_deg=(0, 120, 240))
     frame = frame_from_manifest(entry, shifts_deg=(-120, 0, 120))
     assert frame.spec.shifts_deg == (-120, 0, 120) and frame.shift == 1
+
+
+# --- real data (../shared/realdata; skipped when absent) ---------------------------------------
+
+
+def _realdata_folder(tmp_path: Path, sources: list[Path], entries: list[dict], **top) -> Path:
+    """A version-3 capture folder under ``tmp_path`` holding copies of real images.
+
+    Copies, not symlinks: the folder reader refuses symlinks that resolve outside the folder
+    (docs/capture_format.md, "Limits"); nothing is written into the repository.
+    """
+    folder = tmp_path / "caps"
+    folder.mkdir()
+    for src, entry in zip(sources, entries, strict=True):
+        shutil.copyfile(src, folder / entry["file"])
+    manifest = {"format": "hdrfringe-captures", "version": 3, **top, "frames": entries}
+    (folder / "manifest.json").write_text(json.dumps(manifest, indent=1))
+    return folder
+
+
+def _fringe_entry(file: str, steps: int, shift: int, pitch: float, orientation: str, **extra):
+    return {
+        "file": file,
+        "kind": "fringe",
+        "pattern": "sinusoidal",
+        "steps": steps,
+        "shift": shift,
+        "pitch": pitch,
+        "orientation": orientation,
+        "imin": 0,
+        "migl": 255,
+        **extra,
+    }
+
+
+@pytest.mark.realdata
+def test_kamino410_object1_declared_shifts(tmp_path: Path) -> None:
+    """kamino410 object1 pat00-05: cos(2*pi*x/p + (phs-2)*2*pi/3), shifts -120/0/+120 degrees.
+
+    Read through a version-3 manifest with ``shift_deg`` and decoded by the least-squares path:
+    (a) equals the standard equal-shift decoder on the frames reordered to 0/120/240 (pat01,
+    pat02, pat00) to 1e-9 rad; (b) equals their own closed form (phase_shifting.py,
+    ``atan2(sqrt(3)*(I1 - I3), 2*I2 - I1 - I3)``, written out here) to 1e-9 rad; (c) the two
+    pitches agree: for phi_p = 2*pi*x/p, ``2*phi_66.67 - 3*phi_100 = 0`` (mod 2*pi).
+    """
+    from tests.conftest import realdata_path
+
+    root = realdata_path("kamino410", "object1")
+    pitches = (200.0 / 3.0, 100.0)
+    entries, sources = [], []
+    for s, pitch in enumerate(pitches):
+        for k, deg in enumerate((-120, 0, 120)):
+            name = f"pat{3 * s + k:02d}.png"
+            sources.append(root / name)
+            entries.append(_fringe_entry(name, 3, k, pitch, "vertical", shift_deg=deg))
+    folder = _realdata_folder(
+        tmp_path,
+        sources,
+        entries,
+        camera={"bit_depth": 8},
+        projector={"width": 1920, "height": 1080, "bit_depth": 8},
+    )
+    caps = read_capture_folder(folder)
+    assert [s.spec.shifts_deg for s in caps.sets] == [(-120.0, 0.0, 120.0)] * 2
+    phis = []
+    for fs in caps.sets:
+        imgs = caps.set_images(fs)
+        res = decode_set(imgs, fs.spec, 8)
+        ok = res.valid
+        assert ok.mean() > 0.3, ok.mean()
+        standard = FringeSpec("sinusoidal", 3, fs.spec.pitch_px, "vertical", 0, 255)
+        reordered = decode_set(imgs[[1, 2, 0]], standard, 8)
+        # validity agrees but where the modulation is the 2 DN threshold itself (8-bit counts
+        # give exactly 2.0 DN often, e.g. 0.4 % of pixels here) and rounding decides the side
+        differ = reordered.valid != ok
+        _, m_std, _ = sinusoidal_phase(imgs[[1, 2, 0]])
+        assert np.abs(m_std[differ] - 2.0).max(initial=0.0) < 1e-12
+        both = ok & reordered.valid
+        err = wrap_err(res.wrapped_phase[both], reordered.wrapped_phase[both])
+        assert err.max() < 1e-9, err.max()
+        assert np.allclose(res.modulation[both], reordered.modulation[both], rtol=1e-12, atol=0)
+        i1, i2, i3 = imgs.astype(np.float64)
+        theirs = np.arctan2(np.sqrt(3) * (i1 - i3), 2 * i2 - i1 - i3)
+        assert wrap_err(res.wrapped_phase[ok], theirs[ok]).max() < 1e-9
+        # the broken variant: the same frames read as the contract's 0/120/240
+        plain = wrapped_phase(imgs, standard)  # off by 120 degrees everywhere
+        assert np.median(wrap_err(plain[ok], theirs[ok])) > 1.0
+        phis.append(res)
+    a, b = phis
+    both = a.valid & b.valid
+    c = np.median(np.angle(np.exp(1j * (2 * a.wrapped_phase[both] - 3 * b.wrapped_phase[both]))))
+    print(f"[realdata] kamino410 object1: median(2*phi_66.67 - 3*phi_100) = {c:.4f} rad")
+    assert abs(c) < 0.1, c
+
+
+CHECKER_ROOT = ("thomriiii", "dec2025_checkerboard_saturated_4step")
+
+
+@pytest.mark.realdata
+def test_thomriiii_checkerboard_sine_offset_from_the_manifest(tmp_path: Path) -> None:
+    """thomriiii checkerboard: ``sin(2*pi*F*x + 2*pi*K/4)`` declared as phase_offset_deg = -90.
+
+    For phi_F = 2*pi*F*x + c at every frequency, ``2*phi_F - phi_2F = c``: docs/realdata.md
+    measured c = -pi/2 without the offset; with it declared in the manifest, c is ~0 for every
+    F pair and both orientations. The broken variant (offset left out) keeps -pi/2.
+    """
+    from tests.conftest import realdata_path
+
+    root = realdata_path(*CHECKER_ROOT, "images")
+    prefix = {"vertical": "scan", "horizontal": "scanh"}
+    freqs = (4, 8, 16, 32)
+    entries, sources = [], []
+    for o, pre in prefix.items():
+        for f in freqs:
+            for k in range(4):
+                name = f"{pre}_f{f:03d}_n{k:02d}.png"
+                sources.append(root / name)
+                entries.append(_fringe_entry(name, 4, k, 1024.0 / f, o, phase_offset_deg=-90))
+    folder = _realdata_folder(tmp_path, sources, entries, camera={"bit_depth": 8})
+    caps = read_capture_folder(folder)
+    assert len(caps.sets) == 8 and all(s.spec.phase_offset_deg == -90 for s in caps.sets)
+    by_key = {(s.spec.orientation, round(1024.0 / s.spec.pitch_px)): s for s in caps.sets}
+    for o in prefix:
+        res = {}
+        for f in freqs:
+            fs = by_key[o, f]
+            imgs = caps.set_images(fs)
+            res[f] = (
+                decode_set(imgs, fs.spec, 8, reject_saturated=False),
+                decode_set(imgs, replace_offset(fs.spec, 0.0), 8, reject_saturated=False),
+            )
+        for lo in (4, 8, 16):
+            for which, expect in ((0, 0.0), (1, -np.pi / 2)):
+                a, b = res[lo][which], res[2 * lo][which]
+                ok = a.valid & b.valid & (a.saturation_count == 0) & (b.saturation_count == 0)
+                d = 2 * a.wrapped_phase[ok] - b.wrapped_phase[ok]
+                c = float(np.median(np.angle(np.exp(1j * d))))
+                if which == 0:
+                    print(f"[realdata] checkerboard {o}: median(2*phi_{lo} - phi_{2 * lo}) {c:.4f}")
+                assert abs(c - expect) < 0.05, (o, lo, which, c)
+
+
+def replace_offset(spec: FringeSpec, offset: float) -> FringeSpec:
+    import dataclasses
+
+    return dataclasses.replace(spec, phase_offset_deg=offset)
+
+
+def test_pattern_folders_of_such_sets_are_version_3(tmp_path: Path) -> None:
+    """`hdrfringe patterns` output: the rendered images follow the declared phases, and its
+    manifest is version 3 (a version-1 manifest with shift_deg would be refused on reading)."""
+    import imageio.v3 as iio
+
+    from hdrfringe.captures import ProjectorInfo
+    from hdrfringe.io.pattern_folder import write_pattern_folder
+
+    spec = FringeSpec("sinusoidal", 3, 16.0, imin=0, migl=255, shifts_deg=(-120, 0, 120))
+    m = write_pattern_folder(tmp_path / "pat", spec.frames(), ProjectorInfo(64, 4, 8))
+    assert m["version"] == 3 and [f["shift_deg"] for f in m["frames"]] == [-120, 0, 120]
+    first = iio.imread(tmp_path / "pat" / m["frames"][0]["file"])[0].astype(float)
+    ref = np.rint(255 * (1 + np.cos(TWO_PI * np.arange(64) / 16 - TWO_PI / 3)) / 2)
+    assert np.array_equal(first, ref)
+    plain = write_pattern_folder(tmp_path / "std", FringeSpec().frames(), ProjectorInfo(8, 2, 8))
+    assert plain["version"] == 1
+
+
+def test_gamma_from_fringes_with_declared_phases() -> None:
+    """The fringe gamma fit models each frame's pattern phase (shift plus offset): a -120/0/120
+    set and a sine set, pre-distorted with 1/0.75 and 1/1.25, recover the rig's gamma."""
+    from hdrfringe.gamma.fringes import fit_gamma_fringes
+    from hdrfringe.rig.scenes import white_plate
+    from hdrfringe.rig.simulated import SimulatedRig
+
+    specs = (
+        FringeSpec("sinusoidal", 3, 96.0, "vertical", 0, 255, shifts_deg=(-120, 0, 120)),
+        FringeSpec("sinusoidal", 3, 96.0, "vertical", 0, 255, phase_offset_deg=-90),
+    )
+    sets = []
+    for spec, gh in zip(specs, (0.75, 1.25), strict=True):
+        rig = SimulatedRig(white_plate(5.0), gamma_precompensation=gh, seed=7)
+        sets.append((spec, gh, rig.capture(spec.frames())))
+    truth = SimulatedRig(white_plate(5.0)).projector_model.gamma
+    fit = fit_gamma_fringes(sets, camera_bit_depth=8, max_pixels=5000)
+    assert fit.gamma == pytest.approx(truth, rel=0.01)
+
+
+def test_a_version_3_folder_through_hdrfringe_phase(tmp_path: Path) -> None:
+    """Simulated sine and unequal-shift sets of one family, written as a version-3 folder: the
+    CLI's wrapped and absolute phase are the rig's 2*pi*u/p (the offset must be removed per set,
+    or temporal unwrapping from the coarse set would pick wrong fringe orders)."""
+    import tifffile
+
+    from hdrfringe.frames import CenterlineFrame
+    from hdrfringe.io.captures import simulate_to_folder
+    from hdrfringe.rig.scenes import white_plate
+    from hdrfringe.rig.simulated import SimulatedRig
+    from tests.conftest import run_cli
+
+    rig = SimulatedRig.ideal(white_plate(12.0))
+    levels = {"imin": 40 * 257, "migl": 65535}
+    fine = FringeSpec("sinusoidal", 4, 9.37, phase_offset_deg=-90, **levels)
+    coarse = FringeSpec("sinusoidal", 4, 61.0, shifts_deg=(0, 80, 190, 270), **levels)
+    frames = [*coarse.frames(), *fine.frames(), CenterlineFrame(512, "vertical", 65535)]
+    simulate_to_folder(tmp_path / "caps", rig, frames)
+    assert read_manifest(tmp_path / "caps")["version"] == 3
+    res = run_cli("phase", str(tmp_path / "caps"), "-o", str(tmp_path / "out"))
+    assert res.returncode == 0, res.stderr
+    truth = rig.truth()
+    wrapped = tifffile.imread(tmp_path / "out" / "wrapped_phase.tiff")  # the finest set's
+    ok = truth.valid & np.isfinite(wrapped)
+    assert ok.mean() > 0.99
+    assert wrap_err(wrapped, TWO_PI * truth.u / 9.37)[ok].max() < 1e-3
+    absolute = tifffile.imread(tmp_path / "out" / "absolute_phase.tiff")
+    ok = truth.valid & np.isfinite(absolute)
+    assert ok.mean() > 0.99
+    assert np.abs(absolute - TWO_PI * truth.u / 9.37)[ok].max() < 1e-3

@@ -49,6 +49,7 @@ __all__ = [
     "FringeSet",
     "GrayCodeSet",
     "ProjectorInfo",
+    "frames_format_version",
     "group_fringe_sets",
     "group_graycode_sets",
 ]
@@ -345,73 +346,132 @@ def group_fringe_sets(
             key = ("map", frame.spec, frame.content_sha256, exposures[i], gammas[i], gains[i])
         groups.setdefault(key, []).append(i)
     sets: list[FringeSet] = []
+    problems: list[str] = []
     for key, idx in groups.items():
-        first = frames[idx[0]]
-        assert isinstance(first, FringeFrame | PixelwiseFringeFrame)
-        spec = first.spec
-        digest = first.content_sha256 if isinstance(first, PixelwiseFringeFrame) else None
-        exposure, gamma, gain = exposures[idx[0]], gammas[idx[0]], gains[idx[0]]
-        if key[0] == "label":
-            label = str(key[1])
-        else:
-            label = spec.label()
-            if digest is not None:
-                label = f"{label}_map{digest[:8]}"
-            if exposure is not None:
-                label = f"{label}_e{exposure:g}"
-            if gain is not None:
-                label = f"{label}_gain{gain:g}dB"
-            if gamma is not None:
-                label = f"{label}_gp{gamma:g}"
-        shifts = []
-        for i in idx:
-            f = frames[i]
-            assert isinstance(f, FringeFrame | PixelwiseFringeFrame)
-            if type(f) is not type(first):
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} is a {f.kind} frame but "
-                    f"{frame_names[idx[0]]} a {first.kind} frame; give each set one kind"
-                )
-            if f.spec != spec and replace(f.spec, phase_offset_deg=spec.phase_offset_deg) == spec:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has phase_offset_deg "
-                    f"{f.spec.phase_offset_deg:g} but {frame_names[idx[0]]} "
-                    f"{spec.phase_offset_deg:g}; all frames of a set must agree on the offset"
-                )
-            if f.spec != spec:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has a different pattern "
-                    "specification from the rest of its set; give each set one specification"
-                )
-            if isinstance(f, PixelwiseFringeFrame) and f.content_sha256 != digest:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has a different MIGL map from "
-                    f"{frame_names[idx[0]]}; give the frames of a set one map"
-                )
-            if gains[i] != gain:
-                raise CaptureFormatError(
-                    f"set {label!r}: frame {frame_names[i]} has gain {gains[i]} dB but "
-                    f"{frame_names[idx[0]]} {gain} dB; give the frames of a set one gain"
-                )
-            shifts.append(f.shift)
-        if sorted(shifts) != list(range(spec.steps)):
-            raise CaptureFormatError(
-                f"set {label!r}: has shifts {sorted(shifts)} but a {spec.steps}-step set needs "
-                f"each of 0..{spec.steps - 1} exactly once; add or remove frames"
-            )
-        ordered = tuple(i for _, i in sorted(zip(shifts, idx, strict=True)))
-        sets.append(
-            FringeSet(
-                label,
-                spec,
-                ordered,
-                exposure,
-                None if gamma is None else float(gamma),
-                None if gain is None else float(gain),
-                digest,
-            )
-        )
+        try:
+            sets.append(_one_set(key, idx, frames, frame_names, exposures, gammas, gains))
+        except CaptureFormatError as exc:  # every set's problem, reported together
+            problems.extend(exc.problems)
+    if problems:
+        raise CaptureFormatError.from_problems(problems)
     return sets
+
+
+def _one_set(
+    key: tuple[Any, ...],
+    idx: list[int],
+    frames: Sequence[Frame],
+    frame_names: list[str],
+    exposures: tuple[Any, ...],
+    gammas: tuple[Any, ...],
+    gains: tuple[Any, ...],
+) -> FringeSet:
+    """One group of :func:`group_fringe_sets` checked and made a :class:`FringeSet`."""
+    first = frames[idx[0]]
+    assert isinstance(first, FringeFrame | PixelwiseFringeFrame)
+    spec = first.spec
+    digest = first.content_sha256 if isinstance(first, PixelwiseFringeFrame) else None
+    exposure, gamma, gain = exposures[idx[0]], gammas[idx[0]], gains[idx[0]]
+    if key[0] == "label":
+        label = str(key[1])
+    else:
+        label = spec.label()
+        if digest is not None:
+            label = f"{label}_map{digest[:8]}"
+        if exposure is not None:
+            label = f"{label}_e{exposure:g}"
+        if gain is not None:
+            label = f"{label}_gain{gain:g}dB"
+        if gamma is not None:
+            label = f"{label}_gp{gamma:g}"
+    shifts = []
+    for i in idx:
+        f = frames[i]
+        assert isinstance(f, FringeFrame | PixelwiseFringeFrame)
+        if type(f) is not type(first):
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} is a {f.kind} frame but "
+                f"{frame_names[idx[0]]} a {first.kind} frame; give each set one kind"
+            )
+        if f.spec != spec and replace(f.spec, phase_offset_deg=spec.phase_offset_deg) == spec:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has phase_offset_deg "
+                f"{f.spec.phase_offset_deg:g} but {frame_names[idx[0]]} "
+                f"{spec.phase_offset_deg:g}; all frames of a set must agree on the offset"
+            )
+        if f.spec != spec:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has a different pattern "
+                "specification from the rest of its set; give each set one specification"
+            )
+        if isinstance(f, PixelwiseFringeFrame) and f.content_sha256 != digest:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has a different MIGL map from "
+                f"{frame_names[idx[0]]}; give the frames of a set one map"
+            )
+        if gains[i] != gain:
+            raise CaptureFormatError(
+                f"set {label!r}: frame {frame_names[i]} has gain {gains[i]} dB but "
+                f"{frame_names[idx[0]]} {gain} dB; give the frames of a set one gain"
+            )
+        shifts.append(f.shift)
+    if sorted(shifts) != list(range(spec.steps)):
+        raise CaptureFormatError(
+            f"set {label!r}: has shifts {sorted(shifts)} but a {spec.steps}-step set needs "
+            f"each of 0..{spec.steps - 1} exactly once; add or remove frames"
+        )
+    ordered = tuple(i for _, i in sorted(zip(shifts, idx, strict=True)))
+    return FringeSet(
+        label,
+        spec,
+        ordered,
+        exposure,
+        None if gamma is None else float(gamma),
+        None if gain is None else float(gain),
+        digest,
+    )
+
+
+def frames_format_version(frames: Sequence[Frame], gain_db: Sequence[float | None] = ()) -> int:
+    """The lowest capture-format version that describes these frames (and gains).
+
+    The one place that decides it, for capture folders (:attr:`Captures.format_version`) and
+    pattern folders alike: 3 when a fringe set declares shift angles or a phase offset, or
+    leaves out its gray levels, or a frame is Gray code; else 2 when a frame has 2-D data
+    (:data:`hdrfringe.frames.IMAGE_FRAMES`) or a gain is recorded; else 1
+    (docs/capture_format.md).
+
+    Parameters
+    ----------
+    frames : sequence of Frame
+    gain_db : sequence of float or None, optional
+        Per-frame camera gains (None: not recorded).
+
+    Returns
+    -------
+    int
+        1, 2 or 3.
+
+    Examples
+    --------
+    >>> frames_format_version(FringeSpec(steps=3).frames())
+    1
+    >>> frames_format_version(FringeSpec(steps=3, phase_offset_deg=-90).frames())
+    3
+    """
+    needs = [1]
+    if any(
+        isinstance(f, FringeFrame) and not (f.spec.has_standard_phase and f.spec.gray_levels_given)
+        for f in frames
+    ):
+        needs.append(3)  # shift angles, phase offset, gray levels left out
+    if any(isinstance(f, GrayCodeFrame) for f in frames):
+        needs.append(3)  # Gray-code frames (docs/capture_format.md, "Version 3 extensions")
+    if any(isinstance(f, IMAGE_FRAMES) for f in frames):
+        needs.append(2)
+    if any(g is not None for g in gain_db):
+        needs.append(2)
+    return max(needs)
 
 
 def _frame_or_fail(
@@ -419,12 +479,18 @@ def _frame_or_fail(
     i: int,
     load_array: Callable[[str], NDArray[Any]] | None,
     shifts_deg: tuple[float, ...] | None = None,
+    default_migl: float = 255.0,
 ) -> Frame:
-    """:func:`frame_from_manifest` with its errors naming the frame."""
+    """:func:`frame_from_manifest` with its errors naming the frame; a fringe frame without
+    gray levels gets ``default_migl`` (the projector's full scale)."""
     try:
         if shifts_deg is None:
-            return frame_from_manifest(entry, load_array)
-        return frame_from_manifest(entry, load_array, shifts_deg=shifts_deg)
+            frame = frame_from_manifest(entry, load_array)
+        else:
+            frame = frame_from_manifest(entry, load_array, shifts_deg=shifts_deg)
+        if isinstance(frame, FringeFrame) and not frame.spec.gray_levels_given:
+            frame = FringeFrame(replace(frame.spec, migl=default_migl), frame.shift)
+        return frame
     except HdrFringeError as exc:
         raise CaptureFormatError(f"manifest frame {i} ({entry.get('file')}): {exc}") from None
 
@@ -777,8 +843,9 @@ class Captures:
         """The capture-format version a folder of these captures needs.
 
         The lowest version that describes every frame (docs/capture_format.md): 3 when a
-        fringe set declares shift angles or a phase offset; else 2 when a frame has 2-D data
-        (:data:`hdrfringe.frames.IMAGE_FRAMES`) or records a gain; else 1.
+        fringe set declares shift angles or a phase offset, or leaves out its gray levels;
+        else 2 when a frame has 2-D data (:data:`hdrfringe.frames.IMAGE_FRAMES`) or records a
+        gain; else 1.
 
         Returns
         -------
@@ -794,16 +861,7 @@ class Captures:
         >>> caps.format_version, dataclasses.replace(caps, gain_db=[6.0]).format_version
         (1, 2)
         """
-        needs = [1]
-        if any(isinstance(f, FringeFrame) and not f.spec.has_standard_phase for f in self.frames):
-            needs.append(3)  # shift angles, phase offset
-        if any(isinstance(f, GrayCodeFrame) for f in self.frames):
-            needs.append(3)  # Gray-code frames (docs/capture_format.md, "Version 3 extensions")
-        if any(isinstance(f, IMAGE_FRAMES) for f in self.frames):
-            needs.append(2)
-        if any(g is not None for g in self.gain_db):
-            needs.append(2)
-        return max(needs)
+        return frames_format_version(self.frames, self.gain_db)
 
     @property
     def image_shape(self) -> tuple[int, int]:
@@ -1009,11 +1067,14 @@ class Captures:
         angled = {
             i for i, e in enumerate(entries) if e.get("kind") == "fringe" and "shift_deg" in e
         }
+        # a fringe entry without imin/migl (version 3) gets migl = the projector's 2^Bp - 1
+        proj = manifest.get("projector") or {}
+        full_p = float(full_scale(int(proj.get("bit_depth", 8)), "projector bit depth"))
         frames: list[Frame] = []
         for i, entry in enumerate(entries):
             if i in angled:
                 entry = {k: v for k, v in entry.items() if k != "shift_deg"}
-            frames.append(_frame_or_fail(entry, i, load_array))
+            frames.append(_frame_or_fail(entry, i, load_array, default_migl=full_p))
         fringe = [isinstance(f, FringeFrame | PixelwiseFringeFrame) for f in frames]
         exposure = tuple(e.get("exposure_ms") for e in entries)
         has_gain = manifest.get("version", FORMAT_VERSION) != 1  # no meaning in version 1
@@ -1054,7 +1115,7 @@ class Captures:
                         f"set {fs.label!r} ({', '.join(names[i] for i in idx)}): {exc}"
                     ) from None
                 for i in idx:
-                    frames[i] = _frame_or_fail(entries[i], i, load_array, angles)
+                    frames[i] = _frame_or_fail(entries[i], i, load_array, angles, full_p)
             group_fringe_sets(
                 frames,
                 exposure_ms=exposure,

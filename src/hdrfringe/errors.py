@@ -6,6 +6,9 @@ interface prints the message of any :class:`HdrFringeError` and exits with statu
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import ClassVar
+
 __all__ = ["CaptureFormatError", "HdrFringeError", "InputError", "OutputExistsError"]
 
 
@@ -47,12 +50,89 @@ class InputError(HdrFringeError, ValueError):
 class CaptureFormatError(HdrFringeError):
     """A capture folder breaks the capture-folder contract (manifest, files, values).
 
+    A check that collects several problems of one folder (the manifest's fields, its files, its
+    sets) raises one error carrying them all in :attr:`problems`; its message, still one line,
+    is the first problem in full followed by the others in short (:meth:`from_problems`).
+
+    Parameters
+    ----------
+    message : str
+        One line: what, where, how to fix it.
+    problems : sequence of str, optional
+        Every problem found, each a one-line message; default: the message alone.
+
+    Attributes
+    ----------
+    problems : tuple of str
+        Every problem found, in the order checked.
+
     Examples
     --------
     >>> err = CaptureFormatError("run1/manifest.json: no 'frames' list; add one")
-    >>> isinstance(err, HdrFringeError), str(err)
-    (True, "run1/manifest.json: no 'frames' list; add one")
+    >>> isinstance(err, HdrFringeError), str(err), len(err.problems)
+    (True, "run1/manifest.json: no 'frames' list; add one", 1)
     """
+
+    #: Problems listed in the one-line message before "... N more" (all are in ``problems``).
+    MAX_LISTED: ClassVar[int] = 8
+
+    def __init__(self, message: str = "", *, problems: Sequence[str] = ()) -> None:
+        super().__init__(message)
+        self.problems: tuple[str, ...] = tuple(problems) if problems else (message,)
+
+    @classmethod
+    def from_problems(cls, problems: Sequence[str]) -> CaptureFormatError:
+        """One error for several problems: the first in full, the rest in short.
+
+        The others are shortened to ``where: what`` (their ``; how to fix`` part dropped, as the
+        first shows the kind of fix) and problems with the same ``what`` are listed once with
+        their places, so a manifest with one mistake repeated in 200 frames stays one short
+        line; at most :attr:`MAX_LISTED` are listed, then the count of the rest.
+
+        Parameters
+        ----------
+        problems : sequence of str
+            One-line messages ``where: what; fix``, at least one.
+
+        Returns
+        -------
+        CaptureFormatError
+            With :attr:`problems` holding them all.
+
+        Examples
+        --------
+        >>> err = CaptureFormatError.from_problems([
+        ...     "frame 0 (a.png): no 'pitch'; add it",
+        ...     "frame 1 (b.png): no 'pitch'; add it",
+        ...     "frame 2 (c.png): no 'pitch'; add it",
+        ...     "frame 4 (e.png): kind 'x'; use fringe"])
+        >>> print(err)  # doctest: +NORMALIZE_WHITESPACE
+        frame 0 (a.png): no 'pitch'; add it (and 3 more: frame 1 (b.png), frame 2 (c.png): no
+        'pitch'; frame 4 (e.png): kind 'x')
+        >>> len(err.problems)
+        4
+        """
+        if not problems:
+            raise ValueError("from_problems needs at least one problem")
+        first, rest = problems[0], list(problems[1:])
+        if not rest:
+            return cls(first)
+        groups: dict[str, list[str]] = {}
+        for p in rest:
+            short = p.rsplit("; ", 1)[0] if "; " in p else p
+            where, sep, what = short.partition(": ")
+            if not sep:
+                where, what = "", short
+            groups.setdefault(what, []).append(where)
+        items = []
+        for what, places in list(groups.items())[: cls.MAX_LISTED]:
+            shown = ", ".join(w for w in places[:3] if w)
+            extra = f" and {len(places) - 3} more" if len(places) > 3 else ""
+            items.append(f"{shown}{extra}: {what}" if shown else what)
+        if len(groups) > cls.MAX_LISTED:
+            hidden = sum(len(v) for v in list(groups.values())[cls.MAX_LISTED :])
+            items.append(f"... {hidden} more")
+        return cls(f"{first} (and {len(rest)} more: {'; '.join(items)})", problems=problems)
 
 
 class OutputExistsError(HdrFringeError):

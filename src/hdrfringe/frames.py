@@ -186,6 +186,8 @@ class FringeFrame(_LineFrameMethods):
         }
         # version 3 (docs/capture_format.md): only where the set needs them, so a standard set's
         # entry stays the version-1 entry byte for byte
+        if not s.gray_levels_given:
+            del entry["imin"], entry["migl"]
         if s.shifts_deg is not None:
             entry["shift_deg"] = _num(s.shifts_deg[self.shift])
         if s.phase_offset_deg != 0.0:
@@ -955,14 +957,18 @@ def frame_from_manifest(
 
 
 def _spec_from_entry(entry: dict[str, Any]) -> FringeSpec:
+    # version 3 fringe entries may leave out both gray levels: the defaults imin 0 and migl
+    # 255 (Captures.from_manifest sets migl to the projector's 2^Bp - 1), marked as not given
+    given = "imin" in entry or "migl" in entry
     return FringeSpec(
         pattern=entry["pattern"],
         steps=int(entry["steps"]),
         pitch_px=float(entry["pitch"]),
         orientation=entry["orientation"],
-        imin=float(entry["imin"]),
-        migl=float(entry["migl"]),
+        imin=float(entry.get("imin", 0.0)),
+        migl=float(entry.get("migl", 255.0)),
         phase_offset_deg=float(entry.get("phase_offset_deg", 0.0)),
+        gray_levels_given=given,
     )
 
 

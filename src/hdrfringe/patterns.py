@@ -115,6 +115,12 @@ class FringeSpec:
     phase_offset_deg : float
         Sinusoidal sets only: a constant phase added to every shift, in degrees (0: the
         contract's cosine). A sine profile ``sin(t) = cos(t - pi/2)`` is ``-90``.
+    gray_levels_given : bool
+        False when the capture manifest gave no ``imin``/``migl`` (version 3): ``imin`` and
+        ``migl`` then hold the documented defaults 0 and ``2^Bp - 1``, which serve decoding
+        (the phase does not depend on them) but not the features that need the true levels
+        (gamma from fringes, MIGL strategies), which refuse such sets. Such a set's label
+        leaves the levels out (``s3_p8_v``).
 
     Raises
     ------
@@ -155,6 +161,7 @@ class FringeSpec:
     migl: float = 255.0
     shifts_deg: tuple[float, ...] | None = None
     phase_offset_deg: float = 0.0
+    gray_levels_given: bool = True
 
     def __post_init__(self) -> None:
         if self.pattern not in PATTERNS:
@@ -265,10 +272,9 @@ class FringeSpec:
     def label(self) -> str:
         """A short file-name-safe label, e.g. ``s4_p8_g255``."""
         pitch = f"{self.pitch_px:g}".replace(".", "p")
-        label = (
-            f"{self.pattern[0]}{self.steps}_p{pitch}_{self.orientation[0]}"
-            f"_i{self.imin:g}_g{self.migl:g}"
-        )
+        label = f"{self.pattern[0]}{self.steps}_p{pitch}_{self.orientation[0]}"
+        if self.gray_levels_given:
+            label += f"_i{self.imin:g}_g{self.migl:g}"
         if self.phase_offset_deg != 0.0:
             label += "_o" + f"{self.phase_offset_deg:g}".replace(".", "p")
         if self.shifts_deg is not None:
@@ -376,10 +382,12 @@ def precompensate_gamma(
 
 
 def same_fringes(a: FringeSpec, b: FringeSpec) -> bool:
-    """Whether two sets have the same fringes: pattern, steps, pitch, orientation and phases.
+    """Whether two sets have the same fringes: pattern, steps, pitch and orientation.
 
     The gray range (``imin``, ``migl``) may differ: a MIGL sweep holds the same fringes at many
-    MIGLs, and a calibration serves any MIGL (thesis Sec. 4.1).
+    MIGLs, and a calibration serves any MIGL (thesis Sec. 4.1). So may the shift angles and the
+    phase offset (capture format version 3): every set decodes to ``2*pi*x/p`` whatever they
+    are, so a calibration made with one convention serves another.
 
     Parameters
     ----------
@@ -397,13 +405,11 @@ def same_fringes(a: FringeSpec, b: FringeSpec) -> bool:
     >>> same_fringes(FringeSpec("sinusoidal", 4, 8.0), FringeSpec("sinusoidal", 3, 8.0))
     False
     """
-    return (a.pattern, a.steps, a.pitch_px, a.orientation, a.shifts_deg, a.phase_offset_deg) == (
+    return (a.pattern, a.steps, a.pitch_px, a.orientation) == (
         b.pattern,
         b.steps,
         b.pitch_px,
         b.orientation,
-        b.shifts_deg,
-        b.phase_offset_deg,
     )
 
 

@@ -304,6 +304,11 @@ def _grouped_sets(
                 f"fringe gamma fit: set {spec.label()} has gamma_hat {gh}; give its positive "
                 "pre-compensation exponent"
             )
+        if not spec.gray_levels_given:
+            raise InputError(
+                f"fringe gamma fit: set {spec.label()} gives no imin/migl, and the fit models the "
+                "pattern's gray levels; add imin and migl to the manifest's frames"
+            )
         if spec.migl > full_p:
             raise InputError(
                 f"fringe gamma fit: set {spec.label()} has migl {spec.migl:g} above the "
@@ -373,7 +378,8 @@ def _pixel_group(
     return _Group(
         y=y_all[:, idx].astype(np.float64),
         valid=valid[:, idx].astype(np.float64),
-        delta=np.concatenate([s.shifts for s in specs]),
+        # the pattern phase of each frame: shift angle plus the set's offset (version 3)
+        delta=np.concatenate([s.shifts + np.radians(s.phase_offset_deg) for s in specs]),
         lo=np.concatenate([np.full(s.steps, s.imin / full_p) for s in specs]),
         amp=np.concatenate([np.full(s.steps, (s.migl - s.imin) / full_p) for s in specs]),
         inv_gh=np.concatenate([np.full(m[0].steps, 1.0 / m[1]) for m in members]),

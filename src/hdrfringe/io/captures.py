@@ -17,7 +17,7 @@ import json
 import math
 import posixpath
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -190,8 +190,20 @@ def _check_fringe_fields(entry: dict[str, Any], where: str, version: int = 1) ->
     _integer(entry, "shift", where, 0, steps - 1)
     _number(entry, "pitch", where, positive=True)
     _choice(entry, "orientation", where, ORIENTATIONS)
-    imin = _number(entry, "imin", where)
-    migl = _number(entry, "migl", where)
+    levels = [key for key in ("imin", "migl") if key in entry]
+    if version >= 3 and entry.get("kind") == "fringe" and len(levels) < 2:
+        # version 3: a fringe frame may leave out both (decoding does not use them)
+        if levels:
+            other = "migl" if levels[0] == "imin" else "imin"
+            raise _fail(
+                where,
+                f"gives '{levels[0]}' without '{other}'",
+                "give both gray levels or neither (then imin 0 and migl 2^Bp - 1 are assumed)",
+            )
+        imin, migl = 0.0, 1.0
+    else:
+        imin = _number(entry, "imin", where)
+        migl = _number(entry, "migl", where)
     if not 0 <= imin < migl:
         raise _fail(
             where,
@@ -322,7 +334,11 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     Raises
     ------
     CaptureFormatError
-        A missing or unparsable manifest or any field breaking the contract.
+        A missing or unparsable manifest or any field breaking the contract. Every field
+        problem is collected (camera, projector, scene, each frame) and reported in one error:
+        its :attr:`~hdrfringe.errors.CaptureFormatError.problems` lists them all, its message
+        shows the first in full and the rest in short. A manifest that cannot be read at all
+        (not JSON, wrong ``format`` or ``version``, no ``frames`` list) stops at that problem.
 
     Examples
     --------
@@ -335,7 +351,27 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
     >>> read_manifest(folder)["frames"][0]["file"]
     'g.png'
     """
-    folder = Path(folder)
+    manifest, problems = _check_manifest(Path(folder))
+    if problems:
+        raise CaptureFormatError.from_problems(problems)
+    return manifest
+
+
+def _collect(problems: list[str], check: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """Run one check; on a CaptureFormatError record its problems and return None."""
+    try:
+        return check(*args, **kwargs)
+    except CaptureFormatError as exc:
+        problems.extend(exc.problems)
+        return None
+
+
+def _check_manifest(folder: Path) -> tuple[dict[str, Any], list[str]]:
+    """The manifest with its frames validated (None where a frame failed) and every problem.
+
+    Problems that make the rest unreadable (no folder or manifest, not a JSON object, wrong
+    ``format`` or ``version``, no ``frames`` list, too many frames) are raised at once.
+    """
     if not folder.is_dir():
         raise CaptureFormatError(
             f"{folder}: not a folder; give a capture folder holding manifest.json and its images"
@@ -366,30 +402,6 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
             f"this hdrfringe reads versions {readable}: write one of them, or update hdrfringe",
         )
     version = int(version)
-    camera = _require(manifest, "camera", where)
-    if not isinstance(camera, dict):
-        raise _fail(where, "'camera' is not an object", 'use {"bit_depth": B}')
-    _integer(camera, "bit_depth", f"{where} camera", 1, 16)
-    for key in ("focal_px", "standoff_mm"):  # the camera geometry, where given
-        if key in camera:
-            _number(camera, key, f"{where} camera", positive=True)
-    projector = manifest.get("projector")
-    if projector is not None:
-        if not isinstance(projector, dict):
-            raise _fail(where, "'projector' is not an object", "see docs/capture_format.md")
-        pw = f"{where} projector"
-        for key in ("width", "height"):
-            if key in projector:
-                _integer(projector, key, pw, 1, 1 << 20)
-        if "bit_depth" in projector:
-            _integer(projector, "bit_depth", pw, 1, 16)
-        if "gamma_precompensation" in projector:
-            _number(projector, "gamma_precompensation", pw, positive=True)
-    scene = manifest.get("scene", {})
-    if not isinstance(scene, dict):
-        raise _fail(where, "'scene' is not an object", "use an object or leave it out")
-    if "depth_mm" in scene:
-        _number(scene, "depth_mm", f"{where} scene")
     frames = _require(manifest, "frames", where)
     if not isinstance(frames, list) or not frames:
         raise _fail(where, "'frames' must be a non-empty list", "list one entry per image")
@@ -399,27 +411,63 @@ def read_manifest(folder: str | Path) -> dict[str, Any]:
             f"{len(frames)} frames, more than the limit of {MAX_PROGRAM_FRAMES}",
             "split the captures into several folders",
         )
+    problems: list[str] = []
+    camera = _collect(problems, _require, manifest, "camera", where)
+    if camera is not None and not isinstance(camera, dict):
+        problems.append(str(_fail(where, "'camera' is not an object", 'use {"bit_depth": B}')))
+    elif camera is not None:
+        _collect(problems, _integer, camera, "bit_depth", f"{where} camera", 1, 16)
+        for key in ("focal_px", "standoff_mm"):  # the camera geometry, where given
+            if key in camera:
+                _collect(problems, _number, camera, key, f"{where} camera", positive=True)
+    projector = manifest.get("projector")
+    projector_ok = projector is None
+    if projector is not None and not isinstance(projector, dict):
+        problems.append(
+            str(_fail(where, "'projector' is not an object", "see docs/capture_format.md"))
+        )
+    elif projector is not None:
+        n_before = len(problems)
+        pw = f"{where} projector"
+        for key in ("width", "height"):
+            if key in projector:
+                _collect(problems, _integer, projector, key, pw, 1, 1 << 20)
+        if "bit_depth" in projector:
+            _collect(problems, _integer, projector, "bit_depth", pw, 1, 16)
+        if "gamma_precompensation" in projector:
+            _collect(problems, _number, projector, "gamma_precompensation", pw, positive=True)
+        projector_ok = len(problems) == n_before
+    scene = manifest.get("scene", {})
+    if not isinstance(scene, dict):
+        problems.append(
+            str(_fail(where, "'scene' is not an object", "use an object or leave it out"))
+        )
+    elif "depth_mm" in scene:
+        _collect(problems, _number, scene, "depth_mm", f"{where} scene")
     manifest = dict(manifest)
-    manifest["frames"] = [_validate_frame(e, i, version) for i, e in enumerate(frames)]
-    with_data = [i for i, e in enumerate(manifest["frames"]) if e["kind"] in _DATA_FIELDS]
-    if with_data:
+    manifest["frames"] = [
+        _collect(problems, _validate_frame, e, i, version) for i, e in enumerate(frames)
+    ]
+    with_data = [
+        i for i, e in enumerate(manifest["frames"]) if e is not None and e["kind"] in _DATA_FIELDS
+    ]
+    if with_data and projector_ok:
         first = f"{where} frame {with_data[0]}"
         if projector is None or "width" not in projector or "height" not in projector:
-            raise _fail(
-                first,
-                f"a {manifest['frames'][with_data[0]]['kind']} frame's side file covers the "
-                "projector, but the manifest gives no projector width and height",
-                "add them to 'projector'",
+            problems.append(
+                f"{first}: a {manifest['frames'][with_data[0]]['kind']} frame's side file "
+                "covers the projector, but the manifest gives no projector width and height; "
+                "add them to 'projector'"
             )
-        pixels = int(projector["width"]) * int(projector["height"])
-        if pixels > MAX_SIDE_FILE_PIXELS:
-            raise _fail(
-                f"{where} projector",
-                f"{projector['width']}x{projector['height']} is {pixels} pixels, more than the "
-                f"{MAX_SIDE_FILE_PIXELS} a side file may hold",
-                "check the projector size",
-            )
-    return manifest
+        else:
+            pixels = int(projector["width"]) * int(projector["height"])
+            if pixels > MAX_SIDE_FILE_PIXELS:
+                problems.append(
+                    f"{where} projector: {projector['width']}x{projector['height']} is {pixels} "
+                    f"pixels, more than the {MAX_SIDE_FILE_PIXELS} a side file may hold; check "
+                    "the projector size"
+                )
+    return manifest, problems
 
 
 def load_image(path: str | Path, bit_depth: int) -> NDArray:
@@ -714,7 +762,11 @@ def read_capture_folder(path: str | Path) -> Captures:
     Raises
     ------
     CaptureFormatError
-        Any breach of the contract, with what, where and how to fix it.
+        Any breach of the contract, with what, where and how to fix it. The manifest's field
+        problems, file names given twice and missing image files are collected and reported
+        together (the error's ``problems`` lists them all); then the images are checked and
+        decoded (the first bad image stops the read), then the fringe sets (every incomplete
+        or inconsistent set is reported together).
 
     Examples
     --------
@@ -727,32 +779,46 @@ def read_capture_folder(path: str | Path) -> Captures:
     ('s3_p6_v_i40_g255', True, True)
     """
     folder = Path(path)
-    manifest = read_manifest(folder)
-    bit_depth = int(manifest["camera"]["bit_depth"])
-    entries: list[dict[str, Any]] = manifest["frames"]
+    manifest, problems = _check_manifest(folder)
+    # the folder's files, for every frame whose path is usable, reported with the field problems
+    raw = [e.get("file") if isinstance(e, dict) else None for e in manifest["frames"]]
+    files: list[str | None] = []
+    for entry, file in zip(manifest["frames"], raw, strict=True):
+        try:
+            files.append(entry["file"] if entry is not None else _safe_relpath(file, ""))
+        except CaptureFormatError:
+            files.append(None)  # its problem is already listed
     seen: dict[str, int] = {}
-    for i, entry in enumerate(entries):
-        if entry["file"] in seen:
-            raise CaptureFormatError(
-                f"manifest frames {seen[entry['file']]} and {i} both name {entry['file']}; "
-                "give each frame its own image"
+    for i, file in enumerate(files):
+        if file is None:
+            continue
+        if file in seen:
+            problems.append(
+                f"manifest frames {seen[file]} and {i} both name {file}; give each frame its "
+                "own image"
             )
-        seen[entry["file"]] = i
-    for i, entry in enumerate(entries):
-        side = entry.get(_DATA_FIELDS.get(entry["kind"], ""))
+        else:
+            seen[file] = i
+    for i, entry in enumerate(manifest["frames"]):
+        side = None if entry is None else entry.get(_DATA_FIELDS.get(entry["kind"], ""))
         if side is not None and side in seen:
-            raise CaptureFormatError(
+            problems.append(
                 f"manifest frame {i} names {side} as its side file, but it is the camera image of "
                 f"frame {seen[side]}; keep projector data and camera images in separate files"
             )
-    # every image's size from its header before any is decoded: one size, bounded in total
-    paths = [_confined(folder, entry["file"], "image") for entry in entries]
-    for path in paths:
-        if not path.is_file():
-            raise CaptureFormatError(
-                f"{path}: image file named in the manifest does not exist; add it or fix the "
+    for file in dict.fromkeys(f for f in files if f is not None):
+        image = _collect(problems, _confined, folder, file, "image")
+        if image is not None and not image.is_file():
+            problems.append(
+                f"{image}: image file named in the manifest does not exist; add it or fix the "
                 "manifest"
             )
+    if problems:
+        raise CaptureFormatError.from_problems(problems)
+    bit_depth = int(manifest["camera"]["bit_depth"])
+    entries: list[dict[str, Any]] = manifest["frames"]
+    # every image's size from its header before any is decoded: one size, bounded in total
+    paths = [_confined(folder, entry["file"], "image") for entry in entries]
     shape0: tuple[int, ...] = probe_image(paths[0]).shape[:2]
     for path in paths:
         header = probe_image(path)

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.captures import ProjectorInfo
-from hdrfringe.frames import IMAGE_FRAMES, Frame, render_frame
+from hdrfringe.captures import ProjectorInfo, frames_format_version
+from hdrfringe.frames import Frame, render_frame
 from hdrfringe.io.captures import write_side_files
 from hdrfringe.io.results import staged_output_dir
 
@@ -38,8 +38,9 @@ def write_pattern_folder(
     """Render every frame for the projector and write PNGs plus ``manifest.json``.
 
     Each frame's ``file`` is the rendered projector image (gamma pre-compensated, at the
-    projector's bit depth), ``NNN_<stem>.png`` in play order. The manifest is version 1 unless a
-    frame has 2-D data (:data:`hdrfringe.frames.IMAGE_FRAMES`); then it is version 2 and each
+    projector's bit depth), ``NNN_<stem>.png`` in play order. The manifest is of the lowest
+    version that describes the frames (:func:`hdrfringe.captures.frames_format_version`: 1
+    unless a frame has 2-D data, 2 then, 3 for shift angles or a phase offset); with 2-D data each
     such entry also names its side file (the MIGL map or the linear image), written once per
     distinct content (:func:`hdrfringe.io.captures.write_side_files`).
 
@@ -93,7 +94,7 @@ def write_pattern_folder(
     entries = [f.manifest_entry(n) for f, n in zip(frames, names, strict=True)]
     manifest: dict[str, Any] = {
         "format": PATTERN_FORMAT,
-        "version": 2 if any(isinstance(f, IMAGE_FRAMES) for f in frames) else 1,
+        "version": frames_format_version(frames),
         "projector": projector.to_manifest(),
         "frames": entries,
     }

@@ -73,6 +73,17 @@ class ReplayRig(RigBase):
     """
 
     def __init__(self, captures: Captures) -> None:
+        unknown = [
+            f
+            for f in captures.frames
+            if isinstance(f, FringeFrame) and not f.spec.gray_levels_given
+        ]
+        if unknown:  # a MIGL sweep is indexed by the sets' gray levels (capture format v3)
+            raise CaptureFormatError(
+                f"{captures.name}: fringe set {unknown[0].spec.label()} gives no imin/migl, but "
+                "replaying captures for a MIGL strategy needs each set's gray levels; add imin "
+                "and migl to its manifest frames"
+            )
         self.captures = captures
         self.camera_bit_depth = captures.camera_bit_depth
         self.image_shape = captures.image_shape
