@@ -158,9 +158,9 @@ def test_phase_guided_order_with_cleanup_fixes_edge_errors(shift_px: float) -> N
     raw = absolute_phase_graycode(phi, index, stripe_px=100.0, pitch_px=100.0, cleanup=False)
     wrong = raw.order != truth_k
     assert wrong.mean() > 0.005 and np.abs(raw.order - truth_k)[wrong].max() == 1
-    # the naive rule "order = stripe index" is wrong near every phase wrap, too
-    naive = index - np.round((stripe_centre(index, 100.0) - 49.5) / 100.0)
-    assert (naive != truth_k).mean() > wrong.mean()
+    # the naive rule "order = stripe index" (stripe = pitch, aligned) fails at every edge
+    # band and wherever phase noise crosses the wrap
+    assert (index != truth_k).mean() > 0.005
 
 
 def test_complementary_code_needs_no_cleanup() -> None:
