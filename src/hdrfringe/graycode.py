@@ -524,9 +524,9 @@ def absolute_phase_graycode(
             phase = phase + TWO_PI * fix
             corrected += n
     method = (
-        "complementary Gray code (stripe <= p/2): phase-guided order"
+        "complementary Gray code (stripe <= p/2), phase-guided order"
         if complementary
-        else "Gray code + phase-guided order"
+        else "phase-guided order"
     )
     if cleanup:
         method += f", {window}x{window} median cleanup"
