@@ -96,11 +96,14 @@ def test_template_orientations_periods_steps_copied_byte_for_byte(tmp_path: Path
         orientation_names = { vertical = "", horizontal = "h" }
         periods = [4, 8]
         steps = 4
+        imin = 30
+        migl = 210
         """,
     )
     rep = import_captures(cam, desc, tmp_path / "caps")
     frames = rep.manifest["frames"]
     assert rep.manifest["version"] == 1 and len(frames) == 16 and rep.copied == 16
+    assert (frames[0]["imin"], frames[0]["migl"]) == (30.0, 210.0)
     assert [f["pitch"] for f in frames[::4]] == [40.0, 20.0, 30.0, 15.0]  # width/F, height/F
     assert [f["shift"] for f in frames[:4]] == [0, 1, 2, 3]
     assert frames[4]["file"] == "sub/scan_f008_n00.png"
@@ -108,8 +111,8 @@ def test_template_orientations_periods_steps_copied_byte_for_byte(tmp_path: Path
         assert (tmp_path / "caps" / f["file"]).read_bytes() == (cam / f["file"]).read_bytes()
     assert "sub/notes.txt" in rep.ignored
     phases = decoded_phase(tmp_path / "caps")
-    assert_phase_is(phases["s4_p40_v_i0_g255"], 40.0)
-    assert_phase_is(phases["s4_p20_v_i0_g255"], 20.0)
+    assert_phase_is(phases["s4_p40_v_i30_g210"], 40.0)
+    assert_phase_is(phases["s4_p20_v_i30_g210"], 20.0)
 
 
 def test_plain_number_field_matches_any_padding(tmp_path: Path) -> None:
@@ -142,7 +145,9 @@ def test_regex_fallback(tmp_path: Path) -> None:
     )
     rep = import_captures(cam, desc, tmp_path / "caps")
     assert [f["shift"] for f in rep.manifest["frames"]] == [0, 1, 2]
-    assert_phase_is(decoded_phase(tmp_path / "caps")["s3_p12_v_i0_g255"], 12.0)
+    # no imin/migl given: the levels are left out (version 3, "levels unknown")
+    assert rep.manifest["version"] == 3 and "imin" not in rep.manifest["frames"][0]
+    assert_phase_is(decoded_phase(tmp_path / "caps")["s3_p12_v"], 12.0)
 
 
 def test_shifts_minus120_0_120_renumbered_to_version_1(tmp_path: Path) -> None:
@@ -159,6 +164,8 @@ def test_shifts_minus120_0_120_renumbered_to_version_1(tmp_path: Path) -> None:
         files = ["pat00.png", "pat01.png", "pat02.png"]
         pitch = 20
         shifts_deg = [-120, 0, 120]
+        imin = 0
+        migl = 255
         """,
     )
     rep = import_captures(cam, desc, tmp_path / "caps")
@@ -206,12 +213,12 @@ def test_sine_profile_and_arbitrary_shifts_version_3(tmp_path: Path) -> None:
     assert frames[4]["phase_offset_deg"] == 30
     assert [f["shift"] for f in frames[7:]] == [0, 2, 1]  # -120 = index 2
     phases = decoded_phase(tmp_path / "caps")
-    assert_phase_is(phases["s4_p24_v_i0_g255_o-90"], 24.0)
-    assert_phase_is(phases["s3_p18_v_i0_g255_o30_d0_100_200"], 18.0)
-    assert_phase_is(phases["s3_p15_v_i0_g255"], 15.0)
+    assert_phase_is(phases["s4_p24_v_o-90"], 24.0)
+    assert_phase_is(phases["s3_p18_v_o30_d0_100_200"], 18.0)
+    assert_phase_is(phases["s3_p15_v"], 15.0)
     # the importer is what makes this right: read as a plain cosine the sine set is off by pi/2
     naive = np.mod(TWO_PI * projector_x() / 24 - np.pi / 2, TWO_PI)
-    err = np.mod(phases["s4_p24_v_i0_g255_o-90"] - naive + np.pi, TWO_PI) - np.pi
+    err = np.mod(phases["s4_p24_v_o-90"] - naive + np.pi, TWO_PI) - np.pi
     assert np.abs(err).min() > 1.5
 
 
@@ -475,6 +482,9 @@ GOOD = '[camera]\nbit_depth = 8\n[[fringe]]\nfiles = "s{step}.png"\nsteps = 3\np
             id="periods-without-projector",
         ),
         pytest.param(GOOD.replace("= 8", "= "), ("not a valid TOML",), id="bad-toml"),
+        pytest.param(
+            GOOD + "migl = 200\n", ("give both 'imin' and 'migl' or neither",), id="one-level"
+        ),
         pytest.param(
             GOOD.replace("bit_depth = 8", "bit_depth = 6"),
             ("values reach 210, above 2^B - 1 = 63", "camera.bit_depth in the description"),

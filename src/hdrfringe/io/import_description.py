@@ -624,16 +624,25 @@ def _fringe_group(
     levels = [_num(v, where, level_key, positive=True) for v in _list(t[level_key])]
     if len(set(levels)) != len(levels):
         raise _fail(where, f"a value of '{level_key}' is listed twice", "list each once")
-    full = float((1 << int(projector["bit_depth"])) - 1)
-    imin = _num(t.get("imin", 0.0), where, "imin")
-    migl = _num(t.get("migl", full), where, "migl")
-    if not 0 <= imin < migl <= full:
+    # gray levels: both or neither (then not written: capture format version 3, "levels unknown")
+    extra: dict[str, Any] = {}
+    if ("imin" in t) != ("migl" in t):
         raise _fail(
             where,
-            f"need 0 <= imin < migl <= {full:g}, got imin={imin:g}, migl={migl:g}",
-            "fix the gray levels (or the projector bit_depth)",
+            "give both 'imin' and 'migl' or neither",
+            "leave both out when the pattern's gray levels are not known",
         )
-    extra: dict[str, Any] = {}
+    if "imin" in t:
+        full = float((1 << int(projector["bit_depth"])) - 1)
+        imin = _num(t["imin"], where, "imin")
+        migl = _num(t["migl"], where, "migl")
+        if not 0 <= imin < migl <= full:
+            raise _fail(
+                where,
+                f"need 0 <= imin < migl <= {full:g}, got imin={imin:g}, migl={migl:g}",
+                "fix the gray levels (or the projector bit_depth)",
+            )
+        extra.update(imin=imin, migl=migl)
     for k in ("gamma_precompensation", "exposure_ms"):
         if k in t:
             extra[k] = _num(t[k], where, k, positive=True)
@@ -680,8 +689,6 @@ def _fringe_group(
                     "steps": steps,
                     "pitch": pitch,
                     "orientation": o,
-                    "imin": imin,
-                    "migl": migl,
                     **extra,
                     # the phase convention of this frame, resolved by the importer
                     "_shift_deg": sign * shifts[step],

@@ -728,7 +728,11 @@ def import_captures(
     if any(e.get("kind") in ("pixelwise_fringe", "image") for e in entries):
         version = 2
     if any(
-        "shift_deg" in e or "phase_offset_deg" in e or e.get("kind") == "graycode" for e in entries
+        "shift_deg" in e
+        or "phase_offset_deg" in e
+        or e.get("kind") == "graycode"
+        or (e.get("kind") == "fringe" and "imin" not in e)
+        for e in entries
     ):
         version = 3
     manifest: dict[str, Any] = {
