@@ -713,3 +713,18 @@ def test_npz_header_bomb_refused_before_inflating(tmp_path: Path) -> None:
         "stack_frames = [0]\nlevel = 0\n",
     )
     assert_refused(tmp_path, cam, desc, "more than the 2147483648 pixels")
+
+
+def test_pattern_manifest_side_file_outside_refused(tmp_path: Path, cam3: Path) -> None:
+    pat = tmp_path / "pat"
+    pat.mkdir()
+    entry = {"file": "000_a.png", "kind": "image", "name": "a", "image": "../outside.png"}
+    manifest = {"format": "hdrfringe-patterns", "version": 2, "frames": [entry] * 3}
+    (pat / "manifest.json").write_text(json.dumps(manifest))
+    assert_refused(
+        tmp_path,
+        cam3,
+        pat / "manifest.json",
+        "outside the pattern folder",
+        extra=("--bit-depth", "8"),
+    )

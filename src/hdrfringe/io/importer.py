@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import posixpath
 import re
 import shutil
 import warnings
@@ -32,7 +33,7 @@ from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
 from hdrfringe.io.captures import load_image, load_side_file, read_manifest
 from hdrfringe.io.import_description import Description, FrameGroup, Template, read_description
 from hdrfringe.io.pattern_folder import PATTERN_FORMAT
-from hdrfringe.io.results import staged_output_dir
+from hdrfringe.io.results import check_output_against_inputs, staged_output_dir
 from hdrfringe.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS, MAX_PROGRAM_FRAMES
 
 __all__ = [
@@ -256,7 +257,7 @@ def _inside(root: Path, rel: str, where: str) -> Path:
     target = path.resolve()
     if target != real_root and not target.is_relative_to(real_root):
         raise InputError(
-            f"{where}: {rel!r} lies outside the images folder {root}; give paths inside it"
+            f"{where}: {rel!r} lies outside the folder {root}; give paths inside it"
         )
     return path
 
@@ -610,10 +611,17 @@ def _pattern_frames(
             "image per frame"
         )
     side: list[tuple[str, Path]] = []
-    for entry in frames:
+    for i, entry in enumerate(frames):
         for key in ("migl_map", "image"):
             if key in entry and isinstance(entry[key], str):
-                side.append((entry[key], manifest_path.parent / entry[key]))
+                rel = posixpath.normpath(entry[key].replace("\\", "/"))
+                if posixpath.isabs(rel) or rel == ".." or rel.startswith("../"):
+                    raise InputError(
+                        f"{where}: frame {i} names side file {entry[key]!r} outside the pattern "
+                        "folder; side files must stay inside it"
+                    )
+                path = _inside(manifest_path.parent, rel, f"{where} frame {i}")
+                side.append((rel, path))
     entries = [{k: v for k, v in f.items() if k != "file"} for f in frames]
     return entries, [_Source(f) for f in images], manifest.get("projector", {}), side
 
@@ -688,6 +696,7 @@ def import_captures(
     root = Path(images)
     desc_path = Path(description)
     output = Path(output)
+    check_output_against_inputs(output, [root, desc_path])
     files = discover_images(root)
     if desc_path.suffix.lower() == ".json":
         if bit_depth is None:
