@@ -103,7 +103,7 @@ def assert_offset_of(ours: np.ndarray, ref: PhaseResult, imgs: np.ndarray, const
     valid = np.isfinite(ours)
     np.testing.assert_array_equal(valid[~tie], ref.valid[~tie])
     both = valid & ref.valid
-    assert both.sum() > 0.5 * valid.size
+    assert both.sum() > 0.3 * valid.size  # not vacuous (the checkerboard: 42 % valid)
     d = wrapped_diff(ours[both], ref.wrapped_phase[both] + constant)
     assert np.abs(d).max() < 1e-5, np.abs(d).max()
 
