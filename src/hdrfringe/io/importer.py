@@ -256,9 +256,7 @@ def _inside(root: Path, rel: str, where: str) -> Path:
     real_root = root.resolve()
     target = path.resolve()
     if target != real_root and not target.is_relative_to(real_root):
-        raise InputError(
-            f"{where}: {rel!r} lies outside the folder {root}; give paths inside it"
-        )
+        raise InputError(f"{where}: {rel!r} lies outside the folder {root}; give paths inside it")
     return path
 
 
