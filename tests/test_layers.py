@@ -36,6 +36,7 @@ LAYERS: dict[str, int] = {
     "captures": CORE,
     "phase": CORE,
     "unwrap": CORE,
+    "graycode": CORE,
     "calibration": CORE,
     "reconstruct": CORE,
     "gamma": CORE,

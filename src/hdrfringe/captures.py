@@ -29,6 +29,7 @@ from hdrfringe.frames import (
     CenterlineFrame,
     Frame,
     FringeFrame,
+    GrayCodeFrame,
     PixelwiseFringeFrame,
     UniformFrame,
     frame_from_manifest,
@@ -46,9 +47,11 @@ __all__ = [
     "CameraSettings",
     "Captures",
     "FringeSet",
+    "GrayCodeSet",
     "ProjectorInfo",
     "frames_format_version",
     "group_fringe_sets",
+    "group_graycode_sets",
 ]
 
 #: The capture manifest's ``format`` field (docs/capture_format.md).
@@ -434,7 +437,7 @@ def frames_format_version(frames: Sequence[Frame], gain_db: Sequence[float | Non
 
     The one place that decides it, for capture folders (:attr:`Captures.format_version`) and
     pattern folders alike: 3 when a fringe set declares shift angles or a phase offset, or
-    leaves out its gray levels; else 2 when a frame has 2-D data
+    leaves out its gray levels, or a frame is Gray code; else 2 when a frame has 2-D data
     (:data:`hdrfringe.frames.IMAGE_FRAMES`) or a gain is recorded; else 1
     (docs/capture_format.md).
 
@@ -463,6 +466,8 @@ def frames_format_version(frames: Sequence[Frame], gain_db: Sequence[float | Non
         for f in frames
     ):
         needs.append(3)  # shift angles, phase offset, gray levels left out
+    if any(isinstance(f, GrayCodeFrame) for f in frames):
+        needs.append(3)  # Gray-code frames (docs/capture_format.md, "Version 3 extensions")
     if any(isinstance(f, IMAGE_FRAMES) for f in frames):
         needs.append(2)
     if any(g is not None for g in gain_db):
@@ -489,6 +494,135 @@ def _frame_or_fail(
         return frame
     except HdrFringeError as exc:
         raise CaptureFormatError(f"manifest frame {i} ({entry.get('file')}): {exc}") from None
+
+
+@dataclass(frozen=True)
+class GrayCodeSet:
+    """The complete Gray code of one orientation inside a :class:`Captures`.
+
+    Parameters
+    ----------
+    orientation : {"vertical", "horizontal"}
+    bits : int
+        Number of bits.
+    stripe_px : float
+        The code's cell width in projector pixels.
+    code : {"gray", "binary"}
+    frame_indices : tuple of int
+        Index into :attr:`Captures.frames` of each bit's pattern, least significant bit first.
+    inverse_indices : tuple of int or None
+        Index of each bit's inverse, same order; None when the code has no inverses (bits are
+        then decided against a threshold, docs/graycode.md).
+
+    Notes
+    -----
+    Decoded by :func:`hdrfringe.graycode.decode_graycode`; conventions in docs/graycode.md.
+
+    Examples
+    --------
+    >>> from hdrfringe.frames import opencv_graycode_frames
+    >>> gc = group_graycode_sets(opencv_graycode_frames(16, 8, 2.0))
+    >>> [(g.orientation, g.bits, g.frame_indices, g.inverse_indices) for g in gc]
+    [('vertical', 3, (4, 2, 0), (5, 3, 1)), ('horizontal', 2, (8, 6), (9, 7))]
+    """
+
+    orientation: str
+    bits: int
+    stripe_px: float
+    code: str
+    frame_indices: tuple[int, ...]
+    inverse_indices: tuple[int, ...] | None
+
+
+def group_graycode_sets(
+    frames: Sequence[Frame], names: Sequence[str] | None = None
+) -> list[GrayCodeSet]:
+    """Group the Gray-code frames into one complete code per orientation.
+
+    Parameters
+    ----------
+    frames : sequence of Frame
+        Only the :class:`~hdrfringe.frames.GrayCodeFrame` entries are grouped.
+    names : sequence of str, optional
+        Per-frame names for the messages (e.g. the image files); default ``frame <index>``.
+
+    Returns
+    -------
+    list of GrayCodeSet
+        Vertical first.
+
+    Raises
+    ------
+    CaptureFormatError
+        Two different codes for one orientation, a bit given twice, a missing bit, or an
+        inverse without its pattern (or pattern without inverse, when the code has inverses).
+
+    Notes
+    -----
+    The capture-folder contract, version 3 (docs/capture_format.md, "Gray-code frames").
+
+    Examples
+    --------
+    >>> from hdrfringe.frames import GrayCodeFrame
+    >>> group_graycode_sets([GrayCodeFrame("vertical", 1, 2, 8.0)])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.CaptureFormatError: vertical Gray code: bit 0 of 0..1 is missing; ...
+    """
+    frame_names = [f"frame {i}" for i in range(len(frames))] if names is None else list(names)
+    by_orient: dict[str, list[int]] = {}
+    for i, f in enumerate(frames):
+        if isinstance(f, GrayCodeFrame):
+            by_orient.setdefault(f.orientation, []).append(i)
+    out: list[GrayCodeSet] = []
+    for orient in ("vertical", "horizontal"):
+        idx = by_orient.get(orient)
+        if not idx:
+            continue
+        first = frames[idx[0]]
+        assert isinstance(first, GrayCodeFrame)
+        where = f"{orient} Gray code"
+        slots: dict[tuple[int, bool], int] = {}
+        for i in idx:
+            f = frames[i]
+            assert isinstance(f, GrayCodeFrame)
+            if f.set_key() != first.set_key():
+                raise CaptureFormatError(
+                    f"{where}: {frame_names[i]} has another code (bits, stripe, code, migl or "
+                    f"convention) than {frame_names[idx[0]]}; give one code per orientation"
+                )
+            key = (f.bit, f.inverse)
+            if key in slots:
+                kind = "inverse" if f.inverse else "pattern"
+                raise CaptureFormatError(
+                    f"{where}: bit {f.bit} {kind} given twice ({frame_names[slots[key]]} and "
+                    f"{frame_names[i]}); remove one"
+                )
+            slots[key] = i
+        has_inverse = any(inv for _, inv in slots)
+        for bit in range(first.bits):
+            if (bit, False) not in slots:
+                what = " (its inverse is there)" if (bit, True) in slots else ""
+                raise CaptureFormatError(
+                    f"{where}: bit {bit} of 0..{first.bits - 1} is missing{what}; "
+                    "add its frame or lower 'bits'"
+                )
+            if has_inverse and (bit, True) not in slots:
+                raise CaptureFormatError(
+                    f"{where}: bit {bit} has no inverse ({frame_names[slots[(bit, False)]]}) but "
+                    "other bits have one; give every bit its inverse or none"
+                )
+        out.append(
+            GrayCodeSet(
+                orient,
+                first.bits,
+                first.stripe_px,
+                first.code,
+                tuple(slots[(b, False)] for b in range(first.bits)),
+                tuple(slots[(b, True)] for b in range(first.bits)) if has_inverse else None,
+            )
+        )
+    return out
 
 
 def _check_projector_frames(
@@ -674,6 +808,7 @@ class Captures:
             gamma_precompensation=gamma,
             gain_db=gain,
         )
+        group_graycode_sets(frames)  # a missing bit or an unpaired inverse: refused here
         for attr, value in (
             ("frames", frames),
             ("images", images),
@@ -747,6 +882,24 @@ class Captures:
         ndarray
         """
         return self.images[list(fringe_set.frame_indices)]
+
+    def graycode_sets(self) -> list[GrayCodeSet]:
+        """The Gray code of each orientation (:func:`group_graycode_sets`), vertical first.
+
+        Returns
+        -------
+        list of GrayCodeSet
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from hdrfringe.frames import opencv_graycode_frames
+        >>> frames = opencv_graycode_frames(8, 2, 2.0)
+        >>> caps = Captures(frames, np.zeros((len(frames), 2, 2), np.uint8), 8)
+        >>> [(g.orientation, g.bits) for g in caps.graycode_sets()]
+        [('vertical', 2)]
+        """
+        return group_graycode_sets(self.frames)
 
     def centerlines(self) -> list[tuple[CenterlineFrame, NDArray[Any]]]:
         """Every centerline frame with its image, in frame order.
@@ -972,6 +1125,7 @@ class Captures:
                 names=names,
                 gain_db=gain,
             )
+        group_graycode_sets(frames, names=names)
         camera = manifest["camera"]
         projector = manifest.get("projector")
         return cls(

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe._validation import full_scale
 from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.graycode import CODES, MAX_BITS, bits_needed, code_bit
 from hdrfringe.patterns import (
     ORIENTATIONS,
     FringeSpec,
@@ -45,12 +46,14 @@ __all__ = [
     "CenterlineFrame",
     "Frame",
     "FringeFrame",
+    "GrayCodeFrame",
     "ImageFrame",
     "LineFrame",
     "PixelwiseFringeFrame",
     "UniformFrame",
     "frame_axis",
     "frame_from_manifest",
+    "opencv_graycode_frames",
     "render_frame",
     "sample_bilinear",
 ]
@@ -738,16 +741,6 @@ class ImageFrame:
         return f"image_{safe}"
 
 
-#: A frame that varies along one projector axis (separable fast path).
-LineFrame = FringeFrame | CenterlineFrame | UniformFrame
-#: Any frame the projector can show.
-Frame = FringeFrame | CenterlineFrame | UniformFrame | PixelwiseFringeFrame | ImageFrame
-#: The line-frame classes, for ``isinstance``.
-LINE_FRAMES = (FringeFrame, CenterlineFrame, UniformFrame)
-#: The classes of frames with 2-D data stored in a side file, for ``isinstance``.
-IMAGE_FRAMES = (PixelwiseFringeFrame, ImageFrame)
-
-
 def frame_axis(frame: Frame) -> Orientation:
     """Orientation of a line frame's varying axis ("vertical" for a uniform frame).
 
@@ -776,7 +769,7 @@ def frame_axis(frame: Frame) -> Orientation:
         return "vertical"
     if isinstance(frame, FringeFrame):
         return frame.spec.orientation
-    if isinstance(frame, CenterlineFrame):
+    if isinstance(frame, CenterlineFrame | GrayCodeFrame):
         return frame.orientation
     raise InputError(
         f"a {type(frame).__name__} varies along both projector axes; it has no single axis "
@@ -934,6 +927,8 @@ def frame_from_manifest(
         )
     if kind == "uniform":
         return UniformFrame(float(entry["level"]))
+    if kind == "graycode":
+        return GrayCodeFrame.from_manifest(entry)
     if kind in ("pixelwise_fringe", "image"):
         data_field = "migl_map" if kind == "pixelwise_fringe" else "image"
         path = entry[data_field]
@@ -956,7 +951,8 @@ def frame_from_manifest(
             )
         return frame
     raise InputError(
-        f"unknown frame kind {kind!r}; use fringe, centerline, uniform, pixelwise_fringe or image"
+        f"unknown frame kind {kind!r}; use fringe, centerline, uniform, pixelwise_fringe, image "
+        "or graycode"
     )
 
 
@@ -1044,3 +1040,249 @@ def _num(v: float) -> float | int:
     """JSON-friendly number: an int when integral."""
     f = float(v)
     return int(f) if f.is_integer() else f
+
+
+@dataclass(frozen=True)
+class GrayCodeFrame(_LineFrameMethods):
+    """Bit ``bit`` of a ``bits``-bit stripe code (Gray or binary), or its inverse (a line frame).
+
+    Projector pixel ``x`` (column for vertical stripes, row for horizontal) lies in stripe
+    ``m = floor(x / stripe_px)``; the frame is at ``migl`` where bit ``bit`` of the code word of
+    ``m`` (:func:`hdrfringe.graycode.binary_to_gray` of ``m`` for ``code="gray"``, ``m`` for
+    ``"binary"``) is 1, and 0 elsewhere; the inverse frame the other way round. Conventions:
+    docs/graycode.md.
+
+    Parameters
+    ----------
+    orientation : {"vertical", "horizontal"}
+        ``"vertical"``: stripes vary along projector x (OpenCV's column images).
+    bit : int
+        Bit significance, 0 = least significant (stripes of ``stripe_px``).
+    bits : int
+        Number of bits of the code (1..24).
+    stripe_px : float
+        The code's cell width in projector pixels (the least significant stripe width).
+    inverse : bool
+        The inverse pattern (lit where the bit is 0).
+    code : {"gray", "binary"}
+        Binary-reflected Gray code or plain binary.
+    migl : float
+        Gray level of the lit stripes (dark stripes are 0).
+    convention : str, optional
+        A label of the program that made the code (e.g. ``"opencv"``); recorded, not used.
+
+    References
+    ----------
+    Thesis Sec. 2.5 (absolute phase); Sansoni et al. (1999) Appl. Opt. 38, 6565.
+
+    Examples
+    --------
+    >>> GrayCodeFrame("vertical", 0, 3, 2.0).render(8, 1).tolist()
+    [[0, 0, 255, 255, 255, 255, 0, 0]]
+    >>> GrayCodeFrame("vertical", 0, 3, 2.0, inverse=True).gray([0.0, 2.0]).tolist()
+    [255.0, 0.0]
+    """
+
+    orientation: Orientation
+    bit: int
+    bits: int
+    stripe_px: float
+    inverse: bool = False
+    code: str = "gray"
+    migl: float = 255.0
+    convention: str | None = None
+
+    kind: str = field(default="graycode", init=False)
+
+    def __post_init__(self) -> None:
+        if self.orientation not in ORIENTATIONS:
+            raise InputError(
+                f"unknown orientation {self.orientation!r}; use one of {', '.join(ORIENTATIONS)}"
+            )
+        for name in ("bit", "bits"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | np.integer):
+                raise InputError(f"Gray-code {name} must be an integer, got {v!r}")
+        if not 1 <= self.bits <= MAX_BITS:
+            raise InputError(f"Gray-code bits must be 1..{MAX_BITS}, got {self.bits}")
+        if not 0 <= self.bit < self.bits:
+            raise InputError(f"Gray-code bit {self.bit} is outside 0..{self.bits - 1}")
+        s = float(self.stripe_px)
+        if not (np.isfinite(s) and s > 0):
+            raise InputError(f"Gray-code stripe must be a positive width, got {self.stripe_px!r}")
+        if self.code not in CODES:
+            raise InputError(f"unknown code {self.code!r}; use one of {', '.join(CODES)}")
+        if not (np.isfinite(self.migl) and self.migl > 0):
+            raise InputError(f"Gray-code migl must be a positive gray level, got {self.migl!r}")
+        if self.convention is not None and not isinstance(self.convention, str):
+            raise InputError(f"convention must be a string label, got {self.convention!r}")
+        object.__setattr__(self, "bit", int(self.bit))
+        object.__setattr__(self, "bits", int(self.bits))
+        object.__setattr__(self, "stripe_px", s)
+        object.__setattr__(self, "inverse", bool(self.inverse))
+        object.__setattr__(self, "migl", float(self.migl))
+
+    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
+        """Linear gray level at projector coordinates across the stripes.
+
+        Parameters
+        ----------
+        coord : array_like
+            Projector column (vertical stripes) or row; pixel centres at integers.
+
+        Returns
+        -------
+        ndarray of float64
+        """
+        lit = code_bit(coord, self.bit, self.stripe_px, self.code) != self.inverse
+        return np.where(lit, self.migl, 0.0)
+
+    def _check_levels(self, bit_depth: int) -> None:
+        full = full_scale(bit_depth, "projector bit depth")
+        if self.migl > full:
+            raise InputError(
+                f"Gray-code migl {self.migl:g} exceeds the projector's maximum {full} at "
+                f"{bit_depth} bits"
+            )
+
+    def set_key(self) -> tuple[Any, ...]:
+        """What the frames of one code share: orientation, bits, stripe, code, migl, convention.
+
+        Returns
+        -------
+        tuple
+        """
+        return (self.orientation, self.bits, self.stripe_px, self.code, self.migl, self.convention)
+
+    def manifest_entry(self, file: str) -> dict[str, Any]:
+        """The frame's capture-manifest entry (docs/capture_format.md, version 3).
+
+        Parameters
+        ----------
+        file : str
+            Image file name the entry refers to.
+
+        Returns
+        -------
+        dict
+        """
+        entry: dict[str, Any] = {
+            "file": file,
+            "kind": "graycode",
+            "orientation": self.orientation,
+            "bit": self.bit,
+            "bits": self.bits,
+            "stripe": _num(self.stripe_px),
+            "inverse": self.inverse,
+            "code": self.code,
+            "migl": _num(self.migl),
+        }
+        if self.convention is not None:
+            entry["convention"] = self.convention
+        return entry
+
+    @classmethod
+    def from_manifest(cls, entry: dict[str, Any]) -> GrayCodeFrame:
+        """From a (validated) ``graycode`` manifest entry; absent optional fields take defaults.
+
+        Parameters
+        ----------
+        entry : dict
+            ``orientation``, ``bit``, ``bits``, ``stripe``; optional ``inverse`` (false),
+            ``code`` ("gray"), ``migl`` (255), ``convention``.
+
+        Returns
+        -------
+        GrayCodeFrame
+
+        Examples
+        --------
+        >>> GrayCodeFrame.from_manifest({"kind": "graycode", "orientation": "horizontal",
+        ...     "bit": 2, "bits": 4, "stripe": 114}).stripe_px
+        114.0
+        """
+        return cls(
+            orientation=entry["orientation"],
+            bit=int(entry["bit"]),
+            bits=int(entry["bits"]),
+            stripe_px=float(entry["stripe"]),
+            inverse=bool(entry.get("inverse", False)),
+            code=str(entry.get("code", "gray")),
+            migl=float(entry.get("migl", 255.0)),
+            convention=entry.get("convention"),
+        )
+
+    def default_name(self) -> str:
+        """A file-name-safe stem, e.g. ``gc_v_s100_b4of5_inv``.
+
+        Returns
+        -------
+        str
+        """
+        name = f"gc_{self.orientation[0]}_s{self.stripe_px:g}_b{self.bit}of{self.bits}"
+        if self.code != "gray":
+            name += f"_{self.code}"
+        return (name + ("_inv" if self.inverse else "")).replace(".", "p")
+
+
+def opencv_graycode_frames(
+    width: int, height: int, stripe_px: float = 1.0, migl: float = 255.0
+) -> list[GrayCodeFrame]:
+    """The frames OpenCV's ``structured_light::GrayCodePattern`` projects, in its order.
+
+    OpenCV's pattern for ``ceil(width / stripe_px) x ceil(height / stripe_px)`` code cells,
+    each cell scaled up to ``stripe_px`` projector pixels: the column (vertical-stripe) bits,
+    then the row bits, most significant first, each as (pattern, inverse), the pattern lit
+    where the binary-reflected Gray bit is 1. White and black images, which OpenCV makes
+    separately (``getImagesForShadowMasks``), are ``UniformFrame(migl)`` and ``UniformFrame(0)``.
+
+    Parameters
+    ----------
+    width, height : int
+        Projector resolution.
+    stripe_px : float
+        Projector pixels per code cell (1: OpenCV at the projector's resolution).
+    migl : float
+        Gray level of the lit stripes.
+
+    Returns
+    -------
+    list of GrayCodeFrame
+
+    Examples
+    --------
+    kamino410/phase-shifting's object1 (1920x1080, 100 px cells): 5 column and 4 row bits.
+
+    >>> frames = opencv_graycode_frames(1920, 1080, 100.0)
+    >>> len(frames), frames[0].bit, frames[1].inverse, frames[10].orientation
+    (18, 4, True, 'horizontal')
+    """
+    out: list[GrayCodeFrame] = []
+    for orient, extent in (("vertical", width), ("horizontal", height)):
+        n = bits_needed(extent, stripe_px)
+        for bit in range(n - 1, -1, -1):
+            for inverse in (False, True):
+                out.append(
+                    GrayCodeFrame(
+                        orient,  # type: ignore[arg-type]
+                        bit,
+                        n,
+                        stripe_px,
+                        inverse=inverse,
+                        migl=migl,
+                        convention="opencv",
+                    )
+                )
+    return out
+
+
+#: A frame that varies along one projector axis (separable fast path).
+LineFrame = FringeFrame | CenterlineFrame | UniformFrame | GrayCodeFrame
+#: Any frame the projector can show.
+Frame = (
+    FringeFrame | CenterlineFrame | UniformFrame | PixelwiseFringeFrame | ImageFrame | GrayCodeFrame
+)
+#: The line-frame classes, for ``isinstance``.
+LINE_FRAMES = (FringeFrame, CenterlineFrame, UniformFrame, GrayCodeFrame)
+#: The classes of frames with 2-D data stored in a side file, for ``isinstance``.
+IMAGE_FRAMES = (PixelwiseFringeFrame, ImageFrame)

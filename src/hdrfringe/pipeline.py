@@ -496,6 +496,10 @@ class MeasurementMetrics:
         Stages not run, and why.
     notes : tuple of str
         What the decoding and the outputs need said.
+    regions : dict or None
+        With spatial unwrapping of the primary family: its regions
+        (:meth:`FamilyResult.regions_summary <hdrfringe.process.FamilyResult.regions_summary>`:
+        ``islands`` flag, ``count``, ``pixels``, ...).
 
     References
     ----------
@@ -526,6 +530,7 @@ class MeasurementMetrics:
     dpa: DPAMetrics | None = None
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    regions: Mapping[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """``metrics.json``: the fields that apply, in a fixed order, JSON-safe.
@@ -566,6 +571,8 @@ class MeasurementMetrics:
             d.update(self.strategy.to_dict())
         if self.dpa is not None:
             d["dpa"] = self.dpa.to_dict()
+        if self.regions is not None:
+            d["regions"] = dict(self.regions)
         d["skipped"] = list(self.skipped)
         d["notes"] = list(self.notes)
         return _json_safe(d)
@@ -678,6 +685,7 @@ def _measure_captures(
             sat |= decoded.set_results[s.label].saturation_count > 0
         fields["saturated_fraction"] = float(sat.mean())
         fields["phase_valid_fraction"] = float(decoded.set_results[fam.sets[-1].label].valid.mean())
+        fields["regions"] = fam.regions_summary()
     if calibration is None:
         return decoded, None, fields
     phi, spec = _absolute_phase(caps, decoded)

@@ -16,20 +16,39 @@ Rules (documented in docs/phase.md):
   With one pitch, the phase is unwrapped spatially.
 * The absolute phase ``2*pi*x/p`` comes from a centerline frame of the same orientation
   (thesis Eq. 2.12-2.13), or directly when the coarsest set spans the projector with one period.
+* Gray code (docs/graycode.md): when the captures hold a Gray code of the family's orientation
+  and the coarsest set does not span the projector, the coarsest set's fringe order comes from
+  the Gray code, pixel by pixel (:func:`hdrfringe.graycode.absolute_phase_graycode`), instead
+  of from spatial unwrapping, and the finer sets follow temporally. What wins: a one-period set
+  (temporal unwrapping from an absolute coarse level, which needs no binarisation) first, then
+  Gray code, then spatial unwrapping (with a centerline for the absolute phase). A Gray code
+  whose stripe is wider than the coarsest pitch cannot fix its order: it is not used (a note
+  says so).
+* Islands: where the order comes from spatial unwrapping, the valid area is split into regions
+  separated by invalid pixels or phase discontinuities (:func:`hdrfringe.unwrap.phase_regions`);
+  with two or more, their relative fringe order is unknown, and a note says so.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import check_min_modulation
-from hdrfringe.captures import Captures, FringeSet
+from hdrfringe._validation import check_min_modulation, full_scale
+from hdrfringe.captures import Captures, FringeSet, GrayCodeSet
+from hdrfringe.graycode import GrayCodeDecode, absolute_phase_graycode, decode_graycode
 from hdrfringe.phase import PhaseResult, decode_set
-from hdrfringe.unwrap import absolute_phase_from_centerline, unwrap_spatial, unwrap_temporal
+from hdrfringe.unwrap import (
+    PhaseRegions,
+    absolute_phase_from_centerline,
+    phase_regions,
+    unwrap_spatial,
+    unwrap_temporal,
+)
 
 __all__ = ["FamilyResult", "FolderPhase", "decode_captures", "group_families"]
 
@@ -55,6 +74,14 @@ class FamilyResult:
         How the phase was unwrapped, for reports.
     absolute_method : str or None
         How the absolute phase was obtained, for reports; None with ``absolute_phase``.
+    unwrapping : {"one-period", "graycode", "spatial"}
+        Where the coarsest set's fringe order came from: a set spanning the projector, the
+        Gray code, or spatial unwrapping (finer sets always follow temporally).
+    regions : PhaseRegions or None
+        With spatial unwrapping: the regions whose relative fringe order is unknown
+        (:func:`hdrfringe.unwrap.phase_regions`); None otherwise.
+    graycode_valid : ndarray of bool, shape (H, W), or None
+        With Gray code: the pixels whose code was decoded.
 
     References
     ----------
@@ -87,6 +114,35 @@ class FamilyResult:
     absolute_phase: NDArray[np.float64] | None
     method: str
     absolute_method: str | None
+    unwrapping: str = "spatial"
+    regions: PhaseRegions | None = None
+    graycode_valid: NDArray[np.bool_] | None = None
+
+    @property
+    def islands(self) -> bool:
+        """Whether spatial unwrapping left two or more regions of unknown relative order."""
+        return self.regions is not None and self.regions.islands
+
+    def regions_summary(self) -> dict[str, Any] | None:
+        """The regions in JSON form (``metrics.json``, ``phase_summary.json``), None without.
+
+        Returns
+        -------
+        dict or None
+            ``islands`` (flag: two or more significant regions, relative order unknown),
+            ``count`` (significant regions), ``pixels`` (their pixel counts, largest first),
+            ``specks`` and ``speck_pixels`` (the smaller regions).
+        """
+        r = self.regions
+        if r is None:
+            return None
+        return {
+            "islands": r.islands,
+            "count": r.significant,
+            "pixels": list(r.sizes[: r.significant]),
+            "specks": len(r.sizes) - r.significant,
+            "speck_pixels": int(sum(r.sizes[r.significant :])),
+        }
 
 
 @dataclass
@@ -251,6 +307,7 @@ def decode_captures(
     if not captures.sets:
         out.notes.append("no fringe sets: nothing to decode")
         return out
+    codes = {g.orientation: g for g in captures.graycode_sets()}
     for fam in group_families(captures.sets):
         orient = fam[0].spec.orientation
         coarse = fam[0]
@@ -259,12 +316,32 @@ def decode_captures(
             extent = captures.projector.width if orient == "vertical" else captures.projector.height
         spans = extent is not None and coarse.spec.pitch_px >= extent
         coarse_phase = results[coarse.label].wrapped_phase
+        code = None if spans else codes.get(orient)
+        if code is not None and code.stripe_px > coarse.spec.pitch_px:
+            out.notes.append(
+                f"{orient} fringes: the Gray code's stripe ({code.stripe_px:g} px) is wider than "
+                f"the coarsest pitch ({coarse.spec.pitch_px:g} px), so it cannot fix the fringe "
+                "order; not used"
+            )
+            code = None
+        gc_valid = None
         if spans:
             base = coarse_phase
             method = "coarse set spans the projector with one period"
+            unwrapping = "one-period"
+        elif code is not None:
+            gdec, how = _decode_graycode(captures, code, results[coarse.label])
+            gc_phase = absolute_phase_graycode(
+                coarse_phase, gdec.index, stripe_px=code.stripe_px, pitch_px=coarse.spec.pitch_px
+            )
+            base = gc_phase.phase
+            gc_valid = gdec.valid
+            method = f"Gray code + phase ({gc_phase.method}; bits {how})"
+            unwrapping = "graycode"
         else:
             base = unwrap_spatial(coarse_phase)
             method = "spatial"
+            unwrapping = "spatial"
         if len(fam) > 1:
             phases = [base] + [results[s.label].wrapped_phase for s in fam[1:]]
             unwrapped = unwrap_temporal(
@@ -281,6 +358,12 @@ def decode_captures(
         if spans:
             absolute = unwrapped
             abs_method = "one-period coarse set"
+        elif code is not None:
+            absolute = unwrapped
+            abs_method = (
+                f"Gray code ({code.bits} bits, stripe {code.stripe_px:g} px) + phase of the "
+                f"{coarse.spec.pitch_px:g} px set"
+            )
         else:
             lines = [(f, img) for f, img in captures.centerlines() if f.orientation == orient]
             if lines:
@@ -293,7 +376,77 @@ def decode_captures(
                 out.notes.append(
                     f"{orient} fringes: no {orient} centerline frame, so no absolute phase"
                 )
+        regions = None
+        if unwrapping == "spatial":
+            regions = phase_regions(
+                [results[s.label].wrapped_phase for s in fam], np.isfinite(unwrapped)
+            )
+            if regions.islands:
+                sizes = ", ".join(str(v) for v in regions.sizes[: regions.significant])
+                out.notes.append(
+                    f"{orient} fringes: the valid area falls into {regions.significant} separate "
+                    f"regions ({sizes} pixels); spatial unwrapping cannot relate their fringe "
+                    "orders, so their phases are not comparable (see the region map; a Gray "
+                    "code or a one-period set gives every pixel its absolute order)"
+                )
         out.families.append(
-            FamilyResult(orient, finest.spec.pitch_px, fam, unwrapped, absolute, method, abs_method)
+            FamilyResult(
+                orient,
+                finest.spec.pitch_px,
+                fam,
+                unwrapped,
+                absolute,
+                method,
+                abs_method,
+                unwrapping,
+                regions,
+                gc_valid,
+            )
         )
     return out
+
+
+def _decode_graycode(
+    captures: Captures, code: GrayCodeSet, fringe: PhaseResult
+) -> tuple[GrayCodeDecode, str]:
+    """Stripe index of every pixel and how its bits were decided (docs/graycode.md).
+
+    Inverse pairs: ``pattern > inverse``. Otherwise a threshold: ``(white + black) / 2`` from
+    uniform frames at the code's level and at 0; without them, the mean intensity of the
+    family's coarsest fringe set (the level halfway between its dark and bright stripes when
+    the fringes span the code's levels), with ``2 I'`` as the contrast.
+    """
+    fs = full_scale(captures.camera_bit_depth)
+    min_contrast = 5.0 * fs / 255.0  # OpenCV's default "white threshold", 5 DN at 8 bits
+    images = captures.images.astype(np.float64)
+    pattern = images[list(code.frame_indices)]
+    if code.inverse_indices is not None:
+        dec = decode_graycode(
+            pattern,
+            inverses=images[list(code.inverse_indices)],
+            code=code.code,
+            min_contrast=min_contrast,
+            full_scale=fs,
+        )
+        return dec, "from pattern/inverse pairs"
+    uniforms = captures.uniforms()
+    whites = [img for f, img in uniforms if f.level > 0]
+    blacks = [img for f, img in uniforms if f.level == 0]
+    if whites and blacks:
+        top = max(f.level for f, _ in uniforms)
+        white = next(img for f, img in uniforms if f.level == top).astype(np.float64)
+        black = blacks[0].astype(np.float64)
+        threshold, contrast = (white + black) / 2, white - black
+        how = f"against (white + black)/2 (uniform frames at {top:g} and 0)"
+    else:
+        threshold, contrast = fringe.mean_intensity, 2 * fringe.modulation
+        how = "against the mean intensity of the coarsest fringe set (no white frame)"
+    dec = decode_graycode(
+        pattern,
+        threshold=threshold,
+        contrast=contrast,
+        code=code.code,
+        min_contrast=min_contrast,
+        full_scale=fs,
+    )
+    return dec, how

@@ -35,11 +35,13 @@ from skimage.restoration import unwrap_phase
 from hdrfringe.errors import InputError
 
 __all__ = [
+    "PhaseRegions",
     "TemporalUnwrapResult",
     "absolute_phase",
     "absolute_phase_from_centerline",
     "centerline_phase",
     "detect_centerline",
+    "phase_regions",
     "unwrap_spatial",
     "unwrap_temporal",
     "unwrap_temporal_levels",
@@ -276,6 +278,156 @@ def unwrap_spatial(
         shift[labels[ref] - 1] = _orders_to_window(out[ref], target)
     out[valid] += TWO_PI * shift[lab - 1]
     return out
+
+
+# --------------------------------------------------------------------------------------------
+# Regions (islands) of a spatially unwrapped map
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PhaseRegions:
+    """Regions of a phase map whose fringe orders spatial unwrapping cannot relate.
+
+    Parameters
+    ----------
+    labels : ndarray of int32, shape (H, W)
+        0 at invalid pixels; 1, 2, ... the regions by decreasing size.
+    sizes : tuple of int
+        Pixel count of region 1, 2, ...
+    significant : int
+        Regions of at least ``min_pixels`` and ``min_fraction`` of the valid pixels (they are
+        labels ``1..significant``); the rest are specks.
+
+    Examples
+    --------
+    >>> r = phase_regions([np.zeros((2, 5))], np.array([[1, 1, 0, 1, 1]] * 2, bool), min_pixels=1)
+    >>> r.labels.tolist(), r.sizes, r.islands
+    ([[1, 1, 0, 2, 2], [1, 1, 0, 2, 2]], (4, 4), True)
+    """
+
+    labels: NDArray[np.int32]
+    sizes: tuple[int, ...]
+    significant: int
+
+    @property
+    def islands(self) -> bool:
+        """Whether there are two or more significant regions (their relative order is unknown)."""
+        return self.significant > 1
+
+
+def phase_regions(
+    wrapped_phases: Sequence[ArrayLike],
+    valid: ArrayLike | None = None,
+    *,
+    threshold: float = 0.8,
+    min_fraction: float = 0.005,
+    min_pixels: int = 100,
+) -> PhaseRegions:
+    """Split the valid area into regions separated by invalid pixels or phase discontinuities.
+
+    Spatial unwrapping relates the fringe orders of two pixels only through a path of valid
+    pixels along which the phase is continuous. Two parts of the valid area joined by no such
+    path (islands: a separate object, or one behind a depth step) keep unknown relative orders.
+    A pixel is a discontinuity when, in any of the given wrapped maps (e.g. every pitch of a
+    family), the wrapped second difference ``wrap(wrap(phi[i+b] - phi[i]) - wrap(phi[i] -
+    phi[i-b]))`` along a row or column, for ``b = 1`` or ``2`` (the baseline 2 catches steps
+    blurred over two pixels), exceeds ``threshold``: a smooth surface has second differences
+    near zero whatever its slope and pitch. Regions are the 4-connected parts of the valid
+    area without the discontinuities; the discontinuity pixels are then given the label of
+    the nearest region, so every valid pixel has one.
+
+    A step whose height is a multiple of every pitch (to within about ``threshold / (2*pi)``
+    of a period) leaves the wrapped phases continuous and cannot be seen: the report is a
+    lower bound on the islands, never a proof that there are none.
+
+    Parameters
+    ----------
+    wrapped_phases : sequence of array_like, each shape (H, W)
+        Wrapped phases (NaN invalid).
+    valid : array_like of bool, shape (H, W), optional
+        The pixels to split (default: finite in every map).
+    threshold : float
+        Second difference (radians) that marks a discontinuity.
+    min_fraction, min_pixels : float, int
+        A region counts as significant with at least ``min_pixels`` pixels and
+        ``min_fraction`` of the valid pixels.
+
+    Returns
+    -------
+    PhaseRegions
+
+    Raises
+    ------
+    InputError
+        No maps, maps of different shapes, a bad threshold.
+
+    References
+    ----------
+    Thesis Sec. 2.4 (spatial unwrapping); Herraez et al. (2002) Appl. Opt. 41, 7437 (second
+    differences as the reliability of a pixel).
+
+    Examples
+    --------
+    A ramp with a step of 2.5 periods in the middle: two regions.
+
+    >>> x = np.tile(np.arange(40.0), (20, 1))
+    >>> x[:, 20:] += 25.0
+    >>> r = phase_regions([np.mod(2 * np.pi * x / 10, 2 * np.pi)])
+    >>> r.significant, r.sizes
+    (2, (400, 400))
+    """
+    maps = [_as_image(m, "wrapped phase") for m in wrapped_phases]
+    if not maps:
+        raise InputError("phase_regions needs at least one wrapped phase map")
+    shape = maps[0].shape
+    if any(m.shape != shape for m in maps):
+        raise InputError("the wrapped phase maps must all have one shape")
+    t = _finite_scalar(threshold, "threshold")
+    if not 0 < t <= np.pi:
+        raise InputError(f"threshold must be in (0, pi] radians, got {threshold}")
+    ok = np.ones(shape, bool)
+    for m in maps:
+        ok &= np.isfinite(m)
+    if valid is not None:
+        ok &= _valid_mask(shape, valid, "valid")
+    cut = np.zeros(shape, bool)
+    for m in maps:
+        for b in (1, 2):
+            for axis in (0, 1):
+                n = shape[axis]
+                if n <= 2 * b:
+                    continue
+                a = np.moveaxis(m, axis, 0)
+                fwd = _wrap_pi(a[2 * b :] - a[b:-b])
+                bwd = _wrap_pi(a[b:-b] - a[: -2 * b])
+                with np.errstate(invalid="ignore"):
+                    jump = np.abs(_wrap_pi(fwd - bwd)) > t
+                np.moveaxis(cut, axis, 0)[b : n - b] |= jump
+    keep = ok & ~cut
+    labels, n = ndimage.label(keep, structure=_FOUR_CONNECTED)
+    if n and (ok & cut).any():
+        # give each discontinuity pixel the label of the nearest kept pixel
+        _, (ri, ci) = ndimage.distance_transform_edt(labels == 0, return_indices=True)
+        labels = np.where(ok, labels[ri, ci], 0)
+    elif not n:
+        labels, n = ndimage.label(ok, structure=_FOUR_CONNECTED)
+    if n == 0:
+        return PhaseRegions(np.zeros(shape, np.int32), (), 0)
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
+    order = np.argsort(-sizes, kind="stable")
+    order = order[sizes[order] > 0]
+    remap = np.zeros(n + 1, np.int32)
+    remap[order + 1] = np.arange(1, len(order) + 1, dtype=np.int32)
+    ranked = tuple(int(v) for v in sizes[order])
+    least = max(int(min_pixels), float(min_fraction) * int(ok.sum()))
+    significant = sum(1 for v in ranked if v >= least)
+    return PhaseRegions(remap[labels], ranked, significant)
+
+
+def _wrap_pi(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Wrap to ``[-pi, pi)``."""
+    return np.mod(a + np.pi, TWO_PI) - np.pi
 
 
 # --------------------------------------------------------------------------------------------

@@ -11,6 +11,7 @@ from hdrfringe.cli import (  # noqa: F401  (each module registers its command on
     calibrate,
     demo,
     gamma,
+    import_,
     measure,
     modify,
     patterns,

@@ -71,7 +71,7 @@ MAP_SUFFIXES = (".tif", ".tiff")
 _KINDS = {
     1: ("fringe", "centerline", "uniform"),
     2: ("fringe", "centerline", "uniform", "pixelwise_fringe", "image"),
-    3: ("fringe", "centerline", "uniform", "pixelwise_fringe", "image"),
+    3: ("fringe", "centerline", "uniform", "pixelwise_fringe", "image", "graycode"),
 }
 #: Fringe-frame fields of version 3: the shift angle and the phase offset, in degrees.
 _PHASE_FIELDS = ("shift_deg", "phase_offset_deg")
@@ -241,6 +241,38 @@ def _check_side_file_fields(entry: dict[str, Any], kind: str, where: str) -> str
     return rel
 
 
+def _check_graycode_fields(entry: dict[str, Any], where: str, version: int) -> None:
+    """A ``graycode`` frame (version 3): orientation, bit, bits, stripe; optional inverse,
+    code, migl, convention, exposure_ms."""
+    from hdrfringe.graycode import CODES as GRAYCODE_CODES
+    from hdrfringe.graycode import MAX_BITS as GRAYCODE_MAX_BITS
+
+    if version < 3:
+        raise _fail(
+            where,
+            "kind 'graycode' needs capture format version 3",
+            'set "version": 3 in the manifest (docs/capture_format.md)',
+        )
+    _choice(entry, "orientation", where, ORIENTATIONS)
+    bits = _integer(entry, "bits", where, 1, GRAYCODE_MAX_BITS)
+    _integer(entry, "bit", where, 0, bits - 1)
+    _number(entry, "stripe", where, positive=True)
+    if "inverse" in entry and not isinstance(entry["inverse"], bool):
+        raise _fail(
+            where, f"field 'inverse' must be true or false, got {entry['inverse']!r}", "fix it"
+        )
+    if "code" in entry:
+        _choice(entry, "code", where, GRAYCODE_CODES)
+    if "migl" in entry:
+        _number(entry, "migl", where, positive=True)
+    if "convention" in entry and not isinstance(entry["convention"], str):
+        raise _fail(
+            where,
+            f"field 'convention' must be a string label, got {entry['convention']!r}",
+            "fix it",
+        )
+
+
 def _validate_frame(entry: Any, index: int, version: int) -> dict[str, Any]:
     where = f"manifest frame {index}"
     if not isinstance(entry, dict):
@@ -256,6 +288,8 @@ def _validate_frame(entry: Any, index: int, version: int) -> dict[str, Any]:
             f"kind {kind!r} needs capture format version 2",
             'set "version": 2 in the manifest (docs/capture_format.md)',
         )
+    if kind == "graycode":  # version 3 (docs/capture_format.md, "Gray-code frames")
+        _check_graycode_fields(entry, where, version)
     kind = _choice(entry, "kind", where, _KINDS[version])
     out = dict(entry)
     out["file"] = file

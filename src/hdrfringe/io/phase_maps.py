@@ -10,7 +10,7 @@ import numpy as np
 
 from hdrfringe.io.results import write_map_tiff, write_preview_png
 from hdrfringe.phase import PhaseResult
-from hdrfringe.process import FolderPhase
+from hdrfringe.process import FamilyResult, FolderPhase
 
 __all__ = ["SET_MAPS", "write_phase_maps"]
 
@@ -47,6 +47,22 @@ def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
     tifffile.imwrite(path, np.asarray(data, dtype=np.float64), compression="zlib")
 
 
+def _write_regions(out: Path, fam: FamilyResult, name: str) -> list[str]:
+    """The region-label map of a family with islands: uint16 TIFF (int32 beyond 65535 regions),
+    0 = invalid, 1, 2, ... regions by decreasing size; and its preview."""
+    import tifffile
+
+    assert fam.regions is not None
+    labels = fam.regions.labels
+    dtype = np.uint16 if labels.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
+    tifffile.imwrite(out / f"{name}.tiff", labels.astype(dtype), compression="zlib")
+    shown = np.where(labels > 0, np.minimum(labels, fam.regions.significant + 1), np.nan)
+    write_preview_png(
+        out / f"{name}.png", shown, title=f"{name} (relative fringe order unknown)", cmap="tab10"
+    )
+    return [f"{name}.tiff", f"{name}.png"]
+
+
 def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, Any]:
     """Write every map of a decoded folder into ``out`` (an existing, empty staging folder).
 
@@ -74,7 +90,10 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     dict
         The summary also written to ``phase_summary.json``: ``source``; ``sets`` (per set its
         pattern, steps, pitch, orientation, gray range, valid and saturated fractions);
-        ``families`` (per family its sets, unwrapping and absolute-phase method and files);
+        ``families`` (per family its sets, unwrapping and absolute-phase method and files,
+    ``order_from`` (``one-period``, ``graycode`` or ``spatial``) and, with spatial unwrapping,
+    ``regions``; a family whose valid area falls into separate regions (islands) also gets
+    ``regions.tiff``, a label map, 0 = invalid, ``regions_map`` naming it);
         ``notes``; ``files`` (every map and preview written, sorted).
 
     References
@@ -121,8 +140,14 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
             "sets": [s.label for s in fam.sets],
             "pitch_px": fam.pitch_px,
             "unwrapping": fam.method,
+            "order_from": fam.unwrapping,
             "unwrapped_phase": f"{name}.tiff",
         }
+        if fam.regions is not None:
+            entry["regions"] = fam.regions_summary()
+        if fam.islands:
+            files += _write_regions(out, fam, f"regions{suffix}")
+            entry["regions_map"] = f"regions{suffix}.tiff"
         if fam.absolute_phase is not None:
             aname = f"absolute_phase{suffix}"
             _write_float64_tiff(out / f"{aname}.tiff", fam.absolute_phase)

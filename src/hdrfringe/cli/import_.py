@@ -1,0 +1,59 @@
+"""``hdrfringe import``: camera images + a description of what was projected -> capture folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from hdrfringe.cli._app import app, console, handle_errors
+
+__all__ = ["import_"]
+
+
+@app.command("import")
+@handle_errors
+def import_(
+    images: Annotated[Path, typer.Argument(help="Folder of camera images (searched recursively).")],
+    description: Annotated[
+        Path,
+        typer.Option(
+            "--description",
+            "-d",
+            help="TOML import description (docs/import.md), or the manifest.json of a pattern "
+            "folder written by 'hdrfringe patterns'.",
+        ),
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Capture folder to write.")],
+    bit_depth: Annotated[
+        int | None,
+        typer.Option(
+            help="Camera bit depth, for a pattern manifest only (a TOML description gives it)."
+        ),
+    ] = None,
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Import camera images as a capture folder (images copied; converted only when needed)."""
+    from hdrfringe.io.importer import import_captures
+    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
+
+    check_output_against_inputs(output, [images, description])
+    check_output_dir(output, force)
+    report = import_captures(images, description, output, bit_depth=bit_depth, force=force)
+    frames = report.manifest["frames"]
+    kinds: dict[str, int] = {}
+    for f in frames:
+        kinds[f["kind"]] = kinds.get(f["kind"], 0) + 1
+    counts = ", ".join(f"{n} {k}" for k, n in kinds.items())
+    console.print(
+        f"imported {len(frames)} frames ({counts}): {report.copied} images copied, "
+        f"{report.converted} converted to PNG"
+    )
+    if report.ignored:
+        shown = ", ".join(report.ignored[:5]) + (", ..." if len(report.ignored) > 5 else "")
+        console.print(f"{len(report.ignored)} files not used by the description: {shown}")
+    console.print(
+        f"wrote {output} (capture format version {report.manifest['version']}); next: "
+        f"hdrfringe phase {output} -o OUT"
+    )
