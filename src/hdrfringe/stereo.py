@@ -381,7 +381,7 @@ def projector_coordinate(absolute_phase: ArrayLike, pitch_px: float) -> F64:
 class Triangulation(NamedTuple):
     """Triangulated points of :func:`triangulate`.
 
-    Attributes
+    Parameters
     ----------
     xyz : ndarray, shape (..., 3)
         Points in the camera frame, mm; NaN where a pixel could not be triangulated.
@@ -620,7 +620,7 @@ def _finite_points(xyz: ArrayLike, name: str, minimum: int) -> tuple[F64, NDArra
 class PlaneFit(NamedTuple):
     """A plane ``normal . x = offset`` fitted by :func:`fit_plane`.
 
-    Attributes
+    Parameters
     ----------
     normal : ndarray, shape (3,)
         Unit normal, oriented toward the camera (the origin): ``offset <= 0``.
@@ -720,7 +720,7 @@ def fit_plane(xyz: ArrayLike, *, robust: bool = False, max_rounds: int = 10) -> 
 class SphereFit(NamedTuple):
     """A sphere fitted by :func:`fit_sphere`.
 
-    Attributes
+    Parameters
     ----------
     centre : ndarray, shape (3,)
         Centre, mm.
