@@ -430,3 +430,17 @@ def test_cli_measure_with_a_stereo_calibration_file(tmp_path) -> None:  # type: 
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["model"] == "stereo"
     assert metrics["stereo"]["reference_plane"]["rms_mm"] < 0.01
+
+
+def test_measure_without_an_absolute_phase_cannot_triangulate() -> None:
+    from hdrfringe.captures import Captures
+    from hdrfringe.errors import CaptureFormatError
+    from hdrfringe.pipeline import measure
+
+    caps = small_captures("u")
+    fine = [i for i, f in enumerate(caps.frames) if f.spec.pitch_px == 10.0]  # type: ignore[attr-defined]
+    only_fine = Captures(
+        [caps.frames[i] for i in fine], caps.images[fine], 16, projector=caps.projector
+    )
+    with pytest.raises(CaptureFormatError, match="cannot triangulate: no fringe family has an"):
+        measure(only_fine, small_calibration())
