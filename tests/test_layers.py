@@ -39,6 +39,7 @@ LAYERS: dict[str, int] = {
     "graycode": CORE,
     "calibration": CORE,
     "reconstruct": CORE,
+    "stereo": CORE,
     "gamma": CORE,
     "gamma.*": CORE,
     "process": CORE,

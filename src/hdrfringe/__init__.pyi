@@ -31,6 +31,9 @@ from .io.captures import read_capture_folder as read_capture_folder
 from .io.captures import write_capture_folder as write_capture_folder
 from .io.importer import import_captures as import_captures
 from .io.measurement_outputs import write_measurement as write_measurement
+from .io.stereo_file import convert_calibration as convert_calibration
+from .io.stereo_file import load_stereo_calibration as load_stereo_calibration
+from .io.stereo_file import save_stereo_calibration as save_stereo_calibration
 from .patterns import FringeSpec as FringeSpec
 from .patterns import fringe_gray as fringe_gray
 from .patterns import fringe_profile as fringe_profile
@@ -65,6 +68,11 @@ from .rig.scenes import white_plate as white_plate
 from .rig.simulated import CameraModel as CameraModel
 from .rig.simulated import Lighting as Lighting
 from .rig.simulated import SimulatedRig as SimulatedRig
+from .stereo import LensModel as LensModel
+from .stereo import StereoCalibration as StereoCalibration
+from .stereo import fit_plane as fit_plane
+from .stereo import fit_sphere as fit_sphere
+from .stereo import triangulate as triangulate
 from .strategies import StrategyResult as StrategyResult
 from .strategies import available_strategies as available_strategies
 from .strategies import get_strategy as get_strategy
