@@ -38,6 +38,7 @@ LAYERS: dict[str, int] = {
     "unwrap": CORE,
     "calibration": CORE,
     "reconstruct": CORE,
+    "stereo": CORE,
     "gamma": CORE,
     "gamma.*": CORE,
     "process": CORE,

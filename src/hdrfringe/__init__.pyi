@@ -58,6 +58,8 @@ from .rig.scenes import white_plate as white_plate
 from .rig.simulated import CameraModel as CameraModel
 from .rig.simulated import Lighting as Lighting
 from .rig.simulated import SimulatedRig as SimulatedRig
+from .stereo import LensModel as LensModel
+from .stereo import StereoCalibration as StereoCalibration
 from .strategies import StrategyResult as StrategyResult
 from .strategies import available_strategies as available_strategies
 from .strategies import get_strategy as get_strategy
