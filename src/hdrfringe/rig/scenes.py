@@ -1007,7 +1007,7 @@ class CalibrationBoard(Scene):
             edge = self.dot_diameter / 2 - dist
             black = np.clip(edge / w + 0.5, 0.0, 1.0) if w > 0 else (edge > 0).astype(float)
         white, dark = float(self.white_reflectivity), float(self.black_reflectivity)
-        return white - (white - dark) * black
+        return dark * black + white * (1.0 - black)
 
     def to_manifest(self) -> dict[str, Any]:
         return {
