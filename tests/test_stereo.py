@@ -27,7 +27,8 @@ def _rotation(rx: float, ry: float, rz: float) -> np.ndarray:
 def synthetic_calibration(proj_distortion: np.ndarray = PROJ_D) -> StereoCalibration:
     cam = LensModel(CAM_K, CAM_D, (2048, 1536))
     proj = LensModel(PROJ_K, proj_distortion, (912, 1140))
-    return StereoCalibration(cam, proj, _rotation(0.02, -0.35, 0.01), [180.0, -15.0, 40.0])
+    r = _rotation(0.02, 0.3, 0.01)  # the projector 250 mm to the right, turned toward the field
+    return StereoCalibration(cam, proj, r, -r @ np.array([250.0, -20.0, 30.0]))
 
 
 # --- the data model -----------------------------------------------------------------------
@@ -108,3 +109,188 @@ def test_stereo_calibration_properties_and_validation() -> None:
         StereoCalibration(cam, proj, r, t, reprojection_px={"stereo": -1.0})
     ok = StereoCalibration(cam, proj, r, t, reprojection_px={"stereo": 0.5}, source="x")
     assert dict(ok.reprojection_px or {}) == {"stereo": 0.5}
+
+
+# --- triangulation against OpenCV's projection ----------------------------------------------
+
+
+def _scene_points(n: int, seed: int = 3) -> np.ndarray:
+    """Points over the whole projector field, 650-950 mm from it, that the camera sees."""
+    calib = synthetic_calibration()
+    rng = np.random.default_rng(seed)
+    out = np.empty((0, 3))
+    while out.shape[0] < n:
+        uvz = rng.uniform([5, 5, 650], [907, 1135, 950], (n, 3))
+        rays = np.linalg.solve(PROJ_K, np.c_[uvz[:, :2], np.ones(n)].T).T
+        pts = (rays * uvz[:, 2:] - calib.translation_mm) @ calib.rotation  # R.T (X_p - t)
+        img = pts[:, :2] / pts[:, 2:] * np.diag(CAM_K)[:2] + CAM_K[:2, 2]
+        keep = np.all((img > 5) & (img < [2043, 1531]), axis=1)
+        out = np.concatenate([out, pts[keep]])
+    return out[:n]
+
+
+def _observe(calib_k: tuple[np.ndarray, np.ndarray], pts: np.ndarray, r: np.ndarray, t: np.ndarray):  # type: ignore[no-untyped-def]
+    """Pixels of ``pts`` in a lens at pose (r, t), by OpenCV (the reference)."""
+    rvec, _ = cv2.Rodrigues(r)
+    img, _ = cv2.projectPoints(pts, rvec, np.asarray(t, np.float64), calib_k[0], calib_k[1])
+    return img[:, 0, 0], img[:, 0, 1]
+
+
+def _pixels(pts: np.ndarray):  # type: ignore[no-untyped-def]
+    calib = synthetic_calibration()
+    uc, vc = _observe((CAM_K, CAM_D), pts, np.eye(3), np.zeros(3))
+    up, vp = _observe((PROJ_K, PROJ_D), pts, calib.rotation, calib.translation_mm)
+    return uc, vc, up, vp
+
+
+@pytest.mark.parametrize("which", ["u", "v", "both"])
+def test_triangulate_recovers_points_projected_by_opencv(which: str) -> None:
+    from hdrfringe.stereo import triangulate
+
+    pts = _scene_points(3000)
+    uc, vc, up, vp = _pixels(pts)
+    # the points cover the projector's field, corners (strongest distortion) included
+    assert -20 < up.min() < 50 and 860 < up.max() < 932
+    assert -20 < vp.min() < 50 and 1090 < vp.max() < 1160
+    kw = {"u": {"u_proj": up}, "v": {"v_proj": vp}, "both": {"u_proj": up, "v_proj": vp}}[which]
+    res = triangulate(synthetic_calibration(), uc, vc, **kw)
+    assert res.xyz.shape == (3000, 3)
+    assert np.abs(res.xyz - pts).max() < 1e-6
+    if which == "both":
+        assert res.residual_mm.max() < 1e-6
+    else:
+        assert np.all(np.isnan(res.residual_mm))
+    # the same pixels with the projector's distortion ignored: off by far more than 1e-6 mm
+    flat = synthetic_calibration(proj_distortion=np.zeros(5))
+    wrong = triangulate(flat, uc, vc, **kw)
+    assert np.nanmax(np.abs(wrong.xyz - pts)) > 1e-2
+
+
+def test_triangulate_keeps_shape_and_marks_invalid_pixels() -> None:
+    from hdrfringe.stereo import triangulate
+
+    pts = _scene_points(12).reshape(3, 4, 3)
+    uc, vc, up, vp = _pixels(pts.reshape(-1, 3))
+    up, vp = up.reshape(3, 4), vp.reshape(3, 4)
+    up[0, 0] = np.nan  # no phase
+    uc = uc.reshape(3, 4)
+    uc[1, 1] = np.nan
+    res = triangulate(synthetic_calibration(), uc, vc.reshape(3, 4), u_proj=up)
+    assert res.xyz.shape == (3, 4, 3) and res.residual_mm.shape == (3, 4)
+    bad = np.zeros((3, 4), bool)
+    bad[0, 0] = bad[1, 1] = True
+    assert np.all(np.isnan(res.xyz[bad])) and np.all(np.isfinite(res.xyz[~bad]))
+    assert np.abs(res.xyz[~bad] - pts[~bad]).max() < 1e-6
+    both = triangulate(synthetic_calibration(), uc, vc.reshape(3, 4), u_proj=up, v_proj=vp)
+    assert np.all(np.isnan(both.residual_mm[bad])) and np.all(both.residual_mm[~bad] < 1e-6)
+
+
+def test_triangulate_ray_ray_residual_is_the_ray_distance() -> None:
+    """A projector row moved by dv px: the rays miss by a distance computed by hand."""
+    from hdrfringe.stereo import triangulate
+
+    cam = LensModel([[1000, 0, 500], [0, 1000, 500], [0, 0, 1]], [], (1000, 1000))
+    proj = LensModel([[1000, 0, 500], [0, 1000, 500], [0, 0, 1]], [], (1000, 1000))
+    calib = StereoCalibration(cam, proj, np.eye(3), [-100.0, 0.0, 0.0])
+    # camera ray along the optical axis; projector ray from (100, 0, 0) to (0, 0, 1000) in
+    # direction (-0.1, 0, 1), lifted by dy = 0.01 -> the projector ray (-0.1, 0.01, 1)
+    res = triangulate(calib, 500.0, 500.0, u_proj=400.0, v_proj=510.0)
+    d1, d2, c = np.array([0, 0, 1.0]), np.array([-0.1, 0.01, 1.0]), np.array([100.0, 0, 0])
+    n = np.cross(d1, d2)
+    assert float(res.residual_mm) == pytest.approx(abs(c @ n) / np.linalg.norm(n), rel=1e-12)
+    # the closest points: (0, 0, a) on the camera ray and c + b d2; the midpoint between them
+    a, b = np.linalg.lstsq(np.stack([d1, -d2], 1), c, rcond=None)[0]
+    assert np.allclose(res.xyz, 0.5 * (a * d1 + c + b * d2), rtol=1e-12)
+
+
+def test_triangulate_rejects_bad_arguments() -> None:
+    from hdrfringe.stereo import triangulate
+
+    calib = synthetic_calibration()
+    with pytest.raises(InputError, match="u_proj and/or v_proj"):
+        triangulate(calib, 1.0, 2.0)
+    with pytest.raises(InputError, match="do not broadcast"):
+        triangulate(calib, np.zeros(3), np.zeros(4), u_proj=np.zeros(3))
+    with pytest.raises(InputError, match="StereoCalibration"):
+        triangulate("calib", 1.0, 2.0, u_proj=3.0)  # type: ignore[arg-type]
+
+
+# --- plane and sphere fits ---------------------------------------------------------------------
+
+
+def test_fit_plane_recovers_a_tilted_plane_and_is_least_squares() -> None:
+    from hdrfringe.stereo import fit_plane
+
+    rng = np.random.default_rng(4)
+    normal = np.array([0.2, -0.1, -1.0])
+    normal /= np.linalg.norm(normal)
+    basis = np.linalg.svd(normal[None, :])[2][1:]  # two unit vectors in the plane
+    on = rng.uniform(-100, 100, (4000, 2)) @ basis + 900.0 * -normal  # 900 mm from the origin
+    noisy = on + rng.normal(0, 0.05, (4000, 1)) * normal
+    grid = noisy.reshape(40, 100, 3).copy()
+    grid[0, :5] = np.nan
+    fit = fit_plane(grid)
+    assert fit.residuals.shape == (40, 100) and np.all(np.isnan(fit.residuals[0, :5]))
+    assert np.allclose(fit.normal, normal, atol=2e-4)
+    assert fit.offset == pytest.approx(-900, abs=0.01)
+    assert fit.rms_mm == pytest.approx(0.05, rel=0.05)
+    # least squares: no small tilt of the normal lowers the sum of squared distances
+    pts = grid[np.isfinite(grid[..., 0])]
+    best = np.sum((pts @ fit.normal - fit.offset) ** 2)
+    for k in range(3):
+        n2 = fit.normal + 1e-4 * np.eye(3)[k]
+        n2 /= np.linalg.norm(n2)
+        assert np.sum((pts @ n2 - np.mean(pts @ n2)) ** 2) > best
+
+
+def test_fit_plane_robust_ignores_an_object_on_the_plane() -> None:
+    from hdrfringe.stereo import fit_plane
+
+    rng = np.random.default_rng(5)
+    xy = rng.uniform(-100, 100, (3000, 2))
+    pts = np.c_[xy, 700.0 + rng.normal(0, 0.02, 3000)]
+    box = (np.abs(xy[:, 0]) < 40) & (np.abs(xy[:, 1]) < 40)  # ~16 % of the points
+    pts[box, 2] -= 25.0  # 25 mm toward the camera
+    plain, robust = fit_plane(pts), fit_plane(pts, robust=True)
+    assert plain.rms_mm > 5
+    assert robust.offset == pytest.approx(-700.0, abs=0.01) and robust.rms_mm < 0.03
+    assert not np.any(robust.inliers[box]) and robust.inliers[~box].mean() > 0.98  # 3 sigma
+    assert np.allclose(robust.residuals[box], 25.0, atol=0.1)  # heights toward the camera
+
+
+def test_fit_sphere_geometric_fit_of_a_noisy_cap() -> None:
+    from hdrfringe.stereo import fit_sphere
+
+    rng = np.random.default_rng(6)
+    d = rng.normal(size=(5000, 3))
+    d[:, 2] = -np.abs(d[:, 2]) - 1.0  # a cap facing the camera, about 70 degrees
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    centre, radius = np.array([12.0, -8.0, 720.0]), 25.4
+    pts = centre + (radius + rng.normal(0, 0.05, (5000, 1))) * d
+    fit = fit_sphere(pts)
+    assert np.allclose(fit.centre, centre, atol=0.02)
+    assert fit.radius == pytest.approx(radius, abs=0.02)
+    assert fit.rms_mm == pytest.approx(0.05, rel=0.05)
+
+    # least squares in the geometric distance: the gradient vanishes
+    def cost(c: np.ndarray, r: float) -> float:
+        return float(np.sum((np.linalg.norm(pts - c, axis=1) - r) ** 2))
+
+    base = cost(fit.centre, fit.radius)
+    for k in range(4):
+        step = 1e-3 * np.eye(4)[k]
+        assert cost(fit.centre + step[:3], fit.radius + step[3]) > base
+        assert cost(fit.centre - step[:3], fit.radius - step[3]) > base
+
+
+def test_fits_reject_degenerate_points() -> None:
+    from hdrfringe.stereo import fit_plane, fit_sphere
+
+    with pytest.raises(InputError, match="at least 3"):
+        fit_plane(np.full((10, 3), np.nan))
+    with pytest.raises(InputError, match="collinear"):
+        fit_plane(np.c_[np.arange(5.0), np.arange(5.0), np.arange(5.0)])
+    with pytest.raises(InputError, match="one plane"):
+        fit_sphere(np.c_[np.random.default_rng(0).uniform(size=(20, 2)), np.ones(20)])
+    with pytest.raises(InputError, match=r"shape \(\.\.\., 3\)"):
+        fit_plane(np.zeros((4, 2)))

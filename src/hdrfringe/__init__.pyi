@@ -60,6 +60,9 @@ from .rig.simulated import Lighting as Lighting
 from .rig.simulated import SimulatedRig as SimulatedRig
 from .stereo import LensModel as LensModel
 from .stereo import StereoCalibration as StereoCalibration
+from .stereo import fit_plane as fit_plane
+from .stereo import fit_sphere as fit_sphere
+from .stereo import triangulate as triangulate
 from .strategies import StrategyResult as StrategyResult
 from .strategies import available_strategies as available_strategies
 from .strategies import get_strategy as get_strategy

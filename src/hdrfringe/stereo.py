@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -34,7 +34,14 @@ from hdrfringe.errors import InputError
 __all__ = [
     "DISTORTION_LENGTHS",
     "LensModel",
+    "PlaneFit",
+    "SphereFit",
     "StereoCalibration",
+    "Triangulation",
+    "fit_plane",
+    "fit_sphere",
+    "projector_coordinate",
+    "triangulate",
 ]
 
 F64 = NDArray[np.float64]
@@ -215,6 +222,10 @@ class LensModel:
         >>> lens.undistort([400.0, 480.0], [300.0, 300.0])
         (array([0. , 0.1]), array([0., 0.]))
         """
+        return self._undistort(u, v, check=True)
+
+    def _undistort(self, u: ArrayLike, v: ArrayLike, *, check: bool) -> tuple[F64, F64]:
+        """:meth:`undistort`, with the reprojection check optional (callers that verify)."""
         uu, vv = np.broadcast_arrays(np.asarray(u, np.float64), np.asarray(v, np.float64))
         shape = uu.shape
         fu, fv = uu.reshape(-1), vv.reshape(-1)
@@ -227,7 +238,7 @@ class LensModel:
             src = np.stack([plain_u, fv[ok]], axis=-1).reshape(-1, 1, 2)
             k, d = self._plain_matrix(), self._distortion_for_cv()
             out = cv2.undistortPoints(src, k, d, criteria=_UNDISTORT_CRITERIA).reshape(-1, 2)
-            if self.distortion.size and np.any(self.distortion):
+            if check and self.distortion.size and np.any(self.distortion):
                 back, _ = cv2.projectPoints(
                     np.concatenate([out, np.ones((out.shape[0], 1))], axis=1),
                     np.zeros(3),
@@ -334,3 +345,458 @@ class StereoCalibration:
             "reprojection_px": dict(self.reprojection_px or {}),
             "source": self.source,
         }
+
+
+# --- triangulation ----------------------------------------------------------------------------
+
+
+def projector_coordinate(absolute_phase: ArrayLike, pitch_px: float) -> F64:
+    """Projector pixel coordinate of an absolute phase: ``x = p * Phi / (2*pi)``.
+
+    Parameters
+    ----------
+    absolute_phase : array_like
+        Absolute phase ``Phi`` (radians) of fringes of pitch ``pitch_px``, in hdrfringe's
+        convention ``phi = 2*pi*x/p`` (:mod:`hdrfringe.patterns`).
+    pitch_px : float
+        Fringe pitch in projector pixels.
+
+    Returns
+    -------
+    ndarray
+        The projector column (vertical fringes) or row (horizontal fringes), pixel centres at
+        integers (OpenCV's convention); NaN where the phase is NaN.
+
+    Examples
+    --------
+    >>> projector_coordinate([0.0, np.pi, 2 * np.pi], 16.0).tolist()
+    [0.0, 8.0, 16.0]
+    """
+    p = float(pitch_px)
+    if not (np.isfinite(p) and p > 0):
+        raise InputError(f"pitch must be a positive number of projector pixels, got {pitch_px}")
+    return np.asarray(absolute_phase, dtype=np.float64) * (p / (2.0 * np.pi))
+
+
+class Triangulation(NamedTuple):
+    """Triangulated points of :func:`triangulate`.
+
+    Attributes
+    ----------
+    xyz : ndarray, shape (..., 3)
+        Points in the camera frame, mm; NaN where a pixel could not be triangulated.
+    residual_mm : ndarray, shape (...)
+        Distance between the camera ray and the projector ray, mm, where both projector
+        coordinates were given; NaN otherwise.
+
+    Examples
+    --------
+    >>> t = Triangulation(np.zeros((2, 3)), np.full(2, np.nan))
+    >>> t.xyz.shape, t.residual_mm.shape
+    ((2, 3), (2,))
+    """
+
+    xyz: F64
+    residual_mm: F64
+
+
+#: Step along the other projector coordinate that spans the local projector plane, px.
+_TANGENT_STEP_PX = 1.0
+
+
+def triangulate(
+    calibration: StereoCalibration,
+    u_cam: ArrayLike,
+    v_cam: ArrayLike,
+    *,
+    u_proj: ArrayLike | None = None,
+    v_proj: ArrayLike | None = None,
+    tolerance_px: float = 1e-4,
+    max_iterations: int = 50,
+) -> Triangulation:
+    """3D points (camera frame, mm) of camera pixels from their projector coordinates.
+
+    Parameters
+    ----------
+    calibration : StereoCalibration
+        The projector-camera calibration.
+    u_cam, v_cam : array_like
+        Camera pixel coordinates (OpenCV convention), broadcast with the projector
+        coordinates.
+    u_proj, v_proj : array_like, optional
+        Projector column (from vertical fringes) and/or row (from horizontal fringes), e.g.
+        from :func:`projector_coordinate`; at least one. NaN marks an invalid pixel.
+    tolerance_px : float
+        One direction only: the iteration stops when the estimate of the other projector
+        coordinate changes by less than this (pixels).
+    max_iterations : int
+        One direction only: pixels not converged after this many iterations are NaN.
+
+    Returns
+    -------
+    Triangulation
+        ``xyz`` of shape ``(..., 3)`` (NaN where invalid: a NaN input, a ray parallel to the
+        plane, a point behind the camera or the projector, no convergence) and
+        ``residual_mm`` (ray-ray distance; NaN unless both projector coordinates are given).
+
+    Notes
+    -----
+    The camera ray of a pixel is ``X = lambda * (x, y, 1)`` with ``(x, y)`` its undistorted
+    normalised coordinates.
+
+    *Both coordinates*: the projector ray through the undistorted ``(u_proj, v_proj)`` starts
+    at the projector centre ``C = -R.T t`` with direction ``R.T (x_p, y_p, 1)``; the point is
+    the midpoint of the shortest segment between the two rays (the least-squares point of the
+    two lines), and ``residual_mm`` its length.
+
+    *One coordinate* (say ``u_proj``): with lens distortion, the projector pixels of one
+    column do not map to a plane of rays but to a curved surface. Starting at the projector's
+    principal row ``v = cy``, each iteration (i) undistorts ``(u_proj, v)`` and
+    ``(u_proj, v + 1)``, (ii) intersects the camera ray with the plane through the projector
+    centre and those two rays (the surface's local tangent plane along the ray of
+    ``(u_proj, v)``), (iii) projects the point into the projector (with distortion) and takes
+    its row as the new ``v``. At the fixed point the point lies on the ray of
+    ``(u_proj, v)``, so its projection is exactly ``(u_proj, v)``: the result is exact, not a
+    linearisation. The iteration stops when ``v`` changes by less than ``tolerance_px``
+    (typically 2-4 iterations), and the converged point must project onto ``u_proj`` within
+    the same tolerance. ``v_proj`` alone is the same with the roles swapped.
+
+    References
+    ----------
+    Zhang & Huang 2006 (Opt. Eng. 45:083601): triangulation of a camera ray against the
+    projector as an inverse camera; docs/stereo.md.
+
+    Examples
+    --------
+    A distortion-free pair 200 mm apart and a point 500 mm in front of the camera:
+
+    >>> cam = LensModel([[1000, 0, 320], [0, 1000, 240], [0, 0, 1]], [], (640, 480))
+    >>> proj = LensModel([[1500, 0, 456], [0, 1500, 570], [0, 0, 1]], [], (912, 1140))
+    >>> calib = StereoCalibration(cam, proj, np.eye(3), [-200.0, 0.0, 0.0])
+    >>> point = np.array([10.0, 20.0, 500.0])
+    >>> uc, vc = cam.project(point)
+    >>> up, vp = proj.project(point + calib.translation_mm)
+    >>> triangulate(calib, uc, vc, u_proj=up).xyz.round(9).tolist()
+    [10.0, 20.0, 500.0]
+    >>> res = triangulate(calib, uc, vc, u_proj=up, v_proj=vp)
+    >>> res.xyz.round(9).tolist(), float(res.residual_mm) < 1e-9
+    ([10.0, 20.0, 500.0], True)
+    """
+    if not isinstance(calibration, StereoCalibration):
+        raise InputError("triangulate: calibration must be a StereoCalibration")
+    if u_proj is None and v_proj is None:
+        raise InputError("triangulate: give u_proj and/or v_proj (projector coordinates)")
+    tol = float(tolerance_px)
+    if not (np.isfinite(tol) and tol > 0):
+        raise InputError(f"tolerance_px must be a positive number, got {tolerance_px}")
+    if int(max_iterations) != max_iterations or max_iterations < 1:
+        raise InputError(f"max_iterations must be an integer >= 1, got {max_iterations}")
+    arrays = [np.asarray(u_cam, np.float64), np.asarray(v_cam, np.float64)]
+    arrays += [np.asarray(a, np.float64) for a in (u_proj, v_proj) if a is not None]
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    except ValueError:
+        raise InputError(
+            "triangulate: camera and projector coordinates have shapes "
+            f"{[a.shape for a in arrays]} that do not broadcast; give arrays of one shape"
+        ) from None
+    uc = np.broadcast_to(arrays[0], shape).reshape(-1)
+    vc = np.broadcast_to(arrays[1], shape).reshape(-1)
+    up = None if u_proj is None else np.broadcast_to(np.asarray(u_proj, np.float64), shape)
+    vp = None if v_proj is None else np.broadcast_to(np.asarray(v_proj, np.float64), shape)
+
+    xc, yc = calibration.camera.undistort(uc, vc)
+    ray = np.stack([xc, yc, np.ones_like(xc)], axis=-1)  # (n, 3), NaN where invalid
+    if up is not None and vp is not None:
+        xyz, residual = _ray_ray(calibration, ray, up.reshape(-1), vp.reshape(-1))
+    elif up is not None:
+        xyz = _ray_plane(calibration, ray, up.reshape(-1), 0, tol, int(max_iterations))
+        residual = np.full(xyz.shape[0], np.nan)
+    else:
+        assert vp is not None
+        xyz = _ray_plane(calibration, ray, vp.reshape(-1), 1, tol, int(max_iterations))
+        residual = np.full(xyz.shape[0], np.nan)
+    return Triangulation(xyz.reshape(*shape, 3), residual.reshape(shape))
+
+
+def _to_projector(calibration: StereoCalibration, xyz: F64) -> F64:
+    """Camera-frame points (n, 3) in the projector frame."""
+    return np.asarray(xyz @ calibration.rotation.T + calibration.translation_mm)
+
+
+def _ray_ray(calibration: StereoCalibration, ray: F64, up: F64, vp: F64) -> tuple[F64, F64]:
+    """Midpoint and length of the shortest segment between camera and projector rays."""
+    r = calibration.rotation
+    xp, yp = calibration.projector.undistort(up, vp)
+    dp = np.stack([xp, yp, np.ones_like(xp)], axis=-1) @ r  # R.T @ d for each row
+    c = calibration.projector_center_mm
+    # camera line a*d, projector line c + b*e: minimise |a d - c - b e|^2
+    dd = np.einsum("ij,ij->i", ray, ray)
+    ee = np.einsum("ij,ij->i", dp, dp)
+    de = np.einsum("ij,ij->i", ray, dp)
+    dc = ray @ c
+    ec = dp @ c
+    det = dd * ee - de * de
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = (dc * ee - de * ec) / det
+        b = (de * dc - dd * ec) / det
+    p_cam = a[:, None] * ray
+    p_proj = c + b[:, None] * dp
+    xyz = 0.5 * (p_cam + p_proj)
+    residual = np.linalg.norm(p_cam - p_proj, axis=-1)
+    bad = ~((a > 0) & (b > 0) & (det > 1e-12 * dd * ee))
+    xyz[bad] = np.nan
+    residual[bad] = np.nan
+    return xyz, residual
+
+
+def _ray_plane(
+    calibration: StereoCalibration,
+    ray: F64,
+    known: F64,
+    axis: int,
+    tolerance_px: float,
+    max_iterations: int,
+) -> F64:
+    """Camera rays against the (curved) projector surface of one projector coordinate.
+
+    ``axis`` 0: ``known`` is the projector column, the row is iterated; 1: the other way.
+    """
+    proj = calibration.projector
+    r, t = calibration.rotation, calibration.translation_mm
+    n = ray.shape[0]
+    xyz = np.full((n, 3), np.nan)
+    other = np.full(n, proj.matrix[1 - axis, 2])  # start at the principal row (column)
+    active = np.flatnonzero(np.all(np.isfinite(ray), axis=1) & np.isfinite(known))
+    rd = ray @ r.T  # the camera ray directions in the projector frame
+
+    def pixel(a: F64, b: F64) -> tuple[F64, F64]:
+        return (a, b) if axis == 0 else (b, a)
+
+    for _ in range(max_iterations):
+        if active.size == 0:
+            break
+        k, o = known[active], other[active]
+        # unchecked undistortion: a converged point is checked against ``known`` below
+        x0, y0 = proj._undistort(*pixel(k, o), check=False)
+        x1, y1 = proj._undistort(*pixel(k, o + _TANGENT_STEP_PX), check=False)
+        normal = np.cross(
+            np.stack([x0, y0, np.ones_like(x0)], -1), np.stack([x1, y1, np.ones_like(x1)], -1)
+        )
+        # plane n . X_p = 0 with X_p = lambda * R d + t
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam = -(normal @ t) / np.einsum("ij,ij->i", normal, rd[active])
+        point = lam[:, None] * ray[active]
+        u_new, v_new = proj.project(_to_projector(calibration, point))
+        new_known, new_other = (u_new, v_new) if axis == 0 else (v_new, u_new)
+        ok = np.isfinite(new_other) & (lam > 0)
+        converged = ok & (np.abs(new_other - o) < tolerance_px)
+        # a point converged onto another coordinate (undistortion failed where the model
+        # folds over) stays NaN
+        done = converged & (np.abs(new_known - k) < tolerance_px)
+        xyz[active[done]] = point[done]
+        other[active] = new_other
+        active = active[ok & ~converged]
+    return xyz
+
+
+# --- shape fits -------------------------------------------------------------------------------
+
+
+def _finite_points(xyz: ArrayLike, name: str, minimum: int) -> tuple[F64, NDArray[np.bool_]]:
+    """(n, 3) finite points of ``xyz`` (shape (..., 3)) and the mask of them over ``...``."""
+    pts = np.asarray(xyz, dtype=np.float64)
+    if pts.ndim < 1 or pts.shape[-1] != 3:
+        raise InputError(f"{name}: points of shape {pts.shape}; give an array of shape (..., 3)")
+    valid = np.all(np.isfinite(pts), axis=-1)
+    if int(valid.sum()) < minimum:
+        raise InputError(
+            f"{name}: {int(valid.sum())} finite points, at least {minimum} needed; "
+            "check the triangulation's valid pixels"
+        )
+    return pts[valid], valid
+
+
+class PlaneFit(NamedTuple):
+    """A plane ``normal . x = offset`` fitted by :func:`fit_plane`.
+
+    Attributes
+    ----------
+    normal : ndarray, shape (3,)
+        Unit normal, oriented toward the camera (the origin): ``offset <= 0``.
+    offset : float
+        ``normal . x`` on the plane, mm (minus the origin's distance to the plane).
+    residuals : ndarray, shape (...)
+        Signed distance of every point to the plane, ``normal . x - offset``, mm (positive
+        toward the camera); NaN for non-finite points only (outliers keep their residual).
+    inliers : ndarray of bool, shape (...)
+        The points the final fit used.
+
+    Examples
+    --------
+    >>> fit = fit_plane([[0, 0, 10.0], [1, 0, 10.0], [0, 1, 10.0], [1, 1, 10.0]])
+    >>> fit.normal.tolist(), fit.offset, fit.rms_mm
+    ([0.0, 0.0, -1.0], -10.0, 0.0)
+    """
+
+    normal: F64
+    offset: float
+    residuals: F64
+    inliers: NDArray[np.bool_]
+
+    @property
+    def rms_mm(self) -> float:
+        """RMS of the residuals of the inliers, mm."""
+        return float(np.sqrt(np.mean(self.residuals[self.inliers] ** 2)))
+
+
+def fit_plane(xyz: ArrayLike, *, robust: bool = False, max_rounds: int = 10) -> PlaneFit:
+    """Least-squares plane through points (orthogonal distances).
+
+    Parameters
+    ----------
+    xyz : array_like, shape (..., 3)
+        Points, mm; non-finite rows are ignored.
+    robust : bool
+        False: one fit through every finite point. True: refit on the points whose residual
+        is within 3 robust standard deviations (``1.4826 * MAD``, at least 1e-6 mm) of the
+        median residual, until the set stops changing (at most ``max_rounds`` rounds): the
+        plane of the majority, e.g. the background around an object.
+    max_rounds : int
+        Refits at most, with ``robust``.
+
+    Returns
+    -------
+    PlaneFit
+        ``normal`` (unit, toward the origin), ``offset``, ``residuals`` (signed distances,
+        shape ``xyz.shape[:-1]``, NaN for non-finite points), ``inliers``.
+
+    Notes
+    -----
+    The plane minimising the sum of squared orthogonal distances passes through the centroid,
+    and its normal is the right singular vector of the centred points with the smallest
+    singular value (total least squares).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> xy = rng.uniform(-50, 50, (500, 2))
+    >>> pts = np.c_[xy, 800 + 0.1 * xy[:, 0]]
+    >>> pts[:20, 2] += 30  # an object on the plane
+    >>> round(fit_plane(pts, robust=True).rms_mm, 9)
+    0.0
+    >>> fit_plane(pts).rms_mm > 1
+    True
+    """
+    if int(max_rounds) != max_rounds or max_rounds < 1:
+        raise InputError(f"max_rounds must be an integer >= 1, got {max_rounds}")
+    pts, valid = _finite_points(xyz, "plane fit", 3)
+    use = np.ones(pts.shape[0], dtype=bool)
+    for _ in range(int(max_rounds) if robust else 1):
+        centroid = pts[use].mean(axis=0)
+        _, sing, vt = np.linalg.svd(pts[use] - centroid, full_matrices=False)
+        if sing[1] <= 1e-12 * max(sing[0], 1e-300):
+            raise InputError("plane fit: the points are collinear; no plane is defined")
+        normal = vt[2]
+        offset = float(normal @ centroid)
+        if offset > 0:
+            normal, offset = -normal, -offset
+        dist = pts @ normal - offset
+        if not robust:
+            break
+        centre = float(np.median(dist[use]))
+        mad = float(np.median(np.abs(dist[use] - centre)))
+        keep = np.abs(dist - centre) <= max(3.0 * 1.4826 * mad, 1e-6)
+        if keep.sum() < 3 or np.array_equal(keep, use):
+            break
+        use = keep
+    residuals = np.full(valid.shape, np.nan)
+    residuals[valid] = dist
+    inliers = np.zeros(valid.shape, dtype=bool)
+    inliers[valid] = use
+    return PlaneFit(normal + 0.0, offset + 0.0, residuals, inliers)
+
+
+class SphereFit(NamedTuple):
+    """A sphere fitted by :func:`fit_sphere`.
+
+    Attributes
+    ----------
+    centre : ndarray, shape (3,)
+        Centre, mm.
+    radius : float
+        Radius, mm.
+    residuals : ndarray, shape (...)
+        Signed distance of every point to the sphere, ``|x - centre| - radius``, mm (positive
+        outside); NaN for non-finite points.
+
+    Examples
+    --------
+    >>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+    >>> fit = fit_sphere(5.0 * d + [0, 0, 700.0])
+    >>> fit.centre.round(9).tolist(), round(fit.radius, 9), fit.rms_mm < 1e-9
+    ([0.0, 0.0, 700.0], 5.0, True)
+    """
+
+    centre: F64
+    radius: float
+    residuals: F64
+
+    @property
+    def rms_mm(self) -> float:
+        """RMS of the finite residuals, mm."""
+        r = self.residuals[np.isfinite(self.residuals)]
+        return float(np.sqrt(np.mean(r**2)))
+
+
+def fit_sphere(xyz: ArrayLike) -> SphereFit:
+    """Least-squares sphere through points (geometric distances).
+
+    Parameters
+    ----------
+    xyz : array_like, shape (..., 3)
+        Points, mm; non-finite rows are ignored; at least 4 not on one plane.
+
+    Returns
+    -------
+    SphereFit
+        ``centre``, ``radius`` and the signed ``residuals`` (shape ``xyz.shape[:-1]``).
+
+    Notes
+    -----
+    Start: the algebraic fit, linear in ``(c, k)`` from ``|x|^2 = 2 c . x + k`` with
+    ``k = r^2 - |c|^2``; then ``scipy.optimize.least_squares`` minimises the sum of squared
+    geometric residuals ``|x - c| - r`` (the maximum-likelihood fit for noise along the
+    surface normal).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> d = rng.normal(size=(400, 3))
+    >>> d[:, 2] = -np.abs(d[:, 2])  # the half facing a camera at the origin
+    >>> d /= np.linalg.norm(d, axis=1, keepdims=True)
+    >>> fit = fit_sphere(12.5 * d + [3.0, -4.0, 650.0])
+    >>> fit.centre.round(6).tolist(), round(fit.radius, 6)
+    ([3.0, -4.0, 650.0], 12.5)
+    """
+    from scipy.optimize import least_squares
+
+    pts, valid = _finite_points(xyz, "sphere fit", 4)
+    shift = pts.mean(axis=0)
+    p = pts - shift  # conditioning: centred coordinates
+    a = np.c_[2.0 * p, np.ones(p.shape[0])]
+    sol, _, rank, _ = np.linalg.lstsq(a, np.einsum("ij,ij->i", p, p), rcond=None)
+    if rank < 4:
+        raise InputError("sphere fit: the points lie on one plane; no sphere is defined")
+    c0 = sol[:3]
+    r0 = float(np.sqrt(max(sol[3] + c0 @ c0, 0.0)))
+
+    def distances(params: F64) -> F64:
+        return np.asarray(np.linalg.norm(p - params[:3], axis=1) - params[3])
+
+    fit = least_squares(distances, np.r_[c0, r0], method="lm", xtol=1e-15, ftol=1e-15)
+    centre = np.asarray(fit.x[:3] + shift, dtype=np.float64)
+    radius = float(abs(fit.x[3]))
+    residuals = np.full(valid.shape, np.nan)
+    residuals[valid] = np.linalg.norm(pts - centre, axis=1) - radius
+    return SphereFit(centre, radius, residuals)
