@@ -69,7 +69,9 @@ def test_exported_geometry_reprojects_the_simulators_pixels(geometry, scene) -> 
     up, vp = calib.projector.project(pp)
     assert np.abs(up - truth.u[ok]).max() < 1e-9
     assert np.abs(vp - truth.v[ok]).max() < 1e-9
-    assert np.allclose(calib.projector_center_mm, _camera_frame(geometry, geometry.projector_center))
+    assert np.allclose(
+        calib.projector_center_mm, _camera_frame(geometry, geometry.projector_center)
+    )
 
 
 def test_board_scene_truth_and_manifest() -> None:
@@ -164,7 +166,9 @@ def test_calibration_recovers_the_true_geometry(calibrated, observed) -> None:
         assert np.abs(f / ft - 1).max() < 0.002, (f, ft)
         assert np.abs(lens.matrix[:2, 2] - true.matrix[:2, 2]).max() < 1.0
     assert abs(calib.baseline_mm / truth.baseline_mm - 1) < 0.002
-    rot_err = np.degrees(np.arccos(np.clip((np.trace(calib.rotation.T @ truth.rotation) - 1) / 2, -1, 1)))
+    rot_err = np.degrees(
+        np.arccos(np.clip((np.trace(calib.rotation.T @ truth.rotation) - 1) / 2, -1, 1))
+    )
     assert rot_err < 0.05
     rep = calib.reprojection_px
     assert max(rep["camera"], rep["projector"], rep["stereo"]) < 0.1
@@ -177,8 +181,10 @@ def test_bad_pose_is_flagged(observed) -> None:
     """A pose whose projector points are shifted by 2 px (a wrong fringe order, say) is
     flagged by the rule max(3 x median, 0.5 px); the others are not."""
     _, _, poses, _ = observed
-    bad = [BoardPose(p.name, p.camera_points, p.projector_points, p.homography_residual_px)
-           for p in poses]
+    bad = [
+        BoardPose(p.name, p.camera_points, p.projector_points, p.homography_residual_px)
+        for p in poses
+    ]
     bad[3].projector_points = bad[3].projector_points + np.where(
         np.arange(len(bad[3].projector_points))[:, None] % 2 == 0, 2.0, 0.0
     )

@@ -103,8 +103,8 @@ class BoardSpec:
     --------
     >>> BoardSpec.parse("circles:4x11:20")
     BoardSpec(pattern='circles', cols=4, rows=11, spacing_mm=20.0)
-    >>> BoardSpec("checkerboard", 3, 2, 10.0).object_points().tolist()
-    [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0], [20.0, 10.0, 0.0]]
+    >>> BoardSpec("checkerboard", 3, 2, 10.0).object_points()[:, :2].tolist()
+    [[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [0.0, 10.0], [10.0, 10.0], [20.0, 10.0]]
     """
 
     pattern: str
@@ -114,9 +114,7 @@ class BoardSpec:
 
     def __post_init__(self) -> None:
         if self.pattern not in BOARD_PATTERNS:
-            raise InputError(
-                f"board pattern {self.pattern!r}: use {' or '.join(BOARD_PATTERNS)}"
-            )
+            raise InputError(f"board pattern {self.pattern!r}: use {' or '.join(BOARD_PATTERNS)}")
         for key in ("cols", "rows"):
             v = getattr(self, key)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 2 <= v <= 100:
@@ -404,8 +402,10 @@ def map_to_projector(
     hw = half_window
     if isinstance(hw, bool) or not isinstance(hw, (int, np.integer)) or not 1 <= hw <= 100:
         raise InputError(f"half_window must be a whole number of pixels 1..100, got {hw!r}")
-    for name, val in (("min_valid_fraction", min_valid_fraction), ("min_inlier_fraction",
-                                                                   min_inlier_fraction)):
+    for name, val in (
+        ("min_valid_fraction", min_valid_fraction),
+        ("min_inlier_fraction", min_inlier_fraction),
+    ):
         if not 0 < float(val) <= 1:
             raise InputError(f"{name} must be in (0, 1], got {val}")
     if not (math.isfinite(ransac_px) and ransac_px > 0):
@@ -417,7 +417,7 @@ def map_to_projector(
     for k, (x, y) in enumerate(pts):
         if not (np.isfinite(x) and np.isfinite(y)):
             continue
-        cx, cy = int(round(x)), int(round(y))
+        cx, cy = round(x), round(y)
         x0, x1 = max(cx - hw, 0), min(cx + hw + 1, w)
         y0, y1 = max(cy - hw, 0), min(cy + hw + 1, h)
         if x0 >= x1 or y0 >= y1:
@@ -740,7 +740,7 @@ def calibrate_stereo(
     ...                  BoardSpec.parse("checkerboard:9x6:25"), (640, 480), (800, 600))
     Traceback (most recent call last):
     ...
-    hdrfringe.errors.InputError: stereo calibration needs at least 3 usable board poses, got 0 of 1 (p0: board not found); capture more poses with the whole board in view of camera and projector
+    hdrfringe.errors.InputError: stereo calibration needs at least 3 usable board poses, got 0 ...
     """
     flags = _distortion_flags(distortion)
     for what, size in (("camera", camera_size), ("projector", projector_size)):
@@ -777,8 +777,18 @@ def calibrate_stereo(
         if not refine_intrinsics:
             sflags |= cv2.CALIB_FIX_INTRINSIC
         stereo = cv2.stereoCalibrateExtended(
-            obj_p, img_pc, img_p, k_c.copy(), d_c.copy(), k_p.copy(), d_p.copy(), csize,
-            None, None, flags=sflags, criteria=_CRITERIA,
+            obj_p,
+            img_pc,
+            img_p,
+            k_c.copy(),
+            d_c.copy(),
+            k_p.copy(),
+            d_p.copy(),
+            csize,
+            None,
+            None,
+            flags=sflags,
+            criteria=_CRITERIA,
         )
     except cv2.error as exc:
         msg = " ".join(str(exc).split())[:200]

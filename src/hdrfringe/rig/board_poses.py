@@ -27,7 +27,7 @@ from hdrfringe.captures import Captures, ProjectorInfo
 from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame
 from hdrfringe.programs import fringe_program
-from hdrfringe.rig.scenes import CalibrationBoard, board
+from hdrfringe.rig.scenes import CalibrationBoard, Scene, board
 from hdrfringe.rig.simulated import CameraModel, ProjectorModel, RigGeometry, SimulatedRig
 
 __all__ = [
@@ -203,7 +203,7 @@ def default_board_poses(
 
 
 def calibration_rig(
-    scene: CalibrationBoard,
+    scene: Scene,
     *,
     noise: float = 1.0,
     shot_noise: bool = False,
@@ -216,13 +216,13 @@ def calibration_rig(
 
     The default camera and projector models (8 bits, camera blur 0.5 px, projector defocus
     0.6 px) at the given sizes, with read noise ``noise`` gray levels and the aperture set so
-    that the white board at the reference-plane centre reads 50 % of full scale (no clipping
-    over the poses of :func:`default_board_poses`).
+    that the board's white (or a white plate) at the reference-plane centre reads 50 % of
+    full scale (no clipping over the poses of :func:`default_board_poses`).
 
     Parameters
     ----------
-    scene : CalibrationBoard
-        The board at one pose.
+    scene : Scene
+        The board at one pose (any scene: a plate to test a calibration on).
     noise : float
         Camera read noise sigma in 8-bit gray levels.
     shot_noise : bool
@@ -247,7 +247,8 @@ def calibration_rig(
     cam = CameraModel(width=camera_size[0], height=camera_size[1], read_noise_dn8=noise)
     if not shot_noise:
         cam = dataclasses.replace(cam, full_well_e=None)
-    cam = dataclasses.replace(cam, white_level=0.5 / scene.white_reflectivity)
+    white = getattr(scene, "white_reflectivity", 1.0)
+    cam = dataclasses.replace(cam, white_level=0.5 / white)
     proj = ProjectorModel(width=projector_size[0], height=projector_size[1])
     return SimulatedRig(scene, camera=cam, projector_model=proj, geometry=geometry, seed=seed)
 
