@@ -6,7 +6,8 @@ OpenCV calibrates both lenses and the rigid motion between them. Steps, per pose
 
 1. **Board**: the brightest uniform frame of the pose (or, without one, the mean intensity of
    the finest vertical fringe set) is searched for the board: ``cv2.findChessboardCornersSB``
-   (sub-pixel by design) for a checkerboard, ``cv2.findCirclesGrid`` (symmetric grid) for dots.
+   refined by ``cv2.cornerSubPix`` for a checkerboard, ``cv2.findCirclesGrid`` (symmetric
+   grid) for dots.
 2. **Projector coordinates**: the absolute phase of the vertical and horizontal fringe
    families (:func:`hdrfringe.process.decode_captures`) gives every valid camera pixel its
    projector column ``u = p Phi_v / 2 pi`` and row ``v = p Phi_h / 2 pi`` (pixel centres at
@@ -58,6 +59,8 @@ __all__ = [
     "FLAG_FACTOR",
     "FLAG_FLOOR_PX",
     "MIN_POSES",
+    "SUBPIX_HALF_WINDOW",
+    "SUBPIX_SMOOTHING_PX",
     "BoardPose",
     "BoardSpec",
     "PoseReport",
@@ -83,6 +86,13 @@ FLAG_FLOOR_PX = 0.5
 F64 = NDArray[np.float64]
 _SPEC = re.compile(r"^(checkerboard|circles):(\d+)x(\d+):([0-9.eE+-]+)$")
 _CRITERIA = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+_SUBPIX_CRITERIA = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-6)
+#: Largest half side of the ``cv2.cornerSubPix`` window (camera px); it is also kept below 0.3
+#: of the smallest corner spacing so that a window never reaches the next corner.
+SUBPIX_HALF_WINDOW = 11
+#: Gaussian smoothing (sigma, camera px) of the image ``cv2.cornerSubPix`` works on: it keeps the
+#: symmetry of an X-junction about its corner (no bias) and halves the corner noise.
+SUBPIX_SMOOTHING_PX = 1.0
 
 
 @dataclass(frozen=True)
@@ -208,8 +218,15 @@ def detect_board(image: ArrayLike, board: BoardSpec, bit_depth: int = 8) -> F64 
 
     Notes
     -----
-    Checkerboard: ``cv2.findChessboardCornersSB`` with ``CALIB_CB_ACCURACY`` (its sub-pixel
-    localisation; ``cornerSubPix`` adds nothing to it). Circles: ``cv2.findCirclesGrid`` with
+    Checkerboard: ``cv2.findChessboardCornersSB`` (``CALIB_CB_ACCURACY``), then
+    ``cv2.cornerSubPix`` on the image at full precision, with a window of half side up to
+    :data:`SUBPIX_HALF_WINDOW` px and below 0.3 of the corner spacing, on the image smoothed by
+    :data:`SUBPIX_SMOOTHING_PX`. The SB detector alone is biased on strongly foreshortened
+    corners (0.05-0.1 px on a 35-degree tilt, noise-free, also on an independent 16x
+    supersampled rendering); the refinement about halves that bias, which is what brings the
+    triangulated plate of the virtual rig from 0.06 to about 0.03 mm RMS
+    (tests/test_stereo_calibration.py). Circles:
+    ``cv2.findCirclesGrid`` with
     ``CALIB_CB_SYMMETRIC_GRID`` (dark dots: blob centroids, which on a tilted board sit slightly
     off the projected dot centres, a known bias of circle grids).
 
@@ -231,7 +248,21 @@ def detect_board(image: ArrayLike, board: BoardSpec, bit_depth: int = 8) -> F64 
     if not found or pts is None:
         return None
     out = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
-    return out if out.shape[0] == board.cols * board.rows else None
+    if out.shape[0] != board.cols * board.rows:
+        return None
+    if board.pattern == "checkerboard":
+        grid = out.reshape(board.rows, board.cols, 2)
+        spacing = min(
+            float(np.linalg.norm(np.diff(grid, axis=0), axis=-1).min()),
+            float(np.linalg.norm(np.diff(grid, axis=1), axis=-1).min()),
+        )
+        half = int(max(2, min(SUBPIX_HALF_WINDOW, 0.3 * spacing)))
+        src = np.ascontiguousarray(np.asarray(image, dtype=np.float32))
+        src = cv2.GaussianBlur(src, (0, 0), SUBPIX_SMOOTHING_PX)
+        start = out.astype(np.float32).reshape(-1, 1, 2)
+        out = cv2.cornerSubPix(src, start, (half, half), (-1, -1), _SUBPIX_CRITERIA)
+        out = np.asarray(out, dtype=np.float64).reshape(-1, 2)
+    return out
 
 
 def board_image(captures: Captures) -> NDArray[Any]:
