@@ -25,6 +25,9 @@ from .io.calibration_file import save_calibration as save_calibration
 from .io.captures import read_capture_folder as read_capture_folder
 from .io.captures import write_capture_folder as write_capture_folder
 from .io.measurement_outputs import write_measurement as write_measurement
+from .io.stereo_file import convert_calibration as convert_calibration
+from .io.stereo_file import load_stereo_calibration as load_stereo_calibration
+from .io.stereo_file import save_stereo_calibration as save_stereo_calibration
 from .patterns import FringeSpec as FringeSpec
 from .patterns import fringe_gray as fringe_gray
 from .patterns import fringe_profile as fringe_profile

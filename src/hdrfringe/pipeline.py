@@ -2,7 +2,8 @@
 
 * :func:`measure`: captures (or the live rig a saturation-avoidance strategy drives) ->
   absolute phase (:func:`hdrfringe.process.decode_captures`) -> height with a calibration
-  (Eq. 2.10-2.11 or the non-linear model) -> :class:`MeasurementResult`: the captures measured,
+  (Eq. 2.10-2.11 or the non-linear model), or 3D points triangulated with a projector-camera
+  calibration (:mod:`hdrfringe.stereo`) -> :class:`MeasurementResult`: the captures measured,
   the decoded phase, the height map, the points (:meth:`MeasurementResult.points`), the typed
   :class:`MeasurementMetrics` (error against the truth the captures or the rig know) and, with a
   strategy, its results and, for DPA, the CDF analysis of thesis Fig. 6.3.
@@ -30,7 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe import __version__
-from hdrfringe.calibration import Calibration, check_compatible
+from hdrfringe.calibration import Calibration, CalibrationMismatchError, check_compatible
 from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
@@ -40,6 +41,7 @@ from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.replay import ReplayRig
+from hdrfringe.stereo import StereoCalibration, StereoMaps, projector_coordinate, triangulate_maps
 from hdrfringe.strategies import StrategyResult, get_strategy, make_params
 from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
 
@@ -492,6 +494,9 @@ class MeasurementMetrics:
         What the strategy captured.
     dpa : DPAMetrics or None
         DPA's CDFs against the actual ones (thesis Fig. 6.3).
+    stereo : dict or None
+        With a stereo calibration: points, depth range, reference plane and triangulation
+        residual (:meth:`hdrfringe.stereo.StereoMaps.summary`).
     skipped : tuple of str
         Stages not run, and why.
     notes : tuple of str
@@ -524,6 +529,7 @@ class MeasurementMetrics:
     live_rig: Mapping[str, Any] | None = None
     strategy: StrategySummary | None = None
     dpa: DPAMetrics | None = None
+    stereo: Mapping[str, Any] | None = None
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
 
@@ -566,6 +572,8 @@ class MeasurementMetrics:
             d.update(self.strategy.to_dict())
         if self.dpa is not None:
             d["dpa"] = self.dpa.to_dict()
+        if self.stereo is not None:
+            d["stereo"] = dict(self.stereo)
         d["skipped"] = list(self.skipped)
         d["notes"] = list(self.notes)
         return _json_safe(d)
@@ -582,13 +590,17 @@ class MeasurementResult:
     decoded : FolderPhase
         Their phases (:func:`hdrfringe.process.decode_captures`).
     height_mm : ndarray (H, W) or None
-        Height in mm (NaN = invalid); None without a calibration.
-    calibration : Calibration or None
+        Height in mm (NaN = invalid); None without a calibration. With a stereo calibration:
+        the height over the fitted reference plane (:attr:`StereoMaps.height_mm
+        <hdrfringe.stereo.StereoMaps.height_mm>`).
+    calibration : Calibration, StereoCalibration or None
     metrics : MeasurementMetrics
     strategy_results : tuple of StrategyResult
         One per pitch with a strategy, coarsest first; empty without.
     dpa : tuple of DPACDFs or None
         DPA's CDFs (thesis Fig. 6.3), one per pitch; None for another method.
+    stereo : StereoMaps or None
+        The triangulated points, with a stereo calibration.
 
     Examples
     --------
@@ -604,10 +616,11 @@ class MeasurementResult:
     captures: Captures
     decoded: FolderPhase
     height_mm: NDArray[np.float64] | None
-    calibration: Calibration | None
+    calibration: Calibration | StereoCalibration | None
     metrics: MeasurementMetrics
     strategy_results: tuple[StrategyResult, ...] = ()
     dpa: tuple[DPACDFs, ...] | None = None
+    stereo: StereoMaps | None = None
 
     @property
     def skipped(self) -> tuple[str, ...]:
@@ -622,7 +635,9 @@ class MeasurementResult:
     @property
     def geometry(self) -> CameraGeometry | None:
         """The calibration's camera geometry (:func:`calibration_geometry`), if any."""
-        return None if self.calibration is None else calibration_geometry(self.calibration)
+        if not isinstance(self.calibration, Calibration):
+            return None
+        return calibration_geometry(self.calibration)
 
     def points(self) -> tuple[F64, F64, F64]:
         """x, y, z maps of the height (:func:`height_points` with the calibration's geometry).
@@ -630,13 +645,17 @@ class MeasurementResult:
         Returns
         -------
         x, y, z : ndarray (H, W)
-            In mm with a recorded camera geometry; else x and y in pixels.
+            In mm with a recorded camera geometry; else x and y in pixels. With a stereo
+            calibration: the triangulated points in the camera frame, mm.
 
         Raises
         ------
         InputError
             Without a height map (no calibration).
         """
+        if self.stereo is not None:
+            xyz = self.stereo.xyz
+            return xyz[..., 0], xyz[..., 1], xyz[..., 2]
         if self.height_mm is None:
             raise InputError("no height map to place: measure with a calibration")
         return height_points(self.height_mm, self.geometry)
@@ -662,13 +681,74 @@ def _absolute_phase(captures: Captures, decoded: FolderPhase) -> tuple[F64, Frin
     return fam.absolute_phase, fam.sets[-1].spec
 
 
+def _check_fits(
+    calibration: Calibration | StereoCalibration,
+    spec: FringeSpec,
+    image_shape: tuple[int, int],
+    bit_depth: int,
+    source: str | None,
+) -> None:
+    """:func:`~hdrfringe.calibration.check_compatible`, or the stereo calibration's sizes."""
+    if isinstance(calibration, StereoCalibration):
+        _check_stereo_fits(calibration, image_shape, source, None)
+    else:
+        check_compatible(calibration, spec, image_shape, bit_depth, source=source)
+
+
+def _check_stereo_fits(
+    calibration: StereoCalibration,
+    image_shape: tuple[int, int],
+    source: str | None,
+    projector: tuple[int, int] | None,
+) -> None:
+    """The camera image (and projector) size of the measurement are the calibration's."""
+    problems = []
+    cam = (image_shape[1], image_shape[0])
+    if calibration.camera.size != cam:
+        problems.append(f"camera image {cam[0]}x{cam[1]} vs calibrated {calibration.camera.size}")
+    if projector is not None and calibration.projector.size != projector:
+        problems.append(
+            f"projector {projector[0]}x{projector[1]} vs calibrated {calibration.projector.size}"
+        )
+    if problems:
+        where = f"{source}: " if source else ""
+        raise CalibrationMismatchError(
+            f"{where}stereo calibration does not fit this measurement: {'; '.join(problems)} "
+            "(W x H); use the calibration of this camera and projector"
+        )
+
+
+def _triangulate(
+    caps: Captures, decoded: FolderPhase, calibration: StereoCalibration
+) -> StereoMaps:
+    """Projector coordinates of the first family of each orientation with an absolute phase,
+    triangulated; the quality is the data modulation of the first family's finest set."""
+    coords: dict[str, F64] = {}
+    quality = None
+    for fam in decoded.families:
+        key = "u" if fam.orientation == "vertical" else "v"
+        if key in coords or fam.absolute_phase is None:
+            continue
+        coords[key] = projector_coordinate(fam.absolute_phase, fam.pitch_px)
+        if quality is None:
+            quality = decoded.set_results[fam.sets[-1].label].modulation
+    if not coords:
+        raise CaptureFormatError(
+            f"{caps.name}: cannot triangulate: no fringe family has an absolute phase; add a "
+            "set whose pitch spans the projector (one period) or a centerline frame"
+        )
+    maps = triangulate_maps(calibration, u_proj=coords.get("u"), v_proj=coords.get("v"))
+    return dataclasses.replace(maps, quality=quality)
+
+
 def _measure_captures(
     caps: Captures,
-    calibration: Calibration | None,
+    calibration: Calibration | StereoCalibration | None,
     reject_saturated: bool,
     calibration_source: str | None,
-) -> tuple[FolderPhase, F64 | None, dict[str, Any]]:
-    """Decode; with a calibration, height and its errors. Returns the metrics fields."""
+) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
+    """Decode; with a calibration, height and its errors (or the triangulated points).
+    Returns the metrics fields."""
     decoded = decode_captures(caps, reject_saturated=reject_saturated)
     fam = decoded.primary
     fields: dict[str, Any] = {}
@@ -679,7 +759,18 @@ def _measure_captures(
         fields["saturated_fraction"] = float(sat.mean())
         fields["phase_valid_fraction"] = float(decoded.set_results[fam.sets[-1].label].valid.mean())
     if calibration is None:
-        return decoded, None, fields
+        return decoded, None, fields, None
+    if isinstance(calibration, StereoCalibration):
+        info = caps.projector
+        projector = None if info is None else (int(info.width), int(info.height))
+        _check_stereo_fits(calibration, caps.image_shape, calibration_source, projector)
+        maps = _triangulate(caps, decoded, calibration)
+        fields["model"] = "stereo"
+        fields["border_px"] = 0
+        fields["valid_fraction"] = float(maps.valid.mean())
+        fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat))
+        fields["stereo"] = maps.summary()
+        return decoded, maps.height_mm, fields, maps
     phi, spec = _absolute_phase(caps, decoded)
     check_compatible(
         calibration, spec, caps.image_shape, caps.camera_bit_depth, source=calibration_source
@@ -702,12 +793,12 @@ def _measure_captures(
     # where the truth is finite too and must not replace it (n_pixels reports that).
     errors.pop("valid_fraction", None)
     fields.update(errors)
-    return decoded, height, fields
+    return decoded, height, fields, None
 
 
 def _replay(
     captures: Captures,
-    calibration: Calibration | None,
+    calibration: Calibration | StereoCalibration | None,
     method: str,
     params: Any,
     specs: Sequence[FringeSpec] | None,
@@ -727,12 +818,12 @@ def _replay(
         centerline = lines[0] if lines else None
     if calibration is not None:  # refused before the strategy runs
         finest = min(specs, key=lambda s: s.pitch_px)
-        check_compatible(
+        _check_fits(
             calibration,
             finest,
             captures.image_shape,
             captures.camera_bit_depth,
-            source=calibration_source,
+            calibration_source,
         )
     rig = ReplayRig(captures)
     if method == "uniform" and params.migl is None and params.candidates is None:
@@ -748,7 +839,7 @@ def _correction_label(params: Any, sources: Mapping[str, str]) -> str:
 
 def measure(
     source: Captures | Rig,
-    calibration: Calibration | None = None,
+    calibration: Calibration | StereoCalibration | None = None,
     *,
     method: str | None = None,
     params: Any = None,
@@ -777,8 +868,10 @@ def measure(
     ----------
     source : Captures or Rig
         What to measure.
-    calibration : Calibration, optional
-        Without it the phase is decoded and the height skipped.
+    calibration : Calibration or StereoCalibration, optional
+        Without it the phase is decoded and the height skipped. A stereo calibration
+        triangulates every valid pixel from the absolute phase of the vertical and/or
+        horizontal fringes (:func:`hdrfringe.stereo.triangulate_maps`, docs/stereo.md).
     method : str, optional
         A registered strategy (:func:`hdrfringe.strategies.available_strategies`).
     params : Params or mapping, optional
@@ -859,12 +952,12 @@ def measure(
             )
         if calibration is not None:  # refused before anything is captured
             finest = min(specs, key=lambda s: s.pitch_px)
-            check_compatible(
+            _check_fits(
                 calibration,
                 finest,
                 source.image_shape,
                 source.camera_bit_depth,
-                source=calibration_source,
+                calibration_source,
             )
         description = describe_rig(source)
         caps, results = composite_captures(
@@ -875,7 +968,7 @@ def measure(
             f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
             "folder with hdrfringe.io.captures.read_capture_folder"
         )
-    decoded, height, fields = _measure_captures(
+    decoded, height, fields, stereo = _measure_captures(
         caps, calibration, reject_saturated, calibration_source
     )
     dpa = None
@@ -888,7 +981,7 @@ def measure(
             bound_pending=p.bound_pending,
         )
     notes = list(decoded.notes)
-    if height is not None and calibration is not None and calibration_geometry(calibration) is None:
+    if isinstance(calibration, Calibration) and calibration_geometry(calibration) is None:
         notes.append(NO_GEOMETRY)
     metrics = MeasurementMetrics(
         source=caps.name if label is None else label,
@@ -898,7 +991,7 @@ def measure(
         notes=tuple(notes),
         **fields,
     )
-    return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa)
+    return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa, stereo)
 
 
 # ---------------------------------------------------------------------------------------------

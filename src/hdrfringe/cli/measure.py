@@ -82,6 +82,7 @@ def measure(
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.measurement_outputs import write_measurement
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
+    from hdrfringe.io.stereo_file import calibration_kind, load_stereo_calibration
 
     live = check_source(ctx, folder, rig, LIVE_OPTIONS)
     if output is None:
@@ -91,7 +92,11 @@ def measure(
     params, sources = strategy_params(ctx, method, strategy_options)
     check_output_against_inputs(output, [folder, calibration, *sources.values()])
     check_output_dir(output, force)
-    cal = load_calibration(calibration) if calibration is not None else None
+    cal: Any = None
+    if calibration is not None and calibration_kind(calibration) == "stereo":
+        cal = load_stereo_calibration(calibration)  # triangulation (docs/stereo.md)
+    elif calibration is not None:
+        cal = load_calibration(calibration)
     kwargs: dict[str, Any] = {
         "method": method,
         "params": params,
@@ -147,6 +152,14 @@ def print_summary(result: Any, output: Path) -> None:
         )
     if m.valid_fraction is not None:
         console.print(f"valid {100 * m.valid_fraction:.1f} % of measurement pixels")
+    if m.stereo is not None:
+        st = m.stereo
+        line = f"triangulated {st['n_points']} points ({st['directions']})"
+        if "reference_plane" in st:
+            line += f", reference plane RMS {st['reference_plane']['rms_mm']:.3f} mm"
+        if "triangulation_residual_mm" in st:
+            line += f", ray-ray residual median {st['triangulation_residual_mm']['median']:.3f} mm"
+        console.print(line)
     for sk in m.skipped:
         console.print(f"skipped: {sk}")
     for note in m.notes:

@@ -363,6 +363,11 @@ def _read(f: Any, where: str) -> Calibration:
             f"{where}: HDF5 file is not an hdrfringe calibration (no format = {FORMAT_NAME!r} "
             "attribute); give a calibration file written by hdrfringe"
         )
+    if "kind" in attrs and _decode(attrs["kind"]) != "phase-to-height":
+        raise CalibrationFileError(
+            f"{where}: a {_decode(attrs['kind'])} calibration, not a phase-to-height one; "
+            "read it with hdrfringe.io.stereo_file.load_stereo_calibration"
+        )
     version = _get(attrs, "version", where)
     if version != FORMAT_VERSION:
         hint = "upgrade hdrfringe" if isinstance(version, int) and version > 1 else "recalibrate"

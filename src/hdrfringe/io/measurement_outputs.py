@@ -27,9 +27,15 @@ from hdrfringe.reconstruct import CameraGeometry
 
 if TYPE_CHECKING:
     from hdrfringe.pipeline import MeasurementResult
+    from hdrfringe.stereo import StereoMaps
     from hdrfringe.strategies.base import StrategyResult
 
-__all__ = ["write_height_outputs", "write_measurement", "write_strategy_outputs"]
+__all__ = [
+    "write_height_outputs",
+    "write_measurement",
+    "write_stereo_outputs",
+    "write_strategy_outputs",
+]
 
 
 def write_height_outputs(
@@ -68,6 +74,59 @@ def write_height_outputs(
     write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
     write_ply(out / "points.ply", *height_points(height_mm, geometry))
     return [NO_GEOMETRY] if geometry is None else []
+
+
+def write_stereo_outputs(out: Path, maps: StereoMaps) -> list[str]:
+    """The outputs of a triangulated measurement (docs/stereo.md); returns the files written.
+
+    ``xyz.tiff`` (H x W x 3 float32, mm, camera frame, NaN invalid), ``depth.tiff`` (Z),
+    ``height.tiff`` and ``height.png`` (over the fitted reference plane, positive toward the
+    camera), ``points.ply`` (mm; ``intensity`` holds the per-point quality, the data
+    modulation in DN) and, where both projector coordinates were decoded,
+    ``triangulation_residual.tiff`` (ray-ray distance, mm).
+
+    Parameters
+    ----------
+    out : Path
+        Output folder.
+    maps : StereoMaps
+        From :func:`hdrfringe.stereo.triangulate_maps`.
+
+    Returns
+    -------
+    list of str
+        The files written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.stereo import StereoMaps, fit_plane
+    >>> xyz = np.dstack([*np.mgrid[0:3, 0:4].astype(float), np.full((3, 4), 500.0)])
+    >>> maps = StereoMaps(xyz, None, fit_plane(xyz), ("u",), np.ones((3, 4)))
+    >>> write_stereo_outputs(Path(tempfile.mkdtemp()), maps)
+    ['xyz.tiff', 'depth.tiff', 'height.tiff', 'height.png', 'points.ply']
+    """
+    import tifffile
+
+    xyz = np.asarray(maps.xyz, dtype=np.float32)
+    tifffile.imwrite(
+        out / "xyz.tiff", xyz, photometric="minisblack", planarconfig="contig", compression="zlib"
+    )
+    write_map_tiff(out / "depth.tiff", maps.depth_mm)
+    write_map_tiff(out / "height.tiff", maps.height_mm)
+    write_preview_png(
+        out / "height.png", maps.height_mm, title="height over the reference plane",
+        cmap="viridis", label="mm",
+    )  # fmt: skip
+    write_ply(
+        out / "points.ply", maps.xyz[..., 0], maps.xyz[..., 1], maps.xyz[..., 2],
+        intensity=maps.quality,
+    )  # fmt: skip
+    files = ["xyz.tiff", "depth.tiff", "height.tiff", "height.png", "points.ply"]
+    if maps.residual_mm is not None:
+        write_map_tiff(out / "triangulation_residual.tiff", maps.residual_mm)
+        files.append("triangulation_residual.tiff")
+    return files
 
 
 def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list[str]:
@@ -141,8 +200,10 @@ def write_measurement(
 
     Writes the phase maps and ``phase_summary.json`` (docs/phase.md); with a height,
     ``height.tiff``, ``height.png`` and ``points.ply`` (:meth:`MeasurementResult.points
-    <hdrfringe.pipeline.MeasurementResult.points>`); with a strategy, its index map and pie
-    chart (:func:`write_strategy_outputs`); for DPA, ``dpa_cdf.png`` (thesis Fig. 6.3); and
+    <hdrfringe.pipeline.MeasurementResult.points>`); with a stereo calibration, the
+    triangulated outputs instead (:func:`write_stereo_outputs`); with a strategy, its index
+    map and pie chart (:func:`write_strategy_outputs`); for DPA, ``dpa_cdf.png`` (thesis
+    Fig. 6.3); and
     ``metrics.json`` (:meth:`MeasurementMetrics.to_dict
     <hdrfringe.pipeline.MeasurementMetrics.to_dict>`).
 
@@ -194,7 +255,9 @@ def write_measurement(
     with staged_output_dir(out, force=force) as tmp:
         if phase_maps:
             write_phase_maps(tmp, result.decoded, result.metrics.source)
-        if result.height_mm is not None:  # its note is in the metrics already
+        if result.stereo is not None:
+            write_stereo_outputs(tmp, result.stereo)
+        elif result.height_mm is not None:  # its note is in the metrics already
             write_height_outputs(tmp, result.height_mm, result.geometry)
         if result.strategy_results:
             write_strategy_outputs(tmp, result.strategy_results)
