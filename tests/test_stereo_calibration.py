@@ -7,9 +7,13 @@ calibration under test.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
+from hdrfringe.io.stereo_calibration_outputs import report_path, write_board_pose_folders
+from hdrfringe.io.stereo_file import load_stereo_calibration
 from hdrfringe.rig.board_poses import (
     CALIBRATION_GEOMETRY,
     board_program,
@@ -29,6 +33,7 @@ from hdrfringe.stereo_calibration import (
     observe_pose,
     projector_coordinates,
 )
+from tests.conftest import run_cli
 
 SPEC = BoardSpec.parse("checkerboard:9x6:25")
 
@@ -263,3 +268,79 @@ def test_triangulated_plate_matches_truth(calibrated, scene) -> None:
     assert _rigid_aligned_rms(points[ok], true[ok]) < 0.05
     # and without alignment the frame error stays within what the targets allow
     assert np.sqrt(np.mean(np.sum((points[ok] - true[ok]) ** 2, axis=1))) < 1.5
+
+
+# --- 3. the command ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def pose_folders(tmp_path_factory: pytest.TempPathFactory) -> list:
+    """Three pose folders of the virtual calibration rig, written by the library."""
+    root = tmp_path_factory.mktemp("poses") / "poses"
+    return write_board_pose_folders(root, default_board_poses(3), noise=1.0)
+
+
+def _assert_refused(res, out, *needles: str) -> None:
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr
+    assert "Traceback" not in res.stderr
+    for n in needles:
+        assert n in lines[0], lines[0]
+    assert not out.exists() and not report_path(out).exists()
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".")]
+
+
+def test_cli_calibrates_pose_folders(pose_folders, tmp_path) -> None:
+    """Pose folders in, the HDF5 calibration and its JSON report out (per-pose errors), and
+    the calibration reads back; a second run without --force is refused."""
+    out = tmp_path / "stereo.h5"
+    args = [*map(str, pose_folders), "--board", "checkerboard:9x6:25", "-o", str(out)]
+    res = run_cli("calibrate-stereo", *args)
+    assert res.returncode == 0, res.stderr
+    report = json.loads(report_path(out).read_text())
+    assert [p["name"] for p in report["poses"]] == [str(p) for p in pose_folders]
+    assert report["reprojection_rms_px"]["stereo"] < 0.2
+    back = load_stereo_calibration(out)
+    assert back.baseline_mm == pytest.approx(report["calibration"]["baseline_mm"])
+    again = run_cli("calibrate-stereo", *args)
+    assert again.returncode == 2 and "exists" in again.stderr
+
+
+def test_cli_board_not_found_in_any_pose(pose_folders, tmp_path) -> None:
+    """A board that is not detected in any pose (here: the wrong corner count)."""
+    out = tmp_path / "stereo.h5"
+    res = run_cli(
+        "calibrate-stereo", *map(str, pose_folders), "--board", "checkerboard:7x4:25",
+        "-o", str(out),
+    )  # fmt: skip
+    _assert_refused(res, out, "not found in any of the 3 poses")
+
+
+def test_cli_fewer_poses_than_needed(pose_folders, tmp_path) -> None:
+    """Two poses are fewer than the 3 a calibration needs: refused before any reading."""
+    out = tmp_path / "stereo.h5"
+    res = run_cli(
+        "calibrate-stereo", *map(str, pose_folders[:2]), "--board", "checkerboard:9x6:25",
+        "-o", str(out),
+    )  # fmt: skip
+    _assert_refused(res, out, "at least 3")
+
+
+def test_cli_virtual_rig_reports_errors_against_truth(tmp_path) -> None:
+    """``--rig sim``: simulated poses calibrated, the report compares with the true geometry;
+    ``--from`` converts (here: reads back) the result."""
+    out = tmp_path / "sim.h5"
+    res = run_cli(
+        "calibrate-stereo", "--rig", "sim", "--poses", "4", "--board", "circles:9x6:25",
+        "-o", str(out),
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    errors = json.loads(report_path(out).read_text())["errors_vs_truth"]
+    assert errors["baseline_error_percent"] < 0.5
+    conv = tmp_path / "copy.h5"
+    res = run_cli("calibrate-stereo", "--from", str(out), "-o", str(conv))
+    assert res.returncode == 0, res.stderr
+    assert load_stereo_calibration(conv).baseline_mm == pytest.approx(
+        load_stereo_calibration(out).baseline_mm
+    )
