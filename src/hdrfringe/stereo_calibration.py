@@ -257,11 +257,11 @@ def detect_board(image: ArrayLike, board: BoardSpec, bit_depth: int = 8) -> F64 
             float(np.linalg.norm(np.diff(grid, axis=1), axis=-1).min()),
         )
         half = int(max(2, min(SUBPIX_HALF_WINDOW, 0.3 * spacing)))
-        src = np.ascontiguousarray(np.asarray(image, dtype=np.float32))
-        src = cv2.GaussianBlur(src, (0, 0), SUBPIX_SMOOTHING_PX)
+        raw = np.ascontiguousarray(np.asarray(image, dtype=np.float32))
+        smooth = cv2.GaussianBlur(raw, (0, 0), SUBPIX_SMOOTHING_PX)
         start = out.astype(np.float32).reshape(-1, 1, 2)
-        out = cv2.cornerSubPix(src, start, (half, half), (-1, -1), _SUBPIX_CRITERIA)
-        out = np.asarray(out, dtype=np.float64).reshape(-1, 2)
+        refined = cv2.cornerSubPix(smooth, start, (half, half), (-1, -1), _SUBPIX_CRITERIA)
+        out = np.asarray(refined, dtype=np.float64).reshape(-1, 2)
     return out
 
 
@@ -701,15 +701,16 @@ def _rms(err: F64) -> float:
 def _per_view_rms(
     obj: list[NDArray[np.float32]],
     img: list[NDArray[np.float32]],
-    k: F64,
-    d: F64,
+    k: Any,
+    d: Any,
     rvecs: Sequence[Any],
     tvecs: Sequence[Any],
 ) -> list[float]:
     out = []
     for o, i, r, t in zip(obj, img, rvecs, tvecs, strict=True):
         proj, _ = cv2.projectPoints(o, r, t, k, d)
-        out.append(_rms(proj.reshape(-1, 2) - i.reshape(-1, 2)))
+        diff = np.asarray(proj, dtype=np.float64).reshape(-1, 2) - i.reshape(-1, 2)
+        out.append(_rms(diff))
     return out
 
 
@@ -786,7 +787,11 @@ def calibrate_stereo(
             "poses with the whole board in view of camera and projector"
         )
     objp = board.object_points().astype(np.float32)
-    obj_c, img_c, obj_p, img_p, img_pc = [], [], [], [], []
+    obj_c: list[Any] = []
+    img_c: list[Any] = []
+    obj_p: list[Any] = []
+    img_p: list[Any] = []
+    img_pc: list[Any] = []
     for p in usable:
         assert p.camera_points is not None and p.projector_points is not None
         m = p.mapped
@@ -799,10 +804,10 @@ def calibrate_stereo(
     psize = (int(projector_size[0]), int(projector_size[1]))
     try:
         rms_c, k_c, d_c, rv_c, tv_c, *_ = cv2.calibrateCameraExtended(
-            obj_c, img_c, csize, None, None, flags=flags, criteria=_CRITERIA
+            obj_c, img_c, csize, np.eye(3), np.zeros(5), flags=flags, criteria=_CRITERIA
         )
         rms_p, k_p, d_p, rv_p, tv_p, *_ = cv2.calibrateCameraExtended(
-            obj_p, img_p, psize, None, None, flags=flags, criteria=_CRITERIA
+            obj_p, img_p, psize, np.eye(3), np.zeros(5), flags=flags, criteria=_CRITERIA
         )
         sflags = flags | (cv2.CALIB_USE_INTRINSIC_GUESS if refine_intrinsics else 0)
         if not refine_intrinsics:
@@ -816,8 +821,8 @@ def calibrate_stereo(
             k_p.copy(),
             d_p.copy(),
             csize,
-            None,
-            None,
+            np.eye(3),
+            np.zeros((3, 1)),
             flags=sflags,
             criteria=_CRITERIA,
         )
@@ -854,8 +859,8 @@ def calibrate_stereo(
                 )
         reports.append(rep)
     calib = StereoCalibration(
-        LensModel(k_c2, np.asarray(d_c2, dtype=np.float64).ravel(), csize),
-        LensModel(k_p2, np.asarray(d_p2, dtype=np.float64).ravel(), psize),
+        LensModel(np.asarray(k_c2, np.float64), np.asarray(d_c2, np.float64).ravel(), csize),
+        LensModel(np.asarray(k_p2, np.float64), np.asarray(d_p2, np.float64).ravel(), psize),
         np.asarray(rot, dtype=np.float64),
         np.asarray(trans, dtype=np.float64).ravel(),
         reprojection_px={"camera": float(rms_c), "projector": float(rms_p), "stereo": rms_s},

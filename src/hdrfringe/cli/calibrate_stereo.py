@@ -168,8 +168,8 @@ def calibrate_stereo(
             camera_size=_size(camera_size, "--camera-size"),
             projector_size=_size(projector_size, "--projector-size"),
         )
-        report = {"converted_from": str(from_path), "calibration": calib.to_dict()}
-        out, rep = write_calibration_and_report(output, calib, report, force=force)
+        converted = {"converted_from": str(from_path), "calibration": calib.to_dict()}
+        out, rep = write_calibration_and_report(output, calib, converted, force=force)
         console.print(
             f"converted {from_path}: baseline {calib.baseline_mm:.2f} mm; wrote {out} and {rep}"
         )
@@ -205,8 +205,8 @@ def calibrate_stereo(
             rows=spec.rows,
             spacing_mm=spec.spacing_mm,
         )
-        options = {"noise": noise, "seed": seed}
-        truth = calibration_rig(boards[0], **options).stereo_calibration()  # type: ignore[arg-type]
+        options: dict[str, Any] = {"noise": noise, "seed": seed}
+        truth = calibration_rig(boards[0], **options).stereo_calibration()
         with progress_bar() as prog:
             task = prog.add_task("simulating board poses", total=len(boards))
             if save_poses is not None:
@@ -245,7 +245,7 @@ def calibrate_stereo(
         refine_intrinsics=not fix_intrinsics,
         source=f"hdrfringe calibrate-stereo {spec}",
     )
-    report = result.to_dict()
+    report: dict[str, Any] = result.to_dict()
     if truth is not None:
         report["virtual_rig_truth"] = truth.to_dict()
         report["errors_vs_truth"] = _truth_errors(result.calibration, truth)

@@ -52,6 +52,11 @@ def report_path(path: str | Path) -> Path:
     Returns
     -------
     Path
+
+    Examples
+    --------
+    >>> report_path("/data/rig/stereo.h5").name
+    'stereo_report.json'
     """
     out = Path(path)
     return out.with_name(f"{out.stem}_report.json")
@@ -82,7 +87,7 @@ def read_pose_folders(folders: Sequence[str | Path]) -> list[Captures]:
     >>> read_pose_folders(["a", "./a"])
     Traceback (most recent call last):
     ...
-    hdrfringe.errors.InputError: pose folder a is given twice; give each pose once
+    hdrfringe.errors.InputError: pose folder ./a is given twice; give each pose once
     """
     seen: set[Path] = set()
     for f in folders:
@@ -116,6 +121,14 @@ def check_calibration_outputs(path: str | Path, force: bool) -> tuple[Path, Path
     ------
     OutputExistsError
         A target exists (without ``force``) or is a folder.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     paths = check_calibration_outputs(Path(tmp) / "stereo.h5", force=False)
+    >>> [p.name for p in paths]
+    ['stereo.h5', 'stereo_report.json']
     """
     from hdrfringe.io.results import check_writable
 
@@ -161,6 +174,17 @@ def write_calibration_and_report(
     ------
     OutputExistsError
         A target exists (without ``force``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.rig.simulated import RigGeometry
+    >>> calib = RigGeometry().stereo_calibration((648, 494), (1024, 768))
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     out, rep = write_calibration_and_report(Path(tmp) / "s.h5", calib, {"note": "doc"})
+    ...     text = rep.read_text()
+    >>> out.name, rep.name, json.loads(text)
+    ('s.h5', 's_report.json', {'note': 'doc'})
     """
     from hdrfringe.io.results import current_umask
     from hdrfringe.io.stereo_file import save_stereo_calibration
@@ -227,6 +251,18 @@ def write_board_pose_folders(
     -------
     list of Path
         The pose folders, in order.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.rig.board_poses import default_board_poses
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     folders = write_board_pose_folders(Path(tmp) / "poses", default_board_poses(1),
+    ...                                        camera_size=(64, 48))
+    ...     names = [f.name for f in folders]
+    ...     files = len(list(folders[0].iterdir()))
+    >>> names, files
+    (['pose_00'], 27)
     """
     from hdrfringe.io.simulation import write_simulation
 

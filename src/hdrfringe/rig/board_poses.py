@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from hdrfringe.captures import Captures, ProjectorInfo
 from hdrfringe.errors import InputError
@@ -259,7 +260,7 @@ def capture_board_poses(
     steps: int = 4,
     pitches: Sequence[float] = BOARD_PITCHES_PX,
     progress: Callable[[], object] | None = None,
-    **rig_options: object,
+    **rig_options: Any,
 ) -> list[Captures]:
     """Capture :func:`board_program` at every board pose on :func:`calibration_rig`.
 
@@ -292,7 +293,7 @@ def capture_board_poses(
     out = []
     for b in boards:
         # the scene is part of each frame's noise key: the poses get independent noise
-        rig = calibration_rig(b, **rig_options)  # type: ignore[arg-type]
+        rig = calibration_rig(b, **rig_options)
         out.append(rig.capture_folder(board_program(rig.projector, steps=steps, pitches=pitches)))
         if progress is not None:
             progress()

@@ -1073,14 +1073,15 @@ def board(
     >>> scene_from_manifest(b.to_manifest()) == b
     True
     """
-    if isinstance(centre_mm, str):
+    centre = [float(v) for v in centre_mm] if not isinstance(centre_mm, str) else []
+    if len(centre) != 3:
         raise InputError(f"board centre_mm must be (x, y, z) in mm, got {centre_mm!r}")
     return CalibrationBoard(
         str(pattern),
         cols,
         rows,
         float(spacing_mm),
-        tuple(float(v) for v in centre_mm),  # type: ignore[arg-type]
+        (centre[0], centre[1], centre[2]),
         float(tilt_x_deg),
         float(tilt_y_deg),
         float(spin_deg),

@@ -478,7 +478,7 @@ class RigGeometry:
         Examples
         --------
         >>> calib = RigGeometry().stereo_calibration((648, 494), (1024, 768))
-        >>> calib.camera.matrix[0, 0], calib.camera.matrix[:2, 2].tolist()
+        >>> float(calib.camera.matrix[0, 0]), calib.camera.matrix[:2, 2].tolist()
         (3847.5, [323.5, 246.5])
         >>> round(calib.baseline_mm, 1)  # 1967 mm * sin(15 deg) along X at the camera's height
         509.1
@@ -488,8 +488,8 @@ class RigGeometry:
         (cw, ch), (pw, ph) = (_size(camera_size, "camera"), _size(projector_size, "projector"))
         fc = self.camera_focal_px(cw)
         fp = self.projector_focal_px(pw)
-        k_cam = [[fc, 0.0, (cw - 1) / 2.0], [0.0, fc, (ch - 1) / 2.0], [0.0, 0.0, 1.0]]
-        k_proj = [[fp, 0.0, (pw - 1) / 2.0], [0.0, fp, (ph - 1) / 2.0], [0.0, 0.0, 1.0]]
+        k_cam = np.array([[fc, 0.0, (cw - 1) / 2.0], [0.0, fc, (ch - 1) / 2.0], [0.0, 0.0, 1.0]])
+        k_proj = np.array([[fp, 0.0, (pw - 1) / 2.0], [0.0, fp, (ph - 1) / 2.0], [0.0, 0.0, 1.0]])
         rot_c, t_c = self.world_to_camera()
         # X_world = R_c^T (X_cam - t_c); X_proj = A (X_world - C_p)
         axes = self.projector_axes
