@@ -56,6 +56,7 @@ from hdrfringe.stereo import LensModel, StereoCalibration
 
 __all__ = [
     "BOARD_PATTERNS",
+    "DISTORTION_MODELS",
     "FLAG_FACTOR",
     "FLAG_FLOOR_PX",
     "MIN_POSES",
@@ -75,6 +76,8 @@ __all__ = [
 
 #: Board patterns: OpenCV's chessboard (inner corners) and symmetric circle grid (dots).
 BOARD_PATTERNS = ("checkerboard", "circles")
+#: Distortion models of :func:`calibrate_stereo`: the terms estimated for both lenses.
+DISTORTION_MODELS = ("standard", "radial", "none", "full")
 #: Fewest usable poses a calibration accepts (Zhang's method needs at least 3 views of a plane
 #: for the full intrinsics; more poses, more tilt variety: better).
 MIN_POSES = 3

@@ -147,13 +147,17 @@ def calibrate_stereo(
         read_pose_folders,
         write_calibration_and_report,
     )
-    from hdrfringe.stereo_calibration import MIN_POSES
+    from hdrfringe.stereo_calibration import DISTORTION_MODELS, MIN_POSES
 
     sources = [bool(poses), from_path is not None, rig is not None]
     if sum(sources) != 1:
         raise InputError(
             "give exactly one source: POSE folders, --from PATH (conversion) or --rig sim"
         )
+    if distortion not in DISTORTION_MODELS:
+        raise InputError(f"--distortion {distortion!r}: use {', '.join(DISTORTION_MODELS)}")
+    if not 1 <= window <= 100:
+        raise InputError(f"--window {window}: give a half window of 1..100 camera pixels")
     if rig is not None and rig != "sim":
         raise InputError(f"--rig {rig!r}: only the virtual rig 'sim' can be driven here")
     inputs: list[Path | None] = [*(poses or []), from_path, save_poses]
