@@ -165,7 +165,11 @@ def test_projector_points_match_truth(observed) -> None:
 
 def test_calibration_recovers_the_true_geometry(calibrated, observed) -> None:
     """Issue 12, Done when: focal lengths within 0.2 %, principal points within 1 px, the
-    baseline within 0.2 %, reprojection errors under 0.1 px at sigma 1 DN."""
+    baseline within 0.2 %, reprojection errors under 0.1 px at sigma 1 DN.
+
+    Rejects the broken variant that skips the local homography and takes the phase of the
+    corner's nearest pixel (measured on these poses: projector RMS 0.40 px, stereo 0.29 px,
+    principal points 2.4 px (camera) and 3.5 px (projector) off)."""
     truth = observed[3]
     calib = calibrated.calibration
     for lens, true in ((calib.camera, truth.camera), (calib.projector, truth.projector)):
