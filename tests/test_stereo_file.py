@@ -226,11 +226,11 @@ def test_unknown_and_unreadable_inputs(tmp_path: Path) -> None:
 
 
 def test_npz_layout_of_thomriiii(tmp_path: Path) -> None:
-    """stereo_params.npz (T in metres) + the two intrinsics files for the sizes and errors."""
+    """stereo_params.npz (projector -> camera, T in metres) + the two intrinsics files."""
     np.savez(
         tmp_path / "stereo_params.npz",
-        R=R,
-        T=T.reshape(3, 1) / 1000.0,
+        R=R.T,  # X_cam = R.T X_proj - R.T T
+        T=(-R.T @ T).reshape(3, 1) / 1000.0,
         Kc=KC,
         dist_c=DC.reshape(1, 5),
         Kp=KP,

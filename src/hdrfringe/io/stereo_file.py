@@ -590,13 +590,16 @@ def _from_npz(
             f"{where}: keys {', '.join(missing)} missing (thomriiii layout: Kc, dist_c, Kp, "
             "dist_p, R, T); give stereo_params.npz of a calibration_dec2025-style folder"
         )
+    # The layout's R, T map projector to camera coordinates, X_cam = R X_proj + T (measured on
+    # the checkerboard scan, docs/stereo.md): invert them to X_proj = R.T X_cam - R.T T.
+    r_pc, t_pc = _shaped(data["R"], "R", where, "R"), _shaped(data["T"], "T", where, "T")
     parts: dict[str, Any] = {
         "Kc": _shaped(data["Kc"], "Kc", where, "K"),
         "Dc": _shaped(data["dist_c"], "dist_c", where, "D"),
         "Kp": _shaped(data["Kp"], "Kp", where, "K"),
         "Dp": _shaped(data["dist_p"], "dist_p", where, "D"),
-        "R": _shaped(data["R"], "R", where, "R"),
-        "T": _shaped(data["T"], "T", where, "T"),
+        "R": r_pc.T,
+        "T": -r_pc.T @ t_pc,
     }
     for lens, key, extra, override in (
         ("camera", "image_size", cam, camera_size),
@@ -699,7 +702,7 @@ def convert_calibration(
           ``R``, ``T`` of a stereoCalibrate-based tool);
         - a ``.npz`` file or a folder of thomriiii's ``calibration_dec2025`` layout
           (``stereo_params.npz`` + ``camera_intrinsics.npz`` + ``projector_intrinsics.npz``;
-          translation in metres);
+          its ``R``, ``T`` map projector to camera coordinates, translation in metres);
         - a folder of kimthyung's plain-text matrices (``ProjIntrinsicMatrix.txt``, ...);
         - an hdrfringe stereo calibration (``.h5``), read as is.
     camera_size, projector_size : (int, int), optional
