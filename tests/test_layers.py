@@ -40,6 +40,7 @@ LAYERS: dict[str, int] = {
     "calibration": CORE,
     "reconstruct": CORE,
     "stereo": CORE,
+    "stereo_calibration": CORE,
     "gamma": CORE,
     "gamma.*": CORE,
     "process": CORE,

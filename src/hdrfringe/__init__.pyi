@@ -62,6 +62,7 @@ from .rig.factory import virtual_rig as virtual_rig
 from .rig.modify import modify_captures as modify_captures
 from .rig.replay import ReplayRig as ReplayRig
 from .rig.scenes import black_plate as black_plate
+from .rig.scenes import board as board
 from .rig.scenes import checkerboard as checkerboard
 from .rig.scenes import make_scene as make_scene
 from .rig.scenes import white_plate as white_plate
@@ -73,6 +74,9 @@ from .stereo import StereoCalibration as StereoCalibration
 from .stereo import fit_plane as fit_plane
 from .stereo import fit_sphere as fit_sphere
 from .stereo import triangulate as triangulate
+from .stereo_calibration import BoardSpec as BoardSpec
+from .stereo_calibration import calibrate_stereo as calibrate_stereo
+from .stereo_calibration import observe_pose as observe_pose
 from .strategies import StrategyResult as StrategyResult
 from .strategies import available_strategies as available_strategies
 from .strategies import get_strategy as get_strategy

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from hdrfringe.cli import (  # noqa: F401  (each module registers its command on ``app``)
     calibrate,
+    calibrate_stereo,
     demo,
     gamma,
     import_,

@@ -21,7 +21,7 @@ that no reader mistakes them for a flat plate.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -32,14 +32,17 @@ from hdrfringe.errors import InputError
 
 __all__ = [
     "BLACK_PLATE_REFLECTIVITY",
+    "BOARD_PATTERNS",
     "SCENES",
     "THESIS_CALIBRATION_DEPTHS_MM",
+    "CalibrationBoard",
     "Checkerboard",
     "FlatPlate",
     "GlossyDome",
     "Mask",
     "Scene",
     "black_plate",
+    "board",
     "checkerboard",
     "glossy",
     "make_scene",
@@ -734,6 +737,361 @@ def glossy(
     )
 
 
+#: Board patterns of :class:`CalibrationBoard` (OpenCV's chessboard and symmetric circle grid).
+BOARD_PATTERNS = ("checkerboard", "circles")
+
+
+def _box_inside(s: NDArray[np.float64], lo: float, hi: float, w: float) -> NDArray[np.float64]:
+    """Mean over ``[s - w/2, s + w/2]`` of the indicator of ``[lo, hi)`` (w = 0: the value)."""
+    if w <= 0:
+        return ((s >= lo) & (s < hi)).astype(np.float64)
+    a = np.clip(s + w / 2, lo, hi) - np.clip(s - w / 2, lo, hi)
+    return a / w
+
+
+def _box_alternating(
+    s: NDArray[np.float64], lo: float, hi: float, q: float, w: float
+) -> NDArray[np.float64]:
+    """Mean over ``[s - w/2, s + w/2]`` of ``(-1)^floor(u/q)`` on ``[lo, hi)``, 0 outside.
+
+    The antiderivative of the square wave is the triangle wave ``q - |mod(u, 2q) - q|``, so the
+    box mean is exact (the pixel-footprint average of the printed pattern along one axis).
+    """
+    if w <= 0:
+        inside = (s >= lo) & (s < hi)
+        return np.where(inside, 1.0 - 2.0 * (np.floor(s / q) % 2), 0.0)
+
+    def tri(u: NDArray[np.float64]) -> NDArray[np.float64]:
+        u = np.clip(u, lo, hi)
+        return q - np.abs(np.mod(u, 2 * q) - q)
+
+    return (tri(s + w / 2) - tri(s - w / 2)) / w
+
+
+def _rotation_xyz(tilt_x_deg: float, tilt_y_deg: float, spin_deg: float) -> NDArray[np.float64]:
+    ax, ay, az = (math.radians(v) for v in (tilt_x_deg, tilt_y_deg, spin_deg))
+    rx = np.array([[1, 0, 0], [0, math.cos(ax), -math.sin(ax)], [0, math.sin(ax), math.cos(ax)]])
+    ry = np.array([[math.cos(ay), 0, math.sin(ay)], [0, 1, 0], [-math.sin(ay), 0, math.cos(ay)]])
+    rz = np.array([[math.cos(az), -math.sin(az), 0], [math.sin(az), math.cos(az), 0], [0, 0, 1]])
+    # board frame as OpenCV's object frame: s along +X, t along -Y, z into the board (-Z)
+    return ry @ rx @ np.diag([1.0, -1.0, -1.0]) @ rz
+
+
+@dataclass(frozen=True)
+class CalibrationBoard(Scene):
+    """A planar calibration board (checkerboard or circle grid) at any pose, on a white plane.
+
+    The printed pattern lies on an infinite white plane (the board's margin), which is a
+    heightfield as long as the tilt stays below 90 degrees (limited here to 60). Board
+    coordinates ``(s, t)`` in mm are OpenCV's object coordinates: the pattern point ``(i, j)``
+    (inner corner of a checkerboard, centre of a circle) sits at ``(i * spacing, j * spacing,
+    0)``, ``i < cols``, ``j < rows``. The board frame is placed in the world by
+    ``X = centre + R @ (s - s_c, t - t_c, 0)`` with ``(s_c, t_c)`` the pattern's centre and
+    ``R = R_y(tilt_y) R_x(tilt_x) diag(1, -1, -1) R_z(spin)``: untilted and unspun, ``s`` runs
+    along +X (image columns), ``t`` along -Y (image rows) and the board's ``z`` into the board,
+    away from the camera, as OpenCV's object frame.
+
+    Reflectivity: ``white_reflectivity`` on the plane, ``black_reflectivity`` on the black
+    squares or dots. With ``footprint_mm > 0`` it is the mean over a ``footprint_mm`` square
+    around the point in board coordinates (exact for the checkerboard, whose box average is
+    separable; a linear ramp across the dot edges for circles): an antialiased print, so a
+    camera pixel sees a footprint average rather than a point sample and corners stay
+    sub-pixel accurate. Pick about one camera pixel's size on the board.
+
+    Parameters
+    ----------
+    pattern : {"checkerboard", "circles"}
+        Chessboard of ``(cols + 1) x (rows + 1)`` squares (``cols x rows`` inner corners), or a
+        symmetric grid of ``cols x rows`` black dots.
+    cols, rows : int
+        OpenCV's pattern size: inner corners (checkerboard) or dots (circles) per row and column.
+    spacing_mm : float
+        Square side, or distance between dot centres.
+    centre_mm : tuple of float
+        World position of the pattern's centre ``(x, y, z)`` in mm.
+    tilt_x_deg, tilt_y_deg : float
+        Rotations of the board about the world X and Y axes.
+    spin_deg : float
+        Rotation of the pattern in its plane (about the board normal).
+    white_reflectivity, black_reflectivity : float
+        Reflectivities (white plate = 1); the black must stay well above 0 so that fringes on
+        it still decode.
+    dot_diameter_mm : float
+        Circles only: dot diameter (0: half the spacing).
+    footprint_mm : float
+        Side of the averaging square (antialiasing); 0: sharp point samples.
+
+    References
+    ----------
+    Zhang 2000 (planar-target camera calibration); the projector as an inverse camera:
+    Zhang & Huang 2006.
+
+    Examples
+    --------
+    >>> board = CalibrationBoard("checkerboard", 4, 3, 20.0, centre_mm=(0.0, 0.0, 10.0))
+    >>> board.corners_world()[0].round(6).tolist()  # inner corner (0, 0): left, top
+    [-30.0, 20.0, 10.0]
+    >>> board.reflectivity([-40.0, -20.0], [30.0, 30.0]).tolist()  # black, then white square
+    [0.3, 0.9]
+    >>> tilted = CalibrationBoard("checkerboard", 4, 3, 20.0, tilt_y_deg=30.0)
+    >>> p = tilted.corners_world()
+    >>> bool(np.allclose(tilted.height(p[:, 0], p[:, 1]), p[:, 2]))
+    True
+    """
+
+    pattern: str = "checkerboard"
+    cols: int = 9
+    rows: int = 6
+    spacing_mm: float = 20.0
+    centre_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tilt_x_deg: float = 0.0
+    tilt_y_deg: float = 0.0
+    spin_deg: float = 0.0
+    white_reflectivity: float = 0.9
+    black_reflectivity: float = 0.3
+    dot_diameter_mm: float = 0.0
+    footprint_mm: float = 0.0
+
+    name: ClassVar[str] = "board"
+
+    def __post_init__(self) -> None:
+        if self.pattern not in BOARD_PATTERNS:
+            raise InputError(
+                f"unknown board pattern {self.pattern!r}; use {' or '.join(BOARD_PATTERNS)}"
+            )
+        for key in ("cols", "rows"):
+            v = getattr(self, key)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 2 <= v <= 100:
+                raise InputError(f"board {key} must be a whole number 2..100, got {v!r}")
+        _finite("spacing_mm", self.spacing_mm)
+        if self.spacing_mm <= 0:
+            raise InputError(f"board spacing_mm must be > 0, got {self.spacing_mm}")
+        centre = tuple(float(v) for v in self.centre_mm)
+        if len(centre) != 3:
+            raise InputError(f"board centre_mm must be (x, y, z) in mm, got {self.centre_mm!r}")
+        for k, v in zip("xyz", centre, strict=True):
+            _finite(f"centre_mm {k}", v)
+        _depth_ok("centre_mm z", centre[2])
+        object.__setattr__(self, "centre_mm", centre)
+        for key in ("tilt_x_deg", "tilt_y_deg", "spin_deg"):
+            _finite(key, getattr(self, key))
+        if self.normal()[2] < math.cos(math.radians(60.0)):
+            raise InputError(
+                f"board tilt {self.tilt_x_deg}, {self.tilt_y_deg} deg leans more than 60 degrees "
+                "from facing the camera; use smaller tilts"
+            )
+        _reflectivity_ok("white_reflectivity", self.white_reflectivity)
+        _reflectivity_ok("black_reflectivity", self.black_reflectivity)
+        for key in ("dot_diameter_mm", "footprint_mm"):
+            _finite(key, getattr(self, key))
+            if getattr(self, key) < 0:
+                raise InputError(f"board {key} must be >= 0, got {getattr(self, key)}")
+        if self.pattern == "circles" and self.dot_diameter >= self.spacing_mm:
+            raise InputError(
+                f"board dot diameter {self.dot_diameter} mm must be below the spacing "
+                f"{self.spacing_mm} mm"
+            )
+
+    @property
+    def dot_diameter(self) -> float:
+        """Dot diameter in mm (circles; ``dot_diameter_mm`` or half the spacing)."""
+        return self.dot_diameter_mm if self.dot_diameter_mm > 0 else 0.5 * self.spacing_mm
+
+    def rotation(self) -> NDArray[np.float64]:
+        """``R`` of ``X = centre + R @ (s - s_c, t - t_c, 0)``: board axes in world coordinates.
+
+        Returns
+        -------
+        ndarray, shape (3, 3)
+            Columns: the board's ``s``, ``t`` and ``z`` (into the board) axes.
+        """
+        return _rotation_xyz(self.tilt_x_deg, self.tilt_y_deg, self.spin_deg)
+
+    def normal(self) -> NDArray[np.float64]:
+        """Unit normal of the printed side (toward the camera side of the plane).
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            ``-R[:, 2]``; its z component is positive for a board facing the camera.
+        """
+        return -self.rotation()[:, 2]
+
+    def object_points(self) -> NDArray[np.float64]:
+        """OpenCV object points of the pattern, row by row: ``(i * spacing, j * spacing, 0)``.
+
+        Returns
+        -------
+        ndarray, shape (cols * rows, 3)
+            Board coordinates in mm, ``i`` fastest (OpenCV's corner order).
+        """
+        j, i = np.mgrid[0 : self.rows, 0 : self.cols]
+        pts = np.stack([i.ravel(), j.ravel(), np.zeros(i.size)], axis=1)
+        return pts * self.spacing_mm
+
+    def _pattern_centre(self) -> NDArray[np.float64]:
+        return np.array([(self.cols - 1) / 2, (self.rows - 1) / 2, 0.0]) * self.spacing_mm
+
+    def board_to_world(self, points: ArrayLike) -> NDArray[np.float64]:
+        """World coordinates (mm) of board points ``(s, t, z)``.
+
+        Parameters
+        ----------
+        points : array_like, shape (..., 3)
+            Board coordinates in mm (``z = 0`` on the board).
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+        """
+        pts = np.asarray(points, dtype=np.float64) - self._pattern_centre()
+        return pts @ self.rotation().T + np.asarray(self.centre_mm)
+
+    def corners_world(self) -> NDArray[np.float64]:
+        """World coordinates of :meth:`object_points` (the truth of each pose).
+
+        Returns
+        -------
+        ndarray, shape (cols * rows, 3)
+        """
+        return self.board_to_world(self.object_points())
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        n = self.normal()
+        cx, cy, cz = self.centre_mm
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        return cz - (n[0] * (x - cx) + n[1] * (y - cy)) / n[2]
+
+    def gradient(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        n = self.normal()
+        return _full(x, y, -n[0] / n[2]), _full(x, y, -n[1] / n[2])
+
+    def board_coordinates(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Board coordinates ``(s, t)`` in mm of the plane's point above world ``(x, y)``.
+
+        Parameters
+        ----------
+        x, y : array_like
+            World coordinates in mm, broadcasting against each other.
+
+        Returns
+        -------
+        s, t : ndarray of float64
+        """
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        z = self.height(x, y)
+        rel = np.stack(np.broadcast_arrays(x, y, z), axis=-1) - np.asarray(self.centre_mm)
+        local = rel @ self.rotation() + self._pattern_centre()
+        return local[..., 0], local[..., 1]
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        s, t = self.board_coordinates(x, y)
+        w, q = float(self.footprint_mm), float(self.spacing_mm)
+        if self.pattern == "checkerboard":
+            # squares (-1..cols) x (-1..rows); square (i, j) is black when i + j is even
+            lo_s, hi_s = -q, self.cols * q
+            lo_t, hi_t = -q, self.rows * q
+            inside = _box_inside(s, lo_s, hi_s, w) * _box_inside(t, lo_t, hi_t, w)
+            sign = _box_alternating(s, lo_s, hi_s, q, w) * _box_alternating(t, lo_t, hi_t, q, w)
+            black = 0.5 * (inside + sign)
+        else:
+            i = np.clip(np.rint(s / q), 0, self.cols - 1)
+            j = np.clip(np.rint(t / q), 0, self.rows - 1)
+            dist = np.hypot(s - i * q, t - j * q)
+            edge = self.dot_diameter / 2 - dist
+            black = np.clip(edge / w + 0.5, 0.0, 1.0) if w > 0 else (edge > 0).astype(float)
+        white, dark = float(self.white_reflectivity), float(self.black_reflectivity)
+        return dark * black + white * (1.0 - black)
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "pattern": self.pattern,
+            "cols": int(self.cols),
+            "rows": int(self.rows),
+            "spacing_mm": float(self.spacing_mm),
+            "centre_mm": [float(v) for v in self.centre_mm],
+            "tilt_x_deg": float(self.tilt_x_deg),
+            "tilt_y_deg": float(self.tilt_y_deg),
+            "spin_deg": float(self.spin_deg),
+            "white_reflectivity": float(self.white_reflectivity),
+            "black_reflectivity": float(self.black_reflectivity),
+            "dot_diameter_mm": float(self.dot_diameter_mm),
+            "footprint_mm": float(self.footprint_mm),
+        }
+
+
+def board(
+    pattern: str = "checkerboard",
+    cols: int = 9,
+    rows: int = 6,
+    spacing_mm: float = 20.0,
+    centre_mm: Sequence[float] = (0.0, 0.0, 0.0),
+    tilt_x_deg: float = 0.0,
+    tilt_y_deg: float = 0.0,
+    spin_deg: float = 0.0,
+    white_reflectivity: float = 0.9,
+    black_reflectivity: float = 0.3,
+    dot_diameter_mm: float = 0.0,
+    footprint_mm: float = 0.0,
+) -> CalibrationBoard:
+    """A calibration board at a pose (see :class:`CalibrationBoard`).
+
+    Parameters
+    ----------
+    pattern : {"checkerboard", "circles"}
+        Chessboard or symmetric circle grid.
+    cols, rows : int
+        Inner corners (checkerboard) or dots (circles) per row and per column.
+    spacing_mm : float
+        Square side or dot spacing.
+    centre_mm : sequence of float
+        World ``(x, y, z)`` of the pattern's centre.
+    tilt_x_deg, tilt_y_deg, spin_deg : float
+        The board's tilts about world X and Y and its spin in its plane.
+    white_reflectivity, black_reflectivity : float
+        Reflectivities of the board and of the printed squares or dots.
+    dot_diameter_mm : float
+        Dot diameter (circles; 0: half the spacing).
+    footprint_mm : float
+        Antialiasing: side of the averaging square in board mm (0: sharp).
+
+    Returns
+    -------
+    CalibrationBoard
+        Registered as ``"board"``.
+
+    Examples
+    --------
+    >>> b = board(cols=5, rows=4, spacing_mm=15, centre_mm=(0, 0, 20), tilt_x_deg=25)
+    >>> scene_from_manifest(b.to_manifest()) == b
+    True
+    """
+    centre = [float(v) for v in centre_mm] if not isinstance(centre_mm, str) else []
+    if len(centre) != 3:
+        raise InputError(f"board centre_mm must be (x, y, z) in mm, got {centre_mm!r}")
+    return CalibrationBoard(
+        str(pattern),
+        cols,
+        rows,
+        float(spacing_mm),
+        (centre[0], centre[1], centre[2]),
+        float(tilt_x_deg),
+        float(tilt_y_deg),
+        float(spin_deg),
+        float(white_reflectivity),
+        float(black_reflectivity),
+        float(dot_diameter_mm),
+        float(footprint_mm),
+    )
+
+
 #: Scene constructors by name, for the command line and for :func:`scene_from_manifest`.
 SCENES: dict[str, Callable[..., Scene]] = {
     "white_plate": white_plate,
@@ -742,6 +1100,7 @@ SCENES: dict[str, Callable[..., Scene]] = {
     "checkerboard": checkerboard,
     "mask": mask,
     "glossy": glossy,
+    "board": board,
 }
 
 

@@ -47,7 +47,7 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,6 +72,9 @@ from hdrfringe.patterns import precompensate_gamma
 from hdrfringe.rig.base import RigBase
 from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import Scene
+
+if TYPE_CHECKING:
+    from hdrfringe.stereo import StereoCalibration
 
 __all__ = [
     "REFERENCE_EXPOSURE_MS",
@@ -417,6 +420,98 @@ class RigGeometry:
             ``width * projector_distance / projector_field_mm``.
         """
         return width * self.projector_distance / self.projector_field_mm
+
+    def world_to_camera(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The rigid motion from world to camera coordinates (OpenCV camera frame).
+
+        The camera frame has ``x`` along the image columns, ``y`` along the rows (down the
+        image) and ``z`` along the viewing direction, origin at the camera centre: the frame of
+        :class:`hdrfringe.stereo.StereoCalibration`. The camera looks straight down, columns
+        along +X and rows along -Y, so ``X_cam = diag(1, -1, -1) @ (X_world - C)``.
+
+        Returns
+        -------
+        rotation : ndarray, shape (3, 3)
+            ``R_c`` of ``X_cam = R_c @ X_world + t_c``.
+        translation : ndarray, shape (3,)
+            ``t_c`` in mm.
+
+        Examples
+        --------
+        >>> rot, t = RigGeometry().world_to_camera()
+        >>> (rot @ np.array([0.0, 0.0, 0.0]) + t).tolist()  # the world origin, 1.9 m ahead
+        [0.0, 0.0, 1900.0]
+        """
+        rot = np.diag([1.0, -1.0, -1.0])
+        return rot, -rot @ self.camera_center
+
+    def stereo_calibration(
+        self, camera_size: tuple[int, int], projector_size: tuple[int, int]
+    ) -> StereoCalibration:
+        """The rig's true camera-projector geometry as a stereo calibration.
+
+        Exactly the pinhole mapping the simulator traces with (:func:`_trace`, :func:`_shade`):
+        the camera ray of pixel ``(c, r)`` has ``X/(z_c - z) = (c - (W - 1)/2) / f`` and
+        ``Y/(z_c - z) = -(r - (H - 1)/2) / f``, so in the camera frame
+        (:meth:`world_to_camera`) the principal point is ``((W - 1)/2, (H - 1)/2)`` with pixel
+        centres at integers, OpenCV's convention; the projector maps a point ``P`` to
+        ``u = (Wp - 1)/2 + f_p x_p / z_p``, ``v = (Hp - 1)/2 + f_p y_p / z_p`` with
+        ``(x_p, y_p, z_p) = A (P - C_p)`` and ``A`` = :attr:`projector_axes`. No distortion.
+
+        Parameters
+        ----------
+        camera_size : tuple of int
+            Camera image ``(width, height)`` in pixels (``CameraModel.width, height``).
+        projector_size : tuple of int
+            Projector image ``(width, height)`` in pixels (``ProjectorModel.width, height``).
+
+        Returns
+        -------
+        StereoCalibration
+            ``X_proj = R @ X_cam + t`` with the camera frame as the world frame;
+            ``source`` names the geometry.
+
+        References
+        ----------
+        Zhang & Huang 2006 (the projector as an inverse camera); thesis Sec. 3.4.3 (the rig).
+
+        Examples
+        --------
+        >>> calib = RigGeometry().stereo_calibration((648, 494), (1024, 768))
+        >>> float(calib.camera.matrix[0, 0]), calib.camera.matrix[:2, 2].tolist()
+        (3847.5, [323.5, 246.5])
+        >>> round(calib.baseline_mm, 1)  # 1967 mm * sin(15 deg) along X at the camera's height
+        509.1
+        """
+        from hdrfringe.stereo import LensModel, StereoCalibration
+
+        (cw, ch), (pw, ph) = (_size(camera_size, "camera"), _size(projector_size, "projector"))
+        fc = self.camera_focal_px(cw)
+        fp = self.projector_focal_px(pw)
+        k_cam = np.array([[fc, 0.0, (cw - 1) / 2.0], [0.0, fc, (ch - 1) / 2.0], [0.0, 0.0, 1.0]])
+        k_proj = np.array([[fp, 0.0, (pw - 1) / 2.0], [0.0, fp, (ph - 1) / 2.0], [0.0, 0.0, 1.0]])
+        rot_c, t_c = self.world_to_camera()
+        # X_world = R_c^T (X_cam - t_c); X_proj = A (X_world - C_p)
+        axes = self.projector_axes
+        rotation = axes @ rot_c.T
+        translation = axes @ (-rot_c.T @ t_c - self.projector_center)
+        return StereoCalibration(
+            LensModel(k_cam, np.zeros(5), (cw, ch)),
+            LensModel(k_proj, np.zeros(5), (pw, ph)),
+            rotation,
+            translation,
+            source=f"virtual rig geometry (true): {self!r}",
+        )
+
+
+def _size(size: tuple[int, int], what: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} size must be (width, height) in pixels, got {size!r}") from None
+    if w < 1 or h < 1 or (w, h) != tuple(size):
+        raise InputError(f"{what} size must be (width, height) in pixels >= 1, got {size!r}")
+    return w, h
 
 
 @dataclass(frozen=True)
@@ -1057,6 +1152,24 @@ class SimulatedRig(RigBase):
         if self._truth is None:
             self._truth = _trace(self.scene, self.geometry, self.camera, self.projector_model, 1)
         return self._truth
+
+    def stereo_calibration(self) -> StereoCalibration:
+        """The rig's true camera-projector geometry (:meth:`RigGeometry.stereo_calibration`).
+
+        Returns
+        -------
+        StereoCalibration
+            For this rig's camera and projector sizes; no distortion.
+
+        Examples
+        --------
+        >>> from hdrfringe.rig.scenes import white_plate
+        >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48))
+        >>> rig.stereo_calibration().camera.size, rig.stereo_calibration().projector.size
+        ((64, 48), (1024, 768))
+        """
+        cam, proj = self.camera, self.projector_model
+        return self.geometry.stereo_calibration((cam.width, cam.height), (proj.width, proj.height))
 
     def reset_noise(self) -> None:
         """Forget how often each frame was captured: the next captures repeat the first ones."""
