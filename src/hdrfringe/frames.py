@@ -6,7 +6,7 @@ coordinates with :meth:`gray_at`, and describes itself as a capture-manifest ent
 capture-folder contract, docs/capture_format.md).
 
 - Line frames vary along one projector axis only: :class:`FringeFrame`, :class:`CenterlineFrame`,
-  :class:`UniformFrame`. They keep a fast separable path: :meth:`gray` along their axis
+  :class:`UniformFrame`, :class:`GrayCodeFrame` (one bit of a stripe code, docs/graycode.md). They keep a fast separable path: :meth:`gray` along their axis
   (:func:`frame_axis`), and :meth:`render` broadcasts one line.
 - Image frames vary along both axes: :class:`PixelwiseFringeFrame` (a fringe whose maximum input
   gray level varies per projector pixel) and :class:`ImageFrame` (any projector image). Their 2-D
@@ -850,7 +850,8 @@ def frame_from_manifest(
     load_array : callable, optional
         ``load_array(path)`` returns the 2-D array stored in the side file ``path`` (relative to
         the folder, as written in the entry). Needed for the version-2 kinds
-        ``pixelwise_fringe`` and ``image`` only; the I/O layer passes its file reader.
+        ``pixelwise_fringe`` and ``image`` only; the I/O layer passes its file reader. The
+        version-3 kind ``graycode`` is a :class:`GrayCodeFrame`.
 
     Returns
     -------
