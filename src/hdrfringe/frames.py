@@ -6,8 +6,9 @@ coordinates with :meth:`gray_at`, and describes itself as a capture-manifest ent
 capture-folder contract, docs/capture_format.md).
 
 - Line frames vary along one projector axis only: :class:`FringeFrame`, :class:`CenterlineFrame`,
-  :class:`UniformFrame`, :class:`GrayCodeFrame` (one bit of a stripe code, docs/graycode.md). They keep a fast separable path: :meth:`gray` along their axis
-  (:func:`frame_axis`), and :meth:`render` broadcasts one line.
+  :class:`UniformFrame`, :class:`GrayCodeFrame` (one bit of a stripe code, docs/graycode.md).
+  They keep a fast separable path: :meth:`gray` along their axis (:func:`frame_axis`), and
+  :meth:`render` broadcasts one line.
 - Image frames vary along both axes: :class:`PixelwiseFringeFrame` (a fringe whose maximum input
   gray level varies per projector pixel) and :class:`ImageFrame` (any projector image). Their 2-D
   data is stored beside a capture folder's images in a side file (docs/capture_format.md,
