@@ -544,3 +544,62 @@ class TestAbsolutePhase:
     def test_shape_mismatch(self):
         with pytest.raises(InputError, match="shape"):
             absolute_phase_from_centerline(np.zeros((4, 5)), np.zeros((5, 4)), 1.0, 8.0)
+
+
+# --- islands: phase_regions ---------------------------------------------------------------------
+def _ramp_phase(x: np.ndarray, pitch: float) -> np.ndarray:
+    return np.mod(2 * np.pi * x / pitch, 2 * np.pi)
+
+
+def test_phase_regions_cut_at_steps_not_at_steep_slopes() -> None:
+    from hdrfringe.unwrap import phase_regions
+
+    # a steep smooth surface: 1.2 rad per pixel (pitch 5 px per camera px), curved
+    cols = np.arange(300.0)
+    x = np.tile(cols + 0.002 * cols**2, (40, 1))
+    steep = phase_regions([_ramp_phase(x, 5.0)])
+    assert steep.significant == 1 and not steep.islands
+    # the same surface with a step of 2.5 periods (phase jump pi) blurred over two pixels
+    x2 = x.copy()
+    x2[:, 150:] += 12.5
+    x2[:, 150] -= 6.0  # a mixed pixel halfway
+    r = phase_regions([_ramp_phase(x2, 5.0)])
+    assert r.islands and r.significant == 2
+    assert sum(r.sizes) == 40 * 300 and all(abs(v - 40 * 150) <= 40 * 3 for v in r.sizes)
+    assert r.labels[0, 0] != r.labels[0, 299] and (r.labels > 0).all()
+
+
+def test_phase_regions_use_every_pitch() -> None:
+    """A step of exactly 3 periods of pitch 10 is invisible in that map, not in a pitch-7 map."""
+    from hdrfringe.unwrap import phase_regions
+
+    x = np.tile(np.arange(200.0) * 0.5, (30, 1))
+    x[:, 100:] += 30.0
+    one = phase_regions([_ramp_phase(x, 10.0)])
+    both = phase_regions([_ramp_phase(x, 10.0), _ramp_phase(x, 7.0)])
+    assert not one.islands and both.islands and both.significant == 2
+
+
+def test_phase_regions_specks_nan_and_errors() -> None:
+    from hdrfringe.unwrap import phase_regions
+
+    x = np.tile(np.arange(100.0), (50, 1))
+    phi = _ramp_phase(x, 20.0)
+    phi[:, 40:42] = np.nan  # an unlit gap: two regions
+    phi[10:13, 70:73] = np.nan  # a hole does not split
+    speck = np.zeros((50, 100), bool)
+    speck[:, :] = True
+    r = phase_regions([phi], speck)
+    assert r.significant == 2 and (r.labels[np.isnan(phi)] == 0).all()
+    lone = phi.copy()
+    lone[:, 95:] = np.nan
+    lone[20, 97] = 1.0  # a single valid pixel: a speck, not an island
+    s = phase_regions([lone])
+    assert s.significant == 2 and len(s.sizes) == 3 and s.sizes[-1] == 1
+    assert phase_regions([np.full((3, 3), np.nan)]).sizes == ()
+    with pytest.raises(InputError):
+        phase_regions([])
+    with pytest.raises(InputError):
+        phase_regions([phi, phi[:10]])
+    with pytest.raises(InputError):
+        phase_regions([phi], threshold=4.0)

@@ -6,8 +6,9 @@ coordinates with :meth:`gray_at`, and describes itself as a capture-manifest ent
 capture-folder contract, docs/capture_format.md).
 
 - Line frames vary along one projector axis only: :class:`FringeFrame`, :class:`CenterlineFrame`,
-  :class:`UniformFrame`. They keep a fast separable path: :meth:`gray` along their axis
-  (:func:`frame_axis`), and :meth:`render` broadcasts one line.
+  :class:`UniformFrame`, :class:`GrayCodeFrame` (one bit of a stripe code, docs/graycode.md).
+  They keep a fast separable path: :meth:`gray` along their axis (:func:`frame_axis`), and
+  :meth:`render` broadcasts one line.
 - Image frames vary along both axes: :class:`PixelwiseFringeFrame` (a fringe whose maximum input
   gray level varies per projector pixel) and :class:`ImageFrame` (any projector image). Their 2-D
   data is stored beside a capture folder's images in a side file (docs/capture_format.md,
@@ -878,7 +879,8 @@ def frame_from_manifest(
         For a ``fringe`` entry with ``shift_deg`` (version 3): the shift angles of its whole
         set, by shift index (one entry gives only its own angle; the folder reader,
         :meth:`hdrfringe.captures.Captures.from_manifest`, collects them per set). It must
-        agree with the entry's ``shift_deg``.
+        agree with the entry's ``shift_deg``. (The version-3 kind ``graycode`` is a
+        :class:`GrayCodeFrame`.)
 
     Returns
     -------

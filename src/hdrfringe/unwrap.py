@@ -57,6 +57,10 @@ CenterlineMethod = Literal["gaussian", "halfmax"]
 # so two pixels that touch only at a corner are not connected.
 _FOUR_CONNECTED = ndimage.generate_binary_structure(2, 1)
 
+# phase_regions: most one-pixel growth steps that give the pixels outside every region core
+# (cuts, thin strips) a region; beyond it they count as separate specks.
+_REGION_GROW_STEPS = 16
+
 # scikit-image's unwrapper seeds a random generator; a fixed seed makes the result reproducible.
 _SKIMAGE_SEED = 0
 
@@ -334,8 +338,11 @@ def phase_regions(
     phi[i-b]))`` along a row or column, for ``b = 1`` or ``2`` (the baseline 2 catches steps
     blurred over two pixels), exceeds ``threshold``: a smooth surface has second differences
     near zero whatever its slope and pitch. Regions are the 4-connected parts of the valid
-    area without the discontinuities; the discontinuity pixels are then given the label of
-    the nearest region, so every valid pixel has one.
+    area without the discontinuities, opened by a 5 x 5 square (strips and corridors narrower
+    than 5 px, such as the remnant between two cuts along one step, form no region of their
+    own); every other valid pixel then joins the region that reaches it first through valid
+    pixels, and valid parts that no region reaches (a speck inside an unlit area) get labels
+    of their own, so every valid pixel has a label.
 
     A step whose height is a multiple of every pitch (to within about ``threshold / (2*pi)``
     of a period) leaves the wrapped phases continuous and cannot be seen: the report is a
@@ -404,14 +411,27 @@ def phase_regions(
                 with np.errstate(invalid="ignore"):
                     jump = np.abs(_wrap_pi(fwd - bwd)) > t
                 np.moveaxis(cut, axis, 0)[b : n - b] |= jump
-    keep = ok & ~cut
+    # regions are the 4-connected parts of the kept area opened by a 5x5 square: strips and
+    # corridors under 5 px wide (the remnants between two cuts along one step, a chance
+    # bridge across it) belong to no region of their own
+    keep = ndimage.binary_opening(ok & ~cut, structure=np.ones((5, 5), bool))
     labels, n = ndimage.label(keep, structure=_FOUR_CONNECTED)
-    if n and (ok & cut).any():
-        # give each discontinuity pixel the label of the nearest kept pixel
-        _, (ri, ci) = ndimage.distance_transform_edt(labels == 0, return_indices=True)
-        labels = np.where(ok, labels[ri, ci], 0)
-    elif not n:
-        labels, n = ndimage.label(ok, structure=_FOUR_CONNECTED)
+    # the other valid pixels join the region that reaches them first through valid pixels
+    # (a few pixels: the cuts and strips are thin); valid parts no region reaches are specks
+    for _ in range(_REGION_GROW_STEPS):
+        todo = ok & (labels == 0)
+        if not todo.any():
+            break
+        grown = ndimage.grey_dilation(labels, footprint=_FOUR_CONNECTED)
+        step = todo & (grown > 0)
+        if not step.any():
+            break
+        labels[step] = grown[step]
+    rest = ok & (labels == 0)
+    if rest.any():
+        extra, m = ndimage.label(rest, structure=_FOUR_CONNECTED)
+        labels[rest] = extra[rest] + n
+        n += m
     if n == 0:
         return PhaseRegions(np.zeros(shape, np.int32), (), 0)
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
