@@ -256,14 +256,17 @@ def test_thomriiii_checkerboard(tmp_path: Path) -> None:
 
 
 def test_kimthyung_sphere(tmp_path: Path) -> None:
-    """Sine with offsets: the vertical set is the version-1 decode + pi/2, the horizontal one
-    (s = -90, 30, -210 degrees on a sine) the version-1 decode of shifts 0, 1, 2 + pi."""
+    """Sine with offsets: the vertical set (sine, phase_offset_deg = 60: manifest offset -30)
+    is the version-1 decode + pi/6, the horizontal one (s = -90, 30, -210 degrees on a sine,
+    phase_offset_deg = 180: manifest offset 90) the version-1 decode of shifts 0, 1, 2
+    (+ pi - pi). The offsets put phase 0 on the Gray-code stripe edges (tests/
+    test_sphere_realdata.py)."""
     root = realdata_path("kimthyung_sphere")
     summary, caps, out = import_and_phase("kimthyung_sphere", root, tmp_path)
     assert len(read_capture_folder(caps).graycode_sets()) == 2
     for folder, o, constant in (
-        ("verti_test", "vertical", np.pi / 2),
-        ("hori_test", "horizontal", np.pi),
+        ("verti_test", "vertical", np.pi / 6),
+        ("hori_test", "horizontal", 0.0),
     ):
         imgs = np.stack([load_image(root / folder / f"{k:02d}.png", 8) for k in range(3)])
         ref = decode_set(imgs, FringeSpec("sinusoidal", 3, 114.0, o, 0, 255), 8)  # type: ignore[arg-type]

@@ -444,3 +444,37 @@ def test_measure_without_an_absolute_phase_cannot_triangulate() -> None:
     )
     with pytest.raises(CaptureFormatError, match="cannot triangulate: no fringe family has an"):
         measure(only_fine, small_calibration())
+
+
+@pytest.mark.parametrize("only", ["u", "v"])
+def test_measure_stereo_directions_uses_one_coordinate(only: str) -> None:
+    """With both directions decoded, ``stereo_directions`` triangulates with one alone (the
+    kimthyung sphere's rows: docs/stereo.md); a direction that was not decoded is refused."""
+    from hdrfringe.errors import CaptureFormatError
+    from hdrfringe.pipeline import measure
+
+    truth, _ = small_scene()
+    res = measure(small_captures("uv"), small_calibration(), stereo_directions=only)
+    assert res.stereo is not None
+    summary = res.metrics.to_dict()["stereo"]
+    assert summary["directions"] == only and "triangulation_residual_mm" not in summary
+    err = np.linalg.norm(res.stereo.xyz - truth, axis=-1)
+    assert np.median(err[np.isfinite(err)]) < 1e-3
+    other = "v" if only == "u" else "u"
+    which = "horizontal" if only == "v" else "vertical"
+    with pytest.raises(CaptureFormatError, match=f"cannot triangulate: no {which} fringe family"):
+        measure(small_captures(other), small_calibration(), stereo_directions=only)
+
+
+def test_cli_measure_refuses_unknown_stereo_directions(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from hdrfringe.io.captures import write_capture_folder
+    from hdrfringe.io.stereo_file import save_stereo_calibration
+    from tests.conftest import run_cli
+
+    caps = write_capture_folder(tmp_path / "caps", small_captures("u"))
+    cal = save_stereo_calibration(tmp_path / "stereo.h5", small_calibration())
+    out = tmp_path / "out"
+    res = run_cli("measure", str(caps), "-c", str(cal), "--stereo-directions", "w", "-o", str(out))
+    assert res.returncode == 2
+    assert "stereo_directions 'w' is unknown; give one of auto, u, v" in res.stderr
+    assert not out.exists()

@@ -725,24 +725,31 @@ def _check_stereo_fits(
         )
 
 
+#: ``stereo_directions`` of :func:`measure`: the projector coordinates triangulation may use.
+_STEREO_DIRECTIONS = ("auto", "u", "v")
+
+
 def _triangulate(
-    caps: Captures, decoded: FolderPhase, calibration: StereoCalibration
+    caps: Captures, decoded: FolderPhase, calibration: StereoCalibration, directions: str = "auto"
 ) -> StereoMaps:
-    """Projector coordinates of the first family of each orientation with an absolute phase,
-    triangulated; the quality is the data modulation of the first family's finest set."""
+    """Projector coordinates of the first family of each orientation with an absolute phase
+    (only ``u`` or only ``v`` when ``directions`` says so), triangulated; the quality is the
+    data modulation of the first family used's finest set."""
     coords: dict[str, F64] = {}
     quality = None
     for fam in decoded.families:
         key = "u" if fam.orientation == "vertical" else "v"
-        if key in coords or fam.absolute_phase is None:
+        if key in coords or fam.absolute_phase is None or directions not in ("auto", key):
             continue
         coords[key] = projector_coordinate(fam.absolute_phase, fam.pitch_px)
         if quality is None:
             quality = decoded.set_results[fam.sets[-1].label].modulation
     if not coords:
+        which = {"auto": "no", "u": "no vertical", "v": "no horizontal"}[directions]
         raise CaptureFormatError(
-            f"{caps.name}: cannot triangulate: no fringe family has an absolute phase; add a "
-            "set whose pitch spans the projector (one period) or a centerline frame"
+            f"{caps.name}: cannot triangulate: {which} fringe family has an absolute phase; add "
+            "a set whose pitch spans the projector (one period), a Gray code or a centerline "
+            "frame"
         )
     maps = triangulate_maps(calibration, u_proj=coords.get("u"), v_proj=coords.get("v"))
     return dataclasses.replace(maps, quality=quality)
@@ -753,6 +760,7 @@ def _measure_captures(
     calibration: Calibration | StereoCalibration | None,
     reject_saturated: bool,
     calibration_source: str | None,
+    stereo_directions: str = "auto",
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode; with a calibration, height and its errors (or the triangulated points).
     Returns the metrics fields."""
@@ -772,7 +780,7 @@ def _measure_captures(
         info = caps.projector
         projector = None if info is None else (int(info.width), int(info.height))
         _check_stereo_fits(calibration, caps.image_shape, calibration_source, projector)
-        maps = _triangulate(caps, decoded, calibration)
+        maps = _triangulate(caps, decoded, calibration, stereo_directions)
         fields["model"] = "stereo"
         fields["border_px"] = 0
         fields["valid_fraction"] = float(maps.valid.mean())
@@ -857,6 +865,7 @@ def measure(
     label: str | None = None,
     calibration_source: str | None = None,
     param_sources: Mapping[str, str] | None = None,
+    stereo_directions: str = "auto",
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -897,6 +906,13 @@ def measure(
     param_sources : mapping, optional
         Where parameters read from files came from, by field name (DPA's ``correction``: the
         metrics record it).
+    stereo_directions : {"auto", "u", "v"}
+        With a stereo calibration: ``"auto"`` triangulates with every orientation that has an
+        absolute phase (ray against ray when both do); ``"u"`` (vertical fringes) or ``"v"``
+        (horizontal fringes) uses that projector coordinate alone, against the projector's
+        column or row surface: the direction that carries the depth when the other one's
+        convention is unknown (docs/stereo.md, kimthyung). Ignored without a stereo
+        calibration.
 
     Returns
     -------
@@ -927,6 +943,11 @@ def measure(
     >>> res.metrics.strategy.method, res.metrics.strategy.values[:2]
     ('lpa', (255.0, 235.0))
     """
+    if stereo_directions not in _STEREO_DIRECTIONS:
+        raise InputError(
+            f"stereo_directions {stereo_directions!r} is unknown; give one of "
+            f"{', '.join(_STEREO_DIRECTIONS)}"
+        )
     sources = dict(param_sources or {})
     description: RigDescription | None = None
     p: Any = None
@@ -977,7 +998,7 @@ def measure(
             "folder with hdrfringe.io.captures.read_capture_folder"
         )
     decoded, height, fields, stereo = _measure_captures(
-        caps, calibration, reject_saturated, calibration_source
+        caps, calibration, reject_saturated, calibration_source, stereo_directions
     )
     dpa = None
     if method == "dpa":

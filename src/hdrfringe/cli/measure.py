@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import typer
 
@@ -65,6 +65,15 @@ def measure(
     migl: MeasureMiglOpt = 255.0,
     centerline: LiveCenterlineOpt = True,
     force: ForceOpt = False,
+    stereo_directions: Annotated[
+        str,
+        typer.Option(
+            "--stereo-directions",
+            help="With a stereo calibration: auto (every fringe orientation with an absolute "
+            "phase; ray against ray with both), u (vertical fringes only) or v (horizontal "
+            "fringes only), e.g. the direction that carries the depth (docs/stereo.md).",
+        ),
+    ] = "auto",
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -102,6 +111,7 @@ def measure(
         "params": params,
         "param_sources": sources,
         "calibration_source": None if calibration is None else str(calibration),
+        "stereo_directions": stereo_directions,
     }
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
