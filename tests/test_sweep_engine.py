@@ -332,7 +332,7 @@ def test_a_store_killed_while_created_leaves_a_pid_named_folder_that_a_rerun_rem
         live = tmp_path / f".s.zarr{PARTIAL_INFIX}{alive.pid}-0123abcd"
         live.mkdir()
         (live / "zarr.json").write_text("{}")
-        unnamed = tmp_path / f".s.zarr{PARTIAL_INFIX}0123abcd"
+        unnamed = tmp_path / f".s.zarr{PARTIAL_INFIX}01234567"  # all-digit hex: not a PID
         unnamed.mkdir()
         try:
             run_sweep(store, GRID, toy_block, PARAMS, scheduler=scheduler, progress=False)

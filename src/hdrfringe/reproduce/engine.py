@@ -538,7 +538,7 @@ def _remove_dead_partials(path: Path) -> None:
     from hdrfringe.io.results import _marked_pid, _pid_alive
 
     with contextlib.suppress(OSError):
-        for entry in path.parent.glob(f".{path.name}{PARTIAL_INFIX}*"):
+        for entry in path.parent.glob(f".{path.name}{PARTIAL_INFIX}*-*"):  # not "-{hex}" only
             pid = _marked_pid(entry, path, PARTIAL_INFIX)
             if pid is None or pid == os.getpid() or _pid_alive(pid):
                 continue
