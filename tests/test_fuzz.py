@@ -13,9 +13,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Callable
 from pathlib import Path
 
+import cv2
 import h5py
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
@@ -98,7 +101,144 @@ def root(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (r / "existing").mkdir()
     (r / "existing" / "keep.txt").write_text("user data\n")
     (r / "corr.json").write_text('{"order": 3, "coeff')
+    _import_inputs(r)
+    _version3_manifests(r, good)
+    _stereo_inputs(r)
     return r
+
+
+# --- import: a folder of camera images and descriptions that each break one rule ------------
+_IMPORT_OK = '[camera]\nbit_depth = 8\n[[fringe]]\nfiles = "s{step}.png"\nsteps = 3\npitch = 16\n'
+_GRAY = '[camera]\nbit_depth = 8\n[[graycode]]\nfiles = "gc{bit}.png"\nbits = 3\nstripe = 8\n'
+IMPORT_DESCRIPTIONS: dict[str, str] = {
+    "ok": _IMPORT_OK,
+    "missing_files": _IMPORT_OK.replace('"s{step}.png"', '["s0.png", "s1.png", "s9.png"]'),
+    "shift_count": _IMPORT_OK.replace("steps = 3", "steps = 4\nshifts_deg = [0, 120, 240]"),
+    "gray_missing_bit": _GRAY,  # the images folder holds gc0.png and gc2.png only
+    "unknown_key": _IMPORT_OK.replace("pitch = 16", "perods = 4"),
+    "malformed": _IMPORT_OK.replace("bit_depth = 8", "bit_depth = "),
+    "big_int": _IMPORT_OK.replace("bit_depth = 8", "bit_depth = " + "9" * 5000),
+    "big_float": _IMPORT_OK.replace("pitch = 16", "pitch = " + "4" * 400 + ".0"),
+    "nan_pitch": _IMPORT_OK.replace("pitch = 16", "pitch = nan"),
+    "inf_shift": _IMPORT_OK + "shifts_deg = [0, inf, 240]\n",
+    "huge_steps": _IMPORT_OK.replace("steps = 3", "steps = 100000"),
+    "huge_bits": _GRAY.replace("bits = 3", "bits = 1000000"),
+    "deep": "a = " + "[" * 100_000 + "]" * 100_000 + "\n",
+    "huge_width": _IMPORT_OK.replace("s{step}.png", "s{step:99999999999d}.png"),
+}
+
+
+def _import_inputs(r: Path) -> None:
+    spec = FringeSpec("sinusoidal", 3, 16.0, "vertical", 40, 255)
+    imgs, _ = synthetic_set(spec, (24, 40))
+    cam = r / "imp"
+    cam.mkdir()
+    for k, img in enumerate(imgs):
+        iio.imwrite(cam / f"s{k}.png", img)
+    for b in (0, 2):  # bit 1 of a 3-bit code is missing
+        iio.imwrite(cam / f"gc{b}.png", imgs[b])
+    for name, text in IMPORT_DESCRIPTIONS.items():
+        (r / f"imp_{name}.toml").write_text(text)
+
+
+# --- phase: version-3 manifest fields, each broken one way ------------------------------------
+def _version3_manifests(r: Path, good: dict) -> None:
+    def edited(name: str, version: int, edit: Callable[[list[dict]], None]) -> None:
+        m = json.loads(json.dumps(good))
+        m["version"] = version
+        edit(m["frames"])
+        folder = _damaged_caps(r, name, json.dumps(m))
+        if any(f["file"] == "gc.png" for f in m["frames"]):
+            (folder / "gc.png").write_bytes(_first_image(r / "caps").read_bytes())
+
+    def fringes(frames: list[dict]) -> list[dict]:
+        return [f for f in frames if f["kind"] == "fringe"]
+
+    def shifts(angles: list[float]) -> Callable[[list[dict]], None]:
+        def edit(frames: list[dict]) -> None:
+            for f, a in zip(fringes(frames), angles, strict=True):
+                f["shift_deg"] = a
+
+        return edit
+
+    def mixed_offsets(frames: list[dict]) -> None:
+        for f in fringes(frames):
+            f["set"] = "a"
+        fringes(frames)[0]["phase_offset_deg"] = -90
+
+    def offset(value: object) -> Callable[[list[dict]], None]:
+        def edit(frames: list[dict]) -> None:
+            for f in fringes(frames):
+                f["phase_offset_deg"] = value
+
+        return edit
+
+    def graycode(**fields: object) -> Callable[[list[dict]], None]:
+        def edit(frames: list[dict]) -> None:
+            entry = {"kind": "graycode", "orientation": "vertical", "bit": 0, "bits": 1}
+            frames.append({"file": "gc.png", **entry, "stripe": 8, **fields})
+
+        return edit
+
+    edited("v2_shift_deg", 2, shifts([0, 90, 180, 270]))
+    edited("v3_duplicate_shifts", 3, shifts([0, 90, 90, 270]))
+    edited("v3_nan_shift", 3, shifts([0, float("nan"), 180, 270]))
+    edited("v3_mixed_offsets", 3, mixed_offsets)
+    edited("v3_inf_offset", 3, offset(float("inf")))
+    edited("v3_big_offset", 3, offset(int("4" * 400)))
+    edited("v3_gray_bits_0", 3, graycode(bits=0))
+    edited("v3_gray_bit_ge_bits", 3, graycode(bit=1))
+    edited("v3_gray_unknown_code", 3, graycode(code="ternary"))
+    edited("v3_gray_huge_bits", 3, graycode(bits=10**9, bit=10**9 - 1))
+
+
+# --- calibrate-stereo: calibration files and pose folders -------------------------------------
+def _filestorage(path: Path, **values: object) -> None:
+    base: dict[str, object] = {
+        "cam_K": np.array([[1000.0, 0, 320], [0, 1000, 240], [0, 0, 1]]),
+        "proj_K": np.array([[1500.0, 0, 456], [0, 1500, 570], [0, 0, 1]]),
+        "cam_kc": np.zeros((1, 5)),
+        "proj_kc": np.zeros((1, 5)),
+        "R": np.eye(3),
+        "T": np.array([[-150.0], [0], [0]]),
+        "image_width": 640,
+        "image_height": 480,
+        "proj_width": 912,
+        "proj_height": 1140,
+    }
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for key, value in {**base, **values}.items():
+        fs.write(key, value)
+    fs.release()
+
+
+def _stereo_inputs(r: Path) -> None:
+    _filestorage(r / "cal_ok.yml")
+    _filestorage(r / "cal_shape.yml", cam_K=np.eye(2))
+    _filestorage(r / "cal_nan.yml", proj_K=np.full((3, 3), np.nan))
+    _filestorage(r / "cal_inf_t.yml", T=np.array([[np.inf], [0], [0]]))
+    _filestorage(r / "cal_not_rotation.yml", R=2 * np.eye(3))
+    _filestorage(r / "cal_mirror.yml", R=np.diag([1.0, 1.0, -1.0]))
+    np.savez(
+        r / "cal_shape.npz",
+        **{"Kc": np.eye(3), "dist_c": np.zeros(5), "Kp": np.eye(4), "dist_p": np.zeros(5)},
+        **{"R": np.eye(3), "T": np.array([0.15, 0, 0])},
+    )
+    (r / "cal_garbage.yml").write_text("%YAML:1.0\n---\ncam_K: [1, 2\n  ::: {\n")
+    (r / "cal.unknown").write_text("K = 1 0 0\n")
+    (r / "cal_text").mkdir()  # kimthyung's plain-text layout, one matrix not numbers
+    for name, text in {
+        "CamIntrinsicMatrixRight": "1000 0 320\n0 1000 240\n0 0 1\n",
+        "CamDistortionCoefficientsRight": "0 0 0 0 0\n",
+        "ProjIntrinsicMatrix": "fx 0 cx\n0 fy cy\n0 0 1\n",
+        "ProjDistortionCoefficients": "0 0 0 0 0\n",
+        "ProjRotationMatrix": "1 0 0\n0 1 0\n0 0 1\n",
+        "ProjTranslationVector": "100 0 0\n",
+    }.items():
+        (r / "cal_text" / f"{name}.txt").write_text(text)
+    (r / "cal_empty").mkdir()
+    for name in ("pose_a", "pose_b", "pose_c"):  # no board anywhere in them
+        _write_caps(r / name)
 
 
 def _tree(root: Path) -> dict[str, str]:
@@ -111,9 +251,24 @@ def _tree(root: Path) -> dict[str, str]:
     }
 
 
+def _imp(name: str, *, out: str = "{o}", force: bool = False) -> list[str]:
+    """``import`` of the images folder with description ``imp_<name>.toml``."""
+    return ["import", "{r}/imp", "-d", f"{{r}}/imp_{name}.toml", "-o", out] + ["--force"] * force
+
+
+_POSES = ("{r}/pose_a", "{r}/pose_b", "{r}/pose_c")
+
+
+def _cs(*args: str, out: str = "{r}/s.h5", force: bool = False) -> list[str]:
+    """``calibrate-stereo`` with the given arguments writing ``out``."""
+    return ["calibrate-stereo", *args, "-o", out] + ["--force"] * force
+
+
 N400 = "4" * 400
 # (id, argv); "{r}" is the suite's input folder, "{o}" a fresh output path inside it.
-CASES: list[tuple[str, list[str]]] = [
+# Cases with a third element must also name their reason: the error line contains that text
+# (so each fails on purpose for the one reason it was written for, not an earlier one).
+CASES: list[tuple[str, list[str]] | tuple[str, list[str], str]] = [
     # --- patterns -----------------------------------------------------------------------
     ("patterns-steps-2", ["patterns", "-o", "{o}", "--steps", "2"]),
     ("patterns-steps-huge", ["patterns", "-o", "{o}", "--steps", "100000"]),
@@ -281,11 +436,217 @@ CASES: list[tuple[str, list[str]]] = [
     ("demo-out-is-file", ["demo", "-o", "{r}/notes.txt"]),
     ("demo-out-existing", ["demo", "-o", "{r}/existing"]),
     ("demo-seed-negative", ["demo", "-o", "{o}", "--seed", "-1"]),
+    # --- import -------------------------------------------------------------------------
+    ("import-files-do-not-exist", _imp("missing_files"), "'s9.png' does not exist"),
+    ("import-inconsistent-shift-count", _imp("shift_count"), "shifts_deg lists 3 angles"),
+    ("import-graycode-missing-bit", _imp("gray_missing_bit"), "graycode vertical bit 1"),
+    ("import-unknown-key", _imp("unknown_key"), "unknown key 'perods'"),
+    ("import-malformed-toml", _imp("malformed"), "not a valid TOML description"),
+    ("import-5000-digit-int", _imp("big_int"), "too many digits"),
+    ("import-400-digit-pitch", _imp("big_float"), "'pitch' must be a finite number, got inf"),
+    ("import-nan-pitch", _imp("nan_pitch"), "'pitch' must be a finite number, got nan"),
+    ("import-inf-shift", _imp("inf_shift"), "'shifts_deg' must be a finite number, got inf"),
+    ("import-steps-huge", _imp("huge_steps"), "'steps' must be an integer in 3..1000, got 100000"),
+    ("import-bits-huge", _imp("huge_bits"), "'bits' must be an integer in 1..24, got 1000000"),
+    ("import-deep-nesting", _imp("deep"), "nested too deep"),
+    ("import-format-width-huge", _imp("huge_width"), "bad format spec '99999999999d'"),
+    ("import-out-inside-input", _imp("ok", out="{r}/imp/caps"), "output is inside the input"),
+    ("import-out-equals-input", _imp("ok", out="{r}/imp", force=True), "output is the input"),
+    (
+        "import-out-is-description",
+        _imp("ok", out="{r}/imp_ok.toml", force=True),
+        "output is the input",
+    ),
+    ("import-out-existing", _imp("ok", out="{r}/existing"), "exists and is not empty"),
+    (
+        "import-missing-images",
+        ["import", "{r}/nowhere", "-d", "{r}/imp_ok.toml", "-o", "{o}"],
+        "images folder does not exist",
+    ),
+    (
+        "import-missing-description",
+        ["import", "{r}/imp", "-d", "{r}/none.toml", "-o", "{o}"],
+        "description file does not exist",
+    ),
+    # --- phase on version-3 manifests ---------------------------------------------------
+    (
+        "phase-v2-shift-deg",
+        ["phase", "{r}/v2_shift_deg", "-o", "{o}"],
+        "needs capture format version 3",
+    ),
+    (
+        "phase-v3-duplicate-shifts",
+        ["phase", "{r}/v3_duplicate_shifts", "-o", "{o}"],
+        "repeats an angle",
+    ),
+    (
+        "phase-v3-nan-shift",
+        ["phase", "{r}/v3_nan_shift", "-o", "{o}"],
+        "'shift_deg' must be a finite number, got nan",
+    ),
+    (
+        "phase-v3-mixed-offsets",
+        ["phase", "{r}/v3_mixed_offsets", "-o", "{o}"],
+        "must agree on the offset",
+    ),
+    (
+        "phase-v3-inf-offset",
+        ["phase", "{r}/v3_inf_offset", "-o", "{o}"],
+        "'phase_offset_deg' must be a finite number, got inf",
+    ),
+    (
+        "phase-v3-400-digit-offset",
+        ["phase", "{r}/v3_big_offset", "-o", "{o}"],
+        "phase_offset_deg' holds a number of 400 characters",
+    ),
+    (
+        "phase-v3-graycode-bits-0",
+        ["phase", "{r}/v3_gray_bits_0", "-o", "{o}"],
+        "'bits' must be an integer in 1..24, got 0",
+    ),
+    (
+        "phase-v3-graycode-bit-ge-bits",
+        ["phase", "{r}/v3_gray_bit_ge_bits", "-o", "{o}"],
+        "'bit' must be an integer in 0..0, got 1",
+    ),
+    (
+        "phase-v3-graycode-unknown-code",
+        ["phase", "{r}/v3_gray_unknown_code", "-o", "{o}"],
+        "unknown code 'ternary'",
+    ),
+    (
+        "phase-v3-graycode-huge-bits",
+        ["phase", "{r}/v3_gray_huge_bits", "-o", "{o}"],
+        "'bits' must be an integer in 1..24, got 1000000000",
+    ),
+    # --- calibrate-stereo ---------------------------------------------------------------
+    ("stereo-from-wrong-shape", _cs("--from", "{r}/cal_shape.yml"), "(3, 3)"),
+    ("stereo-from-npz-wrong-shape", _cs("--from", "{r}/cal_shape.npz"), "'Kp' has shape (4, 4)"),
+    ("stereo-from-nan-matrix", _cs("--from", "{r}/cal_nan.yml"), "'proj_K' holds NaN or infinite"),
+    (
+        "stereo-from-inf-translation",
+        _cs("--from", "{r}/cal_inf_t.yml"),
+        "'T' holds NaN or infinite",
+    ),
+    ("stereo-from-not-rotation", _cs("--from", "{r}/cal_not_rotation.yml"), "not a rotation"),
+    ("stereo-from-reflection", _cs("--from", "{r}/cal_mirror.yml"), "not a rotation"),
+    ("stereo-from-missing", _cs("--from", "{r}/none.yml"), "none.yml: not found"),
+    (
+        "stereo-from-unknown-format",
+        _cs("--from", "{r}/cal.unknown"),
+        "unknown calibration format '.unknown'",
+    ),
+    ("stereo-from-garbage-yml", _cs("--from", "{r}/cal_garbage.yml"), "cal_garbage.yml"),
+    (
+        "stereo-from-text-not-numbers",
+        _cs("--from", "{r}/cal_text"),
+        "ProjIntrinsicMatrix.txt: not a matrix of numbers",
+    ),
+    ("stereo-from-empty-folder", _cs("--from", "{r}/cal_empty"), "a folder with neither"),
+    ("stereo-from-height-calibration", _cs("--from", "{r}/good.h5"), "not a stereo one"),
+    (
+        "stereo-from-camera-size-0",
+        _cs("--from", "{r}/cal_ok.yml", "--camera-size", "0x480"),
+        "--camera-size",
+    ),
+    (
+        "stereo-out-equals-from",
+        _cs("--from", "{r}/cal_ok.yml", out="{r}/cal_ok.yml", force=True),
+        "output is the input",
+    ),
+    (
+        "stereo-out-existing",
+        _cs("--from", "{r}/cal_ok.yml", out="{r}/good.h5"),
+        "calibration file exists",
+    ),
+    (
+        "stereo-out-inside-pose",
+        _cs(*_POSES, "--board", "checkerboard:9x6:25", out="{r}/pose_a/s.h5"),
+        "output is inside the input",
+    ),
+    (
+        "stereo-board-does-not-parse",
+        _cs(*_POSES, "--board", "checkerboard:9by6:25"),
+        "PATTERN:COLSxROWS",
+    ),
+    (
+        "stereo-board-5000-digit-cols",
+        _cs(*_POSES, "--board", "checkerboard:" + "9" * 5000 + "x6:25"),
+        "board cols must be a whole number 2..100",
+    ),
+    (
+        "stereo-board-spacing-inf",
+        _cs(*_POSES, "--board", "checkerboard:9x6:1e999"),
+        "spacing must be a positive number",
+    ),
+    (
+        "stereo-board-not-detected",
+        _cs(*_POSES, "--board", "checkerboard:9x6:25"),
+        "not found in any",
+    ),
+    ("stereo-fewer-poses", _cs(*_POSES[:2], "--board", "checkerboard:9x6:25"), "at least 3"),
+    (
+        "stereo-pose-missing",
+        _cs(*_POSES[:2], "{r}/nowhere", "--board", "checkerboard:9x6:25"),
+        "nowhere: not a folder",
+    ),
+    (
+        "stereo-pose-damaged",
+        _cs(*_POSES[:2], "{r}/trunc_json", "--board", "checkerboard:9x6:25"),
+        "trunc_json/manifest.json: not valid JSON",
+    ),
+    ("stereo-no-source", _cs("--board", "checkerboard:9x6:25"), "exactly one source"),
+    ("stereo-two-sources", _cs(*_POSES, "--from", "{r}/cal_ok.yml"), "exactly one source"),
+    (
+        "stereo-window-0",
+        _cs(*_POSES, "--board", "checkerboard:9x6:25", "--window", "0"),
+        "--window",
+    ),
+    (
+        "stereo-unknown-distortion",
+        _cs(*_POSES, "--board", "checkerboard:9x6:25", "--distortion", "wavy"),
+        "--distortion",
+    ),
+    (
+        "stereo-rig-poses-2",
+        _cs("--rig", "sim", "--board", "checkerboard:9x6:25", "--poses", "2"),
+        "--poses 2",
+    ),
+    (
+        "stereo-rig-poses-huge",
+        _cs("--rig", "sim", "--board", "checkerboard:9x6:25", "--poses", "100000"),
+        "give 1..100, got 100000",
+    ),
+    (
+        "stereo-rig-noise-nan",
+        _cs(
+            "--rig",
+            "sim",
+            "--board",
+            "checkerboard:9x6:25",
+            "--noise",
+            "nan",
+        ),
+        "read_noise_dn8 must be a finite number",
+    ),
+    (
+        "stereo-rig-seed-negative",
+        _cs(
+            "--rig",
+            "sim",
+            "--board",
+            "checkerboard:9x6:25",
+            "--seed",
+            "-1",
+        ),
+        "seed must be a non-negative integer",
+    ),
 ]
 
 
-@pytest.mark.parametrize("argv", [c[1] for c in CASES], ids=[c[0] for c in CASES])
-def test_bad_input_is_one_line_exit_2_and_writes_nothing(root: Path, argv: list[str]) -> None:
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(root: Path, case: tuple) -> None:
+    argv, reason = case[1], (case[2] if len(case) == 3 else None)
     before = _tree(root)
     args = [a.format(r=root, o=root / "out") for a in argv]
     res = run_cli(*args, timeout=60)
@@ -293,13 +654,17 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(root: Path, argv: list[
     assert "Traceback" not in res.stderr, res.stderr[-2000:]
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr[-2000:]
+    if reason is not None:
+        assert reason.format(r=root) in lines[0], lines[0]
     assert _tree(root) == before  # nothing new, nothing removed, every byte the same
 
 
 def test_suite_covers_every_command() -> None:
-    commands = {argv[0] for _, argv in CASES}
+    commands = {case[1][0] for case in CASES}
     assert commands == {
         "patterns", "simulate", "modify", "gamma", "phase", "calibrate", "measure",
-        "train-correction", "reproduce", "demo",
+        "train-correction", "reproduce", "demo", "import", "calibrate-stereo",
     }  # fmt: skip
-    assert len(CASES) >= 60 and len({name for name, _ in CASES}) == len(CASES)
+    assert len(CASES) >= 60 and len({case[0] for case in CASES}) == len(CASES)
+    for command in ("import", "calibrate-stereo"):  # issue 12's commands: 8 or more each
+        assert sum(case[1][0] == command for case in CASES) >= 8

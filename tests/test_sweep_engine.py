@@ -29,6 +29,7 @@ import zarr
 from hdrfringe.errors import InputError
 from hdrfringe.reproduce.engine import (
     DONE_VAR,
+    PARTIAL_INFIX,
     RUNTIME_ATTRS,
     SweepError,
     SweepGrid,
@@ -289,6 +290,63 @@ def test_ctrl_c_midway_keeps_the_finished_blocks_and_a_rerun_completes_them(
     ds = run_sweep(store, GRID, toy_block, PARAMS, scheduler=scheduler, progress=False)
     assert calls(markers) - before == len(status.missing)  # only the missing blocks
     xr.testing.assert_identical(without_runtime_attrs(ds), without_runtime_attrs(ref))
+
+
+KILL_WHILE_CREATING = """
+import os, sys
+import xarray as xr
+from hdrfringe.reproduce import engine
+from tests.test_sweep_engine import GRID, PARAMS, toy_block
+
+to_zarr = xr.Dataset.to_zarr
+def killed(self, *args, **kwargs):  # the metadata is written, then the process dies
+    to_zarr(self, *args, **kwargs)
+    os._exit(9)
+xr.Dataset.to_zarr = killed
+engine.run_sweep(sys.argv[1], GRID, toy_block, PARAMS, n_workers=1, progress=False)
+"""
+
+
+def test_a_store_killed_while_created_leaves_a_pid_named_folder_that_a_rerun_removes(
+    scheduler: str, tmp_path: Path
+) -> None:
+    store = tmp_path / "s.zarr"
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+    }
+    with subprocess.Popen(
+        [sys.executable, "-c", KILL_WHILE_CREATING, str(store)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    ) as child:
+        _, err = child.communicate(timeout=120)
+    assert child.returncode == 9, err[-2000:]
+    (left,) = tmp_path.glob(f".s.zarr{PARTIAL_INFIX}*")  # its store never came into place
+    assert not store.exists() and _pid_of(left) == child.pid  # named by the dead process
+    # a live process's partial folder (another run creating the store now) is never touched;
+    # names without a PID (an earlier version's) are not judged
+    with subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"]) as alive:
+        live = tmp_path / f".s.zarr{PARTIAL_INFIX}{alive.pid}-0123abcd"
+        live.mkdir()
+        (live / "zarr.json").write_text("{}")
+        unnamed = tmp_path / f".s.zarr{PARTIAL_INFIX}01234567"  # all-digit hex: not a PID
+        unnamed.mkdir()
+        try:
+            run_sweep(store, GRID, toy_block, PARAMS, scheduler=scheduler, progress=False)
+            assert not left.exists()  # the dead run's folder is gone
+            assert live.is_dir() and (live / "zarr.json").read_text() == "{}"
+            assert unnamed.is_dir()
+        finally:
+            alive.kill()
+    assert sweep_status(store).done == GRID.n_blocks
+
+
+def _pid_of(entry: Path) -> int:
+    """The PID in a ``.{store}.partial-{PID}-{random}`` name."""
+    return int(entry.name.split(PARTIAL_INFIX)[1].split("-")[0])
 
 
 def test_a_store_of_another_sweep_is_refused(reference: tuple[Path, xr.Dataset]) -> None:

@@ -171,6 +171,11 @@ class BoardSpec:
             spacing = float(m.group(4))
         except ValueError:
             raise InputError(f"board {text!r}: spacing {m.group(4)!r} is not a number") from None
+        for key, digits in (("cols", m.group(2)), ("rows", m.group(3))):
+            if len(digits) > 3:  # int() refuses > 4300 digits; no board has 1000 points a side
+                raise InputError(
+                    f"board {key} must be a whole number 2..100, got a {len(digits)}-digit number"
+                )
         return cls(m.group(1), int(m.group(2)), int(m.group(3)), spacing)
 
     @property

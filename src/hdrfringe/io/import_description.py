@@ -284,6 +284,9 @@ def compile_template(
         else:
             if spec:
                 try:
+                    if any(len(n) > 3 or int(n) > 255 for n in re.findall(r"\d+", spec)):
+                        # a width beyond a file name's 255 bytes; 1e11 would exhaust memory
+                        raise ValueError("width or precision above 255")
                     format(1, spec) if spec.endswith("d") else format(1.0, spec)
                 except ValueError:
                     raise _fail(
@@ -419,6 +422,11 @@ def read_description(path: str | Path) -> Description:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(
             f"{path}: not a valid TOML description ({exc}); see docs/import.md"
+        ) from None
+    except (ValueError, RecursionError):  # an integer of > 4300 digits, arrays nested too deep
+        raise InputError(
+            f"{path}: a number with too many digits or arrays nested too deep; a description "
+            "holds short numbers and flat lists (docs/import.md)"
         ) from None
     return parse_description(table, str(path))
 

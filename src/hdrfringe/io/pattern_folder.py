@@ -4,7 +4,10 @@ The manifest has the same frame entries as a capture manifest (``format``
 ``"hdrfringe-patterns"``), so a capture program can copy it, add ``camera`` and the captured
 files, and produce a capture folder. Frames with 2-D data (per-pixel fringes, projector images)
 make it version 2: their side files are written beside the rendered PNGs, under ``projector/``,
-exactly as a capture folder holds them (docs/capture_format.md).
+exactly as a capture folder holds them (docs/capture_format.md). Gray-code frames and fringe
+sets with shift angles or a phase offset make it version 3; ``hdrfringe patterns`` plays none
+of those (it has no option for them), but this writer takes any frames, and such a folder
+reads back through ``hdrfringe import`` (tests/test_pattern_folder_v3.py).
 """
 
 from __future__ import annotations
@@ -40,7 +43,8 @@ def write_pattern_folder(
     Each frame's ``file`` is the rendered projector image (gamma pre-compensated, at the
     projector's bit depth), ``NNN_<stem>.png`` in play order. The manifest is of the lowest
     version that describes the frames (:func:`hdrfringe.captures.frames_format_version`: 1
-    unless a frame has 2-D data, 2 then, 3 for shift angles or a phase offset); with 2-D data each
+    unless a frame has 2-D data, 2 then, 3 for shift angles, a phase offset or Gray-code
+    frames); with 2-D data each
     such entry also names its side file (the MIGL map or the linear image), written once per
     distinct content (:func:`hdrfringe.io.captures.write_side_files`).
 

@@ -57,6 +57,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DONE_VAR",
     "LOG_EVERY_S",
+    "PARTIAL_INFIX",
     "RUNTIME_ATTRS",
     "SCHEDULER_TIMEOUT_S",
     "WORKER_ENV",
@@ -522,11 +523,34 @@ def _is_store(path: Path) -> bool:
     return (path / "zarr.json").is_file() or (path / ".zgroup").is_file()
 
 
+#: A store being created is written in ``.{store}.partial-{PID}-{random}`` beside it; the PID of
+#: the creating process marks it, as io/results.py marks staging folders (docs/safety.md).
+PARTIAL_INFIX = ".partial-"
+
+
+def _remove_dead_partials(path: Path) -> None:
+    """Remove ``.{name}.partial-{PID}-*`` folders beside ``path`` whose process is gone.
+
+    A run killed (SIGKILL) while creating the store leaves one; it never was a store. One of a
+    live process (another run creating the store right now), of this process, or named
+    otherwise (by an earlier version, without a PID) is left alone.
+    """
+    from hdrfringe.io.results import _marked_pid, _pid_alive
+
+    with contextlib.suppress(OSError):
+        for entry in path.parent.glob(f".{path.name}{PARTIAL_INFIX}*-*"):  # not "-{hex}" only
+            pid = _marked_pid(entry, path, PARTIAL_INFIX)
+            if pid is None or pid == os.getpid() or _pid_alive(pid):
+                continue
+            log.info("removing %s, left by a killed run (PID %d)", entry, pid)
+            shutil.rmtree(entry, ignore_errors=True)
+
+
 def _create_store(path: Path, grid: SweepGrid, ident: Mapping[str, str]) -> None:
     """Write the store's metadata and coordinates in a sibling folder, then rename it into
     place: a crash leaves either no store or a complete empty one."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.partial-{uuid.uuid4().hex[:8]}")
+    tmp = path.with_name(f".{path.name}{PARTIAL_INFIX}{os.getpid()}-{uuid.uuid4().hex[:8]}")
     ds, encoding = _template(grid, ident)
     try:
         ds.to_zarr(
@@ -562,6 +586,7 @@ def _open_or_create(path: Path, grid: SweepGrid, ident: Mapping[str, str]) -> za
     if path.exists() and not _is_store(path):
         if not path.is_dir() or any(path.iterdir()):
             raise InputError(f"{path} exists and is not a sweep store; choose another path")
+    _remove_dead_partials(path)
     if not _is_store(path):
         _create_store(path, grid, ident)
         log.info("sweep store %s created (%d blocks)", path, grid.n_blocks)
