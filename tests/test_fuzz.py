@@ -183,6 +183,7 @@ def _version3_manifests(r: Path, good: dict) -> None:
     edited("v2_shift_deg", 2, shifts([0, 90, 180, 270]))
     edited("v3_duplicate_shifts", 3, shifts([0, 90, 90, 270]))
     edited("v3_nan_shift", 3, shifts([0, float("nan"), 180, 270]))
+    edited("v3_huge_shift", 3, shifts([0, 90, 180, 1e308]))
     edited("v3_mixed_offsets", 3, mixed_offsets)
     edited("v3_inf_offset", 3, offset(float("inf")))
     edited("v3_big_offset", 3, offset(int("4" * 400)))
@@ -483,6 +484,11 @@ CASES: list[tuple[str, list[str]] | tuple[str, list[str], str]] = [
         "phase-v3-nan-shift",
         ["phase", "{r}/v3_nan_shift", "-o", "{o}"],
         "'shift_deg' must be a finite number, got nan",
+    ),
+    (
+        "phase-v3-huge-shift",
+        ["phase", "{r}/v3_huge_shift", "-o", "{o}"],
+        "shifts_deg must hold finite angles within +-1e+06 degrees",
     ),
     (
         "phase-v3-mixed-offsets",

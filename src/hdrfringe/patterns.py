@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from hdrfringe.frames import FringeFrame
 
 __all__ = [
+    "MAX_ANGLE_DEG",
     "ORIENTATIONS",
     "PATTERNS",
     "FringeSpec",
@@ -87,6 +88,12 @@ def fringe_profile(t: ArrayLike, pattern: str) -> NDArray[np.float64]:
     if pattern == "triangular":
         return 1.0 - 4.0 * np.abs(t - np.round(t))
     raise InputError(f"unknown fringe pattern {pattern!r}; use one of {', '.join(PATTERNS)}")
+
+
+#: Largest |angle| in degrees accepted for a shift or phase offset: beyond ~1e6 degrees an
+#: angle can no longer be reduced modulo 360 to the 1e-9 degrees that tell the contract's
+#: shifts apart (float64 spacing at 1e6 is 1.2e-10), so 1e308 would decode to noise.
+MAX_ANGLE_DEG = 1.0e6
 
 
 @dataclass(frozen=True)
@@ -195,8 +202,11 @@ class FringeSpec:
         if isinstance(offset, bool) or not isinstance(offset, int | float | np.number):
             raise InputError(f"phase_offset_deg must be a number of degrees, got {offset!r}")
         offset = float(offset)
-        if not math.isfinite(offset):
-            raise InputError(f"phase_offset_deg must be finite, got {offset}")
+        if not (math.isfinite(offset) and abs(offset) <= MAX_ANGLE_DEG):
+            raise InputError(
+                f"phase_offset_deg must be a finite angle within +-{MAX_ANGLE_DEG:g} degrees, "
+                f"got {offset}; reduce it modulo 360"
+            )
         object.__setattr__(self, "phase_offset_deg", offset + 0.0)  # -0.0 -> 0.0
         shifts = self.shifts_deg
         if shifts is not None:
@@ -206,8 +216,11 @@ class FringeSpec:
             for v in shifts:
                 if isinstance(v, bool) or not isinstance(v, int | float | np.number):
                     raise InputError(f"shifts_deg must hold numbers of degrees, got {v!r}")
-                if not math.isfinite(float(v)):
-                    raise InputError(f"shifts_deg must be finite, got {v}")
+                if not (math.isfinite(float(v)) and abs(float(v)) <= MAX_ANGLE_DEG):
+                    raise InputError(
+                        f"shifts_deg must hold finite angles within +-{MAX_ANGLE_DEG:g} degrees, "
+                        f"got {v}; reduce it modulo 360"
+                    )
                 values.append(float(v) + 0.0)
             if len(values) != self.steps:
                 raise InputError(
