@@ -1,0 +1,75 @@
+"""PNG previews of maps (io.results.write_preview_png): colours from the colour map's own table,
+NaN gray, the colour bar spanning the range, sizes bounded."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib import colormaps
+from PIL import Image
+
+from hdrfringe.errors import InputError
+from hdrfringe.io.results import (
+    PREVIEW_INVALID_GRAY,
+    PREVIEW_MAX_WIDTH,
+    PREVIEW_MIN_WIDTH,
+    write_preview_png,
+)
+
+
+def _body(path: Path, shape: tuple[int, int]) -> np.ndarray:
+    """The map area of a preview: its top-left corner is where the map is pasted (8, 22)."""
+    img = np.asarray(Image.open(path).convert("RGB"))
+    return img[22 : 22 + shape[0], 8 : 8 + shape[1]]
+
+
+def test_colours_come_from_the_colour_map(tmp_path: Path) -> None:
+    data = np.tile(np.linspace(0.0, 10.0, 300), (40, 1))
+    data[5:9, 100:120] = np.nan
+    path = tmp_path / "m.png"
+    write_preview_png(path, data, cmap="magma", vmin=0.0, vmax=10.0)
+    body = _body(path, data.shape).astype(int)
+    # reference: matplotlib's colour map evaluated directly at the normalised values
+    ref = np.rint(colormaps["magma"](data / 10.0)[..., :3] * 255).astype(int)
+    finite = np.isfinite(data)
+    # 256-level table: one level of quantisation at most (a colour step of a few DN)
+    assert np.abs(body[finite] - ref[finite]).max() <= 6
+    assert (body[~finite] == PREVIEW_INVALID_GRAY).all()
+    # the broken variant, a reversed scale, is far off
+    rev = np.rint(colormaps["magma"](1 - data / 10.0)[..., :3] * 255).astype(int)
+    assert np.abs(body[finite] - rev[finite]).max() > 100
+
+
+def test_percentile_range_and_bar(tmp_path: Path) -> None:
+    data = np.linspace(0.0, 1.0, 400 * 300).reshape(300, 400)
+    data[0, 0] = 1e9  # one outlier does not flatten the picture
+    path = tmp_path / "p.png"
+    write_preview_png(path, data, cmap="viridis", title="t", label="mm")
+    img = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    lut = np.rint(colormaps["viridis"](np.linspace(0, 1, 256))[:, :3] * 255).astype(int)
+    bar_x = 8 + 400 + 8 + 8  # map margin + width + two margins
+    assert np.abs(img[22, bar_x] - lut[255]).max() <= 1  # top of the bar: vmax colour
+    assert np.abs(img[22 + 299, bar_x] - lut[0]).max() <= 1  # bottom: vmin colour
+    body = _body(path, data.shape)
+    mid = np.abs(body[150, 200].astype(int) - lut[128]).max()
+    assert mid <= 8  # the middle of the ramp maps near the middle of the table
+
+
+def test_sizes_are_bounded(tmp_path: Path) -> None:
+    big = np.zeros((50, 3 * PREVIEW_MAX_WIDTH + 5))
+    write_preview_png(tmp_path / "big.png", big)
+    small = np.zeros((3, 5))
+    write_preview_png(tmp_path / "small.png", small)
+    wb = Image.open(tmp_path / "big.png").width
+    ws = Image.open(tmp_path / "small.png").width
+    assert PREVIEW_MAX_WIDTH // 2 < wb < PREVIEW_MAX_WIDTH + 200
+    assert ws >= PREVIEW_MIN_WIDTH
+
+
+def test_all_invalid_map_and_bad_shapes(tmp_path: Path) -> None:
+    write_preview_png(tmp_path / "nan.png", np.full((4, 4), np.nan))
+    assert (_body(tmp_path / "nan.png", (4, 4)) == PREVIEW_INVALID_GRAY).all()
+    with pytest.raises(InputError, match="2-D map"):
+        write_preview_png(tmp_path / "bad.png", np.zeros(5))
