@@ -32,7 +32,8 @@ import pytest
 
 from tests.conftest import realdata_path, run_cli
 
-pytestmark = pytest.mark.realdata
+# one worker computes the module fixtures (the measured sphere, the decoded board) once
+pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("sphere-realdata")]
 
 ROOT = Path(__file__).resolve().parents[1]
 DESCRIPTION = ROOT / "docs" / "examples" / "import" / "kimthyung_sphere.toml"

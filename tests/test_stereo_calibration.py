@@ -36,6 +36,8 @@ from hdrfringe.stereo_calibration import (
 from tests.conftest import run_cli
 
 SPEC = BoardSpec.parse("checkerboard:9x6:25")
+# one worker simulates and observes the poses (module fixtures) once
+pytestmark = pytest.mark.xdist_group("stereo-calibration")
 
 
 def _camera_frame(geometry: RigGeometry, xyz: np.ndarray) -> np.ndarray:

@@ -37,7 +37,8 @@ from hdrfringe.stereo import (
 from hdrfringe.unwrap import unwrap_spatial, unwrap_temporal_levels
 from tests.conftest import realdata_path
 
-pytestmark = pytest.mark.realdata
+# one worker computes the module fixtures (the measured sphere, the decoded board) once
+pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("stereo-realdata")]
 
 TWO_PI = 2.0 * np.pi
 CHECKER = ("thomriiii", "dec2025_checkerboard_saturated_4step")
