@@ -4,7 +4,14 @@ VENV := .venv
 STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
-.PHONY: install demo test lint bench bench-sweep clean
+.PHONY: install system-packages demo test lint bench bench-sweep clean
+
+# The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
+# Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
+# apt-get (as root, or through sudo) only when Xvfb or Mesa's GLX is missing.
+X_PACKAGES := xvfb libgl1 libglx-mesa0 libgl1-mesa-dri libx11-6 libxext6 libxi6 libxinerama1 \
+	libxrandr2 libxrender1 libxxf86vm1
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -12,12 +19,20 @@ $(STAMP): pyproject.toml
 	$(VENV)/bin/pip install --quiet -e ".[dev]"
 	touch $(STAMP)
 
-install: $(STAMP)
+system-packages:
+	@if ! command -v Xvfb >/dev/null 2>&1 || ! ls /usr/lib*/libGLX_mesa.so.0 /usr/lib*/*/libGLX_mesa.so.0 2>/dev/null | grep -q .; then \
+		echo "installing Xvfb and Mesa OpenGL for the projector window tests: $(X_PACKAGES)"; \
+		$(SUDO) apt-get update -qq && \
+		$(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+			$(X_PACKAGES); \
+	fi
+
+install: $(STAMP) system-packages
 
 demo: $(STAMP)
 	$(VENV)/bin/hdrfringe demo -o $(OUT) --force
 
-test: $(STAMP)
+test: $(STAMP) system-packages
 	$(VENV)/bin/ruff check src tests benchmarks
 	$(VENV)/bin/pytest -n 2 --dist loadgroup -q
 
