@@ -38,6 +38,9 @@ from hdrfringe.patterns import FringeSpec
 
 WIDTH, HEIGHT = 1920, 1080
 
+# One worker runs the whole file (make test: pytest -n 2 --dist loadgroup): one Xvfb per run.
+pytestmark = pytest.mark.xdist_group("xvfb")
+
 
 @pytest.fixture(scope="module")
 def xdisplay() -> Iterator[str]:

@@ -271,7 +271,8 @@ class ScreenProjector(_ProjectorBase):
         if not name:
             raise InputError("no X display to project on: DISPLAY is not set; name one (e.g. ':0')")
         try:
-            display = pyglet.display.Display(name=name)
+            display_module: Any = pyglet.display  # Display: the platform's class, not re-exported
+            display = display_module.Display(name=name)
         except Exception as err:
             # pyglet has two classes of this name (pyglet.window's and the X back end's).
             if type(err).__name__ != "NoSuchDisplayException":
