@@ -150,15 +150,37 @@ def test_no_such_display_or_screen_is_a_one_line_input_error(xdisplay: str) -> N
         ScreenProjector(screen=3, display=xdisplay).open()
 
 
+def request_close(display: str, window_id: int) -> None:
+    """What a window manager sends when a user closes a window: WM_DELETE_WINDOW, from another
+    X client connection."""
+    import ctypes
+
+    from pyglet.libs.x11 import xlib
+
+    dpy = xlib.XOpenDisplay(display.encode())
+    assert dpy, f"cannot connect to {display}"
+    try:
+        event = xlib.XEvent()
+        event.xclient.type = xlib.ClientMessage
+        event.xclient.window = window_id
+        event.xclient.message_type = xlib.XInternAtom(dpy, b"WM_PROTOCOLS", False)
+        event.xclient.format = 32
+        event.xclient.data.l[0] = xlib.XInternAtom(dpy, b"WM_DELETE_WINDOW", False)
+        event.xclient.data.l[1] = xlib.CurrentTime
+        assert xlib.XSendEvent(dpy, window_id, False, 0, ctypes.byref(event))
+        xlib.XSync(dpy, False)
+    finally:
+        xlib.XCloseDisplay(dpy)
+
+
 def test_window_closed_mid_run_stops_with_a_projector_error(xdisplay: str) -> None:
     import pyglet
 
     image = np.zeros((HEIGHT, WIDTH), np.uint8)
     with ScreenProjector(display=xdisplay) as projector:
         assert projector.show(image) == 1
-        # what the window system delivers when a user or window manager closes the window
         (window,) = pyglet.app.windows
-        window.dispatch_event("on_close")
+        request_close(xdisplay, window._window)  # the X window id pyglet made
         with pytest.raises(ProjectorError, match="closed mid-run after frame 1"):
             projector.show(image)
     with pytest.raises(ProjectorError, match="not open"):
