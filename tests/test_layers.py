@@ -54,6 +54,8 @@ LAYERS: dict[str, int] = {
     "strategies": ACQUISITION,
     "strategies.*": ACQUISITION,
     "pipeline": ACQUISITION,
+    "hardware": ACQUISITION,
+    "hardware.*": ACQUISITION,
     # 2 I/O: files in and out
     "io": IO,
     "io.*": IO,
