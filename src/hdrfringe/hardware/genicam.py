@@ -52,6 +52,8 @@ def bundled_producer() -> Path | None:
         genicam = import_optional("genicam", _PURPOSE)
     except ImportError:
         return None
+    if genicam.__file__ is None:
+        return None
     path = Path(genicam.__file__).parent / "viky.cti"
     return path if path.is_file() else None
 

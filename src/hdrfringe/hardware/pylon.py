@@ -137,7 +137,7 @@ class PylonCamera(CameraBase):
                 return node
         return None
 
-    def _set_float(self, names: tuple[str, ...], value: float, unit: str, what: str) -> float:
+    def _set_float(self, names: tuple[str, ...], value: float, unit: float, what: str) -> float:
         node = self._node(*names)
         if node is None:
             raise CameraError(f"camera {self.name}: {what} cannot be set (no {names[0]} feature)")
