@@ -81,7 +81,7 @@ def sphere_fit(xyz: np.ndarray, plane):
     return fit_sphere(pts[keep]), int(region.sum()), int(keep.sum())
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def measured(tmp_path_factory: pytest.TempPathFactory) -> dict:
     """import -> calibrate-stereo --from -> measure --stereo-directions v, once."""
     root = realdata_path("kimthyung_sphere")

@@ -105,7 +105,7 @@ def test_board_scene_truth_and_manifest() -> None:
 # --- 2. calibration from 10 poses at sigma 1 DN -------------------------------------------------
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def observed():
     boards = default_board_poses(10)
     caps = capture_board_poses(boards, noise=1.0, seed=4)
@@ -114,7 +114,7 @@ def observed():
     return boards, caps, poses, truth
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def calibrated(observed):
     _, _, poses, _ = observed
     return calibrate_stereo(poses, SPEC, (640, 480), (800, 600))
@@ -281,7 +281,7 @@ def test_triangulated_plate_matches_truth(calibrated, scene) -> None:
 CIRCLES = "circles:9x6:25"
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def sim_run(tmp_path_factory: pytest.TempPathFactory):
     """``calibrate-stereo --rig sim`` on 3 circle-grid poses, keeping the pose folders."""
     root = tmp_path_factory.mktemp("sim")

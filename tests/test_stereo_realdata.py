@@ -57,7 +57,7 @@ def measured(what: str, value: object) -> None:
     print(f"[realdata] {what}: {value}")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def checker() -> dict[str, np.ndarray]:
     """Projector coordinates up to the F = 4 fringe order, and the clipped pixels.
 
@@ -90,12 +90,12 @@ def checker() -> dict[str, np.ndarray]:
     return out
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def calibration() -> StereoCalibration:
     return convert_calibration(realdata_path(*CALIB))
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def corners() -> np.ndarray:
     """The board's 8 x 6 inner corners (camera px), from the mean of the F = 32 shifts."""
     root = realdata_path(*CHECKER) / "images"
@@ -174,7 +174,7 @@ def _epipolar_px(calib: StereoCalibration, uc, vc, u, v) -> float:  # type: igno
     return float(np.nanmedian(np.hypot(pu - u, pv - v)))
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
 def orders(checker, calibration, corners) -> dict[str, object]:  # type: ignore[no-untyped-def]
     """The F = 4 fringe orders (kv from the epipolar geometry, ku from the board's squares)."""
     rows, cols = np.mgrid[0:720:8, 0:1280:8]
