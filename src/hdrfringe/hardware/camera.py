@@ -512,6 +512,10 @@ def open_camera(spec: str) -> CameraBase:
         if head and tail and not tail.lower().endswith(".cti") and "/" not in tail:
             cti, serial = head, tail
         return GenICamCamera(cti, serial)
+    if kind == "loop":  # the projector's X screen through the virtual rig (docs/hardware.md)
+        from hdrfringe.hardware.loop_camera import LoopCamera
+
+        return LoopCamera(spec)
     forms = "pylon:SERIAL, pylon:emu, opencv:0, opencv:/dev/videoN or genicam:CTI_PATH[:SERIAL]"
     if not sep or not rest:
         raise InputError(f"camera {spec!r}: no back end and device given; use {forms}")
