@@ -162,7 +162,7 @@ def test_no_stale_image_is_accepted_at_a_fixed_latency(latency: int) -> None:
 def test_no_stale_image_is_accepted_when_the_latency_changes_mid_run() -> None:
     rng = np.random.default_rng(2)
     latencies = iter(rng.integers(0, 4, 100).tolist())
-    frames = fringe_frames() + [UniformFrame(255.0), UniformFrame(100.0)]
+    frames = [*fringe_frames(), UniformFrame(255.0), UniformFrame(100.0)]
     rig, camera = make_rig(latency=latencies, max_grabs=5)
     with rig:
         images = rig.capture(frames)

@@ -24,6 +24,7 @@ times, grabs discarded and rejected, the change ratio accepted).
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -45,10 +46,14 @@ __all__ = [
     "SYNC_MODES",
     "FrameTiming",
     "HardwareRig",
+    "Recorder",
+    "RigCheck",
     "SyncError",
     "SyncSettings",
     "change_ratio",
+    "check_rig",
     "noise_variance",
+    "open_projector",
 ]
 
 #: ``software``: settle delay, discard, verify, retry; ``hardware``: the camera's trigger.
@@ -292,6 +297,8 @@ class HardwareRig(RigBase):
         Gamma pre-compensation of the patterns (thesis Eq. 2.17; 1.0: none).
     settings : CameraSettings, optional
         Exposure and gain applied at :meth:`open` (the rig's :attr:`camera_settings`).
+    pixel_format : str, optional
+        Camera pixel format set at :meth:`open` (e.g. ``"Mono12"``); None: the camera's.
     sleep : callable, optional
         ``time.sleep`` (tests pass a fake clock).
 
@@ -332,6 +339,7 @@ class HardwareRig(RigBase):
         *,
         gamma_hat: float = 1.0,
         settings: CameraSettings | None = None,
+        pixel_format: str | None = None,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
         if not (math.isfinite(gamma_hat) and gamma_hat > 0):
@@ -341,6 +349,7 @@ class HardwareRig(RigBase):
         self.sync = SyncSettings() if sync is None else sync
         self.gamma_hat = float(gamma_hat)
         self.camera_settings = CameraSettings() if settings is None else settings
+        self.pixel_format = pixel_format
         self._sleep = sleep
         self.log: list[FrameTiming] = []
         self.noise_var = MIN_NOISE_VARIANCE
@@ -365,6 +374,8 @@ class HardwareRig(RigBase):
         self.projector_device.open()
         try:
             self.camera.open()
+            if self.pixel_format is not None:
+                self.camera.set_pixel_format(self.pixel_format)
             self.camera.set_trigger_mode(self.sync.mode)
             self._apply(self.camera_settings)
             width, height = self.projector_device.size
@@ -411,7 +422,7 @@ class HardwareRig(RigBase):
         self._sleep(self.sync.settle_s)
         grabs = [self._grab() for _ in range(self.sync.discard + self.sync.max_grabs + 2)]
         bits = self.camera_bit_depth
-        var = min(noise_variance(a, b, bits) for a, b in zip(grabs[:-1], grabs[1:], strict=True))
+        var = min(noise_variance(a, b, bits) for a, b in itertools.pairwise(grabs))
         return grabs[-1], var
 
     def _baseline(self) -> None:
@@ -540,4 +551,350 @@ class HardwareRig(RigBase):
             f"{sync.settle_s:g} s settle and {sync.discard} discarded still showed an earlier "
             f"frame (change {ratio:.2g}x noise, needs {sync.threshold:g}x); raise --settle or "
             "--discard (hdrfringe rig check measures the latency), or use a hardware trigger"
+        )
+
+
+class Recorder(RigBase):
+    """A rig that passes every capture to another rig and keeps what it captured.
+
+    Each :meth:`capture` call that returns is recorded whole (its frames, images and settings):
+    a strategy captures one complete set per call (and the centerline alone), so an
+    interrupted run leaves complete sets only.
+
+    Parameters
+    ----------
+    rig : Rig
+        The rig that captures (opened and closed by its owner, not by the recorder).
+
+    Attributes
+    ----------
+    calls : list of tuple
+        ``(frames, images, settings)`` per completed call, in order.
+
+    Examples
+    --------
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.rig.base import Rig
+    >>> class Gray(RigBase):
+    ...     camera_bit_depth, image_shape, projector = 8, (2, 3), ProjectorInfo()
+    ...     def capture(self, frames, settings=None):
+    ...         return np.full((len(frames), 2, 3), 9, np.uint8)
+    >>> rec = Recorder(Gray())
+    >>> _ = rec.capture(FringeSpec(steps=3).frames())
+    >>> caps = rec.captures()
+    >>> isinstance(rec, Rig), len(caps.frames), len(caps.sets)
+    (True, 3, 1)
+    """
+
+    def __init__(self, rig: Any) -> None:
+        self.rig = rig
+        self.calls: list[tuple[list[Frame], NDArray[Any], CameraSettings]] = []
+
+    @property
+    def camera_bit_depth(self) -> int:  # type: ignore[override]
+        """The wrapped rig's bit depth."""
+        return int(self.rig.camera_bit_depth)
+
+    @property
+    def image_shape(self) -> tuple[int, int]:
+        """The wrapped rig's image shape."""
+        return tuple(self.rig.image_shape)  # type: ignore[return-value]
+
+    @property
+    def projector(self) -> ProjectorInfo:
+        """The wrapped rig's projector."""
+        return self.rig.projector  # type: ignore[no-any-return]
+
+    @property
+    def camera_settings(self) -> CameraSettings:  # type: ignore[override]
+        """The wrapped rig's default settings."""
+        return self.rig.camera_settings  # type: ignore[no-any-return]
+
+    def capture(
+        self, frames: Sequence[Frame], settings: CameraSettings | None = None
+    ) -> NDArray[np.integer]:
+        """Capture on the wrapped rig and record the call.
+
+        Parameters
+        ----------
+        frames : sequence of Frame
+        settings : CameraSettings, optional
+
+        Returns
+        -------
+        ndarray
+        """
+        images = self.rig.capture(frames, settings)
+        self.calls.append((list(frames), np.array(images), self.rig.resolve_settings(settings)))
+        return images  # type: ignore[no-any-return]
+
+    def captures(self, name: str = "<memory>", camera: dict[str, Any] | None = None) -> Any:
+        """Everything recorded, in capture order, as :class:`~hdrfringe.captures.Captures`.
+
+        Parameters
+        ----------
+        name : str
+            The captures' name.
+        camera : dict, optional
+            Camera description for the manifest.
+
+        Returns
+        -------
+        Captures
+        """
+        from hdrfringe.captures import Captures
+
+        frames = [f for fr, _, _ in self.calls for f in fr]
+        images = np.concatenate([im for _, im, _ in self.calls])
+        exposure = tuple(st.exposure_ms for fr, _, st in self.calls for _ in fr)
+        gain = tuple(st.gain_db for fr, _, st in self.calls for _ in fr)
+        return Captures(
+            frames,
+            images,
+            self.camera_bit_depth,
+            projector=self.projector,
+            camera=dict(camera or {}),
+            exposure_ms=exposure,
+            gain_db=gain,
+            name=name,
+        )
+
+
+def open_projector(spec: str) -> Projector:
+    """Create (not yet open) the projector a specification names.
+
+    Parameters
+    ----------
+    spec : str
+        ``screen:N`` or ``screen:N@DISPLAY`` (a full-screen window on screen N of the X
+        display, default ``$DISPLAY``), or ``folder:PATH`` or ``folder:PATH@WIDTHxHEIGHT``
+        (PNG files and a play list for an external player; default size 1024x768).
+
+    Returns
+    -------
+    Projector
+
+    Raises
+    ------
+    InputError
+        An unknown back end or a malformed specification.
+
+    Examples
+    --------
+    >>> open_projector("screen:1@:5")
+    ScreenProjector(screen=1, display=':5')
+    >>> open_projector("folder:frames@640x480")
+    FolderProjector('frames', 640, 480)
+    >>> open_projector("hdmi:1")
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: projector 'hdmi:1': unknown back end; use screen:N[@DISPLAY] ...
+    """
+    from hdrfringe.hardware.projector import FolderProjector, ScreenProjector
+
+    forms = "screen:N[@DISPLAY] or folder:PATH[@WIDTHxHEIGHT]"
+    kind, _, rest = spec.partition(":")
+    if kind == "screen" and rest:
+        number, _, display = rest.partition("@")
+        if not number.isdigit():
+            raise InputError(f"projector {spec!r}: screen must be a number >= 0; use {forms}")
+        return ScreenProjector(int(number), display or None)
+    if kind == "folder" and rest:
+        path, _, size = rest.rpartition("@") if "@" in rest else (rest, "", "1024x768")
+        w, x, h = size.partition("x")
+        if not (x and w.isdigit() and h.isdigit() and int(w) > 0 and int(h) > 0):
+            raise InputError(f"projector {spec!r}: size {size!r} is not WIDTHxHEIGHT; use {forms}")
+        return FolderProjector(path, int(w), int(h))
+    raise InputError(f"projector {spec!r}: unknown back end; use {forms}")
+
+
+@dataclass(frozen=True)
+class RigCheck:
+    """What ``hdrfringe rig check`` measured (:func:`check_rig`).
+
+    Parameters
+    ----------
+    latencies : tuple of int
+        Per display change: stale grabs before the first image that showed the change.
+    latency : int
+        The largest of them.
+    grab_period_s : float
+        Median seconds per grab.
+    discard : int
+        Recommended ``--discard``: the latency.
+    settle_s : float
+        Recommended ``--settle``: one grab period beyond the latency (the margin), in seconds.
+    white_saturated_fraction : float
+        Fraction of pixels saturated when the projector shows white at the chosen exposure.
+    noise_std : float
+        Median over pixels of the standard deviation of repeated grabs of a static mid-gray
+        frame, in camera gray levels.
+    noise_std_mean : float
+        Mean of the same.
+    bit_depth : int
+        Camera bit depth B.
+    image_shape : tuple of int
+        Camera (height, width).
+
+    Examples
+    --------
+    >>> RigCheck((2, 2), 2, 0.03, 2, 0.09, 0.0, 1.1, 1.2, 8, (4, 6)).to_dict()["clips"]
+    False
+    """
+
+    latencies: tuple[int, ...]
+    latency: int
+    grab_period_s: float
+    discard: int
+    settle_s: float
+    white_saturated_fraction: float
+    noise_std: float
+    noise_std_mean: float
+    bit_depth: int
+    image_shape: tuple[int, int]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON report (fields plus ``clips`` and the recommended sync options).
+
+        Returns
+        -------
+        dict
+        """
+        out = asdict(self)
+        out["latencies"] = list(self.latencies)
+        out["image_shape"] = list(self.image_shape)
+        out["clips"] = self.white_saturated_fraction > 0.0
+        out["recommended"] = {"settle": self.settle_s, "discard": self.discard}
+        return out
+
+
+def check_rig(
+    projector: Projector,
+    camera: Camera,
+    *,
+    settings: CameraSettings | None = None,
+    pixel_format: str | None = None,
+    changes: int = 6,
+    max_latency: int = 10,
+    noise_grabs: int = 8,
+    threshold: float = 4.0,
+    grab_timeout_s: float = 2.0,
+) -> RigCheck:
+    """Measure a rig's display-to-capture latency, white clipping and camera noise.
+
+    Latency: the projector alternates black and white ``changes`` times; after each change
+    the camera is grabbed without delay until an image differs from the last image of the
+    previous frame by more than ``threshold`` times the noise (:func:`change_ratio`); the
+    grabs before it are the latency of that change. Clipping: the saturated fraction of an
+    image of white at the given exposure. Noise: the per-pixel standard deviation of
+    ``noise_grabs`` images of a static mid-gray (128) frame, over the pixels saturated in none.
+
+    Parameters
+    ----------
+    projector : Projector
+        Not yet open.
+    camera : Camera
+        Not yet open.
+    settings : CameraSettings, optional
+        Exposure and gain to check at.
+    pixel_format : str, optional
+        Camera pixel format.
+    changes : int
+        Display changes timed (at least 2).
+    max_latency : int
+        Grabs after a change before giving up with a :class:`SyncError`.
+    noise_grabs : int
+        Images of the static frame for the noise (at least 2).
+    threshold : float
+        Change ratio that counts as "the change is visible".
+    grab_timeout_s : float
+        Timeout of each grab.
+
+    Returns
+    -------
+    RigCheck
+
+    Raises
+    ------
+    SyncError
+        No change seen within ``max_latency`` grabs (the camera does not see the projector).
+
+    Examples
+    --------
+    See ``tests/test_hardware_rig.py`` (a fake rig with a known latency) and docs/hardware.md.
+
+    >>> check_rig.__name__
+    'check_rig'
+    """
+    if changes < 2 or noise_grabs < 2 or max_latency < 0:
+        raise InputError(
+            f"rig check needs changes >= 2, noise_grabs >= 2 and max_latency >= 0, got "
+            f"{changes}, {noise_grabs}, {max_latency}"
+        )
+    with projector, camera:
+        if pixel_format is not None:
+            camera.set_pixel_format(pixel_format)
+        camera.set_trigger_mode("software")
+        if settings is not None and settings.exposure_ms is not None:
+            camera.set_exposure(settings.exposure_ms)
+        if settings is not None and settings.gain_db is not None:
+            camera.set_gain(settings.gain_db)
+        bits = int(camera.bit_depth)
+        width, height = projector.size
+
+        def grab() -> NDArray[Any]:
+            return np.asarray(camera.grab(timeout_s=grab_timeout_s))
+
+        def settled(level: int) -> tuple[NDArray[Any], float]:
+            projector.show(np.full((height, width), level, np.uint8))
+            grabs = [grab() for _ in range(max_latency + 3)]
+            var = min(noise_variance(a, b, bits) for a, b in itertools.pairwise(grabs))
+            return grabs[-1], var
+
+        white, var_white = settled(255)
+        reference, var_black = settled(0)
+        variance = max(var_white, var_black)
+        latencies: list[int] = []
+        periods: list[float] = []
+        level = 255
+        for _ in range(changes):
+            projector.show(np.full((height, width), level, np.uint8))
+            stale = 0
+            while True:
+                t = time.perf_counter()
+                image = grab()
+                periods.append(time.perf_counter() - t)
+                if change_ratio(image, reference, variance, bits) > threshold:
+                    break
+                stale += 1
+                if stale <= max_latency:
+                    continue
+                raise SyncError(
+                    f"rig check: {max_latency + 1} grabs after a change from "
+                    f"{255 - level} to {level} showed no change; point the camera at the "
+                    "projected area, open the aperture, or raise the latency limit"
+                )
+            latencies.append(stale)
+            # the next reference: an image of this frame past its latency
+            for _ in range(max_latency + 1):
+                reference = grab()
+            level = 255 - level
+        saturated = float(np.mean(white >= full_scale(bits)))
+        gray, _ = settled(128)
+        stack = np.stack([gray] + [grab() for _ in range(noise_grabs - 1)]).astype(np.float64)
+        use = (stack < full_scale(bits)).all(axis=0)
+        std = stack.std(axis=0, ddof=1)[use] if use.any() else np.zeros(1)
+        latency = max(latencies)
+        period = float(np.median(periods))
+        return RigCheck(
+            tuple(latencies),
+            latency,
+            period,
+            latency,
+            round((latency + 1) * period, 4),
+            saturated,
+            float(np.median(std)),
+            float(np.mean(std)),
+            bits,
+            (int(gray.shape[0]), int(gray.shape[1])),
         )
