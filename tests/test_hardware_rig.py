@@ -10,7 +10,10 @@ the rig did not produce.
 
 from __future__ import annotations
 
+import json
+import subprocess
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +27,9 @@ from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 
 W, H = 64, 48
+
+# The loop tests share an Xvfb per module; one worker runs the file (as the window tests).
+pytestmark = pytest.mark.xdist_group("xvfb")
 
 
 class FakeProjector(_ProjectorBase):
@@ -254,3 +260,159 @@ def test_change_ratio_is_about_one_for_noise_alone() -> None:
     b = np.clip(100 + rng.normal(0, 2, 10000), 0, 255)
     assert 0.9 < change_ratio(a, b, 4.0, 8) < 1.1
     assert change_ratio(a + 20, b, 4.0, 8) > 40
+
+
+# --- the loop rig: projector window on Xvfb, loop camera (issue 13's loop test) -------------
+# The screen is the virtual rig's projector size (1024x768) and the loop camera the virtual
+# rig's camera, so that `measure --rig sim` with the same scene and options is the reference.
+# One pitch of 1024 px (a single period over the projector: absolute without unwrapping) keeps
+# the run short.
+
+LOOP_W, LOOP_H = 1024, 768
+LIVE = ["--pitch", "1024"]
+NO_TCP = ["-nolisten", "tcp"]
+STRATEGY = {"lpa": ["--step", "50"], "dpa": ["--bound-pending"]}
+
+
+@pytest.fixture(scope="module")
+def xdisplay() -> Iterator[str]:
+    """A private Xvfb server at the virtual rig's projector size, killed at the end."""
+    import os
+    import shutil
+    import subprocess
+
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        pytest.fail("Xvfb not found: the loop tests need an X server; run `make install`")
+    read_fd, write_fd = os.pipe()
+    proc = subprocess.Popen(
+        [xvfb, "-displayfd", str(write_fd), "-screen", "0", f"{LOOP_W}x{LOOP_H}x24", *NO_TCP],
+        pass_fds=(write_fd,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(write_fd)
+    try:
+        with os.fdopen(read_fd) as pipe:
+            number = pipe.readline().strip()
+        if not number:
+            pytest.fail(f"Xvfb exited with status {proc.wait(5)} before opening a display")
+        yield f":{number}"
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def cli(*args: str) -> subprocess.CompletedProcess[str]:
+    import sys
+
+    return subprocess.run(
+        [sys.executable, "-m", "hdrfringe.cli", *args], capture_output=True, text=True, timeout=600
+    )
+
+
+def phase_difference(a: Path, b: Path) -> tuple[float, float]:
+    """Median and 99th percentile of |absolute phase a - b| over pixels valid in both."""
+    from hdrfringe.io.results import read_map_tiff
+
+    pa, pb = read_map_tiff(a / "absolute_phase.tiff"), read_map_tiff(b / "absolute_phase.tiff")
+    ok = np.isfinite(pa) & np.isfinite(pb)
+    assert ok.mean() > 0.3  # the dark squares of the checkerboard are invalid
+    d = np.abs(pa - pb)[ok]
+    return float(np.median(d)), float(np.percentile(d, 99))
+
+
+@pytest.fixture(scope="module")
+def sim_reference(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], tuple]:
+    """`measure --rig sim` of the checkerboard (seed 0, and seed 1 for the noise yardstick)."""
+    root = tmp_path_factory.mktemp("sim")
+    done: dict[str, tuple[Path, tuple[float, float]]] = {}
+
+    def get(method: str) -> tuple[Path, tuple[float, float]]:
+        if method not in done:
+            outs = []
+            for seed in ("0", "1"):
+                out = root / f"{method}_{seed}"
+                r = cli("measure", "--rig", "sim", "--scene", "checkerboard", "--seed", seed,
+                        "--method", method, *LIVE, *STRATEGY[method], "-o", str(out))  # fmt: skip
+                assert r.returncode == 0, r.stderr
+                outs.append(out)
+            done[method] = (outs[0], phase_difference(*outs))
+        return done[method]
+
+    return get
+
+
+@pytest.mark.parametrize("method", ["lpa", "dpa"])
+def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
+    method: str, xdisplay: str, tmp_path: Path, sim_reference: Callable[[str], tuple]
+) -> None:
+    caps = tmp_path / "caps"
+    camera = f"loop:checkerboard?display={xdisplay}&latency=2"
+    options = [*LIVE, *STRATEGY[method], "--settle", "0", "-o", str(caps)]
+    r = cli("capture", "--projector", f"screen:0@{xdisplay}", "--camera", camera,
+            "--method", method, *options)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    log = json.loads((caps / "capture_log.json").read_text())
+    assert log["complete"] is True
+    # every frame differs from the one before: latency 2 means exactly 2 stale grabs rejected
+    assert [f["rejected"] for f in log["frames"]] == [2] * len(log["frames"])
+    manifest = json.loads((caps / "manifest.json").read_text())
+    assert manifest["capture"]["complete"] is True
+    assert len(manifest["frames"]) == len(log["frames"])
+
+    out = tmp_path / "measured"
+    r = cli("measure", str(caps), "--method", method, *STRATEGY[method], "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    sim, (noise_median, noise_p99) = sim_reference(method)
+    median, p99 = phase_difference(out, sim)
+    # within noise: no worse than two virtual-rig runs with different noise seeds (x2)
+    assert median <= 2 * noise_median + 1e-3, (median, noise_median)
+    assert p99 <= 2 * noise_p99 + 1e-3, (p99, noise_p99)
+
+
+def test_no_stale_frame_is_accepted_when_the_loop_latency_changes_mid_run(xdisplay: str) -> None:
+    from hdrfringe import pipeline
+    from hdrfringe.hardware.loop_camera import LoopCamera
+    from hdrfringe.hardware.projector import ScreenProjector
+    from hdrfringe.rig.base import RigBase
+
+    camera = LoopCamera(f"loop:checkerboard?display={xdisplay}&latency=1")
+    rig = HardwareRig(ScreenProjector(0, xdisplay), camera, SyncSettings(settle_s=0.0))
+    latencies = iter([3, 0, 2, 1, 3, 0, 2, 1, 3, 0])
+    in_force: list[int] = []
+
+    class Changing(RigBase):  # a new latency before every set
+        camera_bit_depth = property(lambda self: rig.camera_bit_depth)
+        image_shape = property(lambda self: rig.image_shape)
+        projector = property(lambda self: rig.projector)
+
+        def capture(self, frames, settings=None):  # type: ignore[no-untyped-def]
+            camera.set_latency(next(latencies))
+            in_force.extend([camera.latency] * len(frames))
+            return rig.capture(frames, settings)
+
+    with rig:
+        spec = FringeSpec("sinusoidal", 4, 1024.0, imin=40.0, migl=255.0)
+        pipeline.composite_captures(Changing(), [spec], "lpa", {"step": 50.0})
+    assert len(set(in_force)) >= 3  # the latency really changed between sets
+    # fewer rejections than the latency would be a stale image accepted
+    assert [t.rejected for t in rig.log] == in_force
+
+
+def test_rig_check_on_the_loop_rig_reports_its_latency(xdisplay: str, tmp_path: Path) -> None:
+    camera = f"loop:checkerboard?display={xdisplay}&latency=3"
+    report = tmp_path / "check.json"
+    r = cli("rig", "check", "--projector", f"screen:0@{xdisplay}", "--camera", camera,
+            "--changes", "3", "--max-latency", "5", "-o", str(report))  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    got = json.loads(report.read_text())
+    assert json.loads(r.stdout) == got
+    assert abs(got["latency"] - 3) <= 1
+    assert got["recommended"]["discard"] == got["latency"]
+    assert got["clips"] == (got["white_saturated_fraction"] > 0)
+    assert 0.5 < got["noise_std"] < 5  # the loop camera's read noise is 1 gray level, plus shot
