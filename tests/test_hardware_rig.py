@@ -416,3 +416,59 @@ def test_rig_check_on_the_loop_rig_reports_its_latency(xdisplay: str, tmp_path: 
     assert got["recommended"]["discard"] == got["latency"]
     assert got["clips"] == (got["white_saturated_fraction"] > 0)
     assert 0.5 < got["noise_std"] < 5  # the loop camera's read noise is 1 gray level, plus shot
+
+
+class InterruptingCamera(FakeCamera):
+    """Ctrl-C on grab number ``at`` (as a KeyboardInterrupt arrives mid-grab)."""
+
+    def __init__(self, projector: FakeProjector, at: int) -> None:
+        super().__init__(projector, 0, 1.0)
+        self.at = at
+        self.gain = 2.0  # white saturates: LPA walks down over several sets
+
+    def _grab(self, timeout_s: float) -> np.ndarray:
+        if self.grabs + 1 == self.at:
+            raise KeyboardInterrupt
+        return super()._grab(timeout_s)
+
+
+def run_capture(
+    monkeypatch: pytest.MonkeyPatch, out: Path, at: int
+) -> subprocess.CompletedProcess[str]:
+    """`capture --method lpa` in-process on the fake rig, interrupted at grab ``at``."""
+    from typer.testing import CliRunner
+
+    from hdrfringe.cli import app, capture
+
+    def fake_rig(*args: object) -> HardwareRig:
+        projector = FakeProjector()
+        sync = SyncSettings(settle_s=0.0)
+        return HardwareRig(projector, InterruptingCamera(projector, at), sync, sleep=lambda s: 0)
+
+    monkeypatch.setattr(capture, "hardware_options", fake_rig)
+    args = ["capture", "--projector", "screen:0", "--camera", "fake:0", "--method", "lpa"]
+    args += ["--pitch", "64", "--step", "100", "-o", str(out)]
+    r = CliRunner().invoke(app, args)
+    return subprocess.CompletedProcess(args, r.exit_code, r.stdout, r.stderr)
+
+
+def test_ctrl_c_mid_capture_keeps_complete_sets_and_says_so(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from hdrfringe.io.captures import read_capture_folder
+
+    full = run_capture(monkeypatch, tmp_path / "full", at=10**6)
+    assert full.returncode == 0, full.stderr
+    n_full = len(read_capture_folder(tmp_path / "full").frames)
+    assert n_full > 8
+    # open takes 0 + 5 + 2 grabs; then one grab per frame: interrupt in the second set
+    r = run_capture(monkeypatch, tmp_path / "cut", at=7 + 4 + 2)
+    assert r.returncode == 2
+    assert "interrupted (Ctrl-C) after 1 complete sets" in " ".join(r.stderr.split())
+    caps = read_capture_folder(tmp_path / "cut")
+    assert len(caps.frames) == 4 < n_full and len(caps.sets) == 1
+    manifest = json.loads((tmp_path / "cut" / "manifest.json").read_text())
+    assert manifest["capture"]["complete"] is False
+    # before the first complete set: nothing written, the shell's 130
+    r = run_capture(monkeypatch, tmp_path / "none", at=7 + 2)
+    assert r.returncode == 130 and not (tmp_path / "none").exists()

@@ -591,24 +591,24 @@ class Recorder(RigBase):
         self.calls: list[tuple[list[Frame], NDArray[Any], CameraSettings]] = []
 
     @property
-    def camera_bit_depth(self) -> int:  # type: ignore[override]
+    def camera_bit_depth(self) -> int:
         """The wrapped rig's bit depth."""
         return int(self.rig.camera_bit_depth)
 
     @property
     def image_shape(self) -> tuple[int, int]:
         """The wrapped rig's image shape."""
-        return tuple(self.rig.image_shape)  # type: ignore[return-value]
+        return tuple(self.rig.image_shape)
 
     @property
     def projector(self) -> ProjectorInfo:
         """The wrapped rig's projector."""
-        return self.rig.projector  # type: ignore[no-any-return]
+        return self.rig.projector
 
     @property
     def camera_settings(self) -> CameraSettings:  # type: ignore[override]
         """The wrapped rig's default settings."""
-        return self.rig.camera_settings  # type: ignore[no-any-return]
+        return self.rig.camera_settings
 
     def capture(
         self, frames: Sequence[Frame], settings: CameraSettings | None = None
@@ -626,7 +626,7 @@ class Recorder(RigBase):
         """
         images = self.rig.capture(frames, settings)
         self.calls.append((list(frames), np.array(images), self.rig.resolve_settings(settings)))
-        return images  # type: ignore[no-any-return]
+        return images
 
     def captures(self, name: str = "<memory>", camera: dict[str, Any] | None = None) -> Any:
         """Everything recorded, in capture order, as :class:`~hdrfringe.captures.Captures`.
