@@ -157,6 +157,11 @@ def test_latency_returns_the_previous_screen_for_exactly_k_grabs(xdisplay: str) 
         assert which(cam.grab()) == 3
         projector.show(sent(frames[4]))
         assert which(cam.grab()) == 4
+        cam.set_latency(2)  # a change during the wait restarts it
+        projector.show(sent(frames[0]))
+        assert which(cam.grab()) == 4
+        projector.show(sent(frames[1]))
+        assert [which(cam.grab()) for _ in range(4)] == [4, 4, 1, 1]
         with pytest.raises(InputError, match="latency must be a whole number of grabs >= 0"):
             cam.set_latency(-1)
 

@@ -472,7 +472,9 @@ def open_camera(spec: str) -> CameraBase:
         emulated cameras), ``opencv:INDEX`` or ``opencv:PATH`` (OpenCV VideoCapture: a device
         index, a device path such as ``/dev/video0``, or a video file),
         ``genicam:CTI_PATH`` or ``genicam:CTI_PATH:SERIAL`` (harvesters with that GenTL
-        producer; without a serial, its first device).
+        producer; without a serial, its first device), ``loop:SCENE[?key=value&...]`` (the
+        projector's X screen seen through the virtual rig,
+        :class:`hdrfringe.hardware.loop_camera.LoopCamera`).
 
     Returns
     -------

@@ -522,5 +522,5 @@ class LoopCamera(CameraBase):
         if self._box is None:
             raise self._not_open()
         seen = self._seen(self._screenshot())
-        frame = ImageFrame(seen, "screen")
+        frame = ImageFrame(seen.astype(np.float32), "screen")
         return self.rig.capture([frame], self._settings)[0]
