@@ -821,10 +821,14 @@ def check_rig(
 
     Examples
     --------
-    See ``tests/test_hardware_rig.py`` (a fake rig with a known latency) and docs/hardware.md.
+    On a rig, see docs/hardware.md ("capture and rig check"; ``tests/test_hardware_rig.py``
+    runs it on the loop rig). Arguments are checked before any device is opened:
 
-    >>> check_rig.__name__
-    'check_rig'
+    >>> from hdrfringe.hardware.camera import open_camera
+    >>> check_rig(open_projector("screen:0@:99"), open_camera("pylon:emu"), changes=1)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: rig check needs changes >= 2, noise_grabs >= 2 and ...
     """
     if changes < 2 or noise_grabs < 2 or max_latency < 0:
         raise InputError(
