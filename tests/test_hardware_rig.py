@@ -472,3 +472,27 @@ def test_ctrl_c_mid_capture_keeps_complete_sets_and_says_so(
     # before the first complete set: nothing written, the shell's 130
     r = run_capture(monkeypatch, tmp_path / "none", at=7 + 2)
     assert r.returncode == 130 and not (tmp_path / "none").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--camera", "fake:0"], "give both --projector SPEC and --camera SPEC"),
+        (["--projector", "hdmi:1", "--camera", "pylon:emu"], "projector 'hdmi:1': unknown back"),
+        (["--projector", "folder:x@12", "--camera", "pylon:emu"], "size '12' is not WIDTHxHEIGHT"),
+        (["--projector", "screen:0", "--camera", "usb3:1"], "unknown back end 'usb3'"),
+        (["--projector", "screen:0", "--camera", "pylon:emu", "--sync", "radio"], "sync mode"),
+        (["--projector", "screen:0", "--camera", "pylon:emu", "--max-grabs", "0"], "max_grabs"),
+    ],
+)
+def test_capture_refuses_bad_input_in_one_line(
+    args: list[str], message: str, tmp_path: Path
+) -> None:
+    from typer.testing import CliRunner
+
+    from hdrfringe.cli import app
+
+    r = CliRunner().invoke(app, ["capture", *args, "-o", str(tmp_path / "out")])
+    assert r.exit_code == 2
+    assert message in " ".join(r.stderr.split()) and r.stderr.count("error:") == 1
+    assert not (tmp_path / "out").exists()
