@@ -10,6 +10,7 @@ from __future__ import annotations
 from hdrfringe.cli import (  # noqa: F401  (each module registers its command on ``app``)
     calibrate,
     calibrate_stereo,
+    capture,
     demo,
     gamma,
     import_,
@@ -18,6 +19,7 @@ from hdrfringe.cli import (  # noqa: F401  (each module registers its command on
     patterns,
     phase,
     reproduce,
+    rig_check,
     simulate,
     train,
 )

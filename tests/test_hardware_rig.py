@@ -1,0 +1,498 @@
+"""HardwareRig's synchronisation (issue 13) on a fake projector and camera with a latency.
+
+The fake camera sees the fake projector's image through a fixed scene (offset, reflectivity,
+Gaussian noise, clipping) and, after each change of the projected image, returns ``latency``
+stale images (of the previous image) before fresh ones: the behaviour of a camera that had
+already exposed or buffered frames when the pattern changed. Each test knows the noiseless
+image of every projected frame, so "no stale frame accepted" is checked against a reference
+the rig did not produce.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hdrfringe.captures import CameraSettings
+from hdrfringe.frames import Frame, UniformFrame, render_frame
+from hdrfringe.hardware.camera import CameraBase
+from hdrfringe.hardware.projector import _ProjectorBase
+from hdrfringe.hardware.rig import HardwareRig, SyncError, SyncSettings, change_ratio
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.rig.base import Rig
+
+W, H = 64, 48
+
+# The loop tests share an Xvfb per module; one worker runs the file (as the window tests).
+pytestmark = pytest.mark.xdist_group("xvfb")
+
+
+class FakeProjector(_ProjectorBase):
+    def __init__(self) -> None:
+        self.image: np.ndarray | None = None
+        self.listeners: list[Callable[[np.ndarray | None, np.ndarray], None]] = []
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return (W, H)
+
+    def open(self) -> None:
+        self._frame_counter = 0
+
+    def close(self) -> None:
+        pass
+
+    def show(self, image: np.ndarray) -> int:
+        img = self._check_image(image)
+        changed = self.image is None or not np.array_equal(self.image, img)
+        previous, self.image = self.image, img.copy()
+        if changed:
+            for listen in self.listeners:
+                listen(previous, self.image)
+        self._frame_counter += 1
+        return self._frame_counter
+
+
+class FakeCamera(CameraBase):
+    """Sees the projector at half resolution; ``latency`` stale images after each change."""
+
+    name = "fake"
+
+    def __init__(
+        self, projector: FakeProjector, latency: int | Iterator[int] = 0, noise: float = 1.0
+    ) -> None:
+        self.projector = projector
+        self.latencies = latency
+        self.noise = noise
+        self.gain = 1.0
+        self.rng = np.random.default_rng(5)
+        self.stale: np.ndarray | None = None
+        self.pending = 0
+        self.grabs = 0
+        projector.listeners.append(self._changed)
+        reflect = np.linspace(0.3, 0.9, W // 2)[None, :] * np.ones((H // 2, 1))
+        self.reflect = reflect
+
+    def _supported_triggers(self) -> tuple[str, ...]:
+        return ("software", "hardware")
+
+    def set_exposure(self, ms: float) -> float:
+        self.gain = ms / 10.0
+        return ms
+
+    def _changed(self, previous: np.ndarray | None, current: np.ndarray) -> None:
+        k = self.latencies if isinstance(self.latencies, int) else next(self.latencies)
+        self.stale, self.pending = previous, k
+
+    def expected(self, image: np.ndarray | None) -> np.ndarray:
+        """Noiseless camera image of a projected image."""
+        if image is None:
+            return np.full((H // 2, W // 2), 5.0)
+        return np.clip(5.0 + self.gain * self.reflect * image[::2, ::2], 0, 255)
+
+    def _grab(self, timeout_s: float) -> np.ndarray:
+        self.grabs += 1
+        if self.pending > 0:
+            self.pending -= 1
+            seen = self.stale
+        else:
+            seen = self.projector.image
+        noisy = self.expected(seen) + self.rng.normal(0.0, self.noise, (H // 2, W // 2))
+        return np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+
+
+def make_rig(
+    latency: int | Iterator[int] = 0, noise: float = 1.0, **sync: object
+) -> tuple[HardwareRig, FakeCamera]:
+    projector = FakeProjector()
+    camera = FakeCamera(projector, latency, noise)
+    settings = SyncSettings(settle_s=0.0, **sync)  # type: ignore[arg-type]
+    return HardwareRig(projector, camera, settings, sleep=lambda s: None), camera
+
+
+def fringe_frames() -> list[Frame]:
+    frames: list[Frame] = []
+    for migl in (255.0, 200.0, 150.0):
+        frames += FringeSpec("sinusoidal", 4, 16.0, imin=40.0, migl=migl).frames()
+    return frames
+
+
+def assert_fresh(images: np.ndarray, frames: list[Frame], camera: FakeCamera) -> None:
+    """Each image is within noise of its own frame's noiseless image, not of the previous."""
+    previous: np.ndarray | None = np.full((H, W), 255, np.uint8)  # the rig's white at open
+    for i, (img, frame) in enumerate(zip(images, frames, strict=True)):
+        shown = render_frame(frame, W, H, 1.0, 8).astype(np.uint8)
+        err = np.abs(img - camera.expected(shown))
+        assert err.max() < 6 * camera.noise + 1, f"image {i} is not frame {i}"
+        stale_err = np.abs(img - camera.expected(previous))
+        assert stale_err.max() > 6 * camera.noise + 1, f"image {i}: frames too alike to test"
+        previous = shown
+
+
+def test_the_rig_follows_the_rig_protocol() -> None:
+    rig, _ = make_rig()
+    assert isinstance(rig, Rig)
+    with rig:
+        assert rig.image_shape == (H // 2, W // 2)
+        assert rig.camera_bit_depth == 8
+        assert (rig.projector.width, rig.projector.height) == (W, H)
+        assert 0.7 < rig.noise_var < 1.4  # the fake's sigma is 1 (plus rounding)
+
+
+def test_the_fake_returns_stale_images_without_verification() -> None:
+    # The broken variant the other tests reject: no verification accepts the stale images.
+    frames = fringe_frames()
+    rig, camera = make_rig(latency=2, verify=False)
+    with rig:
+        images = rig.capture(frames)
+    with pytest.raises(AssertionError, match="is not frame 0"):
+        assert_fresh(images, frames, camera)
+
+
+@pytest.mark.parametrize("latency", [1, 3])
+def test_no_stale_image_is_accepted_at_a_fixed_latency(latency: int) -> None:
+    frames = fringe_frames()
+    rig, camera = make_rig(latency=latency, max_grabs=latency + 1)
+    with rig:
+        images = rig.capture(frames)
+    assert_fresh(images, frames, camera)
+    assert [t.rejected for t in rig.log] == [latency] * len(frames)
+    assert all(t.change is not None and t.change > 4 for t in rig.log)
+
+
+def test_no_stale_image_is_accepted_when_the_latency_changes_mid_run() -> None:
+    rng = np.random.default_rng(2)
+    latencies = iter(rng.integers(0, 4, 100).tolist())
+    frames = [*fringe_frames(), UniformFrame(255.0), UniformFrame(100.0)]
+    rig, camera = make_rig(latency=latencies, max_grabs=5)
+    with rig:
+        images = rig.capture(frames)
+    assert_fresh(images, frames, camera)
+    assert len({t.rejected for t in rig.log}) > 2  # the latency really varied
+
+
+def test_discarded_images_are_not_retried() -> None:
+    frames = fringe_frames()
+    rig, camera = make_rig(latency=2, discard=2, max_grabs=1)
+    with rig:
+        images = rig.capture(frames)
+    assert_fresh(images, frames, camera)
+    assert {(t.discarded, t.rejected) for t in rig.log} == {(2, 0)}
+
+
+def test_too_many_stale_grabs_give_one_line_error() -> None:
+    rig, camera = make_rig(latency=3, max_grabs=3)
+    with rig, pytest.raises(SyncError) as err:
+        rig.capture(fringe_frames())
+    msg = str(err.value)
+    assert "\n" not in msg
+    assert "projector frame 2" in msg and "3 grabs" in msg and "rig check" in msg
+    assert camera.grabs == (0 + 3 + 2) + 3  # open: discard + max_grabs + 2; 3 for the frame
+
+
+def test_a_stale_image_from_a_camera_queue_two_frames_old_is_rejected() -> None:
+    # A queue that returns the image of the frame before the previous one: it differs from
+    # the previous frame's image, so only the comparison with the older one catches it.
+    projector = FakeProjector()
+    camera = FakeCamera(projector, 0, 1.0)
+    older: list[np.ndarray | None] = []
+
+    def queue(previous: np.ndarray | None, current: np.ndarray) -> None:
+        older.append(previous)
+        if len(older) >= 3:  # from the second frame after the rig's white on
+            camera.stale, camera.pending = older[-2], 1
+
+    projector.listeners = [queue]
+    frames = [UniformFrame(60.0), UniformFrame(120.0), UniformFrame(180.0), UniformFrame(240.0)]
+    rig = HardwareRig(projector, camera, SyncSettings(settle_s=0.0), sleep=lambda s: None)
+    with rig:
+        images = rig.capture(frames)
+    assert_fresh(images, frames, camera)
+    assert [t.rejected for t in rig.log] == [0, 1, 1, 1]
+
+
+def test_an_unchanged_frame_needs_no_change() -> None:
+    frame = UniformFrame(128.0)
+    rig, camera = make_rig(latency=1, max_grabs=2)
+    with rig:
+        images = rig.capture([frame, frame, frame])
+    assert [t.rejected for t in rig.log] == [1, 0, 0]
+    shown = render_frame(frame, W, H, 1.0, 8).astype(np.uint8)
+    assert np.abs(images - camera.expected(shown)).max() < 7
+
+
+def test_hardware_trigger_mode_grabs_once_and_fails_at_once() -> None:
+    frames = fringe_frames()[:4]
+    rig, camera = make_rig(latency=0, mode="hardware")
+    with rig:
+        assert camera.trigger_mode == "hardware"
+        images = rig.capture(frames)
+    assert_fresh(images, frames, camera)
+    rig, camera = make_rig(latency=1, mode="hardware")
+    with rig, pytest.raises(SyncError, match="hardware-triggered"):
+        rig.capture(frames)
+
+
+def test_a_new_exposure_takes_a_new_reference() -> None:
+    # At a new exposure the stale image differs from the old reference by the exposure change
+    # alone; the rig takes a new reference image first, so the stale one is still rejected.
+    frames = fringe_frames()[:4]
+    rig, camera = make_rig(latency=1, max_grabs=2)
+    with rig:
+        rig.capture(frames, CameraSettings(exposure_ms=10.0))
+        camera.pending = 0
+        images = rig.capture(frames, CameraSettings(exposure_ms=6.0))
+    assert camera.gain == 0.6
+    previous = render_frame(frames[-1], W, H, 1.0, 8).astype(np.uint8)
+    first = render_frame(frames[0], W, H, 1.0, 8).astype(np.uint8)
+    assert np.abs(images[0] - camera.expected(first)).max() < 7
+    assert np.abs(images[0] - camera.expected(previous)).max() > 7
+
+
+def test_change_ratio_is_about_one_for_noise_alone() -> None:
+    rng = np.random.default_rng(0)
+    a = np.clip(100 + rng.normal(0, 2, 10000), 0, 255)
+    b = np.clip(100 + rng.normal(0, 2, 10000), 0, 255)
+    assert 0.9 < change_ratio(a, b, 4.0, 8) < 1.1
+    assert change_ratio(a + 20, b, 4.0, 8) > 40
+
+
+# --- the loop rig: projector window on Xvfb, loop camera (issue 13's loop test) -------------
+# The screen is the virtual rig's projector size (1024x768) and the loop camera the virtual
+# rig's camera, so that `measure --rig sim` with the same scene and options is the reference.
+# One pitch of 1024 px (a single period over the projector: absolute without unwrapping) keeps
+# the run short.
+
+LOOP_W, LOOP_H = 1024, 768
+LIVE = ["--pitch", "1024"]
+NO_TCP = ["-nolisten", "tcp"]
+STRATEGY = {"lpa": ["--step", "50"], "dpa": ["--bound-pending"]}
+
+
+@pytest.fixture(scope="module")
+def xdisplay() -> Iterator[str]:
+    """A private Xvfb server at the virtual rig's projector size, killed at the end."""
+    import os
+    import shutil
+    import subprocess
+
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        pytest.fail("Xvfb not found: the loop tests need an X server; run `make install`")
+    read_fd, write_fd = os.pipe()
+    proc = subprocess.Popen(
+        [xvfb, "-displayfd", str(write_fd), "-screen", "0", f"{LOOP_W}x{LOOP_H}x24", *NO_TCP],
+        pass_fds=(write_fd,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(write_fd)
+    try:
+        with os.fdopen(read_fd) as pipe:
+            number = pipe.readline().strip()
+        if not number:
+            pytest.fail(f"Xvfb exited with status {proc.wait(5)} before opening a display")
+        yield f":{number}"
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def cli(*args: str) -> subprocess.CompletedProcess[str]:
+    import sys
+
+    return subprocess.run(
+        [sys.executable, "-m", "hdrfringe.cli", *args], capture_output=True, text=True, timeout=600
+    )
+
+
+def phase_difference(a: Path, b: Path) -> tuple[float, float]:
+    """Median and 99th percentile of |absolute phase a - b| over pixels valid in both."""
+    from hdrfringe.io.results import read_map_tiff
+
+    pa, pb = read_map_tiff(a / "absolute_phase.tiff"), read_map_tiff(b / "absolute_phase.tiff")
+    ok = np.isfinite(pa) & np.isfinite(pb)
+    assert ok.mean() > 0.3  # the dark squares of the checkerboard are invalid
+    d = np.abs(pa - pb)[ok]
+    return float(np.median(d)), float(np.percentile(d, 99))
+
+
+@pytest.fixture(scope="module")
+def sim_reference(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], tuple]:
+    """`measure --rig sim` of the checkerboard (seed 0, and seed 1 for the noise yardstick)."""
+    root = tmp_path_factory.mktemp("sim")
+    done: dict[str, tuple[Path, tuple[float, float]]] = {}
+
+    def get(method: str) -> tuple[Path, tuple[float, float]]:
+        if method not in done:
+            outs = []
+            for seed in ("0", "1"):
+                out = root / f"{method}_{seed}"
+                r = cli("measure", "--rig", "sim", "--scene", "checkerboard", "--seed", seed,
+                        "--method", method, *LIVE, *STRATEGY[method], "-o", str(out))  # fmt: skip
+                assert r.returncode == 0, r.stderr
+                outs.append(out)
+            done[method] = (outs[0], phase_difference(*outs))
+        return done[method]
+
+    return get
+
+
+@pytest.mark.parametrize("method", ["lpa", "dpa"])
+def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
+    method: str, xdisplay: str, tmp_path: Path, sim_reference: Callable[[str], tuple]
+) -> None:
+    caps = tmp_path / "caps"
+    camera = f"loop:checkerboard?display={xdisplay}&latency=2"
+    options = [*LIVE, *STRATEGY[method], "--settle", "0", "-o", str(caps)]
+    r = cli("capture", "--projector", f"screen:0@{xdisplay}", "--camera", camera,
+            "--method", method, *options)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    log = json.loads((caps / "capture_log.json").read_text())
+    assert log["complete"] is True
+    # every frame differs from the one before: latency 2 means exactly 2 stale grabs rejected
+    assert [f["rejected"] for f in log["frames"]] == [2] * len(log["frames"])
+    manifest = json.loads((caps / "manifest.json").read_text())
+    assert manifest["capture"]["complete"] is True
+    assert len(manifest["frames"]) == len(log["frames"])
+
+    out = tmp_path / "measured"
+    r = cli("measure", str(caps), "--method", method, *STRATEGY[method], "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    sim, (noise_median, noise_p99) = sim_reference(method)
+    median, p99 = phase_difference(out, sim)
+    # within noise: no worse than two virtual-rig runs with different noise seeds (x2)
+    assert median <= 2 * noise_median + 1e-3, (median, noise_median)
+    assert p99 <= 2 * noise_p99 + 1e-3, (p99, noise_p99)
+
+
+def test_no_stale_frame_is_accepted_when_the_loop_latency_changes_mid_run(xdisplay: str) -> None:
+    from hdrfringe import pipeline
+    from hdrfringe.hardware.loop_camera import LoopCamera
+    from hdrfringe.hardware.projector import ScreenProjector
+    from hdrfringe.rig.base import RigBase
+
+    camera = LoopCamera(f"loop:checkerboard?display={xdisplay}&latency=1")
+    rig = HardwareRig(ScreenProjector(0, xdisplay), camera, SyncSettings(settle_s=0.0))
+    latencies = iter([3, 0, 2, 1, 3, 0, 2, 1, 3, 0])
+    in_force: list[int] = []
+
+    class Changing(RigBase):  # a new latency before every set
+        camera_bit_depth = property(lambda self: rig.camera_bit_depth)
+        image_shape = property(lambda self: rig.image_shape)
+        projector = property(lambda self: rig.projector)
+
+        def capture(self, frames, settings=None):  # type: ignore[no-untyped-def]
+            camera.set_latency(next(latencies))
+            in_force.extend([camera.latency] * len(frames))
+            return rig.capture(frames, settings)
+
+    with rig:
+        spec = FringeSpec("sinusoidal", 4, 1024.0, imin=40.0, migl=255.0)
+        pipeline.composite_captures(Changing(), [spec], "lpa", {"step": 50.0})
+    assert len(set(in_force)) >= 3  # the latency really changed between sets
+    # fewer rejections than the latency would be a stale image accepted
+    assert [t.rejected for t in rig.log] == in_force
+
+
+def test_rig_check_on_the_loop_rig_reports_its_latency(xdisplay: str, tmp_path: Path) -> None:
+    camera = f"loop:checkerboard?display={xdisplay}&latency=3"
+    report = tmp_path / "check.json"
+    r = cli("rig", "check", "--projector", f"screen:0@{xdisplay}", "--camera", camera,
+            "--changes", "3", "--max-latency", "5", "-o", str(report))  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    got = json.loads(report.read_text())
+    assert json.loads(r.stdout) == got
+    assert abs(got["latency"] - 3) <= 1
+    assert got["recommended"]["discard"] == got["latency"]
+    assert got["clips"] == (got["white_saturated_fraction"] > 0)
+    assert 0.5 < got["noise_std"] < 5  # the loop camera's read noise is 1 gray level, plus shot
+
+
+class InterruptingCamera(FakeCamera):
+    """Ctrl-C on grab number ``at`` (as a KeyboardInterrupt arrives mid-grab)."""
+
+    def __init__(self, projector: FakeProjector, at: int) -> None:
+        super().__init__(projector, 0, 1.0)
+        self.at = at
+        self.gain = 2.0  # white saturates: LPA walks down over several sets
+
+    def _grab(self, timeout_s: float) -> np.ndarray:
+        if self.grabs + 1 == self.at:
+            raise KeyboardInterrupt
+        return super()._grab(timeout_s)
+
+
+def run_capture(
+    monkeypatch: pytest.MonkeyPatch, out: Path, at: int
+) -> subprocess.CompletedProcess[str]:
+    """`capture --method lpa` in-process on the fake rig, interrupted at grab ``at``."""
+    from typer.testing import CliRunner
+
+    from hdrfringe.cli import app, capture
+
+    def fake_rig(*args: object) -> HardwareRig:
+        projector = FakeProjector()
+        sync = SyncSettings(settle_s=0.0)
+        return HardwareRig(projector, InterruptingCamera(projector, at), sync, sleep=lambda s: 0)
+
+    monkeypatch.setattr(capture, "hardware_options", fake_rig)
+    args = ["capture", "--projector", "screen:0", "--camera", "fake:0", "--method", "lpa"]
+    args += ["--pitch", "64", "--step", "100", "-o", str(out)]
+    r = CliRunner().invoke(app, args)
+    return subprocess.CompletedProcess(args, r.exit_code, r.stdout, r.stderr)
+
+
+def test_ctrl_c_mid_capture_keeps_complete_sets_and_says_so(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from hdrfringe.io.captures import read_capture_folder
+
+    full = run_capture(monkeypatch, tmp_path / "full", at=10**6)
+    assert full.returncode == 0, full.stderr
+    n_full = len(read_capture_folder(tmp_path / "full").frames)
+    assert n_full > 8
+    # open takes 0 + 5 + 2 grabs; then one grab per frame: interrupt in the second set
+    r = run_capture(monkeypatch, tmp_path / "cut", at=7 + 4 + 2)
+    assert r.returncode == 2
+    assert "interrupted (Ctrl-C) after 1 complete sets" in " ".join(r.stderr.split())
+    caps = read_capture_folder(tmp_path / "cut")
+    assert len(caps.frames) == 4 < n_full and len(caps.sets) == 1
+    manifest = json.loads((tmp_path / "cut" / "manifest.json").read_text())
+    assert manifest["capture"]["complete"] is False
+    # before the first complete set: nothing written, the shell's 130
+    r = run_capture(monkeypatch, tmp_path / "none", at=7 + 2)
+    assert r.returncode == 130 and not (tmp_path / "none").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--camera", "fake:0"], "give both --projector SPEC and --camera SPEC"),
+        (["--projector", "hdmi:1", "--camera", "pylon:emu"], "projector 'hdmi:1': unknown back"),
+        (["--projector", "folder:x@12", "--camera", "pylon:emu"], "size '12' is not WIDTHxHEIGHT"),
+        (["--projector", "screen:0", "--camera", "usb3:1"], "unknown back end 'usb3'"),
+        (["--projector", "screen:0", "--camera", "pylon:emu", "--sync", "radio"], "sync mode"),
+        (["--projector", "screen:0", "--camera", "pylon:emu", "--max-grabs", "0"], "max_grabs"),
+    ],
+)
+def test_capture_refuses_bad_input_in_one_line(
+    args: list[str], message: str, tmp_path: Path
+) -> None:
+    from typer.testing import CliRunner
+
+    from hdrfringe.cli import app
+
+    r = CliRunner().invoke(app, ["capture", *args, "-o", str(tmp_path / "out")])
+    assert r.exit_code == 2
+    assert message in " ".join(r.stderr.split()) and r.stderr.count("error:") == 1
+    assert not (tmp_path / "out").exists()
