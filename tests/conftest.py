@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import shutil
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -86,3 +90,40 @@ def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     res = run_cli("reproduce", "all", "--quick", "-o", str(out), "--workers", "2", timeout=600)
     assert res.returncode == 0, res.stderr
     return out
+
+
+_NO_TCP = ("-nolisten", "tcp")
+
+
+@contextlib.contextmanager
+def xvfb_display(width: int, height: int) -> Iterator[str]:
+    """A private Xvfb server of one ``width`` x ``height`` screen (a free display number chosen
+    by Xvfb itself); yields ``":N"`` and kills the server at the end. The hardware tests
+    (projector window, loop camera, hardware rig) use it; without Xvfb they fail, not skip."""
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        pytest.fail(
+            "Xvfb not found: these tests need an X server; run `make install` "
+            "(or `apt-get install -y xvfb`)"
+        )
+    read_fd, write_fd = os.pipe()
+    proc = subprocess.Popen(
+        [xvfb, "-displayfd", str(write_fd), "-screen", "0", f"{width}x{height}x24", *_NO_TCP],
+        pass_fds=(write_fd,),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    os.close(write_fd)
+    try:
+        with os.fdopen(read_fd) as pipe:
+            number = pipe.readline().strip()
+        if not number:
+            pytest.fail(f"Xvfb exited with status {proc.wait(5)} before opening a display")
+        yield f":{number}"
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()

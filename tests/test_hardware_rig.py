@@ -25,6 +25,7 @@ from hdrfringe.hardware.projector import _ProjectorBase
 from hdrfringe.hardware.rig import HardwareRig, SyncError, SyncSettings, change_ratio
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
+from tests.conftest import xvfb_display
 
 W, H = 64, 48
 
@@ -270,41 +271,14 @@ def test_change_ratio_is_about_one_for_noise_alone() -> None:
 
 LOOP_W, LOOP_H = 1024, 768
 LIVE = ["--pitch", "1024"]
-NO_TCP = ["-nolisten", "tcp"]
 STRATEGY = {"lpa": ["--step", "50"], "dpa": ["--bound-pending"]}
 
 
 @pytest.fixture(scope="module")
 def xdisplay() -> Iterator[str]:
     """A private Xvfb server at the virtual rig's projector size, killed at the end."""
-    import os
-    import shutil
-    import subprocess
-
-    xvfb = shutil.which("Xvfb")
-    if xvfb is None:
-        pytest.fail("Xvfb not found: the loop tests need an X server; run `make install`")
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(
-        [xvfb, "-displayfd", str(write_fd), "-screen", "0", f"{LOOP_W}x{LOOP_H}x24", *NO_TCP],
-        pass_fds=(write_fd,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write_fd)
-    try:
-        with os.fdopen(read_fd) as pipe:
-            number = pipe.readline().strip()
-        if not number:
-            pytest.fail(f"Xvfb exited with status {proc.wait(5)} before opening a display")
-        yield f":{number}"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    with xvfb_display(LOOP_W, LOOP_H) as display:
+        yield display
 
 
 def cli(*args: str) -> subprocess.CompletedProcess[str]:

@@ -11,9 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import os
-import shutil
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -29,11 +26,11 @@ from hdrfringe.hardware.projector import ScreenProjector, render_for_projector
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.simulated import SimulatedRig
+from tests.conftest import xvfb_display
 
 WIDTH, HEIGHT = 640, 480
 CAMERA = (160, 120)
 GAMMA = 2.2
-NO_TCP = ("-nolisten", "tcp")
 
 # The Xvfb tests share one group: one worker runs them (make test: --dist loadgroup).
 pytestmark = pytest.mark.xdist_group("xvfb")
@@ -42,33 +39,8 @@ pytestmark = pytest.mark.xdist_group("xvfb")
 @pytest.fixture(scope="module")
 def xdisplay() -> Iterator[str]:
     """A private Xvfb server (a free display number chosen by Xvfb itself), killed at the end."""
-    xvfb = shutil.which("Xvfb")
-    if xvfb is None:
-        pytest.fail(
-            "Xvfb not found: these tests need an X server; run `make install` "
-            "(or `apt-get install -y xvfb`)"
-        )
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(
-        [xvfb, "-displayfd", str(write_fd), "-screen", "0", f"{WIDTH}x{HEIGHT}x24", *NO_TCP],
-        pass_fds=(write_fd,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write_fd)
-    try:
-        with os.fdopen(read_fd) as pipe:
-            number = pipe.readline().strip()
-        if not number:
-            pytest.fail(f"Xvfb exited with status {proc.wait(5)} before opening a display")
-        yield f":{number}"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    with xvfb_display(WIDTH, HEIGHT) as display:
+        yield display
 
 
 def reference_rig(gamma: float = GAMMA, bit_depth: int = 8) -> SimulatedRig:

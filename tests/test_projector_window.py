@@ -15,9 +15,6 @@ install``), so CI cannot pass by skipping them.
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -35,6 +32,7 @@ from hdrfringe.hardware.projector import (
     render_for_projector,
 )
 from hdrfringe.patterns import FringeSpec
+from tests.conftest import xvfb_display
 
 WIDTH, HEIGHT = 1920, 1080
 
@@ -45,42 +43,8 @@ pytestmark = pytest.mark.xdist_group("xvfb")
 @pytest.fixture(scope="module")
 def xdisplay() -> Iterator[str]:
     """A private Xvfb server (a free display number chosen by Xvfb itself), killed at the end."""
-    xvfb = shutil.which("Xvfb")
-    if xvfb is None:
-        pytest.fail(
-            "Xvfb not found: these tests need an X server; run `make install` "
-            "(or `apt-get install -y xvfb`)"
-        )
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(
-        [
-            xvfb,
-            "-displayfd",
-            str(write_fd),
-            "-screen",
-            "0",
-            f"{WIDTH}x{HEIGHT}x24",
-            "-nolisten",
-            "tcp",
-        ],
-        pass_fds=(write_fd,),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    os.close(write_fd)
-    try:
-        with os.fdopen(read_fd) as pipe:
-            number = pipe.readline().strip()
-        if not number:
-            pytest.fail(f"Xvfb exited with status {proc.wait(5)} before opening a display")
-        yield f":{number}"
-    finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    with xvfb_display(WIDTH, HEIGHT) as display:
+        yield display
 
 
 def screenshot(display: str) -> np.ndarray:
