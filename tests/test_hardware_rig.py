@@ -265,13 +265,17 @@ def test_change_ratio_is_about_one_for_noise_alone() -> None:
 
 # --- the loop rig: projector window on Xvfb, loop camera (issue 13's loop test) -------------
 # The screen is the virtual rig's projector size (1024x768) and the loop camera the virtual
-# rig's camera, so that `measure --rig sim` with the same scene and options is the reference.
-# One pitch of 1024 px (a single period over the projector: absolute without unwrapping) keeps
-# the run short.
+# rig's camera at a quarter of its resolution each way (same field of view, 162x123 instead of
+# 648x494: a grab costs about a tenth), so the reference is the virtual rig of the same scene,
+# options and resolution, measured in-process exactly as `measure --rig sim` does. One pitch of
+# 1024 px (a single period over the projector: absolute without unwrapping) keeps the run short.
 
 LOOP_W, LOOP_H = 1024, 768
+LOOP_SIZE = (162, 123)
+LOOP_CAMERA = f"size={LOOP_SIZE[0]}x{LOOP_SIZE[1]}"
 LIVE = ["--pitch", "1024"]
 STRATEGY = {"lpa": ["--step", "50"], "dpa": ["--bound-pending"]}
+PARAMS: dict[str, dict[str, object]] = {"lpa": {"step": 50.0}, "dpa": {"bound_pending": True}}
 
 
 @pytest.fixture(scope="module")
@@ -289,44 +293,38 @@ def cli(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
-def phase_difference(a: Path, b: Path) -> tuple[float, float]:
+def phase_difference(pa: np.ndarray, pb: np.ndarray) -> tuple[float, float]:
     """Median and 99th percentile of |absolute phase a - b| over pixels valid in both."""
-    from hdrfringe.io.results import read_map_tiff
-
-    pa, pb = read_map_tiff(a / "absolute_phase.tiff"), read_map_tiff(b / "absolute_phase.tiff")
     ok = np.isfinite(pa) & np.isfinite(pb)
     assert ok.mean() > 0.3  # the dark squares of the checkerboard are invalid
     d = np.abs(pa - pb)[ok]
     return float(np.median(d)), float(np.percentile(d, 99))
 
 
-@pytest.fixture(scope="module")
-def sim_reference(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], tuple]:
-    """`measure --rig sim` of the checkerboard (seed 0, and seed 1 for the noise yardstick)."""
-    root = tmp_path_factory.mktemp("sim")
-    done: dict[str, tuple[Path, tuple[float, float]]] = {}
+def sim_phase(method: str, seed: int) -> np.ndarray:
+    """`measure --rig sim --scene checkerboard --seed S --method M` (in-process, at the loop
+    camera's resolution): the absolute phase of the live virtual rig."""
+    from hdrfringe import pipeline
+    from hdrfringe.cli._measure_options import live_fringes
+    from hdrfringe.rig.factory import virtual_rig
+    from hdrfringe.strategies import make_params
 
-    def get(method: str) -> tuple[Path, tuple[float, float]]:
-        if method not in done:
-            outs = []
-            for seed in ("0", "1"):
-                out = root / f"{method}_{seed}"
-                r = cli("measure", "--rig", "sim", "--scene", "checkerboard", "--seed", seed,
-                        "--method", method, *LIVE, *STRATEGY[method], "-o", str(out))  # fmt: skip
-                assert r.returncode == 0, r.stderr
-                outs.append(out)
-            done[method] = (outs[0], phase_difference(*outs))
-        return done[method]
-
-    return get
+    sim = virtual_rig("checkerboard", seed=seed, resolution=LOOP_SIZE)
+    specs, line = live_fringes(sim.projector, "sinusoidal", 4, "1024", 40.0, 255.0, True)
+    params = make_params(method, **PARAMS[method])
+    result = pipeline.measure(sim, None, method=method, params=params, specs=specs, centerline=line)
+    assert result.decoded.primary is not None
+    return np.asarray(result.decoded.primary.absolute_phase)
 
 
 @pytest.mark.parametrize("method", ["lpa", "dpa"])
 def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
-    method: str, xdisplay: str, tmp_path: Path, sim_reference: Callable[[str], tuple]
+    method: str, xdisplay: str, tmp_path: Path
 ) -> None:
+    from hdrfringe.io.results import read_map_tiff
+
     caps = tmp_path / "caps"
-    camera = f"loop:checkerboard?display={xdisplay}&latency=2"
+    camera = f"loop:checkerboard?display={xdisplay}&latency=2&{LOOP_CAMERA}"
     options = [*LIVE, *STRATEGY[method], "--settle", "0", "-o", str(caps)]
     r = cli("capture", "--projector", f"screen:0@{xdisplay}", "--camera", camera,
             "--method", method, *options)  # fmt: skip
@@ -342,8 +340,11 @@ def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
     out = tmp_path / "measured"
     r = cli("measure", str(caps), "--method", method, *STRATEGY[method], "-o", str(out))
     assert r.returncode == 0, r.stderr
-    sim, (noise_median, noise_p99) = sim_reference(method)
-    median, p99 = phase_difference(out, sim)
+    measured = read_map_tiff(out / "absolute_phase.tiff")
+    sim, other_seed = sim_phase(method, 0), sim_phase(method, 1)
+    assert measured.shape == sim.shape == LOOP_SIZE[::-1]
+    noise_median, noise_p99 = phase_difference(sim, other_seed)
+    median, p99 = phase_difference(measured, sim)
     # within noise: no worse than two virtual-rig runs with different noise seeds (x2)
     assert median <= 2 * noise_median + 1e-3, (median, noise_median)
     assert p99 <= 2 * noise_p99 + 1e-3, (p99, noise_p99)
@@ -355,7 +356,7 @@ def test_no_stale_frame_is_accepted_when_the_loop_latency_changes_mid_run(xdispl
     from hdrfringe.hardware.projector import ScreenProjector
     from hdrfringe.rig.base import RigBase
 
-    camera = LoopCamera(f"loop:checkerboard?display={xdisplay}&latency=1")
+    camera = LoopCamera(f"loop:checkerboard?display={xdisplay}&latency=1&{LOOP_CAMERA}")
     rig = HardwareRig(ScreenProjector(0, xdisplay), camera, SyncSettings(settle_s=0.0))
     latencies = iter([3, 0, 2, 1, 3, 0, 2, 1, 3, 0])
     in_force: list[int] = []
@@ -379,7 +380,7 @@ def test_no_stale_frame_is_accepted_when_the_loop_latency_changes_mid_run(xdispl
 
 
 def test_rig_check_on_the_loop_rig_reports_its_latency(xdisplay: str, tmp_path: Path) -> None:
-    camera = f"loop:checkerboard?display={xdisplay}&latency=3"
+    camera = f"loop:checkerboard?display={xdisplay}&latency=3&{LOOP_CAMERA}"
     report = tmp_path / "check.json"
     r = cli("rig", "check", "--projector", f"screen:0@{xdisplay}", "--camera", camera,
             "--changes", "3", "--max-latency", "5", "-o", str(report))  # fmt: skip
