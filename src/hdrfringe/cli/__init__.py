@@ -11,6 +11,7 @@ from hdrfringe.cli import (  # noqa: F401  (each module registers its command on
     calibrate,
     calibrate_stereo,
     capture,
+    capture_gamma,
     demo,
     gamma,
     import_,

@@ -342,12 +342,10 @@ class HardwareRig(RigBase):
         pixel_format: str | None = None,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
-        if not (math.isfinite(gamma_hat) and gamma_hat > 0):
-            raise InputError(f"gamma pre-compensation must be a positive number, got {gamma_hat}")
         self.projector_device = projector
         self.camera = camera
         self.sync = SyncSettings() if sync is None else sync
-        self.gamma_hat = float(gamma_hat)
+        self.gamma_hat = gamma_hat
         self.camera_settings = CameraSettings() if settings is None else settings
         self.pixel_format = pixel_format
         self._sleep = sleep
@@ -359,6 +357,27 @@ class HardwareRig(RigBase):
         self.image_shape: tuple[int, int] = (0, 0)
         self.camera_bit_depth = 8
         self.projector = ProjectorInfo()
+
+    @property
+    def gamma_hat(self) -> float:
+        """The gamma pre-compensation of the frames captured next (thesis Eq. 2.17).
+
+        The rig opens with the ``gamma_hat`` it was given, which is also the
+        :attr:`projector`'s ``gamma_precompensation``; setting another value between captures
+        pre-distorts the following frames with it (``hdrfringe capture-gamma`` projects its
+        fringe sets at two exponents so). :class:`Recorder` records it per capture.
+
+        Returns
+        -------
+        float
+        """
+        return self._gamma_hat
+
+    @gamma_hat.setter
+    def gamma_hat(self, value: float) -> None:
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise InputError(f"gamma pre-compensation must be a positive number, got {value}")
+        self._gamma_hat = float(value)
 
     # -- devices -----------------------------------------------------------------------
     def open(self) -> None:
@@ -440,6 +459,37 @@ class HardwareRig(RigBase):
         if self._history:
             last, _ = self._settled()
             self._history = [_Shown(self._history[-1].image, last, self._applied)]
+
+    def rebaseline(self) -> None:
+        """The scene changed (a board moved to its next pose): take a new image of the frame
+        on screen and forget the images of earlier frames.
+
+        Verification compares each new image with the images of the recent frames; after the
+        scene moves, a stale image (the previous frame, seen at the new pose) differs from
+        those by the motion alone and would be accepted. After this call the reference is an
+        image of the new scene, so a stale image is still rejected. Call it after every change
+        of the scene during a run (``hdrfringe capture-poses`` does, before each pose).
+
+        Raises
+        ------
+        InputError
+            The rig is not open.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> from pathlib import Path
+        >>> from hdrfringe.hardware.camera import open_camera
+        >>> from hdrfringe.hardware.projector import FolderProjector
+        >>> play = FolderProjector(Path(tempfile.mkdtemp()) / "play", 64, 48)
+        >>> with HardwareRig(play, open_camera("pylon:emu"), SyncSettings(settle_s=0.0)) as rig:
+        ...     rig.rebaseline()
+        ...     len(rig.log)
+        0
+        """
+        if not self._open:
+            raise InputError("the hardware rig is not open; use it in a with block or call open()")
+        self._rebaseline()
 
     # -- capture -----------------------------------------------------------------------
     def capture(
@@ -570,6 +620,9 @@ class Recorder(RigBase):
     ----------
     calls : list of tuple
         ``(frames, images, settings)`` per completed call, in order.
+    gammas : list of float or None
+        Per completed call, the wrapped rig's ``gamma_hat`` (its gamma pre-compensation at that
+        call; None for a rig without one).
 
     Examples
     --------
@@ -589,6 +642,7 @@ class Recorder(RigBase):
     def __init__(self, rig: Any) -> None:
         self.rig = rig
         self.calls: list[tuple[list[Frame], NDArray[Any], CameraSettings]] = []
+        self.gammas: list[float | None] = []
 
     @property
     def camera_bit_depth(self) -> int:
@@ -626,6 +680,8 @@ class Recorder(RigBase):
         """
         images = self.rig.capture(frames, settings)
         self.calls.append((list(frames), np.array(images), self.rig.resolve_settings(settings)))
+        gamma = getattr(self.rig, "gamma_hat", None)
+        self.gammas.append(None if gamma is None else float(gamma))
         return images
 
     def captures(self, name: str = "<memory>", camera: dict[str, Any] | None = None) -> Any:
@@ -648,6 +704,10 @@ class Recorder(RigBase):
         images = np.concatenate([im for _, im, _ in self.calls])
         exposure = tuple(st.exposure_ms for fr, _, st in self.calls for _ in fr)
         gain = tuple(st.gain_db for fr, _, st in self.calls for _ in fr)
+        # a frame sent with another pre-compensation than the projector's records its own
+        base = self.projector.gamma_precompensation if self.projector is not None else None
+        own = [None if g is None or g == base else g for g in self.gammas]
+        per_frame = [g for (fr, _, _), g in zip(self.calls, own, strict=True) for _ in fr]
         return Captures(
             frames,
             images,
@@ -656,6 +716,7 @@ class Recorder(RigBase):
             camera=dict(camera or {}),
             exposure_ms=exposure,
             gain_db=gain,
+            gamma_precompensation=per_frame,
             name=name,
         )
 

@@ -1,0 +1,303 @@
+"""``hdrfringe capture-gamma``: project the gamma-estimation program live, write a capture folder.
+
+The program is the one ``hdrfringe gamma FOLDER`` fits (:func:`hdrfringe.gamma.gamma_report`):
+uniform grays (the same builder as ``simulate --gray``, :func:`hdrfringe.programs.fringe_program`)
+and one wide sinusoidal set shown at each of several pre-distortion exponents (kamino410's
+design, docs/gamma.md "From fringes"). docs/hardware.md ("capture-gamma") describes it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from hdrfringe.cli._app import app, console, handle_errors, parse_floats, parse_range
+from hdrfringe.cli._options import StepsOpt
+from hdrfringe.cli.capture import (
+    CAPTURE_LOG,
+    CameraOpt,
+    DiscardOpt,
+    ExposureOpt,
+    GainOpt,
+    MaxGrabsOpt,
+    PixelFormatOpt,
+    ProjectorOpt,
+    SettleOpt,
+    SyncOpt,
+    hardware_options,
+)
+from hdrfringe.errors import HdrFringeError, InputError
+
+__all__ = [
+    "WRONG_PRECOMPENSATION_PERCENT",
+    "capture_gamma",
+    "precompensation_verdict",
+    "spread_order",
+]
+
+#: The pre-compensation in use is reported as wrong when it leaves a residual nonlinearity this
+#: many percent of the captured range above what the fitted gamma leaves (about a 3 % error
+#: in gamma; camera noise moves the fit's own figure by far less).
+WRONG_PRECOMPENSATION_PERCENT = 1.0
+
+
+def precompensation_verdict(fit: Any, gamma_hat: float) -> tuple[bool, str]:
+    """Whether a pre-compensation exponent suits the projector a gamma fit describes.
+
+    The residual nonlinearity (max deviation from a straight line, % of the captured range,
+    :func:`hdrfringe.gamma.predicted_nonlinearity`) that pre-compensating with ``gamma_hat``
+    leaves is compared with what the fitted gamma leaves; more than
+    :data:`WRONG_PRECOMPENSATION_PERCENT` above it is wrong.
+
+    Parameters
+    ----------
+    fit : GammaFit
+        A uniform-gray or fringe-shape fit of the projector.
+    gamma_hat : float
+        The pre-compensation exponent in use.
+
+    Returns
+    -------
+    wrong : bool
+    line : str
+        One line saying so, with the exponent to use when it is wrong.
+
+    References
+    ----------
+    Thesis Sec. 2.6, Eq. 2.16-2.17; docs/gamma.md ("Residual nonlinearity").
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from hdrfringe.gamma import fit_gamma_uniform
+    >>> g = np.arange(0, 256, 16.0)
+    >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
+    >>> precompensation_verdict(fit, 2.2)[0], precompensation_verdict(fit, 1.8)[0]
+    (False, True)
+    """
+    from hdrfringe.gamma import predicted_nonlinearity
+
+    best, _ = predicted_nonlinearity(fit, fit.gamma)
+    used, _ = predicted_nonlinearity(fit, gamma_hat)
+    if used > best + WRONG_PRECOMPENSATION_PERCENT:
+        return True, (
+            f"warning: the pre-compensation in use (--gamma {gamma_hat:g}) is wrong for this "
+            f"projector: it leaves {used:.2f} % nonlinearity, the fitted gamma {fit.gamma:.3f} "
+            f"leaves {best:.2f} %; pre-compensate with --gamma {fit.gamma:.3f}"
+        )
+    return False, (
+        f"the pre-compensation in use (--gamma {gamma_hat:g}) suits this projector: it leaves "
+        f"{used:.2f} % nonlinearity (the fitted gamma {fit.gamma:.3f}: {best:.2f} %)"
+    )
+
+
+def spread_order(levels: list[float]) -> list[float]:
+    """The gray levels in an order in which each differs widely from the two before it.
+
+    Software synchronisation accepts an image only when it differs from the images of the
+    last two different frames by clearly more than noise (docs/hardware.md
+    "Synchronisation"). Neighbouring dark grays give nearly the same image (the projector's
+    gamma crushes them: 0 and 15 differ by a fraction of a gray level at gamma 2.8), so they
+    are never shown one after the other: the sorted levels are dealt into three runs (dark,
+    middle, bright) and taken one from each in turn.
+
+    Parameters
+    ----------
+    levels : list of float
+        Gray levels, any order.
+
+    Returns
+    -------
+    list of float
+        The same levels, reordered.
+
+    Examples
+    --------
+    >>> spread_order([0.0, 15.0, 30.0, 45.0, 60.0, 75.0])
+    [0.0, 30.0, 60.0, 15.0, 45.0, 75.0]
+    """
+    ordered = sorted(levels)
+    k = math.ceil(len(ordered) / 3)
+    return [ordered[i] for i in sorted(range(len(ordered)), key=lambda i: (i % k, i // k))]
+
+
+def _gamma_rig(
+    projector: str | None,
+    camera: str | None,
+    sync: str,
+    settle: float,
+    discard: int,
+    max_grabs: int,
+    gamma: float,
+    exposure_ms: float | None,
+    gain_db: float | None,
+    pixel_format: str | None,
+) -> Any:
+    """The (not yet open) hardware rig of the options: the one place this command builds it."""
+    return hardware_options(
+        projector, camera, sync, settle, discard, max_grabs, gamma, exposure_ms, gain_db,
+        pixel_format,
+    )  # fmt: skip
+
+
+@app.command("capture-gamma")
+@handle_errors
+def capture_gamma(
+    projector: ProjectorOpt = None,
+    camera: CameraOpt = None,
+    output: Annotated[
+        Path | None, typer.Option("-o", "--output", help="Capture folder to write (required).")
+    ] = None,
+    grays: Annotated[
+        bool, typer.Option(help="Project the uniform grays (a direct fit of the response).")
+    ] = True,
+    gray: Annotated[
+        str, typer.Option(help="Gray levels: start:stop:step or comma-separated.")
+    ] = "0:255:15",
+    gamma: Annotated[
+        float,
+        typer.Option(
+            help="Pre-compensation the grays are sent with (1: none); give the rig's gamma to "
+            "check it."
+        ),
+    ] = 1.0,
+    fringes: Annotated[
+        bool, typer.Option(help="Project the sinusoidal set at each --fringe-gamma (shape fit).")
+    ] = True,
+    fringe_gamma: Annotated[
+        str, typer.Option(help="Pre-distortion exponents of the fringe set, comma-separated.")
+    ] = "0.75,1.25",
+    fringe_pitch: Annotated[
+        float, typer.Option(help="Fringe pitch in projector px (>= 32: wide fringes).")
+    ] = 128.0,
+    steps: StepsOpt = 4,
+    sync: SyncOpt = "software",
+    settle: SettleOpt = 0.1,
+    discard: DiscardOpt = 0,
+    max_grabs: MaxGrabsOpt = 5,
+    exposure_ms: ExposureOpt = None,
+    gain_db: GainOpt = None,
+    pixel_format: PixelFormatOpt = None,
+    force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+) -> None:
+    """Project the gamma-estimation program live and write the capture folder `gamma` reads.
+
+    Uniform grays (sent with --gamma) and one wide sinusoidal set (imin 0, full scale) sent
+    at each --fringe-gamma exponent, with capture_log.json beside the manifest; then the fits
+    of `hdrfringe gamma` are printed with a verdict on the pre-compensation in use (--gamma).
+    Ctrl-C keeps the complete groups (the grays, each fringe set) and marks the folder
+    incomplete (exit 2; before the first group: nothing written, exit 130). Any other error
+    writes nothing.
+    """
+    from hdrfringe.captures import ProjectorInfo
+    from hdrfringe.gamma import (
+        MIN_FRINGE_PITCH_PX,
+        MIN_UNIFORM_LEVELS,
+        gamma_report,
+        select_gamma_sets,
+    )
+    from hdrfringe.hardware.rig import Recorder
+    from hdrfringe.io.captures import write_capture_folder
+    from hdrfringe.io.results import check_output_dir, staged_output_dir
+    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.programs import fringe_program
+
+    if output is None:
+        raise InputError("no output folder: give -o/--output CAPTURES")
+    if not (grays or fringes):
+        raise InputError("nothing to project: leave --grays or --fringes on")
+    levels = parse_range(gray, "--gray") if grays else []
+    if grays and len(set(levels)) < MIN_UNIFORM_LEVELS:
+        raise InputError(
+            f"--gray {gray}: {len(set(levels))} distinct levels; the fit needs at least "
+            f"{MIN_UNIFORM_LEVELS} (e.g. 0:255:15)"
+        )
+    exponents = parse_floats(fringe_gamma, "--fringe-gamma") if fringes else []
+    if any(e <= 0 for e in exponents) or not (math.isfinite(gamma) and gamma > 0):
+        raise InputError("--gamma and --fringe-gamma exponents must be positive numbers")
+    if fringes:
+        if fringe_pitch < MIN_FRINGE_PITCH_PX:
+            raise InputError(
+                f"--fringe-pitch {fringe_pitch:g}: narrower than {MIN_FRINGE_PITCH_PX:g} px, "
+                "which `hdrfringe gamma` leaves out (projector pixels and blur reshape narrow "
+                f"fringes); give >= {MIN_FRINGE_PITCH_PX:g}"
+            )
+        design = FringeSpec("sinusoidal", steps, fringe_pitch, imin=0.0, migl=255.0)
+        if not select_gamma_sets([(design, e) for e in dict.fromkeys(exponents)]).fittable:
+            raise InputError(
+                f"--fringe-gamma {fringe_gamma} with --steps {steps}: a shape fit needs two "
+                "different exponents or >= 4 steps"
+            )
+    checked = check_output_dir(output, force)
+    rig = _gamma_rig(
+        projector, camera, sync, settle, discard, max_grabs, gamma, exposure_ms, gain_db,
+        pixel_format,
+    )  # fmt: skip
+    recorder = Recorder(rig)
+    stopped: str | None = None
+    with rig:
+        width, height = rig.projector.width, rig.projector.height
+        full = float(2**rig.projector.bit_depth - 1)
+        frames = fringe_program(
+            "sinusoidal", steps, [fringe_pitch], ("vertical",) if fringes else (), 0.0, [full],
+            projector=ProjectorInfo(width, height, rig.projector.bit_depth, gamma),
+            centerline=False, grays=spread_order(levels),
+        )  # fmt: skip
+        uniform = [f for f in frames if f.kind == "uniform"]
+        fringe_set = [f for f in frames if f.kind != "uniform"]
+        console.print(
+            f"gamma program live: projector {projector} ({width}x{height}), camera {camera}; "
+            f"{len(uniform)} grays at --gamma {gamma:g}, {len(exponents)} fringe sets "
+            f"(pre-distorted with {', '.join(f'{e:g}' for e in exponents) or 'none'})"
+        )
+        try:
+            if uniform:
+                recorder.capture(uniform)
+            for exponent in exponents:
+                rig.gamma_hat = exponent
+                recorder.capture(fringe_set)
+        except KeyboardInterrupt:
+            if not recorder.calls:
+                raise
+            stopped = "interrupted (Ctrl-C)"
+        finally:
+            rig.gamma_hat = gamma
+    caps = recorder.captures(name=output.name, camera={"spec": camera})
+    state: dict[str, Any] = {
+        "program": "gamma",
+        "complete": stopped is None,
+        "projector": projector,
+        "camera": camera,
+        "gray_levels": levels,
+        "gray_gamma_precompensation": gamma,
+        "fringe_gamma_precompensation": exponents,
+        "sync": {"mode": sync, "settle_s": settle, "discard": discard, "max_grabs": max_grabs},
+    }
+    if stopped is not None:
+        state["stopped"] = stopped
+    log = {**state, "noise_variance": rig.noise_var, "frames": [t.to_dict() for t in rig.log]}
+    with staged_output_dir(checked, force=force) as tmp:
+        write_capture_folder(tmp, caps, extra={"capture": state}, force=True)
+        (tmp / CAPTURE_LOG).write_text(json.dumps(log, indent=1) + "\n", encoding="utf-8")
+    if stopped is not None:
+        raise HdrFringeError(
+            f"capture-gamma {stopped} after {len(recorder.calls)} complete groups; {output} "
+            'holds those only (manifest "capture": {"complete": false}); capture again for the '
+            "whole program"
+        )
+    console.print(f"captured {len(caps.frames)} images; wrote {output}")
+    try:
+        report = gamma_report(caps, source=str(output))
+    except HdrFringeError as err:  # the folder is written; say why it does not fit
+        console.print(f"warning: {' '.join(str(err).split())}", highlight=False)
+        return
+    for line in report.lines:
+        console.print(line, highlight=False)
+    fit = report.uniform_fit or report.fringe_fit
+    if fit is not None:
+        console.print(precompensation_verdict(fit, gamma)[1], highlight=False)
+    console.print(f"hdrfringe gamma {output} -o OUT writes the fits and plots", highlight=False)
