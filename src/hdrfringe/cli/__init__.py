@@ -12,6 +12,7 @@ from hdrfringe.cli import (  # noqa: F401  (each module registers its command on
     calibrate_stereo,
     capture,
     capture_gamma,
+    capture_poses,
     demo,
     gamma,
     import_,

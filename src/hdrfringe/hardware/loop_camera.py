@@ -29,6 +29,10 @@ glossy, board). Keys, each at most once:
 ``seed``        noise seed, integer >= 0 (default 0)
 ``size``        camera image ``WIDTHxHEIGHT`` (default the virtual rig's 648x494)
 ``projector``   the projector size ``WIDTHxHEIGHT`` the screen must have (default: any)
+``pose``        scene ``board`` only: the board at pose K (0, 1, ...) of
+                :func:`~hdrfringe.rig.board_poses.default_board_poses`, seen by the
+                stereo-calibration rig (:func:`~hdrfringe.rig.board_poses.calibration_rig`,
+                camera 640x480 unless ``size``); :meth:`LoopCamera.set_pose` moves it
 ==============  ==========================================================================
 
 Example: ``loop:checkerboard?display=:5&latency=2&noise=1&seed=0``. docs/hardware.md ("Loop
@@ -72,6 +76,7 @@ _KEYS = (
     "seed",
     "size",
     "projector",
+    "pose",
 )
 
 
@@ -105,6 +110,9 @@ class LoopSpec:
         Camera image (width, height); None: the virtual rig's default camera.
     projector : tuple of int or None
         Projector (width, height) the screen must have; None: whatever the screen has.
+    pose : int or None
+        Scene ``board`` only: the board at this pose of ``default_board_poses`` on the
+        stereo-calibration rig; None: the scene of ``virtual_rig`` (thesis rig).
 
     Examples
     --------
@@ -124,6 +132,7 @@ class LoopSpec:
     seed: int = 0
     size: tuple[int, int] | None = None
     projector: tuple[int, int] | None = None
+    pose: int | None = None
 
 
 def _bad(spec: str, key: str, value: str, want: str) -> InputError:
@@ -211,7 +220,7 @@ def parse_loop_spec(spec: str) -> LoopSpec:
     for key, value in values.items():
         if key == "display":
             out[key] = value
-        elif key in ("screen", "latency", "seed"):
+        elif key in ("screen", "latency", "seed", "pose"):
             out[key] = _int(spec, key, value)
         elif key in ("noise", "ambient", "depth"):
             out[key] = _float(spec, key, value)
@@ -225,7 +234,28 @@ def parse_loop_spec(spec: str) -> LoopSpec:
             out[key] = value
         else:  # size, projector
             out[key] = _wxh(spec, key, value)
+    if "pose" in out:
+        _check_pose(spec, scene, out["pose"])
+        for key in ("depth", "aperture"):
+            if key in out:
+                raise InputError(
+                    f"camera {spec!r}: {key}= does not apply with pose= (the board's pose and "
+                    "the calibration rig set them); leave it out"
+                )
     return LoopSpec(**out)
+
+
+def _check_pose(spec: str, scene: str, pose: int) -> None:
+    from hdrfringe.rig.board_poses import MAX_BOARD_POSES
+
+    if scene != "board":
+        raise InputError(
+            f"camera {spec!r}: pose= is for the scene board only; use loop:board?pose=K"
+        )
+    if not 0 <= pose < MAX_BOARD_POSES:
+        raise InputError(
+            f"camera {spec!r}: pose={pose} is not valid; pose must be 0..{MAX_BOARD_POSES - 1}"
+        )
 
 
 def _screen_box(display: str, screen: int, spec: str) -> tuple[int, int, int, int]:
@@ -310,6 +340,7 @@ class LoopCamera(CameraBase):
         self._display: str | None = None
         self._rigs: dict[int, SimulatedRig] = {}
         self._base: SimulatedRig | None = None
+        self._pose = self.options.pose
         self._delivered: NDArray[np.uint8] | None = None
         self._pending: NDArray[np.uint8] | None = None
         self._pending_grabs = 0
@@ -400,6 +431,60 @@ class LoopCamera(CameraBase):
         self._latency = int(grabs)
 
     @property
+    def pose(self) -> int | None:
+        """The board pose in view (``loop:board?pose=K``), None for the other scenes."""
+        return self._pose
+
+    def set_pose(self, pose: int) -> None:
+        """Move the board to another pose of ``default_board_poses`` (as a user moves it
+        between the poses of a stereo calibration); the next grab sees it there.
+
+        Parameters
+        ----------
+        pose : int
+            Pose index, 0 .. ``MAX_BOARD_POSES - 1``.
+
+        Raises
+        ------
+        InputError
+            The camera was not opened with ``pose=`` (scene ``board``), or a bad index.
+        """
+        if self._pose is None:
+            raise InputError(
+                f"camera {self.name}: set_pose needs a board camera; open loop:board?pose=0"
+            )
+        if isinstance(pose, bool) or not isinstance(pose, (int, np.integer)):
+            raise InputError(f"camera {self.name}: pose must be a whole number, got {pose!r}")
+        _check_pose(self.name, "board", int(pose))
+        if int(pose) != self._pose:
+            self._pose = int(pose)
+            self._base = None
+            self._rigs.clear()
+
+    def _base_rig(self) -> SimulatedRig:
+        """The scene's rig before the projector size and bit depth are set."""
+        o = self.options
+        if self._pose is None:
+            return virtual_rig(
+                o.scene,
+                depth_mm=o.depth,
+                ambient_lux=o.ambient,
+                noise=o.noise,
+                shot_noise=o.shot,
+                aperture=o.aperture,
+                gamma=1.0,
+                seed=o.seed,
+                resolution=o.size,
+            )
+        from hdrfringe.rig.board_poses import calibration_rig, default_board_poses
+        from hdrfringe.rig.simulated import Lighting
+
+        pose = default_board_poses(self._pose + 1)[self._pose]
+        size = o.size or (640, 480)
+        rig = calibration_rig(pose, noise=o.noise, shot_noise=o.shot, seed=o.seed, camera_size=size)
+        return rig.replace(gamma_precompensation=1.0, lighting=Lighting(ambient_lux=o.ambient))
+
+    @property
     def rig(self) -> SimulatedRig:
         """The virtual rig that renders the grabs, at the current pixel format's bit depth
         (projector of the screen's size, no gamma pre-compensation: the screen holds the levels
@@ -412,18 +497,7 @@ class LoopCamera(CameraBase):
         bits = _FORMAT_BITS[self._format]
         if bits not in self._rigs:
             if self._base is None:
-                o = self.options
-                self._base = virtual_rig(
-                    o.scene,
-                    depth_mm=o.depth,
-                    ambient_lux=o.ambient,
-                    noise=o.noise,
-                    shot_noise=o.shot,
-                    aperture=o.aperture,
-                    gamma=1.0,
-                    seed=o.seed,
-                    resolution=o.size,
-                )
+                self._base = self._base_rig()
             width, height = self.projector_size
             base = self._base
             self._rigs[bits] = base.replace(

@@ -1,0 +1,192 @@
+"""``hdrfringe capture-poses`` (issue 13): the board poses of a stereo calibration, live.
+
+On the loop rig (Xvfb at the calibration rig's 800x600 projector, ``loop:board?pose=K``) the
+test moves the board while the command waits for Enter, as a user does, and
+``calibrate-stereo`` calibrates from the folders written; the reference is the calibration
+rig's true geometry, which the commands never see. The stopping rules (q, Ctrl-C, an error
+mid-run) run on the fake projector and camera of tests/test_hardware_rig.py.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from hdrfringe.hardware.rig import HardwareRig, SyncSettings
+from tests.conftest import run_cli, xvfb_display
+from tests.test_hardware_rig import FakeCamera, FakeProjector, InterruptingCamera
+
+# The Xvfb tests share one group: one worker runs them (make test: --dist loadgroup).
+pytestmark = pytest.mark.xdist_group("xvfb")
+
+WIDTH, HEIGHT = 800, 600  # the calibration rig's projector (rig.board_poses.calibration_rig)
+CAMERA_SIZE = (320, 240)
+
+
+@pytest.fixture(scope="module")
+def xdisplay() -> Iterator[str]:
+    with xvfb_display(WIDTH, HEIGHT) as display:
+        yield display
+
+
+def invoke(args: list[str], stdin: str = "") -> Any:
+    from hdrfringe.cli import app
+
+    return CliRunner().invoke(app, ["capture-poses", *args], input=stdin)
+
+
+def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
+    xdisplay: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hdrfringe.cli import capture_poses
+    from hdrfringe.hardware.loop_camera import LoopCamera
+    from hdrfringe.rig.board_poses import calibration_rig, default_board_poses
+
+    cameras: list[LoopCamera] = []
+    make_rig, wait = capture_poses._poses_rig, capture_poses._wait_for_pose
+
+    def keep_camera(*args: Any) -> HardwareRig:
+        rig = make_rig(*args)
+        cameras.append(rig.camera)
+        return rig
+
+    def user_moves_the_board(number: int, total: int, interval: float | None) -> bool:
+        go = wait(number, total, interval)  # the prompt and the Enter key
+        cameras[0].set_pose(number - 1)  # pose k is default_board_poses' k-1
+        return go
+
+    monkeypatch.setattr(capture_poses, "_poses_rig", keep_camera)
+    monkeypatch.setattr(capture_poses, "_wait_for_pose", user_moves_the_board)
+    out = tmp_path / "poses"
+    size = f"{CAMERA_SIZE[0]}x{CAMERA_SIZE[1]}"
+    camera = f"loop:board?display={xdisplay}&pose=0&size={size}&latency=1"
+    args = ["--projector", f"screen:0@{xdisplay}", "--camera", camera, "--poses", "3"]
+    r = invoke([*args, "--settle", "0", "-o", str(out)], stdin="\n\n\n")
+    assert r.exit_code == 0, r.output
+    assert r.output.count("place the board, then press Enter") == 3
+    summary = json.loads((out / "capture_poses.json").read_text())
+    assert summary["poses"] == ["pose_01", "pose_02", "pose_03"] and summary["complete"] is True
+    for name in summary["poses"]:
+        log = json.loads((out / name / "capture_log.json").read_text())
+        # latency 1: every frame rejects exactly one stale grab, the first one of a pose too
+        # (after the board moved the stale image differs from the old pose's images: without
+        # a new reference image it would be accepted)
+        assert [f["rejected"] for f in log["frames"]] == [1] * 25, name
+
+    stereo = tmp_path / "stereo.h5"
+    folders = [str(out / n) for n in summary["poses"]]
+    r2 = run_cli("calibrate-stereo", *folders, "--board", "checkerboard:9x6:25", "--window",
+                 "6", "-o", str(stereo))  # fmt: skip
+    assert r2.returncode == 0, r2.stderr
+    report = json.loads((tmp_path / "stereo_report.json").read_text())
+    assert report["settings"]["poses_used"] == 3
+    truth = calibration_rig(
+        default_board_poses(1)[0], camera_size=CAMERA_SIZE, projector_size=(WIDTH, HEIGHT)
+    ).stereo_calibration()
+    got = report["calibration"]
+    assert got["baseline_mm"] == pytest.approx(truth.baseline_mm, rel=0.05)
+    focal = np.asarray(got["projector"]["matrix"])[0, 0]
+    assert focal == pytest.approx(truth.projector.matrix[0, 0], rel=0.05)
+
+
+def fake_rig(camera: type[FakeCamera] = FakeCamera, **kwargs: Any) -> Any:
+    def build(*args: object) -> HardwareRig:
+        projector = FakeProjector()
+        sync = SyncSettings(settle_s=0.0)
+        return HardwareRig(projector, camera(projector, **kwargs), sync, sleep=lambda s: None)
+
+    return build
+
+
+FAKE = ["--projector", "screen:0", "--camera", "fake:0", "--pitch", "64,16"]
+#: Grabs: 7 when the rig opens (0 discarded + 5 + 2), per pose 7 for the new reference image
+#: and one per frame of the 17 (2 orientations x 2 pitches x 4 steps + white).
+OPEN, PER_POSE = 7, 7 + 17
+
+
+def test_q_finishes_after_the_complete_poses(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hdrfringe.cli import capture_poses
+    from hdrfringe.io.captures import read_capture_folder
+
+    monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig())
+    out = tmp_path / "poses"
+    r = invoke([*FAKE, "--poses", "5", "-o", str(out)], stdin="\n\nq\n")
+    assert r.exit_code == 0, r.output
+    text = " ".join(r.output.split())
+    assert "2 complete poses (pose_01 .. pose_02), finished with q" in text
+    assert "calibrate-stereo needs at least 3 poses" in text
+    summary = json.loads((out / "capture_poses.json").read_text())
+    assert summary["complete"] is False and summary["stopped"] == "finished with q"
+    assert sorted(p.name for p in out.iterdir()) == ["capture_poses.json", "pose_01", "pose_02"]
+    caps = read_capture_folder(out / "pose_02")
+    assert len(caps.frames) == 17 and caps.frames[-1].kind == "uniform"
+    # q at the first prompt: nothing written
+    r = invoke([*FAKE, "-o", str(tmp_path / "none")], stdin="q\n")
+    assert r.exit_code == 2 and "before the first pose; nothing written" in r.stderr
+    assert not (tmp_path / "none").exists()
+
+
+def test_ctrl_c_keeps_the_complete_poses_and_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hdrfringe.cli import capture_poses
+
+    at = OPEN + 2 * PER_POSE + 10  # mid pose 3
+    monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig(InterruptingCamera, at=at))
+    out = tmp_path / "poses"
+    r = invoke([*FAKE, "--poses", "4", "--interval", "0", "-o", str(out)])
+    assert r.exit_code == 2
+    message = " ".join(r.stderr.split())
+    assert r.stderr.count("error:") == 1
+    assert "interrupted (Ctrl-C); " in message and "holds the 2 complete poses" in message
+    assert sorted(p.name for p in out.iterdir()) == ["capture_poses.json", "pose_01", "pose_02"]
+    summary = json.loads((out / "capture_poses.json").read_text())
+    assert summary["complete"] is False and summary["stopped"] == "interrupted (Ctrl-C)"
+    # Ctrl-C in the first pose: nothing written, the shell's 130
+    monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig(InterruptingCamera, at=OPEN + 9))
+    r = invoke([*FAKE, "--interval", "0", "-o", str(tmp_path / "none")])
+    assert r.exit_code == 130 and not (tmp_path / "none").exists()
+
+
+def test_an_error_mid_run_keeps_the_complete_poses(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hdrfringe.cli import capture_poses
+
+    # latency 0 for the rig's white and pose 1, then 9 stale grabs: a sync error in pose 2
+    latencies = iter([0] * 18 + [9] * 100)
+    monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig(latency=latencies))
+    out = tmp_path / "poses"
+    r = invoke([*FAKE, "--poses", "3", "--interval", "0", "-o", str(out)])
+    assert r.exit_code == 2
+    message = " ".join(r.stderr.split())
+    assert "stopped by an error at pose 2: projector frame" in message
+    assert "holds the 1 complete poses (pose_01 .. pose_01)" in message
+    assert sorted(p.name for p in out.iterdir()) == ["capture_poses.json", "pose_01"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--poses", "0"], "--poses 0: give 1..100"),
+        (["--interval", "-1"], "--interval -1.0: give a number of seconds >= 0"),
+        (["--pitch", "a,b"], "--pitch: cannot read"),
+        (["--camera", "usb3:1"], "unknown back end 'usb3'"),
+    ],
+)
+def test_capture_poses_refuses_bad_input_in_one_line(
+    args: list[str], message: str, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    r = invoke(["--projector", "screen:0@:4999", "--camera", "pylon:emu", *args, "-o", str(out)])
+    assert r.exit_code == 2
+    assert message in " ".join(r.stderr.split()) and r.stderr.count("error:") == 1
+    assert not out.exists()
