@@ -13,6 +13,7 @@ ends and how the window is tested against a screenshot of the X display.
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 from pathlib import Path
@@ -37,6 +38,31 @@ __all__ = [
 PLAYLIST_FORMAT = "hdrfringe-playlist"
 
 _INSTALL_HINT = "install the hardware extra: pip install 'hdrfringe[hardware]'"
+
+#: ``void (*)(Display *, void *)``: libX11's IO-error exit handler (libX11 >= 1.7).
+_IO_EXIT_HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)
+#: Addresses of the projector windows' X connections: Xlib's fatal-IO message is not printed
+#: for them (the projector raises a one-line ProjectorError instead).
+_WATCHED: set[int] = set()
+_IO_HANDLER: list[Any] = []  # the installed global handler and the one before it (kept alive)
+
+
+def _install_quiet_io_handler(xlib: Any) -> None:
+    """Once per process: an Xlib IO-error handler that stays silent for the watched
+    connections and passes the others to the handler that was installed before."""
+    if _IO_HANDLER:
+        return
+
+    def handler(dpy: Any) -> int:
+        address = ctypes.cast(dpy, ctypes.c_void_p).value
+        if address in _WATCHED:
+            return 0
+        previous = _IO_HANDLER[1]
+        return int(previous(dpy)) if previous else 0
+
+    callback = xlib.XIOErrorHandler(handler)
+    _IO_HANDLER[:] = [callback, None]
+    _IO_HANDLER[1] = xlib.XSetIOErrorHandler(callback)
 
 
 class ProjectorError(HdrFringeError):
@@ -224,6 +250,8 @@ class ScreenProjector(_ProjectorBase):
         self._texture: Any = None
         self._size: tuple[int, int] | None = None
         self._closed_mid_run = False
+        self._connection_lost = False
+        self._exit_handler: Any = None
         self._frame_counter = 0
 
     def __repr__(self) -> str:
@@ -300,6 +328,8 @@ class ScreenProjector(_ProjectorBase):
                 f"the projector window on {self._where} is {fb[0]}x{fb[1]} pixels, not the "
                 f"screen's {scr.width}x{scr.height}; turn off desktop scaling for that screen"
             )
+        self._connection_lost = False
+        self._watch_connection(window)
         window.set_mouse_visible(False)
         window.push_handlers(on_close=self._on_close)
         self._texture = pyglet.image.Texture.create(
@@ -314,6 +344,35 @@ class ScreenProjector(_ProjectorBase):
         self._closed_mid_run = False
         self._frame_counter = 0
 
+    def _watch_connection(self, window: Any) -> None:
+        """Make a lost X connection a ProjectorError instead of the end of the process.
+
+        When the window's client is killed (``xkill``, ``XKillClient``) or the X server ends,
+        Xlib calls its IO-error handler, prints two lines and calls ``exit(1)``: no cleanup,
+        no one-line error. With libX11 >= 1.7 an exit handler per connection replaces that
+        ``exit``; this one notes the loss (the connection is then dead, and Xlib's calls on
+        it return at once), and the next :meth:`show` raises. Older libX11: unchanged.
+        """
+        from pyglet.libs.x11 import xlib
+
+        lib = xlib._lib
+        if not hasattr(lib, "XSetIOErrorExitHandler"):
+            return
+        address = ctypes.cast(window._x_display, ctypes.c_void_p).value
+        if address is None:
+            return
+
+        def lost(dpy: Any, data: Any) -> None:
+            self._connection_lost = True
+
+        handler = _IO_EXIT_HANDLER(lost)
+        lib.XSetIOErrorExitHandler.argtypes = [ctypes.c_void_p, _IO_EXIT_HANDLER, ctypes.c_void_p]
+        lib.XSetIOErrorExitHandler.restype = None
+        lib.XSetIOErrorExitHandler(address, handler, None)
+        self._exit_handler = handler  # kept alive as long as the connection may call it
+        _WATCHED.add(address)
+        _install_quiet_io_handler(xlib)
+
     def _on_close(self) -> bool:
         # The window system asked the window to close (a user, a window manager): remember it
         # and keep the window until close(), so that show() can say what happened.
@@ -322,6 +381,11 @@ class ScreenProjector(_ProjectorBase):
 
     def close(self) -> None:
         """Close the window; closing twice is harmless."""
+        if self._window is not None and self._connection_lost:
+            # The connection is dead: pyglet's close would wait forever (or crash) for the
+            # UnmapNotify of a window the server has already destroyed; only its Python
+            # side is released.
+            self._window._mapped = False
         if self._window is not None:
             self._window.close()
         self._window = None
@@ -330,7 +394,14 @@ class ScreenProjector(_ProjectorBase):
     def _check_open(self) -> None:
         if self._window is None:
             raise ProjectorError(f"the projector on {self._where} is not open; open it first")
-        self._window.dispatch_events()
+        if not self._connection_lost:
+            self._window.dispatch_events()
+        if self._connection_lost:
+            raise ProjectorError(
+                f"the projector window on {self._where} was closed mid-run after frame "
+                f"{self._frame_counter}: its X connection was lost (the window was killed or "
+                "the X server ended); keep it open until the capture ends"
+            )
         if self._closed_mid_run:
             raise ProjectorError(
                 f"the projector window on {self._where} was closed mid-run after frame "

@@ -1,0 +1,172 @@
+"""``hdrfringe capture`` stopped from outside on a real window (issue 13, last done-when item).
+
+The command runs as a user runs it (a subprocess), on Xvfb with the projector window and the
+loop camera. From another X client the test closes the window mid-run, as a window manager
+does (WM_DELETE_WINDOW) and as ``xkill`` does (XKillClient: the window's connection is cut),
+and sends SIGINT (Ctrl-C) mid-capture. The test follows the run by watching the X screen (a
+screenshot per poll: each projected frame is a distinct screen), not through any hook in the
+command. X calls go through pyglet's Xlib binding (pyglet is the projector's own dependency).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import xvfb_display
+
+# The Xvfb tests share one group: one worker runs them (make test: --dist loadgroup).
+pytestmark = pytest.mark.xdist_group("xvfb")
+
+WIDTH, HEIGHT = 640, 480
+#: Seconds each frame stays on screen at least (--settle): the screen poll sees every frame.
+SETTLE = "0.3"
+
+
+@pytest.fixture(scope="module")
+def xdisplay() -> Iterator[str]:
+    with xvfb_display(WIDTH, HEIGHT) as display:
+        yield display
+
+
+def start_capture(display: str, out: Path) -> subprocess.Popen[str]:
+    camera = f"loop:checkerboard?display={display}&size=80x60"
+    args = ["capture", "--projector", f"screen:0@{display}", "--camera", camera,
+            "--pitch", "1024,64,8", "--settle", SETTLE, "-o", str(out)]  # fmt: skip
+    return subprocess.Popen(
+        [sys.executable, "-m", "hdrfringe.cli", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def wait_for_screens(display: str, proc: subprocess.Popen[str], count: int) -> None:
+    """Poll the X screen until it has shown ``count`` different contents (the empty root
+    window is the first), or fail if the command ends or 60 s pass."""
+    from PIL import ImageGrab
+
+    seen, last = 0, None
+    deadline = time.monotonic() + 60
+    while seen < count:
+        assert proc.poll() is None, f"capture ended early: {proc.communicate()}"
+        assert time.monotonic() < deadline, f"only {seen} screens seen"
+        shot = np.asarray(ImageGrab.grab(xdisplay=display))
+        if last is None or not np.array_equal(shot, last):
+            seen, last = seen + 1, shot
+        time.sleep(0.02)  # poll, well below the settle time each frame stays
+
+
+def projector_window(display: str) -> int:
+    """The X id of the window titled "hdrfringe projector" (searched in the window tree)."""
+    from pyglet.libs.x11 import xlib
+
+    dpy = xlib.XOpenDisplay(display.encode())
+    assert dpy, f"cannot connect to {display}"
+    try:
+        stack = [xlib.XDefaultRootWindow(dpy)]
+        while stack:
+            window = stack.pop()
+            name = ctypes.c_char_p()
+            if xlib.XFetchName(dpy, window, ctypes.byref(name)) and name.value == (
+                b"hdrfringe projector"
+            ):
+                return int(window)
+            root, parent, n = xlib.Window(), xlib.Window(), ctypes.c_uint()
+            children = ctypes.POINTER(xlib.Window)()
+            if xlib.XQueryTree(dpy, window, ctypes.byref(root), ctypes.byref(parent),
+                               ctypes.byref(children), ctypes.byref(n)):  # fmt: skip
+                stack += [children[i] for i in range(n.value)]
+        raise AssertionError("no projector window on the display")
+    finally:
+        xlib.XCloseDisplay(dpy)
+
+
+def close_window(display: str, window: int, how: str) -> None:
+    """Close the window from another client: ``wm`` sends WM_DELETE_WINDOW (a window
+    manager's close button), ``kill`` calls XKillClient (``xkill``)."""
+    from pyglet.libs.x11 import xlib
+
+    dpy = xlib.XOpenDisplay(display.encode())
+    try:
+        if how == "kill":
+            xlib.XKillClient(dpy, window)
+        else:
+            event = xlib.XEvent()
+            event.xclient.type = xlib.ClientMessage
+            event.xclient.window = window
+            event.xclient.message_type = xlib.XInternAtom(dpy, b"WM_PROTOCOLS", False)
+            event.xclient.format = 32
+            event.xclient.data.l[0] = xlib.XInternAtom(dpy, b"WM_DELETE_WINDOW", False)
+            event.xclient.data.l[1] = xlib.CurrentTime
+            assert xlib.XSendEvent(dpy, window, False, 0, ctypes.byref(event))
+        xlib.XSync(dpy, False)
+    finally:
+        xlib.XCloseDisplay(dpy)
+
+
+def leftovers(root: Path) -> list[str]:
+    return sorted(p.name for p in root.iterdir())
+
+
+@pytest.mark.parametrize(
+    ("how", "message"),
+    [
+        ("wm", "was closed mid-run after frame"),
+        ("kill", "its X connection was lost (the window was killed or the X server ended)"),
+    ],
+)
+def test_window_closed_mid_capture_is_a_one_line_error_and_writes_nothing(
+    xdisplay: str, tmp_path: Path, how: str, message: str
+) -> None:
+    out = tmp_path / "caps"
+    proc = start_capture(xdisplay, out)
+    try:
+        wait_for_screens(xdisplay, proc, 3)  # the root, the rig's white, the first fringe
+        close_window(xdisplay, projector_window(xdisplay), how)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    # before the fix, XKillClient ended the process in Xlib's exit(1) with two XIO lines
+    assert proc.returncode == 2, stderr
+    assert stderr.count("\n") == 1 and stderr.startswith("error: the projector window")
+    assert message in " ".join(stderr.split())
+    assert leftovers(tmp_path) == []  # no output, no staging folder
+
+
+def test_ctrl_c_mid_capture_keeps_the_complete_sets_and_says_so(
+    xdisplay: str, tmp_path: Path
+) -> None:
+    from hdrfringe.io.captures import read_capture_folder
+
+    out = tmp_path / "caps"
+    proc = start_capture(xdisplay, out)
+    try:
+        # the root, the rig's white, the four frames of the first set, the second set's first
+        wait_for_screens(xdisplay, proc, 7)
+        os.kill(proc.pid, signal.SIGINT)
+        _, stderr = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 2, stderr
+    text = " ".join(stderr.split())
+    assert stderr.count("error:") == 1 and "capture interrupted (Ctrl-C) after" in text
+    sets = int(text.split("interrupted (Ctrl-C) after ")[1].split()[0])
+    assert sets in (1, 2)  # the second set may complete before the signal arrives
+    caps = read_capture_folder(out)  # every image readable: nothing half-written
+    assert len(caps.sets) == sets and len(caps.frames) == 4 * sets
+    assert caps.sets[0].spec.pitch_px == 1024.0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["capture"]["complete"] is False
+    assert manifest["capture"]["stopped"] == "interrupted (Ctrl-C)"
+    assert leftovers(tmp_path) == ["caps"]  # no staging folder left beside it
