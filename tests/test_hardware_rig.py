@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from hdrfringe.captures import CameraSettings
+from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame, UniformFrame, render_frame
 from hdrfringe.hardware.camera import CameraBase
 from hdrfringe.hardware.projector import _ProjectorBase
@@ -253,6 +254,51 @@ def test_a_new_exposure_takes_a_new_reference() -> None:
     first = render_frame(frames[0], W, H, 1.0, 8).astype(np.uint8)
     assert np.abs(images[0] - camera.expected(first)).max() < 7
     assert np.abs(images[0] - camera.expected(previous)).max() > 7
+
+
+def test_after_the_scene_moves_a_new_reference_keeps_stale_images_out() -> None:
+    # The scene changes between two runs (a board moved): the first grab after the next frame
+    # is stale (the last frame, seen on the moved scene). It differs from the images of the
+    # earlier frames by the move alone, so only a new reference image of the moved scene lets
+    # the rig reject it.
+    frames = fringe_frames()[:4]
+    for rebaseline, accepted_stale in ((False, True), (True, False)):
+        rig, camera = make_rig(latency=1, max_grabs=3)
+        with rig:
+            rig.capture(frames)
+            camera.reflect = camera.reflect[:, ::-1]  # the scene moved
+            if rebaseline:
+                rig.rebaseline()
+            images = rig.capture(frames[:1])
+        last = render_frame(frames[-1], W, H, 1.0, 8).astype(np.uint8)
+        stale = np.abs(images[0] - camera.expected(last)).max() < 6 * camera.noise + 1
+        assert stale == accepted_stale
+        assert rig.log[-1].rejected == (1 if rebaseline else 0)
+    rig, _ = make_rig()
+    with pytest.raises(InputError, match="not open"):
+        rig.rebaseline()
+
+
+def test_the_recorder_keeps_each_calls_gamma_pre_compensation() -> None:
+    from hdrfringe.hardware.rig import Recorder
+
+    frames = fringe_frames()[:4]
+    rig, _ = make_rig()
+    rig.gamma_hat = 2.0
+    recorder = Recorder(rig)
+    with rig:
+        recorder.capture([UniformFrame(100.0)])
+        rig.gamma_hat = 0.75
+        recorder.capture(frames)
+    caps = recorder.captures()
+    assert caps.projector is not None and caps.projector.gamma_precompensation == 2.0
+    assert caps.gamma_precompensation == (None, 0.75, 0.75, 0.75, 0.75)
+    # the frames were really sent with 0.75 (the last image the projector was given)
+    shown = rig.projector_device.image  # type: ignore[attr-defined]
+    assert np.array_equal(shown, render_frame(frames[3], W, H, 0.75, 8))
+    assert not np.array_equal(shown, render_frame(frames[3], W, H, 2.0, 8))
+    with pytest.raises(InputError, match="must be a positive number"):
+        rig.gamma_hat = 0.0
 
 
 def test_change_ratio_is_about_one_for_noise_alone() -> None:

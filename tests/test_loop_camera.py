@@ -195,6 +195,9 @@ def test_screen_and_projector_size_mismatches_are_one_line_errors(xdisplay: str)
         ("loop:plate?aperture=wide", "aperture must be auto or white or black"),
         ("loop:plate?size=160", "size must be WIDTHxHEIGHT"),
         ("loop:plate?projector=0x480", "projector='0x480' is not valid"),
+        ("loop:plate?pose=1", "pose= is for the scene board only"),
+        ("loop:board?pose=100", "pose=100 is not valid; pose must be 0..99"),
+        ("loop:board?pose=1&depth=5", "depth= does not apply with pose="),
     ],
 )
 def test_bad_specifications_are_one_line_input_errors(spec: str, message: str) -> None:
@@ -202,3 +205,20 @@ def test_bad_specifications_are_one_line_input_errors(spec: str, message: str) -
         open_camera(spec)
     assert message in str(err.value)
     assert "\n" not in str(err.value) and str(err.value).startswith(f"camera {spec!r}")
+
+
+def test_the_board_pose_moves_the_board_seen() -> None:
+    from hdrfringe.rig.board_poses import calibration_rig, default_board_poses
+
+    cam = LoopCamera("loop:board?pose=0&projector=800x600&size=64x48")
+    assert cam.pose == 0 and cam.rig.scene == default_board_poses(1)[0]
+    cam.set_pose(3)
+    board = default_board_poses(4)[3]
+    assert cam.pose == 3 and cam.rig.scene == board
+    # the stereo-calibration rig of that pose, with no pre-compensation (the screen has it)
+    truth = calibration_rig(board, camera_size=(64, 48), projector_size=(800, 600))
+    assert cam.rig.geometry == truth.geometry and cam.rig.gamma_precompensation == 1.0
+    with pytest.raises(InputError, match="set_pose needs a board camera"):
+        LoopCamera("loop:plate").set_pose(1)
+    with pytest.raises(InputError, match="pose must be a whole number"):
+        cam.set_pose(1.5)  # type: ignore[arg-type]

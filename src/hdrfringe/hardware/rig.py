@@ -716,7 +716,7 @@ class Recorder(RigBase):
             camera=dict(camera or {}),
             exposure_ms=exposure,
             gain_db=gain,
-            gamma_precompensation=per_frame,
+            gamma_precompensation=tuple(per_frame),
             name=name,
         )
 
