@@ -20,7 +20,6 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from tests.conftest import xvfb_display
@@ -51,28 +50,55 @@ def start_capture(display: str, out: Path) -> subprocess.Popen[str]:
     )
 
 
+def connect(display: str) -> object:
+    """An Xlib connection; Xvfb refuses some connections opened in quick succession (about 1 in
+    8 back to back on a loaded machine), so a refused one is tried again."""
+    from pyglet.libs.x11 import xlib
+
+    for _ in range(10):
+        dpy = xlib.XOpenDisplay(display.encode())
+        if dpy:
+            return dpy
+        time.sleep(0.05)
+    raise AssertionError(f"cannot connect to {display}")
+
+
 def wait_for_screens(display: str, proc: subprocess.Popen[str], count: int) -> None:
     """Poll the X screen until it has shown ``count`` different contents (the empty root
-    window is the first), or fail if the command ends or 60 s pass."""
-    from PIL import ImageGrab
+    window is the first), or fail if the command ends or 60 s pass.
 
-    seen, last = 0, None
+    One X connection for the whole poll: a screenshot client per poll made Xvfb refuse some
+    of the command's own connections."""
+    from pyglet.libs.x11 import xlib
+
+    dpy = connect(display)
+    root = xlib.XDefaultRootWindow(dpy)
+    seen, last = 0, b""
     deadline = time.monotonic() + 60
-    while seen < count:
-        assert proc.poll() is None, f"capture ended early: {proc.communicate()}"
-        assert time.monotonic() < deadline, f"only {seen} screens seen"
-        shot = np.asarray(ImageGrab.grab(xdisplay=display))
-        if last is None or not np.array_equal(shot, last):
-            seen, last = seen + 1, shot
-        time.sleep(0.02)  # poll, well below the settle time each frame stays
+    try:
+        while seen < count:
+            assert proc.poll() is None, f"capture ended early: {proc.communicate()}"
+            assert time.monotonic() < deadline, f"only {seen} screens seen"
+            image = xlib.XGetImage(dpy, root, 0, 0, WIDTH, HEIGHT, xlib.XAllPlanes(),
+                                   xlib.ZPixmap)  # fmt: skip
+            assert image, "XGetImage failed"
+            # the pixel pointer (pyglet declares the field char*, which ctypes reads as a string)
+            data = ctypes.c_void_p.from_buffer(image.contents, xlib.XImage.data.offset).value
+            shot = ctypes.string_at(data, image.contents.bytes_per_line * HEIGHT)
+            xlib.XFree(data)  # what XDestroyImage does for XGetImage's image
+            xlib.XFree(image)
+            if shot != last:
+                seen, last = seen + 1, shot
+            time.sleep(0.05)  # poll, well below the settle time each frame stays
+    finally:
+        xlib.XCloseDisplay(dpy)
 
 
 def projector_window(display: str) -> int:
     """The X id of the window titled "hdrfringe projector" (searched in the window tree)."""
     from pyglet.libs.x11 import xlib
 
-    dpy = xlib.XOpenDisplay(display.encode())
-    assert dpy, f"cannot connect to {display}"
+    dpy = connect(display)
     try:
         stack = [xlib.XDefaultRootWindow(dpy)]
         while stack:
@@ -97,7 +123,7 @@ def close_window(display: str, window: int, how: str) -> None:
     manager's close button), ``kill`` calls XKillClient (``xkill``)."""
     from pyglet.libs.x11 import xlib
 
-    dpy = xlib.XOpenDisplay(display.encode())
+    dpy = connect(display)
     try:
         if how == "kill":
             xlib.XKillClient(dpy, window)
