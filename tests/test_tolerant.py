@@ -6,6 +6,8 @@ import dataclasses
 import importlib.util
 import json
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,10 +31,19 @@ from hdrfringe.saturation_tolerant import (
 )
 from hdrfringe.strategies.conventional import conventional
 from hdrfringe.strategies.tolerant import tolerant
-from tests.conftest import run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 TWO_PI = 2 * np.pi
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    """The command line in process (typer's runner: no interpreter start per call)."""
+    from typer.testing import CliRunner
+
+    from hdrfringe.cli import app
+
+    r = CliRunner().invoke(app, list(args))
+    return subprocess.CompletedProcess(args, r.exit_code, r.stdout, r.stderr)
 
 
 def wrapped(x: np.ndarray) -> np.ndarray:
@@ -253,6 +264,7 @@ def _bench():
     )
     assert spec is not None and spec.loader is not None
     mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # its dataclasses resolve their module
     spec.loader.exec_module(mod)
     return mod
 
