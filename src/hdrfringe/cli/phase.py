@@ -79,10 +79,10 @@ def phase(
         summary = write_phase_maps(tmp, decoded, str(folder))
     n_pixels = captures.image_shape[0] * captures.image_shape[1]
     for s in summary["sets"]:
-        saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
+        n_saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
         console.print(
             f"set {s['label']}: valid {100 * s['valid_fraction']:.1f} %, "
-            f"saturated {describe_saturated(saturated, n_pixels)}"
+            f"saturated {describe_saturated(n_saturated, n_pixels)}"
         )
     for fam in summary["families"]:
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""
