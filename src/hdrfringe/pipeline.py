@@ -290,8 +290,9 @@ def composite_captures(
     Returns
     -------
     captures : Captures
-        Each set labelled at its highest MIGL, then the centerline; with the scene, camera
-        description, ground truth and name the rig offers (:func:`describe_rig`).
+        Each set labelled at its highest MIGL (a strategy that captured an inverted set,
+        ``details["inverted_images"]``, adds it after its set), then the centerline; with the
+        scene, camera description, ground truth and name the rig offers (:func:`describe_rig`).
     results : tuple of StrategyResult
         One per spec.
 
