@@ -69,6 +69,7 @@ from .rig.scenes import white_plate as white_plate
 from .rig.simulated import CameraModel as CameraModel
 from .rig.simulated import Lighting as Lighting
 from .rig.simulated import SimulatedRig as SimulatedRig
+from .saturation_tolerant import decode_set_tolerant as decode_set_tolerant
 from .stereo import LensModel as LensModel
 from .stereo import StereoCalibration as StereoCalibration
 from .stereo import fit_plane as fit_plane

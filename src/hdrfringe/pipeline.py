@@ -290,8 +290,9 @@ def composite_captures(
     Returns
     -------
     captures : Captures
-        Each set labelled at its highest MIGL, then the centerline; with the scene, camera
-        description, ground truth and name the rig offers (:func:`describe_rig`).
+        Each set labelled at its highest MIGL (a strategy that captured an inverted set,
+        ``details["inverted_images"]``, adds it after its set), then the centerline; with the
+        scene, camera description, ground truth and name the rig offers (:func:`describe_rig`).
     results : tuple of StrategyResult
         One per spec.
 
@@ -320,6 +321,9 @@ def composite_captures(
         results.append(res)
         frames += spec.frames()
         images.append(res.images)
+        if res.details.get("inverted_images") is not None:  # tolerant: the inverted set
+            frames += res.details["inverted_spec"].frames()
+            images.append(res.details["inverted_images"])
     if centerline is not None:
         frames.append(centerline)
         images.append(rig.capture([centerline]))
@@ -505,6 +509,10 @@ class MeasurementMetrics:
         With spatial unwrapping of the primary family: its regions
         (:meth:`FamilyResult.regions_summary <hdrfringe.process.FamilyResult.regions_summary>`:
         ``islands`` flag, ``count``, ``pixels``, ...).
+    decoder : dict or None
+        With the saturation-tolerant decoder (``saturated="exclude"``, the ``tolerant``
+        method): ``name``, ``min_shifts``, ``inverted`` and ``shifts_used_histogram`` (pixels
+        of the finest set whose fit used k images, k = 0, 1, ...); None with the standard one.
 
     References
     ----------
@@ -537,6 +545,7 @@ class MeasurementMetrics:
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     regions: Mapping[str, Any] | None = None
+    decoder: Mapping[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """``metrics.json``: the fields that apply, in a fixed order, JSON-safe.
@@ -579,6 +588,8 @@ class MeasurementMetrics:
             d["dpa"] = self.dpa.to_dict()
         if self.regions is not None:
             d["regions"] = dict(self.regions)
+        if self.decoder is not None:
+            d["decoder"] = dict(self.decoder)
         if self.stereo is not None:
             d["stereo"] = dict(self.stereo)
         d["skipped"] = list(self.skipped)
@@ -761,12 +772,19 @@ def _measure_captures(
     reject_saturated: bool,
     calibration_source: str | None,
     stereo_directions: str = "auto",
+    min_shifts: int | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
-    """Decode; with a calibration, height and its errors (or the triangulated points).
-    Returns the metrics fields."""
-    decoded = decode_captures(caps, reject_saturated=reject_saturated)
+    """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
+    calibration, height and its errors (or the triangulated points). Returns the metrics
+    fields."""
+    if min_shifts is None:
+        decoded = decode_captures(caps, reject_saturated=reject_saturated)
+    else:
+        decoded = decode_captures(caps, saturated="exclude", min_shifts=min_shifts)
     fam = decoded.primary
     fields: dict[str, Any] = {}
+    if min_shifts is not None:
+        fields["decoder"] = _decoder_summary(decoded, min_shifts)
     sat = np.zeros(caps.image_shape, bool)
     if fam is not None:
         for s in fam.sets:
@@ -810,6 +828,22 @@ def _measure_captures(
     errors.pop("valid_fraction", None)
     fields.update(errors)
     return decoded, height, fields, None
+
+
+def _decoder_summary(decoded: FolderPhase, min_shifts: int) -> dict[str, Any]:
+    """``metrics.decoder`` of a saturation-tolerant measurement (its finest set's histogram)."""
+    fam = decoded.primary
+    out: dict[str, Any] = {
+        "name": "tolerant",
+        "min_shifts": min_shifts,
+        "inverted": bool(decoded.inverted_sets),
+    }
+    if fam is not None:
+        res = decoded.set_results[fam.sets[-1].label]
+        used = getattr(res, "shifts_used", None)
+        if used is not None:
+            out["shifts_used_histogram"] = np.bincount(used.ravel()).tolist()
+    return out
 
 
 def _replay(
@@ -997,8 +1031,15 @@ def measure(
             f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
             "folder with hdrfringe.io.captures.read_capture_folder"
         )
+    # A strategy that leaves saturation to the decoder (tolerant) asks for it in its details.
+    tolerant = [r.details["min_shifts"] for r in results if r.details.get("decoder") == "tolerant"]
     decoded, height, fields, stereo = _measure_captures(
-        caps, calibration, reject_saturated, calibration_source, stereo_directions
+        caps,
+        calibration,
+        reject_saturated,
+        calibration_source,
+        stereo_directions,
+        min_shifts=min(tolerant) if tolerant else None,
     )
     dpa = None
     if method == "dpa":

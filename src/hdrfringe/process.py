@@ -31,6 +31,7 @@ Rules (documented in docs/phase.md):
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -40,8 +41,10 @@ from numpy.typing import NDArray
 
 from hdrfringe._validation import check_min_modulation, full_scale
 from hdrfringe.captures import Captures, FringeSet, GrayCodeSet
+from hdrfringe.errors import InputError
 from hdrfringe.graycode import GrayCodeDecode, absolute_phase_graycode, decode_graycode
 from hdrfringe.phase import PhaseResult, decode_set
+from hdrfringe.saturation_tolerant import decode_set_tolerant
 from hdrfringe.unwrap import (
     PhaseRegions,
     absolute_phase_from_centerline,
@@ -50,7 +53,12 @@ from hdrfringe.unwrap import (
     unwrap_temporal,
 )
 
-__all__ = ["FamilyResult", "FolderPhase", "decode_captures", "group_families"]
+__all__ = ["SATURATED_MODES", "FamilyResult", "FolderPhase", "decode_captures", "group_families"]
+
+#: How :func:`decode_captures` treats saturated shifts: ``flag`` (a pixel with one is flagged
+#: and, by default, invalid) or ``exclude`` (the shift is left out of the pixel's fit,
+#: :func:`hdrfringe.saturation_tolerant.decode_set_tolerant`).
+SATURATED_MODES = ("flag", "exclude")
 
 
 @dataclass
@@ -159,6 +167,11 @@ class FolderPhase:
         Unwrapped (and absolute) phase per family, primary family first.
     notes : list of str
         What could not be done and why (e.g. no centerline frame for an absolute phase).
+    saturated : {"flag", "exclude"}
+        How saturated shifts were treated (:data:`SATURATED_MODES`).
+    inverted_sets : dict of str to str
+        With ``saturated="exclude"``: set label -> label of its inverted set, decoded with
+        it (the inverted sets are not in :attr:`sets`).
 
     Attributes
     ----------
@@ -185,6 +198,8 @@ class FolderPhase:
     sets: list[FringeSet]
     families: list[FamilyResult] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    saturated: str = "flag"
+    inverted_sets: dict[str, str] = field(default_factory=dict)
 
     @property
     def primary(self) -> FamilyResult | None:
@@ -252,6 +267,8 @@ def decode_captures(
     *,
     min_modulation: float | None = None,
     reject_saturated: bool = True,
+    saturated: str = "flag",
+    min_shifts: int = 3,
 ) -> FolderPhase:
     """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
@@ -263,7 +280,16 @@ def decode_captures(
         Validity threshold on I' in DN (default per bit depth, see
         :func:`hdrfringe.phase.default_min_modulation`).
     reject_saturated : bool
-        Invalidate pixels with any saturated shift (default True).
+        Invalidate pixels with any saturated shift (default True; ``saturated="flag"`` only).
+    saturated : {"flag", "exclude"}
+        ``flag`` (default): every set by :func:`hdrfringe.phase.decode_set`. ``exclude``:
+        every sinusoidal set by :func:`hdrfringe.saturation_tolerant.decode_set_tolerant`,
+        each pixel from its unsaturated shifts; a set whose inverted set (the same set with
+        180 degrees more phase offset, same exposure, gain and map) is in the captures is
+        decoded with it, and the inverted set is not a set of its own. Triangular sets are
+        decoded as with ``flag``.
+    min_shifts : int
+        With ``exclude``: least number of unsaturated images per pixel (>= 3).
 
     Returns
     -------
@@ -274,7 +300,7 @@ def decode_captures(
     ------
     InputError
         ``min_modulation`` not a number of DN in ``0 .. full_scale / 2`` (NaN made every pixel
-        invalid and was blamed on the centerline).
+        invalid and was blamed on the centerline); an unknown ``saturated`` mode.
 
     References
     ----------
@@ -294,21 +320,29 @@ def decode_captures(
     'one-period coarse set'
     """
     check_min_modulation(min_modulation, captures.camera_bit_depth)
-    results: dict[str, PhaseResult] = {}
-    for s in captures.sets:
-        results[s.label] = decode_set(
-            captures.set_images(s),
-            s.spec,
-            captures.camera_bit_depth,
-            min_modulation=min_modulation,
-            reject_saturated=reject_saturated,
+    if saturated not in SATURATED_MODES:
+        raise InputError(
+            f"saturated mode {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
         )
-    out = FolderPhase(set_results=results, sets=list(captures.sets))
+    if saturated == "exclude":
+        out = _decode_excluding(captures, min_modulation, min_shifts)
+        results = out.set_results
+    else:
+        results = {}
+        for s in captures.sets:
+            results[s.label] = decode_set(
+                captures.set_images(s),
+                s.spec,
+                captures.camera_bit_depth,
+                min_modulation=min_modulation,
+                reject_saturated=reject_saturated,
+            )
+        out = FolderPhase(set_results=results, sets=list(captures.sets))
     if not captures.sets:
         out.notes.append("no fringe sets: nothing to decode")
         return out
     codes = {g.orientation: g for g in captures.graycode_sets()}
-    for fam in group_families(captures.sets):
+    for fam in group_families(out.sets):
         orient = fam[0].spec.orientation
         coarse = fam[0]
         extent = None
@@ -404,6 +438,64 @@ def decode_captures(
             )
         )
     return out
+
+
+# --- saturated="exclude": the saturation-tolerant decoder (docs/tolerant.md) -----------------
+
+
+def _is_inverse(a: FringeSet, b: FringeSet) -> bool:
+    """Whether ``b`` is ``a``'s inverted set: 180 degrees more phase, everything else equal."""
+    if a.spec.pattern != "sinusoidal" or b.spec.pattern != "sinusoidal":
+        return False
+    turn = (b.spec.phase_offset_deg - a.spec.phase_offset_deg) % 360.0
+    same = dataclasses.replace(b.spec, phase_offset_deg=a.spec.phase_offset_deg) == a.spec
+    return (
+        abs(turn - 180.0) < 1e-9
+        and same
+        and (a.exposure_ms, a.gain_db, a.migl_map_sha256)
+        == (b.exposure_ms, b.gain_db, b.migl_map_sha256)
+    )
+
+
+def _decode_excluding(
+    captures: Captures, min_modulation: float | None, min_shifts: int
+) -> FolderPhase:
+    """Every set decoded from its unsaturated shifts, with its inverted set where there is one."""
+    sets = list(captures.sets)
+    partner: dict[str, FringeSet] = {}
+    taken: set[str] = set()
+    for i, a in enumerate(sets):
+        if a.label in taken:
+            continue
+        for b in sets[i + 1 :]:
+            if b.label not in taken and b.label not in partner and _is_inverse(a, b):
+                partner[a.label] = b
+                taken.add(b.label)
+                break
+    kept = [s for s in sets if s.label not in taken]
+    results: dict[str, PhaseResult] = {}
+    bits = captures.camera_bit_depth
+    for s in kept:
+        if s.spec.pattern != "sinusoidal":
+            results[s.label] = decode_set(
+                captures.set_images(s), s.spec, bits, min_modulation=min_modulation
+            )
+            continue
+        inv = partner.get(s.label)
+        results[s.label] = decode_set_tolerant(
+            captures.set_images(s),
+            s.spec,
+            bits,
+            inverted=None if inv is None else captures.set_images(inv),
+            min_modulation=min_modulation,
+            min_shifts=min_shifts,
+        )
+    return FolderPhase(
+        set_results=results,
+        sets=kept,
+        saturated="exclude",
+        inverted_sets={k: v.label for k, v in partner.items()},
+    )
 
 
 def _decode_graycode(

@@ -23,11 +23,23 @@ def phase(
     keep_saturated: Annotated[
         bool, typer.Option(help="Keep the (biased) phase of pixels with saturated shifts.")
     ] = False,
+    saturated: Annotated[
+        str,
+        typer.Option(
+            help="flag: a pixel with a saturated shift is flagged (invalid unless "
+            "--keep-saturated); exclude: its saturated shifts are left out and the phase is "
+            "fitted from the others (at least --min-shifts; an inverted set in the folder "
+            "joins its set), and shifts_used maps are written.",
+        ),
+    ] = "flag",
+    min_shifts: Annotated[
+        int, typer.Option(help="With --saturated exclude: least unsaturated shifts per pixel.")
+    ] = 3,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe._validation import describe_saturated
-    from hdrfringe.errors import CaptureFormatError
+    from hdrfringe.errors import CaptureFormatError, InputError
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import (
@@ -35,8 +47,19 @@ def phase(
         check_output_dir,
         staged_output_dir,
     )
-    from hdrfringe.process import decode_captures
+    from hdrfringe.process import SATURATED_MODES, decode_captures
 
+    if saturated not in SATURATED_MODES:
+        raise InputError(
+            f"--saturated {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
+        )
+    if saturated == "exclude" and keep_saturated:
+        raise InputError(
+            "--keep-saturated keeps the biased phase of saturated pixels, --saturated exclude "
+            "leaves their saturated shifts out; give one of them"
+        )
+    if saturated == "flag" and min_shifts != 3:
+        raise InputError("--min-shifts applies to --saturated exclude; add it or drop --min-shifts")
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
@@ -44,17 +67,22 @@ def phase(
         raise CaptureFormatError(
             f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"
         )
-    decoded = decode_captures(
-        captures, min_modulation=min_modulation, reject_saturated=not keep_saturated
-    )
+    if saturated == "flag":
+        decoded = decode_captures(
+            captures, min_modulation=min_modulation, reject_saturated=not keep_saturated
+        )
+    else:
+        decoded = decode_captures(
+            captures, min_modulation=min_modulation, saturated="exclude", min_shifts=min_shifts
+        )
     with staged_output_dir(output, force=force) as tmp:
         summary = write_phase_maps(tmp, decoded, str(folder))
     n_pixels = captures.image_shape[0] * captures.image_shape[1]
     for s in summary["sets"]:
-        saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
+        n_saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
         console.print(
             f"set {s['label']}: valid {100 * s['valid_fraction']:.1f} %, "
-            f"saturated {describe_saturated(saturated, n_pixels)}"
+            f"saturated {describe_saturated(n_saturated, n_pixels)}"
         )
     for fam in summary["families"]:
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""

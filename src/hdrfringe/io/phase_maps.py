@@ -11,6 +11,7 @@ import numpy as np
 from hdrfringe.io.results import write_map_tiff, write_preview_png
 from hdrfringe.phase import PhaseResult
 from hdrfringe.process import FamilyResult, FolderPhase
+from hdrfringe.saturation_tolerant import TolerantPhaseResult
 
 __all__ = ["SET_MAPS", "write_phase_maps"]
 
@@ -35,6 +36,21 @@ def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> No
         elif stem == "saturation_count":
             kw = {"vmin": 0.0, "vmax": float(max(1, res.spec.steps if res.spec else 1))}
         write_preview_png(out / f"{name}.png", data, title=name, cmap=cmap, label=unit, **kw)
+        files += [f"{name}.tiff", f"{name}.png"]
+    if isinstance(res, TolerantPhaseResult):  # --saturated exclude: the shifts each fit used
+        name = f"shifts_used{suffix}"
+        used = res.shifts_used.astype(np.float32)
+        write_map_tiff(out / f"{name}.tiff", used)
+        images = (2 if res.inverted else 1) * (res.spec.steps if res.spec else 1)
+        write_preview_png(
+            out / f"{name}.png",
+            used,
+            title=name,
+            cmap="viridis",
+            label="shifts used",
+            vmin=0.0,
+            vmax=float(images),
+        )
         files += [f"{name}.tiff", f"{name}.png"]
 
 
@@ -94,7 +110,12 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     ``order_from`` (``one-period``, ``graycode`` or ``spatial``) and, with spatial unwrapping,
     ``regions``; a family whose valid area falls into separate regions (islands) also gets
     ``regions.tiff``, a label map, 0 = invalid, ``regions_map`` naming it);
-        ``notes``; ``files`` (every map and preview written, sorted).
+        ``notes``; ``files`` (every map and preview written, sorted). Decoded with
+        ``saturated="exclude"`` (docs/tolerant.md): ``saturated``, and per set
+        ``shifts_used_histogram`` (pixels whose fit used k images, k = 0, 1, ...) and
+        ``inverted_set`` (the label of the inverted set decoded with it, if any); every set
+        also gets ``shifts_used.tiff`` (float32, the images each pixel's fit used) and its
+        preview.
 
     References
     ----------
@@ -172,8 +193,14 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
                 "saturated_fraction": float(np.mean(r.saturation_count > 0)),
             }
         )
-    summary = {
-        "source": source,
+        if isinstance(r, TolerantPhaseResult):
+            sets[-1]["shifts_used_histogram"] = np.bincount(r.shifts_used.ravel()).tolist()
+            if s.label in decoded.inverted_sets:
+                sets[-1]["inverted_set"] = decoded.inverted_sets[s.label]
+    summary: dict[str, Any] = {"source": source}
+    if decoded.saturated != "flag":  # absent by default: today's summary, byte for byte
+        summary["saturated"] = decoded.saturated
+    summary |= {
         "sets": sets,
         "families": families,
         "notes": decoded.notes,
