@@ -13,6 +13,7 @@ __all__ = [
     "LIVE_OPTIONS",
     "LIVE_PANEL",
     "SCENES_HELP",
+    "SIM_OPTIONS",
     "AmbientOpt",
     "ApertureOpt",
     "CenterlineOpt",
@@ -79,6 +80,9 @@ RigOpt = Annotated[
     typer.Option(help="Live source instead of FOLDER: 'sim', the virtual rig (scene options)."),
 ]
 
+#: Of :data:`LIVE_OPTIONS`, those of the virtual rig only (an error with ``--rig hardware``).
+SIM_OPTIONS = ("scene", "depth_mm", "ambient_lux", "noise", "aperture", "seed")
+
 #: measure's options that only a live rig uses (an error with a FOLDER: they would be ignored).
 LIVE_OPTIONS = (
     "scene",
@@ -115,20 +119,41 @@ def given_options(ctx: typer.Context, names: tuple[str, ...]) -> list[str]:
 
 
 def check_source(
-    ctx: typer.Context, folder: Path | None, rig: str | None, live_only: tuple[str, ...]
+    ctx: typer.Context,
+    folder: Path | None,
+    rig: str | None,
+    live_only: tuple[str, ...],
+    *,
+    hardware_only: tuple[str, ...] = (),
+    sim_only: tuple[str, ...] = (),
 ) -> bool:
-    """Exactly one of FOLDER and ``--rig sim``; live-only options only with the rig.
+    """Exactly one of FOLDER and ``--rig``; live-only options only with a live rig.
 
-    Returns True for the live rig.
+    Without ``hardware_only`` the one live rig is ``sim`` (the virtual rig); with it,
+    ``--rig hardware`` (a projector and camera) is a source too: its options
+    (``hardware_only``) only apply to it, and ``sim_only`` options only to ``--rig sim``.
+
+    Returns True for a live rig.
     """
 
-    if rig is not None and rig != "sim":
-        raise InputError(f"unknown rig {rig!r}; use --rig sim (the virtual rig)")
+    rigs = ("sim", "hardware") if hardware_only else ("sim",)
+    named = "--rig sim (live virtual rig)" + (
+        " or --rig hardware (projector and camera)" if hardware_only else ""
+    )
+    if rig is not None and rig not in rigs:
+        raise InputError(
+            f"unknown rig {rig!r}; use --rig sim (the virtual rig)"
+            + (
+                " or --rig hardware (a projector and camera, docs/hardware.md)"
+                if hardware_only
+                else ""
+            )
+        )
     if (folder is None) == (rig is None):
         raise InputError(
-            "give exactly one source: a capture FOLDER (replay) or --rig sim (live virtual rig)"
+            f"give exactly one source: a capture FOLDER (replay) or {named}"
             if folder is not None
-            else "no source: give a capture FOLDER or --rig sim (live virtual rig)"
+            else f"no source: give a capture FOLDER or {named}"
         )
     if rig is None:
         given = given_options(ctx, live_only)
@@ -137,5 +162,21 @@ def check_source(
                 f"{', '.join(given)} only appl{'ies' if len(given) == 1 else 'y'} to the live "
                 "virtual rig; add --rig sim instead of the folder, or drop "
                 f"{'it' if len(given) == 1 else 'them'} (a capture folder fixes scene and fringes)"
+            )
+    if rig != "hardware":
+        given = given_options(ctx, hardware_only)
+        if given:
+            raise InputError(
+                f"{', '.join(given)} only appl{'ies' if len(given) == 1 else 'y'} to --rig "
+                f"hardware (a projector and camera); use --rig hardware or drop "
+                f"{'it' if len(given) == 1 else 'them'}"
+            )
+    if rig == "hardware":
+        given = given_options(ctx, sim_only)
+        if given:
+            raise InputError(
+                f"{', '.join(given)} only appl{'ies' if len(given) == 1 else 'y'} to the live "
+                "virtual rig (--rig sim); with --rig hardware the scene, light and camera are "
+                f"real: drop {'it' if len(given) == 1 else 'them'}"
             )
     return rig is not None

@@ -36,6 +36,16 @@ __all__ = [
     "DiscardOpt",
     "ExposureOpt",
     "GainOpt",
+    "HwCameraOpt",
+    "HwDiscardOpt",
+    "HwExposureOpt",
+    "HwGainOpt",
+    "HwMaxGrabsOpt",
+    "HwPixelFormatOpt",
+    "HwProjectorOpt",
+    "HwRigConfigOpt",
+    "HwSettleOpt",
+    "HwSyncOpt",
     "MaxGrabsOpt",
     "PixelFormatOpt",
     "ProjectorOpt",
@@ -74,7 +84,7 @@ RigConfigOpt, HwRigConfigOpt = _hardware_option(
 ProjectorOpt, HwProjectorOpt = _hardware_option(
     str | None,
     "--projector",
-    help="screen:N[@DISPLAY] (full-screen window) or folder:PATH[@WxH].",
+    help="screen:N\\[@DISPLAY] (full-screen window) or folder:PATH\\[@WxH].",
 )
 CameraOpt, HwCameraOpt = _hardware_option(
     str | None,
