@@ -66,12 +66,21 @@ def _label(key: str, labels: Mapping[str, str] | None) -> str:
     return (labels or {}).get(key, f"'{key}'")
 
 
-def _bad(where: str, what: str, fix: str = f"fix it in the rig configuration ({DOC})") -> str:
+_FIX_FILE = f"fix it in the rig configuration ({DOC})"
+_FIX_OPTION = f"fix the option, or the rig configuration it overrides ({DOC})"
+
+
+def _bad(where: str, what: str, fix: str = _FIX_FILE) -> str:
     return f"{where + ': ' if where else ''}{what}; {fix}"
 
 
 def _check_value(
-    key: str, value: Any, kind: str, where: str, labels: Mapping[str, str] | None
+    key: str,
+    value: Any,
+    kind: str,
+    where: str,
+    labels: Mapping[str, str] | None,
+    fix: str = _FIX_FILE,
 ) -> None:
     """Refuse a value of the wrong type or range for ``kind``, naming ``key``."""
     name = _label(key, labels)
@@ -83,16 +92,17 @@ def _check_value(
                     where,
                     f"{name} must be non-empty text (at most {MAX_TEXT} characters), "
                     f"got {_short(value)}",
+                    fix,
                 )
             )
     elif kind == "bool":
         if not isinstance(value, bool):
-            raise InputError(_bad(where, f"{name} must be true or false, got {_short(value)}"))
+            raise InputError(_bad(where, f"{name} must be true or false, got {_short(value)}", fix))
     elif kind in ("count", "size"):
         lo, hi = (1, MAX_PROJECTOR_PIXELS) if kind == "size" else (0, 10**6)
         if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
             raise InputError(
-                _bad(where, f"{name} must be an integer in {lo}..{hi}, got {_short(value)}")
+                _bad(where, f"{name} must be an integer in {lo}..{hi}, got {_short(value)}", fix)
             )
     else:  # seconds, ms, db, gamma, number: finite numbers
         positive = kind in ("ms", "gamma")
@@ -107,7 +117,7 @@ def _check_value(
                 "seconds": "a number of seconds in 0..3600",
                 "db": "a finite number of dB",
             }.get(kind, "a finite number")
-            raise InputError(_bad(where, f"{name} must be {must}, got {_short(value)}"))
+            raise InputError(_bad(where, f"{name} must be {must}, got {_short(value)}", fix))
 
 
 def _short(value: Any) -> str:
@@ -222,7 +232,13 @@ _KINDS: dict[str, str] = {
 }
 
 
-def _check_key(key: str, value: Any, where: str, labels: Mapping[str, str] | None) -> None:
+def _check_key(
+    key: str,
+    value: Any,
+    where: str,
+    labels: Mapping[str, str] | None,
+    fix: str = _FIX_FILE,
+) -> None:
     kind = _KINDS[key]
     if kind == "format":
         if value not in PIXEL_FORMATS:
@@ -231,10 +247,11 @@ def _check_key(key: str, value: Any, where: str, labels: Mapping[str, str] | Non
                     where,
                     f"{_label(key, labels)} must be one of {', '.join(PIXEL_FORMATS)}, "
                     f"got {_short(value)}",
+                    fix,
                 )
             )
         return
-    _check_value(key, value, kind, where, labels)
+    _check_value(key, value, kind, where, labels, fix)
 
 
 def _normal(key: str, value: Any) -> Any:
@@ -558,7 +575,7 @@ class RigConfig:
                 )
             table, _, name = key.rpartition(".")
             if value is not None:
-                _check_key(key, value, "", labels)
+                _check_key(key, value, "", labels, _FIX_OPTION if labels else _FIX_FILE)
                 value = _normal(key, value)
             (tables[table] if table else top)[name] = value
         sync = tables["sync"]
