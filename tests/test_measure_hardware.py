@@ -168,21 +168,27 @@ def test_measure_hardware_height_error_is_the_virtual_rigs_within_noise(
 
     cal = load_calibration(calibration)
     mask = cal.measurement_mask()
-    errors = []
-    for seed in (0, 1):  # what measure --rig sim runs, at the loop camera's resolution
+    heights = []
+    for seed in (0, 1, 2):  # what measure --rig sim runs, at the loop camera's resolution
         sim = virtual_rig("white_plate", depth_mm=DEPTH_MM, ambient_lux=AMBIENT_LX, seed=seed,
                           resolution=SIZE)  # fmt: skip
         specs, line = live_fringes(sim.projector, "sinusoidal", 4, "1024,64,8", 40.0, 255.0, False)
         res = pipeline.measure(sim, cal, method="lpa", params={"step": 50.0}, specs=specs,
                                centerline=line)  # fmt: skip
-        errors.append(height_error(res.height_mm, mask))
-    hw = height_error(read_map_tiff(hardware_run / "height.tiff"), mask)
-    rms = [float(np.sqrt(np.mean(e**2))) for e in (hw, *errors)]
+        heights.append(res.height_mm)
+    hw = read_map_tiff(hardware_run / "height.tiff")
+    rms = [float(np.sqrt(np.mean(height_error(h, mask) ** 2))) for h in (hw, *heights)]
     # within noise: the hardware run's RMSE differs from the virtual rig's (seed 0) by no more
-    # than twice what another noise seed changes, and at most 25 % of it either way
-    spread = abs(rms[1] - rms[2])
-    assert abs(rms[0] - rms[1]) <= max(2 * spread, 0.25 * rms[1]), rms
-    assert abs(float(np.mean(hw)) - float(np.mean(errors[0]))) < 0.05  # no bias of its own (mm)
+    # than twice the largest change another noise seed makes (or 2 % of it)
+    spread = max(rms[1:]) - min(rms[1:])
+    assert abs(rms[0] - rms[1]) <= max(2 * spread, 0.02 * rms[1]), rms
+    # and pixel for pixel: hardware vs virtual differ as two virtual runs do (noise only)
+    ok = mask & np.isfinite(hw) & np.isfinite(heights[0]) & np.isfinite(heights[1])
+    d_hw = np.abs(hw - heights[0])[ok]
+    d_seed = np.abs(heights[1] - heights[0])[ok]
+    assert np.median(d_hw) <= 1.5 * np.median(d_seed), (np.median(d_hw), np.median(d_seed))
+    assert np.percentile(d_hw, 99) <= 1.5 * np.percentile(d_seed, 99)
+    assert abs(float(np.mean(height_error(hw, mask)))) < 0.01  # no bias of its own (mm)
 
 
 def test_capture_with_a_rig_config_and_a_wrong_projector_size(
