@@ -10,15 +10,30 @@ import typer
 from hdrfringe.errors import InputError
 
 __all__ = [
+    "HARDWARE_PANEL",
     "LIVE_OPTIONS",
     "LIVE_PANEL",
     "SCENES_HELP",
     "SIM_OPTIONS",
     "AmbientOpt",
     "ApertureOpt",
+    "CameraOpt",
     "CenterlineOpt",
     "DepthOpt",
+    "DiscardOpt",
+    "ExposureOpt",
+    "GainOpt",
     "GammaOpt",
+    "HwCameraOpt",
+    "HwDiscardOpt",
+    "HwExposureOpt",
+    "HwGainOpt",
+    "HwMaxGrabsOpt",
+    "HwPixelFormatOpt",
+    "HwProjectorOpt",
+    "HwRigConfigOpt",
+    "HwSettleOpt",
+    "HwSyncOpt",
     "IminOpt",
     "LiveAmbientOpt",
     "LiveApertureOpt",
@@ -31,12 +46,18 @@ __all__ = [
     "LiveSceneOpt",
     "LiveSeedOpt",
     "LiveStepsOpt",
+    "MaxGrabsOpt",
     "NoiseOpt",
     "PatternOpt",
     "PitchOpt",
+    "PixelFormatOpt",
+    "ProjectorOpt",
+    "RigConfigOpt",
     "RigOpt",
     "SeedOpt",
+    "SettleOpt",
     "StepsOpt",
+    "SyncOpt",
     "check_source",
     "given_options",
     "option_pair",
@@ -98,6 +119,56 @@ LIVE_OPTIONS = (
     "imin",
     "migl",
     "centerline",
+)
+
+
+# Options of a real projector-camera rig, declared once for capture, rig check and measure
+# --rig hardware (cli/capture.py re-exports them for the other hardware commands); the Hw*
+# twins put them in a help panel of their own where a command also has other sources.
+#: The help panel of the hardware options where a command also has other sources (measure).
+HARDWARE_PANEL = "Hardware rig (--rig hardware)"
+
+
+def _hardware_option(kind: Any, *names: str, help: str) -> tuple[Any, Any]:
+    """``Annotated`` option types: plain (capture, rig check) and in the hardware help panel."""
+    return (
+        Annotated[kind, typer.Option(*names, help=help)],
+        Annotated[kind, typer.Option(*names, help=help, rich_help_panel=HARDWARE_PANEL)],
+    )
+
+
+RigConfigOpt, HwRigConfigOpt = _hardware_option(
+    Path | None,
+    "--rig-config",
+    help="Rig configuration file (TOML: projector, camera, sync, gamma; docs/hardware.md, "
+    "'Rig configuration'); an option given on the command line overrides its value.",
+)
+ProjectorOpt, HwProjectorOpt = _hardware_option(
+    str | None,
+    "--projector",
+    help="screen:N\\[@DISPLAY] (full-screen window) or folder:PATH\\[@WxH].",
+)
+CameraOpt, HwCameraOpt = _hardware_option(
+    str | None,
+    "--camera",
+    help="pylon:SERIAL|emu, opencv:N, genicam:CTI[:SERIAL] or loop:SCENE[?...] (no hardware).",
+)
+SyncOpt, HwSyncOpt = _hardware_option(str, "--sync", help="software or hardware (camera trigger).")
+SettleOpt, HwSettleOpt = _hardware_option(
+    float, "--settle", help="Seconds to wait after each frame."
+)
+DiscardOpt, HwDiscardOpt = _hardware_option(
+    int, "--discard", help="Images dropped after the settle (the latency)."
+)
+MaxGrabsOpt, HwMaxGrabsOpt = _hardware_option(
+    int, "--max-grabs", help="Grabs per frame before a sync error."
+)
+ExposureOpt, HwExposureOpt = _hardware_option(
+    float | None, "--exposure-ms", help="Exposure time in ms."
+)
+GainOpt, HwGainOpt = _hardware_option(float | None, "--gain-db", help="Camera gain in dB.")
+PixelFormatOpt, HwPixelFormatOpt = _hardware_option(
+    str | None, "--pixel-format", help="Mono8, Mono10, Mono12 or Mono16."
 )
 
 

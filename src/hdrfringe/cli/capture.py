@@ -17,12 +17,33 @@ from hdrfringe.cli._measure_options import (
     strategy_params,
 )
 from hdrfringe.cli._options import (
+    HARDWARE_PANEL,
+    CameraOpt,
     CenterlineOpt,
+    DiscardOpt,
+    ExposureOpt,
+    GainOpt,
     GammaOpt,
+    HwCameraOpt,
+    HwDiscardOpt,
+    HwExposureOpt,
+    HwGainOpt,
+    HwMaxGrabsOpt,
+    HwPixelFormatOpt,
+    HwProjectorOpt,
+    HwRigConfigOpt,
+    HwSettleOpt,
+    HwSyncOpt,
     IminOpt,
+    MaxGrabsOpt,
     PatternOpt,
     PitchOpt,
+    PixelFormatOpt,
+    ProjectorOpt,
+    RigConfigOpt,
+    SettleOpt,
     StepsOpt,
+    SyncOpt,
     given_options,
 )
 from hdrfringe.cli._strategy_options import with_strategy_options
@@ -63,52 +84,6 @@ __all__ = [
 
 #: The timing log ``capture`` writes beside the manifest.
 CAPTURE_LOG = "capture_log.json"
-#: The help panel of the hardware options where a command also has other sources (measure).
-HARDWARE_PANEL = "Hardware rig (--rig hardware)"
-
-
-def _hardware_option(kind: Any, *names: str, help: str) -> tuple[Any, Any]:
-    """``Annotated`` option types: plain (capture, rig check) and in the hardware help panel."""
-    return (
-        Annotated[kind, typer.Option(*names, help=help)],
-        Annotated[kind, typer.Option(*names, help=help, rich_help_panel=HARDWARE_PANEL)],
-    )
-
-
-RigConfigOpt, HwRigConfigOpt = _hardware_option(
-    Path | None,
-    "--rig-config",
-    help="Rig configuration file (TOML: projector, camera, sync, gamma; docs/hardware.md, "
-    "'Rig configuration'); an option given on the command line overrides its value.",
-)
-ProjectorOpt, HwProjectorOpt = _hardware_option(
-    str | None,
-    "--projector",
-    help="screen:N\\[@DISPLAY] (full-screen window) or folder:PATH\\[@WxH].",
-)
-CameraOpt, HwCameraOpt = _hardware_option(
-    str | None,
-    "--camera",
-    help="pylon:SERIAL|emu, opencv:N, genicam:CTI[:SERIAL] or loop:SCENE[?...] (no hardware).",
-)
-SyncOpt, HwSyncOpt = _hardware_option(str, "--sync", help="software or hardware (camera trigger).")
-SettleOpt, HwSettleOpt = _hardware_option(
-    float, "--settle", help="Seconds to wait after each frame."
-)
-DiscardOpt, HwDiscardOpt = _hardware_option(
-    int, "--discard", help="Images dropped after the settle (the latency)."
-)
-MaxGrabsOpt, HwMaxGrabsOpt = _hardware_option(
-    int, "--max-grabs", help="Grabs per frame before a sync error."
-)
-ExposureOpt, HwExposureOpt = _hardware_option(
-    float | None, "--exposure-ms", help="Exposure time in ms."
-)
-GainOpt, HwGainOpt = _hardware_option(float | None, "--gain-db", help="Camera gain in dB.")
-PixelFormatOpt, HwPixelFormatOpt = _hardware_option(
-    str | None, "--pixel-format", help="Mono8, Mono10, Mono12 or Mono16."
-)
-
 #: The hardware options (Python names) and the rig configuration key each one sets.
 RIG_OPTION_KEYS: dict[str, str] = {
     "projector": "projector.spec",

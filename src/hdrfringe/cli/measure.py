@@ -171,10 +171,9 @@ def measure(
     }
     if hardware is not None:
         assert method is not None
-        _measure_hardware(
-            *hardware, cal, output, force, method, (pattern, steps, pitch, imin, migl, centerline),
-            kwargs,
-        )  # fmt: skip
+        hw_rig, hw_config = hardware
+        fringes = (pattern, steps, pitch, imin, migl, centerline)
+        _measure_hardware(hw_rig, hw_config, cal, output, force, method, fringes, kwargs)
         return
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used

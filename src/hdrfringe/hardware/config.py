@@ -644,7 +644,7 @@ class RigConfig:
                     f"camera {spec}: no hardware trigger input, so camera.trigger_line "
                     f"{self.camera.trigger_line!r} cannot apply; remove it ({DOC})"
                 )
-            device.trigger_line = self.camera.trigger_line  # type: ignore[attr-defined]
+            device.trigger_line = self.camera.trigger_line
         return device
 
     def rig(self, *, sleep: Callable[[float], None] | None = None) -> HardwareRig:
