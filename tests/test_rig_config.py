@@ -306,3 +306,72 @@ def test_measure_sources_and_hardware_options(args: list[str], reason: str, tmp_
     r = invoke("measure", *argv)
     assert r.exit_code == 2 and reason in " ".join(r.stderr.split()), r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+# --- measure --rig hardware on a fake rig: a complete run, and Ctrl-C mid-capture -------------
+class _Screen:
+    """A projector that only counts frames (64x48)."""
+
+    def __init__(self) -> None:
+        self.frame_counter = 0
+
+    size = (64, 48)
+
+    def open(self) -> None:
+        self.frame_counter = 0
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> _Screen:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def show(self, image: Any) -> int:
+        self.frame_counter += 1
+        self.image = image
+        return self.frame_counter
+
+
+def _fake_rig(screen: _Screen, interrupt_at: int) -> Any:
+    import numpy as np
+
+    from hdrfringe.hardware.camera import CameraBase
+    from hdrfringe.hardware.rig import HardwareRig
+
+    class Camera(CameraBase):  # sees the projected image, Ctrl-C at grab `interrupt_at`
+        name = "fake"
+        grabs = 0
+
+        def _grab(self, timeout_s: float) -> Any:
+            self.grabs += 1
+            if self.grabs == interrupt_at:
+                raise KeyboardInterrupt
+            return (np.asarray(screen.image)[::2, ::2] // 2 + 20).astype(np.uint8)
+
+    sync = SyncSettings(settle_s=0.0, verify=False)
+    return HardwareRig(screen, Camera(), sync, gamma_hat=2.812, sleep=lambda s: None)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("interrupt_at", [10**6, 7 + 4 + 2])  # open: 0 + 5 + 2 grabs
+def test_measure_hardware_writes_all_or_nothing(
+    interrupt_at: int, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from hdrfringe.cli import capture
+
+    monkeypatch.setattr(capture, "hardware_options", lambda *a: _fake_rig(_Screen(), interrupt_at))
+    out = tmp_path / "out"
+    r = invoke("measure", "--rig", "hardware", "--projector", "fake", "--camera", "fake",
+               "--pitch", "1024,64", "--no-centerline", "-o", str(out))  # fmt: skip
+    if interrupt_at > 100:  # the fake rig measures: OUT holds the measurement and the captures
+        assert r.exit_code == 0, r.stderr
+        manifest = json.loads((out / "captures" / "manifest.json").read_text())
+        assert len(manifest["frames"]) == 8 and manifest["capture"]["complete"] is True
+        assert (out / "captures" / "capture_log.json").is_file()
+        assert (out / "unwrapped_phase.tiff").is_file()
+    else:  # Ctrl-C in the second set: nothing written, no staging left, the shell's 130
+        assert r.exit_code == 130 and "nothing was written" in r.stderr
+        assert sorted(p.name for p in tmp_path.iterdir()) == []
