@@ -65,3 +65,17 @@ def test_version_is_the_installed_distribution_version() -> None:
 
 def test_the_package_is_typed() -> None:
     assert (Path(hdrfringe.__file__).parent / "py.typed").is_file()
+
+
+def test_the_hardware_names_load_without_device_packages() -> None:
+    """The rig configuration and hardware names are public and cheap: the device packages
+    (pyglet, pypylon, harvesters, OpenCV) load only when a device is opened."""
+    names = "RigConfig, load_rig_config, HardwareRig, SyncSettings, ScreenProjector, open_camera"
+    probe = (
+        f"import sys; from hdrfringe import {names}; "
+        "print(' '.join(m for m in ('pyglet', 'pypylon', 'harvesters', 'cv2', *"
+        f"{HEAVY!r}) if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == []
+    assert {"RigConfig", "load_rig_config", "HardwareRig", "open_camera"} <= set(hdrfringe.__all__)

@@ -104,6 +104,7 @@ def root(tmp_path_factory: pytest.TempPathFactory) -> Path:
     _import_inputs(r)
     _version3_manifests(r, good)
     _stereo_inputs(r)
+    _rig_config_inputs(r)
     return r
 
 
@@ -240,6 +241,29 @@ def _stereo_inputs(r: Path) -> None:
     (r / "cal_empty").mkdir()
     for name in ("pose_a", "pose_b", "pose_c"):  # no board anywhere in them
         _write_caps(r / name)
+
+
+# --- measure --rig hardware: rig configuration files that each break one rule ----------------
+_RIG_OK = '[projector]\nspec = "screen:0"\n[camera]\nspec = "pylon:emu"\n[sync]\ndiscard = 1\n'
+RIG_CONFIGS: dict[str, str] = {
+    "ok": _RIG_OK,
+    "unknown_key": _RIG_OK.replace("discard = 1", "discrad = 1"),
+    "bad_type": _RIG_OK.replace("discard = 1", 'discard = "one"'),
+    "huge_int": _RIG_OK.replace("discard = 1", "discard = " + "9" * 5000),
+    "huge_float": "gamma = 1e999\n" + _RIG_OK,
+    "deep": "a = " + "[" * 20_000 + "]" * 20_000 + "\n",  # within the size limit
+}
+
+
+def _rig_config_inputs(r: Path) -> None:
+    for name, text in RIG_CONFIGS.items():
+        (r / f"rig_{name}.toml").write_text(text)
+    (r / "rig_latin1.toml").write_bytes('name = "caf\u00e9"\n'.encode("latin-1"))
+
+
+def _hw(config: str, *args: str) -> list[str]:
+    """``measure --rig hardware`` with the rig configuration ``config``."""
+    return ["measure", "--rig", "hardware", "--rig-config", config, *args, "-o", "{o}"]
 
 
 def _tree(root: Path) -> dict[str, str]:
@@ -524,6 +548,47 @@ CASES: list[tuple[str, list[str]] | tuple[str, list[str], str]] = [
         "phase-v3-graycode-huge-bits",
         ["phase", "{r}/v3_gray_huge_bits", "-o", "{o}"],
         "'bits' must be an integer in 1..24, got 1000000000",
+    ),
+    # --- measure --rig hardware: the rig configuration ---------------------------------
+    ("measure-hw-config-unknown-key", _hw("{r}/rig_unknown_key.toml"), "'sync.discrad'"),
+    (
+        "measure-hw-config-bad-type",
+        _hw("{r}/rig_bad_type.toml"),
+        "'sync.discard' must be an integer in 0..1000000, got 'one'",
+    ),
+    ("measure-hw-config-5000-digit-int", _hw("{r}/rig_huge_int.toml"), "too many digits"),
+    (
+        "measure-hw-config-huge-float",
+        _hw("{r}/rig_huge_float.toml"),
+        "'gamma' must be a positive number (the pre-compensation exponent, e.g. 2.2), got inf",
+    ),
+    ("measure-hw-config-deep-nesting", _hw("{r}/rig_deep.toml"), "nested too deep"),
+    ("measure-hw-config-missing", _hw("{r}/none.toml"), "rig configuration file does not exist"),
+    ("measure-hw-config-is-folder", _hw("{r}/existing"), "is a folder, not a rig configuration"),
+    ("measure-hw-config-not-utf8", _hw("{r}/rig_latin1.toml"), "'utf-8' codec can't decode"),
+    (
+        "measure-hw-settle-nan",
+        _hw("{r}/rig_ok.toml", "--settle", "nan"),
+        "--settle must be a number of seconds in 0..3600, got nan",
+    ),
+    (
+        "measure-hw-out-is-config",
+        [
+            "measure",
+            "--rig",
+            "hardware",
+            "--rig-config",
+            "{r}/rig_ok.toml",
+            "-o",
+            "{r}/rig_ok.toml",
+            "--force",
+        ],
+        "output is the input",
+    ),
+    (
+        "measure-hw-scene-option",
+        _hw("{r}/rig_ok.toml", "--scene", "plate"),
+        "--scene only applies to the live virtual rig (--rig sim)",
     ),
     # --- calibrate-stereo ---------------------------------------------------------------
     ("stereo-from-wrong-shape", _cs("--from", "{r}/cal_shape.yml"), "(3, 3)"),

@@ -24,6 +24,7 @@ __all__ = [
     "MeasureFolderArg",
     "MeasureMiglOpt",
     "MeasurePitchOpt",
+    "MeasureRigOpt",
     "MethodOpt",
     "OrderOpt",
     "OutputOpt",
@@ -48,6 +49,14 @@ CalibrationOpt = Annotated[
     Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
 ]
 MethodOpt = Annotated[str | None, typer.Option(help=method_help())]
+MeasureRigOpt = Annotated[
+    str | None,
+    typer.Option(
+        help="Live source instead of FOLDER: 'sim', the virtual rig (scene options), or "
+        "'hardware', a projector and camera (--rig-config and/or --projector, --camera; "
+        "docs/hardware.md): the strategy runs live, OUT also holds the capture folder."
+    ),
+]
 MeasurePitchOpt = Annotated[
     str,
     typer.Option(

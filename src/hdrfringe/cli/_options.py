@@ -10,14 +10,30 @@ import typer
 from hdrfringe.errors import InputError
 
 __all__ = [
+    "HARDWARE_PANEL",
     "LIVE_OPTIONS",
     "LIVE_PANEL",
     "SCENES_HELP",
+    "SIM_OPTIONS",
     "AmbientOpt",
     "ApertureOpt",
+    "CameraOpt",
     "CenterlineOpt",
     "DepthOpt",
+    "DiscardOpt",
+    "ExposureOpt",
+    "GainOpt",
     "GammaOpt",
+    "HwCameraOpt",
+    "HwDiscardOpt",
+    "HwExposureOpt",
+    "HwGainOpt",
+    "HwMaxGrabsOpt",
+    "HwPixelFormatOpt",
+    "HwProjectorOpt",
+    "HwRigConfigOpt",
+    "HwSettleOpt",
+    "HwSyncOpt",
     "IminOpt",
     "LiveAmbientOpt",
     "LiveApertureOpt",
@@ -30,12 +46,18 @@ __all__ = [
     "LiveSceneOpt",
     "LiveSeedOpt",
     "LiveStepsOpt",
+    "MaxGrabsOpt",
     "NoiseOpt",
     "PatternOpt",
     "PitchOpt",
+    "PixelFormatOpt",
+    "ProjectorOpt",
+    "RigConfigOpt",
     "RigOpt",
     "SeedOpt",
+    "SettleOpt",
     "StepsOpt",
+    "SyncOpt",
     "check_source",
     "given_options",
     "option_pair",
@@ -79,6 +101,9 @@ RigOpt = Annotated[
     typer.Option(help="Live source instead of FOLDER: 'sim', the virtual rig (scene options)."),
 ]
 
+#: Of :data:`LIVE_OPTIONS`, those of the virtual rig only (an error with ``--rig hardware``).
+SIM_OPTIONS = ("scene", "depth_mm", "ambient_lux", "noise", "aperture", "seed")
+
 #: measure's options that only a live rig uses (an error with a FOLDER: they would be ignored).
 LIVE_OPTIONS = (
     "scene",
@@ -94,6 +119,56 @@ LIVE_OPTIONS = (
     "imin",
     "migl",
     "centerline",
+)
+
+
+# Options of a real projector-camera rig, declared once for capture, rig check and measure
+# --rig hardware (cli/capture.py re-exports them for the other hardware commands); the Hw*
+# twins put them in a help panel of their own where a command also has other sources.
+#: The help panel of the hardware options where a command also has other sources (measure).
+HARDWARE_PANEL = "Hardware rig (--rig hardware)"
+
+
+def _hardware_option(kind: Any, *names: str, help: str) -> tuple[Any, Any]:
+    """``Annotated`` option types: plain (capture, rig check) and in the hardware help panel."""
+    return (
+        Annotated[kind, typer.Option(*names, help=help)],
+        Annotated[kind, typer.Option(*names, help=help, rich_help_panel=HARDWARE_PANEL)],
+    )
+
+
+RigConfigOpt, HwRigConfigOpt = _hardware_option(
+    Path | None,
+    "--rig-config",
+    help="Rig configuration file (TOML: projector, camera, sync, gamma; docs/hardware.md, "
+    "'Rig configuration'); an option given on the command line overrides its value.",
+)
+ProjectorOpt, HwProjectorOpt = _hardware_option(
+    str | None,
+    "--projector",
+    help="screen:N\\[@DISPLAY] (full-screen window) or folder:PATH\\[@WxH].",
+)
+CameraOpt, HwCameraOpt = _hardware_option(
+    str | None,
+    "--camera",
+    help="pylon:SERIAL|emu, opencv:N, genicam:CTI[:SERIAL] or loop:SCENE[?...] (no hardware).",
+)
+SyncOpt, HwSyncOpt = _hardware_option(str, "--sync", help="software or hardware (camera trigger).")
+SettleOpt, HwSettleOpt = _hardware_option(
+    float, "--settle", help="Seconds to wait after each frame."
+)
+DiscardOpt, HwDiscardOpt = _hardware_option(
+    int, "--discard", help="Images dropped after the settle (the latency)."
+)
+MaxGrabsOpt, HwMaxGrabsOpt = _hardware_option(
+    int, "--max-grabs", help="Grabs per frame before a sync error."
+)
+ExposureOpt, HwExposureOpt = _hardware_option(
+    float | None, "--exposure-ms", help="Exposure time in ms."
+)
+GainOpt, HwGainOpt = _hardware_option(float | None, "--gain-db", help="Camera gain in dB.")
+PixelFormatOpt, HwPixelFormatOpt = _hardware_option(
+    str | None, "--pixel-format", help="Mono8, Mono10, Mono12 or Mono16."
 )
 
 
@@ -115,20 +190,41 @@ def given_options(ctx: typer.Context, names: tuple[str, ...]) -> list[str]:
 
 
 def check_source(
-    ctx: typer.Context, folder: Path | None, rig: str | None, live_only: tuple[str, ...]
+    ctx: typer.Context,
+    folder: Path | None,
+    rig: str | None,
+    live_only: tuple[str, ...],
+    *,
+    hardware_only: tuple[str, ...] = (),
+    sim_only: tuple[str, ...] = (),
 ) -> bool:
-    """Exactly one of FOLDER and ``--rig sim``; live-only options only with the rig.
+    """Exactly one of FOLDER and ``--rig``; live-only options only with a live rig.
 
-    Returns True for the live rig.
+    Without ``hardware_only`` the one live rig is ``sim`` (the virtual rig); with it,
+    ``--rig hardware`` (a projector and camera) is a source too: its options
+    (``hardware_only``) only apply to it, and ``sim_only`` options only to ``--rig sim``.
+
+    Returns True for a live rig.
     """
 
-    if rig is not None and rig != "sim":
-        raise InputError(f"unknown rig {rig!r}; use --rig sim (the virtual rig)")
+    rigs = ("sim", "hardware") if hardware_only else ("sim",)
+    named = "--rig sim (live virtual rig)" + (
+        " or --rig hardware (projector and camera)" if hardware_only else ""
+    )
+    if rig is not None and rig not in rigs:
+        raise InputError(
+            f"unknown rig {rig!r}; use --rig sim (the virtual rig)"
+            + (
+                " or --rig hardware (a projector and camera, docs/hardware.md)"
+                if hardware_only
+                else ""
+            )
+        )
     if (folder is None) == (rig is None):
         raise InputError(
-            "give exactly one source: a capture FOLDER (replay) or --rig sim (live virtual rig)"
+            f"give exactly one source: a capture FOLDER (replay) or {named}"
             if folder is not None
-            else "no source: give a capture FOLDER or --rig sim (live virtual rig)"
+            else f"no source: give a capture FOLDER or {named}"
         )
     if rig is None:
         given = given_options(ctx, live_only)
@@ -137,5 +233,21 @@ def check_source(
                 f"{', '.join(given)} only appl{'ies' if len(given) == 1 else 'y'} to the live "
                 "virtual rig; add --rig sim instead of the folder, or drop "
                 f"{'it' if len(given) == 1 else 'them'} (a capture folder fixes scene and fringes)"
+            )
+    if rig != "hardware":
+        given = given_options(ctx, hardware_only)
+        if given:
+            raise InputError(
+                f"{', '.join(given)} only appl{'ies' if len(given) == 1 else 'y'} to --rig "
+                f"hardware (a projector and camera); use --rig hardware or drop "
+                f"{'it' if len(given) == 1 else 'them'}"
+            )
+    if rig == "hardware":
+        given = given_options(ctx, sim_only)
+        if given:
+            raise InputError(
+                f"{', '.join(given)} only appl{'ies' if len(given) == 1 else 'y'} to the live "
+                "virtual rig (--rig sim); with --rig hardware the scene, light and camera are "
+                f"real: drop {'it' if len(given) == 1 else 'them'}"
             )
     return rig is not None

@@ -16,41 +16,131 @@ from hdrfringe.cli._measure_options import (
     live_fringes,
     strategy_params,
 )
-from hdrfringe.cli._options import CenterlineOpt, GammaOpt, IminOpt, PatternOpt, PitchOpt, StepsOpt
+from hdrfringe.cli._options import (
+    HARDWARE_PANEL,
+    CameraOpt,
+    CenterlineOpt,
+    DiscardOpt,
+    ExposureOpt,
+    GainOpt,
+    GammaOpt,
+    HwCameraOpt,
+    HwDiscardOpt,
+    HwExposureOpt,
+    HwGainOpt,
+    HwMaxGrabsOpt,
+    HwPixelFormatOpt,
+    HwProjectorOpt,
+    HwRigConfigOpt,
+    HwSettleOpt,
+    HwSyncOpt,
+    IminOpt,
+    MaxGrabsOpt,
+    PatternOpt,
+    PitchOpt,
+    PixelFormatOpt,
+    ProjectorOpt,
+    RigConfigOpt,
+    SettleOpt,
+    StepsOpt,
+    SyncOpt,
+    given_options,
+)
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.errors import HdrFringeError, InputError
 
-__all__ = ["CAPTURE_LOG", "capture", "hardware_options"]
+__all__ = [
+    "CAPTURE_LOG",
+    "HARDWARE_PANEL",
+    "RIG_OPTION_KEYS",
+    "CameraOpt",
+    "DiscardOpt",
+    "ExposureOpt",
+    "GainOpt",
+    "HwCameraOpt",
+    "HwDiscardOpt",
+    "HwExposureOpt",
+    "HwGainOpt",
+    "HwMaxGrabsOpt",
+    "HwPixelFormatOpt",
+    "HwProjectorOpt",
+    "HwRigConfigOpt",
+    "HwSettleOpt",
+    "HwSyncOpt",
+    "MaxGrabsOpt",
+    "PixelFormatOpt",
+    "ProjectorOpt",
+    "RigConfigOpt",
+    "SettleOpt",
+    "SyncOpt",
+    "announce_live",
+    "capture",
+    "hardware_options",
+    "hardware_rig",
+    "live_record",
+    "resolve_rig_config",
+    "write_capture_output",
+]
 
 #: The timing log ``capture`` writes beside the manifest.
 CAPTURE_LOG = "capture_log.json"
+#: The hardware options (Python names) and the rig configuration key each one sets.
+RIG_OPTION_KEYS: dict[str, str] = {
+    "projector": "projector.spec",
+    "camera": "camera.spec",
+    "sync": "sync.mode",
+    "settle": "sync.settle_s",
+    "discard": "sync.discard",
+    "max_grabs": "sync.max_grabs",
+    "gamma": "gamma",
+    "exposure_ms": "camera.exposure_ms",
+    "gain_db": "camera.gain_db",
+    "pixel_format": "camera.pixel_format",
+}
+#: How messages name a key set from an option.
+_OPTION_LABELS = {key: "--" + name.replace("_", "-") for name, key in RIG_OPTION_KEYS.items()}
 
-ProjectorOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--projector", help="screen:N[@DISPLAY] (full-screen window) or folder:PATH[@WxH]."
-    ),
-]
-CameraOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--camera",
-        help="pylon:SERIAL|emu, opencv:N, genicam:CTI[:SERIAL] or loop:SCENE[?...] (no hardware).",
-    ),
-]
-SyncOpt = Annotated[str, typer.Option("--sync", help="software or hardware (camera trigger).")]
-SettleOpt = Annotated[float, typer.Option("--settle", help="Seconds to wait after each frame.")]
-DiscardOpt = Annotated[
-    int, typer.Option("--discard", help="Images dropped after the settle (the latency).")
-]
-MaxGrabsOpt = Annotated[
-    int, typer.Option("--max-grabs", help="Grabs per frame before a sync error.")
-]
-ExposureOpt = Annotated[float | None, typer.Option("--exposure-ms", help="Exposure time in ms.")]
-GainOpt = Annotated[float | None, typer.Option("--gain-db", help="Camera gain in dB.")]
-PixelFormatOpt = Annotated[
-    str | None, typer.Option("--pixel-format", help="Mono8, Mono10, Mono12 or Mono16.")
-]
+
+def _config_value(config: Any, key: str) -> Any:
+    table, _, name = key.rpartition(".")
+    return getattr(getattr(config, table) if table else config, name)
+
+
+def resolve_rig_config(ctx: typer.Context, config_path: Path | None, **options: Any) -> Any:
+    """The rig configuration a command runs with: the file's values, options given override.
+
+    For each option (Python names of :data:`RIG_OPTION_KEYS`): a value given on the command
+    line (click's parameter source) wins; else the file's value; else, when the file leaves
+    the key unset (or there is no file), the option's default (a ``[sync]`` key the file
+    leaves out has :class:`~hdrfringe.hardware.rig.SyncSettings`' default, which is the
+    options' default too). Options a command does not have are simply not passed: the file's
+    value, or the configuration's "not set", applies.
+
+    Parameters
+    ----------
+    ctx : typer.Context
+        The command's context (which options were given).
+    config_path : Path or None
+        ``--rig-config``.
+    **options
+        The command's hardware options by Python name (``projector=...``, ``settle=...``).
+
+    Returns
+    -------
+    RigConfig
+        The resolved configuration (with the file's path and SHA-256 when one was read).
+    """
+    from hdrfringe.hardware.config import RigConfig
+    from hdrfringe.io.rig_config import load_rig_config
+
+    base = RigConfig() if config_path is None else load_rig_config(config_path)
+    values = {}
+    for name, value in options.items():
+        key = RIG_OPTION_KEYS[name]
+        unset = config_path is None or _config_value(base, key) is None
+        if unset or given_options(ctx, (name,)):
+            values[key] = value
+    return base.replace(values, _OPTION_LABELS)
 
 
 def hardware_options(
@@ -60,27 +150,123 @@ def hardware_options(
     settle: float,
     discard: int,
     max_grabs: int,
-    gamma: float,
+    gamma: float | None,
     exposure_ms: float | None,
     gain_db: float | None,
     pixel_format: str | None,
+    config: Any = None,
 ) -> Any:
-    """The (not yet open) :class:`~hdrfringe.hardware.rig.HardwareRig` the options describe."""
-    from hdrfringe.captures import CameraSettings
-    from hdrfringe.hardware.camera import open_camera
-    from hdrfringe.hardware.rig import HardwareRig, SyncSettings, open_projector
+    """The (not yet open) :class:`~hdrfringe.hardware.rig.HardwareRig` the options describe.
+
+    ``config`` (a :class:`~hdrfringe.hardware.config.RigConfig`) supplies what the options do
+    not: the projector size check, the trigger line, sync fields without an option.
+    """
+    from hdrfringe.hardware.config import RigConfig
 
     if projector is None or camera is None:
-        raise InputError("give both --projector SPEC and --camera SPEC (docs/hardware.md)")
-    sync_settings = SyncSettings(mode=sync, settle_s=settle, discard=discard, max_grabs=max_grabs)
-    return HardwareRig(
-        open_projector(projector),
-        open_camera(camera),
-        sync_settings,
-        gamma_hat=gamma,
-        settings=CameraSettings(exposure_ms=exposure_ms, gain_db=gain_db),
-        pixel_format=pixel_format,
+        raise InputError(
+            "give both --projector SPEC and --camera SPEC, or a --rig-config file that names "
+            "them (docs/hardware.md)"
+        )
+    values = {
+        RIG_OPTION_KEYS[name]: value
+        for name, value in (
+            ("projector", projector), ("camera", camera), ("sync", sync), ("settle", settle),
+            ("discard", discard), ("max_grabs", max_grabs), ("gamma", gamma),
+            ("exposure_ms", exposure_ms), ("gain_db", gain_db), ("pixel_format", pixel_format),
+        )
+    }  # fmt: skip
+    resolved = (RigConfig() if config is None else config).replace(values, _OPTION_LABELS)
+    return resolved.rig()
+
+
+def hardware_rig(ctx: typer.Context, config_path: Path | None, **options: Any) -> tuple[Any, Any]:
+    """The rig a hardware command runs on, from ``--rig-config`` and its options.
+
+    The one entry point of ``capture``, ``measure --rig hardware`` and every command that
+    captures on hardware: :func:`resolve_rig_config`, then :func:`hardware_options` (the rig
+    is not opened).
+
+    Parameters
+    ----------
+    ctx : typer.Context
+        The command's context.
+    config_path : Path or None
+        ``--rig-config``.
+    **options
+        The command's hardware options by Python name (keys of :data:`RIG_OPTION_KEYS`).
+
+    Returns
+    -------
+    rig : HardwareRig
+        Not yet open.
+    config : RigConfig
+        The resolved configuration (record it: :func:`live_record`).
+    """
+    config = resolve_rig_config(ctx, config_path, **options)
+    rig = hardware_options(
+        config.projector.spec, config.camera.spec, config.sync.mode, config.sync.settle_s,
+        config.sync.discard, config.sync.max_grabs, config.gamma, config.camera.exposure_ms,
+        config.camera.gain_db, config.camera.pixel_format, config,
+    )  # fmt: skip
+    return rig, config
+
+
+def announce_live(method: str, rig: Any, config: Any) -> None:
+    """The line a live hardware command prints once the rig is open."""
+    name = f" ({config.name})" if config.name else ""
+    console.print(
+        f"{method} live{name}: projector {config.projector.spec} ({rig.projector.width}x"
+        f"{rig.projector.height}), camera {config.camera.spec} ({rig.image_shape[1]}x"
+        f"{rig.image_shape[0]}, {rig.camera_bit_depth} bit)"
     )
+
+
+def live_record(
+    recorder: Any, rig: Any, config: Any, method: str, name: str, stopped: str | None = None
+) -> tuple[Any, dict[str, Any], dict[str, Any]]:
+    """What a live run writes: its captures, the manifest's ``capture`` entry, the timing log.
+
+    Returns
+    -------
+    captures : Captures
+        Every complete set recorded, in capture order.
+    state : dict
+        Method, completeness, devices, sync settings and the resolved rig configuration
+        (``rig``, with ``config_file``: path and SHA-256 when a file was read).
+    log : dict
+        ``state`` plus the noise variance and the per-frame timing.
+    """
+    caps = recorder.captures(name=name, camera={"spec": config.camera.spec})
+    sync = config.sync
+    state: dict[str, Any] = {
+        "method": method,
+        "complete": stopped is None,
+        "projector": config.projector.spec,
+        "camera": config.camera.spec,
+        "sync": {
+            "mode": sync.mode,
+            "settle_s": sync.settle_s,
+            "discard": sync.discard,
+            "max_grabs": sync.max_grabs,
+        },
+        "rig": config.to_record(),
+    }
+    if stopped is not None:
+        state["stopped"] = stopped
+    log = {**state, "noise_variance": rig.noise_var, "frames": [t.to_dict() for t in rig.log]}
+    return caps, state, log
+
+
+def write_capture_output(
+    folder: Path, captures: Any, state: dict[str, Any], log: dict[str, Any]
+) -> None:
+    """Write a live run's capture folder and its ``capture_log.json`` into ``folder``
+    (inside a staged output: a new or empty folder)."""
+    from hdrfringe.io.captures import write_capture_folder
+
+    write_capture_folder(folder, captures, extra={"capture": state}, force=True)
+    (folder / CAPTURE_LOG).write_text(json.dumps(log, indent=1) + "\n", encoding="utf-8")
 
 
 @app.command()
@@ -88,6 +274,7 @@ def hardware_options(
 @with_strategy_options
 def capture(
     ctx: typer.Context,
+    rig_config: RigConfigOpt = None,
     projector: ProjectorOpt = None,
     camera: CameraOpt = None,
     output: Annotated[
@@ -113,7 +300,8 @@ def capture(
 ) -> None:
     """Run a strategy live on a projector and camera and write the capture folder.
 
-    Every set the strategy captured is written (a MIGL sweep of exactly those MIGLs, plus the
+    The rig comes from --rig-config FILE and/or the options (an option given overrides the
+    file). Every set the strategy captured is written (a MIGL sweep of exactly those MIGLs, plus the
     centerline), with capture_log.json (per-frame timing and synchronisation). `measure FOLDER
     --method M` with the same strategy options replays it and measures the composite. Ctrl-C
     mid-capture writes the complete sets captured so far, marks the folder incomplete
@@ -123,7 +311,6 @@ def capture(
     """
     from hdrfringe import pipeline
     from hdrfringe.hardware.rig import Recorder
-    from hdrfringe.io.captures import write_capture_folder
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
@@ -134,21 +321,18 @@ def capture(
         raise InputError("no output folder: give -o/--output CAPTURES")
     method = method or "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
-    check_output_against_inputs(output, list(sources.values()))
-    checked = check_output_dir(output, force)
-    rig = hardware_options(
-        projector, camera, sync, settle, discard, max_grabs, gamma, exposure_ms, gain_db,
-        pixel_format,
+    rig, config = hardware_rig(
+        ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
+        discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
+        gain_db=gain_db, pixel_format=pixel_format,
     )  # fmt: skip
+    check_output_against_inputs(output, [*sources.values(), rig_config, config.gamma_file])
+    checked = check_output_dir(output, force)
     recorder = Recorder(rig)
     stopped: str | None = None
     with rig:
         specs, line = live_fringes(rig.projector, pattern, steps, pitch, imin, migl, centerline)
-        console.print(
-            f"{method} live: projector {projector} ({rig.projector.width}x"
-            f"{rig.projector.height}), camera {camera} ({rig.image_shape[1]}x"
-            f"{rig.image_shape[0]}, {rig.camera_bit_depth} bit)"
-        )
+        announce_live(method, rig, config)
         try:
             pipeline.composite_captures(
                 recorder, specs, method, params, centerline=line,
@@ -158,24 +342,9 @@ def capture(
             if not recorder.calls:
                 raise
             stopped = "interrupted (Ctrl-C)"
-    caps = recorder.captures(name=output.name, camera={"spec": camera})
-    state: dict[str, Any] = {
-        "method": method,
-        "complete": stopped is None,
-        "projector": projector,
-        "camera": camera,
-        "sync": {"mode": sync, "settle_s": settle, "discard": discard, "max_grabs": max_grabs},
-    }
-    if stopped is not None:
-        state["stopped"] = stopped
-    log = {
-        **state,
-        "noise_variance": rig.noise_var,
-        "frames": [t.to_dict() for t in rig.log],
-    }
+    caps, state, log = live_record(recorder, rig, config, method, output.name, stopped)
     with staged_output_dir(checked, force=force) as tmp:
-        write_capture_folder(tmp, caps, extra={"capture": state}, force=True)
-        (tmp / CAPTURE_LOG).write_text(json.dumps(log, indent=1) + "\n", encoding="utf-8")
+        write_capture_output(tmp, caps, state, log)
     sets = len(caps.sets)
     if stopped is not None:
         raise HdrFringeError(

@@ -14,6 +14,7 @@ from hdrfringe.cli._measure_options import (
     MeasureFolderArg,
     MeasureMiglOpt,
     MeasurePitchOpt,
+    MeasureRigOpt,
     MethodOpt,
     OutputOpt,
     live_fringes,
@@ -21,6 +22,7 @@ from hdrfringe.cli._measure_options import (
 )
 from hdrfringe.cli._options import (
     LIVE_OPTIONS,
+    SIM_OPTIONS,
     LiveAmbientOpt,
     LiveApertureOpt,
     LiveCenterlineOpt,
@@ -32,13 +34,40 @@ from hdrfringe.cli._options import (
     LiveSceneOpt,
     LiveSeedOpt,
     LiveStepsOpt,
-    RigOpt,
     check_source,
 )
 from hdrfringe.cli._strategy_options import with_strategy_options
+from hdrfringe.cli.capture import (
+    HwCameraOpt,
+    HwDiscardOpt,
+    HwExposureOpt,
+    HwGainOpt,
+    HwMaxGrabsOpt,
+    HwPixelFormatOpt,
+    HwProjectorOpt,
+    HwRigConfigOpt,
+    HwSettleOpt,
+    HwSyncOpt,
+)
 from hdrfringe.errors import InputError
 
-__all__ = ["measure", "print_summary"]
+__all__ = ["CAPTURES", "HARDWARE_OPTIONS", "measure", "print_summary"]
+
+#: The capture folder ``measure --rig hardware`` writes inside OUT.
+CAPTURES = "captures"
+#: measure's options of the hardware rig only.
+HARDWARE_OPTIONS = (
+    "rig_config",
+    "projector",
+    "camera",
+    "sync",
+    "settle",
+    "discard",
+    "max_grabs",
+    "exposure_ms",
+    "gain_db",
+    "pixel_format",
+)
 
 
 @app.command()
@@ -50,7 +79,7 @@ def measure(
     output: OutputOpt = None,
     calibration: CalibrationOpt = None,
     method: MethodOpt = None,
-    rig: RigOpt = None,
+    rig: MeasureRigOpt = None,
     scene: LiveSceneOpt = "white_plate",
     depth_mm: LiveDepthOpt = None,
     ambient_lux: LiveAmbientOpt = 0.0,
@@ -64,6 +93,16 @@ def measure(
     imin: LiveIminOpt = 40.0,
     migl: MeasureMiglOpt = 255.0,
     centerline: LiveCenterlineOpt = True,
+    rig_config: HwRigConfigOpt = None,
+    projector: HwProjectorOpt = None,
+    camera: HwCameraOpt = None,
+    sync: HwSyncOpt = "software",
+    settle: HwSettleOpt = 0.1,
+    discard: HwDiscardOpt = 0,
+    max_grabs: HwMaxGrabsOpt = 5,
+    exposure_ms: HwExposureOpt = None,
+    gain_db: HwGainOpt = None,
+    pixel_format: HwPixelFormatOpt = None,
     force: ForceOpt = False,
     stereo_directions: Annotated[
         str,
@@ -78,11 +117,15 @@ def measure(
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
 
-    The source is a capture FOLDER (replay) or --rig sim with scene and fringe options (the
-    live virtual rig). With --method, a FOLDER is a MIGL sweep (hdrfringe simulate --migl-sweep)
-    replayed by the strategy; the live rig captures what the strategy asks for. The composite
-    images are then measured; OUT also gets the MIGL index map and pie chart, and for DPA the
-    estimated-versus-actual CDF (dpa_cdf.png, thesis Fig. 6.3).
+    The source is a capture FOLDER (replay), --rig sim with scene and fringe options (the
+    live virtual rig), or --rig hardware with --rig-config and/or the projector, camera and
+    sync options of `capture` (a real rig). With --method, a FOLDER is a MIGL sweep (hdrfringe
+    simulate --migl-sweep) replayed by the strategy; a live rig captures what the strategy
+    asks for. The composite images are then measured; OUT also gets the MIGL index map and pie
+    chart, and for DPA the estimated-versus-actual CDF (dpa_cdf.png, thesis Fig. 6.3). With
+    --rig hardware OUT also holds the capture folder (OUT/captures, with capture_log.json),
+    which `measure OUT/captures --method M` replays to the same result; Ctrl-C writes nothing
+    (exit 130): use `capture` to keep the sets of an interrupted run.
     """
     import json
 
@@ -93,13 +136,26 @@ def measure(
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
     from hdrfringe.io.stereo_file import calibration_kind, load_stereo_calibration
 
-    live = check_source(ctx, folder, rig, LIVE_OPTIONS)
+    live = check_source(
+        ctx, folder, rig, LIVE_OPTIONS, hardware_only=HARDWARE_OPTIONS, sim_only=SIM_OPTIONS
+    )
     if output is None:
         raise InputError("no output folder: give -o/--output OUT")
     if live and method is None:
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
-    check_output_against_inputs(output, [folder, calibration, *sources.values()])
+    inputs = [folder, calibration, *sources.values()]
+    hardware: Any = None
+    if rig == "hardware":
+        from hdrfringe.cli.capture import hardware_rig
+
+        hardware = hardware_rig(
+            ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
+            discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
+            gain_db=gain_db, pixel_format=pixel_format,
+        )  # fmt: skip
+        inputs += [rig_config, hardware[1].gamma_file]
+    check_output_against_inputs(output, inputs)
     output = check_output_dir(output, force)
     cal: Any = None
     if calibration is not None and calibration_kind(calibration) == "stereo":
@@ -113,6 +169,12 @@ def measure(
         "calibration_source": None if calibration is None else str(calibration),
         "stereo_directions": stereo_directions,
     }
+    if hardware is not None:
+        assert method is not None
+        hw_rig, hw_config = hardware
+        fringes = (pattern, steps, pitch, imin, migl, centerline)
+        _measure_hardware(hw_rig, hw_config, cal, output, force, method, fringes, kwargs)
+        return
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
 
@@ -129,6 +191,43 @@ def measure(
         assert folder is not None
         result = pipeline.measure(read_capture_folder(folder), cal, label=str(folder), **kwargs)
     write_measurement(result, output, force=force)
+    print_summary(result, output)
+
+
+def _measure_hardware(
+    rig: Any,
+    config: Any,
+    cal: Any,
+    output: Any,
+    force: bool,
+    method: str,
+    fringes: tuple[Any, ...],
+    kwargs: dict[str, Any],
+) -> None:
+    """``measure --rig hardware``: the strategy live as ``capture`` runs it, then the composite
+    measured; OUT holds the measurement and the capture folder (staged together)."""
+    from hdrfringe import pipeline
+    from hdrfringe.cli.capture import announce_live, live_record, write_capture_output
+    from hdrfringe.hardware.rig import Recorder
+    from hdrfringe.io.measurement_outputs import write_measurement
+
+    recorder = Recorder(rig)
+    with rig:  # Ctrl-C: the rig closes, nothing is written (handle_errors: exit 130)
+        specs, line = live_fringes(rig.projector, *fringes)
+        announce_live(method, rig, config)
+        label = f"live hardware rig: projector {config.projector.spec}, camera {config.camera.spec}"
+        result = pipeline.measure(
+            recorder, cal, specs=specs, centerline=line, label=label, **kwargs
+        )
+    caps, state, log = live_record(recorder, rig, config, method, CAPTURES)
+
+    def captures(tmp: Path) -> None:
+        write_capture_output(tmp / CAPTURES, caps, state, log)
+
+    write_measurement(result, output, force=force, extra_metrics={"capture": state},
+                      extra_files=captures)  # fmt: skip
+    rejected = sum(t.rejected for t in rig.log)
+    console.print(f"captured {len(caps.frames)} images, {rejected} stale grabs rejected")
     print_summary(result, output)
 
 

@@ -2,14 +2,24 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
-from hdrfringe.cli._app import app, handle_errors
-from hdrfringe.cli.capture import CameraOpt, ExposureOpt, GainOpt, PixelFormatOpt, ProjectorOpt
+from hdrfringe.cli._app import app, err_console, handle_errors
+from hdrfringe.cli.capture import (
+    CameraOpt,
+    ExposureOpt,
+    GainOpt,
+    PixelFormatOpt,
+    ProjectorOpt,
+    RigConfigOpt,
+    resolve_rig_config,
+)
 from hdrfringe.errors import InputError
 
 __all__ = ["check", "rig_app"]
@@ -21,6 +31,8 @@ app.add_typer(rig_app, name="rig")
 @rig_app.command()
 @handle_errors
 def check(
+    ctx: typer.Context,
+    rig_config: RigConfigOpt = None,
     projector: ProjectorOpt = None,
     camera: CameraOpt = None,
     exposure_ms: ExposureOpt = None,
@@ -31,7 +43,17 @@ def check(
     output: Annotated[
         Path | None, typer.Option("-o", "--output", help="Also write the JSON report here.")
     ] = None,
-    force: Annotated[bool, typer.Option(help="Replace an existing report file.")] = False,
+    write_config: Annotated[
+        Path | None,
+        typer.Option(
+            "--write-config",
+            help="Write the rig configuration (TOML) with the measured settle and discard "
+            "filled in, for capture --rig-config.",
+        ),
+    ] = None,
+    force: Annotated[
+        bool, typer.Option(help="Replace an existing report or configuration file.")
+    ] = False,
 ) -> None:
     """Measure the display-to-capture latency, pick a safe settle, check white, report noise.
 
@@ -39,27 +61,73 @@ def check(
     latency (in frames). The report (JSON on stdout, and in OUTPUT with -o) recommends --discard
     (the latency) and --settle (one grab period beyond it) for capture, says whether white
     clips at the exposure given (saturated fraction), and gives the camera noise (standard
-    deviation of repeated grabs of a static gray frame).
+    deviation of repeated grabs of a static gray frame). The rig comes from --rig-config
+    and/or the options (an option given overrides the file); --write-config writes it back
+    with sync.settle_s and sync.discard set to the recommended values.
     """
-    from hdrfringe.captures import CameraSettings
-    from hdrfringe.hardware.camera import open_camera
-    from hdrfringe.hardware.rig import check_rig, open_projector
-    from hdrfringe.io.results import check_output_file, staged_output_file
+    from hdrfringe.hardware.rig import check_rig
+    from hdrfringe.io.results import check_output_against_inputs, check_output_file
+    from hdrfringe.io.rig_config import rig_config_toml
 
-    if projector is None or camera is None:
-        raise InputError("give both --projector SPEC and --camera SPEC (docs/hardware.md)")
+    config = resolve_rig_config(
+        ctx, rig_config, projector=projector, camera=camera, exposure_ms=exposure_ms,
+        gain_db=gain_db, pixel_format=pixel_format,
+    )  # fmt: skip
+    if config.projector.spec is None or config.camera.spec is None:
+        raise InputError(
+            "give both --projector SPEC and --camera SPEC, or a --rig-config file that names "
+            "them (docs/hardware.md)"
+        )
+    outputs = [p for p in (output, write_config) if p is not None]
+    for path in outputs:
+        check_output_against_inputs(path, [rig_config, config.gamma_file])
+    if len({p.resolve() for p in outputs}) < len(outputs):
+        raise InputError(f"-o and --write-config both name {output}; give two different files")
     checked = None if output is None else check_output_file(output, force)
+    checked_config = None if write_config is None else check_output_file(write_config, force)
     result = check_rig(
-        open_projector(projector),
-        open_camera(camera),
-        settings=CameraSettings(exposure_ms=exposure_ms, gain_db=gain_db),
-        pixel_format=pixel_format,
+        config.projector_device(),
+        config.camera_device(),
+        settings=config.camera.settings(),
+        pixel_format=config.camera.pixel_format,
         changes=changes,
         max_latency=max_latency,
     )
-    report = {"projector": projector, "camera": camera, **result.to_dict()}
+    report = {
+        "projector": config.projector.spec,
+        "camera": config.camera.spec,
+        **result.to_dict(),
+        "rig": config.to_record(),
+    }
     text = json.dumps(report, indent=1) + "\n"
-    if checked is not None:
-        with staged_output_file(checked, force=force) as tmp:
-            tmp.write_text(text, encoding="utf-8")
+    toml = None
+    if write_config is not None:
+        measured = {"sync.settle_s": result.settle_s, "sync.discard": result.discard}
+        source = f", from {config.source}" if config.source else ""
+        header = (
+            f"Rig configuration written by hdrfringe rig check{source} (docs/hardware.md).\n"
+            f"sync.settle_s and sync.discard: measured (latency {result.latency} grabs, "
+            f"{result.grab_period_s:.4f} s per grab); white saturated fraction "
+            f"{result.white_saturated_fraction:.4f}; noise std {result.noise_std:.3f} DN."
+        )
+        toml = rig_config_toml(config.replace(measured), header=header, base=write_config.parent)
+    with _staged(checked, force) as tmp_report, _staged(checked_config, force) as tmp_config:
+        if tmp_report is not None:
+            tmp_report.write_text(text, encoding="utf-8")
+        if tmp_config is not None and toml is not None:
+            tmp_config.write_text(toml, encoding="utf-8")
     typer.echo(text, nl=False)
+    if write_config is not None:  # stdout holds the JSON report only
+        err_console.print(f"wrote {write_config}", highlight=False)
+
+
+@contextlib.contextmanager
+def _staged(checked: Any, force: bool) -> Iterator[Path | None]:
+    """:func:`~hdrfringe.io.results.staged_output_file` of a checked output, or None."""
+    from hdrfringe.io.results import staged_output_file
+
+    if checked is None:
+        yield None
+        return
+    with staged_output_file(checked, force=force) as tmp:
+        yield tmp

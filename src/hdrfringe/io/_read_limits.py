@@ -8,6 +8,9 @@ digit limit, or ``OverflowError`` when converted to float), naming the field tha
 :func:`probe_image` reads an image's shape and pixel type from its header only and refuses one
 above :data:`~hdrfringe.limits.MAX_IMAGE_PIXELS`, so a small file declaring a huge image costs
 nothing. Every failure is one :class:`~hdrfringe.errors.CaptureFormatError` line.
+:func:`load_toml_bounded` reads the small TOML files users write (import descriptions, rig
+configurations) within a size limit, refusing deep nesting and huge integers in one
+:class:`~hdrfringe.errors.InputError` line.
 """
 
 from __future__ import annotations
@@ -15,13 +18,14 @@ from __future__ import annotations
 import json
 import math
 import re
+import tomllib
 import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hdrfringe.errors import CaptureFormatError
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.limits import (
     MAX_IMAGE_PIXELS,
     MAX_JSON_DEPTH,
@@ -29,7 +33,7 @@ from hdrfringe.limits import (
     MAX_NUMBER_DIGITS,
 )
 
-__all__ = ["ImageHeader", "load_json_bounded", "probe_image", "reason_of"]
+__all__ = ["ImageHeader", "load_json_bounded", "load_toml_bounded", "probe_image", "reason_of"]
 
 #: A JSON string literal (unrolled loop: linear time, no backtracking).
 _JSON_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
@@ -163,6 +167,83 @@ def load_json_bounded(path: str | Path) -> Any:
         ) from None
     _check_numbers(value, where)
     return value
+
+
+def load_toml_bounded(
+    path: str | Path,
+    *,
+    what: str,
+    max_bytes: int,
+    holds: str,
+    doc: str,
+    missing: str,
+) -> dict[str, Any]:
+    """Parse a small TOML file a user wrote, refusing hostile content in one line.
+
+    At most ``max_bytes + 1`` bytes are read (a larger file is refused, even one that grows
+    while it is read); an integer of more digits than Python converts, and arrays or tables
+    nested deeper than the parser's recursion (a "TOML bomb"), are refused with one line
+    instead of a traceback.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.toml`` file.
+    what : str
+        What the file is, for messages (``"description"``, ``"rig configuration"``).
+    max_bytes : int
+        Largest file read.
+    holds : str
+        What such a file holds, for the size message (``"lists frame groups and holds no
+        data"``).
+    doc : str
+        The document that describes the file (``"docs/import.md"``).
+    missing : str
+        How to fix a missing file (``"give the TOML description"``).
+
+    Returns
+    -------
+    dict
+        The parsed document.
+
+    Raises
+    ------
+    InputError
+        A missing file (or not a regular file), one above ``max_bytes``, not UTF-8, not TOML,
+        with a huge integer or nested too deep.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> p = Path(tempfile.mkdtemp()) / "rig.toml"
+    >>> _ = p.write_text('name = "bench"\\n[sync]\\ndiscard = 2\\n')
+    >>> kw = dict(what="rig configuration", max_bytes=20000, holds="holds settings only",
+    ...           doc="docs/hardware.md", missing="give the file")
+    >>> load_toml_bounded(p, **kw)
+    {'name': 'bench', 'sync': {'discard': 2}}
+    >>> _ = p.write_text("a = " + "[" * 5000 + "]" * 5000)
+    >>> load_toml_bounded(p, **kw)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: ...: a number with too many digits or arrays nested too deep; ...
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: {what} file does not exist; {missing}")
+    with path.open("rb") as fh:  # at most the limit, even if the file grew meanwhile
+        raw = fh.read(max_bytes + 1)
+    if len(raw) > max_bytes:
+        raise InputError(f"{path}: {what} larger than {max_bytes} bytes; a {what} {holds}")
+    try:
+        text = raw.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")  # as read_text
+        return tomllib.loads(text)
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a valid TOML {what} ({exc}); see {doc}") from None
+    except (ValueError, RecursionError):  # an integer of > 4300 digits, arrays nested too deep
+        raise InputError(
+            f"{path}: a number with too many digits or arrays nested too deep; a {what} "
+            f"holds short numbers and flat lists ({doc})"
+        ) from None
 
 
 class ImageHeader:

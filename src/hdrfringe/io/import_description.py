@@ -14,13 +14,13 @@ from __future__ import annotations
 import difflib
 import math
 import re
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from hdrfringe.errors import InputError
+from hdrfringe.io._read_limits import load_toml_bounded
 from hdrfringe.limits import MAX_PROGRAM_FRAMES, MAX_STEPS
 from hdrfringe.patterns import ORIENTATIONS, PATTERNS
 
@@ -410,24 +410,14 @@ def read_description(path: str | Path) -> Description:
     'uniform'
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: description file does not exist; give the TOML description")
-    if path.stat().st_size > MAX_DESCRIPTION_BYTES:
-        raise InputError(
-            f"{path}: description larger than {MAX_DESCRIPTION_BYTES} bytes; a description "
-            "lists frame groups and holds no data"
-        )
-    try:
-        table = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(
-            f"{path}: not a valid TOML description ({exc}); see docs/import.md"
-        ) from None
-    except (ValueError, RecursionError):  # an integer of > 4300 digits, arrays nested too deep
-        raise InputError(
-            f"{path}: a number with too many digits or arrays nested too deep; a description "
-            "holds short numbers and flat lists (docs/import.md)"
-        ) from None
+    table = load_toml_bounded(
+        path,
+        what="description",
+        max_bytes=MAX_DESCRIPTION_BYTES,
+        holds="lists frame groups and holds no data",
+        doc="docs/import.md",
+        missing="give the TOML description",
+    )
     return parse_description(table, str(path))
 
 

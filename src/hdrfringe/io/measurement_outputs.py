@@ -11,7 +11,7 @@ pie chart), DPA's CDF figure and ``metrics.json``. The figures are drawn by
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -195,6 +195,7 @@ def write_measurement(
     force: bool = False,
     extra_metrics: Mapping[str, Any] | None = None,
     phase_maps: bool = True,
+    extra_files: Callable[[Path], None] | None = None,
 ) -> list[str]:
     """Write a measurement's result folder, staged: complete or not at all.
 
@@ -221,6 +222,9 @@ def write_measurement(
     phase_maps : bool
         Write the phase maps and ``phase_summary.json`` (False: the demo's strategy study,
         ten measurements compared by their height and index maps).
+    extra_files : callable, optional
+        Called with the staging folder after the measurement is written, to add files that
+        must appear with it, or not at all (``measure --rig hardware``: the capture folder).
 
     Returns
     -------
@@ -266,5 +270,7 @@ def write_measurement(
         metrics = result.metrics.to_dict()
         metrics.update(extra_metrics or {})
         (tmp / "metrics.json").write_text(json.dumps(metrics, indent=1) + "\n", encoding="utf-8")
+        if extra_files is not None:
+            extra_files(tmp)
         files = sorted(p.name for p in tmp.iterdir())
     return files
