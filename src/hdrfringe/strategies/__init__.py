@@ -13,6 +13,8 @@ Built in, one module each (import the function from its module, e.g.
 * :mod:`~hdrfringe.strategies.uniform`: one MIGL for every pixel (Ch. 4).
 * :mod:`~hdrfringe.strategies.lpa`: linear pixel-wise adaptive (Ch. 5, Eq. 5.1).
 * :mod:`~hdrfringe.strategies.dpa`: dynamic pixel-wise adaptive (Ch. 6).
+* :mod:`~hdrfringe.strategies.multiexposure`: sets at several exposure times (Zhang & Yau
+  2009), with the exposure choice of :mod:`~hdrfringe.strategies.exposure` (Sec. 7.3).
 
 The thesis's requirement 4 holds for every one: when no pixel saturates at the highest MIGL,
 the result is the conventional one, bit for bit, after one set. A new strategy is one module
@@ -63,7 +65,7 @@ __all__ = [
 ]
 
 #: The built-in strategy modules, imported (and so registered) in this order.
-BUILTIN = ("conventional", "uniform", "lpa", "dpa")
+BUILTIN = ("conventional", "uniform", "lpa", "dpa", "multiexposure")
 
 for _module in BUILTIN:
     import_module(f"{__name__}.{_module}")
