@@ -38,20 +38,23 @@ from tests.conftest import run_cli
 
 TWO_PI = 2 * np.pi
 SPEC = FringeSpec("sinusoidal", 4, 8.0)  # imin 40, MIGL 255: amplitude 107.5 gray levels
-#: Row gains of the synthetic rig (DN per gray level at 10 ms): dark .. specular.
-GAINS = (0.06, 0.3, 0.9, 4.5, 30.0)
+#: Row gains of the synthetic rig (DN per gray level at 10 ms): dark .. specular. The two 0.12
+#: rows outnumber the darkest one, so a rule on the median would stop the walk up at 80 ms.
+GAINS = (0.06, 0.12, 0.12, 0.3, 0.9, 4.5, 30.0)
 
 
 class LinearRig(RigBase):
     """Noise-free, linear: ``I = min(255, rint(t / 10 ms * k_row * g(x)))`` with ``g`` the gray
-    level sent at projector column ``x`` = camera column. Records every exposure captured."""
+    level sent at projector column ``x`` = camera column, three rows per gain. Records every
+    exposure captured."""
 
     camera_bit_depth = 8
     projector = ProjectorInfo()
 
     def __init__(self, gains: Sequence[float] = GAINS, width: int = 64) -> None:
-        self.gains = np.asarray(gains, dtype=float)
-        self.image_shape = (len(gains), width)
+        # three rows per gain: bands, as surfaces are (the darkest rule averages 3 x 3)
+        self.gains = np.repeat(np.asarray(gains, dtype=float), 3)
+        self.image_shape = (len(self.gains), width)
         self.camera_settings = CameraSettings(10.0, 0.0)
         self.log: list[float] = []
 
@@ -101,13 +104,13 @@ def test_auto_exposures_follow_the_closed_form_and_each_pixel_takes_its_longest(
     assert [c.exposure_ms for c in res.captured] == want and res.index_quantity == "exposure_ms"
     x = np.arange(64.0)
     frames = SPEC.frames()
-    for row, k in enumerate(GAINS):
+    for row, k in enumerate(rig.gains):
         t = _longest_unsaturated(want, k)
         assert not np.isnan(t).any()
         assert np.array_equal(res.index_map[row], t), (k, res.index_map[row])
         expect = np.stack([np.rint(t / 10.0 * k * f.gray(x)) for f in frames])
         assert np.array_equal(res.images[:, row], expect), k
-    assert len(np.unique(res.index_map[GAINS.index(4.5)])) == 2  # per pixel, not per row
+    assert len(np.unique(res.index_map[3 * GAINS.index(4.5)])) == 2  # per pixel, not per row
     assert not res.never_unsaturated.any()
     assert sum(res.newly_unsaturated) == res.images[0].size
 
@@ -119,16 +122,16 @@ def test_an_exposure_list_is_captured_as_given_and_fused() -> None:
     rig = LinearRig()
     res = multiexposure(rig, SPEC, exposures="8,0.5,2")
     assert rig.log == [8.0, 0.5, 2.0]
-    for row, k in enumerate(GAINS):
+    for row, k in enumerate(rig.gains):
         t = _longest_unsaturated([8.0, 0.5, 2.0], k)
         assert np.array_equal(res.index_map[row], np.where(np.isnan(t), 0.5, t))
         assert np.array_equal(res.never_unsaturated[row], np.isnan(t))
-    assert res.never_unsaturated[GAINS.index(30.0)].all()
+    assert res.never_unsaturated[rig.gains == 30.0].all()
     comp, idx, _never, chosen = fuse_exposures(
         [rig.capture(SPEC.frames(), CameraSettings(t)) for t in (8.0, 0.5, 2.0)], [8, 0.5, 2], 8
     )
     assert np.array_equal(comp, res.images) and np.array_equal(idx, res.index_map)
-    assert (chosen[GAINS.index(30.0)] == 1).all()  # the shortest, not the last
+    assert (chosen[rig.gains == 30.0] == 1).all()  # the shortest, not the last
 
 
 @given(
