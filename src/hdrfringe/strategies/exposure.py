@@ -240,8 +240,9 @@ def rig_exposure(rig: Rig, what: str) -> float:
     t = rig.camera_settings.exposure_ms
     if t is None or not (math.isfinite(t) and t > 0):
         raise InputError(
-            f"{what} scales the rig's exposure time, but the rig reports none; set the camera's "
-            "exposure (CameraSettings(exposure_ms=...)) or give the exposures explicitly"
+            f"{what} scales the rig's exposure time, but the rig reports none (a replayed "
+            "folder without exposure times?); set the rig's exposure or give the exposures "
+            "explicitly (--exposures 2.5,10,40)"
         )
     return float(t)
 
