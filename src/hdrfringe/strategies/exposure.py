@@ -97,7 +97,7 @@ def default_target_modulation(
     Parameters
     ----------
     steps : int
-        Number of phase shifts N (>= 3).
+        Number of phase shifts N (>= 2; the sinusoidal formula serves triangular sets too).
     bit_depth : int
         Camera bit depth B.
     noise_dn8 : float
@@ -121,8 +121,8 @@ def default_target_modulation(
     >>> round(default_target_modulation(4, 12) / default_target_modulation(4, 8), 3)
     16.059
     """
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 3:
-        raise InputError(f"target modulation needs N >= 3 phase shifts, got {steps!r}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 2:
+        raise InputError(f"target modulation needs N >= 2 phase shifts, got {steps!r}")
     for name, value in (("noise_dn8", noise_dn8), ("phase_std_rad", phase_std_rad)):
         if not (math.isfinite(value) and value > 0):
             raise InputError(f"target modulation: {name} must be a positive number, got {value}")

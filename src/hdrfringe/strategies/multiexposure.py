@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +39,7 @@ from numpy.typing import NDArray
 from hdrfringe._validation import unsaturated_mask
 from hdrfringe.captures import CameraSettings
 from hdrfringe.errors import InputError
+from hdrfringe.frames import Frame
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
@@ -273,9 +273,8 @@ def multiexposure(
             stop = _walk_down(rig, frames, stacks, times, bits, ratio, lo, max_sets)
             stop, dark = _walk_up(rig, spec, stacks, times, bits, ratio, hi, max_sets, target)
     composite, index, never, chosen = fuse_exposures(stacks, times, bits)
-    newly = [
-        int(((chosen == k) & ~never).sum()) for k in range(len(stacks))
-    ]  # pixels whose composite comes unsaturated from set k
+    # per set, the pixels whose composite comes from it unsaturated
+    newly = [int(((chosen == k) & ~never).sum()) for k in range(len(stacks))]
     return StrategyResult(
         images=composite,
         spec=spec,
@@ -297,7 +296,7 @@ def multiexposure(
 
 def _walk_down(
     rig: Rig,
-    frames: list[Any],
+    frames: list[Frame],
     stacks: list[NDArray],
     times: list[float],
     bits: int,
