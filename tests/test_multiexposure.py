@@ -58,12 +58,14 @@ class LinearRig(RigBase):
         self.camera_settings = CameraSettings(10.0, 0.0)
         self.log: list[float] = []
 
-    def capture(self, frames: Sequence[Frame], settings: CameraSettings | None = None):  # type: ignore[no-untyped-def]
+    def capture(
+        self, frames: Sequence[Frame], settings: CameraSettings | None = None
+    ) -> np.ndarray:
         t = self.resolve_settings(settings).exposure_ms
         assert t is not None
         self.log.append(t)
         x = np.arange(self.image_shape[1], dtype=float)
-        return np.stack([self.expected(t, f.gray(x)) for f in frames])  # type: ignore[attr-defined]
+        return np.stack([self.expected(t, f.gray(x)) for f in frames])  # fringe frames only
 
     def expected(self, t: float, gray: np.ndarray) -> np.ndarray:
         return np.minimum(255, np.rint(t / 10.0 * self.gains[:, None] * gray[None, :])).astype(
