@@ -23,7 +23,7 @@ def method_help() -> str:
 
     Examples
     --------
-    >>> method_help()[:52]
+    >>> method_help()[:53]
     'Saturation avoidance: conventional, uniform, lpa, dpa'
     """
     from hdrfringe.strategies import available_strategies

@@ -296,7 +296,7 @@ def multiexposure(
 
 def _walk_down(
     rig: Rig,
-    frames: list[Frame],
+    frames: Sequence[Frame],
     stacks: list[NDArray],
     times: list[float],
     bits: int,
