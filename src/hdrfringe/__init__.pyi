@@ -81,6 +81,7 @@ from .rig.scenes import black_plate as black_plate
 from .rig.scenes import board as board
 from .rig.scenes import checkerboard as checkerboard
 from .rig.scenes import make_scene as make_scene
+from .rig.scenes import specular_part as specular_part
 from .rig.scenes import white_plate as white_plate
 from .rig.simulated import CameraModel as CameraModel
 from .rig.simulated import Lighting as Lighting
@@ -99,7 +100,10 @@ from .strategies import available_strategies as available_strategies
 from .strategies import get_strategy as get_strategy
 from .strategies.conventional import conventional as conventional
 from .strategies.dpa import dpa as dpa
+from .strategies.exposure import choose_exposure as choose_exposure
+from .strategies.exposure import run_at_exposure as run_at_exposure
 from .strategies.lpa import lpa as lpa
+from .strategies.multiexposure import multiexposure as multiexposure
 from .strategies.uniform import uniform as uniform
 from .unwrap import absolute_phase as absolute_phase
 from .unwrap import absolute_phase_from_centerline as absolute_phase_from_centerline

@@ -68,7 +68,7 @@ __all__ = [
 # Options of the virtual rig and its fringes, declared once for simulate, measure --rig sim and
 # train-correction --rig sim (each command gives its own default). The Live* twins put them in
 # a help panel of their own where they only apply to the live rig.
-SCENES_HELP = "white_plate, black_plate, plate, checkerboard, mask or glossy."
+SCENES_HELP = "white_plate, black_plate, plate, checkerboard, mask, glossy or specular_part."
 LIVE_PANEL = "Live virtual rig (--rig sim)"
 
 
@@ -81,7 +81,7 @@ def option_pair(kind: Any, help_text: str) -> tuple[Any, Any]:
 
 
 DepthOpt, LiveDepthOpt = option_pair(
-    float | None, "Plate/board depth (mask, glossy: base height) in mm."
+    float | None, "Plate/board depth (mask, glossy, specular_part: base height) in mm."
 )
 AmbientOpt, LiveAmbientOpt = option_pair(float, "Added ambient light in lux.")
 NoiseOpt, LiveNoiseOpt = option_pair(float, "Read noise sigma in 8-bit gray levels.")

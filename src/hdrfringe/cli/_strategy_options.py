@@ -23,8 +23,8 @@ def method_help() -> str:
 
     Examples
     --------
-    >>> method_help()[:56]
-    'Saturation avoidance: conventional, uniform, lpa or dpa '
+    >>> method_help()[:53]
+    'Saturation avoidance: conventional, uniform, lpa, dpa'
     """
     from hdrfringe.strategies import available_strategies
 

@@ -15,7 +15,7 @@ Specification (:func:`parse_loop_spec`)::
     loop:SCENE[?KEY=VALUE[&KEY=VALUE...]]
 
 SCENE is a scene name of ``simulate`` (white_plate, black_plate, plate, checkerboard, mask,
-glossy, board). Keys, each at most once:
+glossy, specular_part, board). Keys, each at most once:
 
 ==============  ==========================================================================
 ``display``     X display to grab, e.g. ``:5`` (default: the ``DISPLAY`` variable)
@@ -24,7 +24,7 @@ glossy, board). Keys, each at most once:
 ``noise``       read-noise sigma in 8-bit gray levels, >= 0 (default 1, as ``simulate``)
 ``shot``        photon shot noise, ``on`` or ``off`` (default on)
 ``ambient``     ambient light in lux, >= 0 (default 0)
-``depth``       the scene's depth in mm (base height for mask and glossy; default: the scene's)
+``depth``       depth in mm (base height: mask, glossy, specular_part; default the scene's)
 ``aperture``    ``auto``, ``white`` or ``black`` (as ``simulate --aperture``)
 ``seed``        noise seed, integer >= 0 (default 0)
 ``size``        camera image ``WIDTHxHEIGHT`` (default the virtual rig's 648x494)

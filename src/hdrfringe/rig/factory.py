@@ -22,19 +22,22 @@ from hdrfringe.errors import InputError
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, make_scene
 from hdrfringe.rig.simulated import THESIS_GAMMA, Lighting, SimulatedRig
 
-__all__ = ["APERTURES", "DARK_SCENES", "virtual_rig"]
+__all__ = ["APERTURES", "BASE_SCENES", "DARK_SCENES", "virtual_rig"]
 
 #: Aperture choices: ``auto`` opens it for :data:`DARK_SCENES` only.
 APERTURES = ("auto", "white", "black")
 #: Scenes the ``auto`` aperture treats as dark (aperture opened for the black plate).
 DARK_SCENES = ("checkerboard", "black_plate")
+#: Freeform scenes whose ``depth_mm`` option is the height of the plane they rest on.
+BASE_SCENES = ("mask", "glossy", "specular_part")
 
 
 def _scene_params(scene: str, depth_mm: float | None) -> dict[str, Any]:
-    """The scene factory's depth argument: ``base_mm`` for mask and glossy, else ``depth_mm``."""
+    """The scene factory's depth argument: ``base_mm`` for :data:`BASE_SCENES`, else
+    ``depth_mm``."""
     if depth_mm is None:
         return {}
-    if scene in ("mask", "glossy"):
+    if scene in BASE_SCENES:
         return {"base_mm": depth_mm}
     return {"depth_mm": depth_mm}
 
@@ -59,9 +62,10 @@ def virtual_rig(
     ----------
     scene : str
         Scene name (:func:`hdrfringe.rig.scenes.make_scene`): white_plate, black_plate, plate,
-        checkerboard, mask or glossy.
+        checkerboard, mask, glossy or specular_part.
     depth_mm : float, optional
-        Plate or board depth; base height for mask and glossy. None: the scene's default.
+        Plate or board depth; base height for mask, glossy and specular_part. None: the
+        scene's default.
     ambient_lux : float
         Added ambient light in lux (thesis Ch. 4).
     noise : float

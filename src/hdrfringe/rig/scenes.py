@@ -41,6 +41,7 @@ __all__ = [
     "GlossyDome",
     "Mask",
     "Scene",
+    "SpecularPart",
     "black_plate",
     "board",
     "checkerboard",
@@ -49,6 +50,7 @@ __all__ = [
     "mask",
     "plate",
     "scene_from_manifest",
+    "specular_part",
     "white_plate",
 ]
 
@@ -556,6 +558,205 @@ class GlossyDome(Scene):
         }
 
 
+@dataclass(frozen=True)
+class SpecularPart(Scene):
+    """A machined metal part: a chamfered block with a polished capsule-shaped boss.
+
+    A high-dynamic-range scene: the block (top ``2 half_length_mm x 2 half_width_mm``,
+    ``block_mm`` thick, 45 degree chamfers all round, so the heightfield is continuous) is
+    bead-blasted metal, matte with the diffuse reflectivity ``reflectivity_value``; the boss on
+    its top is polished. The boss is a cylinder of radius ``boss_radius_mm`` whose axis runs
+    along Y over ``boss_length_mm``, with spherical ends (a capsule), cut ``boss_mm`` above the
+    block top. Its Blinn-Phong lobe ``specular * (n.h) ** shininess`` throws a highlight stripe
+    along the boss where its normal bisects the directions to the projector and the camera
+    (about ``boss_radius_mm * sin(7.5 deg)`` from the axis, projector side); with the defaults
+    it is about 50x the diffuse level of the part (tested). The part sits on a matte plane of
+    reflectivity ``base_reflectivity`` at ``base_mm``.
+
+    Heights, with ``d = max(|x| - half_length_mm, |y| - half_width_mm)`` and
+    ``rho = hypot(x, max(|y| - boss_length_mm / 2, 0))`` (the distance to the boss axis):
+
+    * block: ``base_mm + clip(block_mm - max(d, 0), 0, block_mm)`` (the chamfers have slope 1);
+    * boss: add ``max(0, sqrt(R^2 - rho^2) - (R - boss_mm))`` with ``R = boss_radius_mm``.
+
+    Parameters
+    ----------
+    base_mm : float
+        Height of the plane the part rests on.
+    block_mm : float
+        Block thickness (the chamfer width too).
+    half_length_mm, half_width_mm : float
+        Half sizes of the block's flat top along X and Y.
+    boss_mm : float
+        Boss height above the block top, below ``boss_radius_mm``.
+    boss_radius_mm : float
+        Radius of the boss's cylinder and end caps.
+    boss_length_mm : float
+        Length of the boss's straight (cylindrical) part along Y.
+    reflectivity_value : float
+        Diffuse reflectivity of the metal (block and boss).
+    base_reflectivity : float
+        Diffuse reflectivity of the plane around the part.
+    specular : float
+        Peak Blinn-Phong gain of the polished boss, relative to a white diffuse surface.
+    shininess : float
+        Blinn-Phong exponent of the boss.
+
+    References
+    ----------
+    Thesis Sec. 3.1 (saturation where a highlight reaches the camera, low SNR around it);
+    Zhang & Yau 2009 (multi-exposure fringe projection on such parts).
+
+    Examples
+    --------
+    >>> part = SpecularPart()
+    >>> part.height([0.0, 50.0, 95.0, 200.0], [0.0, 0.0, 0.0, 0.0]).tolist()
+    [14.0, 8.0, 3.0, 0.0]
+    >>> part.specular_strength([0.0, 50.0], [0.0, 0.0]).tolist()  # polished boss, matte block
+    [12.0, 0.0]
+    >>> part.reflectivity([0.0, 200.0], [0.0, 0.0]).tolist()
+    [0.25, 0.5]
+    """
+
+    base_mm: float = 0.0
+    block_mm: float = 8.0
+    half_length_mm: float = 90.0
+    half_width_mm: float = 65.0
+    boss_mm: float = 6.0
+    boss_radius_mm: float = 30.0
+    boss_length_mm: float = 80.0
+    reflectivity_value: float = 0.25
+    base_reflectivity: float = 0.5
+    specular: float = 12.0
+    shininess: float = 100.0
+
+    name: ClassVar[str] = "specular_part"
+
+    def __post_init__(self) -> None:
+        _depth_ok("base_mm", self.base_mm)
+        for key in (
+            "block_mm",
+            "half_length_mm",
+            "half_width_mm",
+            "boss_mm",
+            "boss_radius_mm",
+            "boss_length_mm",
+            "specular",
+            "shininess",
+        ):
+            _finite(key, getattr(self, key))
+        for key in ("block_mm", "half_length_mm", "half_width_mm", "boss_radius_mm", "shininess"):
+            if getattr(self, key) <= 0:
+                raise InputError(f"specular_part {key} must be > 0, got {getattr(self, key)}")
+        if not 0 < self.boss_mm < self.boss_radius_mm:
+            raise InputError(
+                f"specular_part boss_mm must be in (0, boss_radius_mm = {self.boss_radius_mm}), "
+                f"got {self.boss_mm}"
+            )
+        if self.boss_length_mm < 0 or self.specular < 0:
+            raise InputError(
+                f"specular_part boss_length_mm and specular must be >= 0, got "
+                f"{self.boss_length_mm}, {self.specular}"
+            )
+        w = self.boss_half_width_mm
+        if w > self.half_length_mm or self.boss_length_mm / 2 + w > self.half_width_mm:
+            raise InputError(
+                f"specular_part boss ({2 * w:.1f} x {self.boss_length_mm + 2 * w:.1f} mm) does "
+                f"not fit on the block top ({2 * self.half_length_mm:g} x "
+                f"{2 * self.half_width_mm:g} mm); enlarge the block or shrink the boss"
+            )
+        _reflectivity_ok("reflectivity", self.reflectivity_value)
+        _reflectivity_ok("base_reflectivity", self.base_reflectivity)
+
+    @property
+    def boss_half_width_mm(self) -> float:
+        """Half width of the boss's footprint on the block top (its cylinder's chord)."""
+        c = self.boss_radius_mm - self.boss_mm
+        return math.sqrt(self.boss_radius_mm**2 - c * c)
+
+    def _boss_terms(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+        """``x``, the signed Y distance beyond the straight part, ``R^2 - rho^2``, on-boss mask."""
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        ey = np.sign(y) * np.maximum(np.abs(y) - self.boss_length_mm / 2, 0.0)
+        w = self.boss_half_width_mm
+        rho2 = x * x + ey * ey
+        return x, ey, self.boss_radius_mm**2 - rho2, rho2 < w * w
+
+    def _block_excess(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        return np.maximum(np.abs(x) - self.half_length_mm, np.abs(y) - self.half_width_mm)
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        d = self._block_excess(x, y)
+        block = np.clip(self.block_mm - np.maximum(d, 0.0), 0.0, self.block_mm)
+        _, _, root2, on = self._boss_terms(x, y)
+        cap = self.boss_radius_mm - self.boss_mm
+        boss = np.where(on, np.sqrt(np.maximum(root2, 0.0)) - cap, 0.0)
+        return self.base_mm + block + np.maximum(boss, 0.0)
+
+    def gradient(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        xa = np.asarray(x, dtype=np.float64)
+        ya = np.asarray(y, dtype=np.float64)
+        xa, ya = np.broadcast_arrays(xa, ya)
+        # chamfers: slope 1 down and away from the top along the axis that sets d
+        ex, ey_ = np.abs(xa) - self.half_length_mm, np.abs(ya) - self.half_width_mm
+        d = np.maximum(ex, ey_)
+        ramp = (d > 0) & (d < self.block_mm)
+        along_x = ex >= ey_
+        gx = np.where(ramp & along_x, -np.sign(xa), 0.0)
+        gy = np.where(ramp & ~along_x, -np.sign(ya), 0.0)
+        bx, by, root2, on = self._boss_terms(xa, ya)
+        root = np.sqrt(np.where(on, root2, 1.0))
+        gx = np.where(on, -bx / root, gx)
+        gy = np.where(on, -by / root, gy)
+        return gx, gy
+
+    def specular_strength(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        on = self._boss_terms(x, y)[3]
+        return np.where(on, float(self.specular), 0.0)
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        on_part = self._block_excess(x, y) < self.block_mm
+        return np.where(on_part, float(self.reflectivity_value), float(self.base_reflectivity))
+
+    def on_part(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
+        """True where world (x, y) lies on the part (block, chamfers or boss), not the plane.
+
+        Parameters
+        ----------
+        x, y : array_like
+            World coordinates in mm, broadcasting against each other.
+
+        Returns
+        -------
+        ndarray of bool
+            The broadcast shape of ``x`` and ``y``.
+        """
+        return np.asarray(self._block_excess(x, y) < self.block_mm)
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "base_mm": float(self.base_mm),
+            "block_mm": float(self.block_mm),
+            "half_length_mm": float(self.half_length_mm),
+            "half_width_mm": float(self.half_width_mm),
+            "boss_mm": float(self.boss_mm),
+            "boss_radius_mm": float(self.boss_radius_mm),
+            "boss_length_mm": float(self.boss_length_mm),
+            "reflectivity": float(self.reflectivity_value),
+            "base_reflectivity": float(self.base_reflectivity),
+            "specular": float(self.specular),
+            "shininess": float(self.shininess),
+        }
+
+
 def plate(depth_mm: float = 0.0, reflectivity: float = 1.0) -> FlatPlate:
     """A flat plate of any reflectivity at ``depth_mm``.
 
@@ -732,6 +933,70 @@ def glossy(
         float(height_mm),
         float(radius_mm),
         float(reflectivity),
+        float(specular),
+        float(shininess),
+    )
+
+
+def specular_part(
+    base_mm: float = 0.0,
+    block_mm: float = 8.0,
+    half_length_mm: float = 90.0,
+    half_width_mm: float = 65.0,
+    boss_mm: float = 6.0,
+    boss_radius_mm: float = 30.0,
+    boss_length_mm: float = 80.0,
+    reflectivity: float = 0.25,
+    base_reflectivity: float = 0.5,
+    specular: float = 12.0,
+    shininess: float = 100.0,
+) -> SpecularPart:
+    """The machined metal part with a polished boss (see :class:`SpecularPart`).
+
+    Parameters
+    ----------
+    base_mm : float
+        Height of the plane the part rests on.
+    block_mm : float
+        Block thickness (and chamfer width).
+    half_length_mm, half_width_mm : float
+        Half sizes of the block's flat top along X and Y.
+    boss_mm : float
+        Boss height above the block top.
+    boss_radius_mm : float
+        Radius of the boss's cylinder and end caps.
+    boss_length_mm : float
+        Length of the boss's straight part along Y.
+    reflectivity : float
+        Diffuse reflectivity of the metal.
+    base_reflectivity : float
+        Diffuse reflectivity of the plane around the part.
+    specular : float
+        Peak Blinn-Phong gain of the boss.
+    shininess : float
+        Blinn-Phong exponent of the boss.
+
+    Returns
+    -------
+    SpecularPart
+        Registered as ``"specular_part"``.
+
+    Examples
+    --------
+    >>> part = specular_part(base_mm=2.0)
+    >>> float(part.height(0.0, 0.0)), scene_from_manifest(part.to_manifest()) == part
+    (16.0, True)
+    """
+    return SpecularPart(
+        float(base_mm),
+        float(block_mm),
+        float(half_length_mm),
+        float(half_width_mm),
+        float(boss_mm),
+        float(boss_radius_mm),
+        float(boss_length_mm),
+        float(reflectivity),
+        float(base_reflectivity),
         float(specular),
         float(shininess),
     )
@@ -1101,6 +1366,7 @@ SCENES: dict[str, Callable[..., Scene]] = {
     "mask": mask,
     "glossy": glossy,
     "board": board,
+    "specular_part": specular_part,
 }
 
 

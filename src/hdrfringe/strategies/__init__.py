@@ -14,6 +14,8 @@ Built in, one module each (import the function from its module, e.g.
 * :mod:`~hdrfringe.strategies.lpa`: linear pixel-wise adaptive (Ch. 5, Eq. 5.1).
 * :mod:`~hdrfringe.strategies.dpa`: dynamic pixel-wise adaptive (Ch. 6).
 * :mod:`~hdrfringe.strategies.tolerant`: one set, phase from the unsaturated shifts.
+* :mod:`~hdrfringe.strategies.multiexposure`: sets at several exposure times (Zhang & Yau
+  2009), with the exposure choice of :mod:`~hdrfringe.strategies.exposure` (Sec. 7.3).
 
 The thesis's requirement 4 holds for every one: when no pixel saturates at the highest MIGL,
 the result is the conventional one, bit for bit, after one set. A new strategy is one module
@@ -64,7 +66,7 @@ __all__ = [
 ]
 
 #: The built-in strategy modules, imported (and so registered) in this order.
-BUILTIN = ("conventional", "uniform", "lpa", "dpa", "tolerant")
+BUILTIN = ("conventional", "uniform", "lpa", "dpa", "tolerant", "multiexposure")
 
 for _module in BUILTIN:
     import_module(f"{__name__}.{_module}")
