@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 
 from hdrfringe.hardware.rig import HardwareRig, SyncSettings
 from tests.conftest import run_cli, xvfb_display
-from tests.test_hardware_rig import FakeCamera, FakeProjector, InterruptingCamera
+from tests.test_hardware_rig import OPEN_GRABS, FakeCamera, FakeProjector, InterruptingCamera
 
 # The Xvfb tests share one group: one worker runs them (make test: --dist loadgroup).
 pytestmark = pytest.mark.xdist_group("xvfb")
@@ -105,9 +105,10 @@ def fake_rig(camera: type[FakeCamera] = FakeCamera, **kwargs: Any) -> Any:
 
 
 FAKE = ["--projector", "screen:0", "--camera", "fake:0", "--pitch", "64,16"]
-#: Grabs: 7 when the rig opens (0 discarded + 5 + 2), per pose 7 for the new reference image
-#: and one per frame of the 17 (2 orientations x 2 pitches x 4 steps + white).
-OPEN, PER_POSE = 7, 7 + 17
+#: Grabs: OPEN_GRABS when the rig opens (2 x (0 discarded + 5 + 2): mid-gray and white), per
+#: pose 7 for the new reference image and one per frame of the 17 (2 orientations x 2 pitches
+#: x 4 steps + white).
+OPEN, PER_POSE = OPEN_GRABS, 7 + 17
 
 
 def test_q_finishes_after_the_complete_poses(
@@ -161,8 +162,9 @@ def test_an_error_mid_run_keeps_the_complete_poses(
 ) -> None:
     from hdrfringe.cli import capture_poses
 
-    # latency 0 for the rig's white and pose 1, then 9 stale grabs: a sync error in pose 2
-    latencies = iter([0] * 18 + [9] * 100)
+    # latency 0 for the rig's mid-gray and white and pose 1, then 9 stale grabs: a sync error
+    # in pose 2
+    latencies = iter([0] * 19 + [9] * 100)
     monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig(latency=latencies))
     out = tmp_path / "poses"
     r = invoke([*FAKE, "--poses", "3", "--interval", "0", "-o", str(out)])
