@@ -7,6 +7,7 @@ report; the estimate comes from ``hdrfringe gamma FOLDER``, which reads the fold
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Iterator
 from pathlib import Path
@@ -69,14 +70,40 @@ def test_capture_gamma_writes_what_gamma_fits_to_the_projectors_gamma(
     assert report["warnings"] == []
 
 
-def test_capture_gamma_detects_a_wrong_precompensation(xdisplay: str, tmp_path: Path) -> None:
+def test_capture_gamma_from_a_rig_config_sends_its_own_gamma_and_judges_the_files(
+    xdisplay: str, tmp_path: Path
+) -> None:
+    # The rig from a configuration file whose gamma (2.5) is wrong for the projector. The
+    # grays are sent with the command's --gamma (default 1), not the file's: the manifest
+    # says 1 (the file's gamma winning would say 2.5); the file's gamma is recorded, and both
+    # verdicts are printed (1 and 2.5 are both wrong, the suggestion is the projector's gamma).
+    config = tmp_path / "rig.toml"
+    camera = f"loop:white_plate?display={xdisplay}&latency=1&size=160x120"
+    config.write_text(
+        f'gamma = 2.5\n[projector]\nspec = "screen:0@{xdisplay}"\n[camera]\nspec = "{camera}"\n'
+        "[sync]\nsettle_s = 0.5\nmax_grabs = 3\n"
+    )
     caps = tmp_path / "caps"
-    r = run_cli(*live(xdisplay, caps, "--gamma", "2.5", "--no-fringes", "--gray", "0:255:51"))
+    args = ["--rig-config", str(config), "--settle", "0", "--no-fringes", "--gray", "0:255:51"]
+    r = run_cli("capture-gamma", *args, "-o", str(caps))
     assert r.returncode == 0, r.stderr
     text = " ".join(r.stdout.split())
-    assert "pre-compensation in use (--gamma 2.5) is wrong for this projector" in text
-    suggested = float(text.split("pre-compensate with --gamma ")[1].split()[0])
-    assert suggested == pytest.approx(TRUE_GAMMA, rel=UNIFORM_TOLERANCE)
+    assert "pre-compensation in use (--gamma 1) is wrong for this projector" in text
+    assert f"the rig configuration's gamma 2.5 ({config}) is wrong for this projector" in text
+    for fix in ("pre-compensate with --gamma ", "set gamma = "):
+        suggested = float(text.split(fix)[1].split()[0])
+        assert suggested == pytest.approx(TRUE_GAMMA, rel=UNIFORM_TOLERANCE)
+    manifest = json.loads((caps / "manifest.json").read_text())
+    assert manifest["projector"]["gamma_precompensation"] == 1.0  # --gamma's default, sent
+    log = json.loads((caps / "capture_log.json").read_text())
+    digest = hashlib.sha256(config.read_bytes()).hexdigest()
+    for record in (manifest["capture"], log):  # the resolved rig, and the file it came from
+        assert record["gray_gamma_precompensation"] == 1.0 and record["camera"] == camera
+        assert record["rig"]["gamma"] == 2.5  # the file's, recorded, not sent
+        assert record["rig"]["config_file"] == {"path": str(config), "sha256": digest}
+        assert record["rig"]["sync"]["settle_s"] == 0.0  # --settle overrides the file
+        assert record["rig"]["sync"]["max_grabs"] == 3  # the file's
+    assert [f["rejected"] for f in log["frames"]] == [1] * 6
     # `gamma` reads the same folder: the fit is the projector's, whatever was sent
     r = run_cli("gamma", str(caps))
     assert r.returncode == 0, r.stderr

@@ -1,14 +1,16 @@
 """``hdrfringe capture-poses`` (issue 13): the board poses of a stereo calibration, live.
 
-On the loop rig (Xvfb at the calibration rig's 800x600 projector, ``loop:board?pose=K``) the
-test moves the board while the command waits for Enter, as a user does, and
-``calibrate-stereo`` calibrates from the folders written; the reference is the calibration
-rig's true geometry, which the commands never see. The stopping rules (q, Ctrl-C, an error
-mid-run) run on the fake projector and camera of tests/test_hardware_rig.py.
+On the loop rig (Xvfb at the calibration rig's 800x600 projector, ``loop:board?pose=K``,
+described by a rig configuration file) the test moves the board while the command waits for
+Enter, as a user does, and ``calibrate-stereo`` calibrates from the folders written; the
+reference is the calibration rig's true geometry, which the commands never see. The stopping
+rules (q, Ctrl-C, an error mid-run) run on the fake projector and camera of
+tests/test_hardware_rig.py.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,7 +22,7 @@ from typer.testing import CliRunner
 
 from hdrfringe.hardware.rig import HardwareRig, SyncSettings
 from tests.conftest import run_cli, xvfb_display
-from tests.test_hardware_rig import FakeCamera, FakeProjector, InterruptingCamera
+from tests.test_hardware_rig import OPEN_GRABS, FakeCamera, FakeProjector, InterruptingCamera
 
 # The Xvfb tests share one group: one worker runs them (make test: --dist loadgroup).
 pytestmark = pytest.mark.xdist_group("xvfb")
@@ -51,10 +53,10 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
     cameras: list[LoopCamera] = []
     make_rig, wait = capture_poses._poses_rig, capture_poses._wait_for_pose
 
-    def keep_camera(*args: Any) -> HardwareRig:
-        rig = make_rig(*args)
+    def keep_camera(*args: Any, **kwargs: Any) -> tuple[HardwareRig, Any]:
+        rig, config = make_rig(*args, **kwargs)
         cameras.append(rig.camera)
-        return rig
+        return rig, config
 
     def user_moves_the_board(number: int, total: int, interval: float | None) -> bool:
         go = wait(number, total, interval)  # the prompt and the Enter key
@@ -66,18 +68,35 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
     out = tmp_path / "poses"
     size = f"{CAMERA_SIZE[0]}x{CAMERA_SIZE[1]}"
     camera = f"loop:board?display={xdisplay}&pose=0&size={size}&latency=1"
-    args = ["--projector", f"screen:0@{xdisplay}", "--camera", camera, "--poses", "3"]
-    r = invoke([*args, "--settle", "0", "--steps", "3", "-o", str(out)], stdin="\n\n\n")
+    # the rig from a configuration file (its gamma applies; --settle overrides its settle)
+    config = tmp_path / "rig.toml"
+    config.write_text(
+        f'name = "loop"\ngamma = 2.8\n[projector]\nspec = "screen:0@{xdisplay}"\n'
+        f'width = {WIDTH}\nheight = {HEIGHT}\n[camera]\nspec = "{camera}"\n'
+        "[sync]\nsettle_s = 0.5\nmax_grabs = 3\n"
+    )
+    args = ["--rig-config", str(config), "--settle", "0", "--poses", "3", "--steps", "3"]
+    r = invoke([*args, "-o", str(out)], stdin="\n\n\n")
     assert r.exit_code == 0, r.output
     assert r.output.count("place the board, then press Enter") == 3
     summary = json.loads((out / "capture_poses.json").read_text())
     assert summary["poses"] == ["pose_01", "pose_02", "pose_03"] and summary["complete"] is True
+    digest = hashlib.sha256(config.read_bytes()).hexdigest()
     for name in summary["poses"]:
         log = json.loads((out / name / "capture_log.json").read_text())
         # latency 1: every frame rejects exactly one stale grab, the first one of a pose too
         # (after the board moved the stale image differs from the old pose's images: without
         # a new reference image it would be accepted)
         assert [f["rejected"] for f in log["frames"]] == [1] * 19, name
+        manifest = json.loads((out / name / "manifest.json").read_text())
+        assert manifest["projector"]["gamma_precompensation"] == 2.8  # the file's gamma
+        for record in (manifest["capture"], log, summary):  # the resolved rig, and its file
+            rig = record["rig"]
+            assert rig["config_file"] == {"path": str(config), "sha256": digest}
+            assert rig["name"] == "loop" and rig["gamma"] == 2.8
+            assert rig["sync"]["settle_s"] == 0.0 and rig["sync"]["max_grabs"] == 3
+            assert record["camera"] == camera and record["sync"]["settle_s"] == 0.0
+        assert manifest["capture"]["pose"] == log["pose"] == int(name[-2:])
 
     stereo = tmp_path / "stereo.h5"
     folders = [str(out / n) for n in summary["poses"]]
@@ -96,18 +115,24 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
 
 
 def fake_rig(camera: type[FakeCamera] = FakeCamera, **kwargs: Any) -> Any:
-    def build(*args: object) -> HardwareRig:
+    """A ``_poses_rig`` on the fake projector and camera (the configuration resolved as the
+    command's own, the devices fake)."""
+    from hdrfringe.cli.capture import resolve_rig_config
+
+    def build(ctx: Any, rig_config: Path | None, **options: Any) -> tuple[HardwareRig, Any]:
         projector = FakeProjector()
         sync = SyncSettings(settle_s=0.0)
-        return HardwareRig(projector, camera(projector, **kwargs), sync, sleep=lambda s: None)
+        rig = HardwareRig(projector, camera(projector, **kwargs), sync, sleep=lambda s: None)
+        return rig, resolve_rig_config(ctx, rig_config, **options)
 
     return build
 
 
 FAKE = ["--projector", "screen:0", "--camera", "fake:0", "--pitch", "64,16"]
-#: Grabs: 7 when the rig opens (0 discarded + 5 + 2), per pose 7 for the new reference image
-#: and one per frame of the 17 (2 orientations x 2 pitches x 4 steps + white).
-OPEN, PER_POSE = 7, 7 + 17
+#: Grabs: OPEN_GRABS when the rig opens (2 x (0 discarded + 5 + 2): mid-gray and white), per
+#: pose 7 for the new reference image and one per frame of the 17 (2 orientations x 2 pitches
+#: x 4 steps + white).
+OPEN, PER_POSE = OPEN_GRABS, 7 + 17
 
 
 def test_q_finishes_after_the_complete_poses(
@@ -161,8 +186,9 @@ def test_an_error_mid_run_keeps_the_complete_poses(
 ) -> None:
     from hdrfringe.cli import capture_poses
 
-    # latency 0 for the rig's white and pose 1, then 9 stale grabs: a sync error in pose 2
-    latencies = iter([0] * 18 + [9] * 100)
+    # latency 0 for the rig's mid-gray and white and pose 1, then 9 stale grabs: a sync error
+    # in pose 2
+    latencies = iter([0] * 19 + [9] * 100)
     monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig(latency=latencies))
     out = tmp_path / "poses"
     r = invoke([*FAKE, "--poses", "3", "--interval", "0", "-o", str(out)])

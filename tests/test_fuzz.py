@@ -266,6 +266,12 @@ def _hw(config: str, *args: str) -> list[str]:
     return ["measure", "--rig", "hardware", "--rig-config", config, *args, "-o", "{o}"]
 
 
+def _live(command: str, config: str, *, out: str = "{o}", force: bool = False) -> list[str]:
+    """A live hardware command (``capture``, ``rig check``, ...) with the rig configuration
+    ``config``: the file is refused before any device opens."""
+    return [*command.split(), "--rig-config", config, "-o", out] + ["--force"] * force
+
+
 def _tree(root: Path) -> dict[str, str]:
     """Every path under root (folders too) with the SHA-256 of each file's bytes."""
     return {
@@ -590,6 +596,37 @@ CASES: list[tuple[str, list[str]] | tuple[str, list[str], str]] = [
         _hw("{r}/rig_ok.toml", "--scene", "plate"),
         "--scene only applies to the live virtual rig (--rig sim)",
     ),
+    # --- the other hardware commands: the same rig configuration, refused the same way ----
+    (
+        "capture-config-bad-type",
+        _live("capture", "{r}/rig_bad_type.toml"),
+        "'sync.discard' must be an integer in 0..1000000, got 'one'",
+    ),
+    (
+        "rig-check-config-unknown-key",
+        _live("rig check", "{r}/rig_unknown_key.toml"),
+        "unknown key 'sync.discrad'; did you mean 'discard'?",
+    ),
+    (
+        "capture-gamma-config-huge-float",
+        _live("capture-gamma", "{r}/rig_huge_float.toml"),
+        "'gamma' must be a positive number (the pre-compensation exponent, e.g. 2.2), got inf",
+    ),
+    (
+        "capture-gamma-out-is-config",
+        _live("capture-gamma", "{r}/rig_ok.toml", out="{r}/rig_ok.toml", force=True),
+        "output is the input",
+    ),
+    (
+        "capture-poses-config-deep-nesting",
+        _live("capture-poses", "{r}/rig_deep.toml"),
+        "nested too deep",
+    ),
+    (
+        "capture-poses-out-is-config",
+        _live("capture-poses", "{r}/rig_ok.toml", out="{r}/rig_ok.toml", force=True),
+        "output is the input",
+    ),
     # --- calibrate-stereo ---------------------------------------------------------------
     ("stereo-from-wrong-shape", _cs("--from", "{r}/cal_shape.yml"), "(3, 3)"),
     ("stereo-from-npz-wrong-shape", _cs("--from", "{r}/cal_shape.npz"), "'Kp' has shape (4, 4)"),
@@ -735,6 +772,7 @@ def test_suite_covers_every_command() -> None:
     assert commands == {
         "patterns", "simulate", "modify", "gamma", "phase", "calibrate", "measure",
         "train-correction", "reproduce", "demo", "import", "calibrate-stereo",
+        "capture", "rig", "capture-gamma", "capture-poses",  # with a bad rig configuration
     }  # fmt: skip
     assert len(CASES) >= 60 and len({case[0] for case in CASES}) == len(CASES)
     for command in ("import", "calibrate-stereo"):  # issue 12's commands: 8 or more each

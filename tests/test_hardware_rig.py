@@ -193,8 +193,9 @@ def test_too_many_stale_grabs_give_one_line_error() -> None:
         rig.capture(fringe_frames())
     msg = str(err.value)
     assert "\n" not in msg
-    assert "projector frame 2" in msg and "3 grabs" in msg and "rig check" in msg
-    assert camera.grabs == (0 + 3 + 2) + 3  # open: discard + max_grabs + 2; 3 for the frame
+    assert "projector frame 3" in msg and "3 grabs" in msg and "rig check" in msg
+    # open: discard + max_grabs + 2 for mid-gray and again for white; 3 for the frame
+    assert camera.grabs == 2 * (0 + 3 + 2) + 3
 
 
 def test_a_stale_image_from_a_camera_queue_two_frames_old_is_rejected() -> None:
@@ -206,7 +207,7 @@ def test_a_stale_image_from_a_camera_queue_two_frames_old_is_rejected() -> None:
 
     def queue(previous: np.ndarray | None, current: np.ndarray) -> None:
         older.append(previous)
-        if len(older) >= 3:  # from the second frame after the rig's white on
+        if len(older) >= 4:  # from the second frame after the rig's mid-gray and white on
             camera.stale, camera.pending = older[-2], 1
 
     projector.listeners = [queue]
@@ -299,6 +300,31 @@ def test_the_recorder_keeps_each_calls_gamma_pre_compensation() -> None:
     assert not np.array_equal(shown, render_frame(frames[3], W, H, 2.0, 8))
     with pytest.raises(InputError, match="must be a positive number"):
         rig.gamma_hat = 0.0
+
+
+class BlindingCamera(FakeCamera):
+    """Saturates every pixel whatever is shown (a scene far too bright for the exposure)."""
+
+    def expected(self, image: np.ndarray | None) -> np.ndarray:
+        return np.full((H // 2, W // 2), 300.0)
+
+
+def test_a_camera_saturated_everywhere_is_refused_when_verifying() -> None:
+    # Nothing to measure the noise on: the rig says so at opening instead of verifying
+    # against the rounding floor (under which every stale image passes).
+    projector = FakeProjector()
+    rig = HardwareRig(projector, BlindingCamera(projector), SyncSettings(settle_s=0.0))
+    with pytest.raises(SyncError) as err:
+        rig.open()
+    msg = str(err.value)
+    assert "\n" not in msg and "saturates every pixel (at 255)" in msg and "exposure" in msg
+    with pytest.raises(InputError, match="not open"):  # closed again
+        rig.capture([UniformFrame(100.0)])
+    # without verification the noise is not needed: the rig opens
+    projector = FakeProjector()
+    sync = SyncSettings(settle_s=0.0, verify=False)
+    with HardwareRig(projector, BlindingCamera(projector), sync) as rig:
+        assert rig.capture([UniformFrame(100.0)]).max() == 255
 
 
 def test_change_ratio_is_about_one_for_noise_alone() -> None:
@@ -439,6 +465,31 @@ def test_rig_check_on_the_loop_rig_reports_its_latency(xdisplay: str, tmp_path: 
     assert 0.5 < got["noise_std"] < 5  # the loop camera's read noise is 1 gray level, plus shot
 
 
+def test_white_saturating_every_pixel_does_not_let_stale_images_through(xdisplay: str) -> None:
+    # Issue 13's reproduction: white_plate under 600 lx at the default exposure saturates every
+    # pixel of white. The noise measured on white alone fell to the rounding floor (1/12 DN^2),
+    # under which a stale image (a new exposure of the previous frame) differs "enough": 0
+    # rejections where the latency of 1 must reject one per frame. The rig also measures the
+    # noise on mid-gray now.
+    from hdrfringe.hardware.loop_camera import LoopCamera
+    from hdrfringe.hardware.projector import ScreenProjector
+
+    camera = LoopCamera(f"loop:white_plate?display={xdisplay}&latency=1&ambient=600&size=32x24")
+    rig = HardwareRig(ScreenProjector(0, xdisplay), camera, SyncSettings(settle_s=0.0))
+    frames = FringeSpec("sinusoidal", 4, 128.0, imin=40.0, migl=255.0).frames()
+    with rig:
+        assert (camera.grab() == 255).all()  # white, still on screen: saturated everywhere
+        images = rig.capture(frames)
+    assert (images < 255).any()  # the fringes leave pixels to compare
+    assert [t.rejected for t in rig.log] == [1] * len(frames)
+    assert rig.noise_var > 1.0  # read noise sigma 1 DN plus shot noise, not the 1/12 floor
+
+
+#: Grabs when a rig with the default SyncSettings opens: discard + max_grabs + 2 images of
+#: mid-gray, then as many of white (the noise estimate and the first reference image).
+OPEN_GRABS = 2 * (0 + 5 + 2)
+
+
 class InterruptingCamera(FakeCamera):
     """Ctrl-C on grab number ``at`` (as a KeyboardInterrupt arrives mid-grab)."""
 
@@ -482,8 +533,8 @@ def test_ctrl_c_mid_capture_keeps_complete_sets_and_says_so(
     assert full.returncode == 0, full.stderr
     n_full = len(read_capture_folder(tmp_path / "full").frames)
     assert n_full > 8
-    # open takes 0 + 5 + 2 grabs; then one grab per frame: interrupt in the second set
-    r = run_capture(monkeypatch, tmp_path / "cut", at=7 + 4 + 2)
+    # open takes 2 x (0 + 5 + 2) grabs; then one grab per frame: interrupt in the second set
+    r = run_capture(monkeypatch, tmp_path / "cut", at=OPEN_GRABS + 4 + 2)
     assert r.returncode == 2
     assert "interrupted (Ctrl-C) after 1 complete sets" in " ".join(r.stderr.split())
     caps = read_capture_folder(tmp_path / "cut")
@@ -491,7 +542,7 @@ def test_ctrl_c_mid_capture_keeps_complete_sets_and_says_so(
     manifest = json.loads((tmp_path / "cut" / "manifest.json").read_text())
     assert manifest["capture"]["complete"] is False
     # before the first complete set: nothing written, the shell's 130
-    r = run_capture(monkeypatch, tmp_path / "none", at=7 + 2)
+    r = run_capture(monkeypatch, tmp_path / "none", at=OPEN_GRABS + 2)
     assert r.returncode == 130 and not (tmp_path / "none").exists()
 
 

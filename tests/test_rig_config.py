@@ -356,7 +356,7 @@ def _fake_rig(screen: _Screen, interrupt_at: int) -> Any:
     return HardwareRig(screen, Camera(), sync, gamma_hat=2.812, sleep=lambda s: None)  # type: ignore[arg-type]
 
 
-@pytest.mark.parametrize("interrupt_at", [10**6, 7 + 4 + 2])  # open: 0 + 5 + 2 grabs
+@pytest.mark.parametrize("interrupt_at", [10**6, 2 * 7 + 4 + 2])  # open: 2 x (0 + 5 + 2) grabs
 def test_measure_hardware_writes_all_or_nothing(
     interrupt_at: int, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -223,9 +224,38 @@ def announce_live(method: str, rig: Any, config: Any) -> None:
 
 
 def live_record(
-    recorder: Any, rig: Any, config: Any, method: str, name: str, stopped: str | None = None
+    recorder: Any,
+    rig: Any,
+    config: Any,
+    method: str | None,
+    name: str,
+    stopped: str | None = None,
+    *,
+    entries: Mapping[str, Any] | None = None,
+    start: int = 0,
 ) -> tuple[Any, dict[str, Any], dict[str, Any]]:
     """What a live run writes: its captures, the manifest's ``capture`` entry, the timing log.
+
+    Parameters
+    ----------
+    recorder : Recorder
+        What the run captured.
+    rig : HardwareRig
+        The rig it ran on (its noise variance and timing log).
+    config : RigConfig
+        The resolved configuration (:func:`hardware_rig`).
+    method : str or None
+        The strategy; None for a fixed program (``capture-gamma``, ``capture-poses``), which
+        says what it was in ``entries``.
+    name : str
+        The captures' name.
+    stopped : str, optional
+        Why the run stopped before the end (the record is then incomplete).
+    entries : mapping, optional
+        A program's own entries of the record, after ``method`` (its name, levels, pose).
+    start : int
+        The first entry of ``rig.log`` that belongs to this record (``capture-poses`` writes
+        one record per pose).
 
     Returns
     -------
@@ -239,22 +269,26 @@ def live_record(
     """
     caps = recorder.captures(name=name, camera={"spec": config.camera.spec})
     sync = config.sync
-    state: dict[str, Any] = {
-        "method": method,
-        "complete": stopped is None,
-        "projector": config.projector.spec,
-        "camera": config.camera.spec,
-        "sync": {
-            "mode": sync.mode,
-            "settle_s": sync.settle_s,
-            "discard": sync.discard,
-            "max_grabs": sync.max_grabs,
-        },
-        "rig": config.to_record(),
-    }
+    state: dict[str, Any] = {} if method is None else {"method": method}
+    state.update(entries or {})
+    state.update(
+        {
+            "complete": stopped is None,
+            "projector": config.projector.spec,
+            "camera": config.camera.spec,
+            "sync": {
+                "mode": sync.mode,
+                "settle_s": sync.settle_s,
+                "discard": sync.discard,
+                "max_grabs": sync.max_grabs,
+            },
+            "rig": config.to_record(),
+        }
+    )
     if stopped is not None:
         state["stopped"] = stopped
-    log = {**state, "noise_variance": rig.noise_var, "frames": [t.to_dict() for t in rig.log]}
+    frames = [t.to_dict() for t in rig.log[start:]]
+    log = {**state, "noise_variance": rig.noise_var, "frames": frames}
     return caps, state, log
 
 

@@ -4,11 +4,16 @@ The program is the one ``hdrfringe gamma FOLDER`` fits (:func:`hdrfringe.gamma.g
 uniform grays (the same builder as ``simulate --gray``, :func:`hdrfringe.programs.fringe_program`)
 and one wide sinusoidal set shown at each of several pre-distortion exponents (kamino410's
 design, docs/gamma.md "From fringes"). docs/hardware.md ("capture-gamma") describes it.
+
+The rig comes from ``--rig-config`` and the hardware options as for ``capture``
+(:func:`hdrfringe.cli.capture.hardware_rig`), with one exception: the grays are always sent
+with the command's own ``--gamma`` (default 1, the projector's raw response), never with the
+configuration's gamma, so that the capture is taken with a known pre-compensation whatever
+the file says; the configuration's gamma is recorded and judged against the fit.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated, Any
@@ -18,7 +23,6 @@ import typer
 from hdrfringe.cli._app import app, console, handle_errors, parse_floats, parse_range
 from hdrfringe.cli._options import StepsOpt
 from hdrfringe.cli.capture import (
-    CAPTURE_LOG,
     CameraOpt,
     DiscardOpt,
     ExposureOpt,
@@ -26,9 +30,12 @@ from hdrfringe.cli.capture import (
     MaxGrabsOpt,
     PixelFormatOpt,
     ProjectorOpt,
+    RigConfigOpt,
     SettleOpt,
     SyncOpt,
-    hardware_options,
+    hardware_rig,
+    live_record,
+    write_capture_output,
 )
 from hdrfringe.errors import HdrFringeError, InputError
 
@@ -45,7 +52,9 @@ __all__ = [
 WRONG_PRECOMPENSATION_PERCENT = 1.0
 
 
-def precompensation_verdict(fit: Any, gamma_hat: float) -> tuple[bool, str]:
+def precompensation_verdict(
+    fit: Any, gamma_hat: float, source: str | None = None
+) -> tuple[bool, str]:
     """Whether a pre-compensation exponent suits the projector a gamma fit describes.
 
     The residual nonlinearity (max deviation from a straight line, % of the captured range,
@@ -58,7 +67,9 @@ def precompensation_verdict(fit: Any, gamma_hat: float) -> tuple[bool, str]:
     fit : GammaFit
         A uniform-gray or fringe-shape fit of the projector.
     gamma_hat : float
-        The pre-compensation exponent in use.
+        The pre-compensation exponent judged.
+    source : str, optional
+        The rig configuration file it comes from (its ``gamma``); None: the ``--gamma`` in use.
 
     Returns
     -------
@@ -78,20 +89,27 @@ def precompensation_verdict(fit: Any, gamma_hat: float) -> tuple[bool, str]:
     >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
     >>> precompensation_verdict(fit, 2.2)[0], precompensation_verdict(fit, 1.8)[0]
     (False, True)
+    >>> precompensation_verdict(fit, 1.8, source="rig.toml")[1].split("; ")[-1]
+    'set gamma = 2.200 in rig.toml'
     """
     from hdrfringe.gamma import predicted_nonlinearity
 
     best, _ = predicted_nonlinearity(fit, fit.gamma)
     used, _ = predicted_nonlinearity(fit, gamma_hat)
+    if source is None:
+        what = f"the pre-compensation in use (--gamma {gamma_hat:g})"
+        fix = f"pre-compensate with --gamma {fit.gamma:.3f}"
+    else:
+        what = f"the rig configuration's gamma {gamma_hat:g} ({source})"
+        fix = f"set gamma = {fit.gamma:.3f} in {source}"
     if used > best + WRONG_PRECOMPENSATION_PERCENT:
         return True, (
-            f"warning: the pre-compensation in use (--gamma {gamma_hat:g}) is wrong for this "
-            f"projector: it leaves {used:.2f} % nonlinearity, the fitted gamma {fit.gamma:.3f} "
-            f"leaves {best:.2f} %; pre-compensate with --gamma {fit.gamma:.3f}"
+            f"warning: {what} is wrong for this projector: it leaves {used:.2f} % "
+            f"nonlinearity, the fitted gamma {fit.gamma:.3f} leaves {best:.2f} %; {fix}"
         )
     return False, (
-        f"the pre-compensation in use (--gamma {gamma_hat:g}) suits this projector: it leaves "
-        f"{used:.2f} % nonlinearity (the fitted gamma {fit.gamma:.3f}: {best:.2f} %)"
+        f"{what} suits this projector: it leaves {used:.2f} % nonlinearity (the fitted gamma "
+        f"{fit.gamma:.3f}: {best:.2f} %)"
     )
 
 
@@ -125,28 +143,22 @@ def spread_order(levels: list[float]) -> list[float]:
     return [ordered[i] for i in sorted(range(len(ordered)), key=lambda i: (i % k, i // k))]
 
 
-def _gamma_rig(
-    projector: str | None,
-    camera: str | None,
-    sync: str,
-    settle: float,
-    discard: int,
-    max_grabs: int,
-    gamma: float,
-    exposure_ms: float | None,
-    gain_db: float | None,
-    pixel_format: str | None,
-) -> Any:
-    """The (not yet open) hardware rig of the options: the one place this command builds it."""
-    return hardware_options(
-        projector, camera, sync, settle, discard, max_grabs, gamma, exposure_ms, gain_db,
-        pixel_format,
-    )  # fmt: skip
+def _gamma_rig(ctx: typer.Context, rig_config: Path | None, gamma: float, **options: Any) -> Any:
+    """The (not yet open) hardware rig and its resolved configuration: the one place this
+    command builds it (:func:`~hdrfringe.cli.capture.hardware_rig`, from ``--rig-config`` and
+    the hardware ``options``). The rig pre-compensates with ``gamma`` (the command's
+    ``--gamma``), not with the configuration's gamma, which stays in the configuration (it is
+    recorded and judged)."""
+    rig, config = hardware_rig(ctx, rig_config, **options)
+    rig.gamma_hat = gamma
+    return rig, config
 
 
 @app.command("capture-gamma")
 @handle_errors
 def capture_gamma(
+    ctx: typer.Context,
+    rig_config: RigConfigOpt = None,
     projector: ProjectorOpt = None,
     camera: CameraOpt = None,
     output: Annotated[
@@ -162,7 +174,7 @@ def capture_gamma(
         float,
         typer.Option(
             help="Pre-compensation the grays are sent with (1: none); give the rig's gamma to "
-            "check it."
+            "check it. The --rig-config gamma is not sent (it is judged against the fit)."
         ),
     ] = 1.0,
     fringes: Annotated[
@@ -189,9 +201,11 @@ def capture_gamma(
     Uniform grays (sent with --gamma) and one wide sinusoidal set (imin 0, full scale) sent
     at each --fringe-gamma exponent, with capture_log.json beside the manifest; then the fits
     of `hdrfringe gamma` are printed with a verdict on the pre-compensation in use (--gamma).
-    Ctrl-C keeps the complete groups (the grays, each fringe set) and marks the folder
-    incomplete (exit 2; before the first group: nothing written, exit 130). Any other error
-    writes nothing.
+    The rig comes from --rig-config FILE and/or the options (an option given overrides the
+    file), except the gamma: the grays are sent with --gamma (default 1) whatever the file
+    says; the file's gamma is recorded and gets a verdict of its own. Ctrl-C keeps the
+    complete groups (the grays, each fringe set) and marks the folder incomplete (exit 2;
+    before the first group: nothing written, exit 130). Any other error writes nothing.
     """
     from hdrfringe.captures import ProjectorInfo
     from hdrfringe.gamma import (
@@ -201,8 +215,11 @@ def capture_gamma(
         select_gamma_sets,
     )
     from hdrfringe.hardware.rig import Recorder
-    from hdrfringe.io.captures import write_capture_folder
-    from hdrfringe.io.results import check_output_dir, staged_output_dir
+    from hdrfringe.io.results import (
+        check_output_against_inputs,
+        check_output_dir,
+        staged_output_dir,
+    )
     from hdrfringe.patterns import FringeSpec
     from hdrfringe.programs import fringe_program
 
@@ -232,11 +249,13 @@ def capture_gamma(
                 f"--fringe-gamma {fringe_gamma} with --steps {steps}: a shape fit needs two "
                 "different exponents or >= 4 steps"
             )
-    checked = check_output_dir(output, force)
-    rig = _gamma_rig(
-        projector, camera, sync, settle, discard, max_grabs, gamma, exposure_ms, gain_db,
-        pixel_format,
+    rig, config = _gamma_rig(
+        ctx, rig_config, gamma, projector=projector, camera=camera, sync=sync, settle=settle,
+        discard=discard, max_grabs=max_grabs, exposure_ms=exposure_ms, gain_db=gain_db,
+        pixel_format=pixel_format,
     )  # fmt: skip
+    check_output_against_inputs(output, [rig_config, config.gamma_file])
+    checked = check_output_dir(output, force)
     recorder = Recorder(rig)
     stopped: str | None = None
     with rig:
@@ -249,8 +268,10 @@ def capture_gamma(
         )  # fmt: skip
         uniform = [f for f in frames if f.kind == "uniform"]
         fringe_set = [f for f in frames if f.kind != "uniform"]
+        name = f" ({config.name})" if config.name else ""
         console.print(
-            f"gamma program live: projector {projector} ({width}x{height}), camera {camera}; "
+            f"gamma program live{name}: projector {config.projector.spec} ({width}x{height}), "
+            f"camera {config.camera.spec}; "
             f"{len(uniform)} grays at --gamma {gamma:g}, {len(exponents)} fringe sets "
             f"(pre-distorted with {', '.join(f'{e:g}' for e in exponents) or 'none'})"
         )
@@ -266,23 +287,17 @@ def capture_gamma(
             stopped = "interrupted (Ctrl-C)"
         finally:
             rig.gamma_hat = gamma
-    caps = recorder.captures(name=output.name, camera={"spec": camera})
-    state: dict[str, Any] = {
+    program = {
         "program": "gamma",
-        "complete": stopped is None,
-        "projector": projector,
-        "camera": camera,
         "gray_levels": levels,
         "gray_gamma_precompensation": gamma,
         "fringe_gamma_precompensation": exponents,
-        "sync": {"mode": sync, "settle_s": settle, "discard": discard, "max_grabs": max_grabs},
     }
-    if stopped is not None:
-        state["stopped"] = stopped
-    log = {**state, "noise_variance": rig.noise_var, "frames": [t.to_dict() for t in rig.log]}
+    caps, state, log = live_record(
+        recorder, rig, config, None, output.name, stopped, entries=program
+    )
     with staged_output_dir(checked, force=force) as tmp:
-        write_capture_folder(tmp, caps, extra={"capture": state}, force=True)
-        (tmp / CAPTURE_LOG).write_text(json.dumps(log, indent=1) + "\n", encoding="utf-8")
+        write_capture_output(tmp, caps, state, log)
     if stopped is not None:
         raise HdrFringeError(
             f"capture-gamma {stopped} after {len(recorder.calls)} complete groups; {output} "
@@ -300,4 +315,7 @@ def capture_gamma(
     fit = report.uniform_fit or report.fringe_fit
     if fit is not None:
         console.print(precompensation_verdict(fit, gamma)[1], highlight=False)
+        if config.gamma is not None and config.gamma != gamma:  # the file's, not sent
+            source = config.source or "the rig configuration"
+            console.print(precompensation_verdict(fit, config.gamma, source)[1], highlight=False)
     console.print(f"hdrfringe gamma {output} -o OUT writes the fits and plots", highlight=False)

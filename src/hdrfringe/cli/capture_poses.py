@@ -5,7 +5,8 @@ program waits that long: an automated rig); the rig then projects the program th
 ``hdrfringe calibrate-stereo POSE...`` reads (:func:`hdrfringe.rig.board_poses.board_program`:
 vertical and horizontal fringe sets decodable to absolute phase, then a white frame) and each
 complete pose is written as a capture folder ``OUT/pose_01``, ``OUT/pose_02``, ...
-docs/hardware.md ("capture-poses") describes it.
+docs/hardware.md ("capture-poses") describes it. The rig comes from ``--rig-config`` and the
+hardware options exactly as for ``capture`` (:func:`hdrfringe.cli.capture.hardware_rig`).
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ import typer
 from hdrfringe.cli._app import app, console, handle_errors, parse_floats
 from hdrfringe.cli._options import GammaOpt, StepsOpt
 from hdrfringe.cli.capture import (
-    CAPTURE_LOG,
     CameraOpt,
     DiscardOpt,
     ExposureOpt,
@@ -30,9 +30,12 @@ from hdrfringe.cli.capture import (
     MaxGrabsOpt,
     PixelFormatOpt,
     ProjectorOpt,
+    RigConfigOpt,
     SettleOpt,
     SyncOpt,
-    hardware_options,
+    hardware_rig,
+    live_record,
+    write_capture_output,
 )
 from hdrfringe.errors import HdrFringeError, InputError
 
@@ -80,23 +83,11 @@ def board_pitches(width: int, height: int) -> tuple[float, ...]:
     return (float(span), float(round(span * middle / coarse)), fine)
 
 
-def _poses_rig(
-    projector: str | None,
-    camera: str | None,
-    sync: str,
-    settle: float,
-    discard: int,
-    max_grabs: int,
-    gamma: float,
-    exposure_ms: float | None,
-    gain_db: float | None,
-    pixel_format: str | None,
-) -> Any:
-    """The (not yet open) hardware rig of the options: the one place this command builds it."""
-    return hardware_options(
-        projector, camera, sync, settle, discard, max_grabs, gamma, exposure_ms, gain_db,
-        pixel_format,
-    )  # fmt: skip
+def _poses_rig(ctx: typer.Context, rig_config: Path | None, **options: Any) -> Any:
+    """The (not yet open) hardware rig and its resolved configuration: the one place this
+    command builds it (:func:`~hdrfringe.cli.capture.hardware_rig`, from ``--rig-config`` and
+    the hardware ``options``)."""
+    return hardware_rig(ctx, rig_config, **options)
 
 
 def _wait_for_pose(number: int, total: int, interval: float | None) -> bool:
@@ -120,6 +111,8 @@ def _wait_for_pose(number: int, total: int, interval: float | None) -> bool:
 @app.command("capture-poses")
 @handle_errors
 def capture_poses(
+    ctx: typer.Context,
+    rig_config: RigConfigOpt = None,
     projector: ProjectorOpt = None,
     camera: CameraOpt = None,
     output: Annotated[
@@ -162,11 +155,15 @@ def capture_poses(
     capture_log.json; OUT/capture_poses.json lists the poses. OUT appears when the run ends,
     holding complete poses only. Ctrl-C or an error mid-run keeps the complete poses, drops
     the one being captured, and exits with code 2 (before the first pose: nothing written).
+    The rig comes from --rig-config FILE and/or the options (an option given overrides the
+    file), as for capture.
     """
-    from hdrfringe.captures import ProjectorInfo
     from hdrfringe.hardware.rig import Recorder
-    from hdrfringe.io.captures import write_capture_folder
-    from hdrfringe.io.results import check_output_dir, staged_output_dir
+    from hdrfringe.io.results import (
+        check_output_against_inputs,
+        check_output_dir,
+        staged_output_dir,
+    )
     from hdrfringe.rig.board_poses import MAX_BOARD_POSES, board_program
     from hdrfringe.stereo_calibration import MIN_POSES
 
@@ -177,30 +174,28 @@ def capture_poses(
     if interval is not None and not (math.isfinite(interval) and interval >= 0):
         raise InputError(f"--interval {interval}: give a number of seconds >= 0")
     pitches = None if pitch is None else parse_floats(pitch, "--pitch")
-    checked = check_output_dir(output, force)
-    rig = _poses_rig(
-        projector, camera, sync, settle, discard, max_grabs, gamma, exposure_ms, gain_db,
-        pixel_format,
+    rig, config = _poses_rig(
+        ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
+        discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
+        gain_db=gain_db, pixel_format=pixel_format,
     )  # fmt: skip
+    check_output_against_inputs(output, [rig_config, config.gamma_file])
+    checked = check_output_dir(output, force)
     names: list[str] = []
     stopped: str | None = None
     failure: HdrFringeError | None = None
     with rig, staged_output_dir(checked, force=force) as tmp:
         width, height = rig.projector.width, rig.projector.height
-        info = ProjectorInfo(width, height, rig.projector.bit_depth, gamma)
         used = tuple(pitches) if pitches is not None else board_pitches(width, height)
-        program = board_program(info, steps=steps, pitches=used, imin=imin)
-        state: dict[str, Any] = {
-            "program": "board poses",
-            "projector": projector,
-            "camera": camera,
-            "pitches": list(used),
-            "steps": steps,
-            "sync": {"mode": sync, "settle_s": settle, "discard": discard, "max_grabs": max_grabs},
-        }
+        # rig.projector: the open projector's size, 8 bit, the rig's gamma pre-compensation
+        program = board_program(rig.projector, steps=steps, pitches=used, imin=imin)
+        entries: dict[str, Any] = {"program": "board poses", "pitches": list(used), "steps": steps}
+        state: dict[str, Any] = {}
+        name = f" ({config.name})" if config.name else ""
         console.print(
-            f"board poses live: projector {projector} ({width}x{height}), camera {camera}; "
-            f"{len(program)} frames per pose (pitches {', '.join(f'{p:g}' for p in used)})",
+            f"board poses live{name}: projector {config.projector.spec} ({width}x{height}), "
+            f"camera {config.camera.spec}; {len(program)} frames per pose (pitches "
+            f"{', '.join(f'{p:g}' for p in used)})",
             highlight=False,
         )
         for number in range(1, poses + 1):
@@ -223,16 +218,15 @@ def capture_poses(
                 stopped = f"stopped by an error at pose {number}"
                 failure = err
                 break
-            name = f"pose_{number:02d}"
-            caps = recorder.captures(name=name, camera={"spec": camera})
-            frames = rig.log[start:]
-            log = {**state, "pose": number, "noise_variance": rig.noise_var}
-            log["frames"] = [t.to_dict() for t in frames]
-            with staged_output_dir(tmp / name) as pose_dir:
-                write_capture_folder(pose_dir, caps, extra={"capture": state}, force=True)
-                (pose_dir / CAPTURE_LOG).write_text(json.dumps(log, indent=1) + "\n", "utf-8")
-            names.append(name)
-            rejected = sum(t.rejected for t in frames)
+            folder = f"pose_{number:02d}"
+            caps, state, log = live_record(
+                recorder, rig, config, None, folder, entries={**entries, "pose": number},
+                start=start,
+            )  # fmt: skip
+            with staged_output_dir(tmp / folder) as pose_dir:
+                write_capture_output(pose_dir, caps, state, log)
+            names.append(folder)
+            rejected = sum(t.rejected for t in rig.log[start:])
             console.print(
                 f"pose {number}: {len(caps.frames)} images, {rejected} stale grabs rejected",
                 highlight=False,
@@ -241,7 +235,9 @@ def capture_poses(
             raise HdrFringeError(
                 f"capture-poses {stopped or 'stopped'} before the first pose; nothing written"
             )
-        summary = {**state, "poses": names, "complete": len(names) == poses}
+        # the last pose's record without its pose, for the whole run
+        summary = {k: v for k, v in state.items() if k not in ("pose", "complete")}
+        summary.update({"poses": names, "complete": len(names) == poses})
         if stopped is not None:
             summary["stopped"] = stopped
         (tmp / POSES_LOG).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")

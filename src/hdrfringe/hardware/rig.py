@@ -62,6 +62,9 @@ SYNC_MODES: tuple[str, ...] = ("software", "hardware")
 #: Smallest noise variance used (LSB^2): the rounding of a noiseless camera (1/12), so that a
 #: noiseless camera still has a threshold above zero.
 MIN_NOISE_VARIANCE = 1.0 / 12.0
+#: The mid-gray level the rig shows at opening, before white, to estimate the camera noise on
+#: pixels that white saturates (docs/hardware.md "Synchronisation").
+NOISE_GRAY_LEVEL = 128
 
 
 class SyncError(HdrFringeError):
@@ -280,8 +283,10 @@ class HardwareRig(RigBase):
     """A projector and a camera driven as a :class:`~hdrfringe.rig.base.Rig`.
 
     :meth:`open` opens both devices (the camera in the sync mode's trigger mode), shows a
-    white frame and estimates the camera noise from images of it (the brightest frame, so
-    that shot noise is not underestimated for any other); :meth:`capture` shows, waits,
+    mid-gray and then a white frame and estimates the camera noise from images of each, over
+    the pixels neither image of a pair saturates, keeping the larger (white is the brightest
+    frame, so shot noise is not underestimated for any other; mid-gray measures the pixels
+    that white saturates); :meth:`capture` shows, waits,
     grabs and verifies each frame as :class:`SyncSettings` says. Images are returned as the
     camera delivers them (uint8 or uint16 in ``0 .. 2^B - 1``).
 
@@ -307,7 +312,8 @@ class HardwareRig(RigBase):
     log : list of FrameTiming
         One entry per frame captured.
     noise_var : float
-        The camera noise variance (LSB^2) estimated at :meth:`open`.
+        The camera noise variance (LSB^2) estimated at :meth:`open` (the larger of the
+        mid-gray and white estimates).
 
     References
     ----------
@@ -327,8 +333,8 @@ class HardwareRig(RigBase):
     >>> sync = SyncSettings(settle_s=0.0, verify=False)
     >>> with HardwareRig(play, open_camera("pylon:emu"), sync) as rig:
     ...     images = rig.capture([UniformFrame(128.0), UniformFrame(0.0)])
-    >>> images.ndim, [t.projector_frame for t in rig.log]
-    (3, [2, 3])
+    >>> images.ndim, [t.projector_frame for t in rig.log]  # 1 and 2: mid-gray and white
+    (3, [3, 4])
     """
 
     def __init__(
@@ -381,12 +387,14 @@ class HardwareRig(RigBase):
 
     # -- devices -----------------------------------------------------------------------
     def open(self) -> None:
-        """Open projector and camera, apply the settings, measure the noise on white.
+        """Open projector and camera, apply the settings, measure the noise on gray and white.
 
         Raises
         ------
         SyncError
-            The camera's images of the static white frame are not stable.
+            With verification on: the camera saturates every pixel of every image of both
+            the mid-gray and the white frame, so the noise cannot be measured (lower the
+            exposure or gain).
         """
         if self._open:
             return
@@ -430,28 +438,52 @@ class HardwareRig(RigBase):
     def _grab(self) -> NDArray[Any]:
         return np.asarray(self.camera.grab(timeout_s=self.sync.grab_timeout_s))
 
-    def _settled(self) -> tuple[NDArray[Any], float]:
+    def _settled(self) -> tuple[NDArray[Any], float | None]:
         """The latest image of what is on screen now and the noise variance.
 
         After the settle delay, ``discard + max_grabs + 2`` images are grabbed: with a latency
         the sync settings allow (at most ``discard + max_grabs - 1`` stale images) the last
-        three are fresh; the noise variance is the smallest over consecutive pairs (a pair that
-        straddles the change is far from the smallest).
+        three are fresh. The noise variance is the smallest over the consecutive pairs that
+        have a pixel saturated in neither image (a pair that straddles the change is far from
+        the smallest); None when every pair is saturated everywhere (nothing to measure: the
+        rounding floor would pass stale images as fresh).
         """
         self._sleep(self.sync.settle_s)
         grabs = [self._grab() for _ in range(self.sync.discard + self.sync.max_grabs + 2)]
         bits = self.camera_bit_depth
-        var = min(noise_variance(a, b, bits) for a, b in itertools.pairwise(grabs))
-        return grabs[-1], var
+        top = full_scale(bits)
+        variances = [
+            noise_variance(a, b, bits)
+            for a, b in itertools.pairwise(grabs)
+            if bool(((a < top) & (b < top)).any())
+        ]
+        return grabs[-1], min(variances, default=None)
 
     def _baseline(self) -> None:
-        """Show white, estimate the noise from images of it, remember it as shown."""
+        """Estimate the noise on mid-gray and on white (the larger), remember white as shown.
+
+        White alone is not enough: where white saturates a pixel it says nothing about that
+        pixel's noise, and when it saturates every pixel the estimate would fall to the
+        rounding floor (1/12 LSB^2), under which a stale image passes verification.
+        """
         width, height = self.projector.width, self.projector.height
-        white = np.full((height, width), 255, np.uint8)
-        self.projector_device.show(white)
-        last, self.noise_var = self._settled()
+        estimates: list[float] = []
+        for level in (NOISE_GRAY_LEVEL, 255):
+            shown = np.full((height, width), level, np.uint8)
+            self.projector_device.show(shown)
+            last, variance = self._settled()
+            if variance is not None:
+                estimates.append(variance)
+        if not estimates and self.sync.verify:
+            raise SyncError(
+                f"the camera saturates every pixel (at {full_scale(self.camera_bit_depth):g}) "
+                f"in every image of white and of gray {NOISE_GRAY_LEVEL}, so its noise cannot be "
+                "measured and stale images cannot be told from fresh ones; lower the exposure "
+                "or gain (hdrfringe rig check reports white clipping)"
+            )
+        self.noise_var = max(estimates, default=MIN_NOISE_VARIANCE)
         self.image_shape = (int(last.shape[0]), int(last.shape[1]))
-        self._history = [_Shown(white, last, self._applied)]
+        self._history = [_Shown(shown, last, self._applied)]
 
     def _rebaseline(self) -> None:
         """After a change of exposure or gain: a new image of the frame on screen, and older
