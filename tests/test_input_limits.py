@@ -21,7 +21,7 @@ import pytest
 import tifffile
 
 import hdrfringe.io.captures as io_captures
-from hdrfringe.errors import CaptureFormatError
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io.captures import read_capture_folder, read_manifest
 from hdrfringe.io.results import read_map_tiff, write_map_tiff
 from hdrfringe.limits import (
@@ -387,3 +387,24 @@ def test_huge_declared_png_is_refused_by_our_limit(
         read_capture_folder(capture_folder)
     _one_line(exc, name, "declares", "more than", str(MAX_IMAGE_PIXELS))
     assert not recwarn.list  # Pillow's decompression-bomb warning is not shown
+
+
+@pytest.mark.parametrize("depth", [40, 5000])
+def test_deep_toml_is_refused_whatever_the_recursion_limit(tmp_path: Path, depth: int) -> None:
+    """A host program (mypy in the test process does) may raise the recursion limit so far that
+    the parser reads a 5000-deep array: the nesting is still refused, counted explicitly."""
+    from hdrfringe.io._read_limits import MAX_TOML_DEPTH, load_toml_bounded
+
+    p = tmp_path / "deep.toml"
+    p.write_text("a = " + "[" * depth + "]" * depth)
+    kw = dict(what="rig configuration", max_bytes=50_000, holds="holds settings only",
+              doc="docs/hardware.md", missing="give the file")  # fmt: skip
+    old = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(old, 4 * depth + 1000))
+    try:
+        with pytest.raises(InputError, match="nested too deep"):
+            load_toml_bounded(p, **kw)
+    finally:
+        sys.setrecursionlimit(old)
+    p.write_text("a = " + "[" * MAX_TOML_DEPTH + "]" * MAX_TOML_DEPTH)  # the deepest accepted
+    assert "a" in load_toml_bounded(p, **kw)

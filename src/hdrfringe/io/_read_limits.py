@@ -169,6 +169,27 @@ def load_json_bounded(path: str | Path) -> Any:
     return value
 
 
+#: Deepest nesting of tables and arrays accepted in a user's TOML file (a rig configuration or
+#: an import description nests three levels at most).
+MAX_TOML_DEPTH = 32
+
+
+def _nesting_depth(value: Any) -> int:
+    """Deepest nesting of dicts and lists in ``value``, counted without recursion."""
+    deepest = 0
+    stack: list[tuple[Any, int]] = [(value, 0)]
+    while stack:
+        item, depth = stack.pop()
+        deepest = max(deepest, depth)
+        if deepest > MAX_TOML_DEPTH:
+            break
+        if isinstance(item, dict):
+            stack.extend((v, depth + 1) for v in item.values())
+        elif isinstance(item, list):
+            stack.extend((v, depth + 1) for v in item)
+    return deepest
+
+
 def load_toml_bounded(
     path: str | Path,
     *,
@@ -236,7 +257,12 @@ def load_toml_bounded(
         raise InputError(f"{path}: {what} larger than {max_bytes} bytes; a {what} {holds}")
     try:
         text = raw.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")  # as read_text
-        return tomllib.loads(text)
+        parsed = tomllib.loads(text)
+        # The parser's own RecursionError depends on the interpreter's recursion limit (which a
+        # host program may raise): count the nesting explicitly, without recursing.
+        if _nesting_depth(parsed) > MAX_TOML_DEPTH:
+            raise RecursionError
+        return parsed
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{path}: not a valid TOML {what} ({exc}); see {doc}") from None
     except (ValueError, RecursionError):  # an integer of > 4300 digits, arrays nested too deep
