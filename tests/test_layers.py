@@ -48,6 +48,7 @@ LAYERS: dict[str, int] = {
     "saturation": CORE,
     "saturation.estimate": CORE,
     "saturation.dpa_rules": CORE,
+    "saturation.adaptive_map": CORE,
     # 1 acquisition: rigs and the strategies that drive them
     "rig": ACQUISITION,
     "rig.*": ACQUISITION,

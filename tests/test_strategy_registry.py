@@ -156,7 +156,7 @@ def test_the_toy_strategy_through_the_command_line(tmp_path: Path) -> None:
 
     help_text = cli("measure", "--help")
     assert help_text.returncode == 0, help_text.stderr
-    assert "conventional, uniform, lpa, dpa or every-other-set" in help_text.stdout
+    assert "conventional, uniform, lpa, dpa, adaptive or every-other-set" in help_text.stdout
     assert "--stride" in help_text.stdout and "Every-other-set: half the MIGL" in help_text.stdout
     out = tmp_path / "out"
     args = ["--rig", "sim", "--ambient-lux", "600", "--pitch", "8", "-o", str(out)]
@@ -192,7 +192,9 @@ def test_the_cli_method_list_and_options_are_the_registry() -> None:
     assert re.split(r", | or ", listed.group(1)) == list(available_strategies())
     strategy_opts = {o.option for o in cli_options()}
     assert strategy_opts == {"--step", "--threshold", "--correction", "--bound-pending",
-                             "--uniform-migl", "--tolerance"}  # fmt: skip
+                             "--uniform-migl", "--tolerance", "--adaptive-margin",
+                             "--adaptive-iterations", "--mapping-migl",
+                             "--adaptive-exposure-ms"}  # fmt: skip
     for o in cli_options():
         p = params[o.dest]
         assert o.option in p.opts and p.default == o.default and p.help.startswith(o.help)

@@ -59,6 +59,7 @@ __all__ = [
     "describe_rig",
     "height_points",
     "measure",
+    "strategy_fringe_orders",
     "strategy_summary",
     "tradeoff_search",
 ]
@@ -314,10 +315,19 @@ def composite_captures(
     desc = describe_rig(rig) if description is None else description
     frames: list[Frame] = []
     images = []
-    results = []
-    for spec in specs:
-        res = strategy.run(rig, spec, p)
-        results.append(res)
+    results: list[StrategyResult]
+    # A strategy that plans all sets of a measurement together (one mapping for every pitch,
+    # the adaptive projection) offers run_sets(rig, specs, params): one result per spec.
+    run_sets = getattr(strategy, "run_sets", None)
+    if callable(run_sets):
+        results = list(run_sets(rig, list(specs), p))
+        if len(results) != len(specs):
+            raise InputError(
+                f"strategy {method!r} returned {len(results)} results for {len(specs)} sets"
+            )
+    else:
+        results = [strategy.run(rig, spec, p) for spec in specs]
+    for spec, res in zip(specs, results, strict=True):
         frames += spec.frames()
         images.append(res.images)
     if centerline is not None:
@@ -336,6 +346,40 @@ def composite_captures(
         name=desc.name,
     )
     return out, tuple(results)
+
+
+def strategy_fringe_orders(results: Sequence[StrategyResult]) -> dict[str, F64]:
+    """The absolute phases a strategy unwrapped itself, by orientation (the finest set's).
+
+    A strategy that measures where each camera pixel looks on the projector (the adaptive
+    projection's mapping) unwraps its finest set with those fringe orders and leaves the
+    result in ``details["absolute_phase"]``; :func:`hdrfringe.process.decode_captures` takes
+    them as ``fringe_orders``.
+
+    Parameters
+    ----------
+    results : sequence of StrategyResult
+        One per set of the measurement.
+
+    Returns
+    -------
+    dict
+        Orientation -> absolute phase of that orientation's finest set; empty for the
+        strategies that leave unwrapping to the captures (all of the thesis's).
+
+    Examples
+    --------
+    >>> strategy_fringe_orders([])
+    {}
+    """
+    out: dict[str, F64] = {}
+    finest: dict[str, float] = {}
+    for r in results:
+        phase = r.details.get("absolute_phase")
+        o = r.spec.orientation
+        if phase is not None and r.spec.pitch_px < finest.get(o, np.inf):
+            out[o], finest[o] = np.asarray(phase, np.float64), r.spec.pitch_px
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -761,10 +805,11 @@ def _measure_captures(
     reject_saturated: bool,
     calibration_source: str | None,
     stereo_directions: str = "auto",
+    fringe_orders: Mapping[str, F64] | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode; with a calibration, height and its errors (or the triangulated points).
     Returns the metrics fields."""
-    decoded = decode_captures(caps, reject_saturated=reject_saturated)
+    decoded = decode_captures(caps, reject_saturated=reject_saturated, fringe_orders=fringe_orders)
     fam = decoded.primary
     fields: dict[str, Any] = {}
     sat = np.zeros(caps.image_shape, bool)
@@ -998,7 +1043,12 @@ def measure(
             "folder with hdrfringe.io.captures.read_capture_folder"
         )
     decoded, height, fields, stereo = _measure_captures(
-        caps, calibration, reject_saturated, calibration_source, stereo_directions
+        caps,
+        calibration,
+        reject_saturated,
+        calibration_source,
+        stereo_directions,
+        strategy_fringe_orders(results),
     )
     dpa = None
     if method == "dpa":

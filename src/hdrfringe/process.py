@@ -24,6 +24,9 @@ Rules (documented in docs/phase.md):
   Gray code, then spatial unwrapping (with a centerline for the absolute phase). A Gray code
   whose stripe is wider than the coarsest pitch cannot fix its order: it is not used (a note
   says so).
+* Given phase: a strategy that unwraps its finest set itself (the adaptive projection, with its
+  mapping's fringe orders, docs/adaptive.md) passes that absolute phase as ``fringe_orders``;
+  it is used wherever the captured finest set decodes, and the coarser sets are not used.
 * Islands: where the order comes from spatial unwrapping, the valid area is split into regions
   separated by invalid pixels or phase discontinuities (:func:`hdrfringe.unwrap.phase_regions`);
   with two or more, their relative fringe order is unknown, and a note says so.
@@ -31,7 +34,7 @@ Rules (documented in docs/phase.md):
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +43,7 @@ from numpy.typing import NDArray
 
 from hdrfringe._validation import check_min_modulation, full_scale
 from hdrfringe.captures import Captures, FringeSet, GrayCodeSet
+from hdrfringe.errors import InputError
 from hdrfringe.graycode import GrayCodeDecode, absolute_phase_graycode, decode_graycode
 from hdrfringe.phase import PhaseResult, decode_set
 from hdrfringe.unwrap import (
@@ -74,9 +78,11 @@ class FamilyResult:
         How the phase was unwrapped, for reports.
     absolute_method : str or None
         How the absolute phase was obtained, for reports; None with ``absolute_phase``.
-    unwrapping : {"one-period", "graycode", "spatial"}
+    unwrapping : {"one-period", "graycode", "spatial", "given"}
         Where the coarsest set's fringe order came from: a set spanning the projector, the
-        Gray code, or spatial unwrapping (finer sets always follow temporally).
+        Gray code, or spatial unwrapping (finer sets always follow temporally); ``"given"``:
+        the finest set's absolute phase came from ``fringe_orders`` of
+        :func:`decode_captures` (a strategy's own mapping).
     regions : PhaseRegions or None
         With spatial unwrapping: the regions whose relative fringe order is unknown
         (:func:`hdrfringe.unwrap.phase_regions`); None otherwise.
@@ -252,6 +258,7 @@ def decode_captures(
     *,
     min_modulation: float | None = None,
     reject_saturated: bool = True,
+    fringe_orders: Mapping[str, NDArray[np.float64]] | None = None,
 ) -> FolderPhase:
     """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
@@ -264,6 +271,11 @@ def decode_captures(
         :func:`hdrfringe.phase.default_min_modulation`).
     reject_saturated : bool
         Invalidate pixels with any saturated shift (default True).
+    fringe_orders : mapping, optional
+        Orientation -> the absolute phase of that family's finest set as a strategy computed
+        it (the adaptive projection unwraps it with its mapping's fringe orders and corrects
+        its map's bias, :mod:`hdrfringe.strategies.adaptive`); it replaces the family's own
+        unwrapping wherever the captured finest set decodes (valid, unsaturated).
 
     Returns
     -------
@@ -355,7 +367,21 @@ def decode_captures(
         finest = fam[-1]
         absolute = None
         abs_method = None
-        if spans:
+        given = None if fringe_orders is None else fringe_orders.get(orient)
+        if given is not None:  # the caller's orders replace the family's own unwrapping
+            phi = results[finest.label].wrapped_phase
+            ref = np.asarray(given, dtype=np.float64)
+            if ref.shape != phi.shape:
+                raise InputError(
+                    f"{orient} fringe orders have shape {ref.shape}, the images {phi.shape}; "
+                    "give one absolute phase per camera pixel"
+                )
+            # the caller's phase, where the captured finest set decodes (its validity rules)
+            unwrapped = np.where(np.isfinite(phi), ref, np.nan)
+            absolute = unwrapped
+            method = abs_method = f"absolute phase given for the {finest.spec.pitch_px:g} px set"
+            unwrapping = "given"
+        elif spans:
             absolute = unwrapped
             abs_method = "one-period coarse set"
         elif code is not None:

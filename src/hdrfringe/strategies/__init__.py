@@ -13,6 +13,8 @@ Built in, one module each (import the function from its module, e.g.
 * :mod:`~hdrfringe.strategies.uniform`: one MIGL for every pixel (Ch. 4).
 * :mod:`~hdrfringe.strategies.lpa`: linear pixel-wise adaptive (Ch. 5, Eq. 5.1).
 * :mod:`~hdrfringe.strategies.dpa`: dynamic pixel-wise adaptive (Ch. 6).
+* :mod:`~hdrfringe.strategies.adaptive`: per-pixel adaptive projection (beyond the thesis,
+  its Sec. 7.2; registered after the thesis's own).
 
 The thesis's requirement 4 holds for every one: when no pixel saturates at the highest MIGL,
 the result is the conventional one, bit for bit, after one set. A new strategy is one module
@@ -67,3 +69,4 @@ BUILTIN = ("conventional", "uniform", "lpa", "dpa")
 
 for _module in BUILTIN:
     import_module(f"{__name__}.{_module}")
+import_module(f"{__name__}.adaptive")  # beyond the thesis (its Sec. 7.2): docs/adaptive.md
