@@ -46,6 +46,7 @@ from hdrfringe.strategies import StrategyResult, get_strategy, make_params
 from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
 
 __all__ = [
+    "ADAPTIVE_METRICS",
     "NO_CALIBRATION",
     "NO_GEOMETRY",
     "MeasurementMetrics",
@@ -53,6 +54,7 @@ __all__ = [
     "RigDescription",
     "SceneRig",
     "StrategySummary",
+    "adaptive_summary",
     "calibrate",
     "calibration_geometry",
     "composite_captures",
@@ -382,6 +384,48 @@ def strategy_fringe_orders(results: Sequence[StrategyResult]) -> dict[str, F64]:
     return out
 
 
+#: The entries of an adapted set's ``details`` that ``metrics.json`` records.
+ADAPTIVE_METRICS = (
+    "margin",
+    "mapping_pitches",
+    "mapping_migls",
+    "erosion_radius_px",
+    "blur_sigma_px",
+    "refit_passes",
+    "check_passes",
+    "mapping_saturated",
+    "images_per_step",
+    "sets_per_step",
+    "seconds_per_step",
+)
+
+
+def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
+    """What ``metrics.json`` records of the adaptive projection, per adapted orientation.
+
+    Parameters
+    ----------
+    results : sequence of StrategyResult
+        One per set of the measurement.
+
+    Returns
+    -------
+    dict
+        Orientation -> the :data:`ADAPTIVE_METRICS` entries of its adapted set (the mapping
+        is counted with the first adapted set); empty for the other strategies.
+
+    Examples
+    --------
+    >>> adaptive_summary([])
+    {}
+    """
+    return {
+        r.spec.orientation: {k: _json_safe(r.details[k]) for k in ADAPTIVE_METRICS}
+        for r in results
+        if r.method == "adaptive" and "images_per_step" in r.details
+    }
+
+
 # ---------------------------------------------------------------------------------------------
 # metrics and result
 # ---------------------------------------------------------------------------------------------
@@ -538,6 +582,10 @@ class MeasurementMetrics:
         What the strategy captured.
     dpa : DPAMetrics or None
         DPA's CDFs against the actual ones (thesis Fig. 6.3).
+    adaptive : dict or None
+        The adaptive projection's steps per adapted orientation: images, sets and seconds
+        per step, the mapping's pitches and MIGLs, the erosion radius and fitted blur
+        (:func:`adaptive_summary`).
     stereo : dict or None
         With a stereo calibration: points, depth range, reference plane and triangulation
         residual (:meth:`hdrfringe.stereo.StereoMaps.summary`).
@@ -577,6 +625,7 @@ class MeasurementMetrics:
     live_rig: Mapping[str, Any] | None = None
     strategy: StrategySummary | None = None
     dpa: DPAMetrics | None = None
+    adaptive: Mapping[str, Any] | None = None
     stereo: Mapping[str, Any] | None = None
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
@@ -621,6 +670,8 @@ class MeasurementMetrics:
             d.update(self.strategy.to_dict())
         if self.dpa is not None:
             d["dpa"] = self.dpa.to_dict()
+        if self.adaptive is not None:
+            d["adaptive"] = dict(self.adaptive)
         if self.regions is not None:
             d["regions"] = dict(self.regions)
         if self.stereo is not None:
@@ -1059,6 +1110,9 @@ def measure(
             correction=_correction_label(p, sources),
             bound_pending=p.bound_pending,
         )
+    summary = adaptive_summary(results)
+    if summary:
+        fields["adaptive"] = summary
     notes = list(decoded.notes)
     if isinstance(calibration, Calibration) and calibration_geometry(calibration) is None:
         notes.append(NO_GEOMETRY)

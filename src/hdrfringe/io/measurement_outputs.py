@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from hdrfringe.strategies.base import StrategyResult
 
 __all__ = [
+    "write_adaptive_outputs",
     "write_height_outputs",
     "write_measurement",
     "write_stereo_outputs",
@@ -188,6 +189,56 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     return files
 
 
+def write_adaptive_outputs(out: Path, results: Sequence[StrategyResult]) -> list[str]:
+    """The adaptive projection's MIGL maps: projector side and camera side.
+
+    Per adapted set (one per orientation; the file names carry the orientation when there
+    are two): ``projector_migl_map.tiff`` (float32, projector pixels: the map of its last
+    pass) and ``camera_migl.tiff`` (float32, camera pixels: the levels it was built from),
+    each with a PNG preview.
+
+    Parameters
+    ----------
+    out : Path
+        Output folder.
+    results : sequence of StrategyResult
+        One per set of the measurement; those without the maps are skipped.
+
+    Returns
+    -------
+    list of str
+        The files written (none for the other strategies).
+
+    References
+    ----------
+    Thesis Sec. 7.2 (future work: per-pixel adaptive projection); docs/adaptive.md.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> write_adaptive_outputs(Path(tempfile.mkdtemp()), [])
+    []
+    """
+    adapted = [r for r in results if "projector_migl_map" in r.details]
+    files: list[str] = []
+    for r in adapted:
+        tag = f"_{r.spec.orientation}" if len(adapted) > 1 else ""
+        pitch = f"{r.spec.orientation} {r.spec.pitch_px:g} px"
+        for key, where in (("projector_migl_map", "projector"), ("camera_migl", "camera")):
+            data = np.asarray(r.details[key], dtype=np.float32)
+            name = f"{key}{tag}"
+            write_map_tiff(out / f"{name}.tiff", data)
+            write_preview_png(
+                out / f"{name}.png",
+                data,
+                title=f"adaptive MIGL per {where} pixel ({pitch})",
+                cmap="viridis",
+                label="MIGL",
+            )
+            files += [f"{name}.tiff", f"{name}.png"]
+    return files
+
+
 def write_measurement(
     result: MeasurementResult,
     out: str | Path,
@@ -203,7 +254,7 @@ def write_measurement(
     <hdrfringe.pipeline.MeasurementResult.points>`); with a stereo calibration, the
     triangulated outputs instead (:func:`write_stereo_outputs`); with a strategy, its index
     map and pie chart (:func:`write_strategy_outputs`); for DPA, ``dpa_cdf.png`` (thesis
-    Fig. 6.3); and
+    Fig. 6.3); for the adaptive projection, its MIGL maps (:func:`write_adaptive_outputs`); and
     ``metrics.json`` (:meth:`MeasurementMetrics.to_dict
     <hdrfringe.pipeline.MeasurementMetrics.to_dict>`).
 
@@ -261,6 +312,7 @@ def write_measurement(
             write_height_outputs(tmp, result.height_mm, result.geometry)
         if result.strategy_results:
             write_strategy_outputs(tmp, result.strategy_results)
+            write_adaptive_outputs(tmp, result.strategy_results)
         if result.dpa is not None and result.metrics.dpa is not None:
             plot_dpa_cdfs(tmp / "dpa_cdf.png", result.dpa, threshold=result.metrics.dpa.threshold)
         metrics = result.metrics.to_dict()

@@ -32,12 +32,11 @@ from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.ndimage import distance_transform_edt, gaussian_filter, gaussian_filter1d, grey_erosion
+from scipy.ndimage import distance_transform_edt, gaussian_filter, grey_erosion
 from scipy.optimize import minimize_scalar
 
 from hdrfringe._validation import full_scale, saturation_count
 from hdrfringe.errors import InputError
-from hdrfringe.frames import sample_bilinear
 from hdrfringe.saturation.estimate import saturated_peak_lower_bound
 
 __all__ = [
@@ -552,7 +551,15 @@ def projector_migl_map(
     [[200.0, 200.0, 120.0, 120.0, 120.0, 120.0]]
     """
     m = scatter_min(camera_migl, u, v, projector_shape)
-    m = smooth_below(erode_map(fill_holes(m), radius), sigma)
+    seen = np.isfinite(m)
+    m = fill_holes(m)
+    if seen.any():  # erode and smooth only around what the camera sees (the rest is not lit
+        # into any camera pixel): the bounding box plus the reach of both filters
+        pad = int(np.ceil(float(radius) + 4.0 * float(sigma))) + 2
+        rows, cols = np.flatnonzero(seen.any(axis=1)), np.flatnonzero(seen.any(axis=0))
+        r0, r1 = max(rows[0] - pad, 0), min(rows[-1] + pad + 1, m.shape[0])
+        c0, c1 = max(cols[0] - pad, 0), min(cols[-1] + pad + 1, m.shape[1])
+        m[r0:r1, c0:c1] = smooth_below(erode_map(m[r0:r1, c0:c1], radius), sigma)
     return np.clip(m, float(imin), float(projector_full))
 
 
@@ -843,21 +850,27 @@ def map_phase_bias(
         raise InputError(f"orientation must be vertical or horizontal, got {orientation!r}")
     if not float(pitch_px) > 0 or not float(sigma_px) >= 0:
         raise InputError(f"pitch must be > 0 and sigma >= 0, got {pitch_px!r}, {sigma_px!r}")
-    axis = 1 if orientation == "vertical" else 0
-    x = np.arange(pm.shape[axis], dtype=np.float64)
-    carrier = np.exp(2j * np.pi * x / float(pitch_px))
-    carrier = carrier[None, :] if axis == 1 else carrier[:, None]
-    z = np.maximum(pm - float(imin), 0.0) * carrier
-    if sigma_px > 0:
-        z = gaussian_filter1d(z.real, float(sigma_px), axis=axis, mode="nearest") + 1j * (
-            gaussian_filter1d(z.imag, float(sigma_px), axis=axis, mode="nearest")
+    if orientation == "horizontal":  # the same along rows: transpose the problem
+        return map_phase_bias(
+            pm.T, vv, uu, pitch_px=pitch_px, orientation="vertical", sigma_px=sigma_px, imin=imin
         )
-    coord = uu if orientation == "vertical" else vv
+    out = np.full(uu.shape, np.nan)
     ok = np.isfinite(uu) & np.isfinite(vv)
-    uf, vf = np.where(ok, uu, 0.0), np.where(ok, vv, 0.0)
-    zs = sample_bilinear(z.real, uf, vf) + 1j * sample_bilinear(z.imag, uf, vf)
-    bias = np.angle(zs * np.exp(-2j * np.pi * np.where(ok, coord, 0.0) / float(pitch_px)))
-    return np.where(ok, bias, np.nan)
+    h, w = pm.shape
+    ok &= (uu > -0.5) & (uu < w - 0.5) & (vv > -0.5) & (vv < h - 0.5)
+    if sigma_px == 0 or not ok.any():
+        out[ok] = 0.0
+        return out
+    # the blur as taps on the projector pixels around each camera pixel's x0 (its row nearest)
+    x0, row = uu[ok], np.clip(np.rint(vv[ok]).astype(np.intp), 0, h - 1)
+    reach = int(np.ceil(4.0 * float(sigma_px))) + 1
+    cols = np.floor(x0)[:, None].astype(np.intp) + np.arange(-reach, reach + 1)[None, :]
+    s = cols - x0[:, None]
+    k = np.exp(-0.5 * (s / float(sigma_px)) ** 2)
+    amp = np.maximum(pm[row[:, None], np.clip(cols, 0, w - 1)] - float(imin), 0.0)
+    z = np.sum(k * amp * np.exp(2j * np.pi * s / float(pitch_px)), axis=1)
+    out[ok] = np.angle(z)
+    return out
 
 
 def fit_blur_sigma(

@@ -77,6 +77,8 @@ __all__ = ["Adaptive", "AdaptiveParams", "adaptive", "adaptive_sets", "mapping_p
 MAPPING_RATIO = 16.0
 #: Headroom (fraction of full scale) of the automatic mapping MIGL.
 AUTO_MAPPING_MARGIN = 0.1
+#: Pixels the map-bias blur is fitted on (evenly spread over the valid ones).
+FIT_PIXELS = 20000
 #: Window (camera pixels) of the median that denoises each mapping level before unwrapping.
 MEDIAN_WINDOW = 5
 
@@ -230,25 +232,31 @@ def _correct_map_bias(
     noise (:func:`~hdrfringe.saturation.adaptive_map.fit_blur_sigma`).
     """
 
-    def bias_of(sigma: float) -> NDArray[np.float64]:
-        out = np.full(absolute.shape, np.nan)
+    residual = (absolute - reference).ravel()
+    # one blur for the field: fit it on an evenly spread subset of the pixels (fast at any
+    # camera size), then correct every pixel
+    usable = np.flatnonzero(np.isfinite(residual))
+    fit_on = usable[:: max(1, usable.size // FIT_PIXELS)]
+
+    def bias_of(sigma: float, where: NDArray[np.intp]) -> NDArray[np.float64]:
+        out = np.full(where.size, np.nan)
+        src = source.ravel()[where]
         for j, pm in enumerate(maps):
-            sel = source == j
+            sel = src == j
             if sel.any():
-                b = map_phase_bias(
+                out[sel] = map_phase_bias(
                     pm,
-                    u,
-                    v,
+                    u.ravel()[where][sel][None, :],
+                    v.ravel()[where][sel][None, :],
                     pitch_px=spec.pitch_px,
                     orientation=spec.orientation,
                     sigma_px=sigma,
                     imin=imin,
-                )
-                out[sel] = b[sel]
+                )[0]
         return out
 
-    sigma = fit_blur_sigma(absolute - reference, bias_of, max(2.0, 2.0 * radius))
-    bias = bias_of(sigma)
+    sigma = fit_blur_sigma(residual[fit_on], lambda s: bias_of(s, fit_on), max(1.0, radius))
+    bias = bias_of(sigma, np.arange(residual.size)).reshape(absolute.shape)
     return absolute - np.where(np.isfinite(bias), bias, 0.0), sigma
 
 
@@ -713,7 +721,7 @@ class AdaptiveParams:
     iterations: int = field(
         default=1,
         metadata={
-            "help": "extra adapted sets at most, only where clipping remains.",
+            "help": "check passes at most, each only where clipping remains.",
             "cli": "--adaptive-iterations",
         },
     )
