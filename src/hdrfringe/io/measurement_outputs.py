@@ -31,12 +31,18 @@ if TYPE_CHECKING:
     from hdrfringe.strategies.base import StrategyResult
 
 __all__ = [
+    "PIE_SLICES",
     "write_adaptive_outputs",
     "write_height_outputs",
     "write_measurement",
     "write_stereo_outputs",
     "write_strategy_outputs",
 ]
+
+
+#: Most slices of the pie chart of an index map; a map with more distinct values (a per-pixel
+#: MIGL map) is shown to 10 gray levels.
+PIE_SLICES = 64
 
 
 def write_height_outputs(
@@ -136,7 +142,9 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     Files are named by what varied between the sets (:attr:`StrategyResult.index_quantity
     <hdrfringe.strategies.StrategyResult>`): ``migl_index.tiff``, ``migl_index.png`` and
     ``migl_pie.png`` for the MIGL (every strategy of the thesis), ``exposure_ms_index.*`` and
-    ``exposure_ms_pie.png`` for the exposure time.
+    ``exposure_ms_pie.png`` for the exposure time. An index map with more than
+    :data:`PIE_SLICES` values (the adaptive projection's per-pixel MIGL) is shown in the pie
+    to 10 gray levels.
 
     Parameters
     ----------
@@ -183,9 +191,10 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     files = [f"{q}_index.tiff", f"{q}_index.png", f"{q}_pie.png"]
     write_map_tiff(out / files[0], fine.index_map)
     write_preview_png(out / files[1], fine.index_map, title=title, cmap="viridis", label=unit)
-    plot_migl_pie(
-        out / files[2], fine.index_map, title=f"pixels per {per} ({fine.method}, {pitch})"
-    )
+    pie, step = fine.index_map, ""
+    if np.unique(pie).size > PIE_SLICES:  # a per-pixel map (adaptive): slices of 10 levels
+        pie, step = np.round(pie, -1), ", to 10"
+    plot_migl_pie(out / files[2], pie, title=f"pixels per {per}{step} ({fine.method}, {pitch})")
     return files
 
 

@@ -55,7 +55,6 @@ __all__ = [
     "safe_migl",
     "sample_map",
     "scatter_min",
-    "shift_peak_fraction",
     "smooth_below",
 ]
 
@@ -601,7 +600,6 @@ def refined_migl(
     margin: float,
     imin: float,
     projector_full: float,
-    peak_fraction: ArrayLike = 1.0,
 ) -> F64:
     """Per camera pixel, the highest safe MIGL re-fitted from an unclipped set at its own pitch.
 
@@ -610,11 +608,7 @@ def refined_migl(
     ``m`` per pixel (offset ``I'``, modulation ``I''``) the same set at ``m'`` has
     ``I'(m') = c + (I' - c) (m' + imin) / (m + imin)`` and ``I''(m') = I'' (m' - imin) /
     (m - imin)`` (both linear in the projected light); the level is the ``m'`` where
-    ``I'(m') + f I''(m') = (1 - margin) (2^B - 1)``, clipped to ``[imin, projector_full]``.
-    ``f`` is the brightest shift's share of the modulation: 1 for the sinusoid's peak, or
-    ``max_k cos(phi + 2 pi k / N)`` for the shifts actually projected at the pixel's phase
-    ``phi`` (:func:`shift_peak_fraction`): the shifts of a set sample its sinusoid, and only
-    they must stay below clipping.
+    ``I'(m') + I''(m') = (1 - margin) (2^B - 1)``, clipped to ``[imin, projector_full]``.
 
     Parameters
     ----------
@@ -632,8 +626,6 @@ def refined_migl(
         The set's minimum gray.
     projector_full : float
         Highest MIGL.
-    peak_fraction : array_like (H, W) or float
-        ``f`` above, in ``[-1, 1]`` (default 1: the sinusoid's peak).
 
     Returns
     -------
@@ -654,56 +646,19 @@ def refined_migl(
     >>> refined_migl([[100.0]], [[30.0]], [[140.0]], [[10.0]], 8, margin=0.2, imin=40.0,
     ...              projector_full=255).round(2).tolist()
     [[232.5]]
-
-    When the brightest of the projected shifts sits at ``cos = 0.8`` of the peak, the bound
-    moves up to where ``10 + (m' + 40) / 2 + 0.24 (m' - 40) = 204``:
-
-    >>> refined_migl([[100.0]], [[30.0]], [[140.0]], [[10.0]], 8, margin=0.2, imin=40.0,
-    ...              projector_full=255, peak_fraction=0.8).round(2).tolist()
-    [[248.11]]
     """
     off, mod = _image(offset, "offset"), _image(modulation, "modulation")
     m = _image(received_migl, "received_migl")
     c = _image(ambient, "ambient")
     for name, arr in (("modulation", mod), ("received_migl", m), ("ambient", c)):
         _same_shape(name, arr, off)
-    f = np.broadcast_to(np.asarray(peak_fraction, dtype=np.float64), off.shape)
     top = (1.0 - float(margin)) * full_scale(bit_depth)
     with np.errstate(divide="ignore", invalid="ignore"):
         alpha = (off - c) / (m + imin)
-        beta = f * mod / (m - imin)
+        beta = mod / (m - imin)
         out = (top - c - alpha * imin + beta * imin) / (alpha + beta)
     out[~(np.isfinite(out) & (m > imin) & (alpha + beta > 0))] = np.nan
     return np.where(np.isfinite(out), np.clip(out, float(imin), float(projector_full)), np.nan)
-
-
-def shift_peak_fraction(phase: ArrayLike, steps: int) -> F64:
-    """The brightest shift's share of the modulation: ``max_k cos(phi + 2 pi k / N)``.
-
-    With the contract's shifts ``I_k = I' + I'' cos(phi + 2 pi k / N)`` the brightest of the
-    N images of a pixel reads ``I' + f I''``; ``f`` lies in ``[cos(pi / N), 1]``.
-
-    Parameters
-    ----------
-    phase : array_like
-        Wrapped phase (radians; NaN stays NaN).
-    steps : int
-        N >= 1.
-
-    Returns
-    -------
-    ndarray of float64
-
-    Examples
-    --------
-    >>> shift_peak_fraction([0.0, np.pi / 4], 4).round(4).tolist()
-    [1.0, 0.7071]
-    """
-    if isinstance(steps, bool) or int(steps) != steps or steps < 1:
-        raise InputError(f"steps must be a whole number >= 1, got {steps!r}")
-    phi = np.asarray(phase, dtype=np.float64)
-    k = np.arange(int(steps)).reshape((-1,) + (1,) * phi.ndim)
-    return np.asarray(np.cos(phi + 2.0 * np.pi * k / int(steps)).max(axis=0), np.float64)
 
 
 def lowered_where_clipped(

@@ -59,7 +59,6 @@ from hdrfringe.saturation.adaptive_map import (
     response_from_fringes,
     safe_migl,
     sample_map,
-    shift_peak_fraction,
 )
 from hdrfringe.strategies.base import (
     CapturedSet,
@@ -483,6 +482,7 @@ def adaptive_sets(
         remaining = saturation_count(composite, bits) > 0
         captured = [CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=pmap)]
         newly = [int((~remaining).sum())]
+        clipped = [int(remaining.sum())]  # pixels with a clipped shift, per capture
         used = [pmap]  # the maps projected, and per pixel which one its images come from
         source = np.zeros(remaining.shape, np.intp)
         t_adapt = time.perf_counter() - t0
@@ -502,7 +502,6 @@ def adaptive_sets(
                 margin=margin,
                 imin=first.imin,
                 projector_full=full_p,
-                peak_fraction=shift_peak_fraction(dec.wrapped_phase, steps),
             )
             up = median_smooth(up, MEDIAN_WINDOW)  # per-pixel noise would bias the erosion low
             new_levels = np.where(np.isfinite(up), np.maximum(up, levels), levels)
@@ -513,6 +512,7 @@ def adaptive_sets(
                 new_map = build(new_levels)
                 imgs = shoot(new_map)
                 clip = saturation_count(imgs, bits) > 0
+                clipped.append(int(clip.sum()))
                 take = ~clip | remaining  # unclipped now, or clipped both times (the newer)
                 composite[:, take] = imgs[:, take]
                 used.append(new_map)
@@ -542,6 +542,7 @@ def adaptive_sets(
             imgs = shoot(pmap)
             got2 = sample_map(pmap, uf, vf).astype(np.float32)
             unsat = saturation_count(imgs, bits) == 0
+            clipped.append(int((~unsat).sum()))
             new = remaining & unsat
             composite[:, remaining] = imgs[:, remaining]
             index[remaining] = got2[remaining]
@@ -588,6 +589,7 @@ def adaptive_sets(
                 "mapping_saturated": int(mp.saturated.sum()),
                 "refit_passes": refits,
                 "check_passes": passes,
+                "clipped_per_capture": clipped,
                 "absolute_phase": absolute,
                 "images_per_step": {
                     "mapping": n_map * steps,
