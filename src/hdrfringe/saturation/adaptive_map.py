@@ -584,7 +584,7 @@ def sample_map(projector_map: ArrayLike, u: ArrayLike, v: ArrayLike) -> F64:
     pm = _image(projector_map, "projector map")
     uu, vv = _image(u, "u"), _image(v, "v")
     _same_shape("v", vv, uu)
-    row, col, ok = _projector_index(uu, vv, pm.shape)  # type: ignore[arg-type]
+    row, col, ok = _projector_index(uu, vv, (pm.shape[0], pm.shape[1]))
     out = np.full(uu.shape, np.nan)
     out[ok] = pm[row[ok], col[ok]]
     return out

@@ -157,11 +157,15 @@ def _measure_mapping(
     migls: dict[str, list[float]] = {}
     absolute: dict[str, NDArray[np.float64]] = {}
     coords: dict[str, NDArray[np.float64]] = {}
-    gains, ambients, weights = [], [], []
+    gains: list[NDArray[np.float64]] = []
+    ambients: list[NDArray[np.float64]] = []
+    weights: list[float] = []
     saturated = np.zeros(rig.image_shape, bool)
     m_next = migl
     for orient, ps in pitches.items():
-        imgs, decoded, ms = [], [], []
+        imgs: list[NDArray] = []
+        decoded: list[Any] = []
+        ms: list[float] = []
         for p in ps:
             m = migl if not gains and not imgs else m_next
             spec = FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
@@ -471,7 +475,7 @@ def adaptive_sets(
         spec = specs[i]
 
         def shoot(pmap: NDArray[np.float64], spec: FringeSpec = spec) -> NDArray:
-            frames = [PixelwiseFringeFrame(spec, k, pmap) for k in range(steps)]
+            frames = [PixelwiseFringeFrame(spec, k, pmap.astype(np.float32)) for k in range(steps)]
             return _capture(rig, frames, settings)
 
         t0 = time.perf_counter()
@@ -643,7 +647,7 @@ def adaptive(
         A rig whose projector shows projector images.
     spec : FringeSpec
         The set at its highest MIGL.
-    margin, iterations, mapping_migl, blur_px, smooth_px, exposure_ms
+    margin, iterations, refit, bias_correction, mapping_migl, blur_px, smooth_px, exposure_ms
         As :func:`adaptive_sets`.
 
     Returns
