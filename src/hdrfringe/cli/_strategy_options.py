@@ -23,8 +23,8 @@ def method_help() -> str:
 
     Examples
     --------
-    >>> method_help()[:56]
-    'Saturation avoidance: conventional, uniform, lpa or dpa '
+    >>> method_help()[:66]
+    'Saturation avoidance: conventional, uniform, lpa, dpa or adaptive '
     """
     from hdrfringe.strategies import available_strategies
 
