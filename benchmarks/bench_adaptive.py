@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.pipeline import composite_captures, strategy_fringe_orders
+from hdrfringe.pipeline import composite_captures, strategy_absolute_phases
 from hdrfringe.process import decode_captures
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
@@ -68,7 +68,7 @@ def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[
     t0 = time.perf_counter()
     caps, results = composite_captures(rig, specs, method, params)
     seconds = time.perf_counter() - t0
-    decoded = decode_captures(caps, fringe_orders=strategy_fringe_orders(results))
+    decoded = decode_captures(caps, given_phases=strategy_absolute_phases(results))
     fam = decoded.primary
     assert fam is not None and fam.absolute_phase is not None
     truth = rig.truth()

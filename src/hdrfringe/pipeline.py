@@ -61,7 +61,7 @@ __all__ = [
     "describe_rig",
     "height_points",
     "measure",
-    "strategy_fringe_orders",
+    "strategy_absolute_phases",
     "strategy_summary",
     "tradeoff_search",
 ]
@@ -350,13 +350,13 @@ def composite_captures(
     return out, tuple(results)
 
 
-def strategy_fringe_orders(results: Sequence[StrategyResult]) -> dict[str, F64]:
+def strategy_absolute_phases(results: Sequence[StrategyResult]) -> dict[str, F64]:
     """The absolute phases a strategy unwrapped itself, by orientation (the finest set's).
 
     A strategy that measures where each camera pixel looks on the projector (the adaptive
     projection's mapping) unwraps its finest set with those fringe orders and leaves the
     result in ``details["absolute_phase"]``; :func:`hdrfringe.process.decode_captures` takes
-    them as ``fringe_orders``.
+    them as ``given_phases``.
 
     Parameters
     ----------
@@ -371,7 +371,7 @@ def strategy_fringe_orders(results: Sequence[StrategyResult]) -> dict[str, F64]:
 
     Examples
     --------
-    >>> strategy_fringe_orders([])
+    >>> strategy_absolute_phases([])
     {}
     """
     out: dict[str, F64] = {}
@@ -856,11 +856,11 @@ def _measure_captures(
     reject_saturated: bool,
     calibration_source: str | None,
     stereo_directions: str = "auto",
-    fringe_orders: Mapping[str, F64] | None = None,
+    given_phases: Mapping[str, F64] | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode; with a calibration, height and its errors (or the triangulated points).
     Returns the metrics fields."""
-    decoded = decode_captures(caps, reject_saturated=reject_saturated, fringe_orders=fringe_orders)
+    decoded = decode_captures(caps, reject_saturated=reject_saturated, given_phases=given_phases)
     fam = decoded.primary
     fields: dict[str, Any] = {}
     sat = np.zeros(caps.image_shape, bool)
@@ -1099,7 +1099,7 @@ def measure(
         reject_saturated,
         calibration_source,
         stereo_directions,
-        strategy_fringe_orders(results),
+        strategy_absolute_phases(results),
     )
     dpa = None
     if method == "dpa":

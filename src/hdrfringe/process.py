@@ -25,7 +25,7 @@ Rules (documented in docs/phase.md):
   whose stripe is wider than the coarsest pitch cannot fix its order: it is not used (a note
   says so).
 * Given phase: a strategy that unwraps its finest set itself (the adaptive projection, with its
-  mapping's fringe orders, docs/adaptive.md) passes that absolute phase as ``fringe_orders``;
+  mapping's fringe orders, docs/adaptive.md) passes that absolute phase as ``given_phases``;
   it is used wherever the captured finest set decodes, and the coarser sets are not used.
 * Islands: where the order comes from spatial unwrapping, the valid area is split into regions
   separated by invalid pixels or phase discontinuities (:func:`hdrfringe.unwrap.phase_regions`);
@@ -81,7 +81,7 @@ class FamilyResult:
     unwrapping : {"one-period", "graycode", "spatial", "given"}
         Where the coarsest set's fringe order came from: a set spanning the projector, the
         Gray code, or spatial unwrapping (finer sets always follow temporally); ``"given"``:
-        the finest set's absolute phase came from ``fringe_orders`` of
+        the finest set's absolute phase came from ``given_phases`` of
         :func:`decode_captures` (a strategy's own mapping).
     regions : PhaseRegions or None
         With spatial unwrapping: the regions whose relative fringe order is unknown
@@ -258,7 +258,7 @@ def decode_captures(
     *,
     min_modulation: float | None = None,
     reject_saturated: bool = True,
-    fringe_orders: Mapping[str, NDArray[np.float64]] | None = None,
+    given_phases: Mapping[str, NDArray[np.float64]] | None = None,
 ) -> FolderPhase:
     """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
@@ -271,7 +271,7 @@ def decode_captures(
         :func:`hdrfringe.phase.default_min_modulation`).
     reject_saturated : bool
         Invalidate pixels with any saturated shift (default True).
-    fringe_orders : mapping, optional
+    given_phases : mapping, optional
         Orientation -> the absolute phase of that family's finest set as a strategy computed
         it (the adaptive projection unwraps it with its mapping's fringe orders and corrects
         its map's bias, :mod:`hdrfringe.strategies.adaptive`); it replaces the family's own
@@ -367,13 +367,13 @@ def decode_captures(
         finest = fam[-1]
         absolute = None
         abs_method = None
-        given = None if fringe_orders is None else fringe_orders.get(orient)
-        if given is not None:  # the caller's orders replace the family's own unwrapping
+        given = None if given_phases is None else given_phases.get(orient)
+        if given is not None:  # the caller's phase replaces the family's own unwrapping
             phi = results[finest.label].wrapped_phase
             ref = np.asarray(given, dtype=np.float64)
             if ref.shape != phi.shape:
                 raise InputError(
-                    f"{orient} fringe orders have shape {ref.shape}, the images {phi.shape}; "
+                    f"given {orient} absolute phase has shape {ref.shape}, the images {phi.shape}; "
                     "give one absolute phase per camera pixel"
                 )
             # the caller's phase, where the captured finest set decodes (its validity rules)
