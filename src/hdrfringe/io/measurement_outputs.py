@@ -40,9 +40,10 @@ __all__ = [
 ]
 
 
-#: Most slices of the pie chart of an index map; a map with more distinct values (a per-pixel
-#: MIGL map) is shown to 10 gray levels.
-PIE_SLICES = 64
+#: Most slices of the pie chart of an index map (every MIGL of an 8-bit projector: the
+#: thesis's strategies keep their pies); a map with more distinct values (the adaptive
+#: projection's per-pixel MIGL) is shown to 10 gray levels.
+PIE_SLICES = 256
 
 
 def write_height_outputs(
