@@ -98,6 +98,8 @@ from .stereo_calibration import observe_pose as observe_pose
 from .strategies import StrategyResult as StrategyResult
 from .strategies import available_strategies as available_strategies
 from .strategies import get_strategy as get_strategy
+from .strategies.adaptive import adaptive as adaptive
+from .strategies.adaptive import adaptive_sets as adaptive_sets
 from .strategies.conventional import conventional as conventional
 from .strategies.dpa import dpa as dpa
 from .strategies.exposure import choose_exposure as choose_exposure

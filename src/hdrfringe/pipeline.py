@@ -46,6 +46,7 @@ from hdrfringe.strategies import StrategyResult, get_strategy, make_params
 from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
 
 __all__ = [
+    "ADAPTIVE_METRICS",
     "NO_CALIBRATION",
     "NO_GEOMETRY",
     "MeasurementMetrics",
@@ -53,12 +54,14 @@ __all__ = [
     "RigDescription",
     "SceneRig",
     "StrategySummary",
+    "adaptive_summary",
     "calibrate",
     "calibration_geometry",
     "composite_captures",
     "describe_rig",
     "height_points",
     "measure",
+    "strategy_absolute_phases",
     "strategy_summary",
     "tradeoff_search",
 ]
@@ -315,10 +318,19 @@ def composite_captures(
     desc = describe_rig(rig) if description is None else description
     frames: list[Frame] = []
     images = []
-    results = []
-    for spec in specs:
-        res = strategy.run(rig, spec, p)
-        results.append(res)
+    results: list[StrategyResult]
+    # A strategy that plans all sets of a measurement together (one mapping for every pitch,
+    # the adaptive projection) offers run_sets(rig, specs, params): one result per spec.
+    run_sets = getattr(strategy, "run_sets", None)
+    if callable(run_sets):
+        results = list(run_sets(rig, list(specs), p))
+        if len(results) != len(specs):
+            raise InputError(
+                f"strategy {method!r} returned {len(results)} results for {len(specs)} sets"
+            )
+    else:
+        results = [strategy.run(rig, spec, p) for spec in specs]
+    for spec, res in zip(specs, results, strict=True):
         frames += spec.frames()
         images.append(res.images)
         if res.details.get("inverted_images") is not None:  # tolerant: the inverted set
@@ -340,6 +352,82 @@ def composite_captures(
         name=desc.name,
     )
     return out, tuple(results)
+
+
+def strategy_absolute_phases(results: Sequence[StrategyResult]) -> dict[str, F64]:
+    """The absolute phases a strategy unwrapped itself, by orientation (the finest set's).
+
+    A strategy that measures where each camera pixel looks on the projector (the adaptive
+    projection's mapping) unwraps its finest set with those fringe orders and leaves the
+    result in ``details["absolute_phase"]``; :func:`hdrfringe.process.decode_captures` takes
+    them as ``given_phases``.
+
+    Parameters
+    ----------
+    results : sequence of StrategyResult
+        One per set of the measurement.
+
+    Returns
+    -------
+    dict
+        Orientation -> absolute phase of that orientation's finest set; empty for the
+        strategies that leave unwrapping to the captures (all of the thesis's).
+
+    Examples
+    --------
+    >>> strategy_absolute_phases([])
+    {}
+    """
+    out: dict[str, F64] = {}
+    finest: dict[str, float] = {}
+    for r in results:
+        phase = r.details.get("absolute_phase")
+        o = r.spec.orientation
+        if phase is not None and r.spec.pitch_px < finest.get(o, np.inf):
+            out[o], finest[o] = np.asarray(phase, np.float64), r.spec.pitch_px
+    return out
+
+
+#: The entries of an adapted set's ``details`` that ``metrics.json`` records.
+ADAPTIVE_METRICS = (
+    "margin",
+    "mapping_pitches",
+    "mapping_migls",
+    "erosion_radius_px",
+    "blur_sigma_px",
+    "refit_passes",
+    "check_passes",
+    "mapping_saturated",
+    "images_per_step",
+    "sets_per_step",
+    "seconds_per_step",
+)
+
+
+def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
+    """What ``metrics.json`` records of the adaptive projection, per adapted orientation.
+
+    Parameters
+    ----------
+    results : sequence of StrategyResult
+        One per set of the measurement.
+
+    Returns
+    -------
+    dict
+        Orientation -> the :data:`ADAPTIVE_METRICS` entries of its adapted set (the mapping
+        is counted with the first adapted set); empty for the other strategies.
+
+    Examples
+    --------
+    >>> adaptive_summary([])
+    {}
+    """
+    return {
+        r.spec.orientation: {k: _json_safe(r.details[k]) for k in ADAPTIVE_METRICS}
+        for r in results
+        if r.method == "adaptive" and "images_per_step" in r.details
+    }
 
 
 # ---------------------------------------------------------------------------------------------
@@ -498,6 +586,10 @@ class MeasurementMetrics:
         What the strategy captured.
     dpa : DPAMetrics or None
         DPA's CDFs against the actual ones (thesis Fig. 6.3).
+    adaptive : dict or None
+        The adaptive projection's steps per adapted orientation: images, sets and seconds
+        per step, the mapping's pitches and MIGLs, the erosion radius and fitted blur
+        (:func:`adaptive_summary`).
     stereo : dict or None
         With a stereo calibration: points, depth range, reference plane and triangulation
         residual (:meth:`hdrfringe.stereo.StereoMaps.summary`).
@@ -541,6 +633,7 @@ class MeasurementMetrics:
     live_rig: Mapping[str, Any] | None = None
     strategy: StrategySummary | None = None
     dpa: DPAMetrics | None = None
+    adaptive: Mapping[str, Any] | None = None
     stereo: Mapping[str, Any] | None = None
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
@@ -586,6 +679,8 @@ class MeasurementMetrics:
             d.update(self.strategy.to_dict())
         if self.dpa is not None:
             d["dpa"] = self.dpa.to_dict()
+        if self.adaptive is not None:
+            d["adaptive"] = dict(self.adaptive)
         if self.regions is not None:
             d["regions"] = dict(self.regions)
         if self.decoder is not None:
@@ -773,14 +868,19 @@ def _measure_captures(
     calibration_source: str | None,
     stereo_directions: str = "auto",
     min_shifts: int | None = None,
+    given_phases: Mapping[str, F64] | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
     calibration, height and its errors (or the triangulated points). Returns the metrics
     fields."""
     if min_shifts is None:
-        decoded = decode_captures(caps, reject_saturated=reject_saturated)
+        decoded = decode_captures(
+            caps, reject_saturated=reject_saturated, given_phases=given_phases
+        )
     else:
-        decoded = decode_captures(caps, saturated="exclude", min_shifts=min_shifts)
+        decoded = decode_captures(
+            caps, saturated="exclude", min_shifts=min_shifts, given_phases=given_phases
+        )
     fam = decoded.primary
     fields: dict[str, Any] = {}
     if min_shifts is not None:
@@ -1040,6 +1140,7 @@ def measure(
         calibration_source,
         stereo_directions,
         min_shifts=min(tolerant) if tolerant else None,
+        given_phases=strategy_absolute_phases(results),
     )
     dpa = None
     if method == "dpa":
@@ -1050,6 +1151,9 @@ def measure(
             correction=_correction_label(p, sources),
             bound_pending=p.bound_pending,
         )
+    summary = adaptive_summary(results)
+    if summary:
+        fields["adaptive"] = summary
     notes = list(decoded.notes)
     if isinstance(calibration, Calibration) and calibration_geometry(calibration) is None:
         notes.append(NO_GEOMETRY)

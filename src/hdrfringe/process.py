@@ -24,6 +24,9 @@ Rules (documented in docs/phase.md):
   Gray code, then spatial unwrapping (with a centerline for the absolute phase). A Gray code
   whose stripe is wider than the coarsest pitch cannot fix its order: it is not used (a note
   says so).
+* Given phase: a strategy that unwraps its finest set itself (the adaptive projection, with its
+  mapping's fringe orders, docs/adaptive.md) passes that absolute phase as ``given_phases``;
+  it is used wherever the captured finest set decodes, and the coarser sets are not used.
 * Islands: where the order comes from spatial unwrapping, the valid area is split into regions
   separated by invalid pixels or phase discontinuities (:func:`hdrfringe.unwrap.phase_regions`);
   with two or more, their relative fringe order is unknown, and a note says so.
@@ -32,7 +35,7 @@ Rules (documented in docs/phase.md):
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -82,9 +85,11 @@ class FamilyResult:
         How the phase was unwrapped, for reports.
     absolute_method : str or None
         How the absolute phase was obtained, for reports; None with ``absolute_phase``.
-    unwrapping : {"one-period", "graycode", "spatial"}
+    unwrapping : {"one-period", "graycode", "spatial", "given"}
         Where the coarsest set's fringe order came from: a set spanning the projector, the
-        Gray code, or spatial unwrapping (finer sets always follow temporally).
+        Gray code, or spatial unwrapping (finer sets always follow temporally); ``"given"``:
+        the finest set's absolute phase came from ``given_phases`` of
+        :func:`decode_captures` (a strategy's own mapping).
     regions : PhaseRegions or None
         With spatial unwrapping: the regions whose relative fringe order is unknown
         (:func:`hdrfringe.unwrap.phase_regions`); None otherwise.
@@ -269,6 +274,7 @@ def decode_captures(
     reject_saturated: bool = True,
     saturated: str = "flag",
     min_shifts: int = 3,
+    given_phases: Mapping[str, NDArray[np.float64]] | None = None,
 ) -> FolderPhase:
     """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
@@ -290,6 +296,11 @@ def decode_captures(
         decoded as with ``flag``.
     min_shifts : int
         With ``exclude``: least number of unsaturated images per pixel (>= 3).
+    given_phases : mapping, optional
+        Orientation -> the absolute phase of that family's finest set as a strategy computed
+        it (the adaptive projection unwraps it with its mapping's fringe orders and corrects
+        its map's bias, :mod:`hdrfringe.strategies.adaptive`); it replaces the family's own
+        unwrapping wherever the captured finest set decodes (valid, unsaturated).
 
     Returns
     -------
@@ -389,7 +400,21 @@ def decode_captures(
         finest = fam[-1]
         absolute = None
         abs_method = None
-        if spans:
+        given = None if given_phases is None else given_phases.get(orient)
+        if given is not None:  # the caller's phase replaces the family's own unwrapping
+            phi = results[finest.label].wrapped_phase
+            ref = np.asarray(given, dtype=np.float64)
+            if ref.shape != phi.shape:
+                raise InputError(
+                    f"given {orient} absolute phase has shape {ref.shape}, the images {phi.shape}; "
+                    "give one absolute phase per camera pixel"
+                )
+            # the caller's phase, where the captured finest set decodes (its validity rules)
+            unwrapped = np.where(np.isfinite(phi), ref, np.nan)
+            absolute = unwrapped
+            method = abs_method = f"absolute phase given for the {finest.spec.pitch_px:g} px set"
+            unwrapping = "given"
+        elif spans:
             absolute = unwrapped
             abs_method = "one-period coarse set"
         elif code is not None:

@@ -31,11 +31,19 @@ if TYPE_CHECKING:
     from hdrfringe.strategies.base import StrategyResult
 
 __all__ = [
+    "PIE_SLICES",
+    "write_adaptive_outputs",
     "write_height_outputs",
     "write_measurement",
     "write_stereo_outputs",
     "write_strategy_outputs",
 ]
+
+
+#: Most slices of the pie chart of an index map (every MIGL of an 8-bit projector: the
+#: thesis's strategies keep their pies); a map with more distinct values (the adaptive
+#: projection's per-pixel MIGL) is shown to 10 gray levels.
+PIE_SLICES = 256
 
 
 def write_height_outputs(
@@ -135,7 +143,9 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     Files are named by what varied between the sets (:attr:`StrategyResult.index_quantity
     <hdrfringe.strategies.StrategyResult>`): ``migl_index.tiff``, ``migl_index.png`` and
     ``migl_pie.png`` for the MIGL (every strategy of the thesis), ``exposure_ms_index.*`` and
-    ``exposure_ms_pie.png`` for the exposure time.
+    ``exposure_ms_pie.png`` for the exposure time. An index map with more than
+    :data:`PIE_SLICES` values (the adaptive projection's per-pixel MIGL) is shown in the pie
+    to 10 gray levels.
 
     Parameters
     ----------
@@ -182,9 +192,60 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     files = [f"{q}_index.tiff", f"{q}_index.png", f"{q}_pie.png"]
     write_map_tiff(out / files[0], fine.index_map)
     write_preview_png(out / files[1], fine.index_map, title=title, cmap="viridis", label=unit)
-    plot_migl_pie(
-        out / files[2], fine.index_map, title=f"pixels per {per} ({fine.method}, {pitch})"
-    )
+    pie, step = fine.index_map, ""
+    if np.unique(pie).size > PIE_SLICES:  # a per-pixel map (adaptive): slices of 10 levels
+        pie, step = np.round(pie, -1), ", to 10"
+    plot_migl_pie(out / files[2], pie, title=f"pixels per {per}{step} ({fine.method}, {pitch})")
+    return files
+
+
+def write_adaptive_outputs(out: Path, results: Sequence[StrategyResult]) -> list[str]:
+    """The adaptive projection's MIGL maps: projector side and camera side.
+
+    Per adapted set (one per orientation; the file names carry the orientation when there
+    are two): ``projector_migl_map.tiff`` (float32, projector pixels: the map of its last
+    pass) and ``camera_migl.tiff`` (float32, camera pixels: the levels it was built from),
+    each with a PNG preview.
+
+    Parameters
+    ----------
+    out : Path
+        Output folder.
+    results : sequence of StrategyResult
+        One per set of the measurement; those without the maps are skipped.
+
+    Returns
+    -------
+    list of str
+        The files written (none for the other strategies).
+
+    References
+    ----------
+    Thesis Sec. 7.2 (future work: per-pixel adaptive projection); docs/adaptive.md.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> write_adaptive_outputs(Path(tempfile.mkdtemp()), [])
+    []
+    """
+    adapted = [r for r in results if "projector_migl_map" in r.details]
+    files: list[str] = []
+    for r in adapted:
+        tag = f"_{r.spec.orientation}" if len(adapted) > 1 else ""
+        pitch = f"{r.spec.orientation} {r.spec.pitch_px:g} px"
+        for key, where in (("projector_migl_map", "projector"), ("camera_migl", "camera")):
+            data = np.asarray(r.details[key], dtype=np.float32)
+            name = f"{key}{tag}"
+            write_map_tiff(out / f"{name}.tiff", data)
+            write_preview_png(
+                out / f"{name}.png",
+                data,
+                title=f"adaptive MIGL per {where} pixel ({pitch})",
+                cmap="viridis",
+                label="MIGL",
+            )
+            files += [f"{name}.tiff", f"{name}.png"]
     return files
 
 
@@ -204,7 +265,7 @@ def write_measurement(
     <hdrfringe.pipeline.MeasurementResult.points>`); with a stereo calibration, the
     triangulated outputs instead (:func:`write_stereo_outputs`); with a strategy, its index
     map and pie chart (:func:`write_strategy_outputs`); for DPA, ``dpa_cdf.png`` (thesis
-    Fig. 6.3); and
+    Fig. 6.3); for the adaptive projection, its MIGL maps (:func:`write_adaptive_outputs`); and
     ``metrics.json`` (:meth:`MeasurementMetrics.to_dict
     <hdrfringe.pipeline.MeasurementMetrics.to_dict>`).
 
@@ -265,6 +326,7 @@ def write_measurement(
             write_height_outputs(tmp, result.height_mm, result.geometry)
         if result.strategy_results:
             write_strategy_outputs(tmp, result.strategy_results)
+            write_adaptive_outputs(tmp, result.strategy_results)
         if result.dpa is not None and result.metrics.dpa is not None:
             plot_dpa_cdfs(tmp / "dpa_cdf.png", result.dpa, threshold=result.metrics.dpa.threshold)
         metrics = result.metrics.to_dict()

@@ -16,6 +16,8 @@ Built in, one module each (import the function from its module, e.g.
 * :mod:`~hdrfringe.strategies.tolerant`: one set, phase from the unsaturated shifts.
 * :mod:`~hdrfringe.strategies.multiexposure`: sets at several exposure times (Zhang & Yau
   2009), with the exposure choice of :mod:`~hdrfringe.strategies.exposure` (Sec. 7.3).
+* :mod:`~hdrfringe.strategies.adaptive`: per-pixel adaptive projection (beyond the thesis,
+  its Sec. 7.2).
 
 The thesis's requirement 4 holds for every one: when no pixel saturates at the highest MIGL,
 the result is the conventional one, bit for bit, after one set. A new strategy is one module
@@ -66,7 +68,7 @@ __all__ = [
 ]
 
 #: The built-in strategy modules, imported (and so registered) in this order.
-BUILTIN = ("conventional", "uniform", "lpa", "dpa", "tolerant", "multiexposure")
+BUILTIN = ("conventional", "uniform", "lpa", "dpa", "tolerant", "multiexposure", "adaptive")
 
 for _module in BUILTIN:
     import_module(f"{__name__}.{_module}")

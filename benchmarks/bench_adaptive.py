@@ -1,0 +1,135 @@
+"""Benchmark: per-pixel adaptive projection against LPA S=1 and DPA with the pending bound.
+
+Run ``.venv/bin/python benchmarks/bench_adaptive.py`` (``--camera 160x120`` for the small
+camera of the tests, ``--json PATH`` to keep the numbers). See docs/adaptive.md.
+
+For each scene every strategy measures the same three vertical sets (4-step, pitches 1024,
+64 and 8 px, the CLI's default) on a fresh virtual rig; the composite goes through the
+product's decoder and temporal unwrapping (:func:`hdrfringe.process.decode_captures`). The
+phase error is the absolute phase of the 8 px set minus the known one, ``2 pi u / 8`` from
+the rig's ground truth, over the pixels the truth calls valid; the table gives the images
+captured, the error's mean (bias) and standard deviation, its RMSE and the coverage (valid
+pixels with an absolute phase).
+
+Scenes: the checkerboard with the aperture opened for the black squares (the thesis's
+Sec. 5.2 board) and the white plate under 600 lx (Sec. 4.2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.pipeline import composite_captures, strategy_absolute_phases
+from hdrfringe.process import decode_captures
+from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
+from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+
+PITCHES = (1024.0, 64.0, 8.0)
+STRATEGIES: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    ("LPA S=1", "lpa", {"step": 1.0}),
+    ("DPA 10 % + bound", "dpa", {"threshold": 0.1, "bound_pending": True}),
+    ("Adaptive", "adaptive", {}),
+)
+
+
+def checkerboard_rig(width: int, height: int, seed: int = 0) -> SimulatedRig:
+    """The checkerboard, aperture opened so the black squares reach 85 % of full scale."""
+    rig = SimulatedRig(checkerboard(), camera=CameraModel(width=width, height=height), seed=seed)
+    return rig.replace(camera=rig.camera.with_aperture_for(BLACK_PLATE_REFLECTIVITY))
+
+
+def plate_600lx_rig(width: int, height: int, seed: int = 0) -> SimulatedRig:
+    """The white plate with 600 lx of ambient light (thesis Sec. 4.2)."""
+    return SimulatedRig(
+        white_plate(),
+        camera=CameraModel(width=width, height=height),
+        lighting=Lighting(ambient_lux=600),
+        seed=seed,
+    )
+
+
+SCENES: dict[str, Callable[..., SimulatedRig]] = {
+    "checkerboard": checkerboard_rig,
+    "plate 600 lx": plate_600lx_rig,
+}
+
+
+def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Measure with ``method`` and compare the finest absolute phase with the ground truth."""
+    specs = [FringeSpec("sinusoidal", 4, p) for p in PITCHES]
+    t0 = time.perf_counter()
+    caps, results = composite_captures(rig, specs, method, params)
+    seconds = time.perf_counter() - t0
+    decoded = decode_captures(caps, given_phases=strategy_absolute_phases(results))
+    fam = decoded.primary
+    assert fam is not None and fam.absolute_phase is not None
+    truth = rig.truth()
+    err = fam.absolute_phase - 2 * np.pi * truth.u / PITCHES[-1]
+    ok = truth.valid & np.isfinite(err)
+    e = err[ok]
+    return {
+        "images": int(sum(r.images_captured for r in results)),
+        "sets": int(sum(r.sets_captured for r in results)),
+        "bias_rad": float(e.mean()),
+        "std_rad": float(e.std()),
+        "rmse_rad": float(np.sqrt(np.mean(e**2))),
+        "coverage": float(ok.sum() / truth.valid.sum()),
+        "seconds": round(seconds, 2),
+        "details": results[-1].details,
+    }
+
+
+def run(width: int, height: int) -> dict[str, dict[str, dict[str, Any]]]:
+    """Every strategy on every scene: ``{scene: {label: numbers}}``."""
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    for scene, make in SCENES.items():
+        out[scene] = {}
+        for label, method, params in STRATEGIES:
+            out[scene][label] = phase_error(make(width, height), method, params)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print (and optionally save) the comparison table."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--camera", default="648x494", help="camera WIDTHxHEIGHT (default 648x494)")
+    ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
+    args = ap.parse_args(argv)
+    width, height = (int(x) for x in args.camera.lower().split("x"))
+    table = run(width, height)
+    print(f"camera {width}x{height}, 4-step, pitches {', '.join(f'{p:g}' for p in PITCHES)} px")
+    head = f"{'scene':14} {'strategy':18} {'images':>6} {'bias':>9} {'std':>8} {'RMSE':>8} "
+    print(head + f"{'coverage':>9} {'time s':>7}")
+    for scene, rows in table.items():
+        for label, r in rows.items():
+            print(
+                f"{scene:14} {label:18} {r['images']:6d} {r['bias_rad']:9.5f} "
+                f"{r['std_rad']:8.5f} {r['rmse_rad']:8.5f} {r['coverage']:9.4f} "
+                f"{r['seconds']:7.2f}"
+            )
+        ad = rows["Adaptive"]
+        lpa, dpa = rows["LPA S=1"], rows["DPA 10 % + bound"]
+        print(
+            f"{'':14} adaptive/LPA std {ad['std_rad'] / lpa['std_rad']:.3f}, images "
+            f"{ad['images']}/{dpa['images']} of DPA+bound = {ad['images'] / dpa['images']:.3f}; "
+            f"steps {ad['details']['images_per_step']}, s {ad['details']['seconds_per_step']}"
+        )
+    if args.json:
+        for rows in table.values():
+            for r in rows.values():
+                r.pop("details")
+        with open(args.json, "w") as fh:
+            json.dump(table, fh, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

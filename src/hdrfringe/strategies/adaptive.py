@@ -1,0 +1,840 @@
+"""Per-pixel adaptive projection, ``--method adaptive`` (beyond the thesis: its Sec. 7.2).
+
+The steps (docs/adaptive.md):
+
+1. **Mapping** in both orientations: a ladder of fringe sets from one period across the
+   projector down to within 16x of the finest pitch (it includes the measurement's coarser
+   pitches). The first one-period set is captured at a low MIGL (``imin + 20``); its response
+   ``I = a g + c`` (:func:`~hdrfringe.saturation.adaptive_map.response_from_fringes`) sets the
+   MIGL of the others: the highest that keeps every pixel 10 % below clipping. The phases are
+   median-smoothed level by level while they are unwrapped temporally into each camera
+   pixel's projector column ``u`` and row ``v``.
+2. **Map**: per camera pixel the highest MIGL that keeps every shift a ``margin`` below
+   clipping, carried to the projector (minimum per projector pixel, holes filled, eroded by the
+   camera pixel's footprint plus ``blur_px``, smoothed from below;
+   :func:`~hdrfringe.saturation.adaptive_map.projector_migl_map`).
+3. **Adapted set** at the finest pitch of each orientation
+   (:class:`~hdrfringe.frames.PixelwiseFringeFrame`); a **refit** from its own offset and
+   modulation (a fine fringe loses modulation to blur, so its peak stays below what the
+   response predicts: :func:`~hdrfringe.saturation.adaptive_map.refined_migl`) and one more
+   set where that gains a gray level or more, kept where it does not clip; **check** passes
+   where a shift still clipped, lowered from the peak bound and merged there (Eq. 5.1), at most
+   ``iterations``.
+4. **Phase**: the adapted set's fringe orders come from the mapping (no adapted set at the
+   coarser pitches: the measurement's coarser sets are the mapping's own captures), and the
+   bias of the map's steps under the blur is subtracted
+   (:func:`~hdrfringe.saturation.adaptive_map.map_phase_bias`, the blur fitted against the
+   mapping). The result is ``details["absolute_phase"]``, which
+   :func:`hdrfringe.pipeline.measure` uses for the family's absolute phase.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hdrfringe._validation import saturation_count
+from hdrfringe.captures import CameraSettings
+from hdrfringe.errors import InputError
+from hdrfringe.frames import PixelwiseFringeFrame
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.phase import decode_set
+from hdrfringe.rig.base import Rig
+from hdrfringe.saturation.adaptive_map import (
+    fill_holes,
+    fit_blur_sigma,
+    footprint_px,
+    lowered_where_clipped,
+    map_phase_bias,
+    median_smooth,
+    projector_coordinates,
+    projector_migl_map,
+    refined_migl,
+    response_from_fringes,
+    safe_migl,
+    sample_map,
+)
+from hdrfringe.strategies.base import (
+    CapturedSet,
+    FunctionStrategy,
+    StrategyResult,
+    check_fringe_spec,
+    default_min_migl,
+    register,
+)
+from hdrfringe.unwrap import unwrap_temporal
+
+__all__ = ["Adaptive", "AdaptiveParams", "adaptive", "adaptive_sets", "mapping_pitches"]
+
+#: Largest pitch ratio between consecutive mapping sets.
+MAPPING_RATIO = 16.0
+#: Headroom (fraction of full scale) of the automatic mapping MIGL.
+AUTO_MAPPING_MARGIN = 0.1
+#: Pixels the map-bias blur is fitted on (evenly spread over the valid ones).
+FIT_PIXELS = 20000
+#: Window (camera pixels) of the median that denoises each mapping level before unwrapping.
+MEDIAN_WINDOW = 5
+
+ORIENTATIONS = ("vertical", "horizontal")
+
+
+def mapping_pitches(extent: int, finest_px: float, ratio: float = MAPPING_RATIO) -> list[float]:
+    """Pitches of a mapping ladder: one period over ``extent``, then down by ``ratio``.
+
+    The ladder stops at the first pitch within ``ratio`` of ``finest_px`` (the set it will
+    unwrap), so the last step to the measurement's finest pitch is at most ``ratio`` too.
+
+    Parameters
+    ----------
+    extent : int
+        Projector width (vertical fringes) or height (horizontal), pixels.
+    finest_px : float
+        The finest pitch to be unwrapped from the ladder.
+    ratio : float
+        Largest pitch ratio between consecutive sets (> 1).
+
+    Returns
+    -------
+    list of float
+        Coarsest first; the first spans the projector with one period.
+
+    Examples
+    --------
+    >>> mapping_pitches(1024, 8.0), mapping_pitches(768, 8.0), mapping_pitches(64, 8.0)
+    ([1024.0, 64.0], [768.0, 48.0], [64.0])
+    """
+    if not ratio > 1:
+        raise InputError(f"mapping ratio must be > 1, got {ratio!r}")
+    out = [float(extent)]
+    while out[-1] > ratio * float(finest_px):
+        out.append(out[-1] / ratio)
+    return out
+
+
+@dataclass
+class _Mapping:
+    """What the mapping step measured, per orientation (internal)."""
+
+    pitches: dict[str, list[float]]
+    images: dict[str, list[NDArray]]
+    migls: dict[str, list[float]]
+    absolute: dict[str, NDArray[np.float64]]
+    coords: dict[str, NDArray[np.float64]]
+    gain: NDArray[np.float64]
+    ambient: NDArray[np.float64]
+    saturated: NDArray[np.bool_]
+
+
+def _capture(rig: Rig, frames: list[Any], settings: CameraSettings | None) -> NDArray:
+    return rig.capture(frames) if settings is None else rig.capture(frames, settings)
+
+
+def _measure_mapping(
+    rig: Rig,
+    template: FringeSpec,
+    pitches: dict[str, list[float]],
+    migl: float,
+    settings: CameraSettings | None,
+    auto: bool,
+) -> _Mapping:
+    """Capture and decode the mapping sets; absolute phase, coordinates and response.
+
+    The first set (one period, of the first orientation in ``pitches``) is captured at
+    ``migl``. With ``auto`` the others are captured at the highest MIGL its response says
+    keeps every pixel :data:`AUTO_MAPPING_MARGIN` below clipping (never below ``migl``): a
+    brighter mapping is a less noisy one. The caller puts first the orientation whose fringe
+    orders matter least (one the measurement does not use).
+    """
+    bits = rig.camera_bit_depth
+    imin = template.imin
+    images: dict[str, list[NDArray]] = {}
+    migls: dict[str, list[float]] = {}
+    absolute: dict[str, NDArray[np.float64]] = {}
+    coords: dict[str, NDArray[np.float64]] = {}
+    gains: list[NDArray[np.float64]] = []
+    ambients: list[NDArray[np.float64]] = []
+    weights: list[float] = []
+    saturated = np.zeros(rig.image_shape, bool)
+    m_next = migl
+    for orient, ps in pitches.items():
+        imgs: list[NDArray] = []
+        decoded: list[Any] = []
+        ms: list[float] = []
+        for p in ps:
+            m = migl if not gains and not imgs else m_next
+            spec = FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
+            imgs.append(_capture(rig, spec.frames(), settings))
+            decoded.append(decode_set(imgs[-1], spec, bits))
+            ms.append(m)
+            saturated |= saturation_count(imgs[-1], bits) > 0
+            if p == ps[0]:  # a one-period set: the response
+                g, c = response_from_fringes(
+                    decoded[-1].mean_intensity, decoded[-1].modulation, m, imin
+                )
+                gains.append(np.where(decoded[-1].valid, g, np.nan))
+                ambients.append(np.where(decoded[-1].valid, c, np.nan))
+                weights.append((m - imin) ** 2)  # the estimate's SNR squared
+                if auto and len(gains) == 1:
+                    level = safe_migl(
+                        median_smooth(gains[0], MEDIAN_WINDOW),
+                        median_smooth(ambients[0], MEDIAN_WINDOW),
+                        bits,
+                        margin=AUTO_MAPPING_MARGIN,
+                        imin=imin,
+                        projector_full=template.migl,
+                    )
+                    if np.isfinite(level).any():
+                        m_next = float(max(migl, np.floor(np.nanmin(level))))
+        phases = [np.where(d.valid, d.wrapped_phase, np.nan) for d in decoded]
+        # the low-MIGL phases are noisy: smooth each level (median) before it predicts the
+        # next one's fringe order, so the orders hold where a plain unwrap would slip
+        current = median_smooth(phases[0], MEDIAN_WINDOW)
+        for k in range(1, len(ps)):
+            current = unwrap_temporal(
+                [current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True
+            )
+            current = median_smooth(current, MEDIAN_WINDOW)
+        absolute[orient] = current
+        coords[orient] = projector_coordinates(absolute[orient], ps[-1])
+        images[orient] = imgs
+        migls[orient] = ms
+    w = np.asarray(weights)[:, None, None]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # pixels valid in no set stay NaN
+        g_stack, c_stack = np.stack(gains), np.stack(ambients)
+        wsum = np.sum(np.where(np.isfinite(g_stack), w, 0.0), axis=0)
+        gain = np.nansum(g_stack * w, axis=0) / wsum
+        ambient = np.nansum(c_stack * w, axis=0) / wsum
+    # a low-MIGL set is a noisy response: the median keeps its edges
+    gain = median_smooth(gain, MEDIAN_WINDOW)
+    ambient = median_smooth(ambient, MEDIAN_WINDOW)
+    return _Mapping(pitches, images, migls, absolute, coords, gain, ambient, saturated)
+
+
+def _correct_map_bias(
+    absolute: NDArray[np.float64],
+    reference: NDArray[np.float64],
+    maps: list[NDArray[np.float64]],
+    source: NDArray[np.intp],
+    u: NDArray[np.float64],
+    v: NDArray[np.float64],
+    spec: FringeSpec,
+    imin: float,
+    radius: float,
+) -> tuple[NDArray[np.float64], float]:
+    """Subtract the phase bias of the projected maps, with the blur fitted to the mapping.
+
+    The mapping sets were projected at one MIGL: their phase carries the surface's own bias
+    but not the map's, so the residual of the adapted phase against it is the map's bias plus
+    noise (:func:`~hdrfringe.saturation.adaptive_map.fit_blur_sigma`).
+    """
+
+    residual = (absolute - reference).ravel()
+    # one blur for the field: fit it on an evenly spread subset of the pixels (fast at any
+    # camera size), then correct every pixel
+    usable = np.flatnonzero(np.isfinite(residual))
+    fit_on = usable[:: max(1, usable.size // FIT_PIXELS)]
+
+    def bias_of(sigma: float, where: NDArray[np.intp]) -> NDArray[np.float64]:
+        out = np.full(where.size, np.nan)
+        src = source.ravel()[where]
+        for j, pm in enumerate(maps):
+            sel = src == j
+            if sel.any():
+                out[sel] = map_phase_bias(
+                    pm,
+                    u.ravel()[where][sel][None, :],
+                    v.ravel()[where][sel][None, :],
+                    pitch_px=spec.pitch_px,
+                    orientation=spec.orientation,
+                    sigma_px=sigma,
+                    imin=imin,
+                )[0]
+        return out
+
+    sigma = fit_blur_sigma(residual[fit_on], lambda s: bias_of(s, fit_on), max(1.0, radius))
+    bias = bias_of(sigma, np.arange(residual.size)).reshape(absolute.shape)
+    return absolute - np.where(np.isfinite(bias), bias, 0.0), sigma
+
+
+def _check_specs(rig: Rig, specs: Sequence[FringeSpec]) -> list[FringeSpec]:
+    specs = list(specs)
+    if not specs:
+        raise InputError("adaptive needs at least one fringe set to measure")
+    for s in specs:
+        check_fringe_spec(s, rig)
+        if s.pattern != "sinusoidal" or s.steps < 3 or not s.has_standard_phase:
+            raise InputError(
+                f"adaptive needs sinusoidal sets of at least 3 equal shifts (the response is "
+                f"read from the fringe modulation); got {s.pattern} {s.steps}-step"
+            )
+    first = specs[0]
+    for s in specs[1:]:
+        if (s.steps, s.imin, s.migl) != (first.steps, first.imin, first.migl):
+            raise InputError(
+                "adaptive needs every set with the same steps, imin and MIGL; got "
+                f"{first.steps}/{first.imin:g}/{first.migl:g} and {s.steps}/{s.imin:g}/{s.migl:g}"
+            )
+    return specs
+
+
+def adaptive_sets(
+    rig: Rig,
+    specs: Sequence[FringeSpec],
+    *,
+    margin: float = 0.015,
+    iterations: int = 1,
+    refit: bool = True,
+    bias_correction: bool = True,
+    mapping_migl: float | None = None,
+    blur_px: float = 2.0,
+    smooth_px: float = 3.0,
+    exposure_ms: float | None = None,
+) -> tuple[StrategyResult, ...]:
+    """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
+
+    Parameters
+    ----------
+    rig : Rig
+        A rig whose projector shows projector images (the virtual rig, hardware).
+    specs : sequence of FringeSpec
+        The measurement's sets at their highest MIGL (sinusoidal, equal steps, imin and MIGL),
+        e.g. one per pitch, coarsest first.
+    margin : float
+        Fraction of the camera's full scale kept free below clipping, in ``[0, 1)``.
+    iterations : int
+        Check passes at most, each only where a shift still clipped (>= 0).
+    refit : bool
+        Re-fit each pixel's level from the adapted set and capture once more where that
+        gains a gray level or more.
+    bias_correction : bool
+        Subtract the phase bias of the map's steps under the blur.
+    mapping_migl : float, optional
+        MIGL of the mapping sets; default (None) ``imin + 20`` for the first and, for the
+        others, the highest MIGL its response says keeps every pixel 10 % below clipping.
+    blur_px : float
+        Erosion beyond the camera pixel's footprint, projector pixels: projector defocus,
+        mapping error and rounding (>= 0).
+    smooth_px : float
+        Smoothing of the map from below, projector pixels (>= 0).
+    exposure_ms : float, optional
+        Exposure time of every capture; None: the rig's own setting.
+
+    Returns
+    -------
+    tuple of StrategyResult
+        One per spec, in order. A coarser set is the mapping's own capture at its MIGL; the
+        finest set of each orientation is the adapted composite: ``index_map`` holds the MIGL
+        each camera pixel received, and ``details`` the maps (``projector_migl_map`` of the
+        last pass, ``camera_migl``: the camera-side levels), the images, sets and seconds per
+        step (``images_per_step``, ``sets_per_step``, ``seconds_per_step``; the mapping is
+        counted once, with the first adapted set), the blur fitted (``blur_sigma_px``) and
+        the set's absolute phase (``absolute_phase``).
+
+    Raises
+    ------
+    InputError
+        For sets the method cannot adapt or parameters out of range.
+
+    References
+    ----------
+    Thesis Sec. 7.2 (future work: per-pixel adaptive projection), Eq. 5.1 (the merge);
+    docs/adaptive.md.
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48),
+    ...                    lighting=Lighting(ambient_lux=600))
+    >>> specs = [FringeSpec("sinusoidal", 4, p) for p in (1024.0, 64.0, 8.0)]
+    >>> res = adaptive_sets(rig, specs)
+    >>> [r.sets_captured for r in res], bool(res[-1].never_unsaturated.any())
+    ([1, 1, 4], False)
+    """
+    specs = _check_specs(rig, specs)
+    if not 0.0 <= float(margin) < 1.0:
+        raise InputError(f"adaptive margin must be a fraction in [0, 1), got {margin!r}")
+    if isinstance(iterations, bool) or int(iterations) != iterations or iterations < 0:
+        raise InputError(f"adaptive iterations must be a whole number >= 0, got {iterations!r}")
+    for name, value in (("blur_px", blur_px), ("smooth_px", smooth_px)):
+        if not float(value) >= 0:
+            raise InputError(f"adaptive {name} must be >= 0 projector pixels, got {value!r}")
+    if exposure_ms is not None and not float(exposure_ms) > 0:
+        raise InputError(f"adaptive exposure_ms must be > 0, got {exposure_ms!r}")
+    first = specs[0]
+    m0 = default_min_migl(first) if mapping_migl is None else float(mapping_migl)
+    if not first.imin < m0 <= first.migl:
+        raise InputError(
+            f"adaptive mapping_migl must be above imin {first.imin:g} and at most the MIGL "
+            f"{first.migl:g}, got {m0:g}"
+        )
+    settings = None if exposure_ms is None else CameraSettings(exposure_ms=float(exposure_ms))
+    proj = rig.projector
+    bits = rig.camera_bit_depth
+    steps = first.steps
+    finest_any = min(s.pitch_px for s in specs)
+
+    # --- plan: per orientation the mapping ladder, which includes the measurement's coarser
+    # pitches (those sets are the mapping's own captures); the finest set is adapted
+    finest: dict[str, int] = {}
+    pitches: dict[str, list[float]] = {}
+    for orient in ORIENTATIONS:
+        extent = proj.width if orient == "vertical" else proj.height
+        own = sorted(
+            (i for i, s in enumerate(specs) if s.orientation == orient),
+            key=lambda i: -specs[i].pitch_px,
+        )
+        target = specs[own[-1]].pitch_px if own else finest_any
+        ladder = set(mapping_pitches(extent, target)) | {specs[i].pitch_px for i in own[:-1]}
+        pitches[orient] = sorted(ladder, reverse=True)
+        if own:
+            finest[orient] = own[-1]
+            if any(specs[i].pitch_px == target for i in own[:-1]):
+                raise InputError(f"adaptive: two {orient} sets of pitch {target:g} px")
+
+    # --- 1. mapping at a low MIGL: response, coordinates, fringe orders ----------------------
+    t0 = time.perf_counter()
+    # the first (darkest, noisiest) set in the orientation the measurement does not unwrap
+    pitches = {o: pitches[o] for o in sorted(ORIENTATIONS, key=lambda o: o in finest)}
+    mp = _measure_mapping(rig, first, pitches, m0, settings, auto=mapping_migl is None)
+    u, v = mp.coords["vertical"], mp.coords["horizontal"]
+    t_map = time.perf_counter() - t0
+
+    # --- 2. the camera-side levels and the projector map -------------------------------------
+    t0 = time.perf_counter()
+    full_p = float(first.migl)
+    base_levels = safe_migl(
+        mp.gain, mp.ambient, bits, margin=margin, imin=first.imin, projector_full=full_p
+    )
+    # pixels clipped in the mapping: their response is unknown, start them half way down
+    base_levels[mp.saturated] = first.imin + (m0 - first.imin) / 2.0
+    mapped = np.isfinite(u) & np.isfinite(v)
+    if not mapped.any():
+        raise InputError(
+            "adaptive: no camera pixel decoded in the mapping sets; raise mapping_migl or the "
+            "exposure (the mapping needs a fringe above the minimum modulation)"
+        )
+    # clipped pixels sit where their neighbours map: borrow the neighbours' coordinates
+    uf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, u, np.nan)), u)
+    vf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, v, np.nan)), v)
+    radius = footprint_px(u, v) + float(blur_px)
+    shape = (proj.height, proj.width)
+    ambient = np.where(np.isfinite(mp.ambient), mp.ambient, 0.0)
+
+    def build(cam_levels: NDArray[np.float64]) -> NDArray[np.float64]:
+        return projector_migl_map(
+            cam_levels,
+            uf,
+            vf,
+            shape,
+            radius=radius,
+            sigma=float(smooth_px),
+            imin=first.imin,
+            projector_full=full_p,
+        )
+
+    first_map = build(base_levels)
+    t_build = time.perf_counter() - t0
+
+    # --- results of the coarser sets: the mapping's captures ---------------------------------
+    results: list[StrategyResult | None] = [None] * len(specs)
+    for i, spec in enumerate(specs):
+        if i in finest.values():
+            continue
+        k = pitches[spec.orientation].index(spec.pitch_px)
+        imgs, m_set = mp.images[spec.orientation][k], mp.migls[spec.orientation][k]
+        sat = saturation_count(imgs, bits) > 0
+        results[i] = StrategyResult(
+            images=imgs,
+            spec=spec,
+            captured=[CapturedSet(migl=m_set, exposure_ms=exposure_ms)],
+            index_map=np.full(imgs.shape[1:], m_set, np.float32),
+            newly_unsaturated=[int((~sat).sum())],
+            never_unsaturated=sat,
+            method="adaptive",
+            details={"mapping_set": True, "mapping_migl": m_set},
+        )
+    # the mapping sets no spec stands for are counted with the first adapted set
+    spare = [
+        mp.migls[o][k]
+        for o in ORIENTATIONS
+        for k, p in enumerate(pitches[o])
+        if not any(s.orientation == o and s.pitch_px == p for s in specs)
+    ]
+    owner = min(finest.values())
+
+    # --- 3. per orientation: the adapted set, the refit pass, the check passes ----------------
+    for orient, i in finest.items():
+        spec = specs[i]
+
+        def shoot(pmap: NDArray[np.float64], spec: FringeSpec = spec) -> NDArray:
+            frames = [PixelwiseFringeFrame(spec, k, pmap.astype(np.float32)) for k in range(steps)]
+            return _capture(rig, frames, settings)
+
+        t0 = time.perf_counter()
+        levels, pmap = base_levels.copy(), first_map
+        composite = shoot(pmap)
+        received = sample_map(pmap, uf, vf)
+        index = received.astype(np.float32)
+        remaining = saturation_count(composite, bits) > 0
+        captured = [CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=pmap)]
+        newly = [int((~remaining).sum())]
+        clipped = [int(remaining.sum())]  # pixels with a clipped shift, per capture
+        used = [pmap]  # the maps projected, and per pixel which one its images come from
+        source = np.zeros(remaining.shape, np.intp)
+        t_adapt = time.perf_counter() - t0
+
+        # refit: the set's own offset and modulation give each pixel's level at this pitch
+        t0 = time.perf_counter()
+        refits = 0
+        if refit:
+            dec = decode_set(composite, spec, bits, reject_saturated=False)
+            got = np.where(np.isfinite(received), received, full_p)
+            up = refined_migl(
+                np.where(remaining, np.nan, dec.mean_intensity),
+                dec.modulation,
+                got,
+                ambient,
+                bits,
+                margin=margin,
+                imin=first.imin,
+                projector_full=full_p,
+            )
+            up = median_smooth(up, MEDIAN_WINDOW)  # per-pixel noise would bias the erosion low
+            new_levels = np.where(np.isfinite(up), np.maximum(up, levels), levels)
+            new_levels, _ = lowered_where_clipped(
+                new_levels, composite, got, ambient, bits, margin=margin, imin=first.imin
+            )
+            if np.nanmax(np.abs(new_levels - levels)) >= 1.0:
+                new_map = build(new_levels)
+                imgs = shoot(new_map)
+                clip = saturation_count(imgs, bits) > 0
+                clipped.append(int(clip.sum()))
+                take = ~clip | remaining  # unclipped now, or clipped both times (the newer)
+                composite[:, take] = imgs[:, take]
+                used.append(new_map)
+                source[take] = len(used) - 1
+                got2 = sample_map(new_map, uf, vf).astype(np.float32)
+                index[take] = got2[take]
+                newly.append(int((remaining & ~clip).sum()))
+                remaining &= clip
+                # where the refit clipped a pixel the first set kept, keep its first level
+                levels = np.where(clip & ~remaining, levels, new_levels)
+                levels = np.where(remaining, new_levels, levels)
+                pmap, received = new_map, got2.astype(np.float64)
+                captured.append(CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=pmap))
+                refits = 1
+        t_refit = time.perf_counter() - t0
+
+        # check passes: lower the level only where a shift still clipped, merge there (Eq. 5.1)
+        t0 = time.perf_counter()
+        passes = 0
+        while remaining.any() and passes < iterations:
+            got = np.where(np.isfinite(received), received, full_p)
+            lowered, _ = lowered_where_clipped(
+                levels, composite, got, ambient, bits, margin=margin, imin=first.imin
+            )
+            levels = np.where(remaining, lowered, levels)
+            pmap = build(levels)
+            imgs = shoot(pmap)
+            got2 = sample_map(pmap, uf, vf).astype(np.float32)
+            unsat = saturation_count(imgs, bits) == 0
+            clipped.append(int((~unsat).sum()))
+            new = remaining & unsat
+            composite[:, remaining] = imgs[:, remaining]
+            index[remaining] = got2[remaining]
+            used.append(pmap)
+            source[remaining] = len(used) - 1
+            remaining &= ~new
+            received = np.where(new | remaining, got2, received)
+            captured.append(CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=pmap))
+            newly.append(int(new.sum()))
+            passes += 1
+        t_check = time.perf_counter() - t0
+
+        if i == owner:
+            captured[:0] = [CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare]
+            newly[:0] = [0] * len(spare)
+        # the mapping's fringe orders unwrap the adapted set: the order is the rounded
+        # difference between the mapping's phase scaled to this pitch and the wrapped phase
+        wrapped = decode_set(composite, spec, bits).wrapped_phase
+        predicted = mp.absolute[orient] * (pitches[orient][-1] / spec.pitch_px)
+        absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
+        t0 = time.perf_counter()
+        blur = None
+        if bias_correction:
+            absolute, blur = _correct_map_bias(
+                absolute, predicted, used, source, uf, vf, spec, first.imin, radius
+            )
+        t_bias = time.perf_counter() - t0
+        n_map = sum(len(p) for p in pitches.values())
+        results[i] = StrategyResult(
+            images=composite,
+            spec=spec,
+            captured=captured,
+            index_map=index,
+            newly_unsaturated=newly,
+            never_unsaturated=remaining,
+            method="adaptive",
+            details={
+                "margin": float(margin),
+                "mapping_migls": {o: list(m) for o, m in mp.migls.items()},
+                "mapping_pitches": {o: list(p) for o, p in pitches.items()},
+                "erosion_radius_px": float(radius),
+                "projector_migl_map": pmap.astype(np.float32),
+                "camera_migl": levels.astype(np.float32),
+                "mapping_saturated": int(mp.saturated.sum()),
+                "refit_passes": refits,
+                "check_passes": passes,
+                "clipped_per_capture": clipped,
+                "absolute_phase": absolute,
+                "images_per_step": {
+                    "mapping": n_map * steps,
+                    "adapted": steps,
+                    "refit": refits * steps,
+                    "check": passes * steps,
+                },
+                "sets_per_step": {
+                    "mapping": n_map,
+                    "adapted": 1,
+                    "refit": refits,
+                    "check": passes,
+                },
+                "seconds_per_step": {
+                    "mapping": round(t_map, 4),
+                    "map": round(t_build, 4),
+                    "adapted": round(t_adapt, 4),
+                    "refit": round(t_refit, 4),
+                    "check": round(t_check, 4),
+                    "bias": round(t_bias, 4),
+                },
+                "blur_sigma_px": blur,
+            },
+        )
+    out = tuple(r for r in results if r is not None)
+    assert len(out) == len(specs)  # every spec is a mapping set or an adapted set
+    return out
+
+
+def adaptive(
+    rig: Rig,
+    spec: FringeSpec,
+    *,
+    margin: float = 0.015,
+    iterations: int = 1,
+    refit: bool = True,
+    bias_correction: bool = True,
+    mapping_migl: float | None = None,
+    blur_px: float = 2.0,
+    smooth_px: float = 3.0,
+    exposure_ms: float | None = None,
+) -> StrategyResult:
+    """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
+
+    The mapping ladder (one period down to within 16x of ``spec``'s pitch, both orientations)
+    is captured for it; ``details["absolute_phase"]`` is the set unwrapped with its orders.
+
+    Parameters
+    ----------
+    rig : Rig
+        A rig whose projector shows projector images.
+    spec : FringeSpec
+        The set at its highest MIGL.
+    margin, iterations, refit, bias_correction, mapping_migl, blur_px, smooth_px, exposure_ms
+        As :func:`adaptive_sets`.
+
+    Returns
+    -------
+    StrategyResult
+
+    References
+    ----------
+    Thesis Sec. 7.2 (future work); docs/adaptive.md.
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48),
+    ...                    lighting=Lighting(ambient_lux=600))
+    >>> res = adaptive(rig, FringeSpec("sinusoidal", 4, 8.0))
+    >>> res.details["sets_per_step"]
+    {'mapping': 4, 'adapted': 1, 'refit': 1, 'check': 0}
+    """
+    (res,) = adaptive_sets(
+        rig,
+        [spec],
+        margin=margin,
+        iterations=iterations,
+        refit=refit,
+        bias_correction=bias_correction,
+        mapping_migl=mapping_migl,
+        blur_px=blur_px,
+        smooth_px=smooth_px,
+        exposure_ms=exposure_ms,
+    )
+    return res
+
+
+@dataclass(frozen=True)
+class AdaptiveParams:
+    """Parameters of :func:`adaptive_sets`.
+
+    Parameters
+    ----------
+    margin : float
+        Fraction of the camera's full scale kept free below clipping (``--adaptive-margin``).
+    iterations : int
+        Check passes at most, only where clipping remains (``--adaptive-iterations``).
+    refit : bool
+        Re-fit the levels from the adapted set and capture once more.
+    bias_correction : bool
+        Subtract the phase bias of the map's steps under the blur.
+    mapping_migl : float, optional
+        MIGL of the mapping sets (``--mapping-migl``); default: automatic.
+    blur_px : float
+        Erosion beyond the camera pixel's footprint, projector pixels.
+    smooth_px : float
+        Smoothing of the map from below, projector pixels.
+    exposure_ms : float, optional
+        Fixed exposure time of every capture (``--adaptive-exposure-ms``); None: the rig's.
+        An automatic choice (``"auto"``, exposure and MIGL together) plugs in here.
+
+    References
+    ----------
+    Thesis Sec. 7.2 (future work); docs/adaptive.md.
+
+    Examples
+    --------
+    >>> AdaptiveParams().margin
+    0.015
+    """
+
+    margin: float = field(
+        default=0.015,
+        metadata={
+            "help": "fraction of full scale kept free below clipping.",
+            "cli": "--adaptive-margin",
+        },
+    )
+    iterations: int = field(
+        default=1,
+        metadata={
+            "help": "check passes at most, each only where clipping remains.",
+            "cli": "--adaptive-iterations",
+        },
+    )
+    refit: bool = field(
+        default=True,
+        metadata={
+            "help": "re-fit each pixel's level from the adapted set at its own pitch (blur "
+            "lowers a fine fringe's peak) and capture it once more.",
+        },
+    )
+    bias_correction: bool = field(
+        default=True,
+        metadata={
+            "help": "subtract the phase bias of the map's steps under the blur (the blur "
+            "fitted against the mapping).",
+        },
+    )
+    mapping_migl: float | None = field(
+        default=None,
+        metadata={
+            "help": "MIGL of every mapping set (default: imin + 20 for the first, then the "
+            "highest with 10 % headroom by its response).",
+            "cli": "--mapping-migl",
+        },
+    )
+    blur_px: float = field(
+        default=2.0,
+        metadata={"help": "erosion beyond the camera pixel's footprint (projector pixels)."},
+    )
+    smooth_px: float = field(
+        default=3.0, metadata={"help": "smoothing of the map from below (projector pixels)."}
+    )
+    exposure_ms: float | None = field(
+        default=None,
+        metadata={
+            "help": "fixed exposure time of every capture in ms (default: the rig's).",
+            "cli": "--adaptive-exposure-ms",
+        },
+    )
+
+
+@register
+class Adaptive(FunctionStrategy):
+    """The registry's ``adaptive``: :func:`adaptive_sets` over all sets of a measurement.
+
+    Examples
+    --------
+    >>> Adaptive().describe(AdaptiveParams(margin=0.05))
+    'Adaptive 5 %'
+    """
+
+    name = "adaptive"
+    title = "Adaptive"
+    help = (
+        "per-pixel adaptive projection (beyond the thesis, Sec. 7.2): map camera to projector "
+        "at a low MIGL, then one set with each projector pixel's highest safe MIGL"
+    )
+    Params = AdaptiveParams
+    function = staticmethod(adaptive)
+
+    def run_sets(
+        self, rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
+    ) -> tuple[StrategyResult, ...]:
+        """Run on every set of a measurement at once (one mapping serves all of them).
+
+        Parameters
+        ----------
+        rig : Rig
+            A rig whose projector shows projector images.
+        specs : sequence of FringeSpec
+            The measurement's sets, coarsest first.
+        params : AdaptiveParams
+            The parameters.
+
+        Returns
+        -------
+        tuple of StrategyResult
+            One per spec.
+        """
+        return adaptive_sets(
+            rig,
+            specs,
+            margin=params.margin,
+            iterations=params.iterations,
+            refit=params.refit,
+            bias_correction=params.bias_correction,
+            mapping_migl=params.mapping_migl,
+            blur_px=params.blur_px,
+            smooth_px=params.smooth_px,
+            exposure_ms=params.exposure_ms,
+        )
+
+    def describe(self, params: AdaptiveParams) -> str:
+        """Label of a run: ``"Adaptive <margin> %"``.
+
+        Parameters
+        ----------
+        params : AdaptiveParams
+            The parameters.
+
+        Returns
+        -------
+        str
+
+        Examples
+        --------
+        >>> Adaptive().describe(AdaptiveParams())
+        'Adaptive 1.5 %'
+        """
+        return f"Adaptive {100 * params.margin:g} %"

@@ -1,0 +1,378 @@
+"""Per-pixel adaptive projection (issue 14, item 2): the map math against closed forms, the
+done-when against LPA S=1 and DPA with the pending bound, the broken variants it rejects,
+requirement 4, and ``measure --rig sim --method adaptive``.
+
+The strategy comparisons use a 160 x 120 camera and pitches 1024, 64 and 16 px: at this camera
+one pixel spans about 5 projector pixels, so an 8 px fringe is sampled below two pixels per
+period (benchmarks/bench_adaptive.py runs the full 648 x 494 camera at 8 px).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy.ndimage import gaussian_filter1d
+
+import hdrfringe.strategies.adaptive as adaptive_module
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.phase import decode_set
+from hdrfringe.pipeline import composite_captures, measure
+from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, plate, white_plate
+from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+from hdrfringe.saturation.adaptive_map import (
+    erode_map,
+    fill_holes,
+    fit_blur_sigma,
+    lowered_where_clipped,
+    map_phase_bias,
+    median_smooth,
+    projector_migl_map,
+    refined_migl,
+    response_from_fringes,
+    response_from_levels,
+    safe_migl,
+    scatter_min,
+    smooth_below,
+)
+from hdrfringe.strategies.adaptive import adaptive_sets, mapping_pitches
+from hdrfringe.strategies.conventional import conventional
+from hdrfringe.strategies.lpa import lpa
+from tests.conftest import run_cli
+
+TWO_PI = 2 * np.pi
+PITCHES = (1024.0, 64.0, 16.0)
+SPECS = [FringeSpec("sinusoidal", 4, p) for p in PITCHES]
+CAM = (160, 120)
+
+
+def board_rig(seed: int = 0) -> SimulatedRig:
+    """The checkerboard with the aperture opened for the black squares (white ones clip)."""
+    rig = SimulatedRig(checkerboard(), camera=CameraModel(*CAM), seed=seed)
+    return rig.replace(camera=rig.camera.with_aperture_for(BLACK_PLATE_REFLECTIVITY))
+
+
+def plate_rig(seed: int = 0) -> SimulatedRig:
+    """The white plate under 600 lx (thesis Sec. 4.2)."""
+    return SimulatedRig(
+        white_plate(), camera=CameraModel(*CAM), lighting=Lighting(ambient_lux=600), seed=seed
+    )
+
+
+def phase_error(rig: SimulatedRig, phase: np.ndarray, pitch: float) -> tuple[float, float]:
+    """Std of (phase - 2 pi u / p) over the valid truth pixels, and the coverage there."""
+    truth = rig.truth()
+    err = phase - TWO_PI * truth.u / pitch
+    ok = truth.valid & np.isfinite(err)
+    return float(err[ok].std()), float(ok.sum() / truth.valid.sum())
+
+
+def compare(make) -> dict[str, Any]:
+    """Adaptive (through measure), LPA S=1 and DPA 10 % + bound on fresh rigs of one scene."""
+    fine = SPECS[-1]
+    rig = make()
+    res = measure(rig, method="adaptive", specs=SPECS)
+    fam = res.decoded.primary
+    assert fam is not None and fam.absolute_phase is not None
+    std_a, cov_a = phase_error(rig, fam.absolute_phase, fine.pitch_px)
+    # LPA S=1: its finest composite's wrapped phase (no fringe-order error can add to it)
+    rig_l = make()
+    ref = lpa(rig_l, fine, step=1.0)
+    truth = rig_l.truth()
+    wrapped = decode_set(ref.images, fine, 8).wrapped_phase - TWO_PI * truth.u / fine.pitch_px
+    e = np.angle(np.exp(1j * wrapped))
+    ok = truth.valid & np.isfinite(e)
+    std_l, cov_l = float(e[ok].std()), float(ok.sum() / truth.valid.sum())
+    _, dpa = composite_captures(make(), SPECS, "dpa", {"threshold": 0.1, "bound_pending": True})
+    return {
+        "adaptive": res,
+        "std_adaptive": std_a,
+        "coverage_adaptive": cov_a,
+        "images_adaptive": res.metrics.strategy.images_captured,
+        "std_lpa": std_l,
+        "coverage_lpa": cov_l,
+        "images_dpa": sum(r.images_captured for r in dpa),
+    }
+
+
+@pytest.fixture(scope="module")
+def board() -> dict[str, Any]:
+    return compare(board_rig)
+
+
+@pytest.fixture(scope="module")
+def lit_plate() -> dict[str, Any]:
+    return compare(plate_rig)
+
+
+# ---------------------------------------------------------------------------------------------
+# the map math against closed forms
+# ---------------------------------------------------------------------------------------------
+
+
+def test_response_and_safe_level_close_the_linear_model() -> None:
+    """From fringes or uniform levels of I = a g + c the response comes back exactly, and the
+    safe level puts the brightest shift exactly at (1 - margin) of full scale."""
+    rng = np.random.default_rng(1)
+    a, c = rng.uniform(0.3, 4.0, (6, 7)), rng.uniform(0.0, 120.0, (6, 7))
+    imin, m = 40.0, 70.0
+    g, amb = response_from_fringes(c + a * (m + imin) / 2, a * (m - imin) / 2, m, imin)
+    assert np.allclose(g, a) and np.allclose(amb, c)
+    levels = np.array([0.0, 55.0, 130.0])
+    g2, amb2 = response_from_levels(c + a * levels[:, None, None], levels)
+    assert np.allclose(g2, a) and np.allclose(amb2, c)
+    lv = safe_migl(a, c, 12, margin=0.05, imin=imin, projector_full=1e9)
+    inside = lv > imin
+    assert np.allclose((a * lv + c)[inside], 0.95 * 4095)
+    with pytest.raises(Exception, match="margin"):
+        safe_migl(a, c, 8, margin=1.0, imin=imin, projector_full=255)
+
+
+def test_projector_map_never_exceeds_a_camera_level_within_the_radius() -> None:
+    """Every projector pixel within the erosion radius of a camera pixel's location is at most
+    that pixel's level (the guarantee against blur and mapping error), holes are filled, and
+    the smoothing never raises a value."""
+    rng = np.random.default_rng(2)
+    yy, xx = np.mgrid[0:30, 0:40].astype(float)
+    u, v = 3.1 * xx + 5 + rng.normal(0, 0.3, xx.shape), 2.7 * yy + 4
+    cam = rng.uniform(60, 255, xx.shape)
+    shape, radius = (100, 140), 4.0
+    pmap = projector_migl_map(
+        cam, u, v, shape, radius=radius, sigma=2.0, imin=40, projector_full=255
+    )
+    assert np.isfinite(pmap).all() and pmap.min() >= 40 and pmap.max() <= 255
+    pr, pc = np.mgrid[0 : shape[0], 0 : shape[1]]
+    for k in rng.choice(cam.size, 50, replace=False):
+        y, x = np.unravel_index(k, cam.shape)
+        # rounding to the nearest pixel moves the centre by up to sqrt(2)/2
+        near = np.hypot(pc - u[y, x], pr - v[y, x]) <= radius - 0.75
+        assert pmap[near].max() <= cam[y, x] + 1e-9
+    m = np.array([[200.0, 200.0, 100.0, 200.0, 200.0]])
+    assert np.all(smooth_below(m, 1.5) <= m) and smooth_below(m, 1.5)[0, 1] < 200
+    assert erode_map(m, 1).tolist() == [[200.0, 100.0, 100.0, 100.0, 200.0]]
+    assert fill_holes([[np.nan, 5.0, np.nan, np.nan, np.nan, 9.0]]).tolist() == [
+        [5.0, 5.0, 5.0, 5.0, 9.0, 9.0]
+    ]
+    out = scatter_min([[7.0, 3.0]], [[0.2, -0.2]], [[0.0, 0.0]], (1, 2))
+    assert out[0, 0] == 3.0 and np.isnan(out[0, 1])  # both land on pixel 0: the minimum
+
+
+def test_median_smooth_keeps_ramps_and_steps_and_removes_outliers() -> None:
+    yy, xx = np.mgrid[0:12, 0:15].astype(float)
+    ramp = 3.0 * xx - 2.0 * yy
+    assert np.allclose(median_smooth(ramp, 5), ramp)  # borders too (point reflection)
+    step = np.where(xx < 7, 0.0, 10.0)
+    assert np.array_equal(median_smooth(step, 5), step)
+    noisy = ramp.copy()
+    noisy[5, 6] += 50
+    # the outlier is gone; its neighbours' medians move by at most one rank (one ramp step)
+    assert np.max(np.abs(median_smooth(noisy, 5) - ramp)) <= 3.0
+
+
+def test_refined_level_puts_the_blurred_peak_at_the_target() -> None:
+    """A fringe whose modulation keeps a fraction t of its full amplitude (blur): re-fitted
+    from a set at m, the set at the new level peaks exactly at (1 - margin) full scale."""
+    a, c, imin, t = 1.7, 25.0, 40.0, 0.55
+    m = np.array([[90.0, 150.0]])
+    offset = c + a * (m + imin) / 2
+    mod = t * a * (m - imin) / 2
+    new = refined_migl(offset, mod, m, np.full_like(m, c), 8, margin=0.02, imin=imin,
+                       projector_full=1e9)  # fmt: skip
+    peak = c + a * (new + imin) / 2 + t * a * (new - imin) / 2
+    assert np.allclose(peak, 0.98 * 255)
+    # the response alone (no blur) would stop lower: the refit gains where blur lowers peaks
+    assert np.all(new > safe_migl(np.full_like(m, a), np.full_like(m, c), 8, margin=0.02,
+                                  imin=imin, projector_full=1e9))  # fmt: skip
+
+
+def test_lowered_level_never_rises_and_drops_where_clipped() -> None:
+    imgs = np.array([[[255, 120]], [[255, 150]], [[255, 180]], [[200, 150]]], np.uint8)
+    lv, clip = lowered_where_clipped(
+        [[150.0, 150.0]], imgs, [[150.0, 150.0]], [[10.0, 10.0]], 8, margin=0.0, imin=40
+    )
+    assert clip.tolist() == [[True, False]]
+    assert lv[0, 1] == 150.0 and 40 <= lv[0, 0] < 150.0
+    # three shifts clipped, 200 in the fourth: peak >= 310, gain >= 2, level (255 - 10) / 2
+    assert lv[0, 0] == pytest.approx(122.5)
+
+
+def test_map_bias_matches_a_fringe_blurred_on_a_fine_grid() -> None:
+    """The bias of a map step under a Gaussian blur against an independent reference: a
+    pixelated projector (each pixel a uniform square of its gray) blurred on a fine grid and
+    decoded by the 4-step formula. The model's taps sit at the pixel centres, so its blur is
+    the Gaussian's widened by the pixel's box (variance + 1/12)."""
+    pitch, sigma, imin = 8.0, 1.3, 40.0
+    cols = np.arange(200.0)
+    amp_map = np.where(cols < 100, 90.0, 250.0)[None, :].repeat(3, axis=0)
+    fine = np.arange(0, 200, 0.05)
+    pixel = np.clip(np.rint(fine), 0, 199).astype(int)  # the projector pixel under each point
+    shifts = []
+    for k in range(4):
+        gray = (amp_map[0] - imin) * (1 + np.cos(TWO_PI * cols / pitch + k * np.pi / 2)) / 2
+        shifts.append(gaussian_filter1d(gray[pixel], sigma / 0.05))
+    s = np.array(shifts)
+    x0 = np.array([[96.0, 99.3, 101.7, 104.0, 60.0]])
+    idx = np.rint(x0[0] / 0.05).astype(int)
+    phase = np.arctan2(s[3, idx] - s[1, idx], s[0, idx] - s[2, idx])
+    truth_bias = np.angle(np.exp(1j * (phase - TWO_PI * x0[0] / pitch)))
+    wide = np.sqrt(sigma**2 + 1 / 12)
+    got = map_phase_bias(amp_map, x0, np.ones_like(x0), pitch_px=pitch, orientation="vertical",
+                         sigma_px=wide, imin=imin)[0]  # fmt: skip
+    assert np.max(np.abs(got - truth_bias)) < 0.01
+    assert np.max(np.abs(truth_bias[:4])) > 0.1 and abs(truth_bias[4]) < 1e-3  # steps matter
+    # the same along rows for horizontal fringes
+    got_h = map_phase_bias(amp_map.T, np.ones_like(x0), x0, pitch_px=pitch,
+                           orientation="horizontal", sigma_px=wide, imin=imin)[0]  # fmt: skip
+    assert np.allclose(got_h, got)
+    # and one blur is recovered from a residual that holds its bias plus noise
+    rng = np.random.default_rng(3)
+    xs = np.linspace(80, 120, 400)[None, :]
+    ys = np.ones_like(xs)
+
+    def bias(sg: float) -> np.ndarray:
+        return map_phase_bias(amp_map, xs, ys, pitch_px=pitch, orientation="vertical",
+                              sigma_px=sg, imin=imin)  # fmt: skip
+
+    fitted = fit_blur_sigma(bias(sigma) + rng.normal(0, 0.05, xs.shape), bias, 4.0)
+    assert fitted == pytest.approx(sigma, abs=0.1)
+
+
+def test_mapping_ladder() -> None:
+    assert mapping_pitches(1024, 8.0) == [1024.0, 64.0]
+    assert mapping_pitches(1024, 2.0) == [1024.0, 64.0, 4.0]
+    assert mapping_pitches(768, 16.0) == [768.0, 48.0]
+    assert mapping_pitches(200, 16.0) == [200.0]
+
+
+# ---------------------------------------------------------------------------------------------
+# the done-when: full coverage, std within 5 % of LPA S=1, a quarter of DPA+bound's images
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("scene", ["board", "lit_plate"])
+def test_adaptive_against_lpa1_and_dpa_bound(scene: str, request: pytest.FixtureRequest) -> None:
+    r = request.getfixturevalue(scene)
+    print(
+        f"\n{scene}: adaptive {r['images_adaptive']} images, std {r['std_adaptive']:.4f} rad, "
+        f"coverage {r['coverage_adaptive']:.4f}; LPA S=1 std {r['std_lpa']:.4f} rad; "
+        f"DPA+bound {r['images_dpa']} images"
+    )
+    assert r["coverage_adaptive"] == 1.0
+    assert r["std_adaptive"] <= 1.05 * r["std_lpa"]
+    assert 4 * r["images_adaptive"] <= r["images_dpa"]
+    res = r["adaptive"]
+    fam = res.decoded.primary
+    assert fam.unwrapping == "given" and "absolute phase given" in fam.method
+    summary = res.metrics.to_dict()["adaptive"]["vertical"]
+    assert summary["images_per_step"]["mapping"] == 16  # 1024 + 64 px and 768 + 48 px
+    assert sum(summary["images_per_step"].values()) == r["images_adaptive"]
+    assert set(summary["seconds_per_step"]) >= {"mapping", "map", "adapted", "check"}
+    fine = res.strategy_results[-1]
+    assert fine.details["projector_migl_map"].shape == (768, 1024)
+    assert not fine.never_unsaturated.any()
+
+
+def test_the_board_map_follows_the_squares(board: dict[str, Any]) -> None:
+    """White squares get a low MIGL, black ones the top: the camera-side map is bimodal."""
+    fine = board["adaptive"].strategy_results[-1]
+    white = board_rig().truth().reflectivity > 0.5
+    idx = fine.index_map
+    assert np.median(idx[white]) < 120 and np.median(idx[~white]) > 2 * np.median(idx[white])
+    assert np.percentile(idx[~white], 75) > 245.0  # away from the edges: near the top
+
+
+# ---------------------------------------------------------------------------------------------
+# the broken variants the design rejects (checkerboard, no check pass)
+# ---------------------------------------------------------------------------------------------
+
+
+def variant(**kw: Any) -> tuple[Any, float]:
+    rig = board_rig()
+    fine = adaptive_sets(rig, SPECS, iterations=0, **kw)[-1]
+    _, cov = phase_error(rig, fine.details["absolute_phase"], SPECS[-1].pitch_px)
+    return fine, cov
+
+
+@pytest.fixture(scope="module")
+def sound() -> tuple[Any, float]:
+    return variant()
+
+
+def test_without_margin_the_refit_clips(sound: tuple[Any, float]) -> None:
+    base, _ = sound
+    broken, _ = variant(margin=0.0)
+    ok, bad = base.details["clipped_per_capture"], broken.details["clipped_per_capture"]
+    assert ok[0] == 0 and bad[0] == 0  # the first set is safe either way (blur)
+    assert bad[1] > 5 * max(ok[1], 1)  # the refit aims at the clip level itself
+
+
+def test_without_dilation_the_first_set_clips(
+    sound: tuple[Any, float], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    base, cov = sound
+    monkeypatch.setattr(adaptive_module, "footprint_px", lambda u, v: 0.0)
+    broken, cov_broken = variant(blur_px=0.0, smooth_px=0.0, refit=False)
+    assert base.details["clipped_per_capture"][0] == 0 and cov == 1.0
+    assert broken.details["clipped_per_capture"][0] > 100 and cov_broken < 0.99
+
+
+def test_a_mapping_off_by_half_a_fringe_clips(
+    sound: tuple[Any, float], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    real = adaptive_module.projector_coordinates
+    monkeypatch.setattr(
+        adaptive_module, "projector_coordinates", lambda phase, p: real(phase, p) + 8.0
+    )
+    broken, cov_broken = variant(refit=False)
+    assert broken.details["clipped_per_capture"][0] > 100 and cov_broken < 0.99
+
+
+# ---------------------------------------------------------------------------------------------
+# requirement 4 and the command line
+# ---------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("reflectivity", "lux"), [(0.45, 60.0)])
+def test_nothing_saturated_gives_the_conventional_result(reflectivity: float, lux: float) -> None:
+    """Requirement 4: without saturation every projector pixel is at the top MIGL and the
+    phase is the conventional one within noise, with the same coverage."""
+
+    def rig() -> SimulatedRig:
+        return SimulatedRig(
+            plate(0.0, reflectivity), camera=CameraModel(*CAM), lighting=Lighting(lux)
+        )
+
+    fine = SPECS[-1]
+    conv = conventional(rig(), fine)
+    assert conv.images.max() < 255
+    r = rig()
+    res = adaptive_sets(r, SPECS)[-1]
+    assert np.all(res.details["projector_migl_map"] == 255.0)
+    assert res.details["refit_passes"] == 0 and res.details["check_passes"] == 0
+    std_a, cov_a = phase_error(r, res.details["absolute_phase"], fine.pitch_px)
+    truth = r.truth()
+    e = decode_set(conv.images, fine, 8).wrapped_phase - TWO_PI * truth.u / fine.pitch_px
+    e = np.angle(np.exp(1j * e))
+    std_c, cov_c = float(np.nanstd(e[truth.valid])), float(np.isfinite(e[truth.valid]).mean())
+    assert cov_a == cov_c == 1.0
+    assert std_a == pytest.approx(std_c, rel=0.1)
+
+
+def test_measure_adaptive_through_the_cli(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = run_cli(
+        "measure", "--rig", "sim", "--ambient-lux", "600", "--pitch", "8", "--no-centerline",
+        "--method", "adaptive", "--adaptive-margin", "0.02", "-o", str(out), timeout=600,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    assert "adaptive:" in res.stdout
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["method"] == "adaptive"
+    block = metrics["adaptive"]["vertical"]
+    assert block["margin"] == 0.02 and block["images_per_step"]["mapping"] == 16
+    assert metrics["images_captured"] == sum(block["images_per_step"].values())
+    for name in ("projector_migl_map", "camera_migl"):
+        assert (out / f"{name}.tiff").is_file() and (out / f"{name}.png").is_file()
