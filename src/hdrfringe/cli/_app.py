@@ -3,22 +3,26 @@
 from __future__ import annotations
 
 import functools
+import importlib
 import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from typing import Annotated, Any, TypeVar
 
 import numpy as np
 import typer
+import typer.core
+import typer.main
 from rich.console import Console
 from rich.markup import escape
 
-from hdrfringe import __version__
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.limits import MAX_PROGRAM_FRAMES, check_count
 
 __all__ = [
+    "COMMAND_MODULES",
     "F",
+    "LazyGroup",
     "app",
     "console",
     "err_console",
@@ -29,7 +33,95 @@ __all__ = [
     "progress_bar",
 ]
 
+#: Every command (in ``--help`` order) and the module that declares it. A command's module,
+#: and with it what the module imports (the strategy registry for ``measure``, ``capture`` and
+#: ``train-correction``), is loaded only when that command is run or listed; ``tests/
+#: test_cli_lazy.py`` checks the table against the modules.
+COMMAND_MODULES: dict[str, str] = {
+    "calibrate": "calibrate",
+    "calibrate-stereo": "calibrate_stereo",
+    "capture": "capture",
+    "demo": "demo",
+    "gamma": "gamma",
+    "import": "import_",
+    "measure": "measure",
+    "modify": "modify",
+    "patterns": "patterns",
+    "phase": "phase",
+    "reproduce": "reproduce",
+    "simulate": "simulate",
+    "train-correction": "train",
+    "rig": "rig_check",
+}
+
+
+class _LazyCommands(MutableMapping[str, Any]):
+    """The click commands of :class:`LazyGroup` by name: a command's module is imported on
+    first access; iteration lists every name of :data:`COMMAND_MODULES` without importing."""
+
+    def __init__(self, loaded: Mapping[str, Any], load: Callable[[str], Any]) -> None:
+        self._loaded = dict(loaded)
+        self._load = load
+
+    def __getitem__(self, name: str) -> Any:
+        if name not in self._loaded:
+            if name not in COMMAND_MODULES:
+                raise KeyError(name)
+            self._loaded[name] = self._load(name)
+        return self._loaded[name]
+
+    def __setitem__(self, name: str, command: Any) -> None:
+        self._loaded[name] = command
+
+    def __delitem__(self, name: str) -> None:
+        del self._loaded[name]
+
+    def __iter__(self) -> Iterator[str]:
+        yield from COMMAND_MODULES
+        yield from (n for n in self._loaded if n not in COMMAND_MODULES)
+
+    def __len__(self) -> int:
+        return len(COMMAND_MODULES) + sum(n not in COMMAND_MODULES for n in self._loaded)
+
+
+class LazyGroup(typer.core.TyperGroup):
+    """The ``hdrfringe`` command group: a command's module is imported when the command is
+    run (or ``--help`` lists it), so ``hdrfringe phase`` pays for ``phase`` only.
+
+    Examples
+    --------
+    >>> import typer.main
+    >>> group = typer.main.get_command(app)
+    >>> list(group.commands)[:3]
+    ['calibrate', 'calibrate-stereo', 'capture']
+    >>> group.commands["phase"].name
+    'phase'
+    """
+
+    def __init__(self, **attrs: Any) -> None:
+        super().__init__(**attrs)
+        self.commands = _LazyCommands(self.commands, self._load)
+
+    def _load(self, name: str) -> Any:
+        importlib.import_module(f"hdrfringe.cli.{COMMAND_MODULES[name]}")
+        opts: dict[str, Any] = {
+            "pretty_exceptions_short": app.pretty_exceptions_short,
+            "rich_markup_mode": app.rich_markup_mode,
+        }
+        for info in app.registered_commands:
+            assert info.callback is not None
+            if (info.name or typer.main.get_command_name(info.callback.__name__)) == name:
+                return typer.main.get_command_from_info(info, **opts)
+        for group in app.registered_groups:
+            if group.name == name:
+                return typer.main.get_group_from_info(
+                    group, suggest_commands=app.suggest_commands, **opts
+                )
+        raise KeyError(name)  # pragma: no cover - COMMAND_MODULES names a missing command
+
+
 app = typer.Typer(
+    cls=LazyGroup,
     name="hdrfringe",
     help="3D surface measurement by phase-shifting fringe projection that copes with saturation.",
     no_args_is_help=True,
@@ -63,6 +155,8 @@ def handle_errors(func: F) -> F:
 
 def _version_callback(value: bool) -> None:
     if value:
+        from hdrfringe import __version__  # importlib.metadata: only for --version
+
         console.print(f"hdrfringe {__version__}")
         raise typer.Exit()
 
