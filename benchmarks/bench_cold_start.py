@@ -84,12 +84,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as d:
         folder = make_folder(Path(d) / "caps")
         out = Path(d) / "out"
+        phase = ["phase", str(folder), "-o", str(out), "--force"]
         cases = {
             "import numpy": [py, "-c", "import numpy"],
             "import hdrfringe": [py, "-c", "import hdrfringe"],
             "cli --help": [py, "-m", "hdrfringe.cli", "--help"],
-            "cli phase (cold)": [py, "-m", "hdrfringe.cli", "phase", str(folder), "-o", str(out)]
-            + ["--force"],
+            "cli phase (cold)": [py, "-m", "hdrfringe.cli", *phase],
         }
         times: dict[str, list[float]] = {k: [] for k in [*cases, "phase library-only"]}
         library_phase(folder, out)  # warm-up: imports, first-call costs

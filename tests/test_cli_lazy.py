@@ -48,7 +48,8 @@ try:
     app(["phase", "--help"])
 except SystemExit as exc:
     assert exc.code == 0, exc.code
-print(" ".join(sorted(m for m in sys.modules if m.startswith(("hdrfringe.cli.", "hdrfringe.strategies", "scipy", "matplotlib", "dask", "cv2", "h5py")))))
+watched = ("hdrfringe.cli.", "hdrfringe.strategies", "scipy", "matplotlib", "dask", "cv2", "h5py")
+print(" ".join(sorted(m for m in sys.modules if m.startswith(watched))))
 """
 
 
