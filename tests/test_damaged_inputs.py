@@ -28,7 +28,7 @@ from hdrfringe.io.calibration_file import (
 )
 from hdrfringe.reproduce.engine import SCHEDULER_TIMEOUT_S, check_scheduler
 from hdrfringe.unwrap import centerline_phase
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 
 def _one_line_failure(res, *needles: str) -> None:
@@ -285,7 +285,7 @@ def test_cli_tolerance_out_of_range_names_the_option(
     sweep: Path, tmp_path: Path, value: str
 ) -> None:
     out = tmp_path / "m"
-    res = run_cli(
+    res = run_cli_in_process(
         "measure", str(sweep), "--method", "uniform", "--tolerance", value, "-o", str(out)
     )
     _one_line_failure(res, "--tolerance", "[0, 1]")
@@ -298,7 +298,7 @@ def test_cli_min_modulation_out_of_range_names_the_option(
 ) -> None:
     out = tmp_path / "p"
     folder = sorted(plates.iterdir())[1]
-    res = run_cli("phase", str(folder), "--min-modulation", value, "-o", str(out))
+    res = run_cli_in_process("phase", str(folder), "--min-modulation", value, "-o", str(out))
     _one_line_failure(res, "--min-modulation", "0..127.5")
     assert "centerline" not in res.stderr
     assert not out.exists()

@@ -24,7 +24,7 @@ from hdrfringe.pipeline import calibrate
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.saturation.estimate import CorrectionPolynomial, training_data_from_rig
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 RULES = {"initial", "threshold", "lowest"}
 
@@ -352,7 +352,7 @@ def test_measure_bad_source_options(
 ) -> None:
     out = tmp_path / "out"
     fill = {"folder": str(capture_folder), "tmp": str(tmp_path)}
-    res = run_cli("measure", *[a.format(**fill) for a in args], "-o", str(out))
+    res = run_cli_in_process("measure", *[a.format(**fill) for a in args], "-o", str(out))
     _assert_clean_failure(res, out, *needles)
 
 
@@ -381,7 +381,7 @@ def test_train_correction_bad_input(
     tmp_path: Path, capture_folder: Path, args: list[str], needles: list[str]
 ) -> None:
     out = tmp_path / "corr.json"
-    res = run_cli(
+    res = run_cli_in_process(
         "train-correction", *[a.format(folder=capture_folder) for a in args], "-o", str(out)
     )
     _assert_clean_failure(res, out, *needles)

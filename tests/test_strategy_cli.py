@@ -14,7 +14,7 @@ from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.strategies import make_params
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 
 def _one_line_error(res) -> str:  # type: ignore[no-untyped-def]
@@ -43,7 +43,7 @@ def test_an_option_of_another_method_is_refused(
     """It was silently ignored (exit 0, the run used another strategy than the option
     implies). Refused before the rig is made: one line naming the option and its methods."""
     out = tmp_path / "out"
-    line = _one_line_error(run_cli("measure", "--rig", "sim", "-o", str(out), *args))
+    line = _one_line_error(run_cli_in_process("measure", "--rig", "sim", "-o", str(out), *args))
     assert option.replace("--no-", "--") in line and takers in line, line
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
