@@ -21,7 +21,8 @@ def _edit_manifest(folder: Path, edit: Callable[[dict], None]) -> None:
 
 
 def _assert_clean_failure(folder: Path, out: Path, *needles: str) -> None:
-    res = run_cli("phase", str(folder), "-o", str(out))
+    # in-process: the CLI's entry point, with what a process would report (conftest)
+    res = run_cli_in_process("phase", str(folder), "-o", str(out))
     assert res.returncode == 2, res.stderr
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1, res.stderr
