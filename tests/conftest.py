@@ -134,6 +134,20 @@ def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.fixture(scope="session")  # once per xdist worker
+def white_plate_series(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``hdrfringe simulate white_plate --series 0,4,8 --steps 3 --pitch 6``: three plate
+    positions (a calibration series), simulated once and shared read-only by the modules
+    that calibrate or measure from it (copy it before changing anything)."""
+    root = tmp_path_factory.mktemp("plates") / "series"
+    res = run_cli(
+        "simulate", "white_plate", "-o", str(root), "--series", "0,4,8", "--steps", "3",
+        "--pitch", "6",
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    return root
+
+
 @pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave
 def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """``hdrfringe reproduce all --quick`` (Ch. 4, 5 and 6 on the reduced grid), run once.

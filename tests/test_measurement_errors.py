@@ -14,22 +14,9 @@ from tests.conftest import run_cli, run_cli_in_process
 
 
 @pytest.fixture(scope="module")
-def plates(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    root = tmp_path_factory.mktemp("plates") / "series"
-    res = run_cli(
-        "simulate",
-        "white_plate",
-        "-o",
-        str(root),
-        "--series",
-        "0,4,8",
-        "--steps",
-        "3",
-        "--pitch",
-        "6",
-    )
-    assert res.returncode == 0, res.stderr
-    return root
+def plates(white_plate_series: Path) -> Path:
+    """The calibration series of conftest (simulated once per session; read-only here)."""
+    return white_plate_series
 
 
 @pytest.fixture(scope="module")
