@@ -29,13 +29,11 @@ def phase(
     from hdrfringe._validation import describe_saturated
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
         staged_output_dir,
     )
-    from hdrfringe.process import decode_captures
 
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
@@ -44,6 +42,11 @@ def phase(
         raise CaptureFormatError(
             f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"
         )
+    # imported once the inputs are known good: a refused folder or output does not pay for
+    # the decoder's and unwrapper's imports (scipy.ndimage, scikit-image)
+    from hdrfringe.io.phase_maps import write_phase_maps
+    from hdrfringe.process import decode_captures
+
     decoded = decode_captures(
         captures, min_modulation=min_modulation, reject_saturated=not keep_saturated
     )
