@@ -106,7 +106,9 @@ def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
     would otherwise swallow them). Keep :func:`run_cli` for tests of signals, a real terminal
     or the process itself.
     """
-    from hdrfringe.cli import app
+    from unittest import mock
+
+    from hdrfringe.cli import _app, app
 
     out, err = io.StringIO(), io.StringIO()
     code: int = 0
@@ -114,6 +116,10 @@ def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
         contextlib.redirect_stdout(out),
         contextlib.redirect_stderr(err),
         warnings.catch_warnings(record=True) as shown,
+        # rich picks a console's colours when it is made (here: when the test process imported
+        # the CLI, maybe on a terminal under `pytest -s`); run_cli's process writes to pipes
+        mock.patch.object(_app.console, "_color_system", None),
+        mock.patch.object(_app.err_console, "_color_system", None),
     ):
         warnings.resetwarnings()
         for action, category, module in reversed(_PYTHON_DEFAULT_FILTERS):
