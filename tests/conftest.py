@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import shutil
 import subprocess
 import sys
+import traceback
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -78,6 +81,77 @@ def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
         text=True,
         timeout=timeout,
     )
+
+
+#: A fresh interpreter's warning filters (``python -W`` not given): what a user's process shows.
+_PYTHON_DEFAULT_FILTERS = (
+    ("default", DeprecationWarning, "__main__"),
+    ("ignore", DeprecationWarning, ""),
+    ("ignore", PendingDeprecationWarning, ""),
+    ("ignore", ImportWarning, ""),
+    ("ignore", ResourceWarning, ""),
+)
+
+
+def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
+    """Run the command line in this process, through the entry point ``python -m hdrfringe.cli``
+    calls (``hdrfringe.cli.app()``: typer's ``Typer.__call__``, click's standalone ``main``
+    and its ``sys.exit``), and return what the process would have given.
+
+    For tests of many bad inputs (the fuzz suite), where a new interpreter per case costs far more
+    than the case: ``returncode`` is the ``SystemExit`` code, ``stdout``/``stderr`` what the
+    command wrote there; an exception escaping the command is written to ``stderr`` as the
+    interpreter would print it (``Traceback (most recent call last): ...``) with return code 1;
+    warnings are shown on ``stderr`` under a fresh interpreter's filters (pytest's own capture
+    would otherwise swallow them). Keep :func:`run_cli` for tests of signals, a real terminal
+    or the process itself.
+    """
+    from unittest import mock
+
+    from hdrfringe.cli import _app, app
+
+    out, err = io.StringIO(), io.StringIO()
+    code: int = 0
+    with (
+        contextlib.redirect_stdout(out),
+        contextlib.redirect_stderr(err),
+        warnings.catch_warnings(record=True) as shown,
+        # rich picks a console's colours when it is made (here: when the test process imported
+        # the CLI, maybe on a terminal under `pytest -s`); run_cli's process writes to pipes
+        mock.patch.object(_app.console, "_color_system", None),
+        mock.patch.object(_app.err_console, "_color_system", None),
+    ):
+        warnings.resetwarnings()
+        for action, category, module in reversed(_PYTHON_DEFAULT_FILTERS):
+            warnings.filterwarnings(action, category=category, module=module)  # type: ignore[arg-type]
+        try:
+            app(args=list(args), prog_name="python -m hdrfringe.cli")
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+            if exc.code is not None and not isinstance(exc.code, int):
+                print(exc.code, file=sys.stderr)  # as the interpreter does with sys.exit("text")
+        except Exception as exc:  # what the interpreter prints for an uncaught exception
+            err.write("".join(traceback.format_exception(exc)))
+            code = 1
+    for w in shown:
+        err.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno, w.line))
+    return subprocess.CompletedProcess(
+        ["python", "-m", "hdrfringe.cli", *args], code, out.getvalue(), err.getvalue()
+    )
+
+
+@pytest.fixture(scope="session")  # once per xdist worker
+def white_plate_series(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``hdrfringe simulate white_plate --series 0,4,8 --steps 3 --pitch 6``: three plate
+    positions (a calibration series), simulated once and shared read-only by the modules
+    that calibrate or measure from it (copy it before changing anything)."""
+    root = tmp_path_factory.mktemp("plates") / "series"
+    res = run_cli(
+        "simulate", "white_plate", "-o", str(root), "--series", "0,4,8", "--steps", "3",
+        "--pitch", "6",
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    return root
 
 
 @pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave

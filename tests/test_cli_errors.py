@@ -11,7 +11,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 
 def _edit_manifest(folder: Path, edit: Callable[[dict], None]) -> None:
@@ -21,7 +21,8 @@ def _edit_manifest(folder: Path, edit: Callable[[dict], None]) -> None:
 
 
 def _assert_clean_failure(folder: Path, out: Path, *needles: str) -> None:
-    res = run_cli("phase", str(folder), "-o", str(out))
+    # in-process: the CLI's entry point, with what a process would report (conftest)
+    res = run_cli_in_process("phase", str(folder), "-o", str(out))
     assert res.returncode == 2, res.stderr
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1, res.stderr
@@ -182,7 +183,8 @@ def test_limits_and_bad_numbers_are_one_line_errors(
 ) -> None:
     out = tmp_path / "out"
     before = _tree(capture_folder)
-    res = run_cli(*[a.format(src=capture_folder) for a in args], "-o", str(out), timeout=60)
+    # in-process: the CLI's entry point, with what a process would report (conftest)
+    res = run_cli_in_process(*[a.format(src=capture_folder) for a in args], "-o", str(out))
     assert res.returncode == 2, res.stderr
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr

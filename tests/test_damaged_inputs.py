@@ -28,7 +28,7 @@ from hdrfringe.io.calibration_file import (
 )
 from hdrfringe.reproduce.engine import SCHEDULER_TIMEOUT_S, check_scheduler
 from hdrfringe.unwrap import centerline_phase
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 
 def _one_line_failure(res, *needles: str) -> None:
@@ -149,14 +149,9 @@ def test_sane_bounds_keep_noisy_and_partly_invalid_calibrations() -> None:
 
 
 @pytest.fixture(scope="module")
-def plates(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    root = tmp_path_factory.mktemp("plates") / "series"
-    res = run_cli(
-        "simulate", "white_plate", "-o", str(root), "--series", "0,4,8", "--steps", "3",
-        "--pitch", "6",
-    )  # fmt: skip
-    assert res.returncode == 0, res.stderr
-    return root
+def plates(white_plate_series: Path) -> Path:
+    """The calibration series of conftest (simulated once per session; read-only here)."""
+    return white_plate_series
 
 
 def test_cli_measure_with_inf_coefficients_refused(
@@ -166,7 +161,7 @@ def test_cli_measure_with_inf_coefficients_refused(
     path = _damaged(good_file, tmp_path, "coefficients", np.inf, "inf.h5")
     out = tmp_path / "m"
     folder = sorted(plates.iterdir())[1]
-    res = run_cli("measure", str(folder), "-c", str(path), "-o", str(out))
+    res = run_cli_in_process("measure", str(folder), "-c", str(path), "-o", str(out))
     _one_line_failure(res, "inf.h5", "/coefficients")
     assert not out.exists()
 
@@ -180,7 +175,7 @@ def test_cli_calibrate_with_depth_1e300_refused(plates: Path, tmp_path: Path) ->
     data["scene"]["depth_mm"] = 1e300
     manifest.write_text(json.dumps(data))
     out = tmp_path / "cal.h5"
-    res = run_cli("calibrate", str(series), "-o", str(out))
+    res = run_cli_in_process("calibrate", str(series), "-o", str(out))
     _one_line_failure(res, "1e+300 mm")
     assert not out.exists() and not list(tmp_path.glob(".cal.h5*"))
 
@@ -285,7 +280,7 @@ def test_cli_tolerance_out_of_range_names_the_option(
     sweep: Path, tmp_path: Path, value: str
 ) -> None:
     out = tmp_path / "m"
-    res = run_cli(
+    res = run_cli_in_process(
         "measure", str(sweep), "--method", "uniform", "--tolerance", value, "-o", str(out)
     )
     _one_line_failure(res, "--tolerance", "[0, 1]")
@@ -298,7 +293,7 @@ def test_cli_min_modulation_out_of_range_names_the_option(
 ) -> None:
     out = tmp_path / "p"
     folder = sorted(plates.iterdir())[1]
-    res = run_cli("phase", str(folder), "--min-modulation", value, "-o", str(out))
+    res = run_cli_in_process("phase", str(folder), "--min-modulation", value, "-o", str(out))
     _one_line_failure(res, "--min-modulation", "0..127.5")
     assert "centerline" not in res.stderr
     assert not out.exists()
@@ -393,6 +388,6 @@ def test_gamma_fit_on_its_bound_is_refused(tmp_path: Path) -> None:
     folder = tmp_path / "flat"
     write_capture_folder(folder, _uniform_captures(lambda g: 100 + 0 * g))
     out = tmp_path / "g"
-    res = run_cli("gamma", str(folder), "-o", str(out))
+    res = run_cli_in_process("gamma", str(folder), "-o", str(out))
     _one_line_failure(res, "uniform-gray fit gives gamma = 0.05", "cannot be a projector gamma")
     assert not out.exists()

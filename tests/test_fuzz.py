@@ -5,6 +5,10 @@ Each case runs the command line on hostile input: bad numbers (nan, inf, huge, n
 damaged manifests, images and calibration files, and resource limits. Every case must give
 exit code 2, exactly one non-empty stderr line starting with ``error:``, no traceback, and leave
 the whole working tree (inputs, existing outputs) byte-identical with nothing new written.
+The cases run the CLI's entry point in the test process (``conftest.run_cli_in_process``: the
+same ``app()`` call as ``python -m hdrfringe.cli``, with the exit code, an escaping exception's
+traceback and warnings reported as the interpreter would; tests/test_cli_runner.py checks that
+it agrees with a real process), which saves a new interpreter per case.
 The per-class tests (test_output_safety, test_input_limits, test_damaged_inputs,
 test_cli_errors) check the messages; this suite checks the contract over every command.
 """
@@ -27,7 +31,7 @@ from hdrfringe.frames import CenterlineFrame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.patterns import FringeSpec
-from tests.conftest import run_cli, synthetic_set
+from tests.conftest import run_cli_in_process, synthetic_set
 from tests.test_damaged_inputs import _synthetic_cal
 
 
@@ -757,7 +761,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(root: Path, case: tuple
     argv, reason = case[1], (case[2] if len(case) == 3 else None)
     before = _tree(root)
     args = [a.format(r=root, o=root / "out") for a in argv]
-    res = run_cli(*args, timeout=60)
+    res = run_cli_in_process(*args)  # the CLI's entry point in-process (conftest says how)
     assert res.returncode == 2, (res.returncode, res.stderr[-2000:])
     assert "Traceback" not in res.stderr, res.stderr[-2000:]
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]

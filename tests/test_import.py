@@ -22,7 +22,7 @@ from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.import_description import compile_template, read_description
 from hdrfringe.io.importer import import_captures, natural_key, to_counts
 from hdrfringe.process import decode_captures
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 H, W = 24, 40
 TWO_PI = 2 * np.pi
@@ -397,7 +397,8 @@ def assert_refused(
 ) -> None:
     out = tmp_path / "caps"
     before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
-    res = run_cli("import", str(cam), "-d", str(desc), "-o", str(out), *extra)
+    # in-process: the CLI's entry point, with what a process would report (conftest)
+    res = run_cli_in_process("import", str(cam), "-d", str(desc), "-o", str(out), *extra)
     assert res.returncode == 2, (res.stdout, res.stderr)
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr

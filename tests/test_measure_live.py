@@ -24,7 +24,7 @@ from hdrfringe.pipeline import calibrate
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.saturation.estimate import CorrectionPolynomial, training_data_from_rig
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 RULES = {"initial", "threshold", "lowest"}
 
@@ -196,7 +196,9 @@ def test_live_dpa_bound_pending_through_the_cli(tmp_path: Path) -> None:
         sets[flag] = m["sets_captured"]
     assert sets["--bound-pending"] < 0.4 * sets["--no-bound-pending"]
     out = tmp_path / "lpa"
-    res = run_cli("measure", "--rig", "sim", "--method", "lpa", "--bound-pending", "-o", str(out))
+    res = run_cli_in_process(
+        "measure", "--rig", "sim", "--method", "lpa", "--bound-pending", "-o", str(out)
+    )
     assert res.returncode == 2 and "--bound-pending is a DPA option" in res.stderr
     assert "Traceback" not in res.stderr and not out.exists()
 
@@ -271,7 +273,7 @@ def test_train_correction_round_trip_into_dpa(tmp_path: Path) -> None:
     assert poly.truth == "thesis" and poly.metadata["pitch_px"] == 20.0
     assert 12.0 < poly.rmse_before < 13.5 and 3.3 < poly.rmse_after < 4.0  # 12.77 -> 3.68 DN
     before = corr.read_bytes()
-    again = run_cli("train-correction", "--rig", "sim", "-o", str(corr))
+    again = run_cli_in_process("train-correction", "--rig", "sim", "-o", str(corr))
     assert again.returncode == 2 and "--force" in again.stderr and corr.read_bytes() == before
 
     out = tmp_path / "dpa"
@@ -352,18 +354,20 @@ def test_measure_bad_source_options(
 ) -> None:
     out = tmp_path / "out"
     fill = {"folder": str(capture_folder), "tmp": str(tmp_path)}
-    res = run_cli("measure", *[a.format(**fill) for a in args], "-o", str(out))
+    res = run_cli_in_process("measure", *[a.format(**fill) for a in args], "-o", str(out))
     _assert_clean_failure(res, out, *needles)
 
 
 def test_measure_live_refuses_a_mismatched_calibration(tmp_path: Path, calibration: Path) -> None:
     out = tmp_path / "out"
-    res = run_cli("measure", "--rig", "sim", "--pitch", "6", "-c", str(calibration), "-o", str(out))
+    res = run_cli_in_process(
+        "measure", "--rig", "sim", "--pitch", "6", "-c", str(calibration), "-o", str(out)
+    )
     _assert_clean_failure(res, out, "pitch")
 
 
 def test_measure_live_without_output(tmp_path: Path) -> None:
-    res = run_cli("measure", "--rig", "sim")
+    res = run_cli_in_process("measure", "--rig", "sim")
     _assert_clean_failure(res, tmp_path / "out", "-o/--output")
 
 
@@ -381,7 +385,7 @@ def test_train_correction_bad_input(
     tmp_path: Path, capture_folder: Path, args: list[str], needles: list[str]
 ) -> None:
     out = tmp_path / "corr.json"
-    res = run_cli(
+    res = run_cli_in_process(
         "train-correction", *[a.format(folder=capture_folder) for a in args], "-o", str(out)
     )
     _assert_clean_failure(res, out, *needles)

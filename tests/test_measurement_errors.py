@@ -10,26 +10,13 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 
 @pytest.fixture(scope="module")
-def plates(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    root = tmp_path_factory.mktemp("plates") / "series"
-    res = run_cli(
-        "simulate",
-        "white_plate",
-        "-o",
-        str(root),
-        "--series",
-        "0,4,8",
-        "--steps",
-        "3",
-        "--pitch",
-        "6",
-    )
-    assert res.returncode == 0, res.stderr
-    return root
+def plates(white_plate_series: Path) -> Path:
+    """The calibration series of conftest (simulated once per session; read-only here)."""
+    return white_plate_series
 
 
 @pytest.fixture(scope="module")
@@ -45,6 +32,9 @@ def _folders(root: Path) -> list[Path]:
 
 
 def _one_line_failure(res, *needles: str) -> None:
+    """Exit 2, one ``error:`` line holding the needles, no traceback. The failing runs go
+    through ``run_cli_in_process`` (the CLI's entry point in this process, reporting what the
+    process would: conftest); the successful ones stay real processes."""
     assert res.returncode == 2, res.stdout + res.stderr
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("error:"), res.stderr
@@ -75,7 +65,8 @@ def test_one_position_only(plates: Path, tmp_path: Path) -> None:
     f = _folders(plates)
     out = tmp_path / "c.h5"
     _one_line_failure(
-        run_cli("calibrate", str(f[0]), str(f[1]), "-o", str(out)), "at least 2 plate positions"
+        run_cli_in_process("calibrate", str(f[0]), str(f[1]), "-o", str(out)),
+        "at least 2 plate positions",
     )
     assert not out.exists()
 
@@ -86,7 +77,8 @@ def test_duplicate_depths(plates: Path, tmp_path: Path) -> None:
     shutil.copytree(f[1], dup)
     out = tmp_path / "c.h5"
     _one_line_failure(
-        run_cli("calibrate", *map(str, f), str(dup), "-o", str(out)), "duplicate depth 4 mm"
+        run_cli_in_process("calibrate", *map(str, f), str(dup), "-o", str(out)),
+        "duplicate depth 4 mm",
     )
     assert not out.exists()
 
@@ -100,7 +92,8 @@ def test_missing_reference_plane(plates: Path, tmp_path: Path) -> None:
     (extra / "manifest.json").write_text(json.dumps(m))
     out = tmp_path / "c.h5"
     _one_line_failure(
-        run_cli("calibrate", str(f[1]), str(f[2]), str(extra), "-o", str(out)), "no reference plane"
+        run_cli_in_process("calibrate", str(f[1]), str(f[2]), str(extra), "-o", str(out)),
+        "no reference plane",
     )
     assert not out.exists()
 
@@ -118,7 +111,7 @@ def test_mismatched_sizes(plates: Path, tmp_path: Path) -> None:
     (small / "manifest.json").write_text(json.dumps(m))
     out = tmp_path / "c.h5"
     _one_line_failure(
-        run_cli("calibrate", str(f[0]), str(f[1]), str(small), "-o", str(out)), "120x100"
+        run_cli_in_process("calibrate", str(f[0]), str(f[1]), str(small), "-o", str(out)), "120x100"
     )
     assert not out.exists()
 
@@ -138,7 +131,8 @@ def test_corrupt_and_foreign_calibration_files(plates: Path, tmp_path: Path) -> 
     ):
         out = tmp_path / f"m_{cal.stem}"
         _one_line_failure(
-            run_cli("measure", str(_folders(plates)[1]), "-c", str(cal), "-o", str(out)), needle
+            run_cli_in_process("measure", str(_folders(plates)[1]), "-c", str(cal), "-o", str(out)),
+            needle,
         )
         assert not out.exists()
 
@@ -146,7 +140,7 @@ def test_corrupt_and_foreign_calibration_files(plates: Path, tmp_path: Path) -> 
 def test_calibration_from_another_pattern_spec(calib: Path, tmp_path: Path) -> None:
     part = tmp_path / "part"
     assert (
-        run_cli(
+        run_cli_in_process(  # the input (a part with another spec); the test is measure's refusal
             "simulate",
             "white_plate",
             "-o",
@@ -161,20 +155,23 @@ def test_calibration_from_another_pattern_spec(calib: Path, tmp_path: Path) -> N
         == 0
     )
     out = tmp_path / "m"
-    _one_line_failure(run_cli("measure", str(part), "-c", str(calib), "-o", str(out)), "steps")
+    _one_line_failure(
+        run_cli_in_process("measure", str(part), "-c", str(calib), "-o", str(out)), "steps"
+    )
     assert not out.exists()
 
 
 def test_existing_outputs_kept_unless_force(plates: Path, calib: Path, tmp_path: Path) -> None:
     before = calib.read_bytes()
-    res = run_cli("calibrate", str(plates), "-o", str(calib))
+    res = run_cli_in_process("calibrate", str(plates), "-o", str(calib))
     _one_line_failure(res, "--force")
     assert calib.read_bytes() == before
     out = tmp_path / "m"
     out.mkdir()
     (out / "keep.txt").write_text("mine")
     _one_line_failure(
-        run_cli("measure", str(_folders(plates)[1]), "-c", str(calib), "-o", str(out)), "--force"
+        run_cli_in_process("measure", str(_folders(plates)[1]), "-c", str(calib), "-o", str(out)),
+        "--force",
     )
     assert (out / "keep.txt").read_text() == "mine"
     res = run_cli("measure", str(_folders(plates)[1]), "-c", str(calib), "-o", str(out), "--force")

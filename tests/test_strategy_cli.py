@@ -14,7 +14,7 @@ from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.strategies import make_params
-from tests.conftest import run_cli
+from tests.conftest import run_cli, run_cli_in_process
 
 
 def _one_line_error(res) -> str:  # type: ignore[no-untyped-def]
@@ -43,7 +43,7 @@ def test_an_option_of_another_method_is_refused(
     """It was silently ignored (exit 0, the run used another strategy than the option
     implies). Refused before the rig is made: one line naming the option and its methods."""
     out = tmp_path / "out"
-    line = _one_line_error(run_cli("measure", "--rig", "sim", "-o", str(out), *args))
+    line = _one_line_error(run_cli_in_process("measure", "--rig", "sim", "-o", str(out), *args))
     assert option.replace("--no-", "--") in line and takers in line, line
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
@@ -54,21 +54,30 @@ def test_tolerance_is_refused_by_the_library_as_by_the_command_line(
 ) -> None:
     with pytest.raises(InputError) as exc:
         make_params("uniform", tolerance=value)
-    res = run_cli("measure", "--rig", "sim", "--method", "uniform", "--tolerance", str(value),
-                  "-o", str(tmp_path / "out"))  # fmt: skip
+    res = run_cli_in_process("measure", "--rig", "sim", "--method", "uniform", "--tolerance",
+                             str(value), "-o", str(tmp_path / "out"))  # fmt: skip
     assert _one_line_error(res) == str(exc.value)
+
+
+@pytest.fixture(scope="module")
+def white_plate_4_step(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 4-step white-plate capture (read-only), simulated once for the module."""
+    caps = tmp_path_factory.mktemp("white") / "caps"
+    assert run_cli("simulate", "white_plate", "-o", str(caps), "--steps", "4").returncode == 0
+    return caps
 
 
 @pytest.mark.parametrize("value", [float("nan"), -1.0, 200.0])
 def test_min_modulation_is_refused_by_decode_set_as_by_the_command_line(
-    tmp_path: Path, value: float
+    white_plate_4_step: Path, tmp_path: Path, value: float
 ) -> None:
     spec = FringeSpec("sinusoidal", 4, 8.0)
     with pytest.raises(InputError) as exc:  # decode_set did not check: NaN -> all invalid
         decode_set(np.full((4, 6, 8), 100, np.uint8), spec, 8, min_modulation=value)
-    caps = tmp_path / "caps"
-    assert run_cli("simulate", "white_plate", "-o", str(caps), "--steps", "4").returncode == 0
-    res = run_cli("phase", str(caps), "--min-modulation", str(value), "-o", str(tmp_path / "p"))
+    caps = white_plate_4_step
+    res = run_cli_in_process(
+        "phase", str(caps), "--min-modulation", str(value), "-o", str(tmp_path / "p")
+    )
     assert _one_line_error(res) == str(exc.value)
 
 

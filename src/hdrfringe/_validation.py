@@ -22,6 +22,7 @@ from hdrfringe.errors import InputError
 
 __all__ = [
     "MAX_BIT_DEPTH",
+    "SATURATED_MODES",
     "as_stack",
     "check_bit_depth",
     "check_min_modulation",
@@ -32,6 +33,12 @@ __all__ = [
     "saturation_count",
     "unsaturated_mask",
 ]
+
+#: How a decoder treats saturated shifts: ``flag`` (a pixel with one is flagged and, by
+#: default, invalid) or ``exclude`` (the shift is left out of the pixel's fit,
+#: :func:`hdrfringe.saturation_tolerant.decode_set_tolerant`); :data:`hdrfringe.process.
+#: SATURATED_MODES` is this tuple.
+SATURATED_MODES = ("flag", "exclude")
 
 #: Largest bit depth of a camera or projector value (16-bit containers).
 MAX_BIT_DEPTH = 16

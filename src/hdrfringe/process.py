@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import check_min_modulation, full_scale
+from hdrfringe._validation import SATURATED_MODES, check_min_modulation, full_scale
 from hdrfringe.captures import Captures, FringeSet, GrayCodeSet
 from hdrfringe.errors import InputError
 from hdrfringe.graycode import GrayCodeDecode, absolute_phase_graycode, decode_graycode
@@ -57,11 +57,6 @@ from hdrfringe.unwrap import (
 )
 
 __all__ = ["SATURATED_MODES", "FamilyResult", "FolderPhase", "decode_captures", "group_families"]
-
-#: How :func:`decode_captures` treats saturated shifts: ``flag`` (a pixel with one is flagged
-#: and, by default, invalid) or ``exclude`` (the shift is left out of the pixel's fit,
-#: :func:`hdrfringe.saturation_tolerant.decode_set_tolerant`).
-SATURATED_MODES = ("flag", "exclude")
 
 
 @dataclass

@@ -3,28 +3,13 @@
 Every command validates its input fully before writing anything; any
 :class:`~hdrfringe.errors.HdrFringeError` is printed as one line on stderr with exit code 2, and
 no partial output is left behind (outputs are staged and moved into place when complete).
+
+A command's module is imported when the command runs (``cli._app.COMMAND_MODULES``), so that
+``hdrfringe phase`` does not pay for the modules (and their imports) of the other commands.
 """
 
 from __future__ import annotations
 
-from hdrfringe.cli import (  # noqa: F401  (each module registers its command on ``app``)
-    calibrate,
-    calibrate_stereo,
-    capture,
-    capture_gamma,
-    capture_poses,
-    demo,
-    gamma,
-    import_,
-    measure,
-    modify,
-    patterns,
-    phase,
-    reproduce,
-    rig_check,
-    simulate,
-    train,
-)
 from hdrfringe.cli._app import app
 
 __all__ = ["app"]

@@ -3,22 +3,26 @@
 from __future__ import annotations
 
 import functools
+import importlib
 import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from typing import Annotated, Any, TypeVar
 
 import numpy as np
 import typer
+import typer.core
+import typer.main
 from rich.console import Console
 from rich.markup import escape
 
-from hdrfringe import __version__
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.limits import MAX_PROGRAM_FRAMES, check_count
 
 __all__ = [
+    "COMMAND_MODULES",
     "F",
+    "LazyGroup",
     "app",
     "console",
     "err_console",
@@ -29,7 +33,200 @@ __all__ = [
     "progress_bar",
 ]
 
+#: Every command (in ``--help`` order) and the module that declares it. A command's module,
+#: and with it what the module imports (the strategy registry for ``measure``, ``capture`` and
+#: ``train-correction``), is loaded only when that command is run or listed; ``tests/
+#: test_cli_lazy.py`` checks the table against the modules.
+COMMAND_MODULES: dict[str, str] = {
+    "calibrate": "calibrate",
+    "calibrate-stereo": "calibrate_stereo",
+    "capture": "capture",
+    "capture-gamma": "capture_gamma",
+    "capture-poses": "capture_poses",
+    "demo": "demo",
+    "gamma": "gamma",
+    "import": "import_",
+    "measure": "measure",
+    "modify": "modify",
+    "patterns": "patterns",
+    "phase": "phase",
+    "reproduce": "reproduce",
+    "simulate": "simulate",
+    "train-correction": "train",
+    "rig": "rig_check",
+}
+
+
+class _LazyCommands(MutableMapping[str, Any]):
+    """The click commands of :class:`LazyGroup` by name: a command's module is imported on
+    first access; iteration lists every name of :data:`COMMAND_MODULES` without importing."""
+
+    def __init__(self, loaded: Mapping[str, Any], load: Callable[[str], Any]) -> None:
+        self._loaded = dict(loaded)
+        self._load = load
+
+    def __getitem__(self, name: str) -> Any:
+        if name not in self._loaded:
+            if name not in COMMAND_MODULES:
+                raise KeyError(name)
+            self._loaded[name] = self._load(name)
+        return self._loaded[name]
+
+    def __setitem__(self, name: str, command: Any) -> None:
+        self._loaded[name] = command
+
+    def __delitem__(self, name: str) -> None:
+        del self._loaded[name]
+
+    def __iter__(self) -> Iterator[str]:
+        yield from COMMAND_MODULES
+        yield from (n for n in self._loaded if n not in COMMAND_MODULES)
+
+    def __len__(self) -> int:
+        return len(COMMAND_MODULES) + sum(n not in COMMAND_MODULES for n in self._loaded)
+
+    def is_loaded(self, name: str) -> bool:
+        """Whether the command ``name`` has been built (its module imported)."""
+        return name in self._loaded
+
+
+def _listed_command(name: str) -> Any:
+    """A help-listing entry (name and help text) for command ``name``, read from its module's
+    source with :mod:`ast`, or None when the source is not in the plain form this reads.
+
+    Plain forms: a function decorated with ``@app.command()`` or ``@app.command("name")`` (no
+    other argument), its docstring being the help; or ``app.add_typer(X, name="name")`` with
+    ``X = typer.Typer(help="...", no_args_is_help=...)``. Anything else (a help panel, hidden,
+    deprecated, a short help) returns None and the module is imported instead.
+    """
+    import ast
+    import importlib.util
+
+    spec = importlib.util.find_spec(f"hdrfringe.cli.{COMMAND_MODULES[name]}")
+    if spec is None or spec.origin is None:
+        return None
+    try:
+        with open(spec.origin, encoding="utf-8") as f:
+            tree = ast.parse(f.read())
+    except (OSError, SyntaxError):
+        return None
+    typers: dict[str, str] = {}
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef):
+            for dec in node.decorator_list:
+                if not (
+                    isinstance(dec, ast.Call)
+                    and isinstance(dec.func, ast.Attribute)
+                    and isinstance(dec.func.value, ast.Name)
+                    and dec.func.value.id == "app"
+                    and dec.func.attr == "command"
+                ):
+                    continue
+                if dec.keywords or len(dec.args) > 1:
+                    return None
+                if dec.args:
+                    arg = dec.args[0]
+                    if not (isinstance(arg, ast.Constant) and isinstance(arg.value, str)):
+                        return None
+                    declared = arg.value
+                else:
+                    declared = typer.main.get_command_name(node.name)
+                if declared == name:
+                    return typer.core.TyperCommand(name=name, help=ast.get_docstring(node))
+        elif isinstance(node, ast.Assign) and isinstance(node.value, ast.Call):
+            call, target = node.value, node.targets[0]
+            if (
+                isinstance(target, ast.Name)
+                and isinstance(call.func, ast.Attribute)
+                and call.func.attr == "Typer"
+                and not call.args
+                and {k.arg for k in call.keywords} <= {"help", "no_args_is_help"}
+            ):
+                text = next((k.value for k in call.keywords if k.arg == "help"), None)
+                if isinstance(text, ast.Constant) and isinstance(text.value, str):
+                    typers[target.id] = text.value
+        elif isinstance(node, ast.Expr) and isinstance(node.value, ast.Call):
+            call = node.value
+            if (
+                isinstance(call.func, ast.Attribute)
+                and call.func.attr == "add_typer"
+                and isinstance(call.func.value, ast.Name)
+                and call.func.value.id == "app"
+                and len(call.args) == 1
+                and isinstance(call.args[0], ast.Name)
+                and call.args[0].id in typers
+                and [k.arg for k in call.keywords] == ["name"]
+                and isinstance(call.keywords[0].value, ast.Constant)
+                and call.keywords[0].value.value == name
+            ):
+                return typer.core.TyperGroup(name=name, help=typers[call.args[0].id])
+    return None
+
+
+class LazyGroup(typer.core.TyperGroup):
+    """The ``hdrfringe`` command group: a command's module is imported when the command is
+    run, so ``hdrfringe phase`` pays for ``phase`` only; ``--help`` lists the commands from
+    their modules' source without importing them.
+
+    Examples
+    --------
+    >>> import typer.main
+    >>> group = typer.main.get_command(app)
+    >>> list(group.commands)[:3]
+    ['calibrate', 'calibrate-stereo', 'capture']
+    >>> group.commands["phase"].name
+    'phase'
+    """
+
+    def __init__(self, **attrs: Any) -> None:
+        super().__init__(**attrs)
+        self.commands = _LazyCommands(self.commands, self._load)
+        self._listing = False
+
+    def format_help(self, ctx: Any, formatter: Any) -> None:
+        """The group's help: commands not loaded yet are listed from their module's source
+        (:func:`_listed_command`) without importing it."""
+        self._listing = True
+        try:
+            super().format_help(ctx, formatter)
+        finally:
+            self._listing = False
+
+    def list_commands(self, ctx: Any) -> list[str]:
+        """Every command name, in registration order, without importing any module."""
+        return list(self.commands)
+
+    def get_command(self, ctx: Any, cmd_name: str) -> Any:
+        """The command ``cmd_name`` (its module imported), or while the help is formatted a
+        listing entry read from the module's source when that gives the same entry."""
+        commands = self.commands
+        if self._listing and isinstance(commands, _LazyCommands) and cmd_name in COMMAND_MODULES:
+            if not commands.is_loaded(cmd_name):
+                listed = _listed_command(cmd_name)
+                if listed is not None:
+                    return listed
+        return commands.get(cmd_name)
+
+    def _load(self, name: str) -> Any:
+        importlib.import_module(f"hdrfringe.cli.{COMMAND_MODULES[name]}")
+        opts: dict[str, Any] = {
+            "pretty_exceptions_short": app.pretty_exceptions_short,
+            "rich_markup_mode": app.rich_markup_mode,
+        }
+        for info in app.registered_commands:
+            assert info.callback is not None
+            if (info.name or typer.main.get_command_name(info.callback.__name__)) == name:
+                return typer.main.get_command_from_info(info, **opts)
+        for group in app.registered_groups:
+            if group.name == name:
+                return typer.main.get_group_from_info(
+                    group, suggest_commands=app.suggest_commands, **opts
+                )
+        raise KeyError(name)  # pragma: no cover - COMMAND_MODULES names a missing command
+
+
 app = typer.Typer(
+    cls=LazyGroup,
     name="hdrfringe",
     help="3D surface measurement by phase-shifting fringe projection that copes with saturation.",
     no_args_is_help=True,
@@ -63,6 +260,8 @@ def handle_errors(func: F) -> F:
 
 def _version_callback(value: bool) -> None:
     if value:
+        from hdrfringe import __version__  # importlib.metadata: only for --version
+
         console.print(f"hdrfringe {__version__}")
         raise typer.Exit()
 

@@ -38,16 +38,14 @@ def phase(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
-    from hdrfringe._validation import describe_saturated
+    from hdrfringe._validation import SATURATED_MODES, describe_saturated
     from hdrfringe.errors import CaptureFormatError, InputError
     from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
         staged_output_dir,
     )
-    from hdrfringe.process import SATURATED_MODES, decode_captures
 
     if saturated not in SATURATED_MODES:
         raise InputError(
@@ -67,6 +65,11 @@ def phase(
         raise CaptureFormatError(
             f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"
         )
+    # imported once the inputs are known good: a refused folder or output does not pay for
+    # the decoder's and unwrapper's imports (scipy.ndimage, scikit-image)
+    from hdrfringe.io.phase_maps import write_phase_maps
+    from hdrfringe.process import decode_captures
+
     if saturated == "flag":
         decoded = decode_captures(
             captures, min_modulation=min_modulation, reject_saturated=not keep_saturated

@@ -1,0 +1,147 @@
+"""Benchmark: cold start of the command line against ``python -c "import numpy"`` (issue 16).
+
+Run ``.venv/bin/python benchmarks/bench_cold_start.py`` (``--repeats N``, default 11;
+``--json PATH`` also writes the results). See benchmarks/README.md.
+
+In one run, interleaved (one round = one run of every case, so a busy machine slows every
+case alike), each a fresh process:
+
+- ``python -c "import numpy"``: the floor every numpy program pays;
+- ``python -c "import hdrfringe"``: the lazy public API;
+- ``python -m hdrfringe.cli --help``;
+- ``python -m hdrfringe.cli phase FOLDER -o OUT --force`` on one 4-step 648x494 8-bit set;
+
+and, in this process after a warm-up, the library-only time of the same ``phase`` work
+(read the folder, decode, write the maps into a staged folder): the part of ``phase`` that
+is not start-up. Medians are printed with the ratios the issue asks for:
+``phase`` cold / (``import numpy`` + library-only), target at most 1.5.
+
+Wall time is what a user waits for; CPU time (user + system of the process, children's
+rusage for the subprocesses, ``time.process_time`` in-process) is printed beside it because on
+a shared machine it varies much less than the wall time from run to run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.io.captures import read_capture_folder, write_capture_folder
+from hdrfringe.io.phase_maps import write_phase_maps
+from hdrfringe.io.results import check_output_dir, staged_output_dir
+from hdrfringe.patterns import FringeSpec, fringe_gray
+from hdrfringe.process import decode_captures
+
+HEIGHT, WIDTH = 494, 648
+SEED = 20240601
+
+
+def make_folder(path: Path) -> Path:
+    """A 4-step sinusoidal capture folder, 648x494 8-bit, about 10 % clipped pixels."""
+    rng = np.random.default_rng(SEED)
+    spec = FringeSpec("sinusoidal", 4, 16.0, "vertical", 40, 255)
+    rows, cols = np.mgrid[0:HEIGHT, 0:WIDTH].astype(np.float64)
+    x = 10.0 + 1.55 * cols + 0.08 * rows
+    gain = np.where((cols > 300) & (cols < 370), 1.15, 0.8)
+    imgs = np.stack([15.0 + gain * fringe_gray(x, spec, k) for k in range(spec.steps)])
+    imgs = np.clip(np.rint(imgs + rng.normal(0, 1.5, imgs.shape)), 0, 255).astype(np.uint8)
+    write_capture_folder(
+        path, Captures(spec.frames(), imgs, 8, projector=ProjectorInfo(1024, 768, 8, 2.812))
+    )
+    return path
+
+
+def library_phase(folder: Path, out: Path) -> None:
+    """What ``hdrfringe phase FOLDER -o OUT --force`` computes and writes, in-process."""
+    out = check_output_dir(out, True)
+    captures = read_capture_folder(folder)
+    decoded = decode_captures(captures)
+    with staged_output_dir(out, force=True) as tmp:
+        write_phase_maps(tmp, decoded, str(folder))
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _run(cmd: list[str]) -> tuple[float, float]:
+    """Wall and CPU time of one run of ``cmd``."""
+    c0, t0 = _children_cpu(), time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t0, _children_cpu() - c0
+
+
+def main() -> None:
+    """Time every case ``--repeats`` times, interleaved, and print medians and ratios."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=11)
+    ap.add_argument("--json", type=Path, default=None)
+    args = ap.parse_args()
+
+    py = sys.executable
+    with tempfile.TemporaryDirectory() as d:
+        folder = make_folder(Path(d) / "caps")
+        out = Path(d) / "out"
+        phase = ["phase", str(folder), "-o", str(out), "--force"]
+        cases = {
+            "import numpy": [py, "-c", "import numpy"],
+            "import hdrfringe": [py, "-c", "import hdrfringe"],
+            "cli --help": [py, "-m", "hdrfringe.cli", "--help"],
+            "cli phase (cold)": [py, "-m", "hdrfringe.cli", *phase],
+        }
+        names = [*cases, "phase library-only"]
+        times: dict[str, list[float]] = {k: [] for k in names}
+        cpu: dict[str, list[float]] = {k: [] for k in names}
+        library_phase(folder, out)  # warm-up: imports, first-call costs
+        for _ in range(args.repeats):
+            for name, cmd in cases.items():
+                wall, used = _run(cmd)
+                times[name].append(wall)
+                cpu[name].append(used)
+            c0, t0 = time.process_time(), time.perf_counter()
+            library_phase(folder, out)
+            times["phase library-only"].append(time.perf_counter() - t0)
+            cpu["phase library-only"].append(time.process_time() - c0)
+
+    print(f"{platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}")
+    print(f"median of {args.repeats} interleaved runs (s)")
+    print(f"  {'':<22} {'wall':>7} {'(min':>6} {'max)':>6}  {'cpu':>7}")
+    result: dict[str, dict] = {}
+    for label, data in (("wall", times), ("cpu", cpu)):
+        med = {k: statistics.median(v) for k, v in data.items()}
+        floor = med["import numpy"] + med["phase library-only"]
+        result[label] = {
+            "runs_s": data,
+            "median_s": med,
+            "ratios": {
+                "phase cold / (import numpy + library-only)": med["cli phase (cold)"] / floor,
+                "phase cold - library-only - import numpy (s)": med["cli phase (cold)"] - floor,
+                "--help / import numpy": med["cli --help"] / med["import numpy"],
+                "import hdrfringe / import numpy": med["import hdrfringe"] / med["import numpy"],
+            },
+        }
+    for k in names:
+        w, c = times[k], result["cpu"]["median_s"][k]
+        print(f"  {k:<22} {statistics.median(w):7.3f} {min(w):6.3f} {max(w):6.3f}  {c:7.3f}")
+    print(f"  {'ratios':<46} {'wall':>7}  {'cpu':>7}")
+    for k in result["wall"]["ratios"]:
+        print(f"  {k:<46} {result['wall']['ratios'][k]:7.3f}  {result['cpu']['ratios'][k]:7.3f}")
+    if args.json:
+        args.json.write_text(json.dumps(result))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,125 @@
+"""The command line loads a command's module only when that command runs (issue 16, cold start).
+
+``cli._app.COMMAND_MODULES`` names every command's module; the tests check the table against
+the modules (a command missing from it would vanish from the CLI, a wrong module would fail
+on first use) and that running one command imports neither the other commands nor what only
+they need.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import subprocess
+import sys
+
+import typer.main
+from typer.models import DefaultPlaceholder
+
+from hdrfringe.cli._app import COMMAND_MODULES, app
+
+
+def test_the_table_names_every_command_and_its_module() -> None:
+    for module in set(COMMAND_MODULES.values()):
+        importlib.import_module(f"hdrfringe.cli.{module}")
+    declared = {
+        (info.name or typer.main.get_command_name(info.callback.__name__)): info.callback.__module__
+        for info in app.registered_commands
+        if info.callback is not None
+    }
+    declared |= {g.name: COMMAND_MODULES.get(g.name or "", "?") for g in app.registered_groups}
+    assert set(declared) == set(COMMAND_MODULES)
+    for name, module in declared.items():
+        if name != "rig":  # a group: its module is the one that calls add_typer (checked below)
+            assert module == f"hdrfringe.cli.{COMMAND_MODULES[name]}", name
+    rig = importlib.import_module(f"hdrfringe.cli.{COMMAND_MODULES['rig']}")
+    assert any(g.typer_instance is rig.rig_app for g in app.registered_groups)
+
+
+def test_every_command_resolves_through_the_group() -> None:
+    group = typer.main.get_command(app)
+    assert list(group.commands) == list(COMMAND_MODULES)  # type: ignore[attr-defined]
+    for name in COMMAND_MODULES:
+        assert group.commands[name].name == name  # type: ignore[attr-defined]
+
+
+_PROBE = """
+import sys
+from hdrfringe.cli import app
+try:
+    app(["phase", "--help"])
+except SystemExit as exc:
+    assert exc.code == 0, exc.code
+watched = ("hdrfringe.cli.", "hdrfringe.strategies", "scipy", "matplotlib", "dask", "cv2", "h5py")
+print(" ".join(sorted(m for m in sys.modules if m.startswith(watched))))
+"""
+
+
+def test_one_command_imports_only_its_own_module() -> None:
+    out = (
+        subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, check=True)
+        .stdout.splitlines()[-1]
+        .split()
+    )  # after the help text: the probe's line
+    assert "hdrfringe.cli.phase" in out  # the probe sees the command it ran
+    assert out == ["hdrfringe.cli._app", "hdrfringe.cli.phase"], out
+
+
+_HELP_PROBE = """
+import contextlib, importlib, io, sys
+from hdrfringe.cli import app
+from hdrfringe.cli._app import COMMAND_MODULES
+
+def help_text():
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        try:
+            app(["--help"], prog_name="hdrfringe")
+        except SystemExit as exc:
+            assert exc.code == 0, exc.code
+    return out.getvalue()
+
+lazy = help_text()
+loaded = sorted(m for m in sys.modules if m.startswith("hdrfringe.cli."))
+for module in COMMAND_MODULES.values():
+    importlib.import_module("hdrfringe.cli." + module)
+print(repr((lazy, help_text(), loaded)))
+"""
+
+
+def test_help_lists_every_command_as_if_loaded_without_importing_them() -> None:
+    """``--help`` reads the commands' help from their source (no import): the listing must be
+    the one the imported commands give (a docstring changed, a command given a help panel or
+    renamed, and the listing would differ)."""
+    import ast
+
+    probe = subprocess.run(
+        [sys.executable, "-c", _HELP_PROBE],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "COLUMNS": "100"},
+    )
+    lazy, loaded_help, loaded = ast.literal_eval(probe.stdout)
+    assert loaded == ["hdrfringe.cli._app"]  # --help imported no command module
+    assert lazy == loaded_help
+    assert all(f" {name} " in lazy for name in COMMAND_MODULES)
+
+
+def _unset_is_none(command: object, attr: str) -> object:
+    """An attribute of a click command; typer's DefaultPlaceholder (an unset value) as its
+    value."""
+    value = getattr(command, attr, None)
+    return value.value if isinstance(value, DefaultPlaceholder) else value
+
+
+def test_the_listing_entries_match_the_commands() -> None:
+    from hdrfringe.cli._app import _listed_command
+
+    group = typer.main.get_command(app)
+    for name in COMMAND_MODULES:
+        listed, real = _listed_command(name), group.commands[name]  # type: ignore[attr-defined]
+        assert listed is not None, name  # every command is in the plain form the listing reads
+        for attr in ("name", "help", "short_help", "hidden", "deprecated", "rich_help_panel"):
+            mine, theirs = _unset_is_none(listed, attr), _unset_is_none(real, attr)
+            assert mine == theirs, (name, attr, mine, theirs)

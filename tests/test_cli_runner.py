@@ -1,0 +1,68 @@
+"""``conftest.run_cli_in_process`` reports what a real ``python -m hdrfringe.cli`` process would.
+
+The fuzz suite runs its cases in-process; these tests keep that honest: the same exit code and
+stderr as a subprocess on a bad input and on success, and the failures the fuzz suite must
+catch (an escaping exception's traceback, a warning on stderr) are visible in its result.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+from hdrfringe.errors import InputError
+from tests.conftest import run_cli, run_cli_in_process
+
+
+def test_a_bad_input_gives_what_the_process_gives(tmp_path: Path) -> None:
+    cases = [
+        ("phase", str(tmp_path / "missing"), "-o", str(tmp_path / "o1")),
+        ("patterns", "-o", str(tmp_path / "o2"), "--pitch", "nan"),
+    ]
+    for args in cases:
+        ours, real = run_cli_in_process(*args), run_cli(*args)
+        assert (ours.returncode, ours.stderr, ours.stdout) == (
+            real.returncode,
+            real.stderr,
+            real.stdout,
+        ), args
+        assert ours.returncode == 2 and ours.stderr.startswith("error:")
+
+
+def test_success_gives_what_the_process_gives(capture_folder: Path, tmp_path: Path) -> None:
+    ours = run_cli_in_process("phase", str(capture_folder), "-o", str(tmp_path / "a"))
+    real = run_cli("phase", str(capture_folder), "-o", str(tmp_path / "b"))
+    assert ours.returncode == real.returncode == 0, ours.stderr
+    assert ours.stdout.replace(str(tmp_path / "a"), "OUT") == real.stdout.replace(
+        str(tmp_path / "b"), "OUT"
+    )
+    assert ours.stderr == real.stderr == ""
+
+
+def test_an_escaping_exception_is_a_traceback_and_exit_1(
+    capture_folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def broken(*_: object, **__: object) -> None:
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr("hdrfringe.io.captures.read_capture_folder", broken)
+    res = run_cli_in_process("phase", str(capture_folder), "-o", str(tmp_path / "out"))
+    assert res.returncode == 1
+    assert res.stderr.startswith("Traceback (most recent call last):")
+    assert res.stderr.rstrip().endswith("ZeroDivisionError: a bug")
+
+
+def test_a_warning_reaches_stderr(
+    capture_folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def noisy(*_: object, **__: object) -> None:
+        warnings.warn("invalid value encountered", RuntimeWarning, stacklevel=1)
+        raise InputError("bad input: fix it")
+
+    monkeypatch.setattr("hdrfringe.io.captures.read_capture_folder", noisy)
+    res = run_cli_in_process("phase", str(capture_folder), "-o", str(tmp_path / "out"))
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.returncode == 2 and lines[0] == "error: bad input: fix it"
+    assert any("RuntimeWarning: invalid value encountered" in ln for ln in lines[1:]), lines
