@@ -4,7 +4,7 @@ VENV := .venv
 STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
-.PHONY: install system-packages demo test lint bench bench-sweep clean
+.PHONY: install system-packages demo test lint bench bench-sweep bench-cold clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -44,6 +44,9 @@ bench: $(STAMP)
 
 bench-sweep: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_sweep.py
+
+bench-cold: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_cold_start.py
 
 clean:
 	rm -rf $(VENV) $(OUT)

@@ -35,7 +35,6 @@ from functools import cache
 
 import numpy as np
 from numpy.typing import ArrayLike, DTypeLike, NDArray
-from scipy import ndimage
 
 from hdrfringe._validation import as_stack, check_min_modulation, full_scale, saturation_count
 from hdrfringe.errors import InputError
@@ -511,6 +510,8 @@ def triangular_2step(
     if envelope_px is None:
         envelope_px = _period_from_zero_crossings(diff, axis)
     envelope_px = max(3, int(envelope_px))
+    from scipy import ndimage  # only this estimate needs it (cold start, docs/architecture.md)
+
     amp = ndimage.maximum_filter1d(np.abs(diff), size=envelope_px, axis=axis, mode="nearest")
     amp = ndimage.uniform_filter1d(amp, size=envelope_px, axis=axis, mode="nearest")
     with np.errstate(invalid="ignore", divide="ignore"):

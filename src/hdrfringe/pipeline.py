@@ -30,7 +30,6 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe import __version__
 from hdrfringe.calibration import Calibration, CalibrationMismatchError, check_compatible
 from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
@@ -1293,6 +1292,8 @@ def calibrate(
         ((d, f) for d, f in zip(depths, folders, strict=True) if f is not ref), key=lambda t: t[0]
     )
     geometry = CameraGeometry.from_manifest(ref.camera)
+    from hdrfringe import __version__  # the installed version, looked up when recorded
+
     provenance: dict[str, Any] = {
         "package_version": __version__,
         "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),

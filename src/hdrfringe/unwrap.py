@@ -29,8 +29,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
-from skimage.restoration import unwrap_phase
 
 from hdrfringe.errors import InputError
 
@@ -55,7 +53,7 @@ CenterlineMethod = Literal["gaussian", "halfmax"]
 
 # 4-connectivity: the spatial unwrapper only ever compares horizontal and vertical neighbours,
 # so two pixels that touch only at a corner are not connected.
-_FOUR_CONNECTED = ndimage.generate_binary_structure(2, 1)
+_FOUR_CONNECTED = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], bool)  # 4-connectivity
 
 # phase_regions: most one-pixel growth steps that give the pixels outside every region core
 # (cuts, thin strips) a region; beyond it they count as separate specks.
@@ -242,6 +240,9 @@ def unwrap_spatial(
     out = np.full(phase.shape, np.nan)
     if not valid.any():
         return out
+    # imported here: only spatial unwrapping needs them (cold start of temporal-only commands)
+    from scipy import ndimage
+    from skimage.restoration import unwrap_phase
 
     labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
     if min_component_size > 1:
@@ -411,6 +412,8 @@ def phase_regions(
                 with np.errstate(invalid="ignore"):
                     jump = np.abs(_wrap_pi(fwd - bwd)) > t
                 np.moveaxis(cut, axis, 0)[b : n - b] |= jump
+    from scipy import ndimage  # imported here: cold start (docs/architecture.md)
+
     # regions are the 4-connected parts of the kept area opened by a 5x5 square: strips and
     # corridors under 5 px wide (the remnants between two cuts along one step, a chance
     # bridge across it) belong to no region of their own

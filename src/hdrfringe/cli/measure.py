@@ -129,12 +129,7 @@ def measure(
     """
     import json
 
-    from hdrfringe import pipeline
-    from hdrfringe.io.calibration_file import load_calibration
-    from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.io.measurement_outputs import write_measurement
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
-    from hdrfringe.io.stereo_file import calibration_kind, load_stereo_calibration
 
     live = check_source(
         ctx, folder, rig, LIVE_OPTIONS, hardware_only=HARDWARE_OPTIONS, sim_only=SIM_OPTIONS
@@ -157,6 +152,14 @@ def measure(
         inputs += [rig_config, hardware[1].gamma_file]
     check_output_against_inputs(output, inputs)
     output = check_output_dir(output, force)
+    # imported once the options are known good: a refused command does not pay for the
+    # pipeline's imports (the decoders, unwrapping, calibration, HDF5, the writers)
+    from hdrfringe import pipeline
+    from hdrfringe.io.calibration_file import load_calibration
+    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.measurement_outputs import write_measurement
+    from hdrfringe.io.stereo_file import calibration_kind, load_stereo_calibration
+
     cal: Any = None
     if calibration is not None and calibration_kind(calibration) == "stereo":
         cal = load_stereo_calibration(calibration)  # triangulation (docs/stereo.md)
