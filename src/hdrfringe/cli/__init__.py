@@ -13,6 +13,7 @@ from hdrfringe.cli import (  # noqa: F401  (each module registers its command on
     capture,
     capture_gamma,
     capture_poses,
+    compare,
     demo,
     gamma,
     import_,

@@ -69,6 +69,7 @@ __all__ = [
     "compare_plot",
     "fringe_specs",
     "parse_names",
+    "parse_resolution",
     "write_compare",
 ]
 
@@ -344,6 +345,44 @@ white_plate_600lx, glossy, specular_part (comma-separated) or all
     return out
 
 
+def parse_resolution(text: str | None) -> tuple[int, int] | None:
+    """A camera size ``WIDTHxHEIGHT`` (e.g. ``160x120``); None or ``"default"``: the rig's.
+
+    Parameters
+    ----------
+    text : str or None
+        The option's value.
+
+    Returns
+    -------
+    tuple of int or None
+        ``(width, height)``, each 16 .. 4096.
+
+    Raises
+    ------
+    InputError
+        Anything else.
+
+    Examples
+    --------
+    >>> parse_resolution("160x120"), parse_resolution(None)
+    ((160, 120), None)
+    """
+    if text is None or text.strip() == "default":
+        return None
+    parts = text.lower().split("x")
+    size: list[int] = []
+    for part in parts:
+        part = part.strip()
+        if part.isdigit() and len(part) <= 5 and 16 <= int(part) <= 4096:
+            size.append(int(part))
+    if len(parts) != 2 or len(size) != 2:
+        raise InputError(
+            f"--resolution must be WIDTHxHEIGHT with each 16..4096 (e.g. 160x120), got {text!r}"
+        )
+    return size[0], size[1]
+
+
 def _note(res: Any) -> str:
     """What a strategy chose, in a few words."""
     values = [s.migl for s in res.captured if s.migl is not None]
@@ -366,7 +405,7 @@ def _measure_one(rig: SimulatedRig, method: Method, specs: list[FringeSpec]) -> 
     """Run one method on the scene's rig; the numbers against the rig's truth."""
     t0 = time.perf_counter()
     source: Any = rig
-    extra_images = extra_sets = 0
+    extra_sets = 0
     if method.exposure:
         finest = specs[-1]
         choice = choose_exposure(rig, finest)
@@ -379,8 +418,9 @@ def _measure_one(rig: SimulatedRig, method: Method, specs: list[FringeSpec]) -> 
     results = result.strategy_results
     if isinstance(source, FixedExposureRig):
         images = choice.images_captured + source.fresh_images
-        # the choice's last set is served again, not captured again
-        sets = extra_sets + sum(r.sets_captured for r in results) - (last is not None)
+        # the choice's last set, when a strategy asks for it again, is served, not captured
+        served = sum(r.images_captured for r in results) - source.fresh_images
+        sets = extra_sets + sum(r.sets_captured for r in results) - served // specs[-1].steps
     else:
         images = sum(r.images_captured for r in results)
         sets = sum(r.sets_captured for r in results) + extra_sets
