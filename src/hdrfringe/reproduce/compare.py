@@ -499,10 +499,10 @@ def compare(
 
     Examples
     --------
-    >>> rows = compare(["white_plate_600lx"], ["conventional"], resolution=(64, 48), pitch=16)
-    >>> r = rows[0]
-    >>> (r.images, r.sets, r.coverage > 0.9, r.std_rad < 0.05)
-    (12, 3, True, True)
+    >>> rows = compare(["white_plate_600lx"], ["conventional", "lpa-15"], resolution=(64, 48),
+    ...                pitch=16)
+    >>> [(r.label, r.sets, round(r.coverage, 2)) for r in rows]  # 255 clips the whole plate
+    [('conventional', 3, 0.0), ('LPA S=15', 19, 1.0)]
     """
     scene_names = parse_names(None if scenes is None else ",".join(scenes), list(SCENES), "scenes")
     wanted = parse_names(
