@@ -68,7 +68,7 @@ def test_cli_writes_table_json_and_plot(run: Path) -> None:
     assert rows["checkerboard", "conventional"]["coverage"] < 0.6
 
 
-def _reference_conventional(scene: str) -> tuple[float, float, float]:
+def _reference_conventional(scene: str) -> tuple[float, float, float, float]:
     """Coverage, bias and std of conventional's phase error, computed here from the rig alone:
     three sets at MIGL 255, N-step phase written out, one-period + temporal unwrapping by the
     formula, validity = no clipped shift and modulation >= 2 DN in every set."""
@@ -90,20 +90,22 @@ def _reference_conventional(scene: str) -> tuple[float, float, float]:
     err = big - 2 * np.pi * truth.u / pitches[-1]
     cover = ok & truth.valid
     if not cover.any():
-        return 0.0, np.nan, np.nan
-    return cover.sum() / truth.valid.sum(), err[cover].mean(), err[cover].std()
+        return 0.0, np.nan, np.nan, np.nan
+    e = err[cover]
+    return cover.sum() / truth.valid.sum(), e.mean(), e.std(), np.mean(np.abs(e) > np.pi)
 
 
 @pytest.mark.parametrize("scene", SCENES)
 def test_conventional_row_equals_an_independent_computation(run: Path, scene: str) -> None:
     row = _rows(run)[scene, "conventional"]
-    coverage, bias, std = _reference_conventional(scene)
+    coverage, bias, std, jumps = _reference_conventional(scene)
     if coverage == 0:  # the 600 lx plate clips everywhere at MIGL 255
         assert row["coverage"] == 0 and row["std_rad"] is None
         return
     assert row["coverage"] == pytest.approx(coverage, abs=1e-12)
     assert row["bias_rad"] == pytest.approx(bias, abs=1e-9)
     assert row["std_rad"] == pytest.approx(std, rel=1e-9)
+    assert row["order_errors"] == pytest.approx(jumps, abs=1e-12)
 
 
 @pytest.mark.parametrize(

@@ -228,6 +228,9 @@ class CompareRow:
         Covered valid pixels over the valid pixels (0..1).
     bias_rad, std_rad, rmse_rad : float or None
         Phase error of the finest set's absolute phase over the covered pixels.
+    order_errors : float or None
+        Fraction of the covered pixels whose error exceeds pi: a wrong fringe order (one such
+        pixel adds about ``2 pi sqrt(fraction)`` to the std).
     seconds : float or None
         Wall time of the measurement.
     note : str
@@ -251,6 +254,7 @@ class CompareRow:
     bias_rad: float | None = None
     std_rad: float | None = None
     rmse_rad: float | None = None
+    order_errors: float | None = None
     seconds: float | None = None
     note: str = ""
     thesis: ThesisRow | None = None
@@ -450,6 +454,7 @@ def _measure_one(rig: SimulatedRig, method: Method, specs: list[FringeSpec]) -> 
         bias_rad=float(e.mean()) if e.size else nan,
         std_rad=float(e.std()) if e.size else nan,
         rmse_rad=float(np.sqrt(np.mean(e**2))) if e.size else nan,
+        order_errors=float(np.mean(np.abs(e) > np.pi)) if e.size else nan,
         seconds=round(seconds, 2),
         note=note,
     )
@@ -591,9 +596,10 @@ def compare_markdown(rows: Sequence[CompareRow], *, header: str = "") -> str:
         lines += [
             f"### {scene}",
             "",
-            "| method | images | sets | coverage % | bias mrad | std mrad | RMSE mrad | s | "
-            "note | thesis | thesis sets | thesis bias mm | thesis std mm | thesis RMSE mm |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|---:|---:|",
+            "| method | images | sets | coverage % | bias mrad | std mrad | RMSE mrad | "
+            "order errors % | s | note | thesis | thesis sets | thesis bias mm | thesis std mm "
+            "| thesis RMSE mm |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|---:|---:|",
         ]
         here = [r for r in rows if r.scene == scene]
         for r in here:
@@ -605,12 +611,13 @@ def compare_markdown(rows: Sequence[CompareRow], *, header: str = "") -> str:
                 else "| | | |"
             )
             if not r.available:
-                lines.append(f"| {r.label} | not available | | | | | | | {r.note} | {thesis} |")
+                lines.append(f"| {r.label} | not available | | | | | | | | {r.note} | {thesis} |")
                 continue
             lines.append(
                 f"| {r.label} | {r.images} | {r.sets} | {_fmt(100 * (r.coverage or 0), '.2f')} "
                 f"| {_fmt(_m(r.bias_rad), '.2f')} | {_fmt(_m(r.std_rad), '.2f')} "
-                f"| {_fmt(_m(r.rmse_rad), '.2f')} | {_fmt(r.seconds, '.1f')} | {r.note} | "
+                f"| {_fmt(_m(r.rmse_rad), '.2f')} | {_fmt(_pct(r.order_errors), '.3f')} "
+                f"| {_fmt(r.seconds, '.1f')} | {r.note} | "
                 f"{thesis} |"
             )
         summary = _scene_summary(here)
@@ -618,6 +625,10 @@ def compare_markdown(rows: Sequence[CompareRow], *, header: str = "") -> str:
             lines += ["", summary]
         lines.append("")
     return "\n".join(lines)
+
+
+def _pct(x: float | None) -> float | None:
+    return None if x is None else 100 * x
 
 
 def _m(rad: float | None) -> float | None:
