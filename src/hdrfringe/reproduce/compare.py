@@ -655,6 +655,8 @@ def compare_plot(rows: Sequence[CompareRow], path: Path) -> None:
     True
     """
     plt = _plt()
+    from matplotlib.ticker import NullFormatter
+
     scenes = list(dict.fromkeys(r.scene for r in rows))
     fig, axes = plt.subplots(
         2, max(len(scenes), 1), figsize=(4.2 * max(len(scenes), 1), 7), squeeze=False
@@ -673,6 +675,7 @@ def compare_plot(rows: Sequence[CompareRow], path: Path) -> None:
         for i, ylabel in enumerate(("phase error std (mrad)", "coverage (%)")):
             ax = axes[i, j]
             ax.set_xscale("log")
+            ax.xaxis.set_minor_formatter(NullFormatter())  # decades only: minor labels overlap
             if i == 0:  # a few wrong fringe orders put a row decades above the others
                 ax.set_yscale("log")
             ax.set_xlabel("images captured")
