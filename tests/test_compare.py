@@ -138,3 +138,33 @@ def test_a_strategy_not_registered_is_a_row_not_available(monkeypatch: pytest.Mo
 def test_library_refuses_unknown_names() -> None:
     with pytest.raises(InputError, match="unknown name 'moon'"):
         cmp.compare(["moon"], ["conventional"])
+
+
+def test_images_counted_are_the_images_the_rig_captured(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every row's image count equals the frames the rig was asked for during that row (the
+    exposure choice's included, its last set served once instead of captured again)."""
+    from hdrfringe.rig.simulated import SimulatedRig
+
+    exposed = cmp.Method("lpa-15-exposure", "LPA S=15 + exposure", "lpa", {"step": 15.0}, True)
+    monkeypatch.setattr(cmp, "METHODS", (*cmp.METHODS, exposed))
+    captured: list[int] = []
+    original = SimulatedRig.capture
+
+    def counting(self, frames, settings=None):  # type: ignore[no-untyped-def]
+        frames = list(frames)
+        captured.append(len(frames))
+        return original(self, frames, settings)
+
+    monkeypatch.setattr(SimulatedRig, "capture", counting)
+    per_row: list[int] = []
+    names = ["conventional", "tolerant-inverted", "multiexposure", "lpa-15-exposure"]
+    rows = cmp.compare(
+        ["specular_part"],
+        names,
+        resolution=(48, 36),
+        pitch=16,
+        progress=lambda _label: per_row.append(sum(captured)),
+    )
+    counted = np.diff([0, *per_row]).tolist()
+    assert [r.images for r in rows] == counted
+    assert rows[-1].images > 12 and "exposure" in rows[-1].note
