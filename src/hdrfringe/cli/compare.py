@@ -30,7 +30,7 @@ def compare(
         typer.Option(
             help="Rows, comma-separated, or all: conventional, uniform, lpa-1, lpa-5, lpa-15, "
             "dpa, dpa-bound, multiexposure, tolerant, tolerant-inverted, adaptive, "
-            "adaptive-exposure."
+            "adaptive-exposure, ... (docs/compare.md; an unknown name's error lists them all)."
         ),
     ] = "all",
     resolution: Annotated[
