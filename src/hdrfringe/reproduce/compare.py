@@ -667,17 +667,19 @@ def compare_plot(rows: Sequence[CompareRow], path: Path) -> None:
     fig, axes = plt.subplots(
         2, max(len(scenes), 1), figsize=(4.2 * max(len(scenes), 1), 7), squeeze=False
     )
+    # one colour and marker per method across the panels, one legend for the figure
+    order = {m.name: k for k, m in enumerate(METHODS)}
+    palette = plt.get_cmap("tab20")
+    handles: dict[str, Any] = {}
     for j, scene in enumerate(scenes):
         here = [r for r in rows if r.scene == scene and r.available and r.images]
-        for k, r in enumerate(here):
-            color = f"C{k % 10}"
+        for r in here:
+            k = order.get(r.method, len(order))
+            style = {"color": palette(k % 20), "marker": "osD^v<>ph*"[k % 10], "ls": "none"}
             for i, y in enumerate((_m(r.std_rad), 100 * (r.coverage or 0.0))):
-                if y is None or not math.isfinite(y):
-                    continue
-                ax = axes[i, j]
-                ax.plot([r.images], [y], "o", color=color, label=r.label if i == 0 else None)
-                ax.annotate(r.label, (r.images, y), fontsize=6, xytext=(3, 2),
-                            textcoords="offset points")  # fmt: skip
+                if y is not None and math.isfinite(y):
+                    axes[i, j].plot([r.images], [y], **style)
+            handles.setdefault(r.label, axes[0, j].plot([], [], **style)[0])
         for i, ylabel in enumerate(("phase error std (mrad)", "coverage (%)")):
             ax = axes[i, j]
             ax.set_xscale("log")
@@ -688,7 +690,10 @@ def compare_plot(rows: Sequence[CompareRow], path: Path) -> None:
             ax.set_ylabel(ylabel)
             ax.grid(True, which="both", alpha=0.3)
         axes[0, j].set_title(scene)
-    fig.tight_layout()
+    if handles:
+        fig.legend(list(handles.values()), list(handles), loc="lower center",
+                   ncol=min(len(handles), 6), fontsize=8, frameon=False)  # fmt: skip
+    fig.tight_layout(rect=(0, 0.08 if handles else 0, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
