@@ -40,6 +40,7 @@ __all__ = [
 COMMAND_MODULES: dict[str, str] = {
     "calibrate": "calibrate",
     "calibrate-stereo": "calibrate_stereo",
+    "compare": "compare",
     "capture": "capture",
     "capture-gamma": "capture_gamma",
     "capture-poses": "capture_poses",
