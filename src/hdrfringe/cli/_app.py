@@ -174,7 +174,7 @@ class LazyGroup(typer.core.TyperGroup):
     >>> import typer.main
     >>> group = typer.main.get_command(app)
     >>> list(group.commands)[:3]
-    ['calibrate', 'calibrate-stereo', 'capture']
+    ['calibrate', 'calibrate-stereo', 'compare']
     >>> group.commands["phase"].name
     'phase'
     """
