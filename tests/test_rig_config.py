@@ -375,3 +375,28 @@ def test_measure_hardware_writes_all_or_nothing(
     else:  # Ctrl-C in the second set: nothing written, no staging left, the shell's 130
         assert r.exit_code == 130 and "nothing was written" in r.stderr
         assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_the_recorded_sha256_is_of_the_bytes_parsed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The config's digest comes from the one read that was parsed (a second read could see a
+    file changed in between): a reader whose on_bytes is never called, or that hashes a second
+    read, gives another digest here, where the file changes right after the parse."""
+    import hashlib
+
+    import hdrfringe.io.rig_config as rc
+
+    path = tmp_path / "rig.toml"
+    original = b'name = "bench"\n[projector]\nspec = "folder:/tmp/p@64x48"\n'
+    path.write_bytes(original)
+    real = rc.load_toml_bounded
+
+    def parse_then_change(*args: Any, **kwargs: Any) -> dict[str, Any]:
+        table = real(*args, **kwargs)
+        path.write_bytes(original + b"# edited meanwhile\n")
+        return table
+
+    monkeypatch.setattr(rc, "load_toml_bounded", parse_then_change)
+    cfg = rc.load_rig_config(path)
+    assert cfg.sha256 == hashlib.sha256(original).hexdigest()

@@ -20,6 +20,7 @@ import math
 import re
 import tomllib
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -198,6 +199,7 @@ def load_toml_bounded(
     holds: str,
     doc: str,
     missing: str,
+    on_bytes: Callable[[bytes], object] | None = None,
 ) -> dict[str, Any]:
     """Parse a small TOML file a user wrote, refusing hostile content in one line.
 
@@ -221,6 +223,10 @@ def load_toml_bounded(
         The document that describes the file (``"docs/import.md"``).
     missing : str
         How to fix a missing file (``"give the TOML description"``).
+    on_bytes : callable, optional
+        Called with the bytes read (all of them, once) before parsing, e.g. a hash's
+        ``update``: a caller that records the file's digest hashes exactly what was parsed,
+        not a second read that the file may have changed in between.
 
     Returns
     -------
@@ -255,6 +261,8 @@ def load_toml_bounded(
         raw = fh.read(max_bytes + 1)
     if len(raw) > max_bytes:
         raise InputError(f"{path}: {what} larger than {max_bytes} bytes; a {what} {holds}")
+    if on_bytes is not None:
+        on_bytes(raw)
     try:
         text = raw.decode("utf-8").replace("\r\n", "\n").replace("\r", "\n")  # as read_text
         parsed = tomllib.loads(text)

@@ -134,6 +134,7 @@ def load_rig_config(path: str | Path) -> RigConfig:
         raise InputError(
             f"{path}: is a folder, not a rig configuration file; give the TOML file ({DOC})"
         )
+    hasher = hashlib.sha256()  # of exactly the bytes parsed (one read)
     table = load_toml_bounded(
         path,
         what="rig configuration",
@@ -141,9 +142,9 @@ def load_rig_config(path: str | Path) -> RigConfig:
         holds="holds a few settings",
         doc=DOC,
         missing=f"give the TOML file that describes the rig ({DOC})",
+        on_bytes=hasher.update,
     )
-    digest = hashlib.sha256(path.read_bytes()[: MAX_RIG_CONFIG_BYTES + 1]).hexdigest()
-    extra: dict[str, Any] = {"source": str(path), "sha256": digest}
+    extra: dict[str, Any] = {"source": str(path), "sha256": hasher.hexdigest()}
     gamma = table.get("gamma")
     if isinstance(gamma, str):
         if not gamma.strip():
