@@ -376,3 +376,25 @@ def test_measure_adaptive_through_the_cli(tmp_path: Path) -> None:
     assert metrics["images_captured"] == sum(block["images_per_step"].values())
     for name in ("projector_migl_map", "camera_migl"):
         assert (out / f"{name}.tiff").is_file() and (out / f"{name}.png").is_file()
+
+
+def test_the_pie_of_a_per_pixel_map_bins_down_never_above_the_top_migl(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A per-pixel index map (> 256 distinct values) is shown in bins of 10 labelled by their
+    lower edge: 255 falls in the 250 slice (rounding made a "260" slice, above any MIGL)."""
+    import hdrfringe.io.measurement_outputs as mo
+    from hdrfringe.strategies.base import CapturedSet, StrategyResult
+
+    index = np.linspace(60.0, 255.0, 400, dtype=np.float32).reshape(20, 20)
+    res = StrategyResult(
+        images=np.zeros((4, 20, 20), np.uint8), spec=FringeSpec("sinusoidal", 4, 8.0),
+        captured=[CapturedSet(migl=None)], index_map=index, newly_unsaturated=[400],
+        never_unsaturated=np.zeros((20, 20), bool), method="adaptive",
+    )  # fmt: skip
+    seen: list[np.ndarray] = []
+    monkeypatch.setattr(mo, "plot_migl_pie", lambda path, values, title: seen.append(values))
+    mo.write_strategy_outputs(tmp_path, [res])
+    binned = seen[0]
+    assert float(binned.max()) == 250.0 and float(binned.min()) == 60.0
+    assert np.all(binned <= index) and np.all(index - binned < 10.0)

@@ -42,7 +42,7 @@ __all__ = [
 
 #: Most slices of the pie chart of an index map (every MIGL of an 8-bit projector: the
 #: thesis's strategies keep their pies); a map with more distinct values (the adaptive
-#: projection's per-pixel MIGL) is shown to 10 gray levels.
+#: projection's per-pixel MIGL) is shown in bins of 10 gray levels (labelled by the lower edge).
 PIE_SLICES = 256
 
 
@@ -145,7 +145,7 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     ``migl_pie.png`` for the MIGL (every strategy of the thesis), ``exposure_ms_index.*`` and
     ``exposure_ms_pie.png`` for the exposure time. An index map with more than
     :data:`PIE_SLICES` values (the adaptive projection's per-pixel MIGL) is shown in the pie
-    to 10 gray levels.
+    in bins of 10 gray levels, each labelled by its lower edge.
 
     Parameters
     ----------
@@ -194,7 +194,8 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     write_preview_png(out / files[1], fine.index_map, title=title, cmap="viridis", label=unit)
     pie, step = fine.index_map, ""
     if np.unique(pie).size > PIE_SLICES:  # a per-pixel map (adaptive): slices of 10 levels
-        pie, step = np.round(pie, -1), ", to 10"
+        # lower edges (250 holds 250..255): rounding labelled a 255 slice "260", above any MIGL
+        pie, step = np.floor(pie / 10.0) * 10.0, ", bins of 10 from the label"
     plot_migl_pie(out / files[2], pie, title=f"pixels per {per}{step} ({fine.method}, {pitch})")
     return files
 
