@@ -12,6 +12,7 @@ import pytest
 import xarray as xr
 
 from hdrfringe.reproduce.engine import RUNTIME_ATTRS, open_results, sweep_status
+from tests import reproduce_checks as checks
 from tests.conftest import run_cli
 
 # Tests that start dask clusters run in one xdist worker (make test: --dist loadgroup), so
@@ -19,21 +20,33 @@ from tests.conftest import run_cli
 pytestmark = pytest.mark.xdist_group("dask-cluster")
 
 
-def _depth_mean(out: Path) -> xr.DataArray:
-    return open_results(out / "ch4.zarr")["rmse_mm"].mean("depth_mm")
+#: Patterns whose error std is smooth in MIGL (the 2-step pattern's per-depth std scatters by
+#: up to 0.5 mm, so only its large effects are asserted).
+THREE_STEP = ("sinusoidal-3", "triangular-3")
 
 
-def test_600_lux_has_an_interior_minimum_and_0_lux_does_not_rise_above_205(quick_run) -> None:
-    mean = _depth_mean(quick_run)
-    for pattern in mean["pattern"].values:
-        lit = mean.sel(pattern=pattern, lux=600.0, pitch=6)
-        best = float(lit.min())
-        assert float(lit.sel(migl=255.0)) > 1.05 * best, pattern
-        assert float(lit.sel(migl=105.0)) > 1.005 * best, pattern
-        dark = mean.sel(pattern=pattern, lux=0.0).mean("pitch")
-        high = dark.where(dark["migl"] >= 205, drop=True).sortby("migl")
-        # rising MIGL never raises the RMSE beyond 1 % (noise between cells)
-        assert np.all(np.diff(high.values) <= 0.01 * high.values[:-1]), pattern
+def test_600_lux_has_an_interior_minimum_and_0_lux_does_not(quick_run) -> None:
+    """Fig. 4.13 / 4.2-4.4 in error std (the RMSE carries the linear model's -0.16 mm bias, the
+    same at every MIGL, which flattened the former RMSE checks: 0.5 % and 1 % margins).
+
+    At 600 lx, pitch 6, the std at MIGL 255 and at 105 is more than 1.5 x the minimum for the
+    3-step patterns (measured 2.37 / 2.10 sinusoidal, 1.70 / 2.09 triangular) and the 2-step
+    pattern's std at 255 is more than 1.15 x (1.27). At 0 lx the std grows at every lower
+    MIGL for the 3-step patterns at every pitch, by more than 1.5 x from 255 to 105 (1.84-2.09);
+    the 2-step pattern's (mean over pitch) stays within 1 % of monotone above MIGL 205. Each
+    check rejects the other light level's curve (test_reproduce_broken)."""
+    for pattern in THREE_STEP:
+        lit = checks.ch4_std_curve(quick_run, pattern, 6, 600.0)
+        assert not checks.check_interior_tradeoff(lit.values, lit["migl"].values, 1.5, 1.5)
+        for pitch in open_results(quick_run / "ch4.zarr")["pitch"].values:
+            dark = checks.ch4_std_curve(quick_run, pattern, pitch, 0.0)
+            assert not checks.check_dark_std_falls_with_migl(dark.values, 1.5), (pattern, pitch)
+    lit = checks.ch4_std_curve(quick_run, "triangular-2", 6, 600.0)
+    assert float(lit[0]) > 1.15 * float(lit.min())
+    std = checks.ch4_std(open_results(quick_run / "ch4.zarr")).mean("depth_mm")
+    dark = std.sel(pattern="triangular-2", lux=0.0).mean("pitch")
+    high = dark.where(dark["migl"] >= 205, drop=True).sortby("migl")
+    assert np.all(np.diff(high.values) <= 0.01 * high.values[:-1])
 
 
 def test_smaller_pitch_saturates_fewer_pixels(quick_run) -> None:
@@ -47,16 +60,36 @@ def test_smaller_pitch_saturates_fewer_pixels(quick_run) -> None:
 
 
 def test_tables_follow_the_thesis_trends(quick_run) -> None:
+    """Tables 4.1-4.3. The trade-off is a minimum over MIGLs that include 255, so "the
+    trade-off beats MIGL 255" holds by construction; the margins below make it a test.
+
+    Table 4.1 (RMSE: the Eq. 4.1 store keeps no mean error): nothing saturates at 300 lx, so
+    the trade-off is 255; at 600 and 900 lx the RMSE at 255 is more than 1.3 x the trade-off's
+    (measured 1.42 and 5.43; the full grid's 500 lx, where saturation barely starts, is 1.02).
+    Table 4.3 in error std at the table's trade-off MIGL: std at 255 more than 1.5 x the
+    trade-off's for the 3-step patterns (2.37, 1.70), 1.15 x for the 2-step one (1.27), and the
+    trade-off within 1.35 x the 0 lx std at 255 (1.26, 1.21, 1.01; the thesis's RMSE ratios
+    1.22, 1.09, 1.02; 600 lx adds photon noise). A trade-off search that returned 255 or a MIGL
+    one step off, or a sweep in which saturation costs nothing, fails (test_reproduce_broken).
+    """
     tables = json.loads((quick_run / "tables.json").read_text())["ch4"]
     t41 = tables["table_4_1"]
     migls = [r["ours"][0] for r in t41]
     assert migls == sorted(migls, reverse=True) and migls[0] > migls[-1]  # Table 4.1
-    assert all(r["ours"][2] <= r["ours"][1] for r in t41)  # the trade-off beats MIGL 255
+    for r in t41:
+        tradeoff_migl, at255, at_tradeoff = r["ours"]
+        if r["lux"] < 600:
+            assert tradeoff_migl == 255.0 and at_tradeoff == at255, r
+        else:
+            assert at255 > 1.3 * at_tradeoff, r
     rmse = [r["ours"][1] for r in tables["table_4_2"]]
     assert all(b > a for a, b in itertools.pairwise(rmse))  # Table 4.2
-    for r in tables["table_4_3"]:  # Table 4.3: trade-off under 600 lx within 25 % of 0 lx
-        _, dark, lit255, lit_trade = r["ours"]
-        assert lit_trade < lit255 and lit_trade < 1.25 * dark
+    for r in tables["table_4_3"]:
+        pattern = r["pattern"]
+        top = 1.5 if pattern in THREE_STEP else 1.15
+        assert not checks.check_saturation_costs_more_than_the_tradeoff(
+            *checks.table_4_3_std(quick_run, pattern, r["ours"][0]), top, 1.35
+        ), r
     report = (quick_run / "report.md").read_text()
     for table in ("Table 4.1", "Table 4.2", "Table 4.3"):
         assert table in report

@@ -8,6 +8,7 @@ pattern (Sec. 6.2).
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -18,6 +19,8 @@ from hdrfringe.reproduce import adaptive_report
 from hdrfringe.reproduce.adaptive import SweepRig, experiments
 from hdrfringe.reproduce.ch4 import QUICK_SETUP, PlateSweep, pattern_spec
 from hdrfringe.reproduce.engine import open_results
+from hdrfringe.saturation.estimate import CorrectionPolynomial
+from tests import reproduce_checks as checks
 
 pytestmark = pytest.mark.xdist_group("dask-cluster")
 
@@ -26,15 +29,29 @@ def _tables(out: Path) -> dict:
     return json.loads((out / "tables.json").read_text())["adaptive"]
 
 
-def test_table_5_1_lpa_matches_the_tradeoff_and_beats_migl_255(quick_run) -> None:
-    """White plate, 600 lx, pitch 6: LPA S=5 below the RMSE at MIGL 255 and within 15 % of the
-    uniform trade-off for the 3-step patterns (Table 5.1's pattern)."""
+def test_table_5_1_lpa_beats_every_uniform_set_in_error_std(quick_run) -> None:
+    """White plate, 600 lx: LPA S=5's error std is at least 1 % below that of every single set,
+    for the 3-step patterns at every pitch (Table 5.1: LPA matches the trade-off and beats MIGL
+    255). The sets are those of the same sweep (MIGL 255..190, paired: same captures) and of
+    the independent Ch. 4 sweep (MIGL 255..105 over the same depths, other noise draws, the
+    fast capture path). Measured: LPA is 1.7-6.0 % below the best set of its own sweep and
+    3.5-7.4 % below the Ch. 4 sweep's; the std of one cell scatters by 0.2-0.5 % between
+    depths and the two sweeps agree at MIGL 225 within 0.2 %.
+
+    The former check, ``lpa <= 1.15 * trade-off`` in RMSE, also passed a single set at any MIGL
+    from 135 to 235 (the -0.16 mm bias of the linear model dominates the RMSE); this one
+    rejects every such set (test_reproduce_broken). The 2-step pattern is left out: there LPA
+    is worse than the trade-off (ours 0.53 against 0.44 mm std at pitch 6; the thesis 1.10
+    against 1.03 mm RMSE), its per-depth std scattering by up to 0.5 mm."""
     for row in _tables(quick_run)["table_5_1"]:
-        lpa, at255, tradeoff = row["ours"]
-        assert tradeoff < at255, row
-        if row["pattern"] != "triangular-2":  # 2-step: noisier, the thesis's gap was 7 %
-            assert lpa < at255 and lpa <= 1.15 * tradeoff, row
-        assert 190 <= row["tradeoff_migl"] < 255
+        _, at255, tradeoff = row["ours"]
+        assert tradeoff < at255 and 190 <= row["tradeoff_migl"] < 255, row
+    for pattern, pitch in itertools.product(("sinusoidal-3", "triangular-3"), (6, 12, 20)):
+        lpa_std, uniform = checks.lpa_and_uniform_std(quick_run, pattern, pitch)
+        assert not checks.check_lpa_beats_every_uniform_set(lpa_std, uniform, 0.01), (
+            pattern,
+            pitch,
+        )
 
 
 def test_fig_5_6_error_is_flat_over_the_lpa_steps(quick_run) -> None:
@@ -61,6 +78,20 @@ def test_table_5_2_lpa_beats_the_uniform_tradeoff_on_the_checkerboard(quick_run)
     assert rows["uniform"]["tradeoff_migl"] < 200  # the white squares need a low MIGL
 
 
+def test_lpa_set_counts_follow_from_step_1(quick_run) -> None:
+    """Tables 5.2 / 6.1 / 6.2: in every cell of both Ch. 6 sweeps, LPA step S captures
+    ``ceil((n1 - 1) / S) + 1`` sets within one, n1 being step 1's count (step 1 stops at the
+    first MIGL by which every pixel has been unsaturated; step S at the first of its MIGLs at or
+    below it). A count that merely falls as S grows (the former check) is also what an LPA
+    that never stops early, or stops before every pixel is found, would give; both break this
+    (test_reproduce_broken). Measured: every one of the 114 counts is the prediction exactly."""
+    for store in ("checkerboard", "ch6_plate"):
+        ds = open_results(quick_run / f"{store}.zarr")
+        steps = [int(str(m)[4:]) for m in ds["strategy"].values if str(m).startswith("lpa-")]
+        sets = {s: ds["sets"].sel(strategy=f"lpa-{s}").values.ravel().tolist() for s in steps}
+        assert not checks.check_lpa_set_counts(sets), store
+
+
 def test_large_lpa_steps_lose_snr_at_large_pitch(quick_run) -> None:
     """Fig. 5.7: at pitches of 14 px and more, S = 30 and 45 give a higher error std and RMSE
     than S <= 5 (each pixel lands further below its own unsaturation MIGL).
@@ -77,33 +108,89 @@ def test_large_lpa_steps_lose_snr_at_large_pitch(quick_run) -> None:
             assert large.min() > c.sel(strategy=small).values.max(), (pitch, var)
 
 
-def test_dpa_is_within_5_percent_of_lpa_15(quick_run) -> None:
-    """Ch. 6: DPA at 10 % and 20 % matches LPA S=15 on the checkerboard (Fig. 6.4b) and on the
-    white plate (Table 6.1), and 20 % needs no more sets than 10 %."""
+def test_dpa_matches_lpa_15_in_error_std(quick_run) -> None:
+    """Ch. 6 (Fig. 6.5, Tables 6.1-6.2: DPA's std equals LPA S=15's, 0.25/0.25 and 0.56/0.56
+    mm): DPA 10 % and 20 % have the error std of LPA S=15 within 5 % at every pitch of the
+    checkerboard and the white plate, and 20 % needs no more sets than 10 %.
+
+    Measured DPA / LPA S=15 std: 0.973-0.985 on the checkerboard, 0.991-1.026 on the plate;
+    per-depth scatter 0.2-0.9 %. The former check (RMSE within 5 %) passed a DPA whose std is
+    10 % larger (the common -0.16 mm bias hides it: RMSE +2.6 %); this one rejects it
+    (test_reproduce_broken)."""
+    lpa15 = checks.method_std_by_cell(quick_run, "lpa-15")
+    for method in ("dpa-10", "dpa-20"):
+        dpa = checks.method_std_by_cell(quick_run, method)
+        assert not checks.check_dpa_matches_lpa_15(dpa, lpa15, 0.05), method
     for store in ("checkerboard.zarr", "ch6_plate.zarr"):
         ds = open_results(quick_run / store).isel(pattern=0).mean("depth_mm")
         for pitch in ds["pitch"].values:
-            c = ds.sel(pitch=pitch)
-            ref = float(c["rmse_mm"].sel(strategy="lpa-15"))
-            for t in ("dpa-10", "dpa-20"):
-                assert abs(float(c["rmse_mm"].sel(strategy=t)) / ref - 1) < 0.05, (store, pitch)
-            assert float(c["sets"].sel(strategy="dpa-20")) <= float(
-                c["sets"].sel(strategy="dpa-10")
-            )
+            sets = ds["sets"].sel(pitch=pitch)
+            assert float(sets.sel(strategy="dpa-20")) <= float(sets.sel(strategy="dpa-10"))
     t61 = {r["method"]: r["ours"] for r in _tables(quick_run)["table_6_1"]}
     assert t61["dpa-20"][0] <= t61["lpa-20"][0]  # fewer sets than LPA S=20 (Table 6.1)
 
 
-def test_cdfs_and_the_correction_are_reported(quick_run) -> None:
-    board = open_results(quick_run / "checkerboard.zarr")
-    cell = board.sel(pitch=8).isel(pattern=0, depth_mm=1)
-    actual = cell["cdf_actual"].values
-    assert np.all(np.diff(actual) >= 0) and actual[-1] == pytest.approx(1.0)
+def test_dpa_set_counts_fall_with_pitch_and_stay_above_lpa_15_on_the_checkerboard(
+    quick_run,
+) -> None:
+    """Fig. 6.6b: on the checkerboard DPA (10 % and 20 %) needs fewer sets as the pitch grows,
+    and more than LPA S=15 at every pitch (Table 6.2: 29.33 against 14). On the 600 lx white
+    plate (Fig. 6.6a, Table 6.1) DPA 20 % needs fewer sets than LPA S=20 (ours 0.74 of it on
+    the quick grid, the thesis's 7.06 / 9.81 = 0.72).
+
+    What does not hold on our rig (docs/reproduction.md, "Tests"): the checkerboard's DPA /
+    LPA S=15 ratio is 4.7-5.8 (thesis 2.1: our 0.01 % rule captures every gray level while the
+    white squares stay unestimable) and does not approach 1 at 20 px; on the plate the DPA count
+    does not fall with pitch (5.3, 6, 6 sets at 8, 14, 20 px: the plate saturates more at larger
+    pitches, Fig. 4.5), and DPA 10 % is not "comparable to LPA S=10" (0.66 of it)."""
+    board = open_results(quick_run / "checkerboard.zarr").isel(pattern=0).mean("depth_mm")
+    pitches = board["pitch"].values.tolist()
+    for method in ("dpa-10", "dpa-20"):
+        sets = board["sets"].sel(strategy=method).values
+        assert not checks.check_dpa_sets_fall_with_pitch(sets, pitches), method
+        lpa15 = board["sets"].sel(strategy="lpa-15").values
+        assert np.all(sets > 2 * lpa15), (method, sets, lpa15)
+    t61 = {r["method"]: r["ours"][0] for r in _tables(quick_run)["table_6_1"]}
+    assert t61["dpa-20"] < 0.85 * t61["lpa-20"], t61
+
+
+def test_actual_cdf_is_bounded_by_the_uniform_sets(quick_run) -> None:
+    """Fig. 6.3's actual CDF (from LPA step 1's index image) against an independent count:
+    a pixel unsaturated in the uniform set at MIGL m has its index at m or above, so
+    ``CDF(m) >= 1 - saturated(m) / saturated(255)`` at every uniform MIGL of every cell of both
+    sweeps (the same captures: :class:`SweepRig`). Measured shortfall at most 0.0018 (the image
+    border, left out of the saturated fractions); a CDF read 10 gray levels too high falls
+    0.33-0.88 short (test_reproduce_broken). (The former check, that the CDF never falls, holds
+    for any cumulative sum.)"""
+    for store in ("checkerboard.zarr", "ch6_plate.zarr"):
+        ds = open_results(quick_run / store).isel(pattern=0)
+        migls = ds["uniform_migl"].values
+        for pitch, depth in itertools.product(ds["pitch"].values, ds["depth_mm"].values):
+            cell = ds.sel(pitch=pitch, depth_mm=depth)
+            cdf = cell["cdf_actual"].sel(cdf_migl=migls).values
+            sat = cell["saturated_fraction"].values
+            assert not checks.check_actual_cdf_bounds(cdf, sat, 0.005), (store, pitch, depth)
+    cell = open_results(quick_run / "checkerboard.zarr").sel(pitch=8).isel(pattern=0, depth_mm=1)
     final = cell["cdf_final"].sel(strategy="dpa-10").values
-    assert np.all(np.diff(final) >= -1e-12) and final[-1] > 0.99
+    assert final[-1] > 0.99
     assert np.isnan(cell["cdf_final"].sel(strategy="lpa-15").values).all()
+
+
+def test_dpa_correction_generalises_to_a_held_out_plate_position(quick_run) -> None:
+    """Sec. 6.1.2: the reproduction's correction polynomial (trained at 26 mm, pitch 20)
+    applied to the saturated pixels of a plate position it never saw (14 mm): the Eq. 6.2
+    estimate's RMSE falls by at least 5 % and ends within 5 % of a polynomial fitted to those
+    pixels themselves. Measured: 4.53 -> 4.11 DN (-9.3 %), own fit 4.01 DN (+2.3 %). The
+    former check (training RMSE falls) also passes an order-6 polynomial fitted to 10 pixels,
+    whose held-out RMSE is 18.9 DN (test_reproduce_broken).
+
+    Our estimate's error is 4.5 DN before correction against the thesis's 71.05 gray levels:
+    the virtual projector's gamma is pre-compensated exactly (issue 15)."""
+    poly = CorrectionPolynomial.load(quick_run / "dpa_correction.json")
+    est, true = checks.held_out_samples()
+    before, after, own = checks.correction_rmse(poly, est, true)
+    assert not checks.check_correction_generalises(before, after, own, 0.05, 0.05)
     corr = _tables(quick_run)["dpa_correction"]
-    assert corr["rmse_after_dn"] < corr["rmse_before_dn"]
     assert corr["thesis_before_after_gray_levels"] == [71.05, 2.99]
     report = (quick_run / "report.md").read_text()
     for table in ("Table 5.1", "Table 5.2", "Table 6.1", "Table 6.2", "71.05"):
