@@ -23,6 +23,7 @@ import functools
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -51,7 +52,7 @@ __all__ = [
 ]
 
 
-def ch4_std(ds: xr.Dataset) -> xr.DataArray:
+def ch4_std(ds: Mapping[str, Any]) -> Any:
     """Error std (mm) of every cell of a Ch. 4 store or block.
 
     ``std_mm`` when the store has it (the error-budget change adds it); until then
@@ -60,13 +61,14 @@ def ch4_std(ds: xr.Dataset) -> xr.DataArray:
 
     Parameters
     ----------
-    ds : xarray.Dataset
-        With ``rmse_mm`` and ``mean_error_mm`` (or ``std_mm``).
+    ds : xarray.Dataset or dict of ndarray
+        With ``rmse_mm`` and ``mean_error_mm`` (or ``std_mm``): a store or a
+        :func:`~hdrfringe.reproduce.ch4.ch4_block` result.
 
     Returns
     -------
-    xarray.DataArray
-        The std, same dims as ``rmse_mm``.
+    xarray.DataArray or ndarray
+        The std, same shape as ``rmse_mm``.
 
     Examples
     --------
