@@ -388,16 +388,23 @@ def check_lpa_set_counts(sets: Mapping[int, Sequence[float]], slack: int = 1) ->
     return out
 
 
-def check_dpa_sets_fall_with_pitch(sets: Sequence[float], pitches: Sequence[int]) -> list[str]:
+def check_dpa_sets_fall_with_pitch(
+    sets: Sequence[float], pitches: Sequence[int], drop: float = 0.1
+) -> list[str]:
     """Fig. 6.6b: on the checkerboard DPA needs fewer sets as the pitch grows (a larger pitch
-    shows more intensities to update the CDF with).
+    shows more intensities to update the CDF with): a negative least-squares slope over pitch
+    and, at the largest pitch, at least ``drop`` (relative) fewer sets than at the smallest.
+    Not step by step: over every pitch 5..20 at one depth the count falls from 91 to 65 sets
+    with bumps of up to 10 (pitch 8: 81 after 76 at 7).
 
     Parameters
     ----------
     sets : sequence of float
-        Mean sets over depth, per pitch.
+        Sets (e.g. mean over depth) per pitch.
     pitches : sequence of int
         Increasing pitches.
+    drop : float
+        Required relative fall from the first to the last pitch.
 
     Returns
     -------
@@ -405,9 +412,13 @@ def check_dpa_sets_fall_with_pitch(sets: Sequence[float], pitches: Sequence[int]
         The violations.
     """
     s = np.asarray(sets, dtype=float)
-    if np.all(np.diff(s) < 0):
-        return []
-    return [f"DPA sets {s.tolist()} do not fall over pitches {list(pitches)}"]
+    slope = float(np.polyfit(np.asarray(pitches, dtype=float), s, 1)[0])
+    out = []
+    if not slope < 0:
+        out.append(f"DPA sets {s.tolist()} over pitches {list(pitches)}: slope {slope:.3f} >= 0")
+    if not s[-1] <= (1.0 - drop) * s[0]:
+        out.append(f"DPA sets fall from {s[0]:g} to {s[-1]:g}, not by {drop:.0%}")
+    return out
 
 
 def check_actual_cdf_bounds(
