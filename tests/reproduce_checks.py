@@ -395,7 +395,7 @@ def check_dpa_sets_fall_with_pitch(
     shows more intensities to update the CDF with): a negative least-squares slope over pitch
     and, at the largest pitch, at least ``drop`` (relative) fewer sets than at the smallest.
     Not step by step: over every pitch 5..20 at one depth the count falls from 91 to 65 sets
-    with bumps of up to 10 (pitch 8: 81 after 76 at 7).
+    with bumps of up to 9 (75 at 18 px after 66 at 17 px; benchmarks/bench_dpa_sets.py).
 
     Parameters
     ----------
