@@ -26,7 +26,7 @@ def calibration():
     return calibrate(series(SPEC, noise=True, seed=11), model="linear")
 
 
-def _measure_strategy(strategy, depth: float, seed: int, calibration) -> float:
+def _measure_strategy(strategy, depth: float, seed: int, calibration) -> tuple[float, float]:
     rig = SimulatedRig(white_plate(depth), lighting=Lighting(ambient_lux=600), seed=seed)
     res = strategy(rig)
     imgs = np.concatenate([res.images, rig.capture(LINE)])
@@ -38,7 +38,8 @@ def _measure_strategy(strategy, depth: float, seed: int, calibration) -> float:
         scene=rig.scene.to_manifest(),
         maps={"truth_height_mm": rig.truth().height_mm},
     )
-    return measure(folder, calibration, reject_saturated=False).metrics.rmse_mm
+    metrics = measure(folder, calibration, reject_saturated=False).metrics
+    return metrics.rmse_mm, metrics.std_mm
 
 
 def test_white_plate_600_lux_tradeoff_and_lpa(calibration) -> None:
@@ -57,14 +58,21 @@ def test_white_plate_600_lux_tradeoff_and_lpa(calibration) -> None:
         auto.append(
             _measure_strategy(lambda r: uniform(r, SPEC, tolerance=0.0), d, 40 + i, calibration)
         )
-    m0, m255, mt, ml, ma = (float(np.mean(v)) for v in (no_amb, at_255, at_tradeoff, lpa5, auto))
+    m0, m255, mt = (float(np.mean(v)) for v in (no_amb, at_255, at_tradeoff))
+    (ml, sl), (ma, sa) = np.mean(lpa5, axis=0), np.mean(auto, axis=0)
     print(
         f"\nwhite plate, sinusoidal 3-step pitch 6, linear model, mean over {DEPTHS} mm: "
         f"0 lx MIGL 255 {m0:.3f} mm; 600 lx MIGL 255 {m255:.3f} mm; 600 lx trade-off "
-        f"(MIGL {best}) {mt:.3f} mm; 600 lx LPA S=5 {ml:.3f} mm; automatic uniform {ma:.3f} mm"
+        f"(MIGL {best}) {mt:.3f} mm; 600 lx LPA S=5 {ml:.3f} mm (std {sl:.4f}); automatic "
+        f"uniform {ma:.3f} mm (std {sa:.4f})"
     )
     assert mt < m255  # lowering the MIGL helps under 600 lx (Table 4.3)
     assert mt == pytest.approx(m0, rel=0.25)  # and recovers nearly the dark-room accuracy
     assert 105 < min(best) and max(best) < 255  # an interior trade-off point
     assert ml == pytest.approx(mt, rel=0.15)  # LPA S = 5 matches the trade-off (Table 5.1)
+    # ... and, in error std (the RMSE is mostly the linear model's bias, the same for every
+    # method), beats the single set the automatic rule picks by at least 5 % (measured 0.0562
+    # against 0.0627 mm, 10 %). A single set in LPA's place (ratio 1) fails; the RMSE check
+    # above passes one (Table 5.1's in test_reproduce_broken).
+    assert sl < 0.95 * sa
     assert ma == pytest.approx(mt, rel=0.10)  # the no-ground-truth rule lands there too
