@@ -47,6 +47,7 @@ from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.base import Rig
 from hdrfringe.saturation.adaptive_map import (
+    boosted_map,
     fill_holes,
     fit_blur_sigma,
     footprint_px,
@@ -78,6 +79,14 @@ MAPPING_RATIO = 16.0
 AUTO_MAPPING_MARGIN = 0.1
 #: Pixels the map-bias blur is fitted on (evenly spread over the valid ones).
 FIT_PIXELS = 20000
+#: A pixel whose received modulation (MIGL - imin) is below this fraction of its own level's
+#: is short of light (the boost set raises it).
+BOOST_RATIO = 0.7
+#: Fraction of the mapped pixels short of light above which the boost set is captured.
+BOOST_MIN_FRACTION = 0.002
+#: Fraction of the camera pixels that neither clip nor decode in the low mapping ladder above
+#: which the ladder is captured again at the full MIGL and merged per pixel.
+BRIGHT_MIN_FRACTION = 0.02
 #: Window (camera pixels) of the median that denoises each mapping level before unwrapping.
 MEDIAN_WINDOW = 5
 
@@ -129,6 +138,9 @@ class _Mapping:
     gain: NDArray[np.float64]
     ambient: NDArray[np.float64]
     saturated: NDArray[np.bool_]
+    #: MIGL of the bright ladder (None: not captured) and, per set, the MIGL of each pixel
+    bright_migl: float | None = None
+    index: dict[str, list[NDArray[np.float32]]] = field(default_factory=dict)
 
 
 def _capture(rig: Rig, frames: list[Any], settings: CameraSettings | None) -> NDArray:
@@ -149,41 +161,58 @@ def _measure_mapping(
     ``migl``. With ``auto`` the others are captured at the highest MIGL its response says
     keeps every pixel :data:`AUTO_MAPPING_MARGIN` below clipping (never below ``migl``): a
     brighter mapping is a less noisy one. The caller puts first the orientation whose fringe
-    orders matter least (one the measurement does not use).
+    orders matter least (one the measurement does not use). With ``auto``, where more than
+    :data:`BRIGHT_MIN_FRACTION` of the pixels neither clipped nor decoded in every set (a
+    scene whose highlight holds the mapping MIGL so low that its dim surface carries no fringe), the
+    ladder is captured once more at the full MIGL and merged per pixel: the bright capture
+    where it did not clip (Eq. 5.1).
     """
     bits = rig.camera_bit_depth
     imin = template.imin
     images: dict[str, list[NDArray]] = {}
     migls: dict[str, list[float]] = {}
+    index: dict[str, list[NDArray[np.float32]]] = {}
     absolute: dict[str, NDArray[np.float64]] = {}
     coords: dict[str, NDArray[np.float64]] = {}
     gains: list[NDArray[np.float64]] = []
     ambients: list[NDArray[np.float64]] = []
-    weights: list[float] = []
+    weights: list[NDArray[np.float64]] = []
     saturated = np.zeros(rig.image_shape, bool)
+    decodes = np.ones(rig.image_shape, bool)  # valid in every set
     m_next = migl
+
+    def spec_at(orient: str, p: float, m: float) -> FringeSpec:
+        return FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
+
+    def add_response(dec: Any, m: float | NDArray, where: NDArray[np.bool_]) -> None:
+        mm = np.broadcast_to(np.asarray(m, np.float64), where.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = 2.0 * dec.modulation / (mm - imin)
+            c = dec.mean_intensity - g * (mm + imin) / 2.0
+        ok = where & dec.valid
+        gains.append(np.where(ok, g, np.nan))
+        ambients.append(np.where(ok, c, np.nan))
+        weights.append(np.where(ok, (mm - imin) ** 2, 0.0))  # the estimate's SNR squared
+
+    # pass 1: the ladder at the low MIGL(s)
     for orient, ps in pitches.items():
         imgs: list[NDArray] = []
-        decoded: list[Any] = []
         ms: list[float] = []
         for p in ps:
             m = migl if not gains and not imgs else m_next
-            spec = FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
+            spec = spec_at(orient, p, m)
             imgs.append(_capture(rig, spec.frames(), settings))
-            decoded.append(decode_set(imgs[-1], spec, bits))
+            dec = decode_set(imgs[-1], spec, bits)
             ms.append(m)
             saturated |= saturation_count(imgs[-1], bits) > 0
+            decodes &= dec.valid
             if p == ps[0]:  # a one-period set: the response
-                g, c = response_from_fringes(
-                    decoded[-1].mean_intensity, decoded[-1].modulation, m, imin
-                )
-                gains.append(np.where(decoded[-1].valid, g, np.nan))
-                ambients.append(np.where(decoded[-1].valid, c, np.nan))
-                weights.append((m - imin) ** 2)  # the estimate's SNR squared
+                g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
+                add_response(dec, m, np.ones(g.shape, bool))
                 if auto and len(gains) == 1:
                     level = safe_migl(
-                        median_smooth(gains[0], MEDIAN_WINDOW),
-                        median_smooth(ambients[0], MEDIAN_WINDOW),
+                        median_smooth(np.where(dec.valid, g, np.nan), MEDIAN_WINDOW),
+                        median_smooth(np.where(dec.valid, c, np.nan), MEDIAN_WINDOW),
                         bits,
                         margin=AUTO_MAPPING_MARGIN,
                         imin=imin,
@@ -191,7 +220,32 @@ def _measure_mapping(
                     )
                     if np.isfinite(level).any():
                         m_next = float(max(migl, np.floor(np.nanmin(level))))
-        phases = [np.where(d.valid, d.wrapped_phase, np.nan) for d in decoded]
+        images[orient] = imgs
+        migls[orient] = ms
+        index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
+
+    # pass 2, only where the low ladder left much of the field dark: the full MIGL, merged
+    bright: float | None = None
+    dark = ~decodes & ~saturated
+    full = float(template.migl)
+    if auto and m_next < full and dark.mean() > BRIGHT_MIN_FRACTION:
+        bright = full
+        for orient, ps in pitches.items():
+            for k, p in enumerate(ps):
+                spec = spec_at(orient, p, bright)
+                imgs_b = _capture(rig, spec.frames(), settings)
+                take = saturation_count(imgs_b, bits) == 0
+                images[orient][k] = np.where(take, imgs_b, images[orient][k])
+                index[orient][k] = np.where(take, np.float32(bright), index[orient][k])
+                if k == 0:
+                    add_response(decode_set(imgs_b, spec, bits), bright, take)
+
+    for orient, ps in pitches.items():
+        phases = []
+        for k, p in enumerate(ps):
+            # a merged set decodes as one: the phase does not depend on the MIGL
+            d = decode_set(images[orient][k], spec_at(orient, p, migls[orient][k]), bits)
+            phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
         # the low-MIGL phases are noisy: smooth each level (median) before it predicts the
         # next one's fringe order, so the orders hold where a plain unwrap would slip
         current = median_smooth(phases[0], MEDIAN_WINDOW)
@@ -202,9 +256,7 @@ def _measure_mapping(
             current = median_smooth(current, MEDIAN_WINDOW)
         absolute[orient] = current
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
-        images[orient] = imgs
-        migls[orient] = ms
-    w = np.asarray(weights)[:, None, None]
+    w = np.stack(weights)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # pixels valid in no set stay NaN
         g_stack, c_stack = np.stack(gains), np.stack(ambients)
@@ -214,7 +266,9 @@ def _measure_mapping(
     # a low-MIGL set is a noisy response: the median keeps its edges
     gain = median_smooth(gain, MEDIAN_WINDOW)
     ambient = median_smooth(ambient, MEDIAN_WINDOW)
-    return _Mapping(pitches, images, migls, absolute, coords, gain, ambient, saturated)
+    return _Mapping(
+        pitches, images, migls, absolute, coords, gain, ambient, saturated, bright, index
+    )
 
 
 def _correct_map_bias(
@@ -291,6 +345,7 @@ def adaptive_sets(
     margin: float = 0.015,
     iterations: int = 1,
     refit: bool = True,
+    boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
     blur_px: float = 2.0,
@@ -313,6 +368,11 @@ def adaptive_sets(
     refit : bool
         Re-fit each pixel's level from the adapted set and capture once more where that
         gains a gray level or more.
+    boost : bool
+        Where the map gives pixels much less than their own level (a dim pixel next to a
+        bright one), capture one more set with those raised
+        (:func:`~hdrfringe.saturation.adaptive_map.boosted_map`) and keep it per pixel where
+        its unclipped modulation is larger.
     bias_correction : bool
         Subtract the phase bias of the map's steps under the blur.
     mapping_migl : float, optional
@@ -451,22 +511,26 @@ def adaptive_sets(
         k = pitches[spec.orientation].index(spec.pitch_px)
         imgs, m_set = mp.images[spec.orientation][k], mp.migls[spec.orientation][k]
         sat = saturation_count(imgs, bits) > 0
+        sets = [CapturedSet(migl=m_set, exposure_ms=exposure_ms)]
+        if mp.bright_migl is not None:
+            sets.append(CapturedSet(migl=mp.bright_migl, exposure_ms=exposure_ms))
         results[i] = StrategyResult(
             images=imgs,
             spec=spec,
-            captured=[CapturedSet(migl=m_set, exposure_ms=exposure_ms)],
-            index_map=np.full(imgs.shape[1:], m_set, np.float32),
-            newly_unsaturated=[int((~sat).sum())],
+            captured=sets,
+            index_map=mp.index[spec.orientation][k],
+            newly_unsaturated=[int((~sat).sum())] + [0] * (len(sets) - 1),
             never_unsaturated=sat,
             method="adaptive",
             details={"mapping_set": True, "mapping_migl": m_set},
         )
     # the mapping sets no spec stands for are counted with the first adapted set
     spare = [
-        mp.migls[o][k]
+        m
         for o in ORIENTATIONS
         for k, p in enumerate(pitches[o])
         if not any(s.orientation == o and s.pitch_px == p for s in specs)
+        for m in [mp.migls[o][k]] + ([] if mp.bright_migl is None else [mp.bright_migl])
     ]
     owner = min(finest.values())
 
@@ -559,6 +623,40 @@ def adaptive_sets(
             passes += 1
         t_check = time.perf_counter() - t0
 
+        # boost: the erosion lowers a dim pixel next to a bright one (a black square's edge)
+        # far below its own level; one more set with those pixels' levels, merged where it
+        # gives a larger unclipped modulation (LPA's rule: the best unsaturated set)
+        t0 = time.perf_counter()
+        boosts = 0
+        if boost:
+            short = (received - first.imin) < BOOST_RATIO * (levels - first.imin)
+            wanted = np.isfinite(received) & np.isfinite(levels) & short & ~remaining
+            if wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(received).sum():
+                bmap = boosted_map(
+                    pmap,
+                    np.where(wanted, levels, np.nan),
+                    uf,
+                    vf,
+                    radius=radius,
+                    projector_full=full_p,
+                )
+                imgs = shoot(bmap)
+                clip = saturation_count(imgs, bits) > 0
+                clipped.append(int(clip.sum()))
+                had = decode_set(composite, spec, bits)
+                new_dec = decode_set(imgs, spec, bits)
+                gain = new_dec.valid & (~had.valid | (new_dec.modulation > had.modulation))
+                composite[:, gain] = imgs[:, gain]
+                used.append(bmap)
+                source[gain] = len(used) - 1
+                got_b = sample_map(bmap, uf, vf).astype(np.float32)
+                index[gain] = got_b[gain]
+                newly.append(int((remaining & gain).sum()))
+                remaining &= ~gain
+                captured.append(CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=bmap))
+                boosts = 1
+        t_boost = time.perf_counter() - t0
+
         if i == owner:
             captured[:0] = [CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare]
             newly[:0] = [0] * len(spare)
@@ -574,7 +672,7 @@ def adaptive_sets(
                 absolute, predicted, used, source, uf, vf, spec, first.imin, radius
             )
         t_bias = time.perf_counter() - t0
-        n_map = sum(len(p) for p in pitches.values())
+        n_map = sum(len(p) for p in pitches.values()) * (1 if mp.bright_migl is None else 2)
         results[i] = StrategyResult(
             images=composite,
             spec=spec,
@@ -586,6 +684,7 @@ def adaptive_sets(
             details={
                 "margin": float(margin),
                 "mapping_migls": {o: list(m) for o, m in mp.migls.items()},
+                "mapping_bright_migl": mp.bright_migl,
                 "mapping_pitches": {o: list(p) for o, p in pitches.items()},
                 "erosion_radius_px": float(radius),
                 "projector_migl_map": pmap.astype(np.float32),
@@ -593,6 +692,7 @@ def adaptive_sets(
                 "mapping_saturated": int(mp.saturated.sum()),
                 "refit_passes": refits,
                 "check_passes": passes,
+                "boost_passes": boosts,
                 "clipped_per_capture": clipped,
                 "absolute_phase": absolute,
                 "images_per_step": {
@@ -600,12 +700,14 @@ def adaptive_sets(
                     "adapted": steps,
                     "refit": refits * steps,
                     "check": passes * steps,
+                    "boost": boosts * steps,
                 },
                 "sets_per_step": {
                     "mapping": n_map,
                     "adapted": 1,
                     "refit": refits,
                     "check": passes,
+                    "boost": boosts,
                 },
                 "seconds_per_step": {
                     "mapping": round(t_map, 4),
@@ -613,6 +715,7 @@ def adaptive_sets(
                     "adapted": round(t_adapt, 4),
                     "refit": round(t_refit, 4),
                     "check": round(t_check, 4),
+                    "boost": round(t_boost, 4),
                     "bias": round(t_bias, 4),
                 },
                 "blur_sigma_px": blur,
@@ -630,6 +733,7 @@ def adaptive(
     margin: float = 0.015,
     iterations: int = 1,
     refit: bool = True,
+    boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
     blur_px: float = 2.0,
@@ -647,7 +751,7 @@ def adaptive(
         A rig whose projector shows projector images.
     spec : FringeSpec
         The set at its highest MIGL.
-    margin, iterations, refit, bias_correction, mapping_migl, blur_px, smooth_px, exposure_ms
+    margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px, exposure_ms
         As :func:`adaptive_sets`.
 
     Returns
@@ -674,6 +778,7 @@ def adaptive(
         margin=margin,
         iterations=iterations,
         refit=refit,
+        boost=boost,
         bias_correction=bias_correction,
         mapping_migl=mapping_migl,
         blur_px=blur_px,
@@ -695,6 +800,9 @@ class AdaptiveParams:
         Check passes at most, only where clipping remains (``--adaptive-iterations``).
     refit : bool
         Re-fit the levels from the adapted set and capture once more.
+    boost : bool
+        One more set where pixels receive much less than their own level, merged per pixel
+        by the larger unclipped modulation.
     bias_correction : bool
         Subtract the phase bias of the map's steps under the blur.
     mapping_migl : float, optional
@@ -736,6 +844,13 @@ class AdaptiveParams:
         metadata={
             "help": "re-fit each pixel's level from the adapted set at its own pitch (blur "
             "lowers a fine fringe's peak) and capture it once more.",
+        },
+    )
+    boost: bool = field(
+        default=True,
+        metadata={
+            "help": "one more set where the map gives pixels much less than their own level "
+            "(a dim pixel next to a bright one), kept per pixel where its modulation is larger.",
         },
     )
     bias_correction: bool = field(
@@ -813,6 +928,7 @@ class Adaptive(FunctionStrategy):
             margin=params.margin,
             iterations=params.iterations,
             refit=params.refit,
+            boost=params.boost,
             bias_correction=params.bias_correction,
             mapping_migl=params.mapping_migl,
             blur_px=params.blur_px,
