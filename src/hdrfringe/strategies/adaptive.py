@@ -69,6 +69,7 @@ from hdrfringe.strategies.base import (
     default_min_migl,
     register,
 )
+from hdrfringe.strategies.exposure import choose_exposure
 from hdrfringe.unwrap import unwrap_temporal
 
 __all__ = ["Adaptive", "AdaptiveParams", "adaptive", "adaptive_sets", "mapping_pitches"]
@@ -84,6 +85,11 @@ FIT_PIXELS = 20000
 BOOST_RATIO = 0.7
 #: Fraction of the mapped pixels short of light above which the boost set is captured.
 BOOST_MIN_FRACTION = 0.002
+#: Predicted map biases (rad) below this are not subtracted: the model (one Gaussian blur for
+#: the field, the map read at the mapped coordinates) is not that exact. On the 600 lx plate,
+#: whose map is smooth, subtracting biases of a few mrad raised the phase std by 2.7 %
+#: (docs/adaptive.md); the steps next to dark squares give tenths of a radian.
+BIAS_MIN_RAD = 0.05
 #: Fraction of the camera pixels that neither clip nor decode in the low mapping ladder above
 #: which the ladder is captured again at the full MIGL and merged per pixel.
 BRIGHT_MIN_FRACTION = 0.02
@@ -314,7 +320,9 @@ def _correct_map_bias(
 
     sigma = fit_blur_sigma(residual[fit_on], lambda s: bias_of(s, fit_on), max(1.0, radius))
     bias = bias_of(sigma, np.arange(residual.size)).reshape(absolute.shape)
-    return absolute - np.where(np.isfinite(bias), bias, 0.0), sigma
+    # a predicted bias below BIAS_MIN_RAD is within the model's own error: left alone
+    apply = np.isfinite(bias) & (np.abs(bias) >= BIAS_MIN_RAD)
+    return absolute - np.where(apply, bias, 0.0), sigma
 
 
 def _check_specs(rig: Rig, specs: Sequence[FringeSpec]) -> list[FringeSpec]:
@@ -351,6 +359,7 @@ def adaptive_sets(
     blur_px: float = 2.0,
     smooth_px: float = 3.0,
     exposure_ms: float | None = None,
+    auto_exposure: bool = False,
 ) -> tuple[StrategyResult, ...]:
     """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
 
@@ -385,6 +394,13 @@ def adaptive_sets(
         Smoothing of the map from below, projector pixels (>= 0).
     exposure_ms : float, optional
         Exposure time of every capture; None: the rig's own setting.
+    auto_exposure : bool
+        Choose the exposure first (thesis Sec. 7.3,
+        :func:`~hdrfringe.strategies.exposure.choose_exposure` on the finest set at its
+        highest MIGL: the darkest lit surface at the target modulation), then adapt the MIGL
+        at it. Where that set has no saturated pixel the rig's exposure is kept (one set;
+        Requirement 4). The choice's sets are counted (``images_per_step["exposure"]``).
+        Not together with ``exposure_ms``.
 
     Returns
     -------
@@ -428,6 +444,11 @@ def adaptive_sets(
             raise InputError(f"adaptive {name} must be >= 0 projector pixels, got {value!r}")
     if exposure_ms is not None and not float(exposure_ms) > 0:
         raise InputError(f"adaptive exposure_ms must be > 0, got {exposure_ms!r}")
+    if auto_exposure and exposure_ms is not None:
+        raise InputError(
+            "adaptive: give a fixed exposure (--adaptive-exposure-ms) or the automatic one "
+            "(--adaptive-auto-exposure), not both"
+        )
     first = specs[0]
     m0 = default_min_migl(first) if mapping_migl is None else float(mapping_migl)
     if not first.imin < m0 <= first.migl:
@@ -435,6 +456,15 @@ def adaptive_sets(
             f"adaptive mapping_migl must be above imin {first.imin:g} and at most the MIGL "
             f"{first.migl:g}, got {m0:g}"
         )
+    # --- 0. the exposure, chosen on the finest set at its highest MIGL (thesis Sec. 7.3) ------
+    t0 = time.perf_counter()
+    chosen: list[tuple[float, float]] = []  # (exposure, MIGL) of each set the choice captured
+    if auto_exposure:
+        fine = min(specs, key=lambda s: s.pitch_px)
+        choice = choose_exposure(rig, fine, keep_if_unsaturated=True)
+        chosen = [(t, float(fine.migl)) for t, _ in choice.captures]
+        exposure_ms = choice.exposure_ms
+    t_exposure = time.perf_counter() - t0
     settings = None if exposure_ms is None else CameraSettings(exposure_ms=float(exposure_ms))
     proj = rig.projector
     bits = rig.camera_bit_depth
@@ -658,8 +688,10 @@ def adaptive_sets(
         t_boost = time.perf_counter() - t0
 
         if i == owner:
-            captured[:0] = [CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare]
-            newly[:0] = [0] * len(spare)
+            captured[:0] = [CapturedSet(migl=m, exposure_ms=t) for t, m in chosen] + [
+                CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare
+            ]
+            newly[:0] = [0] * (len(chosen) + len(spare))
         # the mapping's fringe orders unwrap the adapted set: the order is the rounded
         # difference between the mapping's phase scaled to this pitch and the wrapped phase
         wrapped = decode_set(composite, spec, bits).wrapped_phase
@@ -696,6 +728,7 @@ def adaptive_sets(
                 "clipped_per_capture": clipped,
                 "absolute_phase": absolute,
                 "images_per_step": {
+                    "exposure": len(chosen) * steps,
                     "mapping": n_map * steps,
                     "adapted": steps,
                     "refit": refits * steps,
@@ -703,6 +736,7 @@ def adaptive_sets(
                     "boost": boosts * steps,
                 },
                 "sets_per_step": {
+                    "exposure": len(chosen),
                     "mapping": n_map,
                     "adapted": 1,
                     "refit": refits,
@@ -710,6 +744,7 @@ def adaptive_sets(
                     "boost": boosts,
                 },
                 "seconds_per_step": {
+                    "exposure": round(t_exposure, 4),
                     "mapping": round(t_map, 4),
                     "map": round(t_build, 4),
                     "adapted": round(t_adapt, 4),
@@ -719,6 +754,7 @@ def adaptive_sets(
                     "bias": round(t_bias, 4),
                 },
                 "blur_sigma_px": blur,
+                "exposure_ms": exposure_ms,
             },
         )
     out = tuple(r for r in results if r is not None)
@@ -739,6 +775,7 @@ def adaptive(
     blur_px: float = 2.0,
     smooth_px: float = 3.0,
     exposure_ms: float | None = None,
+    auto_exposure: bool = False,
 ) -> StrategyResult:
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
@@ -751,7 +788,9 @@ def adaptive(
         A rig whose projector shows projector images.
     spec : FringeSpec
         The set at its highest MIGL.
-    margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px, exposure_ms
+    margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px
+        As :func:`adaptive_sets`.
+    exposure_ms, auto_exposure
         As :func:`adaptive_sets`.
 
     Returns
@@ -784,6 +823,7 @@ def adaptive(
         blur_px=blur_px,
         smooth_px=smooth_px,
         exposure_ms=exposure_ms,
+        auto_exposure=auto_exposure,
     )
     return res
 
@@ -813,7 +853,9 @@ class AdaptiveParams:
         Smoothing of the map from below, projector pixels.
     exposure_ms : float, optional
         Fixed exposure time of every capture (``--adaptive-exposure-ms``); None: the rig's.
-        An automatic choice (``"auto"``, exposure and MIGL together) plugs in here.
+    auto_exposure : bool
+        Choose the exposure first, then the MIGL map (``--adaptive-auto-exposure``; thesis
+        Sec. 7.3, "adaptive + exposure" in docs/compare.md).
 
     References
     ----------
@@ -882,6 +924,15 @@ class AdaptiveParams:
             "cli": "--adaptive-exposure-ms",
         },
     )
+    auto_exposure: bool = field(
+        default=False,
+        metadata={
+            "help": "choose the exposure first (thesis Sec. 7.3: the darkest lit surface at "
+            "the target modulation), then adapt the MIGL at it; the rig's exposure is kept "
+            "where nothing saturates.",
+            "cli": "--adaptive-auto-exposure",
+        },
+    )
 
 
 @register
@@ -934,10 +985,11 @@ class Adaptive(FunctionStrategy):
             blur_px=params.blur_px,
             smooth_px=params.smooth_px,
             exposure_ms=params.exposure_ms,
+            auto_exposure=params.auto_exposure,
         )
 
     def describe(self, params: AdaptiveParams) -> str:
-        """Label of a run: ``"Adaptive <margin> %"``.
+        """Label of a run: ``"Adaptive <margin> %"`` (``" + exposure"`` with the automatic one).
 
         Parameters
         ----------
@@ -950,7 +1002,9 @@ class Adaptive(FunctionStrategy):
 
         Examples
         --------
-        >>> Adaptive().describe(AdaptiveParams())
-        'Adaptive 1.5 %'
+        >>> Adaptive().describe(AdaptiveParams()), Adaptive().describe(AdaptiveParams(
+        ...     auto_exposure=True))
+        ('Adaptive 1.5 %', 'Adaptive 1.5 % + exposure')
         """
-        return f"Adaptive {100 * params.margin:g} %"
+        label = f"Adaptive {100 * params.margin:g} %"
+        return label + " + exposure" if params.auto_exposure else label
