@@ -21,6 +21,8 @@ projector pixel (:class:`~hdrfringe.frames.PixelwiseFringeFrame`). The steps, ea
 7. :func:`projector_migl_map`: steps 4-6 and the clip to ``[imin, 2^Bp - 1]``;
    :func:`sample_map` reads a projector map back at the camera pixels, and
    :func:`lowered_where_clipped` lowers the camera-side level where a capture still clipped.
+8. :func:`boosted_map`: the safe map raised around dim pixels the erosion starved (a second
+   set, merged per pixel where its modulation is larger).
 
 Pure numpy/scipy: no rig, no files.
 """

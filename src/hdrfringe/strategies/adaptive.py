@@ -1,14 +1,17 @@
 """Per-pixel adaptive projection, ``--method adaptive`` (beyond the thesis: its Sec. 7.2).
 
-The steps (docs/adaptive.md):
+The steps (docs/adaptive.md); with ``auto_exposure`` the exposure is chosen first (thesis
+Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
 
 1. **Mapping** in both orientations: a ladder of fringe sets from one period across the
    projector down to within 16x of the finest pitch (it includes the measurement's coarser
    pitches). The first one-period set is captured at a low MIGL (``imin + 20``); its response
    ``I = a g + c`` (:func:`~hdrfringe.saturation.adaptive_map.response_from_fringes`) sets the
-   MIGL of the others: the highest that keeps every pixel 10 % below clipping. The phases are
-   median-smoothed level by level while they are unwrapped temporally into each camera
-   pixel's projector column ``u`` and row ``v``.
+   MIGL of the others: the highest that keeps every pixel 10 % below clipping. Where a
+   highlight holds that so low that more than 2 % of the field carries no fringe, the ladder
+   is captured again at the full MIGL and merged per pixel (the bright capture where it does
+   not clip). The phases are median-smoothed level by level while they are unwrapped
+   temporally into each camera pixel's projector column ``u`` and row ``v``.
 2. **Map**: per camera pixel the highest MIGL that keeps every shift a ``margin`` below
    clipping, carried to the projector (minimum per projector pixel, holes filled, eroded by the
    camera pixel's footprint plus ``blur_px``, smoothed from below;
@@ -19,7 +22,9 @@ The steps (docs/adaptive.md):
    response predicts: :func:`~hdrfringe.saturation.adaptive_map.refined_migl`) and one more
    set where that gains a gray level or more, kept where it does not clip; **check** passes
    where a shift still clipped, lowered from the peak bound and merged there (Eq. 5.1), at most
-   ``iterations``.
+   ``iterations``; a **boost** set where the erosion left pixels far below their own level
+   (a dim pixel next to a bright one: :func:`~hdrfringe.saturation.adaptive_map.boosted_map`),
+   kept for those pixels where its unclipped modulation is larger.
 4. **Phase**: the adapted set's fringe orders come from the mapping (no adapted set at the
    coarser pitches: the measurement's coarser sets are the mapping's own captures), and the
    bias of the map's steps under the blur is subtracted
