@@ -292,8 +292,8 @@ def test_measure_on_the_live_rig_through_the_cli(tmp_path: Path) -> None:
 
 def test_auto_exposures_on_a_replayed_folder_are_refused_in_one_line() -> None:
     """A replayed folder cannot change the exposure: automatic exposures are refused before
-    any capture, even when the folder records an exposure time (before, that case went on to
-    ask the replay for 2.5 ms and failed there, naming a frame)."""
+    any capture with that reason, also when the folder records an exposure time (before, the
+    message blamed a missing exposure time). A list of held exposures still replays."""
     from hdrfringe.captures import Captures
     from hdrfringe.rig.replay import ReplayRig
 
