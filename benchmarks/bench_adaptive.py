@@ -13,7 +13,9 @@ pixels with an absolute phase).
 
 Scenes: the checkerboard with the aperture opened for the black squares (the thesis's
 Sec. 5.2 board) and the white plate under 600 lx (Sec. 4.2). Rows: LPA S=1, DPA 10 % with the
-pending bound, adaptive, adaptive without its boost set, adaptive with the automatic exposure.
+pending bound, adaptive, adaptive without its boost set, adaptive with the automatic exposure;
+``--study`` adds adaptive with the boost's radius fraction and the map-bias threshold varied
+(docs/adaptive.md).
 """
 
 from __future__ import annotations
@@ -40,6 +42,15 @@ STRATEGIES: tuple[tuple[str, str, dict[str, Any]], ...] = (
     ("Adaptive", "adaptive", {}),
     ("Adaptive, no boost", "adaptive", {"boost": False}),
     ("Adaptive + exposure", "adaptive", {"auto_exposure": True}),
+)
+#: ``--study``: the boost's radius fraction and the bias correction's threshold, varied
+#: (module constants of :mod:`hdrfringe.strategies.adaptive`) with the label's parameters.
+STUDY: tuple[tuple[str, dict[str, Any], dict[str, float]], ...] = (
+    ("boost radius x0.25", {}, {"BOOST_RADIUS_FRACTION": 0.25}),
+    ("boost radius x0.75", {}, {"BOOST_RADIUS_FRACTION": 0.75}),
+    ("boost radius x1", {}, {"BOOST_RADIUS_FRACTION": 1.0}),
+    ("no bias correction", {"bias_correction": False}, {}),
+    ("bias corr. >= 0", {}, {"BIAS_MIN_RAD": 0.0}),
 )
 
 
@@ -90,13 +101,24 @@ def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[
     }
 
 
-def run(width: int, height: int) -> dict[str, dict[str, dict[str, Any]]]:
-    """Every strategy on every scene: ``{scene: {label: numbers}}``."""
+def run(width: int, height: int, study: bool = False) -> dict[str, dict[str, dict[str, Any]]]:
+    """Every strategy on every scene: ``{scene: {label: numbers}}`` (and the study's rows)."""
+    import hdrfringe.strategies.adaptive as adaptive_module
+
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for scene, make in SCENES.items():
         out[scene] = {}
         for label, method, params in STRATEGIES:
             out[scene][label] = phase_error(make(width, height), method, params)
+        for label, params, constants in STUDY if study else ():
+            saved = {k: getattr(adaptive_module, k) for k in constants}
+            try:
+                for k, v in constants.items():
+                    setattr(adaptive_module, k, v)
+                out[scene][label] = phase_error(make(width, height), "adaptive", params)
+            finally:
+                for k, v in saved.items():
+                    setattr(adaptive_module, k, v)
     return out
 
 
@@ -105,9 +127,10 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--camera", default="648x494", help="camera WIDTHxHEIGHT (default 648x494)")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
+    ap.add_argument("--study", action="store_true", help="also the boost/bias variants")
     args = ap.parse_args(argv)
     width, height = (int(x) for x in args.camera.lower().split("x"))
-    table = run(width, height)
+    table = run(width, height, args.study)
     print(f"camera {width}x{height}, 4-step, pitches {', '.join(f'{p:g}' for p in PITCHES)} px")
     head = f"{'scene':14} {'strategy':20} {'images':>6} {'bias':>9} {'std':>8} {'RMSE':>8} "
     print(head + f"{'coverage':>9} {'time s':>7}")
