@@ -826,7 +826,7 @@ def adaptive(
     ...                    lighting=Lighting(ambient_lux=600))
     >>> res = adaptive(rig, FringeSpec("sinusoidal", 4, 8.0))
     >>> res.details["sets_per_step"]
-    {'mapping': 4, 'adapted': 1, 'refit': 1, 'check': 0}
+    {'exposure': 0, 'mapping': 4, 'adapted': 1, 'refit': 1, 'check': 0, 'boost': 0}
     """
     (res,) = adaptive_sets(
         rig,
