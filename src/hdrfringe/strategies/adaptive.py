@@ -90,9 +90,9 @@ FIT_PIXELS = 20000
 BOOST_RATIO = 0.7
 #: The boost set raises the projector pixels within this fraction of the erosion radius of
 #: each starved pixel: its own footprint, not the bright neighbour's, whose spill through the
-#: blur would bias its phase (checkerboard std at 648 x 494 / 160 x 120, mrad: fraction 0.25
-#: 47 / -, 0.5 39.6 / 64, 1.0 40.3 / 122; without the boost 39.8 before the gain restriction /
-#: 82; /tmp experiments recorded in docs/adaptive.md).
+#: blur would bias its phase (checkerboard std in mrad at 648 x 494, bench_adaptive.py
+#: --study: fraction 0.25 47.2, 0.5 39.6, 0.75 39.5, 1.0 40.3, no boost 44.1; at 160 x 120,
+#: tests/test_adaptive.py: 0.5 64, 1.0 122, no boost 82; docs/adaptive.md).
 BOOST_RADIUS_FRACTION = 0.5
 #: Fraction of the mapped pixels short of light above which the boost set is captured.
 BOOST_MIN_FRACTION = 0.002
