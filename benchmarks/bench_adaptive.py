@@ -12,7 +12,10 @@ captured, the error's mean (bias) and standard deviation, its RMSE and the cover
 pixels with an absolute phase).
 
 Scenes: the checkerboard with the aperture opened for the black squares (the thesis's
-Sec. 5.2 board) and the white plate under 600 lx (Sec. 4.2).
+Sec. 5.2 board) and the white plate under 600 lx (Sec. 4.2). Rows: LPA S=1, DPA 10 % with the
+pending bound, adaptive, adaptive without its boost set, adaptive with the automatic exposure;
+``--study`` adds adaptive with the boost's radius fraction and the map-bias threshold varied
+(docs/adaptive.md).
 """
 
 from __future__ import annotations
@@ -37,6 +40,17 @@ STRATEGIES: tuple[tuple[str, str, dict[str, Any]], ...] = (
     ("LPA S=1", "lpa", {"step": 1.0}),
     ("DPA 10 % + bound", "dpa", {"threshold": 0.1, "bound_pending": True}),
     ("Adaptive", "adaptive", {}),
+    ("Adaptive, no boost", "adaptive", {"boost": False}),
+    ("Adaptive + exposure", "adaptive", {"auto_exposure": True}),
+)
+#: ``--study``: the boost's radius fraction and the bias correction's threshold, varied
+#: (module constants of :mod:`hdrfringe.strategies.adaptive`) with the label's parameters.
+STUDY: tuple[tuple[str, dict[str, Any], dict[str, float]], ...] = (
+    ("boost radius x0.25", {}, {"BOOST_RADIUS_FRACTION": 0.25}),
+    ("boost radius x0.75", {}, {"BOOST_RADIUS_FRACTION": 0.75}),
+    ("boost radius x1", {}, {"BOOST_RADIUS_FRACTION": 1.0}),
+    ("no bias correction", {"bias_correction": False}, {}),
+    ("bias corr. >= 0", {}, {"BIAS_MIN_RAD": 0.0}),
 )
 
 
@@ -87,13 +101,50 @@ def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[
     }
 
 
-def run(width: int, height: int) -> dict[str, dict[str, dict[str, Any]]]:
-    """Every strategy on every scene: ``{scene: {label: numbers}}``."""
+def run(width: int, height: int, study: bool = False) -> dict[str, dict[str, dict[str, Any]]]:
+    """Every strategy on every scene: ``{scene: {label: numbers}}`` (and the study's rows)."""
+    import hdrfringe.strategies.adaptive as adaptive_module
+
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for scene, make in SCENES.items():
         out[scene] = {}
         for label, method, params in STRATEGIES:
             out[scene][label] = phase_error(make(width, height), method, params)
+        for label, params, constants in STUDY if study else ():
+            saved = {k: getattr(adaptive_module, k) for k in constants}
+            try:
+                for k, v in constants.items():
+                    setattr(adaptive_module, k, v)
+                out[scene][label] = phase_error(make(width, height), "adaptive", params)
+            finally:
+                for k, v in saved.items():
+                    setattr(adaptive_module, k, v)
+    return out
+
+
+def specular_breakdown(width: int, height: int) -> list[tuple[str, int, float]]:
+    """Adaptive on the specular part: phase-error std by distance (camera px) to the pixels
+    it leaves uncovered (the highlight), ``(band, pixels, std rad)``."""
+    from scipy import ndimage
+
+    from hdrfringe.rig.factory import virtual_rig
+
+    rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
+    r = phase_error(rig, "adaptive", {})
+    truth = rig.truth()
+    err = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
+    ok = truth.valid & np.isfinite(err)
+    dist = ndimage.distance_transform_edt(ok | ~truth.valid)
+    out = [("all", int(ok.sum()), float(err[ok].std()))]
+    for lo, hi in ((0, 3), (3, 10), (10, 30), (30, np.inf)):
+        m = ok & (dist >= lo) & (dist < hi)
+        out.append((f"{lo}-{hi} px", int(m.sum()), float(err[m].std())))
+    # the same without the map-bias correction (docs/adaptive.md, step 4)
+    rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
+    r = phase_error(rig, "adaptive", {"bias_correction": False})
+    err = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
+    ok = truth.valid & np.isfinite(err)
+    out.append(("all, no bias correction", int(ok.sum()), float(err[ok].std())))
     return out
 
 
@@ -102,26 +153,39 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--camera", default="648x494", help="camera WIDTHxHEIGHT (default 648x494)")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
+    ap.add_argument("--study", action="store_true", help="also the boost/bias variants")
+    ap.add_argument(
+        "--specular",
+        action="store_true",
+        help="only: adaptive's error by distance to the highlight",
+    )
     args = ap.parse_args(argv)
     width, height = (int(x) for x in args.camera.lower().split("x"))
-    table = run(width, height)
+    if args.specular:
+        print(f"specular part, adaptive, camera {width}x{height}: std by distance to uncovered")
+        for band, n, std in specular_breakdown(width, height):
+            print(f"  {band:>24} {n:8d} px  std {std:.4f} rad")
+        return 0
+    table = run(width, height, args.study)
     print(f"camera {width}x{height}, 4-step, pitches {', '.join(f'{p:g}' for p in PITCHES)} px")
-    head = f"{'scene':14} {'strategy':18} {'images':>6} {'bias':>9} {'std':>8} {'RMSE':>8} "
+    head = f"{'scene':14} {'strategy':20} {'images':>6} {'bias':>9} {'std':>8} {'RMSE':>8} "
     print(head + f"{'coverage':>9} {'time s':>7}")
     for scene, rows in table.items():
         for label, r in rows.items():
             print(
-                f"{scene:14} {label:18} {r['images']:6d} {r['bias_rad']:9.5f} "
+                f"{scene:14} {label:20} {r['images']:6d} {r['bias_rad']:9.5f} "
                 f"{r['std_rad']:8.5f} {r['rmse_rad']:8.5f} {r['coverage']:9.4f} "
                 f"{r['seconds']:7.2f}"
             )
-        ad = rows["Adaptive"]
         lpa, dpa = rows["LPA S=1"], rows["DPA 10 % + bound"]
-        print(
-            f"{'':14} adaptive/LPA std {ad['std_rad'] / lpa['std_rad']:.3f}, images "
-            f"{ad['images']}/{dpa['images']} of DPA+bound = {ad['images'] / dpa['images']:.3f}; "
-            f"steps {ad['details']['images_per_step']}, s {ad['details']['seconds_per_step']}"
-        )
+        for name in ("Adaptive", "Adaptive + exposure"):
+            ad = rows[name]
+            print(
+                f"{'':14} {name}/LPA std {ad['std_rad'] / lpa['std_rad']:.3f}, images "
+                f"{ad['images']}/{dpa['images']} of DPA+bound = "
+                f"{ad['images'] / dpa['images']:.3f}; steps {ad['details']['images_per_step']}, "
+                f"s {ad['details']['seconds_per_step']}"
+            )
     if args.json:
         for rows in table.values():
             for r in rows.values():

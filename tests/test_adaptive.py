@@ -18,12 +18,21 @@ import pytest
 from scipy.ndimage import gaussian_filter1d
 
 import hdrfringe.strategies.adaptive as adaptive_module
+from hdrfringe.errors import InputError
+from hdrfringe.frames import UniformFrame
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.pipeline import composite_captures, measure
-from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, plate, white_plate
+from hdrfringe.rig.scenes import (
+    BLACK_PLATE_REFLECTIVITY,
+    checkerboard,
+    plate,
+    specular_part,
+    white_plate,
+)
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.saturation.adaptive_map import (
+    boosted_map,
     erode_map,
     fill_holes,
     fit_blur_sigma,
@@ -160,6 +169,23 @@ def test_projector_map_never_exceeds_a_camera_level_within_the_radius() -> None:
     assert out[0, 0] == 3.0 and np.isnan(out[0, 1])  # both land on pixel 0: the minimum
 
 
+def test_boosted_map_raises_a_disk_around_the_starved_pixels_only() -> None:
+    """The boost map is the safe map raised to each given camera pixel's level within the
+    radius, nowhere else and never lowered. Rejects a scatter without the dilation (one
+    projector pixel raised) and a maximum that lowers the floor."""
+    base = np.full((9, 20), 64.0)
+    base[:, 15:] = 200.0
+    cam = np.array([[255.0, np.nan, 150.0]])
+    u, v = np.array([[5.0, 9.0, 18.0]]), np.array([[4.0, 4.0, 4.0]])
+    out = boosted_map(base, cam, u, v, radius=2.0, projector_full=255.0)
+    yy, xx = np.mgrid[0:9, 0:20]
+    disk = (xx - 5) ** 2 + (yy - 4) ** 2 <= 4
+    assert np.all(out[disk] == 255.0) and disk.sum() == 13
+    assert np.all(out >= base)  # the 150 next to the 200 area leaves it at 200
+    assert np.array_equal(out[~disk], base[~disk])
+    assert np.array_equal(boosted_map(base, cam * np.nan, u, v, radius=2, projector_full=255), base)
+
+
 def test_median_smooth_keeps_ramps_and_steps_and_removes_outliers() -> None:
     yy, xx = np.mgrid[0:12, 0:15].astype(float)
     ramp = 3.0 * xx - 2.0 * yy
@@ -284,6 +310,59 @@ def test_the_board_map_follows_the_squares(board: dict[str, Any]) -> None:
     assert np.percentile(idx[~white], 75) > 245.0  # away from the edges: near the top
 
 
+def test_the_boost_set_feeds_the_board_edges_and_stays_off_the_plate(
+    board: dict[str, Any], lit_plate: dict[str, Any], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On the board the erosion starves the black pixels next to white squares; the boost set
+    (4 images) raises them and lowers the std (160 x 120: 0.064 rad against 0.082 without it).
+    Rejects no boost, and a boost over the full erosion radius, whose raised area reaches the
+    white neighbour and whose spill biases the edge pixels (0.12 rad). The plate's map is
+    smooth: no boost set there."""
+    fine = board["adaptive"].strategy_results[-1]
+    assert fine.details["boost_passes"] == 1 and fine.details["images_per_step"]["boost"] == 4
+    assert lit_plate["adaptive"].strategy_results[-1].details["boost_passes"] == 0
+
+    def std_of(**kw: Any) -> float:
+        rig = board_rig()
+        res = adaptive_sets(rig, SPECS, **kw)[-1]
+        return phase_error(rig, res.details["absolute_phase"], SPECS[-1].pitch_px)[0]
+
+    without = std_of(boost=False)
+    monkeypatch.setattr(adaptive_module, "BOOST_RADIUS_FRACTION", 1.0)
+    full_radius = std_of()
+    print(f"\nboard std: boost {board['std_adaptive']:.4f}, none {without:.4f}, "
+          f"full radius {full_radius:.4f}")  # fmt: skip
+    assert board["std_adaptive"] < 0.9 * without
+    assert board["std_adaptive"] < 0.7 * full_radius
+
+
+def test_a_highlight_that_holds_the_mapping_low_gets_a_bright_ladder() -> None:
+    """The specular part: its highlight keeps the automatic mapping MIGL at 60-66, where the
+    diffuse metal carries no fringe (a quarter of the field unmapped: coverage 0.74). The
+    ladder captured again at the full MIGL and merged per pixel maps it: coverage 0.986 (the
+    rest is the highlight, which clips at any MIGL, as it does for LPA), no order errors.
+    Rejects the single low ladder (0.74) and a merge that loses mapped pixels."""
+    rig = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
+    fine = adaptive_sets(rig, SPECS)[-1]
+    d = fine.details
+    assert d["mapping_bright_migl"] == 255.0 and d["images_per_step"]["mapping"] == 32
+    truth = rig.truth()
+    err = d["absolute_phase"] - TWO_PI * truth.u / SPECS[-1].pitch_px
+    ok = truth.valid & np.isfinite(err)
+    assert ok.sum() >= 0.98 * truth.valid.sum()
+    assert np.mean(np.abs(err[ok]) > np.pi) < 1e-3
+    lost = truth.valid & ~ok
+    assert np.all(fine.never_unsaturated[lost] | ~np.isfinite(d["absolute_phase"][lost]))
+    # why not full coverage: noise-free, part of the highlight clips under the projector's
+    # imin alone (no MIGL helps; a shorter exposure would), more under the fringe at imin + 20
+    at_imin = rig.expected_signal([UniformFrame(SPECS[-1].imin)])[0] >= 255
+    at_60 = rig.expected_signal(FringeSpec("sinusoidal", 4, 16.0, migl=60.0).frames()) >= 255
+    floor = float((at_60.any(axis=0) & truth.valid).mean())
+    print(f"\nspecular 160x120: lost {lost.mean():.4f}, clip at imin {at_imin.mean():.4f}, "
+          f"at MIGL 60 {floor:.4f}")  # fmt: skip
+    assert at_imin.any() and lost.mean() <= floor + 0.01
+
+
 # ---------------------------------------------------------------------------------------------
 # the broken variants the design rejects (checkerboard, no check pass)
 # ---------------------------------------------------------------------------------------------
@@ -335,10 +414,15 @@ def test_a_mapping_off_by_half_a_fringe_clips(
 # ---------------------------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("auto_exposure", [False, True])
 @pytest.mark.parametrize(("reflectivity", "lux"), [(0.45, 60.0)])
-def test_nothing_saturated_gives_the_conventional_result(reflectivity: float, lux: float) -> None:
+def test_nothing_saturated_gives_the_conventional_result(
+    reflectivity: float, lux: float, auto_exposure: bool
+) -> None:
     """Requirement 4: without saturation every projector pixel is at the top MIGL and the
-    phase is the conventional one within noise, with the same coverage."""
+    phase is the conventional one within noise, with the same coverage. With the automatic
+    exposure (adaptive + exposure) the rig's exposure is kept after one set: a choice that
+    raised it for the dim plate would not be the conventional result."""
 
     def rig() -> SimulatedRig:
         return SimulatedRig(
@@ -349,7 +433,9 @@ def test_nothing_saturated_gives_the_conventional_result(reflectivity: float, lu
     conv = conventional(rig(), fine)
     assert conv.images.max() < 255
     r = rig()
-    res = adaptive_sets(r, SPECS)[-1]
+    res = adaptive_sets(r, SPECS, auto_exposure=auto_exposure)[-1]
+    assert res.details["images_per_step"]["exposure"] == (4 if auto_exposure else 0)
+    assert res.details["exposure_ms"] == (10.0 if auto_exposure else None)
     assert np.all(res.details["projector_migl_map"] == 255.0)
     assert res.details["refit_passes"] == 0 and res.details["check_passes"] == 0
     std_a, cov_a = phase_error(r, res.details["absolute_phase"], fine.pitch_px)
@@ -361,11 +447,17 @@ def test_nothing_saturated_gives_the_conventional_result(reflectivity: float, lu
     assert std_a == pytest.approx(std_c, rel=0.1)
 
 
+def test_automatic_exposure_is_not_taken_with_a_fixed_one() -> None:
+    with pytest.raises(InputError, match="not both"):
+        adaptive_sets(plate_rig(), SPECS, exposure_ms=5.0, auto_exposure=True)
+
+
 def test_measure_adaptive_through_the_cli(tmp_path: Path) -> None:
     out = tmp_path / "out"
     res = run_cli(
         "measure", "--rig", "sim", "--ambient-lux", "600", "--pitch", "8", "--no-centerline",
-        "--method", "adaptive", "--adaptive-margin", "0.02", "-o", str(out), timeout=600,
+        "--method", "adaptive", "--adaptive-margin", "0.02", "--adaptive-auto-exposure",
+        "-o", str(out), timeout=600,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     assert "adaptive:" in res.stdout
@@ -373,6 +465,7 @@ def test_measure_adaptive_through_the_cli(tmp_path: Path) -> None:
     assert metrics["method"] == "adaptive"
     block = metrics["adaptive"]["vertical"]
     assert block["margin"] == 0.02 and block["images_per_step"]["mapping"] == 16
+    assert block["images_per_step"]["exposure"] >= 4  # the choice's sets are counted
     assert metrics["images_captured"] == sum(block["images_per_step"].values())
     for name in ("projector_migl_map", "camera_migl"):
         assert (out / f"{name}.tiff").is_file() and (out / f"{name}.png").is_file()

@@ -172,9 +172,9 @@ def test_images_counted_are_the_images_the_rig_captured(monkeypatch: pytest.Monk
 
 def test_done_when_adaptive_on_the_checkerboard_at_the_tests_camera() -> None:
     """Issue 14's done-when at the tests' camera (160x120): adaptive covers the checkerboard with
-    at most a quarter of DPA+bound's images and a phase-error std within 5 % of LPA S=1's. At
-    the full 648x494 camera the std criterion is not met (docs/compare.md gives 1.15x): this
-    test guards the small-camera result, not the full-size one."""
+    at most a quarter of DPA+bound's images and a phase-error std within 5 % of LPA S=1's (at
+    this camera well inside: adaptive with its boost set is at about 0.5x LPA S=1's). This
+    test guards the small-camera result; benchmarks/bench_compare.py the full-size one."""
     rows = cmp.compare(["checkerboard"], ["lpa-1", "dpa-bound", "adaptive"], resolution=RESOLUTION)
     by = {r.method: r for r in rows}
     ad, lpa, dpa = by["adaptive"], by["lpa-1"], by["dpa-bound"]

@@ -288,3 +288,21 @@ def test_measure_on_the_live_rig_through_the_cli(tmp_path: Path) -> None:
     assert m["exposures_ms"] == [[10.0, 5.0, 2.5, 1.25, 0.625, 20.0]] * 2
     assert m["saturated_fraction"] == 0.0 and m["never_unsaturated_fraction"] == 0.0
     assert (out / "exposure_ms_index.tiff").is_file() and (out / "exposure_ms_pie.png").is_file()
+
+
+def test_auto_exposures_on_a_replayed_folder_are_refused_in_one_line() -> None:
+    """A replayed folder cannot change the exposure: automatic exposures are refused before
+    any capture with that reason, also when the folder records an exposure time (before, the
+    message blamed a missing exposure time). A list of held exposures still replays."""
+    from hdrfringe.captures import Captures
+    from hdrfringe.rig.replay import ReplayRig
+
+    spec = FringeSpec("sinusoidal", 4, 16.0)
+    live = virtual_rig(scene="checkerboard", resolution=(64, 48), seed=0)
+    frames = spec.frames()
+    caps = Captures(frames, live.capture(frames), 8, exposure_ms=[10.0] * 4, name="folder")
+    rig = ReplayRig(caps)
+    with pytest.raises(InputError, match=r"replayed folder cannot; .*--exposures") as err:
+        multiexposure(rig, spec)
+    assert "\n" not in str(err.value) and rig.captured == 0
+    assert multiexposure(rig, spec, exposures="10").sets_captured == 1

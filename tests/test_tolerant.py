@@ -460,3 +460,23 @@ def test_decode_captures_pairs_inverted_sets_only_when_excluding(
     with pytest.raises(InputError, match="saturated mode"):
         decode_captures(caps, saturated="maybe")
     assert isinstance(caps.projector, ProjectorInfo)
+
+
+def test_inverted_on_a_replayed_sweep_is_refused_in_one_line() -> None:
+    """``--method tolerant --inverted`` replayed from a MIGL sweep: the sweep holds no set at a
+    180 deg phase offset, so the inverted set cannot be replayed. Before, the replay's own
+    "holds no capture of frame ..." error advised capturing another MIGL sweep, which never
+    helps; now a one-line InputError says what to do. Without --inverted the same folder runs."""
+    from hdrfringe.rig.replay import ReplayRig
+
+    spec = FringeSpec("sinusoidal", 4, 16.0)
+    live = virtual_rig(scene="checkerboard", resolution=(64, 48), seed=0)
+    sweep = [FringeSpec("sinusoidal", 4, 16.0, migl=m) for m in (255.0, 150.0, 60.0)]
+    frames = [f for s in sweep for f in s.frames()]
+    imgs = live.capture(frames)
+    assert (imgs[:4] == 255).any()  # the first set clips: tolerant asks for the inverted set
+    rig = ReplayRig(Captures(frames, imgs, 8, name="sweep"))
+    with pytest.raises(InputError, match=r"no inverted set .* drop --inverted") as err:
+        tolerant(rig, spec, inverted=True)
+    assert "\n" not in str(err.value)
+    assert tolerant(rig, spec).details["inverted"] is False

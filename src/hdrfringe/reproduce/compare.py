@@ -204,7 +204,7 @@ METHODS: tuple[Method, ...] = (
     Method("tolerant", "tolerant", "tolerant"),
     Method("tolerant-inverted", "tolerant + inverted", "tolerant", {"inverted": True}),
     Method("adaptive", "adaptive", "adaptive"),
-    Method("adaptive-exposure", "adaptive + exposure", "adaptive", exposure=True),
+    Method("adaptive-exposure", "adaptive + exposure", "adaptive", {"auto_exposure": True}),
 )
 
 
@@ -396,6 +396,9 @@ def _note(res: Any) -> str:
     values = [s.migl for s in res.captured if s.migl is not None]
     exposures = sorted({s.exposure_ms for s in res.captured if s.exposure_ms is not None})
     parts = []
+    if res.details.get("exposure_ms") is not None and res.method == "adaptive":
+        parts.append(f"exposure {res.details['exposure_ms']:g} ms")
+        exposures = []
     if "chosen_migl" in res.details:
         parts.append(f"MIGL {res.details['chosen_migl']:g}")
     elif values and min(values) < max(values):

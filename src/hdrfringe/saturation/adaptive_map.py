@@ -21,6 +21,8 @@ projector pixel (:class:`~hdrfringe.frames.PixelwiseFringeFrame`). The steps, ea
 7. :func:`projector_migl_map`: steps 4-6 and the clip to ``[imin, 2^Bp - 1]``;
    :func:`sample_map` reads a projector map back at the camera pixels, and
    :func:`lowered_where_clipped` lowers the camera-side level where a capture still clipped.
+8. :func:`boosted_map`: the safe map raised around dim pixels the erosion starved (a second
+   set, merged per pixel where its modulation is larger).
 
 Pure numpy/scipy: no rig, no files.
 """
@@ -32,7 +34,7 @@ from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.ndimage import distance_transform_edt, gaussian_filter, grey_erosion
+from scipy.ndimage import distance_transform_edt, gaussian_filter, grey_dilation, grey_erosion
 from scipy.optimize import minimize_scalar
 
 from hdrfringe._validation import full_scale, saturation_count
@@ -40,6 +42,7 @@ from hdrfringe.errors import InputError
 from hdrfringe.saturation.estimate import saturated_peak_lower_bound
 
 __all__ = [
+    "boosted_map",
     "erode_map",
     "fill_holes",
     "fit_blur_sigma",
@@ -560,6 +563,68 @@ def projector_migl_map(
         c0, c1 = max(cols[0] - pad, 0), min(cols[-1] + pad + 1, m.shape[1])
         m[r0:r1, c0:c1] = smooth_below(erode_map(m[r0:r1, c0:c1], radius), sigma)
     return np.clip(m, float(imin), float(projector_full))
+
+
+def boosted_map(
+    projector_map: ArrayLike,
+    camera_migl: ArrayLike,
+    u: ArrayLike,
+    v: ArrayLike,
+    *,
+    radius: float,
+    projector_full: float,
+) -> F64:
+    """A projector map raised around the given camera pixels to their own levels.
+
+    The erosion of :func:`projector_migl_map` lowers a dim camera pixel next to a bright one
+    to the bright one's level (their projector neighbourhoods overlap). This map is the
+    complement: each projector pixel within ``radius`` of a camera pixel with a finite
+    ``camera_migl`` takes the largest such level (a maximum scattered, then a grey dilation
+    over a disk), never below ``projector_map``. Its bright neighbours may clip in it; a
+    second set projected with it is merged per pixel where it is better (the strategy keeps
+    the first set's images elsewhere).
+
+    Parameters
+    ----------
+    projector_map : array_like (h, w)
+        The safe map (the floor of the result).
+    camera_migl : array_like (H, W)
+        Levels of the camera pixels to raise (NaN: leave alone).
+    u, v : array_like (H, W)
+        Projector column and row of each camera pixel.
+    radius : float
+        Dilation radius in projector pixels (>= 0).
+    projector_full : float
+        Highest value.
+
+    Returns
+    -------
+    ndarray (h, w) float64
+        ``>= projector_map``, at most ``max(projector_map, projector_full)``.
+
+    References
+    ----------
+    Thesis Sec. 7.2 (future work), Eq. 5.1 (the per-pixel merge of two sets); docs/adaptive.md.
+
+    Examples
+    --------
+    A dim pixel at projector column 3 whose safe map there is 64 (eroded by a bright
+    neighbour at column 1) asks for 255:
+
+    >>> base = np.array([[64.0, 64.0, 64.0, 64.0, 64.0, 200.0]])
+    >>> boosted_map(base, [[255.0]], [[3.0]], [[0.0]], radius=1, projector_full=255).tolist()
+    [[64.0, 64.0, 255.0, 255.0, 255.0, 200.0]]
+    """
+    base = _image(projector_map, "projector map")
+    if not float(radius) >= 0:
+        raise InputError(f"dilation radius must be >= 0 projector pixels, got {radius!r}")
+    high = -scatter_min(-_image(camera_migl, "camera_migl"), u, v, (base.shape[0], base.shape[1]))
+    if not np.isfinite(high).any():
+        return base.copy()
+    high = np.where(np.isfinite(high), np.minimum(high, float(projector_full)), -np.inf)
+    if radius >= 1:
+        high = grey_dilation(high, footprint=_disk(float(radius)), mode="nearest")
+    return np.maximum(base, high)
 
 
 def sample_map(projector_map: ArrayLike, u: ArrayLike, v: ArrayLike) -> F64:

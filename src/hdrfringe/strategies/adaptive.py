@@ -1,14 +1,17 @@
 """Per-pixel adaptive projection, ``--method adaptive`` (beyond the thesis: its Sec. 7.2).
 
-The steps (docs/adaptive.md):
+The steps (docs/adaptive.md); with ``auto_exposure`` the exposure is chosen first (thesis
+Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
 
 1. **Mapping** in both orientations: a ladder of fringe sets from one period across the
    projector down to within 16x of the finest pitch (it includes the measurement's coarser
    pitches). The first one-period set is captured at a low MIGL (``imin + 20``); its response
    ``I = a g + c`` (:func:`~hdrfringe.saturation.adaptive_map.response_from_fringes`) sets the
-   MIGL of the others: the highest that keeps every pixel 10 % below clipping. The phases are
-   median-smoothed level by level while they are unwrapped temporally into each camera
-   pixel's projector column ``u`` and row ``v``.
+   MIGL of the others: the highest that keeps every pixel 10 % below clipping. Where a
+   highlight holds that so low that more than 2 % of the field carries no fringe, the ladder
+   is captured again at the full MIGL and merged per pixel (the bright capture where it does
+   not clip). The phases are median-smoothed level by level while they are unwrapped
+   temporally into each camera pixel's projector column ``u`` and row ``v``.
 2. **Map**: per camera pixel the highest MIGL that keeps every shift a ``margin`` below
    clipping, carried to the projector (minimum per projector pixel, holes filled, eroded by the
    camera pixel's footprint plus ``blur_px``, smoothed from below;
@@ -19,7 +22,9 @@ The steps (docs/adaptive.md):
    response predicts: :func:`~hdrfringe.saturation.adaptive_map.refined_migl`) and one more
    set where that gains a gray level or more, kept where it does not clip; **check** passes
    where a shift still clipped, lowered from the peak bound and merged there (Eq. 5.1), at most
-   ``iterations``.
+   ``iterations``; a **boost** set where the erosion left pixels far below their own level
+   (a dim pixel next to a bright one: :func:`~hdrfringe.saturation.adaptive_map.boosted_map`),
+   kept for those pixels where its unclipped modulation is larger.
 4. **Phase**: the adapted set's fringe orders come from the mapping (no adapted set at the
    coarser pitches: the measurement's coarser sets are the mapping's own captures), and the
    bias of the map's steps under the blur is subtracted
@@ -47,6 +52,7 @@ from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.base import Rig
 from hdrfringe.saturation.adaptive_map import (
+    boosted_map,
     fill_holes,
     fit_blur_sigma,
     footprint_px,
@@ -68,6 +74,7 @@ from hdrfringe.strategies.base import (
     default_min_migl,
     register,
 )
+from hdrfringe.strategies.exposure import choose_exposure
 from hdrfringe.unwrap import unwrap_temporal
 
 __all__ = ["Adaptive", "AdaptiveParams", "adaptive", "adaptive_sets", "mapping_pitches"]
@@ -78,6 +85,25 @@ MAPPING_RATIO = 16.0
 AUTO_MAPPING_MARGIN = 0.1
 #: Pixels the map-bias blur is fitted on (evenly spread over the valid ones).
 FIT_PIXELS = 20000
+#: A pixel whose received modulation (MIGL - imin) is below this fraction of its own level's
+#: is short of light (the boost set raises it).
+BOOST_RATIO = 0.7
+#: The boost set raises the projector pixels within this fraction of the erosion radius of
+#: each starved pixel: its own footprint, not the bright neighbour's, whose spill through the
+#: blur would bias its phase (checkerboard std in mrad at 648 x 494, bench_adaptive.py
+#: --study: fraction 0.25 47.2, 0.5 39.6, 0.75 39.5, 1.0 40.3, no boost 44.1; at 160 x 120,
+#: tests/test_adaptive.py: 0.5 64, 1.0 122, no boost 82; docs/adaptive.md).
+BOOST_RADIUS_FRACTION = 0.5
+#: Fraction of the mapped pixels short of light above which the boost set is captured.
+BOOST_MIN_FRACTION = 0.002
+#: Predicted map biases (rad) below this are not subtracted: the model (one Gaussian blur for
+#: the field, the map read at the mapped coordinates) is not that exact. On the 600 lx plate,
+#: whose map is smooth, subtracting biases of a few mrad raised the phase std by 2.7 %
+#: (docs/adaptive.md); the steps next to dark squares give tenths of a radian.
+BIAS_MIN_RAD = 0.05
+#: Fraction of the camera pixels that neither clip nor decode in the low mapping ladder above
+#: which the ladder is captured again at the full MIGL and merged per pixel.
+BRIGHT_MIN_FRACTION = 0.02
 #: Window (camera pixels) of the median that denoises each mapping level before unwrapping.
 MEDIAN_WINDOW = 5
 
@@ -129,6 +155,9 @@ class _Mapping:
     gain: NDArray[np.float64]
     ambient: NDArray[np.float64]
     saturated: NDArray[np.bool_]
+    #: MIGL of the bright ladder (None: not captured) and, per set, the MIGL of each pixel
+    bright_migl: float | None = None
+    index: dict[str, list[NDArray[np.float32]]] = field(default_factory=dict)
 
 
 def _capture(rig: Rig, frames: list[Any], settings: CameraSettings | None) -> NDArray:
@@ -149,41 +178,58 @@ def _measure_mapping(
     ``migl``. With ``auto`` the others are captured at the highest MIGL its response says
     keeps every pixel :data:`AUTO_MAPPING_MARGIN` below clipping (never below ``migl``): a
     brighter mapping is a less noisy one. The caller puts first the orientation whose fringe
-    orders matter least (one the measurement does not use).
+    orders matter least (one the measurement does not use). With ``auto``, where more than
+    :data:`BRIGHT_MIN_FRACTION` of the pixels neither clipped nor decoded in every set (a
+    scene whose highlight holds the mapping MIGL so low that its dim surface carries no fringe), the
+    ladder is captured once more at the full MIGL and merged per pixel: the bright capture
+    where it did not clip (Eq. 5.1).
     """
     bits = rig.camera_bit_depth
     imin = template.imin
     images: dict[str, list[NDArray]] = {}
     migls: dict[str, list[float]] = {}
+    index: dict[str, list[NDArray[np.float32]]] = {}
     absolute: dict[str, NDArray[np.float64]] = {}
     coords: dict[str, NDArray[np.float64]] = {}
     gains: list[NDArray[np.float64]] = []
     ambients: list[NDArray[np.float64]] = []
-    weights: list[float] = []
+    weights: list[NDArray[np.float64]] = []
     saturated = np.zeros(rig.image_shape, bool)
+    decodes = np.ones(rig.image_shape, bool)  # valid in every set
     m_next = migl
+
+    def spec_at(orient: str, p: float, m: float) -> FringeSpec:
+        return FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
+
+    def add_response(dec: Any, m: float | NDArray, where: NDArray[np.bool_]) -> None:
+        mm = np.broadcast_to(np.asarray(m, np.float64), where.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = 2.0 * dec.modulation / (mm - imin)
+            c = dec.mean_intensity - g * (mm + imin) / 2.0
+        ok = where & dec.valid
+        gains.append(np.where(ok, g, np.nan))
+        ambients.append(np.where(ok, c, np.nan))
+        weights.append(np.where(ok, (mm - imin) ** 2, 0.0))  # the estimate's SNR squared
+
+    # pass 1: the ladder at the low MIGL(s)
     for orient, ps in pitches.items():
         imgs: list[NDArray] = []
-        decoded: list[Any] = []
         ms: list[float] = []
         for p in ps:
             m = migl if not gains and not imgs else m_next
-            spec = FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
+            spec = spec_at(orient, p, m)
             imgs.append(_capture(rig, spec.frames(), settings))
-            decoded.append(decode_set(imgs[-1], spec, bits))
+            dec = decode_set(imgs[-1], spec, bits)
             ms.append(m)
             saturated |= saturation_count(imgs[-1], bits) > 0
+            decodes &= dec.valid
             if p == ps[0]:  # a one-period set: the response
-                g, c = response_from_fringes(
-                    decoded[-1].mean_intensity, decoded[-1].modulation, m, imin
-                )
-                gains.append(np.where(decoded[-1].valid, g, np.nan))
-                ambients.append(np.where(decoded[-1].valid, c, np.nan))
-                weights.append((m - imin) ** 2)  # the estimate's SNR squared
+                g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
+                add_response(dec, m, np.ones(g.shape, bool))
                 if auto and len(gains) == 1:
                     level = safe_migl(
-                        median_smooth(gains[0], MEDIAN_WINDOW),
-                        median_smooth(ambients[0], MEDIAN_WINDOW),
+                        median_smooth(np.where(dec.valid, g, np.nan), MEDIAN_WINDOW),
+                        median_smooth(np.where(dec.valid, c, np.nan), MEDIAN_WINDOW),
                         bits,
                         margin=AUTO_MAPPING_MARGIN,
                         imin=imin,
@@ -191,7 +237,32 @@ def _measure_mapping(
                     )
                     if np.isfinite(level).any():
                         m_next = float(max(migl, np.floor(np.nanmin(level))))
-        phases = [np.where(d.valid, d.wrapped_phase, np.nan) for d in decoded]
+        images[orient] = imgs
+        migls[orient] = ms
+        index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
+
+    # pass 2, only where the low ladder left much of the field dark: the full MIGL, merged
+    bright: float | None = None
+    dark = ~decodes & ~saturated
+    full = float(template.migl)
+    if auto and m_next < full and dark.mean() > BRIGHT_MIN_FRACTION:
+        bright = full
+        for orient, ps in pitches.items():
+            for k, p in enumerate(ps):
+                spec = spec_at(orient, p, bright)
+                imgs_b = _capture(rig, spec.frames(), settings)
+                take = saturation_count(imgs_b, bits) == 0
+                images[orient][k] = np.where(take, imgs_b, images[orient][k])
+                index[orient][k] = np.where(take, np.float32(bright), index[orient][k])
+                if k == 0:
+                    add_response(decode_set(imgs_b, spec, bits), bright, take)
+
+    for orient, ps in pitches.items():
+        phases = []
+        for k, p in enumerate(ps):
+            # a merged set decodes as one: the phase does not depend on the MIGL
+            d = decode_set(images[orient][k], spec_at(orient, p, migls[orient][k]), bits)
+            phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
         # the low-MIGL phases are noisy: smooth each level (median) before it predicts the
         # next one's fringe order, so the orders hold where a plain unwrap would slip
         current = median_smooth(phases[0], MEDIAN_WINDOW)
@@ -202,9 +273,7 @@ def _measure_mapping(
             current = median_smooth(current, MEDIAN_WINDOW)
         absolute[orient] = current
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
-        images[orient] = imgs
-        migls[orient] = ms
-    w = np.asarray(weights)[:, None, None]
+    w = np.stack(weights)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # pixels valid in no set stay NaN
         g_stack, c_stack = np.stack(gains), np.stack(ambients)
@@ -214,7 +283,9 @@ def _measure_mapping(
     # a low-MIGL set is a noisy response: the median keeps its edges
     gain = median_smooth(gain, MEDIAN_WINDOW)
     ambient = median_smooth(ambient, MEDIAN_WINDOW)
-    return _Mapping(pitches, images, migls, absolute, coords, gain, ambient, saturated)
+    return _Mapping(
+        pitches, images, migls, absolute, coords, gain, ambient, saturated, bright, index
+    )
 
 
 def _correct_map_bias(
@@ -260,7 +331,9 @@ def _correct_map_bias(
 
     sigma = fit_blur_sigma(residual[fit_on], lambda s: bias_of(s, fit_on), max(1.0, radius))
     bias = bias_of(sigma, np.arange(residual.size)).reshape(absolute.shape)
-    return absolute - np.where(np.isfinite(bias), bias, 0.0), sigma
+    # a predicted bias below BIAS_MIN_RAD is within the model's own error: left alone
+    apply = np.isfinite(bias) & (np.abs(bias) >= BIAS_MIN_RAD)
+    return absolute - np.where(apply, bias, 0.0), sigma
 
 
 def _check_specs(rig: Rig, specs: Sequence[FringeSpec]) -> list[FringeSpec]:
@@ -291,11 +364,13 @@ def adaptive_sets(
     margin: float = 0.015,
     iterations: int = 1,
     refit: bool = True,
+    boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
     blur_px: float = 2.0,
     smooth_px: float = 3.0,
     exposure_ms: float | None = None,
+    auto_exposure: bool = False,
 ) -> tuple[StrategyResult, ...]:
     """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
 
@@ -313,6 +388,11 @@ def adaptive_sets(
     refit : bool
         Re-fit each pixel's level from the adapted set and capture once more where that
         gains a gray level or more.
+    boost : bool
+        Where the map gives pixels much less than their own level (a dim pixel next to a
+        bright one), capture one more set with those raised
+        (:func:`~hdrfringe.saturation.adaptive_map.boosted_map`) and keep it per pixel where
+        its unclipped modulation is larger.
     bias_correction : bool
         Subtract the phase bias of the map's steps under the blur.
     mapping_migl : float, optional
@@ -325,6 +405,13 @@ def adaptive_sets(
         Smoothing of the map from below, projector pixels (>= 0).
     exposure_ms : float, optional
         Exposure time of every capture; None: the rig's own setting.
+    auto_exposure : bool
+        Choose the exposure first (thesis Sec. 7.3,
+        :func:`~hdrfringe.strategies.exposure.choose_exposure` on the finest set at its
+        highest MIGL: the darkest lit surface at the target modulation), then adapt the MIGL
+        at it. Where that set has no saturated pixel the rig's exposure is kept (one set;
+        Requirement 4). The choice's sets are counted (``images_per_step["exposure"]``).
+        Not together with ``exposure_ms``.
 
     Returns
     -------
@@ -368,6 +455,11 @@ def adaptive_sets(
             raise InputError(f"adaptive {name} must be >= 0 projector pixels, got {value!r}")
     if exposure_ms is not None and not float(exposure_ms) > 0:
         raise InputError(f"adaptive exposure_ms must be > 0, got {exposure_ms!r}")
+    if auto_exposure and exposure_ms is not None:
+        raise InputError(
+            "adaptive: give a fixed exposure (--adaptive-exposure-ms) or the automatic one "
+            "(--adaptive-auto-exposure), not both"
+        )
     first = specs[0]
     m0 = default_min_migl(first) if mapping_migl is None else float(mapping_migl)
     if not first.imin < m0 <= first.migl:
@@ -375,6 +467,15 @@ def adaptive_sets(
             f"adaptive mapping_migl must be above imin {first.imin:g} and at most the MIGL "
             f"{first.migl:g}, got {m0:g}"
         )
+    # --- 0. the exposure, chosen on the finest set at its highest MIGL (thesis Sec. 7.3) ------
+    t0 = time.perf_counter()
+    chosen: list[tuple[float, float]] = []  # (exposure, MIGL) of each set the choice captured
+    if auto_exposure:
+        fine = min(specs, key=lambda s: s.pitch_px)
+        choice = choose_exposure(rig, fine, keep_if_unsaturated=True)
+        chosen = [(t, float(fine.migl)) for t, _ in choice.captures]
+        exposure_ms = choice.exposure_ms
+    t_exposure = time.perf_counter() - t0
     settings = None if exposure_ms is None else CameraSettings(exposure_ms=float(exposure_ms))
     proj = rig.projector
     bits = rig.camera_bit_depth
@@ -451,22 +552,26 @@ def adaptive_sets(
         k = pitches[spec.orientation].index(spec.pitch_px)
         imgs, m_set = mp.images[spec.orientation][k], mp.migls[spec.orientation][k]
         sat = saturation_count(imgs, bits) > 0
+        sets = [CapturedSet(migl=m_set, exposure_ms=exposure_ms)]
+        if mp.bright_migl is not None:
+            sets.append(CapturedSet(migl=mp.bright_migl, exposure_ms=exposure_ms))
         results[i] = StrategyResult(
             images=imgs,
             spec=spec,
-            captured=[CapturedSet(migl=m_set, exposure_ms=exposure_ms)],
-            index_map=np.full(imgs.shape[1:], m_set, np.float32),
-            newly_unsaturated=[int((~sat).sum())],
+            captured=sets,
+            index_map=mp.index[spec.orientation][k],
+            newly_unsaturated=[int((~sat).sum())] + [0] * (len(sets) - 1),
             never_unsaturated=sat,
             method="adaptive",
             details={"mapping_set": True, "mapping_migl": m_set},
         )
     # the mapping sets no spec stands for are counted with the first adapted set
     spare = [
-        mp.migls[o][k]
+        m
         for o in ORIENTATIONS
         for k, p in enumerate(pitches[o])
         if not any(s.orientation == o and s.pitch_px == p for s in specs)
+        for m in [mp.migls[o][k]] + ([] if mp.bright_migl is None else [mp.bright_migl])
     ]
     owner = min(finest.values())
 
@@ -559,9 +664,51 @@ def adaptive_sets(
             passes += 1
         t_check = time.perf_counter() - t0
 
+        # boost: the erosion lowers a dim pixel next to a bright one (a black square's edge)
+        # far below its own level; one more set with those pixels' levels, merged where it
+        # gives a larger unclipped modulation (LPA's rule: the best unsaturated set)
+        t0 = time.perf_counter()
+        boosts = 0
+        if boost:
+            short = (received - first.imin) < BOOST_RATIO * (levels - first.imin)
+            wanted = np.isfinite(received) & np.isfinite(levels) & short & ~remaining
+            if wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(received).sum():
+                bmap = boosted_map(
+                    pmap,
+                    np.where(wanted, levels, np.nan),
+                    uf,
+                    vf,
+                    radius=BOOST_RADIUS_FRACTION * radius,
+                    projector_full=full_p,
+                )
+                imgs = shoot(bmap)
+                clip = saturation_count(imgs, bits) > 0
+                clipped.append(int(clip.sum()))
+                had = decode_set(composite, spec, bits)
+                new_dec = decode_set(imgs, spec, bits)
+                # only the pixels it was built for (or a pixel still clipped): a neighbour
+                # whose footprint straddles the raised area reads a larger but biased fringe
+                gain = (
+                    new_dec.valid
+                    & (wanted | remaining)
+                    & (~had.valid | (new_dec.modulation > had.modulation))
+                )
+                composite[:, gain] = imgs[:, gain]
+                used.append(bmap)
+                source[gain] = len(used) - 1
+                got_b = sample_map(bmap, uf, vf).astype(np.float32)
+                index[gain] = got_b[gain]
+                newly.append(int((remaining & gain).sum()))
+                remaining &= ~gain
+                captured.append(CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=bmap))
+                boosts = 1
+        t_boost = time.perf_counter() - t0
+
         if i == owner:
-            captured[:0] = [CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare]
-            newly[:0] = [0] * len(spare)
+            captured[:0] = [CapturedSet(migl=m, exposure_ms=t) for t, m in chosen] + [
+                CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare
+            ]
+            newly[:0] = [0] * (len(chosen) + len(spare))
         # the mapping's fringe orders unwrap the adapted set: the order is the rounded
         # difference between the mapping's phase scaled to this pitch and the wrapped phase
         wrapped = decode_set(composite, spec, bits).wrapped_phase
@@ -574,7 +721,7 @@ def adaptive_sets(
                 absolute, predicted, used, source, uf, vf, spec, first.imin, radius
             )
         t_bias = time.perf_counter() - t0
-        n_map = sum(len(p) for p in pitches.values())
+        n_map = sum(len(p) for p in pitches.values()) * (1 if mp.bright_migl is None else 2)
         results[i] = StrategyResult(
             images=composite,
             spec=spec,
@@ -586,6 +733,7 @@ def adaptive_sets(
             details={
                 "margin": float(margin),
                 "mapping_migls": {o: list(m) for o, m in mp.migls.items()},
+                "mapping_bright_migl": mp.bright_migl,
                 "mapping_pitches": {o: list(p) for o, p in pitches.items()},
                 "erosion_radius_px": float(radius),
                 "projector_migl_map": pmap.astype(np.float32),
@@ -593,29 +741,37 @@ def adaptive_sets(
                 "mapping_saturated": int(mp.saturated.sum()),
                 "refit_passes": refits,
                 "check_passes": passes,
+                "boost_passes": boosts,
                 "clipped_per_capture": clipped,
                 "absolute_phase": absolute,
                 "images_per_step": {
+                    "exposure": len(chosen) * steps,
                     "mapping": n_map * steps,
                     "adapted": steps,
                     "refit": refits * steps,
                     "check": passes * steps,
+                    "boost": boosts * steps,
                 },
                 "sets_per_step": {
+                    "exposure": len(chosen),
                     "mapping": n_map,
                     "adapted": 1,
                     "refit": refits,
                     "check": passes,
+                    "boost": boosts,
                 },
                 "seconds_per_step": {
+                    "exposure": round(t_exposure, 4),
                     "mapping": round(t_map, 4),
                     "map": round(t_build, 4),
                     "adapted": round(t_adapt, 4),
                     "refit": round(t_refit, 4),
                     "check": round(t_check, 4),
+                    "boost": round(t_boost, 4),
                     "bias": round(t_bias, 4),
                 },
                 "blur_sigma_px": blur,
+                "exposure_ms": exposure_ms,
             },
         )
     out = tuple(r for r in results if r is not None)
@@ -630,11 +786,13 @@ def adaptive(
     margin: float = 0.015,
     iterations: int = 1,
     refit: bool = True,
+    boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
     blur_px: float = 2.0,
     smooth_px: float = 3.0,
     exposure_ms: float | None = None,
+    auto_exposure: bool = False,
 ) -> StrategyResult:
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
@@ -647,7 +805,9 @@ def adaptive(
         A rig whose projector shows projector images.
     spec : FringeSpec
         The set at its highest MIGL.
-    margin, iterations, refit, bias_correction, mapping_migl, blur_px, smooth_px, exposure_ms
+    margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px
+        As :func:`adaptive_sets`.
+    exposure_ms, auto_exposure
         As :func:`adaptive_sets`.
 
     Returns
@@ -666,7 +826,7 @@ def adaptive(
     ...                    lighting=Lighting(ambient_lux=600))
     >>> res = adaptive(rig, FringeSpec("sinusoidal", 4, 8.0))
     >>> res.details["sets_per_step"]
-    {'mapping': 4, 'adapted': 1, 'refit': 1, 'check': 0}
+    {'exposure': 0, 'mapping': 4, 'adapted': 1, 'refit': 1, 'check': 0, 'boost': 0}
     """
     (res,) = adaptive_sets(
         rig,
@@ -674,11 +834,13 @@ def adaptive(
         margin=margin,
         iterations=iterations,
         refit=refit,
+        boost=boost,
         bias_correction=bias_correction,
         mapping_migl=mapping_migl,
         blur_px=blur_px,
         smooth_px=smooth_px,
         exposure_ms=exposure_ms,
+        auto_exposure=auto_exposure,
     )
     return res
 
@@ -695,6 +857,9 @@ class AdaptiveParams:
         Check passes at most, only where clipping remains (``--adaptive-iterations``).
     refit : bool
         Re-fit the levels from the adapted set and capture once more.
+    boost : bool
+        One more set where pixels receive much less than their own level, merged per pixel
+        by the larger unclipped modulation.
     bias_correction : bool
         Subtract the phase bias of the map's steps under the blur.
     mapping_migl : float, optional
@@ -705,7 +870,9 @@ class AdaptiveParams:
         Smoothing of the map from below, projector pixels.
     exposure_ms : float, optional
         Fixed exposure time of every capture (``--adaptive-exposure-ms``); None: the rig's.
-        An automatic choice (``"auto"``, exposure and MIGL together) plugs in here.
+    auto_exposure : bool
+        Choose the exposure first, then the MIGL map (``--adaptive-auto-exposure``; thesis
+        Sec. 7.3, "adaptive + exposure" in docs/compare.md).
 
     References
     ----------
@@ -738,6 +905,13 @@ class AdaptiveParams:
             "lowers a fine fringe's peak) and capture it once more.",
         },
     )
+    boost: bool = field(
+        default=True,
+        metadata={
+            "help": "one more set where the map gives pixels much less than their own level "
+            "(a dim pixel next to a bright one), kept per pixel where its modulation is larger.",
+        },
+    )
     bias_correction: bool = field(
         default=True,
         metadata={
@@ -765,6 +939,15 @@ class AdaptiveParams:
         metadata={
             "help": "fixed exposure time of every capture in ms (default: the rig's).",
             "cli": "--adaptive-exposure-ms",
+        },
+    )
+    auto_exposure: bool = field(
+        default=False,
+        metadata={
+            "help": "choose the exposure first (thesis Sec. 7.3: the darkest lit surface at "
+            "the target modulation), then adapt the MIGL at it; the rig's exposure is kept "
+            "where nothing saturates.",
+            "cli": "--adaptive-auto-exposure",
         },
     )
 
@@ -813,15 +996,17 @@ class Adaptive(FunctionStrategy):
             margin=params.margin,
             iterations=params.iterations,
             refit=params.refit,
+            boost=params.boost,
             bias_correction=params.bias_correction,
             mapping_migl=params.mapping_migl,
             blur_px=params.blur_px,
             smooth_px=params.smooth_px,
             exposure_ms=params.exposure_ms,
+            auto_exposure=params.auto_exposure,
         )
 
     def describe(self, params: AdaptiveParams) -> str:
-        """Label of a run: ``"Adaptive <margin> %"``.
+        """Label of a run: ``"Adaptive <margin> %"`` (``" + exposure"`` with the automatic one).
 
         Parameters
         ----------
@@ -834,7 +1019,9 @@ class Adaptive(FunctionStrategy):
 
         Examples
         --------
-        >>> Adaptive().describe(AdaptiveParams())
-        'Adaptive 1.5 %'
+        >>> Adaptive().describe(AdaptiveParams()), Adaptive().describe(AdaptiveParams(
+        ...     auto_exposure=True))
+        ('Adaptive 1.5 %', 'Adaptive 1.5 % + exposure')
         """
-        return f"Adaptive {100 * params.margin:g} %"
+        label = f"Adaptive {100 * params.margin:g} %"
+        return label + " + exposure" if params.auto_exposure else label

@@ -317,6 +317,7 @@ def choose_exposure(
     max_exposure_ms: float | None = None,
     tolerance: float = 0.15,
     max_captures: int = 4,
+    keep_if_unsaturated: bool = False,
 ) -> ExposureChoice:
     """Choose the exposure time at which the darkest valid surface reaches the target modulation.
 
@@ -343,6 +344,10 @@ def choose_exposure(
         Relative change below which the exposure has settled (and no more sets are captured).
     max_captures : int
         Most sets captured (>= 1).
+    keep_if_unsaturated : bool
+        Keep the first exposure when the first set has no saturated pixel (one set captured):
+        what a strategy that must give the conventional result on an unsaturated scene
+        (Requirement 4) asks for.
 
     Returns
     -------
@@ -400,6 +405,8 @@ def choose_exposure(
         imgs = rig.capture(frames, CameraSettings(exposure_ms=t))
         captures.append((t, imgs))
         dark = darkest_modulation(imgs, spec, bits, percentile=percentile)
+        if keep_if_unsaturated and len(captures) == 1 and unsaturated_mask(imgs, bits).all():
+            break
         if dark is None:
             clipped = not unsaturated_mask(imgs, bits).any()
             wanted = t / 4.0 if clipped else t * 4.0

@@ -42,6 +42,7 @@ from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
+from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
@@ -218,7 +219,8 @@ def multiexposure(
     Raises
     ------
     InputError
-        Bad parameters, or ``"auto"`` on a rig that reports no exposure time.
+        Bad parameters, or ``"auto"`` on a replayed folder (it cannot change the exposure)
+        or on a rig that reports no exposure time.
 
     References
     ----------
@@ -261,6 +263,12 @@ def multiexposure(
             stacks.append(rig.capture(frames, CameraSettings(exposure_ms=t)))
             times.append(t)
     else:
+        if isinstance(rig, ReplayRig):
+            raise InputError(
+                "multiexposure with exposures 'auto' captures at exposures it chooses, which a "
+                "replayed folder cannot; measure on a live rig (--rig sim or --rig hardware), "
+                "or give the exposures the folder holds (--exposures 2.5,10,40)"
+            )
         t0 = rig_exposure(rig, "multiexposure with exposures 'auto'")
         lo = t0 / 256.0 if min_exposure_ms is None else float(min_exposure_ms)
         hi = t0 * 16.0 if max_exposure_ms is None else float(max_exposure_ms)

@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hdrfringe._validation import unsaturated_mask
-from hdrfringe.errors import InputError
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
+from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.saturation_tolerant import inverted_spec
 from hdrfringe.strategies.base import (
     CapturedSet,
@@ -112,7 +113,16 @@ def tolerant(
     details: dict = {"decoder": "tolerant", "min_shifts": int(min_shifts), "inverted": False}
     if inverted and never.any():
         inv_spec = inverted_spec(set_spec)
-        inv = rig.capture(inv_spec.frames())
+        try:
+            inv = rig.capture(inv_spec.frames())
+        except CaptureFormatError as exc:
+            if not isinstance(rig, ReplayRig):
+                raise
+            raise InputError(
+                f"tolerant --inverted: the replayed folder holds no inverted set (phase offset "
+                f"180 deg) of {set_spec.label()}, and a MIGL sweep never does; drop --inverted, "
+                "or measure on a live rig (--rig sim or --rig hardware)"
+            ) from exc
         inv_unsat = unsaturated_mask(inv, bits)
         captured.append(CapturedSet(migl=top))
         newly.append(int((never & inv_unsat).sum()))
