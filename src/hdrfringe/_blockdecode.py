@@ -176,6 +176,7 @@ def _decode_block(
     s.fill(0.0)
     c.fill(0.0)
     total = sat = None
+    limit = np.inf if full is None else full
     if quality:
         assert maps.mean is not None
         total = maps.mean[p0:p1]
@@ -193,7 +194,7 @@ def _decode_block(
         if total is not None:
             np.add(total, img, out=total)
         if sat is not None:
-            np.greater_equal(img, full, out=flag)
+            np.greater_equal(img, limit, out=flag)
             sat += flag
     phase = maps.phase[p0:p1]
     modulation = None
