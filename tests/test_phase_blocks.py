@@ -178,7 +178,9 @@ def test_peak_memory_is_the_outputs_plus_a_few_blocks() -> None:
     imgs = rng.integers(0, 255, (8, 400, 500), dtype=np.uint8)  # 1.6 MB
     spec = FringeSpec("sinusoidal", 8, 9.0)
     px = 400 * 500
-    work = 2 * 4 * 8 * _blockdecode.BLOCK_PIXELS + 64 * 1024  # two threads' blocks, slack
+    block = _blockdecode.BLOCK_PIXELS
+    threads = _blockdecode.decode_threads(len(_blockdecode.pixel_blocks(px, block)))
+    work = threads * (4 * 8 + 1) * block + 256 * 1024  # work arrays per thread, slack
     for call, outputs in (
         (lambda: sinusoidal_phase(imgs, quality=False), 8 * px),
         (lambda: decode_set(imgs, spec, 8), (4 * 8 + 2) * px),
@@ -192,3 +194,18 @@ def test_peak_memory_is_the_outputs_plus_a_few_blocks() -> None:
             tracemalloc.stop()
         del result
         assert peak <= outputs + work, (peak, outputs, imgs.nbytes)
+
+
+def test_zero_phase_is_positive_zero_and_pi_is_pi(monkeypatch) -> None:
+    """S exactly 0: atan2(-0.0, C > 0) is -0.0 and must wrap to +0.0 (np.mod's result);
+    atan2(-0.0, C < 0) is -pi and must wrap to +pi; black pixels (S = C = 0) to +0.0."""
+    monkeypatch.setattr(_blockdecode, "BLOCK_PIXELS", 2)
+    # per pixel the 4 shifts: S = I_1 - I_3 + I_2 * sin(pi) = 0 exactly when I_1 = I_3, I_2 = 0
+    pixels = [(10, 5, 0, 5), (0, 7, 0, 7), (9, 9, 9, 9), (0, 0, 0, 0), (200, 100, 0, 100)]
+    imgs = np.array(pixels, dtype=np.uint8).T[:, None, :]
+    phase, _, _ = sinusoidal_phase(imgs)
+    ref = reference(imgs, 255, 0.0, False, None)["raw_phase"]
+    assert_same(phase, ref, "phase at S = 0")
+    # (9, 9, 9, 9) is not S = 0: 9 * sin(pi) = 1.1e-15 survives the rounding of 9 + ...
+    assert phase[0, [0, 1, 3, 4]].tolist() == [0.0, np.pi, 0.0, 0.0]
+    assert not np.signbit(phase).any()

@@ -42,10 +42,11 @@ __all__ = [
     "pixel_blocks",
 ]
 
-#: Pixels per block: 16384 float64 values are 128 KiB, so the four float64 work arrays of a
-#: block and its slices of the stack stay within a core's L2 cache (benchmarks/README.md,
-#: "Fused block decode" gives the measured choice).
-BLOCK_PIXELS = 16384
+#: Pixels per block. 32768 float64 values are 256 KiB: a block's work arrays and its slices of
+#: the stack and maps stay in a core's L2/L3 cache, and the per-call overhead of the ~60 numpy
+#: calls per block is paid ten times for a 648x494 image (``bench_phase.py --blocks``:
+#: 16384-65536 are within noise of each other, 4096 and smaller are slower).
+BLOCK_PIXELS = 32768
 
 #: Upper bound on the worker threads of one decode (override: ``HDRFRINGE_DECODE_THREADS``).
 MAX_THREADS = 8
@@ -150,6 +151,7 @@ class _Work:
     def __init__(self, size: int) -> None:
         self.s = np.empty(size)
         self.c = np.empty(size)
+        self.f = np.empty(size)
         self.tmp = np.empty(size)
         self.flag = np.empty(size, dtype=bool)
 
@@ -167,10 +169,14 @@ def _decode_block(
     reject_saturated: bool,
     mask: NDArray[np.bool_] | None,
 ) -> None:
-    """Decode pixels ``[p0, p1)`` of ``flat`` (N, P) into ``maps`` (one fused pass)."""
+    """Decode pixels ``[p0, p1)`` of ``flat`` (N, P) into ``maps`` (one fused pass).
+
+    Only plain (unmasked) ufuncs and ``np.putmask``: a ufunc with ``where=`` costs several
+    times the plain one (benchmarks/README.md, "Fused block decode").
+    """
     m = p1 - p0
     n = flat.shape[0]
-    s, c, tmp, flag = work.s[:m], work.c[:m], work.tmp[:m], work.flag[:m]
+    s, c, f, tmp, flag = work.s[:m], work.c[:m], work.f[:m], work.tmp[:m], work.flag[:m]
     quality = maps.modulation is not None
     validity = maps.valid is not None
     s.fill(0.0)
@@ -182,17 +188,18 @@ def _decode_block(
         total = maps.mean[p0:p1]
         total.fill(0.0)
     if validity:
-        assert maps.saturation_count is not None and full is not None
+        assert maps.saturation_count is not None
         sat = maps.saturation_count[p0:p1]
         sat.fill(0)
     for k in range(n):
         img = flat[k, p0:p1]
-        np.multiply(img, sin_d[k], out=tmp)
+        np.copyto(f, img)  # exact: every camera type fits a float64
+        np.multiply(f, sin_d[k], out=tmp)
         s += tmp
-        np.multiply(img, cos_d[k], out=tmp)
+        np.multiply(f, cos_d[k], out=tmp)
         c += tmp
         if total is not None:
-            np.add(total, img, out=total)
+            total += f
         if sat is not None:
             np.greater_equal(img, limit, out=flag)
             sat += flag
@@ -210,11 +217,13 @@ def _decode_block(
     np.negative(s, out=s)
     np.arctan2(s, c, out=phase)
     # [0, 2*pi) like np.mod(phase, 2*pi), bit for bit: atan2 is in [-pi, pi], so adding 2*pi
-    # where <= 0 is np.mod's result, and a sum that rounds to 2*pi (or -0.0 + 2*pi) becomes +0.
+    # where <= 0 is np.mod's result (adding +0.0 elsewhere changes nothing: no -0.0 is left
+    # there), and a sum that rounds to 2*pi (from -0.0 or a tiny negative) becomes +0.0.
     np.less_equal(phase, 0.0, out=flag)
-    np.add(phase, TWO_PI, out=phase, where=flag)
+    np.multiply(flag, TWO_PI, out=tmp)
+    phase += tmp
     np.greater_equal(phase, TWO_PI, out=flag)
-    np.copyto(phase, 0.0, where=flag)
+    np.putmask(phase, flag, 0.0)
     if not validity:
         return
     assert modulation is not None and total is not None and sat is not None
@@ -228,13 +237,14 @@ def _decode_block(
         valid &= flag
     if mask is not None:
         valid &= mask[p0:p1]
+    np.logical_not(valid, out=flag)
+    for arr in (phase, modulation, total):
+        np.putmask(arr, flag, np.nan)
+    # psi = I'/I'' where I'' > 0, else NaN; I'' is NaN already where invalid (NaN > 0 is False)
     psi = maps.data_modulation[p0:p1]
     psi.fill(np.nan)
     np.greater(total, 0.0, out=flag)
     np.divide(modulation, total, out=psi, where=flag)
-    np.logical_not(valid, out=flag)
-    for arr in (phase, modulation, total, psi):
-        np.copyto(arr, np.nan, where=flag)
 
 
 def _run_blocks(
