@@ -82,13 +82,16 @@ def with_threads(threads: int, call: Callable[[], Any]) -> Callable[[], Any]:
     return run
 
 
-def fringes_decode(imgs: np.ndarray, pitch: float, threads: int = 1) -> Callable[[], Any] | None:
+def fringes_decode(
+    imgs: np.ndarray, pitch: float, threads: int = 1, convert: bool = True
+) -> Callable[[], Any] | None:
     """fringes' numba decode kernel of ``imgs`` (N, H, W) on ``threads`` threads (0: all).
 
     The kernel ``Fringes.decode`` calls (one direction, one set of N shifts, wavelength
     ``pitch``), without the spatial unwrapping that ``Fringes.decode`` adds when one period does
-    not cover the pattern. The call returns the phase in the contract's convention (``pi - p``),
-    float32. None when fringes is not installed.
+    not cover the pattern. The call returns the phase in the contract's convention (``pi - p``,
+    in float64) with ``convert``, else the kernel's own outputs (float32 maps: brightness,
+    modulation, phase, ...). None when fringes is not installed.
     """
     try:
         import fringes
@@ -105,12 +108,14 @@ def fringes_decode(imgs: np.ndarray, pitch: float, threads: int = 1) -> Callable
     args = (f._N, f._v, -f._f if f.reverse else f._f, f.L, f.UMR, f.crt, f.gcd, f.x0, f.p0)
     all_threads = numba.config.NUMBA_NUM_THREADS
 
-    def run() -> np.ndarray:
+    def run() -> Any:
         numba.set_num_threads(threads or all_threads)
         try:
             out = decode(video, *args, 0.0, 0.0, False, f.mode, True)
         finally:
             numba.set_num_threads(all_threads)
+        if not convert:
+            return out
         p = out[2][0, :, :, 0]
         return np.mod(np.pi - p.astype(np.float64), TWO_PI)
 
