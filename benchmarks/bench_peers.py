@@ -23,7 +23,9 @@ within 1e-6 rad (it is bit-identical) or the script stops; a peer's phase is put
 contract's convention (fringes: ``pi - p``; OpenCV: as returned) and the fraction of pixels
 within 1e-3 rad is printed beside its time. Timing: each case's calls per timing are chosen
 once (about 0.1 s); then every round times every case once, in turn, so a busy machine slows
-all cases alike; medians over rounds, and ratios per round (their median and range). The CPU
+all cases alike; medians over rounds, and ratios per round (their median and range). With
+numba installed it also times one float64 atan2 per pixel, numpy's ufunc against a numba loop
+(the floor of a compiled per-pixel kernel; benchmarks/README.md, "Why numpy blocks"). The CPU
 time (process time of all threads, per call) is printed too: on a shared machine it varies
 far less than wall time, but it does not show what a second thread gains.
 """
@@ -142,6 +144,37 @@ def opencv_psp(imgs3: np.ndarray) -> Callable[[], Any] | None:
         return np.asarray(wrapped)[: imgs3.shape[1], : imgs3.shape[2]].astype(np.float64)
 
     return run
+
+
+def atan2_floor(rounds: int) -> dict[str, float] | None:
+    """CPU ms of one float64 atan2 per pixel of the set: numpy's (SIMD) ufunc against a
+    numba loop (what a compiled per-pixel kernel calls: the scalar libm function). None
+    without numba."""
+    try:
+        import numba
+    except ImportError:
+        return None
+
+    @numba.njit(cache=False)
+    def loop(s: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+        for i in range(s.size):
+            out[i] = np.arctan2(s[i], c[i])
+
+    rng = np.random.default_rng(bp.SEED)
+    s, c = rng.normal(size=(2, bp.HEIGHT * bp.WIDTH))
+    out = np.empty_like(s)
+    loop(s, c, out)  # compile
+    cpu: dict[str, list[float]] = {"numpy arctan2": [], "numba loop": []}
+    for _ in range(rounds):
+        for name, call in (
+            ("numpy arctan2", lambda: np.arctan2(s, c, out=out)),
+            ("numba loop", lambda: loop(s, c, out)),
+        ):
+            c0 = time.process_time()
+            for _ in range(5):
+                call()
+            cpu[name].append((time.process_time() - c0) / 5 * 1e3)
+    return {name: float(np.median(v)) for name, v in cpu.items()}
 
 
 def calls_per_timing(func: Callable[[], Any], target: float = 0.1) -> int:
@@ -270,8 +303,15 @@ def main(argv: list[str] | None = None) -> int:
             f"{r['ratio_min']:5.2f} - {r['ratio_max']:5.2f}  {r['cpu_median_ms']:7.2f}  "
             f"{r['agree_fraction']:6.3f}"
         )
+    floor = atan2_floor(args.rounds)
+    if floor is not None:
+        print(
+            f"\none float64 atan2 per pixel ({bp.WIDTH}x{bp.HEIGHT}), CPU ms: numpy's ufunc "
+            f"{floor['numpy arctan2']:.2f}, a numba loop {floor['numba loop']:.2f}"
+        )
     if args.json:
         payload = {
+            "atan2_cpu_ms": floor,
             "shape": [bp.STEPS, bp.HEIGHT, bp.WIDTH],
             "rounds": args.rounds,
             "python": platform.python_version(),
