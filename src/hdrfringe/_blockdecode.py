@@ -229,9 +229,10 @@ def _decode_block(
     assert modulation is not None and total is not None and sat is not None
     assert maps.valid is not None and maps.data_modulation is not None
     valid = maps.valid[p0:p1]
-    np.isfinite(phase, out=valid)
-    np.greater_equal(modulation, min_modulation, out=flag)
-    valid &= flag
+    np.greater_equal(modulation, min_modulation, out=valid)
+    if flat.dtype.kind == "f":  # integer images always give a finite phase
+        np.isfinite(phase, out=flag)
+        valid &= flag
     if reject_saturated:
         np.equal(sat, 0, out=flag)
         valid &= flag
@@ -240,11 +241,13 @@ def _decode_block(
     np.logical_not(valid, out=flag)
     for arr in (phase, modulation, total):
         np.putmask(arr, flag, np.nan)
-    # psi = I'/I'' where I'' > 0, else NaN; I'' is NaN already where invalid (NaN > 0 is False)
+    # psi = I'/I'' where I'' > 0, else NaN (np.nan, as the fill of data_modulation). Where
+    # invalid, I'' is np.nan already and so is the quotient; I'' <= 0 is masked after.
     psi = maps.data_modulation[p0:p1]
-    psi.fill(np.nan)
-    np.greater(total, 0.0, out=flag)
-    np.divide(modulation, total, out=psi, where=flag)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        np.divide(modulation, total, out=psi)
+    np.less_equal(total, 0.0, out=flag)
+    np.putmask(psi, flag, np.nan)
 
 
 def _run_blocks(
