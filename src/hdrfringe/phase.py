@@ -147,9 +147,9 @@ def sinusoidal_phase(
     The one implementation of Eq. 2.2 in hdrfringe: :func:`decode_set` uses its float64
     kernel with the quality maps, the reproduction's sweeps (:func:`wrapped_phase`) call it in
     float32 without them (about 2.5x faster; float32 rounding, ~1e-6 rad, is far below the
-    phase noise of any capture). In float64 the stack is decoded in blocks of rows, one fused
-    pass per block on up to two or more threads, without BLAS and without a float64 copy of
-    the stack (:mod:`hdrfringe._blockdecode`); the result is bit-identical to the plain loop
+    phase noise of any capture). In float64 the stack is decoded in blocks of pixels, one fused
+    pass per block on a small thread pool, without BLAS and without a float64 copy of the
+    stack (:mod:`hdrfringe._blockdecode`); the result is bit-identical to the plain loop
     ``S += I_k sin(delta_k)``, ``C += I_k cos(delta_k)`` in float64.
 
     Parameters
@@ -197,7 +197,7 @@ def sinusoidal_phase(
     stack = as_stack(arr, what="sinusoidal phase", n_min=3)
     dt = _float_dtype(dtype, "sinusoidal phase")
     n = stack.shape[0]
-    if dt == np.float64:  # row blocks, fused, both cores, no BLAS (hdrfringe._blockdecode)
+    if dt == np.float64:  # fused pixel blocks, both cores, no BLAS (hdrfringe._blockdecode)
         from hdrfringe._blockdecode import decode_sinusoidal_blocks
 
         maps = decode_sinusoidal_blocks(stack.reshape(n, -1), quality=quality)
@@ -803,7 +803,7 @@ def _decode_set_blocks(
     reject_saturated: bool,
     mask: NDArray[np.bool_] | None,
 ) -> PhaseResult:
-    """:func:`decode_set` of a standard sinusoidal set in one fused pass per block of rows.
+    """:func:`decode_set` of a standard sinusoidal set in one fused pass per block of pixels.
 
     The same maps as the general path (Eq. 2.2 through :func:`sinusoidal_phase`'s float64
     kernel, then saturation count, validity, data modulation and NaN filling), computed block
