@@ -8,7 +8,8 @@ saturation count in cache-sized float64 work arrays, and the phase, modulation, 
 modulation and validity are written straight into the output maps. Nothing of full image size
 is allocated besides the returned maps, so the peak memory is the outputs plus a few blocks
 (benchmarks/bench_memory.py), where the plain expression first copies the whole stack to
-float64 (8x the input for uint8).
+float64 (8x the input for uint8). (The callers pass ``stack.reshape(N, -1)``: a view for the
+usual C-ordered stacks, a copy in the input's dtype for strided or transposed ones.)
 
 The arithmetic is the plain one, in the same order as a straightforward numpy loop: ``S = 0 +
 I_0 sin(delta_0) + I_1 sin(delta_1) + ...`` (multiply, then add, in float64), ``C`` likewise,
