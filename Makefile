@@ -4,7 +4,8 @@ VENV := .venv
 STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
-.PHONY: install system-packages demo test lint bench bench-sweep bench-cold clean
+.PHONY: install system-packages demo test lint bench bench-sweep bench-cold bench-peers \
+	bench-memory clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -48,5 +49,19 @@ bench-sweep: $(STAMP)
 bench-cold: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_cold_start.py
 
+# The peers (fringes, OpenCV contrib) live in their own environment, never in .venv: fringes
+# brings numba and opencv-contrib-python, whose cv2 would replace the headless build.
+BENCH_VENV := .venv-bench
+$(BENCH_VENV)/.installed-stamp: pyproject.toml
+	$(PY) -m venv $(BENCH_VENV)
+	$(BENCH_VENV)/bin/pip install --quiet -e ".[bench]"
+	touch $@
+
+bench-peers: $(BENCH_VENV)/.installed-stamp
+	$(BENCH_VENV)/bin/python benchmarks/bench_peers.py
+
+bench-memory: $(BENCH_VENV)/.installed-stamp
+	$(BENCH_VENV)/bin/python benchmarks/bench_memory.py
+
 clean:
-	rm -rf $(VENV) $(OUT)
+	rm -rf $(VENV) $(BENCH_VENV) $(OUT)

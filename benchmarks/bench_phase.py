@@ -1,7 +1,8 @@
 """Benchmark: phase decoding and temporal unwrapping, hdrfringe versus plain numpy.
 
 Run ``.venv/bin/python benchmarks/bench_phase.py`` (or ``make bench``); ``--json PATH`` also
-writes the results as JSON, ``--quick`` uses fewer repeats. See benchmarks/README.md.
+writes the results as JSON, ``--quick`` uses fewer repeats; ``--blocks`` times only the fused
+kernel (hdrfringe._blockdecode) per block size on 1 and 2 threads. See benchmarks/README.md.
 
 What is timed (median of repeated runs, per call):
 
@@ -28,6 +29,7 @@ import json
 import os
 import platform
 import sys
+import time
 import timeit
 from collections.abc import Callable
 from typing import Any
@@ -157,16 +159,75 @@ def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) 
     return out
 
 
+BLOCK_SIZES = (2048, 4096, 8192, 16384, 32768, 65536, HEIGHT * WIDTH)
+
+
+def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
+    """Time the fused kernel (every decode_set map) per block size, 1 and 2 threads.
+
+    Interleaved: each round times every (block, threads) pair once; medians over ``repeat``
+    rounds of CPU time (all threads) and wall time per call, plus the plain reference.
+    """
+    from hdrfringe._blockdecode import decode_sinusoidal_blocks
+
+    flat = imgs.reshape(imgs.shape[0], -1)
+    cases: dict[str, Callable[[], Any]] = {"plain numpy reference": lambda: reference_phase(imgs)}
+    for block in BLOCK_SIZES:
+        for threads in (1, 2):
+
+            def call(block: int = block, threads: int = threads) -> Any:
+                os.environ["HDRFRINGE_DECODE_THREADS"] = str(threads)
+                return decode_sinusoidal_blocks(flat, full=255, min_modulation=2.0, block=block)
+
+            cases[f"block {block:>6} px, {threads} thread{'s' if threads > 1 else ''}"] = call
+    cpu: dict[str, list[float]] = {k: [] for k in cases}
+    wall: dict[str, list[float]] = {k: [] for k in cases}
+    old = os.environ.get("HDRFRINGE_DECODE_THREADS")
+    try:
+        for _ in range(repeat):
+            for name, call in cases.items():
+                c0, w0 = time.process_time(), time.perf_counter()
+                for _ in range(5):
+                    call()
+                cpu[name].append((time.process_time() - c0) / 5)
+                wall[name].append((time.perf_counter() - w0) / 5)
+    finally:
+        if old is None:
+            os.environ.pop("HDRFRINGE_DECODE_THREADS", None)
+        else:
+            os.environ["HDRFRINGE_DECODE_THREADS"] = old
+    return [
+        {
+            "case": name,
+            "cpu_ms": 1e3 * float(np.median(cpu[name])),
+            "wall_ms": 1e3 * float(np.median(wall[name])),
+        }
+        for name in cases
+    ]
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     ap.add_argument("--repeat", type=int, default=15, help="timings per case (median taken)")
     ap.add_argument("--quick", action="store_true", help="5 repeats (smoke run)")
+    ap.add_argument(
+        "--blocks", action="store_true", help="only the fused kernel's block-size sweep"
+    )
     args = ap.parse_args(argv)
     repeat = 5 if args.quick else args.repeat
 
     rng = np.random.default_rng(SEED)
     imgs, spec = fringe_set(rng)
+    if args.blocks:
+        print(
+            f"fused block decode, every decode_set map: {STEPS}-step {WIDTH}x{HEIGHT} uint8; "
+            f"median of {repeat} interleaved rounds; load average {os.getloadavg()[0]:.1f}"
+        )
+        print(f"\n{'case':<28} {'CPU ms':>7} {'wall ms':>8}")
+        for r in block_sweep(imgs, repeat):
+            print(f"{r['case']:<28} {r['cpu_ms']:7.2f} {r['wall_ms']:8.2f}")
+        return 0
     maps = wrapped_maps(rng)
     sat_frac = float(np.mean((imgs == 255).any(axis=0)))
     agreement = check_agreement(imgs, spec, maps)

@@ -35,6 +35,7 @@ LAYERS: dict[str, int] = {
     "programs": CORE,
     "captures": CORE,
     "phase": CORE,
+    "_blockdecode": CORE,
     "unwrap": CORE,
     "graycode": CORE,
     "calibration": CORE,

@@ -144,10 +144,13 @@ def sinusoidal_phase(
 ) -> tuple[NDArray, NDArray | None, NDArray | None]:
     """Wrapped phase of a sinusoidal N-step set (thesis Eq. 2.2; Eq. 2.4 for N = 3).
 
-    The one implementation of Eq. 2.2 in hdrfringe: :func:`decode_set` calls it in float64
-    with the quality maps, the reproduction's sweeps (:func:`wrapped_phase`) in float32 without
-    them (about 2.5x faster; float32 rounding, ~1e-6 rad, is far below the phase noise of any
-    capture).
+    The one implementation of Eq. 2.2 in hdrfringe: :func:`decode_set` uses its float64
+    kernel with the quality maps, the reproduction's sweeps (:func:`wrapped_phase`) call it in
+    float32 without them (about 2.5x faster; float32 rounding, ~1e-6 rad, is far below the
+    phase noise of any capture). In float64 the stack is decoded in blocks of pixels, one fused
+    pass per block on a small thread pool, without BLAS and without a float64 copy of the
+    stack (:mod:`hdrfringe._blockdecode`); the result is bit-identical to the plain loop
+    ``S += I_k sin(delta_k)``, ``C += I_k cos(delta_k)`` in float64.
 
     Parameters
     ----------
@@ -194,6 +197,16 @@ def sinusoidal_phase(
     stack = as_stack(arr, what="sinusoidal phase", n_min=3)
     dt = _float_dtype(dtype, "sinusoidal phase")
     n = stack.shape[0]
+    if dt == np.float64:  # fused pixel blocks, both cores, no BLAS (hdrfringe._blockdecode)
+        from hdrfringe._blockdecode import decode_sinusoidal_blocks
+
+        maps = decode_sinusoidal_blocks(stack.reshape(n, -1), quality=quality)
+        if not quality:
+            return maps.phase.reshape(shape), None, None
+        assert maps.modulation is not None and maps.mean is not None
+        return maps.phase.reshape(shape), maps.modulation.reshape(shape), maps.mean.reshape(shape)
+    # float32 (the reproduction's sweeps): unchanged, so that their pinned numbers stay
+    # bit-identical (tests/test_quick_grid_identity.py).
     delta = TWO_PI * np.arange(n) / n
     flat = stack.reshape(n, -1).astype(dt, copy=False)
     s = np.sin(delta).astype(dt, copy=False) @ flat
@@ -747,19 +760,23 @@ def decode_set(
     """
     stack = as_stack(images, what="decode", n_min=2, bit_depth=bit_depth)
     _check_steps(stack, spec)
-    phase, modulation, mean = _decode(stack, spec, np.float64, True, direction)
-    assert modulation is not None and mean is not None
-    sat = saturation_count(stack, bit_depth)
     thr = check_min_modulation(min_modulation, bit_depth)
     if thr is None:
         thr = default_min_modulation(bit_depth)
+    m = None
+    if mask is not None:
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != stack.shape[1:]:
+            raise InputError(f"mask shape {m.shape} does not match image shape {stack.shape[1:]}")
+    if spec.pattern == "sinusoidal" and spec.has_standard_phase:
+        return _decode_set_blocks(stack, spec, bit_depth, thr, reject_saturated, m)
+    phase, modulation, mean = _decode(stack, spec, np.float64, True, direction)
+    assert modulation is not None and mean is not None
+    sat = saturation_count(stack, bit_depth)
     valid = np.isfinite(phase) & (modulation >= thr)
     if reject_saturated:
         valid &= sat == 0
-    if mask is not None:
-        m = np.asarray(mask, dtype=bool)
-        if m.shape != phase.shape:
-            raise InputError(f"mask shape {m.shape} does not match image shape {phase.shape}")
+    if m is not None:
         valid &= m
     psi = data_modulation(modulation, mean)
     # The decoders return fresh arrays: NaN-fill them in place. Every avoided full-size
@@ -774,5 +791,45 @@ def decode_set(
         data_modulation=psi,
         saturation_count=sat,
         valid=valid,
+        spec=spec,
+    )
+
+
+def _decode_set_blocks(
+    stack: NDArray,
+    spec: FringeSpec,
+    bit_depth: int,
+    min_modulation: float,
+    reject_saturated: bool,
+    mask: NDArray[np.bool_] | None,
+) -> PhaseResult:
+    """:func:`decode_set` of a standard sinusoidal set in one fused pass per block of pixels.
+
+    The same maps as the general path (Eq. 2.2 through :func:`sinusoidal_phase`'s float64
+    kernel, then saturation count, validity, data modulation and NaN filling), computed block
+    by block (:func:`hdrfringe._blockdecode.decode_sinusoidal_blocks`): the peak memory is the
+    returned maps plus a few cache-sized blocks.
+    """
+    from hdrfringe._blockdecode import decode_sinusoidal_blocks
+
+    n = stack.shape[0]
+    shape = stack.shape[1:]
+    maps = decode_sinusoidal_blocks(
+        stack.reshape(n, -1),
+        full=full_scale(bit_depth),
+        min_modulation=min_modulation,
+        reject_saturated=reject_saturated,
+        mask=None if mask is None else mask.reshape(-1),
+    )
+    assert maps.modulation is not None and maps.mean is not None
+    assert maps.data_modulation is not None and maps.saturation_count is not None
+    assert maps.valid is not None
+    return PhaseResult(
+        wrapped_phase=maps.phase.reshape(shape),
+        modulation=maps.modulation.reshape(shape),
+        mean_intensity=maps.mean.reshape(shape),
+        data_modulation=maps.data_modulation.reshape(shape),
+        saturation_count=maps.saturation_count.reshape(shape),
+        valid=maps.valid.reshape(shape),
         spec=spec,
     )

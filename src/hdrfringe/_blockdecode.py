@@ -1,0 +1,354 @@
+"""Fused, row-block decoding of sinusoidal N-step sets on a small thread pool (issue 16).
+
+The kernel behind :func:`hdrfringe.phase.sinusoidal_phase` (float64) and
+:func:`hdrfringe.phase.decode_set` (sinusoidal sets with the contract's shifts). The image
+stack is cut into blocks of consecutive pixels (whole rows, or parts of rows for very wide
+images); for each block, one pass over the N shifts accumulates ``S``, ``C``, the sum and the
+saturation count in cache-sized float64 work arrays, and the phase, modulation, mean, data
+modulation and validity are written straight into the output maps. Nothing of full image size
+is allocated besides the returned maps, so the peak memory is the outputs plus a few blocks
+(benchmarks/bench_memory.py), where the plain expression first copies the whole stack to
+float64 (8x the input for uint8). (The callers pass ``stack.reshape(N, -1)``: a view for the
+usual C-ordered stacks, a copy in the input's dtype for strided or transposed ones.)
+
+The arithmetic is the plain one, in the same order as a straightforward numpy loop: ``S = 0 +
+I_0 sin(delta_0) + I_1 sin(delta_1) + ...`` (multiply, then add, in float64), ``C`` likewise,
+``phase = atan2(-S, C)`` wrapped to [0, 2*pi) (zero is +0.0), ``I' = (2/N) sqrt(S^2 + C^2)``,
+``I'' = (sum_k I_k) / N``. It is therefore bit-identical to that loop (the reference of
+benchmarks/bench_phase.py), not to a BLAS product, whose fused multiply-adds round
+differently in the last bit.
+
+Blocks are handed out one at a time to at most :func:`decode_threads` threads (numpy releases
+the GIL inside its ufunc loops, so two threads keep two cores busy without BLAS); the pool is
+created per call and joined before returning, so no thread outlives a call. Images of fewer
+than two blocks are decoded in the calling thread.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import threading
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "BLOCK_PIXELS",
+    "DecodeMaps",
+    "decode_sinusoidal_blocks",
+    "decode_threads",
+    "pixel_blocks",
+]
+
+#: Pixels per block. 32768 float64 values are 256 KiB: a block's work arrays and its slices of
+#: the stack and maps stay in a core's L2/L3 cache, and the per-call overhead of the ~60 numpy
+#: calls per block is paid ten times for a 648x494 image (``bench_phase.py --blocks``:
+#: 16384-65536 are within noise of each other, 4096 and smaller are slower).
+BLOCK_PIXELS = 32768
+
+#: Upper bound on the worker threads of one decode (override: ``HDRFRINGE_DECODE_THREADS``).
+MAX_THREADS = 8
+
+TWO_PI = 2.0 * np.pi
+
+F64 = NDArray[np.float64]
+
+
+def decode_threads(n_blocks: int) -> int:
+    """Worker threads for a decode of ``n_blocks`` blocks.
+
+    The CPUs this process may run on (``os.sched_getaffinity`` where available), capped by
+    :data:`MAX_THREADS` and by the number of blocks; ``HDRFRINGE_DECODE_THREADS`` (a positive
+    integer) overrides the CPU count, e.g. 1 inside a process pool that already uses every
+    core.
+
+    Parameters
+    ----------
+    n_blocks : int
+        Number of blocks to decode.
+
+    Returns
+    -------
+    int
+        At least 1.
+
+    Examples
+    --------
+    >>> decode_threads(1)
+    1
+    """
+    env = os.environ.get("HDRFRINGE_DECODE_THREADS", "").strip()
+    if env.isdigit() and int(env) > 0:
+        cpus = int(env)
+    elif hasattr(os, "sched_getaffinity"):
+        cpus = len(os.sched_getaffinity(0))
+    else:  # pragma: no cover - platforms without affinity (macOS, Windows)
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, MAX_THREADS, n_blocks))
+
+
+def pixel_blocks(n_pixels: int, block: int) -> list[tuple[int, int]]:
+    """Consecutive ``[start, stop)`` pixel ranges of at most ``block`` pixels covering all.
+
+    Parameters
+    ----------
+    n_pixels : int
+        Pixels to cover (``H * W``).
+    block : int
+        Largest block.
+
+    Returns
+    -------
+    list of (int, int)
+
+    Examples
+    --------
+    >>> pixel_blocks(10, 4)
+    [(0, 4), (4, 8), (8, 10)]
+    >>> pixel_blocks(0, 4)
+    []
+    """
+    block = max(1, int(block))
+    return [(p, min(p + block, n_pixels)) for p in range(0, n_pixels, block)]
+
+
+class DecodeMaps:
+    """The maps a block decode writes, as flat float64 / uint8 / bool arrays of P pixels.
+
+    Parameters
+    ----------
+    n_pixels : int
+        Pixels per map.
+    quality : bool
+        Allocate the modulation and mean maps.
+    validity : bool
+        Allocate the data modulation, saturation count and validity maps (``decode_set``).
+
+    Examples
+    --------
+    >>> maps = DecodeMaps(6, quality=True, validity=False)
+    >>> maps.phase.shape, maps.modulation.dtype, maps.valid is None
+    ((6,), dtype('float64'), True)
+    """
+
+    def __init__(self, n_pixels: int, *, quality: bool, validity: bool) -> None:
+        quality = quality or validity
+        self.phase: F64 = np.empty(n_pixels)
+        self.modulation: F64 | None = np.empty(n_pixels) if quality else None
+        self.mean: F64 | None = np.empty(n_pixels) if quality else None
+        self.data_modulation: F64 | None = np.empty(n_pixels) if validity else None
+        self.saturation_count: NDArray[np.uint8] | None = (
+            np.empty(n_pixels, dtype=np.uint8) if validity else None
+        )
+        self.valid: NDArray[np.bool_] | None = np.empty(n_pixels, dtype=bool) if validity else None
+
+
+class _Work:
+    """One thread's cache-sized work arrays."""
+
+    def __init__(self, size: int) -> None:
+        self.s = np.empty(size)
+        self.c = np.empty(size)
+        self.f = np.empty(size)
+        self.tmp = np.empty(size)
+        self.flag = np.empty(size, dtype=bool)
+
+
+def _decode_block(
+    flat: NDArray,
+    p0: int,
+    p1: int,
+    maps: DecodeMaps,
+    work: _Work,
+    sin_d: F64,
+    cos_d: F64,
+    full: float | None,
+    min_modulation: float,
+    reject_saturated: bool,
+    mask: NDArray[np.bool_] | None,
+) -> None:
+    """Decode pixels ``[p0, p1)`` of ``flat`` (N, P) into ``maps`` (one fused pass).
+
+    Only plain (unmasked) ufuncs and ``np.putmask``: a ufunc with ``where=`` costs several
+    times the plain one (benchmarks/README.md, "Fused block decode").
+    """
+    m = p1 - p0
+    n = flat.shape[0]
+    s, c, f, tmp, flag = work.s[:m], work.c[:m], work.f[:m], work.tmp[:m], work.flag[:m]
+    quality = maps.modulation is not None
+    validity = maps.valid is not None
+    s.fill(0.0)
+    c.fill(0.0)
+    total = sat = None
+    limit = np.inf if full is None else full
+    if quality:
+        assert maps.mean is not None
+        total = maps.mean[p0:p1]
+        total.fill(0.0)
+    if validity:
+        assert maps.saturation_count is not None
+        sat = maps.saturation_count[p0:p1]
+        sat.fill(0)
+    for k in range(n):
+        img = flat[k, p0:p1]
+        np.copyto(f, img)  # exact: every camera type fits a float64
+        np.multiply(f, sin_d[k], out=tmp)
+        s += tmp
+        np.multiply(f, cos_d[k], out=tmp)
+        c += tmp
+        if total is not None:
+            total += f
+        if sat is not None:
+            np.greater_equal(img, limit, out=flag)
+            sat += flag
+    phase = maps.phase[p0:p1]
+    modulation = None
+    if quality:
+        assert maps.modulation is not None and total is not None
+        modulation = maps.modulation[p0:p1]
+        np.multiply(s, s, out=modulation)
+        np.multiply(c, c, out=tmp)
+        modulation += tmp
+        np.sqrt(modulation, out=modulation)
+        modulation *= 2.0 / n
+        total /= n
+    np.negative(s, out=s)
+    np.arctan2(s, c, out=phase)
+    # [0, 2*pi) like np.mod(phase, 2*pi), bit for bit: atan2 is in [-pi, pi], so adding 2*pi
+    # where <= 0 is np.mod's result (adding +0.0 elsewhere changes nothing: no -0.0 is left
+    # there), and a sum that rounds to 2*pi (from -0.0 or a tiny negative) becomes +0.0.
+    np.less_equal(phase, 0.0, out=flag)
+    np.multiply(flag, TWO_PI, out=tmp)
+    phase += tmp
+    np.greater_equal(phase, TWO_PI, out=flag)
+    np.putmask(phase, flag, 0.0)
+    if not validity:
+        return
+    assert modulation is not None and total is not None and sat is not None
+    assert maps.valid is not None and maps.data_modulation is not None
+    valid = maps.valid[p0:p1]
+    np.greater_equal(modulation, min_modulation, out=valid)
+    if flat.dtype.kind == "f":  # integer images always give a finite phase
+        np.isfinite(phase, out=flag)
+        valid &= flag
+    if reject_saturated:
+        np.equal(sat, 0, out=flag)
+        valid &= flag
+    if mask is not None:
+        valid &= mask[p0:p1]
+    np.logical_not(valid, out=flag)
+    for arr in (phase, modulation, total):
+        np.putmask(arr, flag, np.nan)
+    # psi = I'/I'' where I'' > 0, else NaN (np.nan, as the fill of data_modulation). Where
+    # invalid, I'' is np.nan already and so is the quotient; I'' <= 0 is masked after.
+    psi = maps.data_modulation[p0:p1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        np.divide(modulation, total, out=psi)
+    np.less_equal(total, 0.0, out=flag)
+    np.putmask(psi, flag, np.nan)
+
+
+def _run_blocks(
+    blocks: list[tuple[int, int]], worker: Callable[[int, int, _Work], None], size: int
+) -> None:
+    """Run ``worker(p0, p1, work)`` on every block, on up to :func:`decode_threads` threads.
+
+    Blocks are taken one at a time from a shared counter (a busy core just takes fewer); an
+    exception in any thread stops the others at their next block and is raised here.
+    """
+    threads = decode_threads(len(blocks))
+    if threads == 1:
+        work = _Work(size)
+        for p0, p1 in blocks:
+            worker(p0, p1, work)
+        return
+    counter = itertools.count()
+    failed = threading.Event()
+
+    def run() -> None:
+        work = _Work(size)
+        while not failed.is_set():
+            i = next(counter)
+            if i >= len(blocks):
+                return
+            try:
+                worker(*blocks[i], work)
+            except BaseException:
+                failed.set()
+                raise
+
+    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="hdrfringe-decode") as pool:
+        futures = [pool.submit(run) for _ in range(threads)]
+    for future in futures:
+        future.result()
+
+
+def decode_sinusoidal_blocks(
+    flat: NDArray,
+    *,
+    quality: bool = True,
+    full: float | None = None,
+    min_modulation: float = 0.0,
+    reject_saturated: bool = True,
+    mask: NDArray[np.bool_] | None = None,
+    block: int | None = None,
+) -> DecodeMaps:
+    """Eq. 2.2 and the quality maps of a checked (N, P) stack, block by block, in float64.
+
+    Parameters
+    ----------
+    flat : ndarray, shape (N, P)
+        Shift k at index k, ``delta_k = 2*pi*k/N``; any real dtype (uint8, uint16, float
+        with NaN), any strides.
+    quality : bool
+        Also compute the modulation ``I' = (2/N) sqrt(S^2 + C^2)`` and mean ``I''``.
+    full : float, optional
+        Full scale ``2^B - 1``. When given, also the saturation count, data modulation
+        ``psi = I'/I''`` (NaN where ``I'' <= 0``) and validity (finite phase, ``I' >=
+        min_modulation``, no saturated shift if ``reject_saturated``, inside ``mask``), and
+        every float map is NaN where invalid: :func:`hdrfringe.phase.decode_set`'s maps.
+    min_modulation : float
+        Validity threshold on I' (with ``full``).
+    reject_saturated : bool
+        A pixel with a saturated shift is invalid (with ``full``).
+    mask : ndarray of bool, shape (P,), optional
+        Pixels to decode (with ``full``).
+    block : int, optional
+        Pixels per block (default :data:`BLOCK_PIXELS`; tests use small blocks to exercise
+        the edges).
+
+    Returns
+    -------
+    DecodeMaps
+        Flat maps of P pixels (``None`` for the ones not asked for).
+
+    References
+    ----------
+    Thesis Eq. 2.2 (phase), Eq. 3.4-3.6 (quality maps), Sec. 5.1 (saturation).
+
+    Examples
+    --------
+    >>> x = np.linspace(0, 20, 9)
+    >>> imgs = np.stack([100 + 50*np.cos(2*np.pi*x/8 + 2*np.pi*k/4) for k in range(4)])
+    >>> maps = decode_sinusoidal_blocks(imgs, block=4)
+    >>> bool(np.allclose(maps.phase, np.mod(2*np.pi*x/8, 2*np.pi))), float(maps.modulation[0])
+    (True, 50.0)
+    """
+    n, n_pixels = flat.shape
+    block = BLOCK_PIXELS if block is None else max(1, int(block))
+    delta = TWO_PI * np.arange(n) / n
+    sin_d, cos_d = np.sin(delta), np.cos(delta)
+    validity = full is not None
+    maps = DecodeMaps(n_pixels, quality=quality, validity=validity)
+    blocks = pixel_blocks(n_pixels, block)
+
+    def worker(p0: int, p1: int, work: _Work) -> None:
+        _decode_block(
+            flat, p0, p1, maps, work, sin_d, cos_d, full, min_modulation, reject_saturated, mask
+        )
+
+    _run_blocks(blocks, worker, min(block, max(n_pixels, 1)))
+    return maps

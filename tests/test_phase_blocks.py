@@ -1,0 +1,230 @@
+"""The fused block decode (hdrfringe._blockdecode) against a plain numpy loop written here.
+
+The reference is the straightforward float64 loop (``S += I_k sin(delta_k)``, ``C += I_k
+cos(delta_k)``, ``np.mod(atan2(-S, C), 2*pi)``, ``(2/N) sqrt(S^2 + C^2)``, sum / N) and the
+validity rule of :func:`hdrfringe.phase.decode_set` spelled out; the kernel does the same
+arithmetic in the same order, so every map must be bit-identical, whatever the block size
+(edges: blocks that do not divide the image, 1-row and 1-pixel images), the thread count,
+the input dtype (uint8, uint16, float with NaN) and the mask.
+"""
+
+from __future__ import annotations
+
+import threading
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from hdrfringe import _blockdecode
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.phase import decode_set, sinusoidal_phase
+
+TWO_PI = 2.0 * np.pi
+
+
+def reference(imgs: np.ndarray, full: int, thr: float, reject: bool, mask) -> dict:
+    """decode_set's maps computed the plain way, full-size arrays, no blocks."""
+    n = imgs.shape[0]
+    s = np.zeros(imgs.shape[1:])
+    c = np.zeros(imgs.shape[1:])
+    total = np.zeros(imgs.shape[1:])
+    sat = np.zeros(imgs.shape[1:], dtype=np.uint8)
+    for k in range(n):
+        f = imgs[k].astype(np.float64)
+        s += f * np.sin(TWO_PI * k / n)
+        c += f * np.cos(TWO_PI * k / n)
+        total += f
+        sat += (imgs[k] >= full).astype(np.uint8)
+    phase = np.mod(np.arctan2(-s, c), TWO_PI)
+    phase[phase >= TWO_PI] = 0.0
+    modulation = (2.0 / n) * np.sqrt(s * s + c * c)
+    mean = total / n
+    with np.errstate(invalid="ignore", divide="ignore"):
+        psi = np.where(mean > 0, modulation / mean, np.nan)
+    valid = np.isfinite(phase) & (modulation >= thr)
+    if reject:
+        valid &= sat == 0
+    if mask is not None:
+        valid &= mask
+    maps = {"phase": phase, "modulation": modulation, "mean": mean, "psi": psi}
+    out = {k: np.where(valid, v, np.nan) for k, v in maps.items()}
+    out["raw_phase"], out["raw_modulation"], out["raw_mean"] = phase, modulation, mean
+    out.update(sat=sat, valid=valid)
+    return out
+
+
+def stack(rng: np.random.Generator, n: int, shape: tuple[int, int], dtype) -> np.ndarray:
+    """Fringes with clipped, dark and flat pixels; float stacks get NaN and negative values."""
+    h, w = shape
+    x = np.arange(w, dtype=np.float64)[None, :] + 0.3 * np.arange(h)[:, None]
+    gain = rng.uniform(0.0, 1.6, (h, w))
+    imgs = np.stack(
+        [120 + 110 * gain * np.cos(TWO_PI * x / 7.3 + TWO_PI * k / n) for k in range(n)]
+    )
+    imgs += rng.normal(0.0, 2.0, imgs.shape)
+    full = 255
+    if np.dtype(dtype).kind in "ui":
+        scale = 1 if dtype == np.uint8 else 16
+        full = 255 * scale if dtype == np.uint8 else 4095
+        imgs = np.clip(np.rint(imgs * scale), 0, full).astype(dtype)
+        imgs[:, :, : max(1, w // 9)] = imgs[:1, :, : max(1, w // 9)]  # flat pixels (I' = 0)
+    else:
+        imgs = imgs.astype(dtype)
+        imgs[rng.random(imgs.shape) < 0.02] = np.nan
+        imgs[:, rng.random((h, w)) < 0.05] -= 300.0  # negative mean: psi NaN
+        imgs = np.minimum(imgs, full)
+    return imgs
+
+
+def assert_same(got: np.ndarray, want: np.ndarray, what: str) -> None:
+    assert got.shape == want.shape, what
+    assert got.dtype == want.dtype, what
+    assert np.array_equal(got, want, equal_nan=True), what
+    if got.dtype.kind == "f":  # also the sign of zero (phase 0 is +0.0)
+        assert np.array_equal(np.signbit(got), np.signbit(want)), what
+
+
+CASES = [
+    (3, (1, 1), np.uint8),
+    (3, (1, 157), np.uint8),
+    (4, (37, 29), np.uint8),
+    (5, (23, 41), np.uint16),
+    (7, (19, 13), np.float32),
+    (8, (31, 17), np.uint8),
+    (12, (11, 53), np.float64),
+    (16, (9, 35), np.uint16),
+]
+
+
+@pytest.mark.parametrize(("n", "shape", "dtype"), CASES)
+@pytest.mark.parametrize("block", [7, 64, 100, 4096])
+def test_decode_set_blocks_equal_the_plain_loop(n, shape, dtype, block, monkeypatch) -> None:
+    """Every map, bit for bit, for blocks that split rows, end mid-row, or hold the image."""
+    monkeypatch.setattr(_blockdecode, "BLOCK_PIXELS", block)
+    rng = np.random.default_rng(n * 1000 + shape[1])
+    imgs = stack(rng, n, shape, dtype)
+    bits = 12 if dtype == np.uint16 else 8
+    full = (1 << bits) - 1
+    mask = rng.random(shape) < 0.8
+    spec = FringeSpec("sinusoidal", n, 7.3)
+    for thr, reject, m in ((None, True, None), (5.0, False, mask)):
+        res = decode_set(imgs, spec, bits, mask=m, min_modulation=thr, reject_saturated=reject)
+        ref = reference(imgs, full, 2.0 * full / 255 if thr is None else thr, reject, m)
+        assert_same(res.wrapped_phase, ref["phase"], "phase")
+        assert_same(res.modulation, ref["modulation"], "modulation")
+        assert_same(res.mean_intensity, ref["mean"], "mean")
+        assert_same(res.data_modulation, ref["psi"], "data modulation")
+        assert_same(res.saturation_count, ref["sat"], "saturation count")
+        assert_same(res.valid, ref["valid"], "valid")
+    if n >= 3:
+        phase, modulation, mean = sinusoidal_phase(imgs)
+        assert_same(phase, ref["raw_phase"], "sinusoidal_phase")
+        assert_same(modulation, ref["raw_modulation"], "sinusoidal_phase modulation")
+        assert_same(mean, ref["raw_mean"], "sinusoidal_phase mean")
+        assert_same(sinusoidal_phase(imgs, quality=False)[0], ref["raw_phase"], "phase alone")
+
+
+def test_the_test_rejects_a_kernel_that_skips_the_last_block(monkeypatch) -> None:
+    """A kernel that forgets the tail block (the classic blocking bug) is caught."""
+    imgs = stack(np.random.default_rng(0), 4, (7, 9), np.uint8)
+    good = _blockdecode.pixel_blocks
+    monkeypatch.setattr(_blockdecode, "pixel_blocks", lambda p, b: good(p, 16)[:-1])
+    res = decode_set(imgs, FringeSpec("sinusoidal", 4, 7.3), 8, min_modulation=0.0)
+    ref = reference(imgs, 255, 0.0, True, None)
+    assert not np.array_equal(res.saturation_count, ref["sat"]) or not np.array_equal(
+        res.modulation, ref["modulation"], equal_nan=True
+    )
+
+
+def test_thread_count_does_not_change_any_bit_and_no_thread_is_left(monkeypatch) -> None:
+    rng = np.random.default_rng(7)
+    imgs = stack(rng, 6, (40, 50), np.uint8)
+    flat = imgs.reshape(6, -1)
+    before = set(threading.enumerate())
+    results = {}
+    for threads in ("1", "2", "3"):
+        monkeypatch.setenv("HDRFRINGE_DECODE_THREADS", threads)
+        assert _blockdecode.decode_threads(100) == int(threads)
+        results[threads] = _blockdecode.decode_sinusoidal_blocks(flat, full=255, block=37)
+        assert set(threading.enumerate()) == before  # the pool is joined before returning
+    for threads in ("2", "3"):
+        for name in ("phase", "modulation", "mean", "data_modulation", "saturation_count"):
+            a, b = getattr(results["1"], name), getattr(results[threads], name)
+            assert np.array_equal(a, b, equal_nan=True), (threads, name)
+    assert not any(t.name.startswith("hdrfringe-decode") for t in threading.enumerate())
+
+
+def test_an_error_in_a_worker_thread_is_raised_and_stops_the_pool(monkeypatch) -> None:
+    monkeypatch.setenv("HDRFRINGE_DECODE_THREADS", "2")
+    done: list[int] = []
+
+    def worker(p0: int, p1: int, work) -> None:
+        if p0 == 30:
+            raise ValueError("block 3 failed")
+        done.append(p0)
+
+    before = set(threading.enumerate())
+    with pytest.raises(ValueError, match="block 3 failed"):
+        _blockdecode._run_blocks(_blockdecode.pixel_blocks(10_000, 10), worker, 10)
+    assert len(done) < 999  # the other thread stopped instead of finishing every block
+    assert set(threading.enumerate()) == before
+
+
+def test_peak_memory_is_the_outputs_plus_a_few_blocks() -> None:
+    """tracemalloc sees numpy's buffers: the decode allocates its maps and cache-sized work
+    arrays, never a float64 copy of the stack (the old path: 8x this uint8 input)."""
+    rng = np.random.default_rng(3)
+    imgs = rng.integers(0, 255, (8, 400, 500), dtype=np.uint8)  # 1.6 MB
+    spec = FringeSpec("sinusoidal", 8, 9.0)
+    px = 400 * 500
+    block = _blockdecode.BLOCK_PIXELS
+    threads = _blockdecode.decode_threads(len(_blockdecode.pixel_blocks(px, block)))
+    work = threads * (4 * 8 + 1) * block + 256 * 1024  # work arrays per thread, slack
+    for call, outputs in (
+        (lambda: sinusoidal_phase(imgs, quality=False), 8 * px),
+        (lambda: decode_set(imgs, spec, 8), (4 * 8 + 2) * px),
+    ):
+        call()  # warm-up (lazy imports)
+        tracemalloc.start()
+        try:
+            result = call()
+            _, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+        del result
+        assert peak <= outputs + work, (peak, outputs, imgs.nbytes)
+
+
+def test_zero_phase_is_positive_zero_and_pi_is_pi(monkeypatch) -> None:
+    """S exactly 0: atan2(-0.0, C > 0) is -0.0 and must wrap to +0.0 (np.mod's result);
+    atan2(-0.0, C < 0) is -pi and must wrap to +pi; black pixels (S = C = 0) to +0.0."""
+    monkeypatch.setattr(_blockdecode, "BLOCK_PIXELS", 2)
+    # per pixel the 4 shifts: S = I_1 - I_3 + I_2 * sin(pi) = 0 exactly when I_1 = I_3, I_2 = 0
+    pixels = [(10, 5, 0, 5), (0, 7, 0, 7), (9, 9, 9, 9), (0, 0, 0, 0), (200, 100, 0, 100)]
+    imgs = np.array(pixels, dtype=np.uint8).T[:, None, :]
+    phase, _, _ = sinusoidal_phase(imgs)
+    ref = reference(imgs, 255, 0.0, False, None)["raw_phase"]
+    assert_same(phase, ref, "phase at S = 0")
+    # (9, 9, 9, 9) is not S = 0: 9 * sin(pi) = 1.1e-15 survives the rounding of 9 + ...
+    assert phase[0, [0, 1, 3, 4]].tolist() == [0.0, np.pi, 0.0, 0.0]
+    assert not np.signbit(phase).any()
+
+
+@pytest.mark.parametrize(
+    "view",
+    [
+        lambda a: a[:, ::2, ::3],  # strided rows and columns (reshape copies)
+        lambda a: np.asfortranarray(a),
+        lambda a: a.transpose(0, 2, 1),  # images transposed in memory
+        lambda a: a[::-1],  # shifts reversed: a negative stride on axis 0
+    ],
+)
+def test_non_contiguous_stacks_decode_like_contiguous_ones(view, monkeypatch) -> None:
+    monkeypatch.setattr(_blockdecode, "BLOCK_PIXELS", 50)
+    imgs = view(stack(np.random.default_rng(11), 5, (24, 30), np.uint16))
+    res = decode_set(imgs, FringeSpec("sinusoidal", 5, 7.3), 12)
+    ref = reference(np.ascontiguousarray(imgs), 4095, 2.0 * 4095 / 255, True, None)
+    for got, name in ((res.wrapped_phase, "phase"), (res.data_modulation, "psi")):
+        assert_same(got, ref[name], name)
+    assert_same(res.valid, ref["valid"], "valid")
