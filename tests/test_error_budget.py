@@ -76,9 +76,10 @@ def test_metrics_give_the_calibration_residual_and_the_bias_is_the_models(plates
 def test_thesis_cells_say_why_they_are_blank_and_ratios_that_mislead_are_left_out() -> None:
     notes = Notes()
     assert _vs(0.31, 0.127, "{:.3f}", notes) == "0.310 / 0.127 (0.41)"
-    failure = _vs(373.42, 0.747, "{:.3f}", notes)
+    failure = _vs(373.42, 0.747, "{:.3f}", notes, failures=True)
     assert failure.startswith("373.420 / 0.747 [a]") and "(0.00)" not in failure
     assert FAILURE_MM < 85.05
+    assert _vs(29.33, 71.0, "{:.2f}", notes) == "29.33 / 71.00 (2.42)"  # sets are no failures
     assert _vs(-0.02, -0.166, "{:.3f}", notes, ratio=False) == "-0.020 / -0.166"
     blank = _vs(None, 0.125, "{:.3f}", notes, missing="the thesis has no 300 lx row")
     assert blank == "- [b] / 0.125"

@@ -516,23 +516,28 @@ def differences_markdown(
                 f"{t['dpab-20'][2]:.3f} mm (thesis-rule DPA: {t['dpa-10'][2]:.3f} mm, LPA S=1: "
                 f"{t['lpa-1'][2]:.3f} mm in {t['lpa-1'][0]:.0f} sets)."
             )
-    for name, ds in (("white plate", plate4), ("checkerboard", board6 or board)):
+    parts, residuals = [], []
+    for name, ds in (("white plate", plate4 or plate), ("checkerboard", board6 or board)):
         if ds is None:
             continue
         sel = ds.sel(pitch=ds["pitch"] >= CH6_MIN_PITCH).isel(pattern=0)
         bias = sel["mean_error_mm"].mean(("pitch", "depth_mm"))
-        res = model_residual_of(ds, THESIS_DEPTHS_MM)
         lo, hi = float(bias.min()), float(bias.max())
         span = f"{lo:+.3f}" if f"{lo:+.3f}" == f"{hi:+.3f}" else f"{lo:+.3f} to {hi:+.3f}"
+        parts.append(f"{name} {span} mm")
+        res = model_residual_of(ds, THESIS_DEPTHS_MM)
+        if res is not None:
+            residuals.append(f"{name} {res.mean_mm:+.3f} mm")
+    if parts:
         model = (
-            ""
-            if res is None
-            else f"; the linear model's residual on the rig's geometry at these depths, "
-            f"computed without noise, is {res.mean_mm:+.3f} mm (`hdrfringe.reproduce."
-            "model_residual`): the bias is the calibration model's, not the methods'"
+            f"; the linear model's residual on the rig's geometry at the same depths, computed "
+            f"without noise (`hdrfringe.reproduce.model_residual`), is {', '.join(residuals)}: "
+            "the bias is the calibration model's, not the methods'"
+            if residuals
+            else ""
         )
         lines.append(
-            f"* **Bias, {name}** ({span} mm over the methods){model}. The thesis's biases are "
+            f"* **Bias** ({', '.join(parts)} over the methods){model}. The thesis's biases are "
             "-0.01..-0.04 mm on the plate and -0.52 mm on the checkerboard (which it attributes "
             "to the black-plate calibration and the centerline). Methods are compared on the "
             "std."
@@ -551,8 +556,14 @@ def differences_markdown(
                     f"{t6[b][2]:.3f} mm"
                     for a, b in pairs
                 )
-                + ". The ratio of DPA's sets to LPA's is the comparable quantity: our plate "
-                "clears at a higher MIGL than the thesis's, so every method needs fewer sets."
+                + ". The comparable quantity is the ratio of DPA's sets to LPA's: "
+                + ", ".join(
+                    f"{method_label(a)} / {method_label(b)} {t6[a][0] / t6[b][0]:.2f} ours, "
+                    f"{th[a][0] / th[b][0]:.2f} the thesis's"
+                    for a, b in pairs
+                )
+                + "; our plate clears at a higher MIGL than the thesis's, so every method needs "
+                "fewer sets."
             )
     return "\n".join(lines)
 
