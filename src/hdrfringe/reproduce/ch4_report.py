@@ -1,7 +1,11 @@
 """Tables and figures of thesis Ch. 4 from the reproduction's Datasets.
 
-Every table is returned as rows of ``(label, thesis, ours, ratio)`` columns so the report can
-print them side by side; every figure is a matplotlib PNG named after the thesis's figure.
+Every table is returned as rows (dicts of ours, the thesis's values, and our bias and std) and
+printed with one ``thesis / ours (ours / thesis)`` cell per quantity, our bias / std beside each
+RMSE and the calibration model's residual under the table (:func:`model_residual_of`, issue
+15); a blank thesis cell carries a footnote saying why (:class:`Notes`), and no ratio is given
+of a near-zero bias or of the thesis's fringe-order failures (:data:`FAILURE_MM`). Every figure
+is a matplotlib PNG named after the thesis's figure.
 """
 
 from __future__ import annotations

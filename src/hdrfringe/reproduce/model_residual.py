@@ -205,7 +205,7 @@ def model_residual(
     return ModelResidual(model, np.array(cal_depths), np.array(depths), bias, rms)
 
 
-@lru_cache(maxsize=256)
+@lru_cache(maxsize=64)
 def _plate_phase(setup_json: str, depth_mm: float, pitch: float) -> NDArray[np.float64]:
     """Noise-free absolute phase of the white plate at ``depth_mm`` (cached: reports ask for
     the same depths several times)."""
