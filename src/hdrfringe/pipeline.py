@@ -573,6 +573,10 @@ class MeasurementMetrics:
         Valid heights among the measurement pixels.
     saturated_fraction_measurement_pixels : float or None
         ``saturated_fraction`` over the measurement pixels.
+    calibration_residual_mm : float or None
+        The calibration model's own residual: median over the measurement pixels of its fit
+        residual RMS at the calibration depths (filtered maps, ``Calibration.residual_rms_mm``);
+        an error every measurement with this calibration carries, noise or not (issue 15).
     truth : str or None
         What the errors are against (a ``truth_height_mm`` map or ``scene.depth_mm``).
     bias_mm, std_mm, rmse_mm, max_abs_mm : float or None
@@ -623,6 +627,7 @@ class MeasurementMetrics:
     border_px: int | None = None
     valid_fraction: float | None = None
     saturated_fraction_measurement_pixels: float | None = None
+    calibration_residual_mm: float | None = None
     truth: str | None = None
     bias_mm: float | None = None
     std_mm: float | None = None
@@ -668,6 +673,8 @@ class MeasurementMetrics:
                 d["saturated_fraction_measurement_pixels"] = (
                     self.saturated_fraction_measurement_pixels
                 )
+            if self.calibration_residual_mm is not None:
+                d["calibration_residual_mm"] = self.calibration_residual_mm
         if self.truth is not None:
             d["truth"] = self.truth
             for key in ("bias_mm", "std_mm", "rmse_mm", "max_abs_mm", "n_pixels"):
@@ -914,6 +921,9 @@ def _measure_captures(
     fields["border_px"] = calibration.border_px
     fields["valid_fraction"] = float(np.isfinite(height)[inside].mean())
     fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat[inside]))
+    fit = calibration.residual_summary().get(calibration.model)
+    if fit is not None and fit.pixels:
+        fields["calibration_residual_mm"] = fit.median_mm
     truth = caps.map("truth_height_mm")
     errors: dict[str, Any] = {}
     if truth is not None:

@@ -15,7 +15,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from hdrfringe.reproduce.ch4_report import _header, _markdown, _plt, _side_by_side
+from hdrfringe.reproduce.ch4_report import (
+    Notes,
+    _bias_std,
+    _plt,
+    _residual_line,
+    _table,
+    _vs,
+    model_residual_of,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -174,7 +182,8 @@ def table_5_1(plate: xr.Dataset, pitch: int = TABLE_5_1_PITCH) -> list[dict[str,
     -------
     list of dict
         Per pattern: ``pattern``, ``ours`` (LPA S=5, MIGL 255, trade-off RMSE in mm),
-        ``tradeoff_migl`` and ``thesis`` (:data:`THESIS_TABLE_5_1`, None where it has no row).
+        ``bias_mm`` and ``std_mm`` (the same three, means over depth), ``tradeoff_migl`` and
+        ``thesis`` (:data:`THESIS_TABLE_5_1`, None where it has no row).
 
     References
     ----------
@@ -190,8 +199,22 @@ def table_5_1(plate: xr.Dataset, pitch: int = TABLE_5_1_PITCH) -> list[dict[str,
             float(cell["uniform_rmse_mm"].sel(uniform_migl=255.0)),
             float(cell["uniform_rmse_mm"].isel(uniform_migl=i)),
         )
+        stats = {
+            key: (
+                float(cell[var].sel(strategy="lpa-5")),
+                float(cell[f"uniform_{var}"].sel(uniform_migl=255.0)),
+                float(cell[f"uniform_{var}"].isel(uniform_migl=i)),
+            )
+            for key, var in (("bias_mm", "mean_error_mm"), ("std_mm", "std_mm"))
+        }
         rows.append(
-            {"pattern": p, "ours": ours, "tradeoff_migl": t_migl, "thesis": THESIS_TABLE_5_1.get(p)}
+            {
+                "pattern": p,
+                "ours": ours,
+                "tradeoff_migl": t_migl,
+                "thesis": THESIS_TABLE_5_1.get(p),
+                **stats,
+            }
         )
     return rows
 
@@ -210,8 +233,9 @@ def table_5_2(board: xr.Dataset, pitch: int = TABLE_5_2_PITCH) -> list[dict[str,
     Returns
     -------
     list of dict
-        Per method, then ``"uniform"``: ``method``, ``ours`` (sets, RMSE, std in mm) and
-        ``thesis`` (:data:`THESIS_TABLE_5_2`); the uniform row also has ``tradeoff_migl``.
+        Per method, then ``"uniform"``: ``method``, ``ours`` (sets, RMSE, std in mm),
+        ``bias_mm`` and ``thesis`` (:data:`THESIS_TABLE_5_2`); the uniform row also has
+        ``tradeoff_migl``.
 
     References
     ----------
@@ -223,7 +247,14 @@ def table_5_2(board: xr.Dataset, pitch: int = TABLE_5_2_PITCH) -> list[dict[str,
         m = str(method)
         c = cell.sel(strategy=m)
         ours = (float(c["sets"]), float(c["rmse_mm"]), float(c["std_mm"]))
-        rows.append({"method": m, "ours": ours, "thesis": THESIS_TABLE_5_2.get(m)})
+        rows.append(
+            {
+                "method": m,
+                "ours": ours,
+                "bias_mm": float(c["mean_error_mm"]),
+                "thesis": THESIS_TABLE_5_2.get(m),
+            }
+        )
     t_migl, i = uniform_tradeoff(board, pitch)
     u = cell.isel(uniform_migl=i)
     rows.append(
@@ -231,6 +262,7 @@ def table_5_2(board: xr.Dataset, pitch: int = TABLE_5_2_PITCH) -> list[dict[str,
             "method": "uniform",
             "tradeoff_migl": t_migl,
             "ours": (1.0, float(u["uniform_rmse_mm"]), float(u["uniform_std_mm"])),
+            "bias_mm": float(u["uniform_mean_error_mm"]),
             "thesis": THESIS_TABLE_5_2["uniform"],
         }
     )
@@ -295,23 +327,49 @@ def tables_markdown(
         ``"5.1"``, ``"5.2"``, ``"6.1"``, ``"6.2"`` (those given): Markdown tables, thesis
         beside ours with the ratio.
     """
+    from hdrfringe.reproduce.ch4 import THESIS_DEPTHS_MM
+
     mm = "{:.3f}"
     out: dict[str, str] = {}
     if plate is not None:
-        out["5.1"] = _markdown(
-            [
-                *_header("pattern", ("LPA S=5 (mm)", "MIGL 255 (mm)", "trade-off (mm)")),
-                "our trade-off MIGL",
-            ],
-            [
+        notes = Notes()
+        rows = []
+        for r in table_5_1(plate):
+            th = r["thesis"] or (None, None, None)
+            no = "a pattern the thesis did not measure"
+            b, sd = r["bias_mm"], r["std_mm"]
+            rows.append(
                 [
-                    *_side_by_side(r["pattern"], r["ours"], r["thesis"], (mm, mm, mm)),
+                    r["pattern"],
+                    *(
+                        cell
+                        for k in range(3)
+                        for cell in (
+                            _vs(th[k], r["ours"][k], mm, notes, missing=no),
+                            _bias_std(b[k], sd[k]),
+                        )
+                    ),
                     f"{r['tradeoff_migl']:.0f}",
                 ]
-                for r in table_5_1(plate)
+            )
+        bs = "ours: bias / std (mm)"
+        out["5.1"] = _table(
+            [
+                "pattern",
+                "LPA S=5 RMSE (mm), thesis / ours (ratio)",
+                bs,
+                "MIGL 255 RMSE (mm)",
+                bs,
+                "trade-off RMSE (mm)",
+                bs,
+                "our trade-off MIGL",
             ],
+            rows,
+            notes,
+            _residual_line(model_residual_of(plate, THESIS_DEPTHS_MM)),
         )
     if board is not None:
+        notes = Notes()
         rows = []
         for r in table_5_2(board):
             label = method_label(r["method"])
@@ -320,21 +378,79 @@ def tables_markdown(
                     f"uniform trade-off (thesis MIGL {THESIS_TRADEOFF_CHECKERBOARD:.0f}, ours "
                     f"{r['tradeoff_migl']:.0f})"
                 )
-            rows.append(_side_by_side(label, r["ours"], r["thesis"], ("{:.1f}", mm, mm)))
-        out["5.2"] = _markdown(_header("method", ("sets", "mean RMSE (mm)", "mean std (mm)")), rows)
+            no = _missing_5_2(r["method"])
+            th = r["thesis"] or (None, None, None)
+            rows.append(
+                [
+                    label,
+                    _vs(th[0], r["ours"][0], "{:.1f}", notes, missing=no),
+                    _vs(th[1], r["ours"][1], mm, notes, missing=no),
+                    _vs(th[2], r["ours"][2], mm, notes, missing=no),
+                    f"{r['bias_mm']:+.3f}",
+                ]
+            )
+        out["5.2"] = _table(
+            [
+                "method",
+                "sets, thesis / ours (ratio)",
+                "mean RMSE (mm)",
+                "mean std (mm)",
+                "ours: bias (mm)",
+            ],
+            rows,
+            notes,
+            _residual_line(model_residual_of(board, THESIS_DEPTHS_MM)),
+        )
     for key, ds, thesis in (("6.1", plate4, THESIS_TABLE_6_1), ("6.2", board6, THESIS_TABLE_6_2)):
         if ds is None:
             continue
-        out[key] = _markdown(
-            _header("method", ("sets", "bias (mm)", "std (mm)", "RMSE (mm)")),
+        notes = Notes()
+        rows = []
+        for r in table_6(ds, thesis):
+            no = _missing_6(r["method"], key)
+            th = r["thesis"] or (None,) * 4
+            rows.append(
+                [
+                    method_label(r["method"]),
+                    _vs(th[0], r["ours"][0], "{:.2f}", notes, missing=no),
+                    _vs(th[1], r["ours"][1], mm, notes, missing=no, ratio=False),
+                    _vs(th[2], r["ours"][2], mm, notes, missing=no),
+                    _vs(th[3], r["ours"][3], mm, notes, missing=no),
+                ]
+            )
+        out[key] = _table(
             [
-                _side_by_side(
-                    method_label(r["method"]), r["ours"], r["thesis"], ("{:.2f}", mm, mm, mm)
-                )
-                for r in table_6(ds, thesis)
+                "method",
+                "sets, thesis / ours (ratio)",
+                "bias (mm), thesis / ours",
+                "std (mm)",
+                "RMSE (mm)",
             ],
+            rows,
+            notes,
+            "Bias: no ratio (the thesis's biases are near zero). "
+            + _residual_line(model_residual_of(ds, THESIS_DEPTHS_MM)),
         )
     return out
+
+
+def _missing_5_2(method: str) -> str:
+    """Why Table 5.2 has no thesis value for ``method``."""
+    if method.startswith("dpab"):
+        return "beyond the thesis: DPA with the pending-pixel bound (docs/dpa.md)"
+    if method.startswith("dpa"):
+        return "the thesis ran DPA in Ch. 6 only (Table 6.2, means over pitch 6..20)"
+    return "the thesis's Table 5.2 has S = 1, 2, 5, 10, 15, 20, 30, 45 only"
+
+
+def _missing_6(method: str, table: str) -> str:
+    """Why Table 6.1 / 6.2 has no thesis value for ``method``."""
+    if method.startswith("dpab"):
+        return "beyond the thesis: DPA with the pending-pixel bound (docs/dpa.md)"
+    return (
+        f"not in the thesis's Table {table} (it lists LPA S = 15, 20, 30 and DPA 10 %, 20 %); "
+        "run here for Fig. 6.3-6.6 and Ch. 5"
+    )
 
 
 def differences_markdown(
@@ -355,13 +471,17 @@ def differences_markdown(
     str
         A Markdown bullet list.
     """
+    from hdrfringe.reproduce.ch4 import THESIS_DEPTHS_MM
+
     lines = []
     if plate is not None:
         t51 = table_5_1(plate)
         lines.append(
-            "* **Table 5.1.** LPA S=5 against the uniform trade-off at pitch 6: "
-            + ", ".join(f"{r['pattern']} {r['ours'][0] / r['ours'][2]:.2f}x" for r in t51)
-            + " (thesis: "
+            "* **Table 5.1.** LPA S=5 against the uniform trade-off at pitch 6, error std ratio: "
+            + ", ".join(f"{r['pattern']} {r['std_mm'][0] / r['std_mm'][2]:.2f}x" for r in t51)
+            + " (RMSE ratio "
+            + ", ".join(f"{r['ours'][0] / r['ours'][2]:.2f}x" for r in t51)
+            + "; thesis, RMSE only: "
             + ", ".join(
                 f"{r['thesis'][0] / r['thesis'][2]:.2f}x" for r in t51 if r["thesis"] is not None
             )
@@ -375,9 +495,8 @@ def differences_markdown(
             f"* **Table 5.2.** On the checkerboard at pitch 8 the error std grows from "
             f"{s1[2]:.3f} mm (S=1) to {s45[2]:.3f} mm (S=45) and the uniform trade-off "
             f"(MIGL {t52['uniform']['tradeoff_migl']:.0f}) reaches {uni[2]:.3f} mm, the thesis's "
-            "order. The RMSE is dominated by a bias common to every method (the linear "
-            "calibration model's residual at each depth, Eq. 2.15), so its spread is smaller "
-            "than the std's."
+            "order. The RMSE is dominated by the bias every method shares (the model residual, "
+            "below), so its spread is smaller than the std's."
         )
     if board6 is not None:
         t = {r["method"]: r["ours"] for r in table_6(board6, THESIS_TABLE_6_2)}
@@ -393,34 +512,58 @@ def differences_markdown(
             lines.append(
                 f"* **Beyond the thesis: DPA with the pending-pixel bound** captures "
                 f"{t['dpab-10'][0]:.1f} (10 %) and {t['dpab-20'][0]:.1f} (20 %) sets on the "
-                f"checkerboard for an RMSE of {t['dpab-10'][3]:.3f} and {t['dpab-20'][3]:.3f} mm "
-                f"(thesis-rule DPA: {t['dpa-10'][3]:.3f} mm, LPA S=1: {t['lpa-1'][3]:.3f} mm "
-                f"in {t['lpa-1'][0]:.0f} sets)."
+                f"checkerboard for an error std of {t['dpab-10'][2]:.3f} and "
+                f"{t['dpab-20'][2]:.3f} mm (thesis-rule DPA: {t['dpa-10'][2]:.3f} mm, LPA S=1: "
+                f"{t['lpa-1'][2]:.3f} mm in {t['lpa-1'][0]:.0f} sets)."
             )
-    biases = [
-        float(ds["mean_error_mm"].sel(strategy=ds["strategy"].values[0]).mean())
-        for ds in (plate4, board6, board)
-        if ds is not None
-    ]
-    if biases:
-        lo, hi = f"{min(biases):+.3f}", f"{max(biases):+.3f}"
-        span = lo if lo == hi else f"{lo} to {hi}"
+    parts, residuals = [], []
+    for name, ds in (("white plate", plate4 or plate), ("checkerboard", board6 or board)):
+        if ds is None:
+            continue
+        sel = ds.sel(pitch=ds["pitch"] >= CH6_MIN_PITCH).isel(pattern=0)
+        bias = sel["mean_error_mm"].mean(("pitch", "depth_mm"))
+        lo, hi = float(bias.min()), float(bias.max())
+        span = f"{lo:+.3f}" if f"{lo:+.3f}" == f"{hi:+.3f}" else f"{lo:+.3f} to {hi:+.3f}"
+        parts.append(f"{name} {span} mm")
+        res = model_residual_of(ds, THESIS_DEPTHS_MM)
+        if res is not None:
+            residuals.append(f"{name} {res.mean_mm:+.3f} mm")
+    if parts:
+        model = (
+            f"; the linear model's residual on the rig's geometry at the same depths, computed "
+            f"without noise (`hdrfringe.reproduce.model_residual`), is {', '.join(residuals)}: "
+            "the bias is the calibration model's, not the methods'"
+            if residuals
+            else ""
+        )
         lines.append(
-            f"* **Bias** ({span} mm, the same for every "
-            "method): the linear phase-to-height model (Eq. 2.15) fitted over 2..50 mm leaves "
-            "this residual at 10..28 mm on the virtual rig's geometry, whose phase-to-height "
-            "relation curves more than the thesis's rig (its plate bias was -0.01..-0.04 mm; "
-            "the checkerboard's -0.52 mm it attributes to the black-plate calibration and the "
-            "centerline). Methods differ in the error's standard deviation, not in its bias."
+            f"* **Bias** ({', '.join(parts)} over the methods){model}. The thesis's biases are "
+            "-0.01..-0.04 mm on the plate and -0.52 mm on the checkerboard (which it attributes "
+            "to the black-plate calibration and the centerline). Methods are compared on the "
+            "std."
         )
     if plate4 is not None:
         t6 = {r["method"]: r["ours"] for r in table_6(plate4, THESIS_TABLE_6_1)}
-        if "dpa-20" in t6 and "lpa-20" in t6:
+        pairs = [("dpa-10", "lpa-15"), ("dpa-20", "lpa-20")]
+        if all(a in t6 and b in t6 for a, b in pairs):
+            th = THESIS_TABLE_6_1
             lines.append(
-                f"* **Table 6.1.** On the white plate DPA 20 % captures {t6['dpa-20'][0]:.2f} sets "
-                f"against LPA S=20's {t6['lpa-20'][0]:.2f} for an RMSE of "
-                f"{t6['dpa-20'][3]:.3f} against {t6['lpa-20'][3]:.3f} mm (thesis: 7.06 and 9.81 "
-                "sets, 0.38 and 0.39 mm)."
+                "* **Table 6.1, sets.** On the white plate "
+                + "; ".join(
+                    f"{method_label(a)} captures {t6[a][0]:.2f} sets against {method_label(b)}'s "
+                    f"{t6[b][0]:.2f} ({'fewer' if t6[a][0] < t6[b][0] else 'not fewer'}; "
+                    f"thesis {th[a][0]:g} and {th[b][0]:g}), std {t6[a][2]:.3f} vs "
+                    f"{t6[b][2]:.3f} mm"
+                    for a, b in pairs
+                )
+                + ". The comparable quantity is the ratio of DPA's sets to LPA's: "
+                + ", ".join(
+                    f"{method_label(a)} / {method_label(b)} {t6[a][0] / t6[b][0]:.2f} ours, "
+                    f"{th[a][0] / th[b][0]:.2f} the thesis's"
+                    for a, b in pairs
+                )
+                + "; our plate clears at a higher MIGL than the thesis's, so every method needs "
+                "fewer sets."
             )
     return "\n".join(lines)
 

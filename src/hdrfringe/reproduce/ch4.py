@@ -589,12 +589,14 @@ def _metrics(
     cal: Calibration,
     mask: NDArray[np.bool_],
     bit_depth: int,
-) -> tuple[float, float, list[float]]:
+) -> tuple[float, float, float, list[float]]:
+    """RMSE, bias (mean error) and std over the pixels of the height error, and the saturated
+    fractions; RMSE^2 = bias^2 + std^2 (population std)."""
     phase = orders_from_expected(sweep_phase(imgs, spec), plate.expected_phase)
     err = cal.height(phase)[mask] - plate.depth_mm
     nsat = saturation_count(imgs, bit_depth)[mask]
     fractions = [float(np.count_nonzero(nsat == k)) / nsat.size for k in SATURATED_SHIFTS]
-    return float(np.sqrt(np.mean(err * err))), float(np.mean(err)), fractions
+    return float(np.sqrt(np.mean(err * err))), float(np.mean(err)), float(np.std(err)), fractions
 
 
 def ch4_block(
@@ -621,7 +623,8 @@ def ch4_block(
     Returns
     -------
     dict
-        ``rmse_mm`` and ``mean_error_mm`` of shape (lux, MIGL, depth), and
+        ``rmse_mm``, ``mean_error_mm`` (bias) and ``std_mm`` (standard deviation over the
+        measurement pixels of the height error) of shape (lux, MIGL, depth), and
         ``saturated_fraction`` of shape (lux, MIGL, depth, 3): the fraction of measurement
         pixels saturated in exactly 1, 2 and 3 of the shifts (Fig. 4.5).
 
@@ -634,7 +637,7 @@ def ch4_block(
     cal, _ = calibrate_pattern(pattern, pitch, setup, depths_mm)
     mask = measurement_mask((setup.height, setup.width), setup.border_px)
     shape = (len(luxes), len(migls), len(depths_mm))
-    rmse, bias = np.full(shape, np.nan), np.full(shape, np.nan)
+    rmse, bias, std = np.full(shape, np.nan), np.full(shape, np.nan), np.full(shape, np.nan)
     sat = np.full((*shape, len(SATURATED_SHIFTS)), np.nan)
     for k, d in enumerate(depths_mm):
         plate = PlateSweep(d, setup, spec)
@@ -644,10 +647,10 @@ def ch4_block(
             for i, lux in enumerate(luxes):
                 signal = base + (plate.ambient(lux) - plate.ambient(0.0)) if lux else base
                 imgs = sensor_readout(signal, cam, normals=normals, dtype=SWEEP_DTYPE)
-                rmse[i, j, k], bias[i, j, k], sat[i, j, k] = _metrics(
+                rmse[i, j, k], bias[i, j, k], std[i, j, k], sat[i, j, k] = _metrics(
                     imgs, spec, plate, cal, mask, cam.bit_depth
                 )
-    return {"rmse_mm": rmse, "mean_error_mm": bias, "saturated_fraction": sat}
+    return {"rmse_mm": rmse, "mean_error_mm": bias, "std_mm": std, "saturated_fraction": sat}
 
 
 def ch4_modified_block(
@@ -694,7 +697,11 @@ def ch4_modified_block(
     Returns
     -------
     dict
-        ``rmse_light_mm`` (added lux, MIGL, depth) and ``rmse_noise_mm`` (sigma, MIGL, depth).
+        ``rmse_light_mm`` (added lux, MIGL, depth) and ``rmse_noise_mm`` (sigma, MIGL, depth),
+        and likewise the bias (``mean_error_light_mm``, ``mean_error_noise_mm``) and the
+        standard deviation over pixels (``std_light_mm``, ``std_noise_mm``);
+        ``saturated_fraction_light`` (added lux, MIGL, depth): the fraction of measurement
+        pixels saturated in at least one shift (where saturation starts under added light).
 
     References
     ----------
@@ -705,8 +712,12 @@ def ch4_modified_block(
     cal_depths = depths_mm if calibration_depths_mm is None else calibration_depths_mm
     cal, _ = calibrate_pattern(pattern, pitch, setup, cal_depths)
     mask = measurement_mask((setup.height, setup.width), setup.border_px)
-    light = np.full((len(added_lux), len(migls), len(depths_mm)), np.nan)
-    noise = np.full((len(noise_sigma), len(migls), len(depths_mm)), np.nan)
+    out = {
+        f"{stat}_{kind}_mm": np.full((len(levels), len(migls), len(depths_mm)), np.nan)
+        for kind, levels in (("light", added_lux), ("noise", noise_sigma))
+        for stat in ("rmse", "mean_error", "std")
+    }
+    out["saturated_fraction_light"] = np.full((len(added_lux), len(migls), len(depths_mm)), np.nan)
     for k, d in enumerate(depths_mm):
         plate = PlateSweep(d, setup, spec)
         normals = depth_normals(setup, spec, pattern, d, plate.rig.image_shape)
@@ -717,12 +728,17 @@ def ch4_modified_block(
             for i, lux in enumerate(added_lux):
                 added = lux_to_dn(lux, cam.bit_depth)
                 mod = modify_intensity(imgs, cam.bit_depth, added, dtype=SWEEP_DTYPE)
-                light[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
+                stats = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)
+                for stat, v in zip(("rmse", "mean_error", "std"), stats[:3], strict=True):
+                    out[f"{stat}_light_mm"][i, j, k] = v
+                out["saturated_fraction_light"][i, j, k] = sum(stats[3])
             for i, sigma in enumerate(noise_sigma):
                 added, n = lux_to_dn(noise_lux, cam.bit_depth), SWEEP_DTYPE(sigma) * z
                 mod = modify_intensity(imgs, cam.bit_depth, added, n, dtype=SWEEP_DTYPE)
-                noise[i, j, k] = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)[0]
-    return {"rmse_light_mm": light, "rmse_noise_mm": noise}
+                stats = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)
+                for stat, v in zip(("rmse", "mean_error", "std"), stats[:3], strict=True):
+                    out[f"{stat}_noise_mm"][i, j, k] = v
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -751,8 +767,8 @@ def ch4_grid(quick: bool = False) -> SweepGrid:
     Returns
     -------
     SweepGrid
-        Variables ``rmse_mm``, ``mean_error_mm`` and ``saturated_fraction``; computed by
-        :func:`ch4_task`.
+        Variables ``rmse_mm``, ``mean_error_mm``, ``std_mm`` and ``saturated_fraction``;
+        computed by :func:`ch4_task`.
 
     Examples
     --------
@@ -772,6 +788,10 @@ def ch4_grid(quick: bool = False) -> SweepGrid:
         variables=[
             Variable("rmse_mm", attrs={"units": "mm", "long_name": "height RMSE"}),
             Variable("mean_error_mm", attrs={"units": "mm", "long_name": "mean height error"}),
+            Variable(
+                "std_mm",
+                attrs={"units": "mm", "long_name": "standard deviation of the height error"},
+            ),
             Variable(
                 "saturated_fraction",
                 extra_dims={"saturated_shifts": list(SATURATED_SHIFTS)},
@@ -822,14 +842,17 @@ def ch4_simulation_grid(quick: bool = False) -> SweepGrid:
     Returns
     -------
     SweepGrid
-        Variables ``rmse_light_mm`` and ``rmse_noise_mm``; computed by
+        Variables ``rmse_light_mm``, ``mean_error_light_mm``, ``std_light_mm``, the same
+        three with ``noise``, and ``saturated_fraction_light``; computed by
         :func:`ch4_simulation_task`.
 
     Examples
     --------
     >>> grid = ch4_simulation_grid(quick=True)
-    >>> grid.n_blocks, [grid.block_shape(v) for v in grid.variables]
-    (12, [(11, 3), (11, 3)])
+    >>> grid.n_blocks, {grid.block_shape(v) for v in grid.variables}
+    (12, {(11, 3)})
+    >>> [v.name for v in grid.variables][:3]
+    ['rmse_light_mm', 'mean_error_light_mm', 'std_light_mm']
     """
     from hdrfringe.reproduce.engine import SweepGrid, Variable
 
@@ -841,17 +864,34 @@ def ch4_simulation_grid(quick: bool = False) -> SweepGrid:
         },
         variables=[
             Variable(
-                "rmse_light_mm",
-                extra_dims={"added_lux": list(QUICK_ADDED_LUX if quick else THESIS_ADDED_LUX)},
-                attrs={"units": "mm", "long_name": "RMSE with added uniform light (Eq. 4.1)"},
-            ),
+                f"{stat}_{kind}_mm",
+                extra_dims=levels,
+                attrs={"units": "mm", "long_name": f"{name} with {what}"},
+            )
+            for kind, levels, what in (
+                (
+                    "light",
+                    {"added_lux": list(QUICK_ADDED_LUX if quick else THESIS_ADDED_LUX)},
+                    "added uniform light (Eq. 4.1)",
+                ),
+                (
+                    "noise",
+                    {"noise_sigma": list(QUICK_NOISE_SIGMA if quick else THESIS_NOISE_SIGMA)},
+                    "600 lx and Gaussian noise",
+                ),
+            )
+            for stat, name in (
+                ("rmse", "RMSE"),
+                ("mean_error", "mean height error"),
+                ("std", "height error std"),
+            )
+        ]
+        + [
             Variable(
-                "rmse_noise_mm",
-                extra_dims={
-                    "noise_sigma": list(QUICK_NOISE_SIGMA if quick else THESIS_NOISE_SIGMA)
-                },
-                attrs={"units": "mm", "long_name": "RMSE with 600 lx and Gaussian noise"},
-            ),
+                "saturated_fraction_light",
+                extra_dims={"added_lux": list(QUICK_ADDED_LUX if quick else THESIS_ADDED_LUX)},
+                attrs={"long_name": "fraction of pixels saturated in any shift (Eq. 4.1 light)"},
+            )
         ],
         block_dims=["migl"],
         attrs={
@@ -877,7 +917,8 @@ def ch4_simulation_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[
     Returns
     -------
     dict
-        ``rmse_light_mm`` (MIGL, added lux) and ``rmse_noise_mm`` (MIGL, sigma).
+        ``rmse_light_mm`` (MIGL, added lux), ``rmse_noise_mm`` (MIGL, sigma) and their
+        ``mean_error_*`` and ``std_*`` (as :func:`ch4_modified_block`).
     """
     setup = Ch4Setup(**params["setup"])
     out = ch4_modified_block(

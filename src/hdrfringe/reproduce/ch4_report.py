@@ -1,11 +1,16 @@
 """Tables and figures of thesis Ch. 4 from the reproduction's Datasets.
 
-Every table is returned as rows of ``(label, thesis, ours, ratio)`` columns so the report can
-print them side by side; every figure is a matplotlib PNG named after the thesis's figure.
+Every table is returned as rows (dicts of ours, the thesis's values, and our bias and std) and
+printed with one ``thesis / ours (ours / thesis)`` cell per quantity, our bias / std beside each
+RMSE and the calibration model's residual under the table (:func:`model_residual_of`, issue
+15); a blank thesis cell carries a footnote saying why (:class:`Notes`), and no ratio is given
+of a near-zero bias or of the thesis's fringe-order failures (:data:`FAILURE_MM`). Every figure
+is a matplotlib PNG named after the thesis's figure.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
@@ -18,10 +23,13 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = [
+    "FAILURE_MM",
     "THESIS_TABLE_4_1",
     "THESIS_TABLE_4_2",
     "THESIS_TABLE_4_3",
+    "Notes",
     "differences_markdown",
+    "error_budget",
     "figure_depth_maps",
     "figure_measured_vs_simulated",
     "figure_patterns_by_pitch",
@@ -30,6 +38,8 @@ __all__ = [
     "figure_saturation_by_pitch",
     "figure_simulation",
     "figures",
+    "model_residual_of",
+    "saturation_onset",
     "table_4_1",
     "table_4_2",
     "table_4_3",
@@ -106,15 +116,61 @@ def tradeoff(curve: xr.DataArray) -> tuple[float, float]:
     return float(migls[i]), float(values[i])
 
 
-def table_4_3(ds: xr.Dataset, pitch: int = 6) -> list[dict[str, Any]]:
-    """Table 4.3: per pattern at ``pitch``, the trade-off MIGL at 600 lx, the RMSE at 255 (0 and
-    600 lx) and at the trade-off, each beside the thesis.
+def _setup_of(ds: xr.Dataset) -> Any:
+    """The :class:`~hdrfringe.reproduce.ch4.Ch4Setup` a sweep ran with (None: not recorded)."""
+    from hdrfringe.reproduce.ch4 import Ch4Setup
+
+    try:
+        return Ch4Setup(**json.loads(ds.attrs["sweep_params"])["setup"])
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def model_residual_of(ds: xr.Dataset, calibration_depths_mm: Sequence[float] | None = None) -> Any:
+    """The linear model's residual (:func:`hdrfringe.reproduce.model_residual.model_residual`)
+    at a sweep's depths, for its setup and calibration depths.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        The Sec. 4.2 sweep (:func:`hdrfringe.reproduce.ch4.ch4_grid`); its ``rmse_mm`` is
-        averaged over depth.
+        A reproduction sweep (its ``sweep_params`` attribute names the setup).
+    calibration_depths_mm : sequence of float, optional
+        The calibration's plate depths (default the sweep's own depths: Ch. 4 calibrates on
+        the depths it measures).
+
+    Returns
+    -------
+    ModelResidual or None
+        Per depth of ``ds``, the bias and RMS the model alone leaves; None when the sweep does
+        not record its setup.
+
+    References
+    ----------
+    Thesis Eq. 2.15 (the linear model), Sec. 4.1.
+    """
+    from hdrfringe.reproduce.model_residual import model_residual
+
+    setup = _setup_of(ds)
+    if setup is None:
+        return None
+    depths = [float(d) for d in ds["depth_mm"].values]
+    cal = depths if calibration_depths_mm is None else [float(d) for d in calibration_depths_mm]
+    return model_residual(setup, cal, depths)
+
+
+def _mean(ds: xr.Dataset, var: str, **sel: Any) -> float:
+    return float(ds[var].sel(**sel).mean("depth_mm"))
+
+
+def table_4_3(ds: xr.Dataset, pitch: int = 6) -> list[dict[str, Any]]:
+    """Table 4.3: per pattern at ``pitch``, the trade-off MIGL at 600 lx, the RMSE at 255 (0 and
+    600 lx) and at the trade-off, each beside the thesis, with our bias and std.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep (:func:`hdrfringe.reproduce.ch4.ch4_grid`); its ``rmse_mm``,
+        ``mean_error_mm`` and ``std_mm`` are averaged over depth.
     pitch : int
         The pitch of the table (the thesis: 6 px).
 
@@ -122,8 +178,13 @@ def table_4_3(ds: xr.Dataset, pitch: int = 6) -> list[dict[str, Any]]:
     -------
     list of dict
         Per pattern: ``pattern``, ``ours`` (trade-off MIGL, RMSE 255 at 0 lx, RMSE 255 at
-        600 lx, RMSE at the trade-off) and ``thesis`` (the same from
+        600 lx, RMSE at the trade-off), ``bias_mm`` and ``std_mm`` (the same three cells'
+        mean error and error std, means over depth) and ``thesis`` (the same from
         :data:`THESIS_TABLE_4_3`, None for a pattern the thesis did not measure).
+
+    References
+    ----------
+    Thesis Sec. 4.2.3, Table 4.3.
     """
     mean = ds["rmse_mm"].sel(pitch=pitch).mean("depth_mm")
     rows = []
@@ -137,13 +198,64 @@ def table_4_3(ds: xr.Dataset, pitch: int = 6) -> list[dict[str, Any]]:
             float(m.sel(lux=600.0, migl=255.0)),
             t_rmse,
         )
-        rows.append({"pattern": p, "ours": ours, "thesis": THESIS_TABLE_4_3.get(p)})
+        cells = ((0.0, 255.0), (600.0, 255.0), (600.0, t_migl))
+        stats = {
+            f"{v}": tuple(
+                _mean(ds, f"{v}_mm", pattern=p, pitch=pitch, lux=lux, migl=mg) for lux, mg in cells
+            )
+            for v in ("mean_error", "std")
+            if f"{v}_mm" in ds
+        }
+        row: dict[str, Any] = {"pattern": p, "ours": ours, "thesis": THESIS_TABLE_4_3.get(p)}
+        if stats:
+            row |= {"bias_mm": stats["mean_error"], "std_mm": stats["std"]}
+        rows.append(row)
     return rows
+
+
+def saturation_onset(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> dict[float, float]:
+    """Per added light of the Sec. 4.3 sweep, the highest MIGL at which no measurement pixel
+    saturates at any depth: where saturation starts on the rig's response.
+
+    Parameters
+    ----------
+    sim : xarray.Dataset
+        The Sec. 4.3 sweep, with ``saturated_fraction_light``.
+    pattern : str
+        The pattern.
+
+    Returns
+    -------
+    dict of float to float
+        Added lux -> MIGL (NaN when every MIGL of the sweep saturates somewhere).
+
+    References
+    ----------
+    Thesis Sec. 4.3.1 (saturation begins above the trade-off MIGL).
+
+    Examples
+    --------
+    >>> import xarray as xr
+    >>> sat = xr.DataArray(
+    ...     np.array([[[0.3, 0.5], [0.0, 0.2]], [[0.0, 0.1], [0.0, 0.0]]])[None],
+    ...     dims=("pattern", "migl", "depth_mm", "added_lux"),
+    ...     coords={"pattern": ["p"], "migl": [255.0, 225.0], "added_lux": [300.0, 900.0]},
+    ... )
+    >>> saturation_onset(xr.Dataset({"saturated_fraction_light": sat}), "p")
+    {300.0: 225.0, 900.0: nan}
+    """
+    sat = sim["saturated_fraction_light"].sel(pattern=pattern).max("depth_mm")
+    out = {}
+    for lux in sat["added_lux"].values:
+        c = sat.sel(added_lux=lux)
+        clear = c["migl"].values[c.values == 0]
+        out[float(lux)] = float(clear.max()) if clear.size else float("nan")
+    return out
 
 
 def table_4_1(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
     """Table 4.1: per added light, the trade-off MIGL, the RMSE at 255 and at the trade-off
-    (Eq. 4.1 simulation).
+    (Eq. 4.1 simulation), with our bias and std and where saturation starts.
 
     Parameters
     ----------
@@ -156,20 +268,44 @@ def table_4_1(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> list[dict[str, 
     -------
     list of dict
         Per added light: ``lux``, ``ours`` (trade-off MIGL, RMSE at 255, RMSE at the
-        trade-off) and ``thesis`` (:data:`THESIS_TABLE_4_1`, None where it has no row).
+        trade-off), ``bias_mm`` and ``std_mm`` (at 255 and at the trade-off),
+        ``saturation_onset_migl`` (:func:`saturation_onset`), ``saturated_fraction_at_tradeoff``
+        (pixels saturated in any shift at the trade-off MIGL, mean over depth) and ``thesis``
+        (:data:`THESIS_TABLE_4_1`, None where it has no row).
+
+    References
+    ----------
+    Thesis Sec. 4.3.1, Table 4.1.
     """
     mean = sim["rmse_light_mm"].sel(pattern=pattern).mean("depth_mm")
+    onset = saturation_onset(sim, pattern) if "saturated_fraction_light" in sim else {}
     rows = []
     for lux in mean["added_lux"].values:
         curve = mean.sel(added_lux=lux)
         t_migl, t_rmse = tradeoff(curve)
         ours = (t_migl, float(curve.sel(migl=255.0)), t_rmse)
-        rows.append({"lux": float(lux), "ours": ours, "thesis": THESIS_TABLE_4_1.get(float(lux))})
+        row: dict[str, Any] = {
+            "lux": float(lux),
+            "ours": ours,
+            "thesis": THESIS_TABLE_4_1.get(float(lux)),
+        }
+        if "std_light_mm" in sim:
+            for key, var in (("bias_mm", "mean_error_light_mm"), ("std_mm", "std_light_mm")):
+                row[key] = tuple(
+                    _mean(sim, var, pattern=pattern, added_lux=lux, migl=m) for m in (255.0, t_migl)
+                )
+        if onset:
+            row["saturation_onset_migl"] = onset[float(lux)]
+            row["saturated_fraction_at_tradeoff"] = _mean(
+                sim, "saturated_fraction_light", pattern=pattern, added_lux=lux, migl=t_migl
+            )
+        rows.append(row)
     return rows
 
 
 def table_4_2(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
-    """Table 4.2: per noise sigma at 600 lx, the trade-off MIGL and the RMSE there.
+    """Table 4.2: per noise sigma at 600 lx, the trade-off MIGL and the RMSE there, with our
+    bias and std.
 
     Parameters
     ----------
@@ -181,16 +317,28 @@ def table_4_2(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> list[dict[str, 
     Returns
     -------
     list of dict
-        Per sigma: ``sigma``, ``ours`` (trade-off MIGL, RMSE there) and ``thesis``
-        (:data:`THESIS_TABLE_4_2`, None where it has no row).
+        Per sigma: ``sigma``, ``ours`` (trade-off MIGL, RMSE there), ``bias_mm`` and
+        ``std_mm`` at the trade-off and ``thesis`` (:data:`THESIS_TABLE_4_2`, None where it
+        has no row).
+
+    References
+    ----------
+    Thesis Sec. 4.3.2, Table 4.2.
     """
     mean = sim["rmse_noise_mm"].sel(pattern=pattern).mean("depth_mm")
     rows = []
     for sigma in mean["noise_sigma"].values:
         ours = tradeoff(mean.sel(noise_sigma=sigma))
-        rows.append(
-            {"sigma": float(sigma), "ours": ours, "thesis": THESIS_TABLE_4_2.get(float(sigma))}
-        )
+        row: dict[str, Any] = {
+            "sigma": float(sigma),
+            "ours": ours,
+            "thesis": THESIS_TABLE_4_2.get(float(sigma)),
+        }
+        if "std_noise_mm" in sim:
+            sel = {"pattern": pattern, "noise_sigma": sigma, "migl": ours[0]}
+            row["bias_mm"] = _mean(sim, "mean_error_noise_mm", **sel)
+            row["std_mm"] = _mean(sim, "std_noise_mm", **sel)
+        rows.append(row)
     return rows
 
 
@@ -200,26 +348,111 @@ def _markdown(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
-def _side_by_side(
-    label: str, ours: Sequence[float], thesis: Sequence[float] | None, formats: Sequence[str]
-) -> list[str]:
-    """One table row: the label, then thesis, ours and ours/thesis for every quantity."""
-    row = [label]
-    for i, fmt in enumerate(formats):
-        th = None if thesis is None else thesis[i]
-        if th is None:
-            row += ["", fmt.format(ours[i]), ""]
-        else:
-            row += [fmt.format(th), fmt.format(ours[i]), f"{_ratio(ours[i], th):.2f}"]
-    return row
+#: A thesis value above this (mm) is a fringe-order failure, not a measurement error: no ratio.
+FAILURE_MM = 10.0
 
 
-def _header(first: str, quantities: Sequence[str]) -> list[str]:
-    return [first] + [f"{q} {c}" for q in quantities for c in ("thesis", "ours", "ratio")]
+class Notes:
+    """Footnotes of one table: each reason once, marked ``[a]``, ``[b]``, ... in its cells.
+
+    Examples
+    --------
+    >>> n = Notes()
+    >>> n.mark("not in the thesis"), n.mark("a failure"), n.mark("not in the thesis")
+    ('[a]', '[b]', '[a]')
+    >>> print(n.markdown())
+    [a] not in the thesis; [b] a failure
+    """
+
+    def __init__(self) -> None:
+        self._texts: list[str] = []
+
+    def mark(self, text: str) -> str:
+        """The marker of ``text`` (added on first use).
+
+        Parameters
+        ----------
+        text : str
+            The reason, one sentence.
+
+        Returns
+        -------
+        str
+            ``[a]``, ``[b]``, ...
+        """
+        if text not in self._texts:
+            self._texts.append(text)
+        return f"[{chr(ord('a') + self._texts.index(text))}]"
+
+    def markdown(self) -> str:
+        """The footnotes as one paragraph (empty when there is none).
+
+        Returns
+        -------
+        str
+            ``[a] reason; [b] reason``.
+        """
+        return "; ".join(f"[{chr(ord('a') + i)}] {t}" for i, t in enumerate(self._texts))
+
+
+def _vs(
+    thesis: float | None,
+    ours: float,
+    fmt: str,
+    notes: Notes,
+    *,
+    missing: str = "",
+    ratio: bool = True,
+    failures: bool = False,
+) -> str:
+    """One ``thesis / ours (ratio)`` cell; a missing thesis value says why (a footnote), a
+    ratio is left out where it would mislead (a near-zero bias, ``ratio=False``; with
+    ``failures``, a thesis error in mm above :data:`FAILURE_MM`: fringe-order failures)."""
+    if thesis is None:
+        return f"- {notes.mark(missing)} / {fmt.format(ours)}" if missing else fmt.format(ours)
+    cell = f"{fmt.format(thesis)} / {fmt.format(ours)}"
+    if ratio and failures and abs(thesis) > FAILURE_MM:
+        return (
+            cell
+            + " "
+            + notes.mark(
+                "no ratio: the thesis's value is dominated by fringe-order failures (height jumps "
+                "of whole fringes), not the saturation error measured here"
+            )
+        )
+    if ratio and thesis:
+        cell += f" ({_ratio(ours, thesis):.2f})"
+    return cell
+
+
+def _bias_std(bias: float, std: float) -> str:
+    return f"{bias:+.3f} / {std:.3f}"
+
+
+def _table(header: list[str], rows: list[list[str]], notes: Notes, *extra: str) -> str:
+    out = _markdown(header, rows)
+    tail = [t for t in (notes.markdown(), *extra) if t]
+    return out + ("\n\n" + "\n\n".join(tail) if tail else "")
+
+
+def _residual_line(res: Any) -> str:
+    if res is None:
+        return ""
+    return (
+        f"Model residual at these depths (the linear model, Eq. 2.15, fitted noise-free on the "
+        f"rig's geometry: `hdrfringe.reproduce.model_residual`): mean {res.mean_mm:+.3f} mm, "
+        f"RMS {res.rms_total_mm:.3f} mm; every cell of the table carries it, so the std is the "
+        "measurement's own error."
+    )
+
+
+NO_4_1_ROW = "the thesis's Table 4.1 lists 500..900 lx only (below 500 lx little saturates)"
+NO_4_2_ROW = "the thesis's Table 4.2 has sigma 1..8 only"
 
 
 def tables_markdown(ds: xr.Dataset, sim: xr.Dataset) -> dict[str, str]:
-    """Tables 4.1, 4.2 and 4.3 as Markdown, thesis beside ours with the ratio ours/thesis.
+    """Tables 4.1, 4.2 and 4.3 as Markdown: thesis / ours (ratio ours/thesis) per quantity,
+    our bias / std beside each RMSE, the model residual under each table.
 
     Parameters
     ----------
@@ -231,48 +464,142 @@ def tables_markdown(ds: xr.Dataset, sim: xr.Dataset) -> dict[str, str]:
     Returns
     -------
     dict of str to str
-        ``"4.1"``, ``"4.2"``, ``"4.3"``: each table as a Markdown table.
+        ``"4.1"``, ``"4.2"``, ``"4.3"``: each table as a Markdown table with its footnotes.
     """
-    mm = "{:.3f}"
-    level = "{:.0f}"
+    mm, level, nan2 = "{:.3f}", "{:.0f}", (float("nan"), float("nan"))
+    residual = _residual_line(model_residual_of(sim))
+    n41 = Notes()
+    rows41 = []
+    for r in table_4_1(sim):
+        th = r["thesis"] or (None, None, None)
+        b, s = r.get("bias_mm", nan2), r.get("std_mm", nan2)
+        onset = r.get("saturation_onset_migl", float("nan"))
+        at = r.get("saturated_fraction_at_tradeoff", float("nan"))
+        rows41.append(
+            [
+                f"{r['lux']:g}",
+                _vs(th[0], r["ours"][0], level, n41, missing=NO_4_1_ROW, ratio=False),
+                (f"{onset:.0f}" if np.isfinite(onset) else "-") + f" / {100 * at:.1f} %",
+                _vs(th[1], r["ours"][1], mm, n41, missing=NO_4_1_ROW, failures=True),
+                _bias_std(b[0], s[0]),
+                _vs(th[2], r["ours"][2], mm, n41, missing=NO_4_1_ROW, failures=True),
+                _bias_std(b[1], s[1]),
+            ]
+        )
+    n42 = Notes()
+    rows42 = []
+    for r in table_4_2(sim):
+        th = r["thesis"] or (None, None)
+        rows42.append(
+            [
+                f"{r['sigma']:g}",
+                _vs(th[0], r["ours"][0], level, n42, missing=NO_4_2_ROW, ratio=False),
+                _vs(th[1], r["ours"][1], mm, n42, missing=NO_4_2_ROW, failures=True),
+                _bias_std(r.get("bias_mm", nan2[0]), r.get("std_mm", nan2[0])),
+            ]
+        )
+    n43 = Notes()
+    rows43 = []
+    for r in table_4_3(ds):
+        th = r["thesis"] or (None,) * 4
+        b, s = r.get("bias_mm", nan2 + nan2[:1]), r.get("std_mm", nan2 + nan2[:1])
+        no = "a pattern the thesis did not measure"
+        rows43.append(
+            [
+                r["pattern"],
+                _vs(th[0], r["ours"][0], level, n43, missing=no, ratio=False),
+                _vs(th[1], r["ours"][1], mm, n43, missing=no, failures=True),
+                _bias_std(b[0], s[0]),
+                _vs(th[2], r["ours"][2], mm, n43, missing=no, failures=True),
+                _bias_std(b[1], s[1]),
+                _vs(th[3], r["ours"][3], mm, n43, missing=no, failures=True),
+                _bias_std(b[2], s[2]),
+            ]
+        )
+    bs = "ours: bias / std (mm)"
     return {
-        "4.1": _markdown(
-            _header(
+        "4.1": _table(
+            [
                 "added light (lx)",
-                ("trade-off MIGL", "RMSE at 255 (mm)", "RMSE at trade-off (mm)"),
-            ),
-            [
-                _side_by_side(f"{r['lux']:g}", r["ours"], r["thesis"], (level, mm, mm))
-                for r in table_4_1(sim)
+                "trade-off MIGL, thesis / ours",
+                "ours: no pixel saturated at or below MIGL / saturated at the trade-off",
+                "RMSE at 255 (mm), thesis / ours (ratio)",
+                bs,
+                "RMSE at trade-off (mm), thesis / ours (ratio)",
+                bs,
             ],
+            rows41,
+            n41,
+            residual,
         ),
-        "4.2": _markdown(
-            _header("sigma (gray level)", ("trade-off MIGL", "RMSE at trade-off (mm)")),
+        "4.2": _table(
             [
-                _side_by_side(f"{r['sigma']:g}", r["ours"], r["thesis"], (level, mm))
-                for r in table_4_2(sim)
+                "sigma (gray level)",
+                "trade-off MIGL, thesis / ours",
+                "RMSE at trade-off (mm), thesis / ours (ratio)",
+                bs,
             ],
+            rows42,
+            n42,
+            residual,
         ),
-        "4.3": _markdown(
-            _header(
+        "4.3": _table(
+            [
                 "pattern",
-                (
-                    "trade-off MIGL (600 lx)",
-                    "RMSE 255, 0 lx (mm)",
-                    "RMSE 255, 600 lx (mm)",
-                    "RMSE trade-off, 600 lx (mm)",
-                ),
-            ),
-            [
-                _side_by_side(r["pattern"], r["ours"], r["thesis"], (level, mm, mm, mm))
-                for r in table_4_3(ds)
+                "trade-off MIGL (600 lx), thesis / ours",
+                "RMSE 255, 0 lx (mm)",
+                bs,
+                "RMSE 255, 600 lx (mm)",
+                bs,
+                "RMSE trade-off, 600 lx (mm)",
+                bs,
             ],
+            rows43,
+            n43,
+            _residual_line(model_residual_of(ds)),
         ),
     }
 
 
+def error_budget(ds: xr.Dataset, pitch: int = 6, pattern: str = "sinusoidal-3") -> dict[str, Any]:
+    """Our RMSE at 0 lx and MIGL 255 split into the model residual and the measurement's own
+    error, beside the thesis's RMSE there (Table 4.3).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The Sec. 4.2 sweep.
+    pitch : int
+        The pitch (the thesis: 6 px).
+    pattern : str
+        The pattern (the thesis's Table 4.3 row).
+
+    Returns
+    -------
+    dict
+        ``rmse_mm``, ``bias_mm``, ``std_mm`` (means over depth), ``model_rms_mm`` and
+        ``model_mean_mm`` (:func:`model_residual_of`, None without a recorded setup) and
+        ``thesis_rmse_mm``.
+
+    References
+    ----------
+    Thesis Table 4.3; Eq. 2.15 (the model whose residual is separated).
+    """
+    sel = {"pattern": pattern, "pitch": pitch, "lux": 0.0, "migl": 255.0}
+    res = model_residual_of(ds)
+    thesis = THESIS_TABLE_4_3.get(pattern)
+    return {
+        "rmse_mm": _mean(ds, "rmse_mm", **sel),
+        "bias_mm": _mean(ds, "mean_error_mm", **sel),
+        "std_mm": _mean(ds, "std_mm", **sel),
+        "model_rms_mm": None if res is None else res.rms_total_mm,
+        "model_mean_mm": None if res is None else res.mean_mm,
+        "thesis_rmse_mm": None if thesis is None else thesis[1],
+    }
+
+
 def differences_markdown(ds: xr.Dataset, sim: xr.Dataset) -> str:
-    """What differs from the thesis and why, with the ratios of this run.
+    """What differs from the thesis and why, with the numbers of this run.
 
     Parameters
     ----------
@@ -289,20 +616,39 @@ def differences_markdown(ds: xr.Dataset, sim: xr.Dataset) -> str:
     ratios = []
     for r in table_4_3(ds):
         if r["thesis"]:
-            ratios += [r["ours"][i] / r["thesis"][i] for i in (1, 3)]
+            ratios += [r["ours"][i] / r["thesis"][i] for i in (1, 2, 3)]
     for r in table_4_2(sim):
         if r["thesis"]:
             ratios.append(r["ours"][1] / r["thesis"][1])
     t41 = [r for r in table_4_1(sim) if r["thesis"]]
+    for r in t41:
+        ratios += [r["ours"][i] / r["thesis"][i] for i in (1, 2) if r["thesis"][i] < FAILURE_MM]
     lines = []
-    if ratios:
-        lines.append(
-            f"* **RMSE scale.** Our RMSE at the trade-off and at 0 lx is {min(ratios):.2f} to "
-            f"{max(ratios):.2f} of the thesis's (Tables 4.2 and 4.3): the virtual rig's sensor "
-            "noise is lower than the real rig's (docs/virtual_rig.md); a scale factor in so "
-            "narrow a range leaves the trends directly comparable."
+    if ratios and "std_mm" in ds:
+        eb = error_budget(ds)
+        model = (
+            ""
+            if eb["model_rms_mm"] is None
+            else f"the linear model's own residual on the rig's geometry, {eb['model_rms_mm']:.3f}"
+            f" mm RMS at these depths (mean {eb['model_mean_mm']:+.3f} mm), computed without "
+            "noise (`hdrfringe.reproduce.model_residual`), and "
         )
-    heavy = [r for r in t41 if r["thesis"][1] > 10]
+        thesis = eb["thesis_rmse_mm"]
+        share = (
+            f"{eb['std_mm'] / thesis:.2f} of the thesis's RMSE ({thesis:g} mm); " if thesis else ""
+        )
+        lines.append(
+            f"* **RMSE against the thesis's: not one scale factor.** Ours / thesis runs from "
+            f"{min(ratios):.2f} to {max(ratios):.2f} over Tables 4.1-4.3. Split at pitch 6, "
+            f"sinusoidal 3-step, 0 lx, MIGL 255: our RMSE {eb['rmse_mm']:.3f} mm is {model}"
+            f"an error std over pixels of {eb['std_mm']:.3f} mm (bias {eb['bias_mm']:+.3f} mm, "
+            "means over depth). The random part is "
+            + share
+            + "the model residual is a fixed bias per depth that the thesis's rig shows far "
+            "less of (its Table 6.1 plate bias -0.01..-0.04 mm). Two RMSEs made of different "
+            "parts do not scale; methods are compared on the std."
+        )
+    heavy = [r for r in t41 if r["thesis"][1] > FAILURE_MM]
     if heavy:
         lines.append(
             "* **RMSE at MIGL 255 under heavy added light** ("
@@ -311,13 +657,27 @@ def differences_markdown(ds: xr.Dataset, sim: xr.Dataset) -> str:
             )
             + "): the thesis's values include fringe-order failures; the reproduction takes fringe "
             "orders from the known plate position, so its saturation error stays below half a "
-            "fringe."
+            "fringe. No ratio is given for them."
         )
-    if t41:
+    if t41 and "saturation_onset_migl" in t41[0]:
+        sigmas = table_4_2(sim)
+        t42 = [r["ours"][0] for r in sigmas]
         lines.append(
-            "* **Trade-off MIGL under added light** (Table 4.1) falls faster with less noise: "
+            "* **Trade-off MIGL under added light** (Table 4.1, thesis vs ours): "
             + ", ".join(f"{r['lux']:g} lx {r['thesis'][0]:.0f} vs {r['ours'][0]:.0f}" for r in t41)
-            + ". Higher noise keeps the minimum higher (Table 4.2 shows the same effect)."
+            + ". The trade-off follows where saturation starts on the rig's response, a few "
+            "MIGL above it (ours: "
+            + ", ".join(
+                f"{r['lux']:g} lx: no pixel saturated at or below MIGL "
+                f"{r['saturation_onset_migl']:.0f}, trade-off {r['ours'][0]:.0f} with "
+                f"{100 * r['saturated_fraction_at_tradeoff']:.1f} % of the pixels saturated"
+                for r in t41
+            )
+            + "; the thesis's saturation began near its 190, Sec. 4.3.1). Noise barely "
+            f"moves it: sigma {sigmas[0]['sigma']:g}..{sigmas[-1]['sigma']:g} at 600 lx gives "
+            f"trade-offs {min(t42):.0f}..{max(t42):.0f} (Table 4.2; at 900 lx "
+            "`benchmarks/error_budget.py`). The difference is where each rig's response "
+            "saturates under Eq. 4.1's added light, not its noise level."
         )
     return "\n".join(lines)
 
