@@ -3,7 +3,7 @@
 The preset's parameters (:data:`hdrfringe.rig.presets.THESIS_PRESET`) come from
 ``python -m hdrfringe.reproduce.fit_thesis_preset`` (the Nelder-Mead fit of read noise, camera
 blur and projector gamma to Table 4.3's 0 lx sinusoidal/triangular 3-step stds and the DSIE
-error of Sec. 6.1.2) and ``--aperture`` (the Ch. 6 plate's aperture, to Table 6.1's LPA count).
+error of Sec. 6.1.2) and ``--glint`` (the Ch. 6 plate's specular spot, to Table 6.1's LPA count).
 These tests recompute the anchor on the quick view at the fit's own positions and check it
 against the thesis's numbers (not against numbers this code produced), each with the broken
 variant it rejects.
@@ -33,7 +33,7 @@ from hdrfringe.reproduce.fit_thesis_preset import (
     anchor_targets,
     ch6_plate_lpa_sets,
 )
-from hdrfringe.rig.presets import THESIS_PRESET, natural_vignetting
+from hdrfringe.rig.presets import THESIS_PRESET, GlintPlate, natural_vignetting
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import THESIS_GAMMA, CameraModel, RigGeometry, SimulatedRig
 
@@ -83,8 +83,9 @@ def test_preset_setup_carries_the_fitted_parameters() -> None:
     assert rig.camera.vignetting == pytest.approx(1 - math.cos(theta) ** 4, rel=0.01)
     assert len(training_depths(setup)) == len(THESIS_DEPTHS_MM) == 25
     plate6 = experiments(True, "thesis")["ch6_plate"]
-    assert plate6.white_level == THESIS_PRESET.ch6_plate_white_level
-    assert plate6.setup(setup).camera_model().white_level == plate6.white_level
+    assert plate6.white_level is None and dict(plate6.glint) == THESIS_PRESET.ch6_plate_glint
+    assert isinstance(plate6.scene_at(18.0), GlintPlate)
+    assert plate6.setup(setup) == setup
     with pytest.raises(InputError, match="unknown rig preset"):
         experiments(True, "nope")
 
@@ -108,15 +109,35 @@ def test_anchor_rejects_the_default_rig() -> None:
     assert m.dsie_before_dn < (1 - ANCHOR_RTOL) * targets["dsie_before_dn"]
 
 
-def test_ch6_plate_aperture_gives_the_thesis_lpa_count() -> None:
-    """Table 6.1: LPA S=15 took 13.75 sets on the white plate; the preset's aperture gives that
-    count within 1.5 sets in a mid cell, the default aperture (0.8) far fewer."""
+def test_ch6_plate_glint_gives_the_thesis_lpa_count() -> None:
+    """Table 6.1: LPA S=15 took 13.75 sets on the white plate; the preset's glint gives that
+    count within 1.5 sets in a mid cell, the matte plate far fewer."""
     setup = Ch4Setup.thesis_matched(quick=True)
-    level = THESIS_PRESET.ch6_plate_white_level
-    assert level is not None
-    opened = ch6_plate_lpa_sets(level, setup, (14,), (18.0,))
-    assert abs(opened - THESIS_LPA15_PLATE_SETS) <= 1.5
+    glint = THESIS_PRESET.ch6_plate_glint
+    assert glint is not None and THESIS_PRESET.ch6_plate_white_level is None
+    with_glint = ch6_plate_lpa_sets(0.8, setup, (14,), (18.0,), glint=glint)
+    assert abs(with_glint - THESIS_LPA15_PLATE_SETS) <= 1.5
     assert ch6_plate_lpa_sets(0.8, setup, (14,), (18.0,)) < THESIS_LPA15_PLATE_SETS - 5
+
+
+def test_glint_plate_is_a_white_plate_with_a_spot() -> None:
+    """Away from the spot the glint plate reads as the white plate (same noise-free signal);
+    at the spot centre the projected light is (1 + specular (n.h)^m) times brighter."""
+    glint = THESIS_PRESET.ch6_plate_glint
+    assert glint is not None
+    cam = CameraModel(width=64, height=48, blur_px=0.0)
+    geo = RigGeometry(camera_field_mm=80.0)
+    plain = SimulatedRig(white_plate(18.0), camera=cam, geometry=geo)
+    spot = SimulatedRig(GlintPlate(18.0, **glint), camera=cam, geometry=geo)
+    frames = [UniformFrame(255.0)]
+    a, b = plain.expected_signal(frames)[0], spot.expected_signal(frames)[0]
+    truth = spot.truth()
+    d2 = (truth.x_mm - glint["spot_x_mm"]) ** 2 + (truth.y_mm - glint["spot_y_mm"]) ** 2
+    far = d2 > (8 * glint["spot_radius_mm"]) ** 2
+    np.testing.assert_allclose(b[far], a[far], rtol=1e-9)
+    centre = np.unravel_index(np.argmin(d2), d2.shape)
+    assert b[centre] / a[centre] > 0.5 * glint["specular"]
+    assert GlintPlate(18.0, **glint).to_manifest()["name"] == "white_plate"
 
 
 def test_training_joins_positions() -> None:

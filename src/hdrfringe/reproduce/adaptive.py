@@ -114,6 +114,9 @@ class Experiment:
         The method whose index image is broken down by MIGL (Fig. 5.6).
     level_migls : tuple of float
         The MIGLs of that breakdown.
+    glint : tuple of (str, float)
+        :class:`~hdrfringe.rig.presets.GlintPlate` arguments for a white plate with a
+        specular spot (a rig preset's Ch. 6 plate); empty: the matte plate.
     white_level : float or None
         The camera's aperture (``white_level``) for this experiment's measurements, when a rig
         preset sets one (the ``thesis`` preset's Ch. 6 plate); the calibration then keeps the
@@ -143,6 +146,7 @@ class Experiment:
     level_method: str | None = None
     level_migls: tuple[float, ...] = ()
     white_level: float | None = None
+    glint: tuple[tuple[str, float], ...] = ()
 
     def setup(self, base: Ch4Setup) -> Ch4Setup:
         """``base`` with the experiment's aperture.
@@ -189,6 +193,10 @@ class Experiment:
         """
         if self.scene == "checkerboard":
             return checkerboard(depth_mm)
+        if self.glint:
+            from hdrfringe.rig.presets import GlintPlate
+
+            return GlintPlate(float(depth_mm), **dict(self.glint))
         return white_plate(depth_mm)
 
 
@@ -212,9 +220,9 @@ def experiments(quick: bool = False, preset: str = "") -> dict[str, Experiment]:
         The reduced grid (fewer pitches, depths and uniform MIGLs).
     preset : str
         The rig preset (:data:`hdrfringe.rig.presets.PRESETS`; ``""``: the default rig). The
-        ``thesis`` preset measures the Ch. 6 plate with its own aperture
-        (:attr:`RigPreset.ch6_plate_white_level <hdrfringe.rig.presets.RigPreset>`) and its
-        uniform MIGLs down to 60, where its pixels clear.
+        ``thesis`` preset measures the Ch. 6 plate with its own aperture and glint, when it
+        sets them (:class:`~hdrfringe.rig.presets.RigPreset`), and its uniform MIGLs down to
+        60, where its last pixels clear.
 
     Returns
     -------
@@ -231,6 +239,8 @@ def experiments(quick: bool = False, preset: str = "") -> dict[str, Experiment]:
     if preset and preset not in PRESETS:
         raise InputError(f"unknown rig preset {preset!r}; use one of {', '.join(PRESETS)}")
     plate6_level = PRESETS[preset].ch6_plate_white_level if preset else None
+    glint = PRESETS[preset].ch6_plate_glint if preset else None
+    plate6_glint = tuple(sorted(glint.items())) if glint else ()
     board_pitches = (8, 14, 20) if quick else tuple(range(5, 21))
     board_depths = (10.0, 18.0, 26.0) if quick else CHECKERBOARD_DEPTHS_MM
     plate_levels = _migls(255, 60, 5)
@@ -268,8 +278,9 @@ def experiments(quick: bool = False, preset: str = "") -> dict[str, Experiment]:
             board_pitches,
             board_depths,
             ("lpa-1", "lpa-10", "lpa-15", "lpa-20", "lpa-30", *DPA_METHODS),
-            _migls(255, 190, 5) if plate6_level is None else _migls(255, 60, 5),
+            _migls(255, 190, 5) if not preset else _migls(255, 60, 5),
             white_level=plate6_level,
+            glint=plate6_glint,
         ),
     }
 

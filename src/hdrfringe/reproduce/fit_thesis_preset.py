@@ -51,6 +51,7 @@ __all__ = [
     "FIT_DEPTHS_MM",
     "FIT_KEYS",
     "FIT_TRAINING_DEPTHS_MM",
+    "GLINT_SPOT",
     "THESIS_LPA15_PLATE_SETS",
     "THESIS_TABLE_4_3_0LX_MM",
     "THESIS_WHITE_PLATE_BIAS_MM",
@@ -60,6 +61,7 @@ __all__ = [
     "ch6_plate_lpa_sets",
     "explore_triangular_2step",
     "fit_ch6_plate_aperture",
+    "fit_ch6_plate_glint",
     "fit_thesis_preset",
     "gamma_scan",
     "main",
@@ -326,6 +328,7 @@ def ch6_plate_lpa_sets(
     pitches: Sequence[int] = (8, 14, 20),
     depths_mm: Sequence[float] = (10.0, 18.0, 26.0),
     step: float = 15.0,
+    glint: dict[str, float] | None = None,
 ) -> float:
     """Mean number of sets LPA takes on the Ch. 6 plate (600 lx, 4-step) at an aperture.
 
@@ -339,6 +342,8 @@ def ch6_plate_lpa_sets(
         The cells averaged (default the quick grid's).
     step : float
         LPA's step (gray levels).
+    glint : dict, optional
+        :class:`~hdrfringe.rig.presets.GlintPlate` arguments: a specular spot on the plate.
 
     Returns
     -------
@@ -358,6 +363,7 @@ def ch6_plate_lpa_sets(
     """
     from hdrfringe.reproduce.adaptive import PLATE_LUX, SweepRig
     from hdrfringe.reproduce.ch4 import PlateSweep, pattern_spec
+    from hdrfringe.rig.presets import GlintPlate
     from hdrfringe.strategies.lpa import lpa
 
     base = Ch4Setup.thesis_matched(quick=True) if setup is None else setup
@@ -366,7 +372,9 @@ def ch6_plate_lpa_sets(
     for pitch in pitches:
         spec = pattern_spec("sinusoidal-4", pitch, opened.imin)
         for d in depths_mm:
-            rig = SweepRig(PlateSweep(d, opened, spec), opened, PLATE_LUX, ("fit", pitch, d))
+            scene = None if glint is None else GlintPlate(d, **glint)
+            sweep = PlateSweep(d, opened, spec, scene=scene)
+            rig = SweepRig(sweep, opened, PLATE_LUX, ("fit", pitch, d))
             sets.append(lpa(rig, spec, step=step).sets_captured)
     return float(np.mean(sets))
 
@@ -474,6 +482,53 @@ def gamma_scan(gammas: Sequence[float] = (2.812, 3.5, 4.0, 5.0, 6.0, 8.0, 9.677)
     return rows
 
 
+#: The glint's place and size on the Ch. 6 plate (inside the quick view, off the fringe
+#: centre line; 3 mm is about 6 camera pixels); only its peak gain is fitted.
+GLINT_SPOT: dict[str, float] = {
+    "spot_x_mm": 30.0,
+    "spot_y_mm": 20.0,
+    "spot_radius_mm": 3.0,
+    "shininess": 1.0,
+}
+
+
+def fit_ch6_plate_glint(
+    target: float = THESIS_LPA15_PLATE_SETS, low: float = 1.0, high: float = 400.0
+) -> dict[str, Any]:
+    """The peak gain of a glint (:data:`GLINT_SPOT`) on the matte Ch. 6 plate (default
+    aperture) at which LPA (step 15) takes ``target`` sets on average.
+
+    Bisection on the gain in log space (the count grows with it), 12 halvings, on the quick
+    grid's cells of the ``thesis`` preset.
+
+    Parameters
+    ----------
+    target : float
+        Mean sets (thesis Table 6.1: 13.75).
+    low, high : float
+        Bracket of the gain.
+
+    Returns
+    -------
+    dict
+        ``specular`` and the mean sets there.
+
+    References
+    ----------
+    Thesis Sec. 6.2, Table 6.1.
+    """
+    level = Ch4Setup.thesis_matched(quick=True).camera_model().white_level
+    for _ in range(12):
+        mid = math.sqrt(low * high)
+        if ch6_plate_lpa_sets(level, glint={**GLINT_SPOT, "specular": mid}) < target:
+            low = mid
+        else:
+            high = mid
+    gain = round(math.sqrt(low * high), 2)
+    sets = ch6_plate_lpa_sets(level, glint={**GLINT_SPOT, "specular": gain})
+    return {"specular": gain, "lpa15_sets": sets, "target": target, **GLINT_SPOT}
+
+
 def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     """Command line: fit (default) or ``--check`` the stored preset; prints JSON.
 
@@ -495,6 +550,9 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         "--aperture", action="store_true", help="fit the Ch. 6 plate's aperture (Table 6.1)"
     )
     parser.add_argument(
+        "--glint", action="store_true", help="fit the Ch. 6 plate's glint (Table 6.1)"
+    )
+    parser.add_argument(
         "--explore", action="store_true", help="triangular 2-step against sinusoidal 3-step"
     )
     parser.add_argument(
@@ -510,6 +568,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         out = {"rows": rows, "ratio_where_sinusoidal_0.2_0.45": [min(near), max(near)]}
     elif args.aperture:
         out = fit_ch6_plate_aperture()
+    elif args.glint:
+        out = fit_ch6_plate_glint()
     elif args.check:
         from hdrfringe.reproduce.ch4 import THESIS_DEPTHS_MM
 

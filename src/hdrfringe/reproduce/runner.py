@@ -81,6 +81,11 @@ def _setup(quick: bool, preset: str) -> Any:
     return ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
 
 
+def _plate_params(exp: Any) -> dict[str, Any]:
+    """What a rig preset changes in an experiment's scene (its aperture and glint)."""
+    return {"white_level": exp.white_level, "glint": dict(exp.glint)}
+
+
 def _check_folder(out: Path, force: bool, quick: bool, preset: str = "") -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"{out} is a file; give a folder for the reproduction (-o)")
@@ -203,6 +208,8 @@ def _adaptive(
                 "experiment": name,
                 "quick": quick,
                 "correction": corr.to_dict(),
+                # a preset's scene changes are part of the store's identity
+                **({"plate": _plate_params(exps[name])} if preset else {}),
             },
         )
         timings[f"{name}_s"] = time.perf_counter() - t0
