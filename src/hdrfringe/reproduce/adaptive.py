@@ -194,9 +194,9 @@ class Experiment:
         if self.scene == "checkerboard":
             return checkerboard(depth_mm)
         if self.glint:
-            from hdrfringe.rig.presets import GlintPlate
+            from hdrfringe.rig.presets import glint_plate
 
-            return GlintPlate(float(depth_mm), **dict(self.glint))
+            return glint_plate(float(depth_mm), **dict(self.glint))
         return white_plate(depth_mm)
 
 

@@ -363,7 +363,7 @@ def ch6_plate_lpa_sets(
     """
     from hdrfringe.reproduce.adaptive import PLATE_LUX, SweepRig
     from hdrfringe.reproduce.ch4 import PlateSweep, pattern_spec
-    from hdrfringe.rig.presets import GlintPlate
+    from hdrfringe.rig.presets import glint_plate
     from hdrfringe.strategies.lpa import lpa
 
     base = Ch4Setup.thesis_matched(quick=True) if setup is None else setup
@@ -372,7 +372,7 @@ def ch6_plate_lpa_sets(
     for pitch in pitches:
         spec = pattern_spec("sinusoidal-4", pitch, opened.imin)
         for d in depths_mm:
-            scene = None if glint is None else GlintPlate(d, **glint)
+            scene = None if glint is None else glint_plate(d, **glint)
             sweep = PlateSweep(d, opened, spec, scene=scene)
             rig = SweepRig(sweep, opened, PLATE_LUX, ("fit", pitch, d))
             sets.append(lpa(rig, spec, step=step).sets_captured)

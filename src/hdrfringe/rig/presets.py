@@ -23,7 +23,14 @@ from hdrfringe.errors import InputError
 from hdrfringe.rig.scenes import FlatPlate
 from hdrfringe.rig.simulated import RigGeometry
 
-__all__ = ["PRESETS", "THESIS_PRESET", "GlintPlate", "RigPreset", "natural_vignetting"]
+__all__ = [
+    "PRESETS",
+    "THESIS_PRESET",
+    "GlintPlate",
+    "RigPreset",
+    "glint_plate",
+    "natural_vignetting",
+]
 
 
 @dataclass(frozen=True)
@@ -95,6 +102,44 @@ class GlintPlate(FlatPlate):
             "spot_radius_mm": float(self.spot_radius_mm),
         }
         return out
+
+
+def glint_plate(
+    depth_mm: float,
+    specular: float,
+    shininess: float = 1.0,
+    spot_x_mm: float = 0.0,
+    spot_y_mm: float = 0.0,
+    spot_radius_mm: float = 3.0,
+) -> GlintPlate:
+    """The white plate at ``depth_mm`` with a glint (see :class:`GlintPlate`).
+
+    Parameters
+    ----------
+    depth_mm : float
+        Plate position.
+    specular, shininess, spot_x_mm, spot_y_mm, spot_radius_mm : float
+        The glint (:class:`GlintPlate`).
+
+    Returns
+    -------
+    GlintPlate
+
+    Examples
+    --------
+    >>> glint_plate(12.0, **THESIS_PRESET.ch6_plate_glint).name
+    'white_plate'
+    """
+    return GlintPlate(
+        float(depth_mm),
+        1.0,
+        "white_plate",
+        float(specular),
+        float(shininess),
+        float(spot_x_mm),
+        float(spot_y_mm),
+        float(spot_radius_mm),
+    )
 
 
 def natural_vignetting(geometry: RigGeometry, width: int, height: int) -> float:
