@@ -33,6 +33,10 @@ def reproduce(
     force: Annotated[
         bool, typer.Option(help="Write into a non-empty folder that is not a reproduction.")
     ] = False,
+    preset: Annotated[
+        str,
+        typer.Option(help="Rig preset: 'thesis' (fitted to Table 4.3 and the DSIE error)."),
+    ] = "",
 ) -> None:
     """Run the thesis's experiments on the virtual rig as resumable sweeps (Dask, Zarr) and
     write tables beside the thesis's, figures and a report. Rerun to resume."""
@@ -57,6 +61,7 @@ def reproduce(
         n_workers=workers,
         progress=console.is_terminal,
         force=force,
+        preset=preset,
     )
     for name, secs in res["timings_s"].items():
         console.print(f"{name}: {secs:.1f} s")

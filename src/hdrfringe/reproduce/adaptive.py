@@ -28,6 +28,7 @@ known geometry, as in Ch. 4, so the errors are the phase errors the chapters stu
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -56,7 +57,7 @@ from hdrfringe.reproduce.ch4 import (
 from hdrfringe.rig.base import RigBase
 from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, Scene, checkerboard, white_plate
-from hdrfringe.saturation.estimate import CorrectionPolynomial
+from hdrfringe.saturation.estimate import CorrectionPolynomial, TrainingData
 
 if TYPE_CHECKING:
     from hdrfringe.reproduce.engine import SweepGrid, Variable
@@ -78,6 +79,8 @@ __all__ = [
     "adaptive_task",
     "experiments",
     "train_correction",
+    "training_data",
+    "training_depths",
 ]
 
 #: Added light of the white-plate experiments (Sec. 5.2.1, 6.2).
@@ -111,6 +114,14 @@ class Experiment:
         The method whose index image is broken down by MIGL (Fig. 5.6).
     level_migls : tuple of float
         The MIGLs of that breakdown.
+    glint : tuple of (str, float)
+        :class:`~hdrfringe.rig.presets.GlintPlate` arguments for a white plate with a
+        specular spot (a rig preset's Ch. 6 plate); empty: the matte plate.
+    white_level : float or None
+        The camera's aperture (``white_level``) for this experiment's measurements, when a rig
+        preset sets one (the ``thesis`` preset's Ch. 6 plate); the calibration then keeps the
+        base setup's aperture (phase does not depend on the aperture; opened, the calibration
+        plate would saturate at MIGL 255). None: the base setup's (or the black-plate aperture).
 
     References
     ----------
@@ -134,6 +145,8 @@ class Experiment:
     uniform_migls: tuple[float, ...]
     level_method: str | None = None
     level_migls: tuple[float, ...] = ()
+    white_level: float | None = None
+    glint: tuple[tuple[str, float], ...] = ()
 
     def setup(self, base: Ch4Setup) -> Ch4Setup:
         """``base`` with the experiment's aperture.
@@ -146,8 +159,13 @@ class Experiment:
         Returns
         -------
         Ch4Setup
-            ``base`` itself, or with the camera opened for the black plate (Sec. 5.2.2).
+            ``base`` itself, or with the camera opened for the black plate (Sec. 5.2.2), or
+            to the experiment's own ``white_level``.
         """
+        if self.white_level is not None:
+            return Ch4Setup(
+                **{**base.to_dict(), "camera": {**base.camera, "white_level": self.white_level}}
+            )
         if not self.black_aperture:
             return base
         cam = base.camera_model().with_aperture_for(BLACK_PLATE_REFLECTIVITY)
@@ -175,6 +193,10 @@ class Experiment:
         """
         if self.scene == "checkerboard":
             return checkerboard(depth_mm)
+        if self.glint:
+            from hdrfringe.rig.presets import glint_plate
+
+            return glint_plate(float(depth_mm), **dict(self.glint))
         return white_plate(depth_mm)
 
 
@@ -189,13 +211,18 @@ LPA_STEPS_CH5: tuple[int, ...] = (1, 2, 3, 5, 10, 15, 20, 30, 45)
 DPA_METHODS: tuple[str, ...] = ("dpa-10", "dpa-20", "dpab-10", "dpab-20")
 
 
-def experiments(quick: bool = False) -> dict[str, Experiment]:
+def experiments(quick: bool = False, preset: str = "") -> dict[str, Experiment]:
     """The three experiments, on the thesis's grid or the reduced ``quick`` one.
 
     Parameters
     ----------
     quick : bool
         The reduced grid (fewer pitches, depths and uniform MIGLs).
+    preset : str
+        The rig preset (:data:`hdrfringe.rig.presets.PRESETS`; ``""``: the default rig). The
+        ``thesis`` preset measures the Ch. 6 plate with its own aperture and glint, when it
+        sets them (:class:`~hdrfringe.rig.presets.RigPreset`), and its uniform MIGLs down to
+        60, where its last pixels clear.
 
     Returns
     -------
@@ -207,6 +234,13 @@ def experiments(quick: bool = False) -> dict[str, Experiment]:
     >>> {name: len(e.pitches) * len(e.depths_mm) for name, e in experiments(quick=True).items()}
     {'ch5_plate': 12, 'checkerboard': 9, 'ch6_plate': 9}
     """
+    from hdrfringe.rig.presets import PRESETS
+
+    if preset and preset not in PRESETS:
+        raise InputError(f"unknown rig preset {preset!r}; use one of {', '.join(PRESETS)}")
+    plate6_level = PRESETS[preset].ch6_plate_white_level if preset else None
+    glint = PRESETS[preset].ch6_plate_glint if preset else None
+    plate6_glint = tuple(sorted(glint.items())) if glint else ()
     board_pitches = (8, 14, 20) if quick else tuple(range(5, 21))
     board_depths = (10.0, 18.0, 26.0) if quick else CHECKERBOARD_DEPTHS_MM
     plate_levels = _migls(255, 60, 5)
@@ -244,7 +278,9 @@ def experiments(quick: bool = False) -> dict[str, Experiment]:
             board_pitches,
             board_depths,
             ("lpa-1", "lpa-10", "lpa-15", "lpa-20", "lpa-30", *DPA_METHODS),
-            _migls(255, 190, 5),
+            _migls(255, 190, 5) if not preset else _migls(255, 60, 5),
+            white_level=plate6_level,
+            glint=plate6_glint,
         ),
     }
 
@@ -419,8 +455,9 @@ def adaptive_cell(
     """
     setup = exp.setup(base)
     spec = pattern_spec(pattern, pitch, setup.imin)
+    cal_setup = base if exp.white_level is not None else setup
     cal, _ = calibrate_pattern(
-        pattern, pitch, setup, THESIS_DEPTHS_MM, plate_reflectivity=exp.calibration_plate
+        pattern, pitch, cal_setup, THESIS_DEPTHS_MM, plate_reflectivity=exp.calibration_plate
     )
     mask = measurement_mask((setup.height, setup.width), setup.border_px)
     sweep = PlateSweep(depth_mm, setup, spec, scene=exp.scene_at(depth_mm))
@@ -490,12 +527,121 @@ TRAINING_PITCH = 20
 TRAINING_DEPTH_MM = 26.0
 
 
+class _TrainingRig(RigBase):
+    """The rig protocol over one plate position, any fringe or uniform frames of its set.
+
+    Each call gets fresh noise from a generator keyed by the position, the frames and how many
+    times those frames were captured before (as :class:`SimulatedRig` does), on the sweep's
+    exact linear decomposition (:class:`PlateSweep`): the 25-position training of Sec. 6.1.2
+    in seconds instead of minutes.
+    """
+
+    def __init__(self, sweep: PlateSweep, setup: Ch4Setup, lux: float) -> None:
+        self.sweep, self.setup, self.lux = sweep, setup, float(lux)
+        self.camera = setup.camera_model()
+        self.camera_bit_depth = self.camera.bit_depth
+        self._counts: dict[str, int] = {}
+
+    def capture(self, frames: Sequence[Frame], settings: CameraSettings | None = None) -> NDArray:
+        if settings is not None and settings != CameraSettings():
+            raise InputError("the training rig captures at the reference camera settings only")
+        frames = list(frames)
+        label = json.dumps([f.manifest_entry("") for f in frames], sort_keys=True)
+        n = self._counts.get(label, 0)
+        self._counts[label] = n + 1
+        rng = cell_rng(self.setup, "train", self.sweep.depth_mm, label, n)
+        signal = self.sweep.frames_signal(frames, self.lux)
+        return sensor_readout(signal, self.camera, rng, dtype=SWEEP_DTYPE)
+
+
+def training_depths(base: Ch4Setup) -> tuple[float, ...]:
+    """The plate positions of DPA's correction training for a setup.
+
+    Parameters
+    ----------
+    base : Ch4Setup
+        The reproduction's setup.
+
+    Returns
+    -------
+    tuple of float
+        The default rig: one position (:data:`TRAINING_DEPTH_MM`); a rig preset: the 25
+        calibration positions, as the thesis's "25 sets" (Sec. 6.1.2).
+
+    Examples
+    --------
+    >>> training_depths(Ch4Setup()), len(training_depths(Ch4Setup.thesis_matched()))
+    ((26.0,), 25)
+    """
+    return THESIS_DEPTHS_MM if base.preset else (TRAINING_DEPTH_MM,)
+
+
+def training_data(base: Ch4Setup, depths_mm: Sequence[float]) -> TrainingData:
+    """The Sec. 6.1.2 training sweeps (LPA step 1, white plate, 600 lx, pitch 20) at several
+    plate positions, joined into one :class:`~hdrfringe.saturation.estimate.TrainingData`.
+
+    Each position is swept on its own (:func:`~hdrfringe.saturation.estimate.training_data_from_rig`
+    on the sweep's decomposition of the rig); the per-pixel arrays are stacked along the image
+    rows, so the training sees every position's pixels as one taller image.
+
+    Parameters
+    ----------
+    base : Ch4Setup
+        The rig (camera, projector, gamma pre-compensation, seed).
+    depths_mm : sequence of float
+        Plate positions.
+
+    Returns
+    -------
+    TrainingData
+        ``sets_captured`` is the total over the positions; ``expected_at_top`` is None.
+
+    References
+    ----------
+    Thesis Sec. 6.1.2 ("25 sets of phase-shifted images ... pitch of 20 pixels on a flat white
+    plate").
+
+    Examples
+    --------
+    >>> setup = Ch4Setup(width=32, height=24, camera_field_mm=16.0)
+    >>> data = training_data(setup, (10.0, 30.0))
+    >>> data.index_image.shape, data.images_at_top.shape[0]
+    ((48, 32), 4)
+    """
+    from hdrfringe.saturation.estimate import training_data_from_rig
+
+    spec = pattern_spec("sinusoidal-4", TRAINING_PITCH, base.imin)
+    parts = [
+        training_data_from_rig(_TrainingRig(PlateSweep(d, base, spec), base, PLATE_LUX), spec)
+        for d in depths_mm
+    ]
+
+    def join(name: str, axis: int) -> Any:
+        values = [getattr(p, name) for p in parts]
+        return None if values[0] is None else np.concatenate(values, axis=axis)
+
+    return TrainingData(
+        index_image=join("index_image", 0),
+        images_at_top=join("images_at_top", 1),
+        composite=join("composite", 1),
+        reference=join("reference", 1),
+        reference_migl=join("reference_migl", 0),
+        offset=join("offset", 0),
+        expected_at_top=None,
+        spec=spec,
+        bit_depth=parts[0].bit_depth,
+        sets_captured=sum(p.sets_captured for p in parts),
+    )
+
+
 def train_correction(base: Ch4Setup, order: int = 2) -> CorrectionPolynomial:
     """The DPA error-correction polynomial of thesis Sec. 6.1.2 for this rig.
 
-    LPA with a step of 1 on the white plate under 600 lx at a pitch of 20 px (the live virtual
-    rig, the same camera as the sweeps): every saturated pixel's true peak against its Eq. 6.2
-    estimate (:meth:`~hdrfringe.saturation.estimate.TrainingData.train`). Deterministic.
+    LPA with a step of 1 on the white plate under 600 lx at a pitch of 20 px: every saturated
+    pixel's true peak against its Eq. 6.2 estimate
+    (:meth:`~hdrfringe.saturation.estimate.TrainingData.train`). The default rig trains at one
+    position on the live virtual rig (the same camera as the sweeps); a rig preset at the 25
+    positions of the thesis (:func:`training_depths`, :func:`training_data`). Deterministic.
 
     Parameters
     ----------
@@ -517,11 +663,18 @@ def train_correction(base: Ch4Setup, order: int = 2) -> CorrectionPolynomial:
     from hdrfringe.saturation.estimate import training_data_from_rig
 
     spec = pattern_spec("sinusoidal-4", TRAINING_PITCH, base.imin)
-    rig = base.rig(TRAINING_DEPTH_MM).replace(lighting=Lighting(ambient_lux=PLATE_LUX))
-    data = training_data_from_rig(rig, spec)
-    return data.train(
-        order, metadata={"source": "hdrfringe reproduce: white plate, 600 lx, pitch 20"}
-    )
+    depths = training_depths(base)
+    if not base.preset:
+        rig = base.rig(TRAINING_DEPTH_MM).replace(lighting=Lighting(ambient_lux=PLATE_LUX))
+        data = training_data_from_rig(rig, spec)
+        source = "hdrfringe reproduce: white plate, 600 lx, pitch 20"
+    else:
+        data = training_data(base, depths)
+        source = (
+            f"hdrfringe reproduce --preset {base.preset}: white plate at {len(depths)} "
+            "positions, 600 lx, pitch 20"
+        )
+    return data.train(order, metadata={"source": source})
 
 
 # --------------------------------------------------------------------------------------------
@@ -611,7 +764,8 @@ def adaptive_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[str, N
     dict
         As :func:`adaptive_cell`.
     """
-    exp = experiments(bool(params["quick"]))[params["experiment"]]
+    preset = str(params["setup"].get("preset", ""))
+    exp = experiments(bool(params["quick"]), preset)[params["experiment"]]
     return adaptive_cell(
         exp,
         coords["pattern"],

@@ -45,7 +45,14 @@ from hdrfringe.phase import saturation_count, wrapped_phase
 from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.modify import lux_to_dn, modify_intensity
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, Scene, white_plate
-from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
+from hdrfringe.rig.simulated import (
+    THESIS_GAMMA,
+    CameraModel,
+    Lighting,
+    ProjectorModel,
+    RigGeometry,
+    SimulatedRig,
+)
 
 if TYPE_CHECKING:
     from hdrfringe.reproduce.engine import SweepGrid
@@ -133,6 +140,14 @@ class Ch4Setup:
         Calibration filter window and unfiltered border (Sec. 4.1: 21 and 10).
     camera : dict
         Further :class:`CameraModel` arguments (e.g. ``read_noise_dn8``).
+    projector : dict
+        :class:`ProjectorModel` arguments (e.g. its true ``gamma``, ``defocus_px``).
+    gamma_precompensation : float
+        The exponent the patterns are pre-compensated with (Eq. 2.17); a projector ``gamma``
+        different from it leaves a residual nonlinearity.
+    preset : str
+        Name of the rig preset this setup was made from (``""``: the default rig; ``"thesis"``:
+        :meth:`thesis_matched`). Part of a sweep's identity, shown in the report.
 
     References
     ----------
@@ -144,6 +159,9 @@ class Ch4Setup:
     (8, (247, 324))
     >>> Ch4Setup(**QUICK_SETUP.to_dict()) == QUICK_SETUP
     True
+    >>> thesis = Ch4Setup.thesis_matched(quick=True)
+    >>> Ch4Setup(**thesis.to_dict()) == thesis, thesis.preset
+    (True, 'thesis')
     """
 
     width: int = 648
@@ -154,6 +172,61 @@ class Ch4Setup:
     window_px: int = 21
     border_px: int = 10
     camera: dict[str, Any] = field(default_factory=dict)
+    projector: dict[str, Any] = field(default_factory=dict)
+    gamma_precompensation: float = THESIS_GAMMA
+    preset: str = ""
+
+    @classmethod
+    def thesis_matched(cls, quick: bool = False, seed: int = 0) -> Ch4Setup:
+        """The ``thesis`` preset: noise, blur, vignetting and projector gamma mismatch fitted to
+        thesis Table 4.3 (0 lx, MIGL 255, pitch 6) and the DSIE error of Sec. 6.1.2.
+
+        Parameters
+        ----------
+        quick : bool
+            The quick grid's quarter-size view (:data:`QUICK_SETUP`) instead of the full camera.
+        seed : int
+            Noise seed.
+
+        Returns
+        -------
+        Ch4Setup
+            With the parameters of :data:`hdrfringe.rig.presets.THESIS_PRESET`.
+
+        References
+        ----------
+        Thesis Table 4.3, Sec. 6.1.2; docs/virtual_rig.md ("Thesis-matched preset").
+
+        Examples
+        --------
+        >>> Ch4Setup.thesis_matched().camera_model().read_noise_dn8 > 1.0
+        True
+        """
+        from hdrfringe.rig.presets import THESIS_PRESET, natural_vignetting
+
+        base = QUICK_SETUP if quick else cls()
+        geometry = RigGeometry(camera_field_mm=base.camera_field_mm)
+        lens = natural_vignetting(geometry, base.width, base.height)
+        return cls(
+            **{
+                **base.to_dict(),
+                "seed": int(seed),
+                "camera": {**THESIS_PRESET.camera, "vignetting": lens},
+                "projector": dict(THESIS_PRESET.projector),
+                "gamma_precompensation": THESIS_PRESET.gamma_precompensation,
+                "preset": THESIS_PRESET.name,
+            }
+        )
+
+    def projector_model(self) -> ProjectorModel:
+        """The virtual projector: the default with the ``projector`` arguments.
+
+        Returns
+        -------
+        ProjectorModel
+            The projector of every capture of the sweep.
+        """
+        return ProjectorModel(**self.projector)
 
     def camera_model(self) -> CameraModel:
         """The virtual camera: this resolution and the ``camera`` arguments.
@@ -183,7 +256,9 @@ class Ch4Setup:
         return SimulatedRig(
             white_plate(float(depth_mm)) if scene is None else scene,
             camera=self.camera_model(),
+            projector_model=self.projector_model(),
             geometry=RigGeometry(camera_field_mm=self.camera_field_mm),
+            gamma_precompensation=self.gamma_precompensation,
             seed=self.seed,
         )
 
@@ -193,8 +268,18 @@ class Ch4Setup:
         Returns
         -------
         dict
-            The constructor arguments; ``Ch4Setup(**setup.to_dict()) == setup``.
+            The constructor arguments; ``Ch4Setup(**setup.to_dict()) == setup``. The rig
+            arguments added with the presets (``projector``, ``gamma_precompensation``,
+            ``preset``) appear only when they differ from the default, so that the identity of
+            a sweep on the default rig (its stored ``params``) is what it was before them.
         """
+        extra: dict[str, Any] = {}
+        if self.projector:
+            extra["projector"] = dict(self.projector)
+        if self.gamma_precompensation != THESIS_GAMMA:
+            extra["gamma_precompensation"] = self.gamma_precompensation
+        if self.preset:
+            extra["preset"] = self.preset
         return {
             "width": self.width,
             "height": self.height,
@@ -204,6 +289,7 @@ class Ch4Setup:
             "window_px": self.window_px,
             "border_px": self.border_px,
             "camera": dict(self.camera),
+            **extra,
         }
 
 

@@ -72,7 +72,21 @@ def parse_chapters(text: str) -> list[str]:
     return list(CHAPTERS) if text == "all" else [c.strip() for c in text.split(",")]
 
 
-def _check_folder(out: Path, force: bool, quick: bool) -> None:
+def _setup(quick: bool, preset: str) -> Any:
+    """The reproduction's rig setup: the default rig, or a named preset (``--preset``)."""
+    from hdrfringe.reproduce import ch4
+
+    if preset:
+        return ch4.Ch4Setup.thesis_matched(quick=quick)
+    return ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
+
+
+def _plate_params(exp: Any) -> dict[str, Any]:
+    """What a rig preset changes in an experiment's scene (its aperture and glint)."""
+    return {"white_level": exp.white_level, "glint": dict(exp.glint)}
+
+
+def _check_folder(out: Path, force: bool, quick: bool, preset: str = "") -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"{out} is a file; give a folder for the reproduction (-o)")
     marker = out / MARKER
@@ -92,6 +106,16 @@ def _check_folder(out: Path, force: bool, quick: bool) -> None:
                 f"{out} holds a reproduction on {grids[bool(before)]}; rerun with the same "
                 "grid to resume it, or use another folder (-o)"
             )
+        try:
+            rig_before = json.loads(marker.read_text(encoding="utf-8")).get("preset", "")
+        except (OSError, ValueError, AttributeError):
+            rig_before = ""
+        if isinstance(rig_before, str) and rig_before != preset:
+            rigs = {"": "the default rig"}
+            raise InputError(
+                f"{out} holds a reproduction on {rigs.get(rig_before, '--preset ' + rig_before)}"
+                "; rerun with the same --preset to resume it, or use another folder (-o)"
+            )
 
 
 def _write_text(path: Path, text: str) -> None:
@@ -103,11 +127,16 @@ def _write_text(path: Path, text: str) -> None:
 
 
 def _ch4(
-    out: Path, quick: bool, run: _Run, timings: dict[str, float], fig_dir: Path
+    out: Path,
+    quick: bool,
+    run: _Run,
+    timings: dict[str, float],
+    fig_dir: Path,
+    preset: str = "",
 ) -> dict[str, Any]:
     from hdrfringe.reproduce import ch4, ch4_report
 
-    setup = ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
+    setup = _setup(quick, preset)
     t0 = time.perf_counter()
     ds = run(out / "ch4.zarr", ch4.ch4_grid(quick), ch4.ch4_task, {"setup": setup.to_dict()})
     timings["ch4_sweep_s"] = time.perf_counter() - t0
@@ -149,13 +178,14 @@ def _adaptive(
     run: _Run,
     timings: dict[str, float],
     fig_dir: Path,
+    preset: str = "",
 ) -> dict[str, Any]:
     from hdrfringe.io.results import staged_output_file
     from hdrfringe.reproduce import adaptive, adaptive_report, ch4, ch4_report
     from hdrfringe.saturation.estimate import CorrectionPolynomial
     from hdrfringe.strategies.dpa_training import THESIS_CORRECTION_RMSE
 
-    setup = ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
+    setup = _setup(quick, preset)
     names = [n for c in chapters for n in ADAPTIVE_SWEEPS.get(c, ())]
     names = list(dict.fromkeys(names))
     corr_path = out / "dpa_correction.json"
@@ -167,7 +197,7 @@ def _adaptive(
         with staged_output_file(corr_path, force=True) as tmp:
             corr.save(tmp, force=True)
     timings["dpa_training_s"] = time.perf_counter() - t0
-    exps = adaptive.experiments(quick)
+    exps = adaptive.experiments(quick, preset)
     data: dict[str, Any] = {}
     for name in names:
         t0 = time.perf_counter()
@@ -180,6 +210,8 @@ def _adaptive(
                 "experiment": name,
                 "quick": quick,
                 "correction": corr.to_dict(),
+                # a preset's scene changes are part of the store's identity
+                **({"plate": _plate_params(exps[name])} if preset else {}),
             },
         )
         timings[f"{name}_s"] = time.perf_counter() - t0
@@ -231,6 +263,7 @@ def reproduce(
     n_workers: int | None = None,
     progress: bool = True,
     force: bool = False,
+    preset: str = "",
 ) -> dict[str, Any]:
     """Run the experiments of ``chapters`` into ``out`` and write the report; return its data.
 
@@ -254,6 +287,10 @@ def reproduce(
         Show a progress bar per sweep on stderr (only when it is a terminal).
     force : bool
         Write into a non-empty folder that is not a reproduction.
+    preset : str
+        A named rig preset (:data:`hdrfringe.rig.presets.PRESETS`, e.g. ``"thesis"``: fitted
+        to Table 4.3 and the DSIE error, docs/virtual_rig.md); ``""``: the default rig. Part of
+        every store's identity and of the folder's marker.
 
     Returns
     -------
@@ -264,10 +301,11 @@ def reproduce(
     Raises
     ------
     InputError
-        An unknown chapter, ``n_workers`` outside 1..:data:`MAX_WORKERS`, ``out`` a file, a
-        reproduction made on the other grid, or a ``scheduler`` address that does not answer
-        as a Dask scheduler within :data:`~hdrfringe.reproduce.engine.SCHEDULER_TIMEOUT_S`
-        (checked before anything is written).
+        An unknown chapter or preset, ``n_workers`` outside 1..:data:`MAX_WORKERS`, ``out`` a
+        file, a reproduction made on the other grid or rig preset, or a ``scheduler`` address
+        that does not answer as a Dask scheduler within
+        :data:`~hdrfringe.reproduce.engine.SCHEDULER_TIMEOUT_S` (checked before anything is
+        written).
     OutputExistsError
         ``out`` a non-empty folder that is not a reproduction, without ``force``.
 
@@ -290,12 +328,18 @@ def reproduce(
             f"--workers (n_workers) {str(n_workers)[:20]}: more than the limit of {MAX_WORKERS}"
             " local worker processes; give fewer, or --scheduler for a larger cluster"
         )
-    _check_folder(out, force, quick)
+    from hdrfringe.rig.presets import PRESETS
+
+    if preset and preset not in PRESETS:
+        raise InputError(f"unknown rig preset {preset!r}; use one of {', '.join(PRESETS)}")
+    _check_folder(out, force, quick, preset)
     if scheduler is not None:
         check_scheduler(scheduler)  # before anything is written
     check_writable(out / MARKER)  # an entry can be made in out (resumed, never replaced)
     out.mkdir(parents=True, exist_ok=True)
     marker = {"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}
+    if preset:
+        marker["preset"] = preset
     _write_text(out / MARKER, json.dumps(marker) + "\n")
 
     def run(store: Path, grid: SweepGrid, func: BlockFunc, params: dict[str, Any]) -> xr.Dataset:
@@ -308,11 +352,11 @@ def reproduce(
     # this run's figures replace figures/ (as its report replaces report.md) when it completes
     with staged_output_dir(out / "figures", force=True) as fig_dir:
         if "ch4" in chapters:
-            results["ch4"] = _ch4(out, quick, run, timings, fig_dir)
+            results["ch4"] = _ch4(out, quick, run, timings, fig_dir, preset)
         if "ch5" in chapters or "ch6" in chapters:
-            results["adaptive"] = _adaptive(out, chapters, quick, run, timings, fig_dir)
+            results["adaptive"] = _adaptive(out, chapters, quick, run, timings, fig_dir, preset)
     results["timings_s"] = timings
-    _write_report(out, results, quick)
+    _write_report(out, results, quick, preset)
     return results
 
 
@@ -349,14 +393,14 @@ def _adaptive_report(res: dict[str, Any], t: dict[str, float]) -> list[str]:
     return lines
 
 
-def _write_report(out: Path, results: dict[str, Any], quick: bool) -> None:
+def _write_report(out: Path, results: dict[str, Any], quick: bool, preset: str = "") -> None:
     data = {k: v.get("data", v) if isinstance(v, dict) else v for k, v in results.items()}
     tables = json.dumps(data, indent=1, default=float) + "\n"
     lines = [
         "# hdrfringe: reproduction of the thesis's experiments",
         "",
         f"hdrfringe {__version__}; grid: {'quick (reduced)' if quick else 'full (thesis)'}; "
-        "virtual rig.",
+        f"virtual rig{f' (preset {preset!r}, docs/virtual_rig.md)' if preset else ''}.",
         "",
         "How to read the tables: a cell `0.31 / 0.127 (0.41)` is thesis / ours (ours / thesis). "
         "Beside each RMSE, ours split into bias (mean height error) and std (its standard "

@@ -145,11 +145,17 @@ class CameraModel:
         exposure at which ``white_level`` and the ambient coefficients hold. A capture at
         exposure ``t`` scales the signal by ``t / t_ref`` (:class:`SimulatedRig`,
         :class:`~hdrfringe.captures.CameraSettings`).
+    vignetting : float
+        Lens vignetting: the fraction of light lost at the image corners, falling off as
+        ``1 - vignetting (r / r_corner)^2`` with ``r`` the distance from the image centre
+        (projected and ambient light alike). 0 (default): none. In [0, 1).
 
     Examples
     --------
     >>> CameraModel(bit_depth=12).full_scale
     4095
+    >>> CameraModel(width=5, height=3, vignetting=0.2).vignetting_map().round(2)[[0, 1], [0, 2]]
+    array([0.8, 1. ])
     """
 
     width: int = 648
@@ -161,6 +167,7 @@ class CameraModel:
     blur_px: float = 0.5
     supersample: int = 1
     exposure_ms: float = REFERENCE_EXPOSURE_MS
+    vignetting: float = 0.0
 
     def __post_init__(self) -> None:
         if (
@@ -181,6 +188,33 @@ class CameraModel:
         if int(self.supersample) != self.supersample or not (1 <= self.supersample <= 8):
             raise InputError(f"camera supersample must be an integer 1..8, got {self.supersample}")
         _check_positive("camera reference exposure_ms", self.exposure_ms)
+        if not (math.isfinite(self.vignetting) and 0.0 <= self.vignetting < 1.0):
+            raise InputError(
+                f"camera vignetting must be in [0, 1) (light lost at the corners), "
+                f"got {self.vignetting}"
+            )
+
+    def vignetting_map(self, supersample: int = 1) -> NDArray[np.float64]:
+        """Relative light reaching each pixel (or sub-pixel sample) through the lens.
+
+        Parameters
+        ----------
+        supersample : int
+            Samples per pixel along each axis (the sample grid of :class:`SimulatedRig`).
+
+        Returns
+        -------
+        ndarray, shape (height * supersample, width * supersample)
+            ``1 - vignetting (r / r_corner)^2``: 1 at the centre, ``1 - vignetting`` at the
+            corner pixel centres; all ones without vignetting.
+        """
+        s = int(supersample)
+        # sample centres in pixel units, pixel centres at integers (as the tracing does)
+        x = (np.arange(self.width * s) + 0.5) / s - 0.5 - (self.width - 1) / 2.0
+        y = (np.arange(self.height * s) + 0.5) / s - 0.5 - (self.height - 1) / 2.0
+        corner = ((self.width - 1) / 2.0) ** 2 + ((self.height - 1) / 2.0) ** 2
+        r2 = (x[None, :] ** 2 + y[:, None] ** 2) / max(corner, 1e-12)
+        return np.clip(1.0 - self.vignetting * r2, 0.0, 1.0)
 
     @property
     def full_scale(self) -> int:
@@ -1259,6 +1293,9 @@ class SimulatedRig(RigBase):
         a2 = light.direct_ambient_lux * light.direct_dn_per_lux * scale8
         gain = alpha * geo.shading * (geo.reflectivity + geo.specular)
         offset = geo.reflectivity * a1 + a2
+        if cam.vignetting > 0:
+            lens = cam.vignetting_map(sub)
+            gain, offset = gain * lens, offset * lens
         sigma = proj.defocus_px
         self._radiometry = _Radiometry(
             gain=gain,
