@@ -33,6 +33,14 @@ def reproduce(
     force: Annotated[
         bool, typer.Option(help="Write into a non-empty folder that is not a reproduction.")
     ] = False,
+    unwrap: Annotated[
+        str,
+        typer.Option(
+            help="Fringe orders of the Table 4.1 added-light simulation: centerline (the "
+            "thesis's pipeline: spatial unwrapping and a captured centerline) or known (the "
+            "plate position)."
+        ),
+    ] = "centerline",
 ) -> None:
     """Run the thesis's experiments on the virtual rig as resumable sweeps (Dask, Zarr) and
     write tables beside the thesis's, figures and a report. Rerun to resume."""
@@ -57,6 +65,7 @@ def reproduce(
         n_workers=workers,
         progress=console.is_terminal,
         force=force,
+        unwrap=unwrap,
     )
     for name, secs in res["timings_s"].items():
         console.print(f"{name}: {secs:.1f} s")

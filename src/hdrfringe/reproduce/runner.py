@@ -103,7 +103,12 @@ def _write_text(path: Path, text: str) -> None:
 
 
 def _ch4(
-    out: Path, quick: bool, run: _Run, timings: dict[str, float], fig_dir: Path
+    out: Path,
+    quick: bool,
+    run: _Run,
+    timings: dict[str, float],
+    fig_dir: Path,
+    unwrap: str = "known",
 ) -> dict[str, Any]:
     from hdrfringe.reproduce import ch4, ch4_report
 
@@ -123,11 +128,23 @@ def _ch4(
             "added_lux": list(levels["rmse_light_mm"]["added_lux"]),
             "noise_sigma": list(levels["rmse_noise_mm"]["noise_sigma"]),
             "calibration_depths_mm": list(sim_grid.dims["depth_mm"]),
+            "unwrap": unwrap,
         },
     )
     timings["ch4_simulation_s"] = time.perf_counter() - t0
     figs = ch4_report.figures(ds, sim, fig_dir)
+    wrong = sim["order_error_fraction"]
+    if unwrap == "centerline":
+        unwrap_note = (
+            "Fringe orders of this table: the thesis's pipeline (spatial unwrapping of each "
+            "set's wrapped phase and a centerline captured with the set, Eq. 4.1 applied to "
+            f"both). Pixels with a wrong fringe order: at most {100 * float(wrong.max()):.3g} % "
+            "in any cell (`order_error_fraction` in ch4_simulation.zarr)."
+        )
+    else:
+        unwrap_note = "Fringe orders of this table: from the known plate position."
     return {
+        "unwrap": unwrap_note,
         "tables": ch4_report.tables_markdown(ds, sim),
         "differences": ch4_report.differences_markdown(ds, sim),
         "figures": figs,
@@ -135,6 +152,7 @@ def _ch4(
             "table_4_1": ch4_report.table_4_1(sim),
             "table_4_2": ch4_report.table_4_2(sim),
             "table_4_3": ch4_report.table_4_3(ds),
+            "unwrap": unwrap,
         },
         "measurements": int(ds["rmse_mm"].size),
     }
@@ -220,6 +238,7 @@ def reproduce(
     n_workers: int | None = None,
     progress: bool = True,
     force: bool = False,
+    unwrap: str = "centerline",
 ) -> dict[str, Any]:
     """Run the experiments of ``chapters`` into ``out`` and write the report; return its data.
 
@@ -243,6 +262,10 @@ def reproduce(
         Show a progress bar per sweep on stderr (only when it is a terminal).
     force : bool
         Write into a non-empty folder that is not a reproduction.
+    unwrap : {"centerline", "known"}
+        Fringe orders of the Sec. 4.3 added-light simulation (Table 4.1): the thesis's
+        pipeline (spatial unwrapping and a captured centerline), or the known plate position
+        (:data:`hdrfringe.reproduce.ch4.UNWRAP_MODES`). The other sweeps use known orders.
 
     Returns
     -------
@@ -253,7 +276,8 @@ def reproduce(
     Raises
     ------
     InputError
-        An unknown chapter, ``n_workers`` outside 1..:data:`MAX_WORKERS`, ``out`` a file, a
+        An unknown chapter or ``unwrap``, ``n_workers`` outside 1..:data:`MAX_WORKERS`,
+        ``out`` a file, a
         reproduction made on the other grid, or a ``scheduler`` address that does not answer
         as a Dask scheduler within :data:`~hdrfringe.reproduce.engine.SCHEDULER_TIMEOUT_S`
         (checked before anything is written).
@@ -272,6 +296,10 @@ def reproduce(
         raise InputError(
             f"unknown chapter(s) {unknown or chapters}; use {', '.join(CHAPTERS)} or all"
         )
+    from hdrfringe.reproduce.ch4 import UNWRAP_MODES
+
+    if unwrap not in UNWRAP_MODES:
+        raise InputError(f"unknown --unwrap {unwrap!r}; use one of {', '.join(UNWRAP_MODES)}")
     if n_workers is not None and n_workers < 1:
         raise InputError(f"--workers (n_workers) must be at least 1, got {n_workers}")
     if n_workers is not None and n_workers > MAX_WORKERS:
@@ -285,6 +313,7 @@ def reproduce(
     check_writable(out / MARKER)  # an entry can be made in out (resumed, never replaced)
     out.mkdir(parents=True, exist_ok=True)
     marker = {"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}
+    marker["unwrap"] = unwrap
     _write_text(out / MARKER, json.dumps(marker) + "\n")
 
     def run(store: Path, grid: SweepGrid, func: BlockFunc, params: dict[str, Any]) -> xr.Dataset:
@@ -297,7 +326,7 @@ def reproduce(
     # this run's figures replace figures/ (as its report replaces report.md) when it completes
     with staged_output_dir(out / "figures", force=True) as fig_dir:
         if "ch4" in chapters:
-            results["ch4"] = _ch4(out, quick, run, timings, fig_dir)
+            results["ch4"] = _ch4(out, quick, run, timings, fig_dir, unwrap)
         if "ch5" in chapters or "ch6" in chapters:
             results["adaptive"] = _adaptive(out, chapters, quick, run, timings, fig_dir)
     results["timings_s"] = timings
@@ -359,6 +388,8 @@ def _write_report(out: Path, results: dict[str, Any], quick: bool) -> None:
             "stored are not recomputed, so a resumed run times only the rest).",
             "",
             "### Table 4.1: simulated added light, sinusoidal 3-step, pitch 6",
+            "",
+            ch4["unwrap"],
             "",
             ch4["tables"]["4.1"],
             "",
