@@ -454,7 +454,9 @@ def order_error_fraction(phase: NDArray, known: NDArray, mask: NDArray[np.bool_]
 
     ``phase`` and ``known`` are the same wrapped phase plus multiples of 2 pi: ``known`` with
     the orders of the true phase (:func:`orders_from_expected`), ``phase`` with those of the
-    pipeline under test. A pixel whose multiple differs, or that is NaN, has a wrong order.
+    pipeline under test. A pixel whose multiple differs, or that ``phase`` leaves NaN, has a
+    wrong order; a pixel without a wrapped phase (NaN in ``known``: e.g. a triangular set
+    saturated in too many shifts) has no order to get wrong and is not counted as wrong.
 
     Parameters
     ----------
@@ -477,9 +479,11 @@ def order_error_fraction(phase: NDArray, known: NDArray, mask: NDArray[np.bool_]
     >>> phase = wrapped + 2 * np.pi * np.array([2, 0, 0])   # the middle pixel is a fringe off
     >>> order_error_fraction(phase, known, np.ones(3, bool))
     0.3333333333333333
+    >>> order_error_fraction(np.full(3, np.nan), known, np.ones(3, bool))
+    1.0
     """
     with np.errstate(invalid="ignore"):
-        wrong = ~(np.rint((phase - known) / TWO_PI) == 0)
+        wrong = np.isfinite(known) & ~(np.rint((phase - known) / TWO_PI) == 0)
     return float(np.count_nonzero(wrong[mask])) / max(int(np.count_nonzero(mask)), 1)
 
 
