@@ -54,10 +54,10 @@ def _setup(full: bool) -> tuple[ch4.Ch4Setup, tuple[float, ...], tuple[float, ..
     return ch4.QUICK_SETUP, ch4.QUICK_MIGLS, ch4.QUICK_DEPTHS_MM
 
 
-def _position(args: tuple[bool, float]) -> dict[str, Any]:
+def _position(args: tuple[bool, float, tuple[float, ...]]) -> dict[str, Any]:
     """Both modes at one plate position, the fringe minimum and the noise-study orders."""
-    full, depth = args
-    setup, migls, depths = _setup(full)
+    full, depth, migls = args
+    setup, _, depths = _setup(full)
     out: dict[str, Any] = {"depth_mm": depth, "seconds": {}}
     for mode in ch4.UNWRAP_MODES:
         t0 = time.perf_counter()
@@ -119,12 +119,20 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="thesis view and 25 positions")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--migls",
+        type=float,
+        nargs="+",
+        help="only these MIGLs (must include 255; the trade-off is then over these alone)",
+    )
     parser.add_argument("--json", type=Path, help="also write the results here")
     args = parser.parse_args(argv)
     setup, migls, depths = _setup(args.full)
+    if args.migls:
+        migls = tuple(sorted({*args.migls, 255.0}, reverse=True))
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
-        per = list(pool.map(_position, [(args.full, d) for d in depths]))
+        per = list(pool.map(_position, [(args.full, d, migls) for d in depths]))
     wall = time.perf_counter() - t0
     i255 = migls.index(255.0)
     rows = []
