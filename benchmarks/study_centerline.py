@@ -23,6 +23,9 @@ Two computations explain the outcome:
 * the noise study (600 lx plus Gaussian noise of sigma 1..8, Table 4.2), which the sweep keeps
   on known orders: the centerline pipeline's wrong-order fraction there (MIGL 255..195, every
   position, sigma 8, the noisiest).
+
+``--cost`` instead times the quick reproduction's 12 Sec. 4.3 blocks in both modes (CPU
+seconds, one process, interleaved, two repeats).
 """
 
 from __future__ import annotations
@@ -115,6 +118,31 @@ def _tradeoff(curve: np.ndarray, migls: tuple[float, ...]) -> tuple[float, float
     return tradeoff(xr.DataArray(curve, coords={"migl": list(migls)}))
 
 
+def cost(repeats: int = 2) -> dict[str, list[float]]:
+    """CPU seconds of the quick reproduction's Sec. 4.3 blocks (all 12, one process) in each
+    mode, interleaved, after one warm-up block per pattern (the calibrations)."""
+    import itertools
+
+    grid = ch4.ch4_simulation_grid(quick=True)
+    params = {
+        "setup": ch4.QUICK_SETUP.to_dict(),
+        "added_lux": list(ch4.QUICK_ADDED_LUX),
+        "noise_sigma": list(ch4.QUICK_NOISE_SIGMA),
+        "calibration_depths_mm": list(ch4.QUICK_DEPTHS_MM),
+    }
+    blocks = [grid.block_coords(i) for i in itertools.product(*map(range, grid.blocks_shape))]
+    for pattern in ch4.PATTERNS:
+        ch4.calibrate_pattern(pattern, ch4.SIMULATION_PITCH, ch4.QUICK_SETUP, ch4.QUICK_DEPTHS_MM)
+    out: dict[str, list[float]] = {m: [] for m in ch4.UNWRAP_MODES}
+    for _ in range(repeats):
+        for mode in ch4.UNWRAP_MODES:
+            t0 = time.process_time()
+            for coords in blocks:
+                ch4.ch4_simulation_task(coords, {**params, "unwrap": mode})
+            out[mode].append(time.process_time() - t0)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="thesis view and 25 positions")
@@ -126,7 +154,17 @@ def main(argv: list[str] | None = None) -> int:
         help="only these MIGLs (must include 255; the trade-off is then over these alone)",
     )
     parser.add_argument("--json", type=Path, help="also write the results here")
+    parser.add_argument(
+        "--cost", action="store_true", help="only time the quick reproduction's blocks"
+    )
     args = parser.parse_args(argv)
+    if args.cost:
+        secs = cost()
+        print(
+            "quick reproduction, Sec. 4.3 blocks (12), CPU s per repeat: "
+            + "; ".join(f"{m} {', '.join(f'{t:.1f}' for t in v)}" for m, v in secs.items())
+        )
+        return 0
     setup, migls, depths = _setup(args.full)
     if args.migls:
         migls = tuple(sorted({*args.migls, 255.0}, reverse=True))
