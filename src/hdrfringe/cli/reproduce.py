@@ -37,6 +37,14 @@ def reproduce(
         str,
         typer.Option(help="Rig preset: 'thesis' (fitted to Table 4.3 and the DSIE error)."),
     ] = "",
+    unwrap: Annotated[
+        str,
+        typer.Option(
+            help="Fringe orders of the Table 4.1 added-light simulation: centerline (the "
+            "thesis's pipeline: spatial unwrapping and a captured centerline) or known (the "
+            "plate position)."
+        ),
+    ] = "centerline",
 ) -> None:
     """Run the thesis's experiments on the virtual rig as resumable sweeps (Dask, Zarr) and
     write tables beside the thesis's, figures and a report. Rerun to resume."""
@@ -62,6 +70,7 @@ def reproduce(
         progress=console.is_terminal,
         force=force,
         preset=preset,
+        unwrap=unwrap,
     )
     for name, secs in res["timings_s"].items():
         console.print(f"{name}: {secs:.1f} s")

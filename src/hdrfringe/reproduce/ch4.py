@@ -22,8 +22,12 @@ measurement, so that the work shared by them is done once:
   same numbers.
 
 Fringe orders come from the known plate position (the micrometer reading): the phase error
-that Ch. 4 studies is then measured without unwrapping failures mixed in (the thesis's flat
-plate had none either; unwrapping is validated on its own, docs/unwrapping.md).
+that Ch. 4 studies is then measured without unwrapping failures mixed in (unwrapping is
+validated on its own, docs/unwrapping.md). The added-light simulation of Sec. 4.3 (Table 4.1)
+can instead, and by default does, run the thesis's own pipeline (:data:`UNWRAP_MODES`,
+``"centerline"``): spatial unwrapping of the wrapped phase and a centerline captured with the
+set through the same virtual camera and Eq. 4.1 (:func:`centerline_absolute`), so that
+fringe-order failures under strong light are measured (``order_error_fraction``).
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ from numpy.typing import NDArray
 
 from hdrfringe.calibration import Calibration, calibrate, measurement_mask
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
+from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.patterns import FringeSpec, PatternKind
 from hdrfringe.phase import saturation_count, wrapped_phase
 from hdrfringe.rig.camera import sensor_readout
@@ -53,6 +57,7 @@ from hdrfringe.rig.simulated import (
     RigGeometry,
     SimulatedRig,
 )
+from hdrfringe.unwrap import absolute_phase, centerline_phase, detect_centerline, unwrap_spatial
 
 if TYPE_CHECKING:
     from hdrfringe.reproduce.engine import SweepGrid
@@ -77,11 +82,14 @@ __all__ = [
     "THESIS_NOISE_SIGMA",
     "THESIS_PITCHES",
     "TWO_PI",
+    "UNWRAP_MODES",
     "WHITE_PLATE",
     "Ch4Setup",
     "PlateSweep",
     "calibrate_pattern",
     "cell_rng",
+    "centerline_absolute",
+    "centerline_unwrap",
     "ch4_block",
     "ch4_grid",
     "ch4_modified_block",
@@ -89,6 +97,7 @@ __all__ = [
     "ch4_simulation_task",
     "ch4_task",
     "depth_normals",
+    "order_error_fraction",
     "orders_from_expected",
     "pattern_spec",
     "sweep_phase",
@@ -119,6 +128,12 @@ THESIS_IMIN = 40.0
 SWEEP_DTYPE = np.float32
 #: Saturated shift counts reported (Fig. 4.5: pixels saturated in one, two, three images).
 SATURATED_SHIFTS: tuple[int, ...] = (1, 2, 3)
+#: How a sweep gives the wrapped phase its fringe orders: ``"known"`` from the plate position
+#: (:func:`orders_from_expected`), ``"centerline"`` as the thesis's pipeline (spatial
+#: unwrapping and a captured centerline, :func:`centerline_absolute`). The first is the default
+#: of every function; ``hdrfringe reproduce`` runs the added-light simulation (Table 4.1) with
+#: the second unless told otherwise.
+UNWRAP_MODES: tuple[str, ...] = ("known", "centerline")
 
 
 @dataclass(frozen=True)
@@ -387,6 +402,177 @@ def orders_from_expected(wrapped: NDArray, expected: NDArray) -> NDArray[np.floa
     return wrapped + TWO_PI * np.round((expected - wrapped) / TWO_PI)
 
 
+def centerline_absolute(
+    unwrapped: NDArray, line_image: NDArray, position: float, pitch: float
+) -> NDArray[np.float64]:
+    """Absolute phase of a spatially unwrapped map from a centerline capture, as ``hdrfringe
+    measure`` finds it; all NaN when the image shows no line.
+
+    The line is found in every camera row (:func:`~hdrfringe.unwrap.detect_centerline`, the
+    library's defaults), the unwrapped phase is averaged along it (Eq. 2.12,
+    :func:`~hdrfringe.unwrap.centerline_phase`) and the map gets the multiple of 2 pi that
+    puts that average nearest to the line's projector coordinate
+    (:func:`~hdrfringe.unwrap.absolute_phase`, Eq. 2.13 rounded to whole fringes): the chain of
+    :func:`~hdrfringe.unwrap.absolute_phase_from_centerline`, which ``measure`` uses. A capture
+    in which no row shows the line has no absolute phase: NaN everywhere (the sweep's RMSE of
+    that cell is then NaN) instead of an error.
+
+    Parameters
+    ----------
+    unwrapped : ndarray, shape (H, W)
+        Spatially unwrapped phase (:func:`~hdrfringe.unwrap.unwrap_spatial`).
+    line_image : ndarray, shape (H, W)
+        Camera image of the vertical centerline frame.
+    position : float
+        Projector column of the line.
+    pitch : float
+        Fringe pitch in projector pixels.
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+        ``unwrapped`` plus one multiple of 2 pi (NaN where it is NaN, or everywhere when no line
+        was found).
+
+    References
+    ----------
+    Thesis Sec. 2.5, Eq. 2.12-2.13 (the method of Zhang and Huang).
+
+    Examples
+    --------
+    A plate seen at projector columns 90..113 (pitch 8), unwrapped 3 fringes off, and a line
+    at projector column 102 seen at camera column 12:
+
+    >>> cols = np.tile(np.arange(24.0), (4, 1))
+    >>> line = 10 + 200 * np.exp(-0.5 * ((cols - 12.0) / 1.2) ** 2)
+    >>> relative = 2 * np.pi * (cols + 90) / 8 - 3 * 2 * np.pi
+    >>> phase = centerline_absolute(relative, line, 102.0, 8)
+    >>> (phase[0, :3] * 8 / (2 * np.pi)).round(6).tolist()
+    [90.0, 91.0, 92.0]
+    >>> bool(np.isnan(centerline_absolute(relative, np.full((4, 24), 10.0), 102.0, 8)).all())
+    True
+    """
+    rows = detect_centerline(line_image, "vertical")
+    if not np.isfinite(rows).any():
+        return np.full(np.shape(unwrapped), np.nan)
+    phi_c = centerline_phase(unwrapped, rows, "vertical")
+    return absolute_phase(unwrapped, phi_c, position, pitch)
+
+
+def centerline_unwrap(
+    wrapped: NDArray,
+    line_image: NDArray,
+    position: float,
+    pitch: float,
+    *,
+    candidate: NDArray | None = None,
+) -> NDArray[np.float64]:
+    """Absolute phase the way the thesis's pipeline (and ``hdrfringe measure``) finds it:
+    spatial unwrapping of the wrapped phase, then the centerline (:func:`centerline_absolute`).
+
+    Every pixel is unwrapped, saturated ones too (the thesis's RMSE counts them all), by
+    :func:`~hdrfringe.unwrap.unwrap_spatial`. A ``candidate`` unwrapping is used instead when
+    it proves to be the only one: ``candidate - wrapped`` a multiple of 2 pi and every
+    4-neighbour step of ``candidate`` finite and below pi. Then the wrapped map has no
+    residues (each step is the wrapped difference, and they sum to zero round every loop), so
+    the map is a single region that every path-following unwrapper, ``unwrap_spatial``
+    included, turns into ``candidate`` plus one constant multiple of 2 pi, which the centerline
+    then fixes: the same absolute phase. The sweeps pass the known-order phase, which saves the
+    unwrapper's cost wherever the unwrapping cannot fail (tested against ``unwrap_spatial`` in
+    tests/test_reproduce_centerline.py); where it can, ``unwrap_spatial`` runs.
+
+    Parameters
+    ----------
+    wrapped : ndarray, shape (H, W)
+        Wrapped phase in [0, 2 pi) (:func:`sweep_phase`).
+    line_image : ndarray, shape (H, W)
+        Camera image of the vertical centerline frame.
+    position : float
+        Projector column of the line.
+    pitch : float
+        Fringe pitch in projector pixels.
+    candidate : ndarray, shape (H, W), optional
+        An unwrapping of ``wrapped`` to try first (see above).
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+        The absolute phase (all NaN when no line was found, :func:`centerline_absolute`).
+
+    References
+    ----------
+    Thesis Sec. 2.4 (unwrapping), Sec. 2.5 and Eq. 2.12-2.13 (centerline).
+
+    Examples
+    --------
+    >>> cols = np.tile(np.arange(24.0), (4, 1))
+    >>> line = 10 + 200 * np.exp(-0.5 * ((cols - 12.0) / 1.2) ** 2)
+    >>> truth = 2 * np.pi * (cols + 90) / 8
+    >>> phase = centerline_unwrap(np.mod(truth, 2 * np.pi), line, 102.0, 8)
+    >>> bool(np.allclose(phase, truth))
+    True
+    """
+    unwrapped = None
+    if candidate is not None and _only_unwrapping(candidate, wrapped):
+        unwrapped = np.asarray(candidate, dtype=np.float64)
+    if unwrapped is None:
+        unwrapped = unwrap_spatial(wrapped)
+    return centerline_absolute(unwrapped, line_image, position, pitch)
+
+
+def _only_unwrapping(candidate: NDArray, wrapped: NDArray) -> bool:
+    """Whether ``candidate`` unwraps ``wrapped`` with every 4-neighbour step finite and below pi
+    (less a margin for rounding): then it is the map's only unwrapping up to a constant."""
+    c = np.asarray(candidate, dtype=np.float64)
+    if c.shape != np.shape(wrapped) or not np.isfinite(c).all():
+        return False
+    turns = (c - wrapped) / TWO_PI
+    if not np.allclose(turns, np.rint(turns), rtol=0.0, atol=1e-6):
+        return False
+    limit = np.pi - 1e-6
+    return bool(
+        (np.abs(np.diff(c, axis=0)) < limit).all() and (np.abs(np.diff(c, axis=1)) < limit).all()
+    )
+
+
+def order_error_fraction(phase: NDArray, known: NDArray, mask: NDArray[np.bool_]) -> float:
+    """Fraction of the ``mask`` pixels whose fringe order differs from the known one.
+
+    ``phase`` and ``known`` are the same wrapped phase plus multiples of 2 pi: ``known`` with
+    the orders of the true phase (:func:`orders_from_expected`), ``phase`` with those of the
+    pipeline under test. A pixel whose multiple differs, or that ``phase`` leaves NaN, has a
+    wrong order; a pixel without a wrapped phase (NaN in ``known``: e.g. a triangular set
+    saturated in too many shifts) has no order to get wrong and is not counted as wrong.
+
+    Parameters
+    ----------
+    phase : ndarray
+        Absolute phase from the pipeline under test (e.g. :func:`centerline_unwrap`).
+    known : ndarray
+        The same wrapped phase with the known orders.
+    mask : ndarray of bool
+        The pixels counted.
+
+    Returns
+    -------
+    float
+        Wrong-order pixels / mask pixels, in [0, 1].
+
+    Examples
+    --------
+    >>> wrapped = np.array([0.5, 1.0, 6.0])
+    >>> known = orders_from_expected(wrapped, np.array([13.0, 7.0, 5.9]))
+    >>> phase = wrapped + 2 * np.pi * np.array([2, 0, 0])   # the middle pixel is a fringe off
+    >>> order_error_fraction(phase, known, np.ones(3, bool))
+    0.3333333333333333
+    >>> order_error_fraction(np.full(3, np.nan), known, np.ones(3, bool))
+    1.0
+    """
+    with np.errstate(invalid="ignore"):
+        wrong = np.isfinite(known) & ~(np.rint((phase - known) / TWO_PI) == 0)
+    return float(np.count_nonzero(wrong[mask])) / max(int(np.count_nonzero(mask)), 1)
+
+
 def cell_rng(setup: Ch4Setup, *key: Any) -> np.random.Generator:
     """A generator that depends only on the setup's seed and the cell's coordinates.
 
@@ -490,6 +676,9 @@ class PlateSweep:
         The true absolute phase of each camera pixel.
     truth_height_mm : ndarray
         The scene's true height map.
+    centerline_position : float
+        Projector coordinate of the centerline (:meth:`centerline_signal`): the middle of the
+        projector.
 
     Raises
     ------
@@ -523,6 +712,10 @@ class PlateSweep:
         truth = self.rig.truth()
         self.expected_phase = TWO_PI * truth.u / spec.pitch_px
         self.truth_height_mm = truth.height_mm
+        proj = self.rig.projector
+        extent = proj.width if spec.orientation == "vertical" else proj.height
+        self.centerline_position = extent / 2.0
+        self._centerline: dict[float, NDArray[np.float32]] = {}
 
     def ambient(self, lux: float) -> NDArray:
         """Ambient signal (DN) with ``lux`` of added light (0 lx: the rig's own).
@@ -578,6 +771,34 @@ class PlateSweep:
         shape = (len(frames), *self.rig.image_shape)
         out = (light.astype(np.float32) @ self._basis).reshape(shape)
         out += self.ambient(lux)
+        return out
+
+    def centerline_signal(self, migl: float, lux: float = 0.0) -> NDArray[np.float32]:
+        """Noise-free signal (float32) of the centerline frame at ``migl`` with ``lux`` of added
+        light: a line one projector pixel wide at gray level ``migl`` on black, at
+        :attr:`centerline_position`, oriented as the fringes (thesis Sec. 2.5).
+
+        The line is not periodic, so the rig renders it in full (once per MIGL, then kept).
+
+        Parameters
+        ----------
+        migl : float
+            Gray level of the line (the set's MIGL: captured with the set).
+        lux : float
+            Added ambient light in lx.
+
+        Returns
+        -------
+        ndarray, shape (1, H, W), float32
+            Signal in DN before noise, rounding and clipping.
+        """
+        m = float(migl)
+        if m not in self._centerline:
+            frame = CenterlineFrame(self.centerline_position, self.spec.orientation, migl=m)
+            self._centerline[m] = self.rig.expected_signal([frame]).astype(np.float32)
+        out = self._centerline[m].copy()
+        if lux:
+            out += self.ambient(lux) - self.ambient(0.0)
         return out
 
 
@@ -675,10 +896,13 @@ def _metrics(
     cal: Calibration,
     mask: NDArray[np.bool_],
     bit_depth: int,
+    phase: NDArray | None = None,
 ) -> tuple[float, float, float, list[float]]:
     """RMSE, bias (mean error) and std over the pixels of the height error, and the saturated
-    fractions; RMSE^2 = bias^2 + std^2 (population std)."""
-    phase = orders_from_expected(sweep_phase(imgs, spec), plate.expected_phase)
+    fractions; RMSE^2 = bias^2 + std^2 (population std). ``phase``: the caller's absolute phase
+    of ``imgs`` (None: known fringe orders)."""
+    if phase is None:
+        phase = orders_from_expected(sweep_phase(imgs, spec), plate.expected_phase)
     err = cal.height(phase)[mask] - plate.depth_mm
     nsat = saturation_count(imgs, bit_depth)[mask]
     fractions = [float(np.count_nonzero(nsat == k)) / nsat.size for k in SATURATED_SHIFTS]
@@ -750,6 +974,7 @@ def ch4_modified_block(
     *,
     noise_lux: float = 600.0,
     calibration_depths_mm: Sequence[float] | None = None,
+    unwrap: str = "known",
 ) -> dict[str, NDArray[np.float64]]:
     """The Sec. 4.3 simulations for one pattern (pitch 6 in the thesis).
 
@@ -759,6 +984,19 @@ def ch4_modified_block(
     one standard normal draw per plate position scaled to each sigma (common random numbers,
     :func:`depth_normals`: the levels differ by sigma alone, so the RMSE-against-sigma curves
     of Table 4.2 are not blurred by independent draws).
+
+    With ``unwrap="centerline"`` the added-light measurements take their fringe orders as the
+    thesis's pipeline does: the wrapped phase of every pixel (saturated ones too) is unwrapped
+    spatially (:func:`~hdrfringe.unwrap.unwrap_spatial`) and made absolute with a centerline
+    (:func:`centerline_absolute`) captured at the set's MIGL through the same camera: its own
+    noise draw per position (common across MIGL and light, as the set's) and the same Eq. 4.1
+    added light, so saturation can hide the line or break the unwrapping as on the real rig.
+    Where the known-order phase is itself a valid spatial unwrapping (every 4-neighbour step
+    below pi), it stands in for :func:`~hdrfringe.unwrap.unwrap_spatial`, which would return it
+    plus a constant multiple of 2 pi (:func:`centerline_unwrap`): the orders then rest on the
+    centerline alone, exactly as with the unwrapper. The calibration keeps known orders (made
+    in the dark at MIGL 255, where the centerline gives the same orders:
+    tests/test_reproduce_centerline.py) and so do the noise measurements.
 
     Parameters
     ----------
@@ -779,6 +1017,8 @@ def ch4_modified_block(
     calibration_depths_mm : sequence of float, optional
         The plate positions of the calibration (default ``depths_mm``), when the block
         measures only some of them.
+    unwrap : {"known", "centerline"}
+        Fringe orders of the added-light measurements (:data:`UNWRAP_MODES`).
 
     Returns
     -------
@@ -787,12 +1027,22 @@ def ch4_modified_block(
         and likewise the bias (``mean_error_light_mm``, ``mean_error_noise_mm``) and the
         standard deviation over pixels (``std_light_mm``, ``std_noise_mm``);
         ``saturated_fraction_light`` (added lux, MIGL, depth): the fraction of measurement
-        pixels saturated in at least one shift (where saturation starts under added light).
+        pixels saturated in at least one shift (where saturation starts under added light);
+        ``order_error_fraction`` (added lux, MIGL, depth): the fraction of the measured pixels
+        whose fringe order is wrong (:func:`order_error_fraction`; 0 with known orders; NaN,
+        as the RMSE, where no centerline was detected).
+
+    Raises
+    ------
+    InputError
+        If ``unwrap`` is not one of :data:`UNWRAP_MODES`.
 
     References
     ----------
-    Thesis Sec. 4.3, Eq. 4.1.
+    Thesis Sec. 4.3, Eq. 4.1; Sec. 2.4-2.5 (unwrapping, centerline).
     """
+    if unwrap not in UNWRAP_MODES:
+        raise InputError(f"unknown unwrapping {unwrap!r}; use one of {', '.join(UNWRAP_MODES)}")
     spec = pattern_spec(pattern, pitch, setup.imin)
     cam = setup.camera_model()
     cal_depths = depths_mm if calibration_depths_mm is None else calibration_depths_mm
@@ -804,17 +1054,37 @@ def ch4_modified_block(
         for stat in ("rmse", "mean_error", "std")
     }
     out["saturated_fraction_light"] = np.full((len(added_lux), len(migls), len(depths_mm)), np.nan)
+    out["order_error_fraction"] = np.zeros((len(added_lux), len(migls), len(depths_mm)))
     for k, d in enumerate(depths_mm):
         plate = PlateSweep(d, setup, spec)
         normals = depth_normals(setup, spec, pattern, d, plate.rig.image_shape)
         # Eq. 4.1 noise: one draw per depth, scaled to each sigma (common random numbers)
         z = depth_normals(setup, spec, pattern, d, plate.rig.image_shape, "eq4.1")
+        if unwrap == "centerline":
+            rng = cell_rng(setup, "centerline", pattern, float(spec.pitch_px), float(d))
+            line_normals = rng.standard_normal((1, *plate.rig.image_shape), dtype=SWEEP_DTYPE)
         for j, m in enumerate(migls):
             imgs = sensor_readout(plate.signal(m), cam, normals=normals, dtype=SWEEP_DTYPE)
+            if unwrap == "centerline":
+                line = sensor_readout(
+                    plate.centerline_signal(m), cam, normals=line_normals, dtype=SWEEP_DTYPE
+                )
             for i, lux in enumerate(added_lux):
                 added = lux_to_dn(lux, cam.bit_depth)
                 mod = modify_intensity(imgs, cam.bit_depth, added, dtype=SWEEP_DTYPE)
-                stats = _metrics(mod, spec, plate, cal, mask, cam.bit_depth)
+                phase = None
+                if unwrap == "centerline":
+                    wrapped = sweep_phase(mod, spec)
+                    known = orders_from_expected(wrapped, plate.expected_phase)
+                    seen = modify_intensity(line, cam.bit_depth, added, dtype=SWEEP_DTYPE)[0]
+                    phase = centerline_unwrap(
+                        wrapped, seen, plate.centerline_position, spec.pitch_px, candidate=known
+                    )
+                    frac = order_error_fraction(phase, known, mask)
+                    out["order_error_fraction"][i, j, k] = (
+                        frac if np.isfinite(phase).any() else np.nan
+                    )
+                stats = _metrics(mod, spec, plate, cal, mask, cam.bit_depth, phase)
                 for stat, v in zip(("rmse", "mean_error", "std"), stats[:3], strict=True):
                     out[f"{stat}_light_mm"][i, j, k] = v
                 out["saturated_fraction_light"][i, j, k] = sum(stats[3])
@@ -929,8 +1199,8 @@ def ch4_simulation_grid(quick: bool = False) -> SweepGrid:
     -------
     SweepGrid
         Variables ``rmse_light_mm``, ``mean_error_light_mm``, ``std_light_mm``, the same
-        three with ``noise``, and ``saturated_fraction_light``; computed by
-        :func:`ch4_simulation_task`.
+        three with ``noise``, ``saturated_fraction_light`` and ``order_error_fraction`` (of
+        the added-light measurements); computed by :func:`ch4_simulation_task`.
 
     Examples
     --------
@@ -942,6 +1212,7 @@ def ch4_simulation_grid(quick: bool = False) -> SweepGrid:
     """
     from hdrfringe.reproduce.engine import SweepGrid, Variable
 
+    added_lux = {"added_lux": list(QUICK_ADDED_LUX if quick else THESIS_ADDED_LUX)}
     return SweepGrid(
         dims={
             "pattern": list(PATTERNS),
@@ -975,9 +1246,14 @@ def ch4_simulation_grid(quick: bool = False) -> SweepGrid:
         + [
             Variable(
                 "saturated_fraction_light",
-                extra_dims={"added_lux": list(QUICK_ADDED_LUX if quick else THESIS_ADDED_LUX)},
+                extra_dims=added_lux,
                 attrs={"long_name": "fraction of pixels saturated in any shift (Eq. 4.1 light)"},
-            )
+            ),
+            Variable(
+                "order_error_fraction",
+                extra_dims=added_lux,
+                attrs={"long_name": "fraction of pixels with a wrong fringe order (added light)"},
+            ),
         ],
         block_dims=["migl"],
         attrs={
@@ -997,14 +1273,15 @@ def ch4_simulation_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[
     coords : dict
         The block's coordinates (of :func:`ch4_simulation_grid`).
     params : dict
-        ``setup`` (:meth:`Ch4Setup.to_dict`), ``added_lux``, ``noise_sigma`` and
-        ``calibration_depths_mm``.
+        ``setup`` (:meth:`Ch4Setup.to_dict`), ``added_lux``, ``noise_sigma``,
+        ``calibration_depths_mm`` and optionally ``unwrap`` (:data:`UNWRAP_MODES`; default
+        ``"known"``).
 
     Returns
     -------
     dict
-        ``rmse_light_mm`` (MIGL, added lux), ``rmse_noise_mm`` (MIGL, sigma) and their
-        ``mean_error_*`` and ``std_*`` (as :func:`ch4_modified_block`).
+        ``rmse_light_mm``, ``order_error_fraction`` (MIGL, added lux), ``rmse_noise_mm``
+        (MIGL, sigma) and their ``mean_error_*`` and ``std_*`` (as :func:`ch4_modified_block`).
     """
     setup = Ch4Setup(**params["setup"])
     out = ch4_modified_block(
@@ -1016,6 +1293,7 @@ def ch4_simulation_task(coords: dict[str, Any], params: dict[str, Any]) -> dict[
         (coords["depth_mm"],),
         setup,
         calibration_depths_mm=params["calibration_depths_mm"],
+        unwrap=params.get("unwrap", "known"),
     )
     # (level, MIGL, one depth) -> (MIGL, level): the engine's block dims come first
     return {k: np.moveaxis(v[..., 0], 0, -1) for k, v in out.items()}
