@@ -615,7 +615,7 @@ def _order_failure_note(sim: xr.Dataset) -> str:
     return (
         "With the thesis's pipeline (spatial unwrapping and a captured centerline) the pixels "
         f"with a wrong fringe order at MIGL 255 (sinusoidal 3-step, mean over depth) are: {cells}"
-        " (`order_error_fraction`; docs/reproduction.md, \"Fringe-order failures\")."
+        ' (`order_error_fraction`; docs/reproduction.md, "Fringe-order failures").'
     )
 
 
