@@ -114,3 +114,33 @@ def test_previews_of_the_usual_maps_do_not_import_matplotlib(tmp_path: Path) -> 
     )  # fmt: skip
     assert run.stdout.strip() == "[]"
     assert len(list(tmp_path.glob("*.png"))) == 6
+
+
+@pytest.mark.parametrize("command", ["phase", "measure"])
+def test_no_previews_writes_the_same_maps_without_pngs(
+    capture_folder: Path, tmp_path: Path, command: str
+) -> None:
+    """``--no-previews`` leaves out exactly the PNG previews: the same TIFF maps, byte for byte,
+    and a summary listing only what was written (a flag that dropped maps, or listed PNGs it
+    did not write, fails)."""
+    from tests.conftest import run_cli_in_process
+
+    outs = {}
+    for flag in ("--previews", "--no-previews"):
+        out = tmp_path / f"{command}{flag}"
+        run = run_cli_in_process(command, str(capture_folder), "-o", str(out), flag)
+        assert run.returncode == 0, run.stderr
+        outs[flag] = out
+    with_png = {p.name for p in outs["--previews"].iterdir()}
+    without = {p.name for p in outs["--no-previews"].iterdir()}
+    pngs = {n for n in with_png if n.endswith(".png")}
+    assert len(pngs) >= 7 and not any(n.endswith(".png") for n in without)
+    assert without == with_png - pngs
+    for name in without:
+        if name.endswith(".tiff"):
+            a, b = (outs[f] / name for f in ("--previews", "--no-previews"))
+            assert a.read_bytes() == b.read_bytes(), name
+    import json
+
+    listed = json.loads((outs["--no-previews"] / "phase_summary.json").read_text())["files"]
+    assert set(listed) == {n for n in without if n.endswith(".tiff")}
