@@ -117,15 +117,55 @@ def _finite_scalar(value: float, name: str) -> float:
 # --------------------------------------------------------------------------------------------
 
 
-def _component_medians(labels: NDArray, values: NDArray, n: int) -> NDArray[np.float64]:
-    """Median of ``values`` per label 1..n (every label present), vectorised with one sort."""
-    order = np.lexsort((values, labels))
-    sorted_vals = values[order]
+#: Regions larger than this get their median by a partial sort (``np.partition``) of their own
+#: values; the smaller ones (specks) share one sort.
+_PARTITION_ABOVE = 64
+
+
+def _sorted_medians(labels: NDArray, values: NDArray, counts: NDArray) -> NDArray[np.float64]:
+    """Median per label of the labels with ``counts > 0``, in label order: one sort."""
+    sorted_vals = values[np.lexsort((values, labels))]
+    present = counts[counts > 0]
+    starts = np.concatenate(([0], np.cumsum(present)[:-1]))
+    return 0.5 * (sorted_vals[starts + (present - 1) // 2] + sorted_vals[starts + present // 2])
+
+
+def _partition_median(values: NDArray) -> float:
+    """The median of ``values`` (the mean of the two middle order statistics) without sorting."""
+    lo, hi = (values.size - 1) // 2, values.size // 2
+    part = np.partition(values, (lo, hi) if hi != lo else lo)
+    return 0.5 * (part[lo] + part[hi])
+
+
+def _component_medians(labels: NDArray | None, values: NDArray, n: int) -> NDArray[np.float64]:
+    """Median of ``values`` per label 1..n (every label present; ``labels`` may be None if n = 1).
+
+    The mean of the two middle order statistics, as a sort by (label, value) gives them, but
+    without sorting every pixel: each large region's order statistics come from a partial sort
+    of its values (O(size)); only the pixels of small regions are sorted. Identical values.
+    """
+    if n == 1:
+        return np.array([_partition_median(values)])
     counts = np.bincount(labels, minlength=n + 1)[1:]
-    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
-    lo = starts + (counts - 1) // 2
-    hi = starts + counts // 2
-    return 0.5 * (sorted_vals[lo] + sorted_vals[hi])
+    out = np.empty(n)
+    big = np.flatnonzero(counts > _PARTITION_ABOVE)
+    if big.size == 0:
+        return _sorted_medians(labels, values, counts)
+    is_big = np.zeros(n + 1, dtype=bool)
+    is_big[big + 1] = True
+    in_big = is_big[labels]
+    small = counts.copy()
+    small[big] = 0
+    if big.size < n:
+        rest = ~in_big
+        out[small > 0] = _sorted_medians(labels[rest], values[rest], small)
+    big_vals = values[in_big]
+    if big.size > 1:  # group the large regions' values by label (a stable integer sort)
+        big_vals = big_vals[np.argsort(labels[in_big], kind="stable")]
+    ends = np.cumsum(counts[big])
+    for i, start, end in zip(big, ends - counts[big], ends, strict=True):
+        out[i] = _partition_median(big_vals[start:end])
+    return out
 
 
 def _orders_to_window(anchor: NDArray | float, target: float | None) -> NDArray:
@@ -244,13 +284,22 @@ def unwrap_spatial(
     from scipy import ndimage
     from skimage.restoration import unwrap_phase
 
-    labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
+    # A map without invalid pixels is one region: no labelling, no masked array, no gathers.
+    all_valid = bool(valid.all())
+    labels: NDArray | None = None
+    n = 1
+    if not all_valid:
+        labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
     if min_component_size > 1:
-        sizes = np.bincount(labels.ravel(), minlength=n + 1)
+        if labels is None:
+            sizes = np.array([0, valid.size])
+        else:
+            sizes = np.bincount(labels.ravel(), minlength=n + 1)
         small = sizes < min_component_size
         small[0] = False
         if small[1:].any():
-            valid &= ~small[labels]
+            valid &= ~small[labels] if labels is not None else False
+            all_valid = False
             if ref is not None and not valid[ref]:
                 raise InputError(
                     f"reference pixel {ref} lies in a region smaller than min_component_size="
@@ -261,27 +310,49 @@ def unwrap_spatial(
             labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
 
     # Shift to [-pi, pi) as scikit-image documents; NaN/inf replaced and masked (see Notes).
-    phase[~valid] = 0.0
-    centred = np.where(valid, np.mod(phase, TWO_PI) - np.pi, 0.0)
+    if not all_valid:
+        phase[~valid] = 0.0
+    centred = np.mod(phase, TWO_PI)
+    centred -= np.pi
     with warnings.catch_warnings():
         # (1, W) and (H, 1) images work but warn about the length-1 dimension.
         warnings.filterwarnings("ignore", message="Image has a length 1 dimension")
-        raw = unwrap_phase(np.ma.array(centred, mask=~valid), rng=_SKIMAGE_SEED)
-    raw = np.ma.getdata(raw)
+        if all_valid:  # nothing masked: the same call as with an all-False mask
+            raw = unwrap_phase(centred, rng=_SKIMAGE_SEED)
+        else:
+            centred[~valid] = 0.0
+            raw = np.ma.getdata(unwrap_phase(np.ma.array(centred, mask=~valid), rng=_SKIMAGE_SEED))
 
     # Integer fringe order of every valid pixel relative to its wrapped value.
-    w = phase[valid]
-    order = np.rint((raw[valid] + np.pi - w) / TWO_PI)
-    lab = labels[valid]
-    unwrapped = w + TWO_PI * order
+    # In place in a fresh array, in the order of `w + 2*pi * rint((raw + pi - w) / (2*pi))`.
+    w = phase.ravel() if all_valid else phase[valid]
+    unwrapped = raw.ravel() if all_valid else raw[valid]
+    unwrapped += np.pi
+    unwrapped -= w
+    unwrapped /= TWO_PI
+    np.rint(unwrapped, out=unwrapped)  # the fringe order
+    unwrapped *= TWO_PI
+    unwrapped += w
+    lab = None if labels is None else labels[valid]
 
     # Regions are anchored by their median; with a reference pixel, `target` is for that pixel.
     median_target = target if ref is None else None
     shift = _orders_to_window(_component_medians(lab, unwrapped, n), median_target)
-    out[valid] = unwrapped
+    if all_valid:
+        out = unwrapped.reshape(phase.shape)
+    else:
+        out[valid] = unwrapped
     if ref is not None:
-        shift[labels[ref] - 1] = _orders_to_window(out[ref], target)
-    out[valid] += TWO_PI * shift[lab - 1]
+        shift[(1 if labels is None else labels[ref]) - 1] = _orders_to_window(out[ref], target)
+    if n == 1:  # one region: one offset
+        add: NDArray | np.float64 = TWO_PI * shift[0]
+    else:
+        assert lab is not None
+        add = TWO_PI * shift[lab - 1]
+    if all_valid:
+        out += add
+    else:
+        out[valid] += add
     return out
 
 
