@@ -148,3 +148,60 @@ def test_region_medians_match_a_full_sort(spread: str) -> None:
     sizes = np.bincount(lab)[1:]
     if spread == "mixed":
         assert (sizes > 64).any() and (sizes <= 64).any()  # both paths taken
+
+
+def _random_masks() -> list[np.ndarray]:
+    rng = np.random.default_rng(11)
+    masks = [rng.random(shape) < p for shape, p in (((48, 80), 0.5), ((60, 70), 0.62),
+             ((1, 40), 0.6), ((35, 1), 0.7), ((7, 9), 0.3), ((1, 1), 1.0))]  # fmt: skip
+    big = rng.random((700, 900)) < 0.58  # large and near percolation: many regions, threads
+    big[:, 300] = False
+    masks += [big, np.ones((40, 50), bool), np.zeros((40, 50), bool)]
+    snake = np.zeros((30, 30), bool)  # a region whose first pixel comes after another's
+    snake[20, :] = snake[:, 25] = snake[5, 10:26] = True
+    snake[0:4, 0:4] = True
+    return [*masks, snake]
+
+
+@pytest.mark.parametrize("index", range(10))
+def test_labels_are_scipys(index: int) -> None:
+    from hdrfringe.unwrap import _label4
+
+    mask = _random_masks()[index]
+    labels, n = _label4(mask)
+    ref, n_ref = ndimage.label(mask, structure=_FOUR_CONNECTED)
+    assert n == n_ref and labels.dtype == np.int32
+    assert np.array_equal(labels, ref)
+
+
+@pytest.mark.parametrize("index", range(10))
+def test_the_opening_and_the_growing_step_are_scipys(index: int) -> None:
+    """phase_regions' 5x5 opening (outside the image counts as cut) and its 4-neighbour
+    growing step by OpenCV against scipy.ndimage, on the same masks and labels."""
+    import cv2
+
+    mask = _random_masks()[index]
+    opened = cv2.morphologyEx(
+        mask.astype(np.uint8), cv2.MORPH_OPEN, np.ones((5, 5), np.uint8),
+        borderType=cv2.BORDER_CONSTANT, borderValue=0,
+    ).astype(bool)  # fmt: skip
+    assert np.array_equal(opened, ndimage.binary_opening(mask, structure=np.ones((5, 5), bool)))
+    labels, _ = ndimage.label(mask, structure=_FOUR_CONNECTED)
+    labels[labels > 0] += 70000  # beyond uint16
+    grown = cv2.dilate(labels.astype(np.float64), _FOUR_CONNECTED.astype(np.uint8))
+    assert np.array_equal(grown, ndimage.grey_dilation(labels, footprint=_FOUR_CONNECTED))
+
+
+def test_labels_out_of_raster_order_are_renumbered(monkeypatch: pytest.MonkeyPatch) -> None:
+    """OpenCV does not promise the numbering: labels given in another order are renumbered by
+    their first pixel (a permuted labelling, as another OpenCV build might return)."""
+    import cv2
+
+    from hdrfringe.unwrap import _label4
+
+    mask = _random_masks()[0]
+    ref, n = ndimage.label(mask, structure=_FOUR_CONNECTED)
+    perm = np.concatenate(([0], np.random.default_rng(3).permutation(n) + 1)).astype(np.int32)
+    monkeypatch.setattr(cv2, "connectedComponents", lambda *a, **k: (n + 1, perm[ref]))
+    labels, m = _label4(mask)
+    assert m == n and np.array_equal(labels, ref)

@@ -168,6 +168,25 @@ def _component_medians(labels: NDArray | None, values: NDArray, n: int) -> NDArr
     return out
 
 
+def _label4(mask: NDArray[np.bool_]) -> tuple[NDArray[np.int32], int]:
+    """The 4-connected components of ``mask``, numbered 1..n in the raster order of their first
+    pixel (0 elsewhere): what ``scipy.ndimage.label`` gives, by OpenCV (a core dependency, far
+    cheaper to import than scipy.ndimage; tests/test_unwrap_identity.py compares the two)."""
+    import cv2
+
+    count, labels = cv2.connectedComponents(
+        np.ascontiguousarray(mask, dtype=np.uint8), connectivity=4, ltype=cv2.CV_32S
+    )
+    n = int(count) - 1
+    flat = labels.ravel()
+    if n > 1 and (np.diff(np.maximum.accumulate(flat)) > 1).any():  # not in raster order
+        _, first = np.unique(flat, return_index=True)
+        remap = np.zeros(n + 1, np.int32)
+        remap[np.argsort(first[1:], kind="stable") + 1] = np.arange(1, n + 1, dtype=np.int32)
+        labels = remap[labels]
+    return labels, n
+
+
 def _orders_to_window(anchor: NDArray | float, target: float | None) -> NDArray:
     """Integer shifts ``k`` putting ``anchor + 2*pi*k`` into the window of ``target``.
 
@@ -230,7 +249,8 @@ def unwrap_spatial(
 
     Notes
     -----
-    *Connected regions.* Valid pixels are grouped into 4-connected regions (scipy.ndimage.label)
+    *Connected regions.* Valid pixels are grouped into 4-connected regions (OpenCV's
+    ``connectedComponents``, numbered as ``scipy.ndimage.label`` numbers them)
     and each region is unwrapped on its own. The ``2*pi*k`` offset between two regions that no
     path of valid pixels joins is not observable from the spatial data, so each region is
     anchored independently: by default the median of its unwrapped phase lies in ``[0, 2*pi)``
@@ -281,7 +301,6 @@ def unwrap_spatial(
     if not valid.any():
         return out
     # imported here: only spatial unwrapping needs them (cold start of temporal-only commands)
-    from scipy import ndimage
     from skimage.restoration import unwrap_phase
 
     # A map without invalid pixels is one region: no labelling, no masked array, no gathers.
@@ -289,7 +308,7 @@ def unwrap_spatial(
     labels: NDArray | None = None
     n = 1
     if not all_valid:
-        labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
+        labels, n = _label4(valid)
     if min_component_size > 1:
         if labels is None:
             sizes = np.array([0, valid.size])
@@ -307,7 +326,7 @@ def unwrap_spatial(
                 )
             if not valid.any():
                 return out
-            labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
+            labels, n = _label4(valid)
 
     # Shift to [-pi, pi) as scikit-image documents; NaN/inf replaced and masked (see Notes).
     if not all_valid:
@@ -483,27 +502,32 @@ def phase_regions(
                 with np.errstate(invalid="ignore"):
                     jump = np.abs(_wrap_pi(fwd - bwd)) > t
                 np.moveaxis(cut, axis, 0)[b : n - b] |= jump
-    from scipy import ndimage  # imported here: cold start (docs/architecture.md)
+    import cv2  # OpenCV's morphology: scipy.ndimage's import costs more than the work (issue 16)
 
     # regions are the 4-connected parts of the kept area opened by a 5x5 square: strips and
     # corridors under 5 px wide (the remnants between two cuts along one step, a chance
-    # bridge across it) belong to no region of their own
-    keep = ndimage.binary_opening(ok & ~cut, structure=np.ones((5, 5), bool))
-    labels, n = ndimage.label(keep, structure=_FOUR_CONNECTED)
+    # bridge across it) belong to no region of their own (outside the image counts as cut,
+    # as for scipy.ndimage.binary_opening)
+    keep = cv2.morphologyEx(
+        (ok & ~cut).astype(np.uint8), cv2.MORPH_OPEN, np.ones((5, 5), np.uint8),
+        borderType=cv2.BORDER_CONSTANT, borderValue=0,
+    ).astype(bool)  # fmt: skip
+    labels, n = _label4(keep)
     # the other valid pixels join the region that reaches them first through valid pixels
     # (a few pixels: the cuts and strips are thin); valid parts no region reaches are specks
     for _ in range(_REGION_GROW_STEPS):
         todo = ok & (labels == 0)
         if not todo.any():
             break
-        grown = ndimage.grey_dilation(labels, footprint=_FOUR_CONNECTED)
+        # the largest label among the pixel and its 4 neighbours (float64: exact for int32)
+        grown = cv2.dilate(labels.astype(np.float64), _FOUR_CONNECTED.astype(np.uint8))
         step = todo & (grown > 0)
         if not step.any():
             break
         labels[step] = grown[step]
     rest = ok & (labels == 0)
     if rest.any():
-        extra, m = ndimage.label(rest, structure=_FOUR_CONNECTED)
+        extra, m = _label4(rest)
         labels[rest] = extra[rest] + n
         n += m
     if n == 0:
