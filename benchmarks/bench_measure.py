@@ -14,6 +14,8 @@ case, so a busy machine slows every case alike):
   ``pipeline.measure`` (decode, unwrap), ``write_measurement`` (the same outputs, staged), and
   the same without previews.
 
+``--bytecode``: the package's modules compiled first, as in ``bench_cold_start.py``.
+
 Printed: medians of wall and CPU time (user + system; children's rusage for the processes,
 ``time.process_time`` in-process), the library's split (read / compute / write) and the ratios
 ``measure`` cold / library-only (target at most 2) and (cold - import numpy) / library-only.
@@ -34,6 +36,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_cold_start import compiled_package
 from hdrfringe import pipeline
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.measurement_outputs import write_measurement
@@ -81,10 +84,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--bytecode", action="store_true", help="compile the package first")
     args = ap.parse_args()
 
     py = sys.executable
-    with tempfile.TemporaryDirectory() as d:
+    with tempfile.TemporaryDirectory() as d, compiled_package(args.bytecode):
         folder = make_folder(Path(d) / "caps")
         out = Path(d) / "out"
         measure = [py, "-m", "hdrfringe.cli", "measure", str(folder), "-o", str(out), "--force"]
@@ -110,7 +114,8 @@ def main() -> None:
                 cpu[name].append(time.process_time() - c0)
 
     print(f"{platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}, "
-          f"load average {os.getloadavg()[0]:.2f} at the end")  # fmt: skip
+          f"load average {os.getloadavg()[0]:.2f} at the end; "
+          f"package {'compiled' if args.bytecode else 'as found'}")  # fmt: skip
     print(f"median of {args.repeats} interleaved runs (s)")
     print(f"  {'':<28} {'wall':>7} {'(min':>6} {'max)':>6}  {'cpu':>7}")
     result: dict[str, dict] = {}
