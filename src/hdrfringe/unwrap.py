@@ -146,6 +146,7 @@ def _component_medians(labels: NDArray | None, values: NDArray, n: int) -> NDArr
     """
     if n == 1:
         return np.array([_partition_median(values)])
+    assert labels is not None
     counts = np.bincount(labels, minlength=n + 1)[1:]
     out = np.empty(n)
     big = np.flatnonzero(counts > _PARTITION_ABOVE)
@@ -174,9 +175,10 @@ def _label4(mask: NDArray[np.bool_]) -> tuple[NDArray[np.int32], int]:
     cheaper to import than scipy.ndimage; tests/test_unwrap_identity.py compares the two)."""
     import cv2
 
-    count, labels = cv2.connectedComponents(
+    count, found = cv2.connectedComponents(
         np.ascontiguousarray(mask, dtype=np.uint8), connectivity=4, ltype=cv2.CV_32S
     )
+    labels: NDArray[np.int32] = np.asarray(found, dtype=np.int32)
     n = int(count) - 1
     flat = labels.ravel()
     if n > 1 and (np.diff(np.maximum.accumulate(flat)) > 1).any():  # not in raster order
@@ -527,9 +529,9 @@ def phase_regions(
         labels[step] = grown[step]
     rest = ok & (labels == 0)
     if rest.any():
-        extra, m = _label4(rest)
+        extra, n_extra = _label4(rest)
         labels[rest] = extra[rest] + n
-        n += m
+        n += n_extra
     if n == 0:
         return PhaseRegions(np.zeros(shape, np.int32), (), 0)
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
