@@ -4,7 +4,7 @@ VENV := .venv
 STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
-.PHONY: install system-packages demo test lint bench bench-sweep bench-cold clean
+.PHONY: install system-packages demo test lint bench bench-sweep bench-cold bench-measure bench-unwrap clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -47,6 +47,12 @@ bench-sweep: $(STAMP)
 
 bench-cold: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_cold_start.py
+
+bench-measure: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_measure.py
+
+bench-unwrap: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_unwrap.py
 
 clean:
 	rm -rf $(VENV) $(OUT)
