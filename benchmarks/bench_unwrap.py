@@ -18,6 +18,8 @@ varies much less from run to run), medians of ``--repeats`` rounds:
   map for (a); for (b) a masked array with the NaN replaced by 0, since scikit-image does not
   return on NaN).
 
+``--steps`` also times the steps of ``unwrap_spatial`` on the NaN-free map one by one (CPU).
+
 Before timing, the script checks that ours and the version of before agree bit for bit (NaN
 included) and that ours differs from scikit-image's unwrapping by a multiple of 2 pi that is
 constant over each region, and stops if not.
@@ -26,6 +28,7 @@ constant over each region, and stops if not.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import platform
@@ -97,11 +100,44 @@ def check(wrapped: np.ndarray) -> None:
         raise SystemExit("unwrap_spatial's 2 pi offset to scikit-image varies within a region")
 
 
+def step_times(wrapped: np.ndarray, repeats: int) -> dict[str, float]:
+    """CPU ms (median) of each step ``unwrap_spatial`` takes on a map without invalid pixels,
+    the steps copied from it: where the time goes beside scikit-image's call."""
+    from hdrfringe.unwrap import TWO_PI, _component_medians, _orders_to_window
+
+    runs: dict[str, list[float]] = {}
+    for _ in range(repeats):
+        marks = [("start", time.process_time())]
+        phase = wrapped.astype(np.float64)
+        bool(np.isfinite(phase).all())
+        marks.append(("copy and check", time.process_time()))
+        centred = np.mod(phase, TWO_PI)
+        centred -= np.pi
+        marks.append(("np.mod, - pi", time.process_time()))
+        u = unwrap_phase(centred, rng=0).ravel()
+        marks.append(("skimage unwrap_phase", time.process_time()))
+        u += np.pi
+        u -= phase.ravel()
+        u /= TWO_PI
+        np.rint(u, out=u)
+        u *= TWO_PI
+        u += phase.ravel()
+        marks.append(("order arithmetic", time.process_time()))
+        median = _component_medians(None, u, 1)
+        marks.append(("median", time.process_time()))
+        u += TWO_PI * _orders_to_window(median, None)[0]
+        marks.append(("offset", time.process_time()))
+        for (_, t0), (name, t1) in itertools.pairwise(marks):
+            runs.setdefault(name, []).append(1e3 * (t1 - t0))
+    return {k: statistics.median(v) for k, v in runs.items()}
+
+
 def main() -> None:
     """Check, then time every case ``--repeats`` times, interleaved, and print medians."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=15)
     ap.add_argument("--json", type=str, default=None)
+    ap.add_argument("--steps", action="store_true", help="also time unwrap_spatial's steps")
     args = ap.parse_args()
 
     maps = make_maps()
@@ -139,6 +175,15 @@ def main() -> None:
             w, c = result[name]["wall"], result[name]["cpu"]
             print(f"  {k:<42} {w['median_ms'][k]:7.1f} {w['over_skimage'][k]:6.2f}"
                   f"      {c['median_ms'][k]:7.1f} {c['over_skimage'][k]:6.2f}")  # fmt: skip
+    if args.steps:
+        steps = step_times(maps["NaN-free"], args.repeats)
+        print("unwrap_spatial's steps on the NaN-free map, CPU ms:")
+        for k, v in steps.items():
+            print(f"  {k:<24} {v:7.2f}")
+        own = sum(v for k, v in steps.items() if not k.startswith("skimage"))
+        sk = steps["skimage unwrap_phase"]
+        print(f"  outside scikit-image {own:.2f} ms: {(own + sk) / sk:.3f}x")
+        result["steps_cpu_ms"] = steps  # type: ignore[assignment]
     print(f"load average {os.getloadavg()[0]:.2f} at the end")
     if args.json:
         with open(args.json, "w") as f:
