@@ -124,10 +124,12 @@ def test_no_previews_writes_the_same_maps_without_pngs(
     and a summary listing only what was written (a flag that dropped maps, or listed PNGs it
     did not write, fails)."""
     from tests.conftest import run_cli_in_process
+    from tests.test_unwrap_identity import reseed_c_rand
 
     outs = {}
     for flag in ("--previews", "--no-previews"):
         out = tmp_path / f"{command}{flag}"
+        reseed_c_rand()  # the spatial unwrapper's rand() state: the same for both runs
         run = run_cli_in_process(command, str(capture_folder), "-o", str(out), flag)
         assert run.returncode == 0, run.stderr
         outs[flag] = out

@@ -39,6 +39,23 @@ __all__ = [
 ]
 
 
+def plot_migl_pie(*args: Any, **kwargs: Any) -> None:
+    """:func:`hdrfringe.io.plots.plot_migl_pie`, imported on first use: ``io.plots`` imports
+    ``hdrfringe.gamma`` and with it scipy.stats, which ``measure`` without a strategy does not
+    need (cold start, issue 16)."""
+    from hdrfringe.io import plots
+
+    plots.plot_migl_pie(*args, **kwargs)
+
+
+def plot_dpa_cdfs(*args: Any, **kwargs: Any) -> None:
+    """:func:`hdrfringe.io.plots.plot_dpa_cdfs`, imported on first use (see
+    :func:`plot_migl_pie`)."""
+    from hdrfringe.io import plots
+
+    plots.plot_dpa_cdfs(*args, **kwargs)
+
+
 #: Most slices of the pie chart of an index map (every MIGL of an 8-bit projector: the
 #: thesis's strategies keep their pies); a map with more distinct values (the adaptive
 #: projection's per-pixel MIGL) is shown in bins of 10 gray levels (labelled by the lower edge).
@@ -215,8 +232,6 @@ def write_strategy_outputs(
     if np.unique(pie).size > PIE_SLICES:  # a per-pixel map (adaptive): slices of 10 levels
         # lower edges (250 holds 250..255): rounding labelled a 255 slice "260", above any MIGL
         pie, step = np.floor(pie / 10.0) * 10.0, ", bins of 10 from the label"
-    from hdrfringe.io.plots import plot_migl_pie  # scipy.stats via gamma: only with a strategy
-
     plot_migl_pie(out / files[-1], pie, title=f"pixels per {per}{step} ({fine.method}, {pitch})")
     return files
 
@@ -361,8 +376,6 @@ def write_measurement(
             write_strategy_outputs(tmp, result.strategy_results, previews=previews)
             write_adaptive_outputs(tmp, result.strategy_results, previews=previews)
         if result.dpa is not None and result.metrics.dpa is not None:
-            from hdrfringe.io.plots import plot_dpa_cdfs
-
             plot_dpa_cdfs(tmp / "dpa_cdf.png", result.dpa, threshold=result.metrics.dpa.threshold)
         metrics = result.metrics.to_dict()
         metrics.update(extra_metrics or {})
