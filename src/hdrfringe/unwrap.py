@@ -264,7 +264,10 @@ def unwrap_spatial(
     *NaN.* scikit-image's unwrapper does not return when its input contains NaN, so NaN is
     never passed to it: invalid pixels are replaced by 0 and masked.
 
-    The result is deterministic (the unwrapper's random generator is seeded).
+    The fringe orders are deterministic (the unwrapper's random generator is seeded); the last
+    bit of the values may depend on earlier calls in the same process, because scikit-image's
+    2-D unwrapper also draws from the C library's ``rand()`` (benchmarks/README.md, spatial
+    unwrapping).
 
     References
     ----------
