@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
 .PHONY: install system-packages demo test lint bench bench-sweep bench-cold bench-peers \
-	bench-memory clean
+	bench-memory bench-measure bench-unwrap clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -62,6 +62,12 @@ bench-peers: $(BENCH_VENV)/.installed-stamp
 
 bench-memory: $(BENCH_VENV)/.installed-stamp
 	$(BENCH_VENV)/bin/python benchmarks/bench_memory.py
+
+bench-measure: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_measure.py
+
+bench-unwrap: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_unwrap.py
 
 clean:
 	rm -rf $(VENV) $(BENCH_VENV) $(OUT)

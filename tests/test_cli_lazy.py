@@ -12,7 +12,9 @@ import importlib
 import os
 import subprocess
 import sys
+from pathlib import Path
 
+import numpy as np
 import typer.main
 from typer.models import DefaultPlaceholder
 
@@ -123,3 +125,57 @@ def test_the_listing_entries_match_the_commands() -> None:
         for attr in ("name", "help", "short_help", "hidden", "deprecated", "rich_help_panel"):
             mine, theirs = _unset_is_none(listed, attr), _unset_is_none(real, attr)
             assert mine == theirs, (name, attr, mine, theirs)
+
+
+_RUN_PROBE = """
+import sys
+from hdrfringe.cli import app
+folder, out = sys.argv[1], sys.argv[2]
+for command in ("phase", "measure"):
+    try:
+        app([command, folder, "-o", out + "/" + command])
+    except SystemExit as exc:
+        assert exc.code == 0, (command, exc.code)
+heavy = ("scipy", "skimage", "matplotlib", "dask", "xarray", "h5py")
+print("temporal:", *sorted(m for m in sys.modules if m.split(".")[0] in heavy))
+try:  # one set: spatial unwrapping (scikit-image's unwrapper, labels and regions by OpenCV)
+    app(["phase", sys.argv[3], "-o", out + "/spatial"])
+except SystemExit as exc:
+    assert exc.code == 0, ("phase spatial", exc.code)
+print("spatial:", *sorted(m for m in sys.modules if m.split(".")[0] in heavy[:1] + heavy[2:]))
+"""
+
+
+def test_phase_and_measure_import_no_scipy_or_matplotlib(
+    tmp_path: Path,
+) -> None:
+    """A 3-pitch folder (temporal unwrapping, no calibration) needs none of scipy, scikit-image
+    or matplotlib: the commands, the pipeline, the strategy registry that builds measure's
+    options and the map previews must import them only where they are used (issue 16, cold
+    start: scipy.ndimage alone is about 0.3 s of CPU, matplotlib 0.2 s). A single set
+    (spatial unwrapping) needs scikit-image's unwrapper but still no scipy."""
+    from hdrfringe.captures import Captures, ProjectorInfo
+    from hdrfringe.io.captures import write_capture_folder
+    from hdrfringe.patterns import FringeSpec
+    from tests.conftest import synthetic_set
+
+    specs = [FringeSpec("sinusoidal", 4, p, "vertical", 40, 255) for p in (1024.0, 64.0, 8.0)]
+    sets = [synthetic_set(s, (24, 32))[0] for s in specs]
+    frames = [f for s in specs for f in s.frames()]
+    folder = tmp_path / "caps"
+    write_capture_folder(
+        folder, Captures(frames, np.concatenate(sets), 8, projector=ProjectorInfo(1024, 768, 8))
+    )
+    single = tmp_path / "single"
+    write_capture_folder(
+        single, Captures(specs[2].frames(), sets[2], 8, projector=ProjectorInfo(1024, 768, 8))
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", _RUN_PROBE, str(folder), str(tmp_path), str(single)],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    assert (tmp_path / "measure" / "absolute_phase.png").is_file()  # previews were drawn
+    assert (tmp_path / "spatial" / "unwrapped_phase.png").is_file()
+    lines = run.stdout.splitlines()
+    assert "temporal:" in lines, [ln for ln in lines if ln.startswith("temporal:")]
+    assert "spatial:" in lines, [ln for ln in lines if ln.startswith("spatial:")]

@@ -11,6 +11,7 @@ from matplotlib import colormaps
 from PIL import Image
 
 from hdrfringe.errors import InputError
+from hdrfringe.io._colormaps import STORED_LUTS, colormap_lut
 from hdrfringe.io.results import (
     PREVIEW_INVALID_GRAY,
     PREVIEW_MAX_WIDTH,
@@ -73,3 +74,75 @@ def test_all_invalid_map_and_bad_shapes(tmp_path: Path) -> None:
     assert (_body(tmp_path / "nan.png", (4, 4)) == PREVIEW_INVALID_GRAY).all()
     with pytest.raises(InputError, match="2-D map"):
         write_preview_png(tmp_path / "bad.png", np.zeros(5))
+
+
+@pytest.mark.parametrize("name", sorted(STORED_LUTS))
+def test_stored_colour_tables_are_matplotlibs(name: str) -> None:
+    """The tables stored so that previews need no matplotlib are matplotlib's own, entry for
+    entry (a stale or mistyped table, or one of another colour map, differs)."""
+    ref = np.rint(colormaps[name](np.linspace(0.0, 1.0, 256))[:, :3] * 255).astype(np.uint8)
+    assert np.array_equal(colormap_lut(name), ref)
+    assert not colormap_lut(name).flags.writeable
+
+
+def test_an_unstored_colour_map_comes_from_matplotlib(tmp_path: Path) -> None:
+    assert "coolwarm" not in STORED_LUTS
+    ref = np.rint(colormaps["coolwarm"](np.linspace(0.0, 1.0, 256))[:, :3] * 255)
+    assert np.array_equal(colormap_lut("coolwarm"), ref)
+    data = np.tile(np.linspace(0.0, 1.0, 256), (4, 1))
+    write_preview_png(tmp_path / "c.png", data, cmap="coolwarm", vmin=0.0, vmax=1.0)
+    assert np.array_equal(_body(tmp_path / "c.png", (4, 256))[0], ref.astype(np.uint8))
+
+
+_NO_MATPLOTLIB = """
+import sys
+import numpy as np
+from hdrfringe.io.results import write_preview_png
+for cmap in ("viridis", "magma", "twilight", "gray", "inferno", "tab10"):
+    write_preview_png(sys.argv[1] + "/" + cmap + ".png", np.eye(5), cmap=cmap)
+print(sorted(m for m in sys.modules if m.split(".")[0] == "matplotlib"))
+"""
+
+
+def test_previews_of_the_usual_maps_do_not_import_matplotlib(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    run = subprocess.run(
+        [sys.executable, "-c", _NO_MATPLOTLIB, str(tmp_path)],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    assert run.stdout.strip() == "[]"
+    assert len(list(tmp_path.glob("*.png"))) == 6
+
+
+@pytest.mark.parametrize("command", ["phase", "measure"])
+def test_no_previews_writes_the_same_maps_without_pngs(
+    capture_folder: Path, tmp_path: Path, command: str
+) -> None:
+    """``--no-previews`` leaves out exactly the PNG previews: the same TIFF maps, byte for byte,
+    and a summary listing only what was written (a flag that dropped maps, or listed PNGs it
+    did not write, fails)."""
+    from tests.conftest import run_cli_in_process
+    from tests.test_unwrap_identity import reseed_c_rand
+
+    outs = {}
+    for flag in ("--previews", "--no-previews"):
+        out = tmp_path / f"{command}{flag}"
+        reseed_c_rand()  # the spatial unwrapper's rand() state: the same for both runs
+        run = run_cli_in_process(command, str(capture_folder), "-o", str(out), flag)
+        assert run.returncode == 0, run.stderr
+        outs[flag] = out
+    with_png = {p.name for p in outs["--previews"].iterdir()}
+    without = {p.name for p in outs["--no-previews"].iterdir()}
+    pngs = {n for n in with_png if n.endswith(".png")}
+    assert len(pngs) >= 7 and not any(n.endswith(".png") for n in without)
+    assert without == with_png - pngs
+    for name in without:
+        if name.endswith(".tiff"):
+            a, b = (outs[f] / name for f in ("--previews", "--no-previews"))
+            assert a.read_bytes() == b.read_bytes(), name
+    import json
+
+    listed = json.loads((outs["--no-previews"] / "phase_summary.json").read_text())["files"]
+    assert set(listed) == {n for n in without if n.endswith(".tiff")}

@@ -34,7 +34,6 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.patterns import FringeSpec
@@ -646,6 +645,8 @@ def filter_map(
     rows, cols = x.shape
     if window == 1 or not valid.any() or rows <= 2 * border or cols <= 2 * border:
         return x
+    from scipy import ndimage  # here: measure imports this module (cold start, issue 16)
+
     inner = (slice(border, rows - border), slice(border, cols - border))
     # median stage
     if valid.all():

@@ -117,15 +117,76 @@ def _finite_scalar(value: float, name: str) -> float:
 # --------------------------------------------------------------------------------------------
 
 
-def _component_medians(labels: NDArray, values: NDArray, n: int) -> NDArray[np.float64]:
-    """Median of ``values`` per label 1..n (every label present), vectorised with one sort."""
-    order = np.lexsort((values, labels))
-    sorted_vals = values[order]
+#: Regions larger than this get their median by a partial sort (``np.partition``) of their own
+#: values; the smaller ones (specks) share one sort.
+_PARTITION_ABOVE = 64
+
+
+def _sorted_medians(labels: NDArray, values: NDArray, counts: NDArray) -> NDArray[np.float64]:
+    """Median per label of the labels with ``counts > 0``, in label order: one sort."""
+    sorted_vals = values[np.lexsort((values, labels))]
+    present = counts[counts > 0]
+    starts = np.concatenate(([0], np.cumsum(present)[:-1]))
+    return 0.5 * (sorted_vals[starts + (present - 1) // 2] + sorted_vals[starts + present // 2])
+
+
+def _partition_median(values: NDArray) -> float:
+    """The median of ``values`` (the mean of the two middle order statistics) without sorting."""
+    lo, hi = (values.size - 1) // 2, values.size // 2
+    part = np.partition(values, (lo, hi) if hi != lo else lo)
+    return 0.5 * (part[lo] + part[hi])
+
+
+def _component_medians(labels: NDArray | None, values: NDArray, n: int) -> NDArray[np.float64]:
+    """Median of ``values`` per label 1..n (every label present; ``labels`` may be None if n = 1).
+
+    The mean of the two middle order statistics, as a sort by (label, value) gives them, but
+    without sorting every pixel: each large region's order statistics come from a partial sort
+    of its values (O(size)); only the pixels of small regions are sorted. Identical values.
+    """
+    if n == 1:
+        return np.array([_partition_median(values)])
+    assert labels is not None
     counts = np.bincount(labels, minlength=n + 1)[1:]
-    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
-    lo = starts + (counts - 1) // 2
-    hi = starts + counts // 2
-    return 0.5 * (sorted_vals[lo] + sorted_vals[hi])
+    out = np.empty(n)
+    big = np.flatnonzero(counts > _PARTITION_ABOVE)
+    if big.size == 0:
+        return _sorted_medians(labels, values, counts)
+    is_big = np.zeros(n + 1, dtype=bool)
+    is_big[big + 1] = True
+    in_big = is_big[labels]
+    small = counts.copy()
+    small[big] = 0
+    if big.size < n:
+        rest = ~in_big
+        out[small > 0] = _sorted_medians(labels[rest], values[rest], small)
+    big_vals = values[in_big]
+    if big.size > 1:  # group the large regions' values by label (a stable integer sort)
+        big_vals = big_vals[np.argsort(labels[in_big], kind="stable")]
+    ends = np.cumsum(counts[big])
+    for i, start, end in zip(big, ends - counts[big], ends, strict=True):
+        out[i] = _partition_median(big_vals[start:end])
+    return out
+
+
+def _label4(mask: NDArray[np.bool_]) -> tuple[NDArray[np.int32], int]:
+    """The 4-connected components of ``mask``, numbered 1..n in the raster order of their first
+    pixel (0 elsewhere): what ``scipy.ndimage.label`` gives, by OpenCV (a core dependency, far
+    cheaper to import than scipy.ndimage; tests/test_unwrap_identity.py compares the two)."""
+    import cv2
+
+    count, found = cv2.connectedComponents(
+        np.ascontiguousarray(mask, dtype=np.uint8), connectivity=4, ltype=cv2.CV_32S
+    )
+    labels: NDArray[np.int32] = np.asarray(found, dtype=np.int32)
+    n = int(count) - 1
+    flat = labels.ravel()
+    if n > 1 and (np.diff(np.maximum.accumulate(flat)) > 1).any():  # not in raster order
+        _, first = np.unique(flat, return_index=True)
+        remap = np.zeros(n + 1, np.int32)
+        remap[np.argsort(first[1:], kind="stable") + 1] = np.arange(1, n + 1, dtype=np.int32)
+        labels = remap[labels]
+    return labels, n
 
 
 def _orders_to_window(anchor: NDArray | float, target: float | None) -> NDArray:
@@ -190,7 +251,8 @@ def unwrap_spatial(
 
     Notes
     -----
-    *Connected regions.* Valid pixels are grouped into 4-connected regions (scipy.ndimage.label)
+    *Connected regions.* Valid pixels are grouped into 4-connected regions (OpenCV's
+    ``connectedComponents``, numbered as ``scipy.ndimage.label`` numbers them)
     and each region is unwrapped on its own. The ``2*pi*k`` offset between two regions that no
     path of valid pixels joins is not observable from the spatial data, so each region is
     anchored independently: by default the median of its unwrapped phase lies in ``[0, 2*pi)``
@@ -202,7 +264,10 @@ def unwrap_spatial(
     *NaN.* scikit-image's unwrapper does not return when its input contains NaN, so NaN is
     never passed to it: invalid pixels are replaced by 0 and masked.
 
-    The result is deterministic (the unwrapper's random generator is seeded).
+    The fringe orders are deterministic (the unwrapper's random generator is seeded); the last
+    bit of the values may depend on earlier calls in the same process, because scikit-image's
+    2-D unwrapper also draws from the C library's ``rand()`` (benchmarks/README.md, spatial
+    unwrapping).
 
     References
     ----------
@@ -241,16 +306,24 @@ def unwrap_spatial(
     if not valid.any():
         return out
     # imported here: only spatial unwrapping needs them (cold start of temporal-only commands)
-    from scipy import ndimage
     from skimage.restoration import unwrap_phase
 
-    labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
+    # A map without invalid pixels is one region: no labelling, no masked array, no gathers.
+    all_valid = bool(valid.all())
+    labels: NDArray | None = None
+    n = 1
+    if not all_valid:
+        labels, n = _label4(valid)
     if min_component_size > 1:
-        sizes = np.bincount(labels.ravel(), minlength=n + 1)
+        if labels is None:
+            sizes = np.array([0, valid.size])
+        else:
+            sizes = np.bincount(labels.ravel(), minlength=n + 1)
         small = sizes < min_component_size
         small[0] = False
         if small[1:].any():
-            valid &= ~small[labels]
+            valid &= ~small[labels] if labels is not None else False
+            all_valid = False
             if ref is not None and not valid[ref]:
                 raise InputError(
                     f"reference pixel {ref} lies in a region smaller than min_component_size="
@@ -258,30 +331,52 @@ def unwrap_spatial(
                 )
             if not valid.any():
                 return out
-            labels, n = ndimage.label(valid, structure=_FOUR_CONNECTED)
+            labels, n = _label4(valid)
 
     # Shift to [-pi, pi) as scikit-image documents; NaN/inf replaced and masked (see Notes).
-    phase[~valid] = 0.0
-    centred = np.where(valid, np.mod(phase, TWO_PI) - np.pi, 0.0)
+    if not all_valid:
+        phase[~valid] = 0.0
+    centred = np.mod(phase, TWO_PI)
+    centred -= np.pi
     with warnings.catch_warnings():
         # (1, W) and (H, 1) images work but warn about the length-1 dimension.
         warnings.filterwarnings("ignore", message="Image has a length 1 dimension")
-        raw = unwrap_phase(np.ma.array(centred, mask=~valid), rng=_SKIMAGE_SEED)
-    raw = np.ma.getdata(raw)
+        if all_valid:  # nothing masked: the same call as with an all-False mask
+            raw = unwrap_phase(centred, rng=_SKIMAGE_SEED)
+        else:
+            centred[~valid] = 0.0
+            raw = np.ma.getdata(unwrap_phase(np.ma.array(centred, mask=~valid), rng=_SKIMAGE_SEED))
 
     # Integer fringe order of every valid pixel relative to its wrapped value.
-    w = phase[valid]
-    order = np.rint((raw[valid] + np.pi - w) / TWO_PI)
-    lab = labels[valid]
-    unwrapped = w + TWO_PI * order
+    # In place in a fresh array, in the order of `w + 2*pi * rint((raw + pi - w) / (2*pi))`.
+    w = phase.ravel() if all_valid else phase[valid]
+    unwrapped = raw.ravel() if all_valid else raw[valid]
+    unwrapped += np.pi
+    unwrapped -= w
+    unwrapped /= TWO_PI
+    np.rint(unwrapped, out=unwrapped)  # the fringe order
+    unwrapped *= TWO_PI
+    unwrapped += w
+    lab = None if labels is None else labels[valid]
 
     # Regions are anchored by their median; with a reference pixel, `target` is for that pixel.
     median_target = target if ref is None else None
     shift = _orders_to_window(_component_medians(lab, unwrapped, n), median_target)
-    out[valid] = unwrapped
+    if all_valid:
+        out = unwrapped.reshape(phase.shape)
+    else:
+        out[valid] = unwrapped
     if ref is not None:
-        shift[labels[ref] - 1] = _orders_to_window(out[ref], target)
-    out[valid] += TWO_PI * shift[lab - 1]
+        shift[(1 if labels is None else labels[ref]) - 1] = _orders_to_window(out[ref], target)
+    if n == 1:  # one region: one offset
+        add: NDArray | np.float64 = TWO_PI * shift[0]
+    else:
+        assert lab is not None
+        add = TWO_PI * shift[lab - 1]
+    if all_valid:
+        out += add
+    else:
+        out[valid] += add
     return out
 
 
@@ -412,29 +507,34 @@ def phase_regions(
                 with np.errstate(invalid="ignore"):
                     jump = np.abs(_wrap_pi(fwd - bwd)) > t
                 np.moveaxis(cut, axis, 0)[b : n - b] |= jump
-    from scipy import ndimage  # imported here: cold start (docs/architecture.md)
+    import cv2  # OpenCV's morphology: scipy.ndimage's import costs more than the work (issue 16)
 
     # regions are the 4-connected parts of the kept area opened by a 5x5 square: strips and
     # corridors under 5 px wide (the remnants between two cuts along one step, a chance
-    # bridge across it) belong to no region of their own
-    keep = ndimage.binary_opening(ok & ~cut, structure=np.ones((5, 5), bool))
-    labels, n = ndimage.label(keep, structure=_FOUR_CONNECTED)
+    # bridge across it) belong to no region of their own (outside the image counts as cut,
+    # as for scipy.ndimage.binary_opening)
+    keep = cv2.morphologyEx(
+        (ok & ~cut).astype(np.uint8), cv2.MORPH_OPEN, np.ones((5, 5), np.uint8),
+        borderType=cv2.BORDER_CONSTANT, borderValue=0,
+    ).astype(bool)  # fmt: skip
+    labels, n = _label4(keep)
     # the other valid pixels join the region that reaches them first through valid pixels
     # (a few pixels: the cuts and strips are thin); valid parts no region reaches are specks
     for _ in range(_REGION_GROW_STEPS):
         todo = ok & (labels == 0)
         if not todo.any():
             break
-        grown = ndimage.grey_dilation(labels, footprint=_FOUR_CONNECTED)
+        # the largest label among the pixel and its 4 neighbours (float64: exact for int32)
+        grown = cv2.dilate(labels.astype(np.float64), _FOUR_CONNECTED.astype(np.uint8))
         step = todo & (grown > 0)
         if not step.any():
             break
         labels[step] = grown[step]
     rest = ok & (labels == 0)
     if rest.any():
-        extra, m = ndimage.label(rest, structure=_FOUR_CONNECTED)
+        extra, n_extra = _label4(rest)
         labels[rest] = extra[rest] + n
-        n += m
+        n += n_extra
     if n == 0:
         return PhaseRegions(np.zeros(shape, np.int32), (), 0)
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]

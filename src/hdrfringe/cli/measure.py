@@ -113,6 +113,14 @@ def measure(
             "fringes only), e.g. the direction that carries the depth (docs/stereo.md).",
         ),
     ] = "auto",
+    previews: Annotated[
+        bool,
+        typer.Option(
+            "--previews/--no-previews",
+            help="Write a PNG preview beside every map; --no-previews: the maps, point cloud, "
+            "figures and metrics only (faster).",
+        ),
+    ] = True,
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -176,7 +184,9 @@ def measure(
         assert method is not None
         hw_rig, hw_config = hardware
         fringes = (pattern, steps, pitch, imin, migl, centerline)
-        _measure_hardware(hw_rig, hw_config, cal, output, force, method, fringes, kwargs)
+        _measure_hardware(
+            hw_rig, hw_config, cal, output, force, method, fringes, kwargs, previews=previews
+        )
         return
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
@@ -193,7 +203,7 @@ def measure(
     else:
         assert folder is not None
         result = pipeline.measure(read_capture_folder(folder), cal, label=str(folder), **kwargs)
-    write_measurement(result, output, force=force)
+    write_measurement(result, output, force=force, previews=previews)
     print_summary(result, output)
 
 
@@ -206,6 +216,7 @@ def _measure_hardware(
     method: str,
     fringes: tuple[Any, ...],
     kwargs: dict[str, Any],
+    previews: bool = True,
 ) -> None:
     """``measure --rig hardware``: the strategy live as ``capture`` runs it, then the composite
     measured; OUT holds the measurement and the capture folder (staged together)."""
@@ -228,7 +239,7 @@ def _measure_hardware(
         write_capture_output(tmp / CAPTURES, caps, state, log)
 
     write_measurement(result, output, force=force, extra_metrics={"capture": state},
-                      extra_files=captures)  # fmt: skip
+                      extra_files=captures, previews=previews)  # fmt: skip
     rejected = sum(t.rejected for t in rig.log)
     console.print(f"captured {len(caps.frames)} images, {rejected} stale grabs rejected")
     print_summary(result, output)

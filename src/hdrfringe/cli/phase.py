@@ -36,6 +36,14 @@ def phase(
         int, typer.Option(help="With --saturated exclude: least unsaturated shifts per pixel.")
     ] = 3,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+    previews: Annotated[
+        bool,
+        typer.Option(
+            "--previews/--no-previews",
+            help="Write a PNG preview beside every map; --no-previews: the TIFF maps and the "
+            "summary only (faster).",
+        ),
+    ] = True,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe._validation import SATURATED_MODES, describe_saturated
@@ -79,7 +87,7 @@ def phase(
             captures, min_modulation=min_modulation, saturated="exclude", min_shifts=min_shifts
         )
     with staged_output_dir(output, force=force) as tmp:
-        summary = write_phase_maps(tmp, decoded, str(folder))
+        summary = write_phase_maps(tmp, decoded, str(folder), previews=previews)
     n_pixels = captures.image_shape[0] * captures.image_shape[1]
     for s in summary["sets"]:
         n_saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n

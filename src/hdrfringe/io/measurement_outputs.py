@@ -19,7 +19,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe.io.phase_maps import write_phase_maps
-from hdrfringe.io.plots import plot_dpa_cdfs, plot_migl_pie
 from hdrfringe.io.point_cloud import write_ply
 from hdrfringe.io.results import staged_output_dir, write_map_tiff, write_preview_png
 from hdrfringe.pipeline import NO_GEOMETRY, height_points
@@ -40,6 +39,23 @@ __all__ = [
 ]
 
 
+def plot_migl_pie(*args: Any, **kwargs: Any) -> None:
+    """:func:`hdrfringe.io.plots.plot_migl_pie`, imported on first use: ``io.plots`` imports
+    ``hdrfringe.gamma`` and with it scipy.stats, which ``measure`` without a strategy does not
+    need (cold start, issue 16)."""
+    from hdrfringe.io import plots
+
+    plots.plot_migl_pie(*args, **kwargs)
+
+
+def plot_dpa_cdfs(*args: Any, **kwargs: Any) -> None:
+    """:func:`hdrfringe.io.plots.plot_dpa_cdfs`, imported on first use (see
+    :func:`plot_migl_pie`)."""
+    from hdrfringe.io import plots
+
+    plots.plot_dpa_cdfs(*args, **kwargs)
+
+
 #: Most slices of the pie chart of an index map (every MIGL of an 8-bit projector: the
 #: thesis's strategies keep their pies); a map with more distinct values (the adaptive
 #: projection's per-pixel MIGL) is shown in bins of 10 gray levels (labelled by the lower edge).
@@ -47,7 +63,11 @@ PIE_SLICES = 256
 
 
 def write_height_outputs(
-    out: Path, height_mm: NDArray[np.float64], geometry: CameraGeometry | None
+    out: Path,
+    height_mm: NDArray[np.float64],
+    geometry: CameraGeometry | None,
+    *,
+    previews: bool = True,
 ) -> list[str]:
     """Write ``height.tiff``, ``height.png`` and ``points.ply`` into ``out``; return notes.
 
@@ -60,6 +80,8 @@ def write_height_outputs(
     geometry : CameraGeometry or None
         Camera geometry of the calibration, for x and y in mm. None: x and y are in pixels
         (column, minus row) and a note says so.
+    previews : bool
+        Write the PNG preview of every map (default); False: ``--no-previews``.
 
     Returns
     -------
@@ -79,12 +101,13 @@ def write_height_outputs(
     (['height.png', 'height.tiff', 'points.ply'], 1)
     """
     write_map_tiff(out / "height.tiff", height_mm)
-    write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
+    if previews:
+        write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
     write_ply(out / "points.ply", *height_points(height_mm, geometry))
     return [NO_GEOMETRY] if geometry is None else []
 
 
-def write_stereo_outputs(out: Path, maps: StereoMaps) -> list[str]:
+def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) -> list[str]:
     """The outputs of a triangulated measurement (docs/stereo.md); returns the files written.
 
     ``xyz.tiff`` (H x W x 3 float32, mm, camera frame, NaN invalid), ``depth.tiff`` (Z),
@@ -99,6 +122,8 @@ def write_stereo_outputs(out: Path, maps: StereoMaps) -> list[str]:
         Output folder.
     maps : StereoMaps
         From :func:`hdrfringe.stereo.triangulate_maps`.
+    previews : bool
+        Write the PNG preview of every map (default); False: ``--no-previews``.
 
     Returns
     -------
@@ -122,22 +147,27 @@ def write_stereo_outputs(out: Path, maps: StereoMaps) -> list[str]:
     )
     write_map_tiff(out / "depth.tiff", maps.depth_mm)
     write_map_tiff(out / "height.tiff", maps.height_mm)
-    write_preview_png(
-        out / "height.png", maps.height_mm, title="height over the reference plane",
-        cmap="viridis", label="mm",
-    )  # fmt: skip
+    if previews:
+        write_preview_png(
+            out / "height.png", maps.height_mm, title="height over the reference plane",
+            cmap="viridis", label="mm",
+        )  # fmt: skip
     write_ply(
         out / "points.ply", maps.xyz[..., 0], maps.xyz[..., 1], maps.xyz[..., 2],
         intensity=maps.quality,
     )  # fmt: skip
     files = ["xyz.tiff", "depth.tiff", "height.tiff", "height.png", "points.ply"]
+    if not previews:
+        files.remove("height.png")
     if maps.residual_mm is not None:
         write_map_tiff(out / "triangulation_residual.tiff", maps.residual_mm)
         files.append("triangulation_residual.tiff")
     return files
 
 
-def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list[str]:
+def write_strategy_outputs(
+    out: Path, results: Sequence[StrategyResult], *, previews: bool = True
+) -> list[str]:
     """The index map and the pie chart of pixels per index value (thesis Fig. 5.6).
 
     Files are named by what varied between the sets (:attr:`StrategyResult.index_quantity
@@ -154,6 +184,9 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
     results : sequence of StrategyResult
         One per pitch of the measured family. The index map and pie chart are those of the
         finest pitch, whose phase the height comes from (the coarser sets only unwrap it).
+    previews : bool
+        Write the index map's PNG preview (default); False: ``--no-previews`` (the pie chart
+        is a figure, not a preview: it is drawn either way).
 
     Returns
     -------
@@ -191,16 +224,21 @@ def write_strategy_outputs(out: Path, results: Sequence[StrategyResult]) -> list
         title, unit, per = f"{q} index, {pitch}", q, q
     files = [f"{q}_index.tiff", f"{q}_index.png", f"{q}_pie.png"]
     write_map_tiff(out / files[0], fine.index_map)
-    write_preview_png(out / files[1], fine.index_map, title=title, cmap="viridis", label=unit)
+    if previews:
+        write_preview_png(out / files[1], fine.index_map, title=title, cmap="viridis", label=unit)
+    else:
+        del files[1]
     pie, step = fine.index_map, ""
     if np.unique(pie).size > PIE_SLICES:  # a per-pixel map (adaptive): slices of 10 levels
         # lower edges (250 holds 250..255): rounding labelled a 255 slice "260", above any MIGL
         pie, step = np.floor(pie / 10.0) * 10.0, ", bins of 10 from the label"
-    plot_migl_pie(out / files[2], pie, title=f"pixels per {per}{step} ({fine.method}, {pitch})")
+    plot_migl_pie(out / files[-1], pie, title=f"pixels per {per}{step} ({fine.method}, {pitch})")
     return files
 
 
-def write_adaptive_outputs(out: Path, results: Sequence[StrategyResult]) -> list[str]:
+def write_adaptive_outputs(
+    out: Path, results: Sequence[StrategyResult], *, previews: bool = True
+) -> list[str]:
     """The adaptive projection's MIGL maps: projector side and camera side.
 
     Per adapted set (one per orientation; the file names carry the orientation when there
@@ -214,6 +252,8 @@ def write_adaptive_outputs(out: Path, results: Sequence[StrategyResult]) -> list
         Output folder.
     results : sequence of StrategyResult
         One per set of the measurement; those without the maps are skipped.
+    previews : bool
+        Write the PNG preview of every map (default); False: ``--no-previews``.
 
     Returns
     -------
@@ -239,6 +279,9 @@ def write_adaptive_outputs(out: Path, results: Sequence[StrategyResult]) -> list
             data = np.asarray(r.details[key], dtype=np.float32)
             name = f"{key}{tag}"
             write_map_tiff(out / f"{name}.tiff", data)
+            files.append(f"{name}.tiff")
+            if not previews:
+                continue
             write_preview_png(
                 out / f"{name}.png",
                 data,
@@ -246,7 +289,7 @@ def write_adaptive_outputs(out: Path, results: Sequence[StrategyResult]) -> list
                 cmap="viridis",
                 label="MIGL",
             )
-            files += [f"{name}.tiff", f"{name}.png"]
+            files.append(f"{name}.png")
     return files
 
 
@@ -258,6 +301,7 @@ def write_measurement(
     extra_metrics: Mapping[str, Any] | None = None,
     phase_maps: bool = True,
     extra_files: Callable[[Path], None] | None = None,
+    previews: bool = True,
 ) -> list[str]:
     """Write a measurement's result folder, staged: complete or not at all.
 
@@ -287,6 +331,9 @@ def write_measurement(
     extra_files : callable, optional
         Called with the staging folder after the measurement is written, to add files that
         must appear with it, or not at all (``measure --rig hardware``: the capture folder).
+    previews : bool
+        Write a PNG preview beside every map (default). False (``measure --no-previews``): the
+        maps, point cloud, figures and metrics only.
 
     Returns
     -------
@@ -320,14 +367,14 @@ def write_measurement(
     """
     with staged_output_dir(out, force=force) as tmp:
         if phase_maps:
-            write_phase_maps(tmp, result.decoded, result.metrics.source)
+            write_phase_maps(tmp, result.decoded, result.metrics.source, previews=previews)
         if result.stereo is not None:
-            write_stereo_outputs(tmp, result.stereo)
+            write_stereo_outputs(tmp, result.stereo, previews=previews)
         elif result.height_mm is not None:  # its note is in the metrics already
-            write_height_outputs(tmp, result.height_mm, result.geometry)
+            write_height_outputs(tmp, result.height_mm, result.geometry, previews=previews)
         if result.strategy_results:
-            write_strategy_outputs(tmp, result.strategy_results)
-            write_adaptive_outputs(tmp, result.strategy_results)
+            write_strategy_outputs(tmp, result.strategy_results, previews=previews)
+            write_adaptive_outputs(tmp, result.strategy_results, previews=previews)
         if result.dpa is not None and result.metrics.dpa is not None:
             plot_dpa_cdfs(tmp / "dpa_cdf.png", result.dpa, threshold=result.metrics.dpa.threshold)
         metrics = result.metrics.to_dict()

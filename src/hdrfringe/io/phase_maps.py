@@ -25,7 +25,17 @@ SET_MAPS: tuple[tuple[str, str, str, str], ...] = (
 )
 
 
-def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> None:
+def _preview(files: list[str] | None, path: Path, data: Any, **kw: Any) -> None:
+    """A map's PNG preview, and its name in ``files``; None: previews are off (nothing)."""
+    if files is not None:
+        write_preview_png(path, data, **kw)
+        files.append(path.name)
+
+
+def _write_set(
+    out: Path, res: PhaseResult, suffix: str, files: list[str], previews: bool = True
+) -> None:
+    shown = files if previews else None
     for stem, attr, cmap, unit in SET_MAPS:
         data = getattr(res, attr)
         name = f"{stem}{suffix}"
@@ -35,14 +45,16 @@ def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> No
             kw = {"vmin": 0.0, "vmax": 2 * np.pi}
         elif stem == "saturation_count":
             kw = {"vmin": 0.0, "vmax": float(max(1, res.spec.steps if res.spec else 1))}
-        write_preview_png(out / f"{name}.png", data, title=name, cmap=cmap, label=unit, **kw)
-        files += [f"{name}.tiff", f"{name}.png"]
+        files.append(f"{name}.tiff")
+        _preview(shown, out / f"{name}.png", data, title=name, cmap=cmap, label=unit, **kw)
     if isinstance(res, TolerantPhaseResult):  # --saturated exclude: the shifts each fit used
         name = f"shifts_used{suffix}"
         used = res.shifts_used.astype(np.float32)
         write_map_tiff(out / f"{name}.tiff", used)
+        files.append(f"{name}.tiff")
         images = (2 if res.inverted else 1) * (res.spec.steps if res.spec else 1)
-        write_preview_png(
+        _preview(
+            shown,
             out / f"{name}.png",
             used,
             title=name,
@@ -51,7 +63,6 @@ def _write_set(out: Path, res: PhaseResult, suffix: str, files: list[str]) -> No
             vmin=0.0,
             vmax=float(images),
         )
-        files += [f"{name}.tiff", f"{name}.png"]
 
 
 def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
@@ -63,7 +74,7 @@ def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
     tifffile.imwrite(path, np.asarray(data, dtype=np.float64), compression="zlib")
 
 
-def _write_regions(out: Path, fam: FamilyResult, name: str) -> list[str]:
+def _write_regions(out: Path, fam: FamilyResult, name: str, previews: bool = True) -> list[str]:
     """The region-label map of a family with islands: uint16 TIFF (int32 beyond 65535 regions),
     0 = invalid, 1, 2, ... regions by decreasing size; and its preview."""
     import tifffile
@@ -72,14 +83,21 @@ def _write_regions(out: Path, fam: FamilyResult, name: str) -> list[str]:
     labels = fam.regions.labels
     dtype = np.uint16 if labels.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
     tifffile.imwrite(out / f"{name}.tiff", labels.astype(dtype), compression="zlib")
+    files = [f"{name}.tiff"]
     shown = np.where(labels > 0, np.minimum(labels, fam.regions.significant + 1), np.nan)
-    write_preview_png(
-        out / f"{name}.png", shown, title=f"{name} (relative fringe order unknown)", cmap="tab10"
+    _preview(
+        files if previews else None,
+        out / f"{name}.png",
+        shown,
+        title=f"{name} (relative fringe order unknown)",
+        cmap="tab10",
     )
-    return [f"{name}.tiff", f"{name}.png"]
+    return files
 
 
-def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, Any]:
+def write_phase_maps(
+    out: Path, decoded: FolderPhase, source: str, *, previews: bool = True
+) -> dict[str, Any]:
     """Write every map of a decoded folder into ``out`` (an existing, empty staging folder).
 
     One set: ``wrapped_phase.tiff``, ``modulation.tiff``, ``mean_intensity.tiff``,
@@ -100,6 +118,9 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
         From :func:`hdrfringe.process.decode_captures`.
     source : str
         Where the captures came from (e.g. the capture folder), recorded in the summary.
+    previews : bool
+        Write a PNG preview beside every map (default). False: the maps and the summary only
+        (``--no-previews``; the previews cost about as much as the maps).
 
     Returns
     -------
@@ -143,19 +164,20 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
     files: list[str] = []
     primary = decoded.primary
     if len(decoded.sets) == 1:
-        _write_set(out, decoded.set_results[decoded.sets[0].label], "", files)
+        _write_set(out, decoded.set_results[decoded.sets[0].label], "", files, previews)
     else:
         for s in decoded.sets:
-            _write_set(out, decoded.set_results[s.label], f"__{s.label}", files)
+            _write_set(out, decoded.set_results[s.label], f"__{s.label}", files, previews)
         if primary is not None:
-            _write_set(out, decoded.set_results[primary.sets[-1].label], "", files)
+            _write_set(out, decoded.set_results[primary.sets[-1].label], "", files, previews)
+    shown = files if previews else None
     families = []
     for i, fam in enumerate(decoded.families):
         suffix = "" if i == 0 else f"_{fam.orientation}"
         name = f"unwrapped_phase{suffix}"
         _write_float64_tiff(out / f"{name}.tiff", fam.unwrapped_phase)
-        write_preview_png(out / f"{name}.png", fam.unwrapped_phase, title=name, label="rad")
-        files += [f"{name}.tiff", f"{name}.png"]
+        files.append(f"{name}.tiff")
+        _preview(shown, out / f"{name}.png", fam.unwrapped_phase, title=name, label="rad")
         entry: dict[str, Any] = {
             "orientation": fam.orientation,
             "sets": [s.label for s in fam.sets],
@@ -167,13 +189,13 @@ def write_phase_maps(out: Path, decoded: FolderPhase, source: str) -> dict[str, 
         if fam.regions is not None:
             entry["regions"] = fam.regions_summary()
         if fam.islands:
-            files += _write_regions(out, fam, f"regions{suffix}")
+            files += _write_regions(out, fam, f"regions{suffix}", previews)
             entry["regions_map"] = f"regions{suffix}.tiff"
         if fam.absolute_phase is not None:
             aname = f"absolute_phase{suffix}"
             _write_float64_tiff(out / f"{aname}.tiff", fam.absolute_phase)
-            write_preview_png(out / f"{aname}.png", fam.absolute_phase, title=aname, label="rad")
-            files += [f"{aname}.tiff", f"{aname}.png"]
+            files.append(f"{aname}.tiff")
+            _preview(shown, out / f"{aname}.png", fam.absolute_phase, title=aname, label="rad")
             entry["absolute_phase"] = f"{aname}.tiff"
             entry["absolute_method"] = fam.absolute_method
         families.append(entry)

@@ -854,12 +854,14 @@ def write_preview_png(
 ) -> None:
     """A PNG preview of a map with a colour bar; NaN (invalid) shown in gray.
 
-    The map is coloured by a lookup in matplotlib's colour map (256 levels) and drawn with
-    Pillow, one image pixel per map pixel (maps wider than 1024 px are subsampled by an integer
-    stride, maps narrower than 256 px enlarged by an integer factor), with the title above and
-    a colour bar with its range and label at the right. No figure is laid out: a preview costs
-    about what its TIFF costs. Without ``vmin``/``vmax`` the colour range spans the 0.5 and 99.5
-    percentiles of the finite values, so a few outliers do not flatten the picture.
+    The map is coloured by a lookup in matplotlib's colour map (256 levels; the tables of the
+    usual maps are stored in :mod:`hdrfringe.io._colormaps`, so matplotlib is not imported) and
+    drawn with Pillow, one image pixel per map pixel (maps wider than 1024 px are subsampled by
+    an integer stride, maps narrower than 256 px enlarged by an integer factor), with the title
+    above and a colour bar with its range and label at the right. No figure is laid out: a
+    preview costs about what its TIFF costs. Without ``vmin``/``vmax`` the colour range spans
+    the 0.5 and 99.5 percentiles of the finite values, so a few outliers do not flatten the
+    picture.
 
     Parameters
     ----------
@@ -885,8 +887,9 @@ def write_preview_png(
     >>> Image.open(path).format
     'PNG'
     """
-    from matplotlib import colormaps
     from PIL import Image, ImageDraw, ImageFont
+
+    from hdrfringe.io._colormaps import colormap_lut
 
     arr = np.asarray(data, dtype=np.float64)
     if arr.ndim != 2 or arr.size == 0:
@@ -901,7 +904,7 @@ def write_preview_png(
     if vmax is None:
         vmax = float(np.percentile(arr[finite], 99.5)) if finite.any() else 1.0
     span = vmax - vmin if vmax > vmin else 1.0
-    lut = np.rint(colormaps[cmap](np.linspace(0.0, 1.0, 256))[:, :3] * 255).astype(np.uint8)
+    lut = colormap_lut(cmap)
     with np.errstate(invalid="ignore"):
         level = np.clip((arr - vmin) / span, 0.0, 1.0)
     index = np.rint(np.where(finite, level, 0.0) * 255).astype(np.intp)

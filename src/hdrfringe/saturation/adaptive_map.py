@@ -34,8 +34,6 @@ from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.ndimage import distance_transform_edt, gaussian_filter, grey_dilation, grey_erosion
-from scipy.optimize import minimize_scalar
 
 from hdrfringe._validation import full_scale, saturation_count
 from hdrfringe.errors import InputError
@@ -398,6 +396,8 @@ def fill_holes(projector_map: ArrayLike) -> F64:
         )
     if not holes.any():
         return m
+    from scipy.ndimage import distance_transform_edt  # here: cold start of measure (issue 16)
+
     idx = distance_transform_edt(holes, return_distances=False, return_indices=True)
     return m[tuple(idx)]
 
@@ -437,6 +437,8 @@ def erode_map(projector_map: ArrayLike, radius: float) -> F64:
         raise InputError(f"erosion radius must be >= 0 projector pixels, got {radius!r}")
     if radius < 1:
         return m.copy()
+    from scipy.ndimage import grey_erosion
+
     return np.asarray(grey_erosion(m, footprint=_disk(float(radius)), mode="nearest"), np.float64)
 
 
@@ -469,6 +471,8 @@ def smooth_below(projector_map: ArrayLike, sigma: float) -> F64:
         raise InputError(f"smoothing sigma must be >= 0 projector pixels, got {sigma!r}")
     if sigma == 0:
         return m.copy()
+    from scipy.ndimage import gaussian_filter
+
     return np.minimum(np.asarray(gaussian_filter(m, float(sigma), mode="nearest")), m)
 
 
@@ -623,6 +627,8 @@ def boosted_map(
         return base.copy()
     high = np.where(np.isfinite(high), np.minimum(high, float(projector_full)), -np.inf)
     if radius >= 1:
+        from scipy.ndimage import grey_dilation  # here: cold start of measure (issue 16)
+
         high = grey_dilation(high, footprint=_disk(float(radius)), mode="nearest")
     return np.maximum(base, high)
 
@@ -933,6 +939,8 @@ def fit_blur_sigma(
         d = r - bias_of(float(sigma))
         d = d[np.isfinite(d)]
         return float(np.mean(d**2)) if d.size else 0.0
+
+    from scipy.optimize import minimize_scalar
 
     out = minimize_scalar(
         cost, bounds=(0.0, float(max_sigma_px)), method="bounded", options={"xatol": 1e-3}

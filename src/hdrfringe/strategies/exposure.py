@@ -45,7 +45,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from hdrfringe._validation import full_scale, unsaturated_mask
 from hdrfringe.captures import CameraSettings, ProjectorInfo
@@ -210,6 +209,8 @@ def darkest_modulation(
         return None
     # the mean over the valid pixels of each 3 x 3 neighbourhood: a third of the noise spread,
     # which would otherwise pull a low percentile down by about 2.3 sigma of I'
+    from scipy import ndimage  # here: measure imports this module (cold start, issue 16)
+
     weight = ndimage.uniform_filter(valid.astype(np.float64), 3, mode="nearest")
     total = ndimage.uniform_filter(np.where(valid, res.modulation, 0.0), 3, mode="nearest")
     smooth = total[valid] / weight[valid]
