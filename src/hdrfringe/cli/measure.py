@@ -16,7 +16,9 @@ from hdrfringe.cli._measure_options import (
     MeasurePitchOpt,
     MeasureRigOpt,
     MethodOpt,
+    NoiseSigmaOpt,
     OutputOpt,
+    UncertaintyOpt,
     live_fringes,
     strategy_params,
 )
@@ -113,6 +115,8 @@ def measure(
             "fringes only), e.g. the direction that carries the depth (docs/stereo.md).",
         ),
     ] = "auto",
+    uncertainty: UncertaintyOpt = True,
+    noise_sigma: NoiseSigmaOpt = None,
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -171,7 +175,14 @@ def measure(
         "param_sources": sources,
         "calibration_source": None if calibration is None else str(calibration),
         "stereo_directions": stereo_directions,
+        "uncertainty": uncertainty,
     }
+    if noise_sigma is not None:
+        from hdrfringe.uncertainty import NoiseModel
+
+        if not uncertainty:
+            raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
+        kwargs["noise"] = NoiseModel(noise_sigma, source="given (--noise-sigma)")
     if hardware is not None:
         assert method is not None
         hw_rig, hw_config = hardware
@@ -272,6 +283,10 @@ def print_summary(result: Any, output: Path) -> None:
         if "triangulation_residual_mm" in st:
             line += f", ray-ray residual median {st['triangulation_residual_mm']['median']:.3f} mm"
         console.print(line)
+    if m.uncertainty is not None:
+        from hdrfringe.uncertainty import describe_uncertainty
+
+        console.print(describe_uncertainty(m.uncertainty))
     for sk in m.skipped:
         console.print(f"skipped: {sk}")
     for note in m.notes:
