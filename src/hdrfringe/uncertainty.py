@@ -543,10 +543,11 @@ def fit_noise_model(
     chi-square's 0.999 quantile over ``nu`` are outliers (edges, model error) and dropped, and
     the level is ``sum(v kept) / sum(E[chi2_nu / nu; below the cut])``: unbiased for Gaussian
     noise, and unlike a median unaffected by integer-valued data (a 4-step residual of
-    rounded images takes few values; its median was 8 % low on the virtual rig). A
-    weighted least-squares line through the bins (weights ``count / var^2``) gives ``read^2``
-    and ``gain``, each constrained to be >= 0; when the bins' intensities spread over less
-    than 10 % of their median, one sigma for all (``gain = 0``).
+    rounded images takes few values; its median is 15 % low in variance,
+    tests/test_uncertainty.py). A weighted least-squares line through the bins (weights
+    ``count / var^2``) gives ``read^2`` and ``gain``, each constrained to be >= 0; when the
+    bins' intensities spread over less than 10 % of their median, one sigma for all
+    (``gain = 0``).
 
     Parameters
     ----------

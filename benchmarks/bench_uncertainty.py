@@ -1,0 +1,66 @@
+"""What the predicted std costs ``measure`` (issue 15 item 2, issue 16's wall-time budget).
+
+A 648 x 494 virtual-rig plate (4-step sets at 1024, 64 and 8 px) and a linear calibration
+from the same rig (0, 5, 10 mm) are made in memory; then ``pipeline.measure`` followed by
+``write_measurement`` (everything ``hdrfringe measure`` does after reading the folder) runs with
+and without ``uncertainty``, interleaved, ``--repeats`` times each. Printed: the median time of
+each, the ratio of the medians and the per-repeat ratios, and the noise the estimate found
+against the rig's own (read 1 DN, rounding 1/12 DN^2, full well 20000 e at 8 bits).
+
+    .venv/bin/python benchmarks/bench_uncertainty.py               # about 2 min
+    .venv/bin/python benchmarks/bench_uncertainty.py --repeats 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from hdrfringe.io.measurement_outputs import write_measurement
+from hdrfringe.patterns import FringeSpec
+from hdrfringe.pipeline import calibrate, measure
+from hdrfringe.rig.scenes import plate, white_plate
+from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    cam = CameraModel()  # 648 x 494, the thesis's camera
+    frames = [f for p in (1024.0, 64.0, 8.0) for f in FringeSpec("sinusoidal", 4, p).frames()]
+    cal = calibrate(
+        [SimulatedRig(white_plate(d), camera=cam).capture_folder(frames) for d in (0, 5, 10)]
+    )
+    caps = SimulatedRig(plate(4.0), camera=cam).capture_folder(frames)
+    times: dict[bool, list[float]] = {True: [], False: []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(args.repeats):
+            for on in (True, False):
+                t0 = time.perf_counter()
+                res = measure(caps, cal, uncertainty=on)
+                write_measurement(res, Path(tmp) / f"out_{on}", force=True)
+                times[on].append(time.perf_counter() - t0)
+    on, off = (statistics.median(times[k]) for k in (True, False))
+    print(f"measure + write, 648x494, 3 sets of 4: with {on:.3f} s, without {off:.3f} s (medians)")
+    ratios = [round(a / b, 3) for a, b in zip(times[True], times[False], strict=True)]
+    print(f"ratio of medians {on / off:.3f}; per repeat {ratios}")
+    res = measure(caps, cal)
+    u = res.metrics.uncertainty
+    assert u is not None
+    level = u["median_intensity_dn"]
+    truth = float(np.sqrt(1 + 1 / 12 + 255 / 20000 * level))
+    print(
+        f"noise: {u['noise']['source']}: sigma_I {u['sigma_i_dn']:.3f} DN at {level:.1f} DN "
+        f"(the rig's {truth:.3f}); median phase std {u['phase_std_median_rad']:.4f} rad, "
+        f"height std {u['height_std_median_mm']:.4f} mm"
+    )
+
+
+if __name__ == "__main__":
+    main()
