@@ -136,7 +136,10 @@ class NoiseModel:
             if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
                 raise InputError(f"noise {name} must be a number, got {v!r}")
             if not (math.isfinite(float(v)) and float(v) >= 0):
-                raise InputError(f"noise {name} must be finite and >= 0, got {v}")
+                raise InputError(
+                    f"noise {name} must be finite and >= 0, got {v}; give the camera noise "
+                    "std in DN (and the shot-noise gain in DN per electron)"
+                )
             object.__setattr__(self, name, float(v))
 
     def variance(self, intensity: ArrayLike) -> F64:
@@ -1015,10 +1018,19 @@ def predict_uncertainty(
         fam_std[fam.orientation] = np.where(np.isfinite(phase), set_std[fam.sets[-1].label], np.nan)
     primary = decoded.primary
     notes: list[str] = []
-    if any(r.saturation_count.any() for r in decoded.set_results.values()) and not any(
-        isinstance(r, TolerantPhaseResult) for r in decoded.set_results.values()
-    ):
-        notes.append("no std is predicted where a saturated shift was decoded (NaN)")
+    kept = [  # valid pixels decoded with a saturated shift (reject_saturated=False)
+        s.label
+        for s in decoded.sets
+        if not isinstance(decoded.set_results[s.label], TolerantPhaseResult)
+        and (
+            decoded.set_results[s.label].valid & (decoded.set_results[s.label].saturation_count > 0)
+        ).any()
+    ]
+    if kept:
+        notes.append(
+            "no std is predicted where a saturated shift was decoded (NaN; the clipped value "
+            "biases the phase)"
+        )
     level = None
     if primary is not None:
         fine = decoded.set_results[primary.sets[-1].label]
