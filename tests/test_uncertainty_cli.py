@@ -138,7 +138,7 @@ def test_three_step_folder_needs_the_noise(folders: dict, tmp_path: Path) -> Non
     assert summary["uncertainty"]["noise"]["source"] == "given (--noise-sigma)"
     assert (out / "phase_std.tiff").is_file()
     for bad, message in (
-        (("--noise-sigma", "-1"), "read_dn must be finite and >= 0"),
+        (("--noise-sigma", "-1"), "--noise-sigma must be a finite number of DN >= 0, got -1"),
         (("--noise-sigma", "1", "--no-uncertainty"), "drop --no-uncertainty"),
     ):
         res = run_cli_in_process("phase", str(folders["part3"]), "-o", str(tmp_path / "c"), *bad)

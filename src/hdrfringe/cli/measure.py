@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -140,6 +141,10 @@ def measure(
     )
     if output is None:
         raise InputError("no output folder: give -o/--output OUT")
+    if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
+        raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
+    if noise_sigma is not None and not uncertainty:
+        raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     if live and method is None:
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
@@ -180,8 +185,6 @@ def measure(
     if noise_sigma is not None:
         from hdrfringe.uncertainty import NoiseModel
 
-        if not uncertainty:
-            raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
         kwargs["noise"] = NoiseModel(noise_sigma, source="given (--noise-sigma)")
     if hardware is not None:
         assert method is not None

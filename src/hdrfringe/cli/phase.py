@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -74,13 +75,10 @@ def phase(
         )
     if saturated == "flag" and min_shifts != 3:
         raise InputError("--min-shifts applies to --saturated exclude; add it or drop --min-shifts")
-    noise = None
-    if noise_sigma is not None:
-        if not uncertainty:
-            raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
-        from hdrfringe.uncertainty import NoiseModel
-
-        noise = NoiseModel(noise_sigma, source="given (--noise-sigma)")
+    if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
+        raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
+    if noise_sigma is not None and not uncertainty:
+        raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
@@ -103,7 +101,11 @@ def phase(
         )
     unc, unc_block = None, None
     if uncertainty:
-        from hdrfringe.uncertainty import predict_uncertainty
+        from hdrfringe.uncertainty import NoiseModel, predict_uncertainty
+
+        noise = None
+        if noise_sigma is not None:
+            noise = NoiseModel(noise_sigma, source="given (--noise-sigma)")
 
         try:
             unc = predict_uncertainty(captures, decoded, noise=noise)
