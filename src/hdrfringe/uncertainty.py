@@ -473,7 +473,7 @@ def predict_phase_std(
     spec = result.spec
     if spec is None:
         raise InputError("the phase result has no spec; decode with decode_set(images, spec, ...)")
-    tolerant = isinstance(result, TolerantPhaseResult)
+    tolerant = result if isinstance(result, TolerantPhaseResult) else None
     if spec.pattern == "triangular":
         std = phase_std_triangular(
             result.wrapped_phase, result.modulation, result.mean_intensity, noise, spec.steps
@@ -481,14 +481,14 @@ def predict_phase_std(
     else:
         shifts = np.degrees(spec.shifts)
         usable = None
-        if tolerant:
+        if tolerant is not None:
             if images is None or bit_depth is None:
                 raise InputError(
                     "a saturation-tolerant result needs its images and bit depth to know which "
                     "shifts each pixel used; pass images= and bit_depth="
                 )
             stack = as_stack(images, what="phase std", n_min=3, bit_depth=bit_depth)
-            if result.inverted:
+            if tolerant.inverted:
                 shifts = np.concatenate([shifts, shifts + 180.0])
             if stack.shape[0] != shifts.size:
                 raise InputError(
@@ -506,7 +506,7 @@ def predict_phase_std(
             usable=usable,
         )
     std[~result.valid] = np.nan
-    if not tolerant:
+    if tolerant is None:
         std[result.saturation_count > 0] = np.nan
     return std
 
@@ -527,7 +527,10 @@ def _chi2_factors(dof: ArrayLike) -> tuple[F64, F64, F64]:
     median = 2.0 * gammaincinv(half, 0.5) / values
     cut = 2.0 * gammaincinv(half, _CUT_QUANTILE)
     kept_mean = gammainc(half + 1.0, cut / 2.0)
-    return tuple(f[inverse].reshape(nu.shape) for f in (median, cut / values, kept_mean))  # type: ignore[return-value]
+    median, cut, kept_mean = (
+        f[inverse].reshape(nu.shape) for f in (median, cut / values, kept_mean)
+    )
+    return median, cut, kept_mean
 
 
 def fit_noise_model(
