@@ -305,42 +305,49 @@ def phase_std_least_squares(
         )
     out = np.full(phi.shape, np.nan)
     ok = np.isfinite(phi) & np.isfinite(a) & (b > 0)
-    if usable is not None:
-        u_all = np.asarray(usable, dtype=bool)
-        if u_all.shape != (m, *phi.shape):
-            raise InputError(f"usable mask {u_all.shape}, expected {(m, *phi.shape)}")
+    offset = np.radians(float(phase_offset_deg))
+    delta_cos, delta_sin = A[:, 1], -A[:, 2]
+    if usable is None:  # one normal matrix for all: w_k = alpha_k cos(theta) - beta_k sin(theta)
+        inv = np.linalg.inv(A.T @ A)
+        alpha, beta = A @ inv[:, 2], A @ inv[:, 1]
+        with np.errstate(invalid="ignore", divide="ignore"):  # invalid pixels: NaN below
+            theta = phi + offset
+            sin_t, cos_t = np.sin(theta), np.cos(theta)
+            var = np.zeros(phi.shape)
+            for k in range(m):
+                w = alpha[k] * cos_t
+                w -= beta[k] * sin_t
+                w *= w
+                level = delta_cos[k] * cos_t  # the model intensity a + b cos(theta + delta_k)
+                level -= delta_sin[k] * sin_t
+                level *= b
+                level += a
+                var += w * noise.variance(level)
+            std = np.sqrt(var)
+            std /= b
+        return np.where(ok, std, np.nan)
+    u_all = np.asarray(usable, dtype=bool)
+    if u_all.shape != (m, *phi.shape):
+        raise InputError(f"usable mask {u_all.shape}, expected {(m, *phi.shape)}")
     idx = np.flatnonzero(ok)
     if idx.size == 0:
         return out
-    theta = phi.ravel()[idx] + np.radians(float(phase_offset_deg))
+    theta = phi.ravel()[idx] + offset
     bb, aa = b.ravel()[idx], a.ravel()[idx]
     sin_t, cos_t = np.sin(theta), np.cos(theta)
-    if usable is None:  # one normal matrix: q = M^-1 g with g = (0, -sin, cos), no solve
-        inv = np.linalg.inv(A.T @ A)
-        q = np.outer(inv[:, 2], cos_t)
-        q -= np.outer(inv[:, 1], sin_t)
-        u = None
-    else:
-        u = u_all.reshape(m, -1)[:, idx]
-        normal = np.einsum("kp,ki,kj->pij", u.astype(np.float64), A, A)
-        det = np.linalg.det(normal)
-        good = np.abs(det) > 1e-9 * max(m, 1) ** 3
-        normal[~good] = np.eye(3)
-        g = np.stack([np.zeros_like(theta), -sin_t, cos_t])  # (3, P)
-        q = np.linalg.solve(normal, g.T[..., None])[..., 0].T
-        q[:, ~good] = np.nan
+    u = u_all.reshape(m, -1)[:, idx]
+    normal = np.einsum("kp,ki,kj->pij", u.astype(np.float64), A, A)
+    good = np.abs(np.linalg.det(normal)) > 1e-9 * m**3
+    normal[~good] = np.eye(3)
+    g = np.stack([np.zeros_like(theta), -sin_t, cos_t])  # (3, P)
+    q = np.linalg.solve(normal, g.T[..., None])[..., 0].T  # M^-1 g per pixel
+    q[:, ~good] = np.nan
     var = np.zeros_like(theta)
     for k in range(m):
-        ck, sk = A[k, 1], -A[k, 2]  # cos and sin of delta_k
-        w = q[0] + ck * q[1] - sk * q[2]  # A_k . q
-        if u is not None:
-            w[~u[k]] = 0.0
-        level = ck * cos_t  # the model intensity a + b cos(theta + delta_k)
-        level -= sk * sin_t
-        level *= bb
-        level += aa
-        w *= w
-        var += w * noise.variance(level)
+        w = q[0] + delta_cos[k] * q[1] - delta_sin[k] * q[2]  # A_k . q
+        w[~u[k]] = 0.0
+        level = aa + bb * (delta_cos[k] * cos_t - delta_sin[k] * sin_t)
+        var += w * w * noise.variance(level)
     out.ravel()[idx] = np.sqrt(var) / bb
     return out
 
