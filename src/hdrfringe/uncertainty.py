@@ -51,13 +51,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hdrfringe._validation import as_stack, full_scale, is_saturated
+from hdrfringe._validation import as_stack, is_saturated
 from hdrfringe.captures import Captures
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec, fringe_profile
 from hdrfringe.phase import TWO_PI, PhaseResult
 from hdrfringe.process import FolderPhase
-from hdrfringe.saturation_tolerant import TolerantPhaseResult
+from hdrfringe.saturation_tolerant import TolerantPhaseResult, _patterns
 
 if TYPE_CHECKING:  # the calibration module loads scipy.ndimage: only measure needs it
     from hdrfringe.calibration import Calibration
@@ -642,8 +642,11 @@ def estimate_noise(sets: Sequence[tuple[ArrayLike, FringeSpec]], bit_depth: int)
 
     Per set and pixel, the least-squares sinusoid (three unknowns) leaves ``N - 3`` degrees of
     freedom; its residual sum of squares over ``N - 3`` estimates ``sigma^2`` without bias.
-    Pixels with a shift at 0 or at ``2^B - 1`` (clipped: the model does not hold) are left out;
-    the rest of every set are pooled by :func:`fit_noise_model` against their fitted mean. A
+    Shifts at 0 or at ``2^B - 1`` (clipped: the model does not hold) are left out of a pixel's
+    fit, which then has ``k - 3`` degrees of freedom for its ``k`` others (none below 4); all
+    pixels of every set are pooled by :func:`fit_noise_model` against the mean of the shifts
+    each used (the fitted ``a`` when all N equal shifts are used, the level of the darker
+    shifts that noise was measured at when the bright ones clipped). A
     set of more than :data:`MAX_NOISE_PIXELS` pixels contributes every k-th (an even stride,
     enough for 16 medians and cheap on a 648 x 494 camera).
 
@@ -686,7 +689,6 @@ def estimate_noise(sets: Sequence[tuple[ArrayLike, FringeSpec]], bit_depth: int)
     >>> round(float(m.sigma(120.0)), 2), m.gain_dn_per_e, m.source
     (2.0, 0.0, 'estimated from the residual of 1 set with N >= 4 (8 shifts)')
     """
-    full = full_scale(bit_depth)
     means, variances, dofs = [], [], []
     used: list[int] = []
     for images, spec in sets:
@@ -702,14 +704,22 @@ def estimate_noise(sets: Sequence[tuple[ArrayLike, FringeSpec]], bit_depth: int)
         A = _design(np.degrees(spec.shifts))
         if np.linalg.matrix_rank(A) < 3:
             continue
-        keep = ~(is_saturated(flat, bit_depth) | (flat <= 0)).any(axis=0)
-        keep &= (flat < full).all(axis=0)
-        vals = flat[:, keep].astype(np.float64)
-        coef = np.linalg.pinv(A) @ vals
-        resid = vals - A @ coef
-        means.append(coef[0])
-        variances.append(np.einsum("kp,kp->p", resid, resid) / (n - 3))
-        dofs.append(np.full(coef.shape[1], n - 3.0))
+        # each pixel's unclipped shifts (neither 0 nor 2^B - 1), grouped by which they are: a
+        # group of k >= 4 shifts at 3 or more distinct angles leaves k - 3 degrees of freedom
+        usable = ~(is_saturated(flat, bit_depth) | (flat <= 0))
+        patterns, inverse = _patterns(usable)
+        order = np.argsort(inverse, kind="stable")
+        bounds = np.cumsum(np.bincount(inverse, minlength=len(patterns)))[:-1]
+        for rows, idx in zip(patterns, np.split(order, bounds), strict=True):
+            k = int(rows.sum())
+            if k < 4 or np.linalg.matrix_rank(A[rows]) < 3:
+                continue
+            vals = flat[np.ix_(rows, idx)].astype(np.float64)
+            coef = np.linalg.pinv(A[rows]) @ vals
+            resid = vals - A[rows] @ coef
+            means.append(vals.mean(axis=0))  # = a with all N equal shifts; the shifts used
+            variances.append(np.einsum("kp,kp->p", resid, resid) / (k - 3))
+            dofs.append(np.full(idx.size, k - 3.0))
         used.append(n)
     if not used:
         raise InputError(
