@@ -43,7 +43,7 @@ from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.stereo import StereoCalibration, StereoMaps, projector_coordinate, triangulate_maps
 from hdrfringe.strategies import StrategyResult, get_strategy, make_params
 from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
-from hdrfringe.uncertainty import NoiseModel, Uncertainty, predict_uncertainty
+from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, Uncertainty, predict_uncertainty
 
 __all__ = [
     "ADAPTIVE_METRICS",
@@ -1208,9 +1208,7 @@ def _predict_uncertainty(
         noise = noise if isinstance(noise, NoiseModel) else NoiseModel(noise, source="given")
     try:
         unc = predict_uncertainty(caps, decoded, noise=noise, calibration=cal, finest_only=True)
-    except InputError as exc:
-        if noise is not None:
-            raise
+    except NoiseUnknownError as exc:
         return None, {"predicted": False, "reason": str(exc)}
     summary = unc.summary()
     if isinstance(calibration, StereoCalibration):

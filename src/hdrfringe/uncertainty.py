@@ -65,6 +65,7 @@ if TYPE_CHECKING:  # the calibration module loads scipy.ndimage: only measure ne
 __all__ = [
     "NOISE_KEYS",
     "NoiseModel",
+    "NoiseUnknownError",
     "Uncertainty",
     "describe_uncertainty",
     "estimate_noise",
@@ -89,6 +90,23 @@ NOISE_KEYS = ("read_noise_dn", "gain_dn_per_e")
 MIN_NOISE_PIXELS = 64
 #: Most pixels per set :func:`estimate_noise` uses (an even stride over the image beyond).
 MAX_NOISE_PIXELS = 1 << 15
+
+
+class NoiseUnknownError(InputError):
+    """No noise given or recorded, and too little in the data to estimate it from.
+
+    ``measure`` and ``phase`` then predict nothing and say why (``metrics.json``'s
+    ``uncertainty.reason``) instead of failing; every other bad input stays an error.
+
+    References
+    ----------
+    docs/uncertainty.md, "Where sigma_I comes from".
+
+    Examples
+    --------
+    >>> issubclass(NoiseUnknownError, InputError)
+    True
+    """
 
 
 @dataclass(frozen=True)
@@ -582,8 +600,10 @@ def fit_noise_model(
 
     Raises
     ------
+    NoiseUnknownError
+        Fewer than :data:`MIN_NOISE_PIXELS` finite estimates.
     InputError
-        Fewer than :data:`MIN_NOISE_PIXELS` finite estimates, or shapes that differ.
+        Shapes that differ.
 
     References
     ----------
@@ -606,7 +626,7 @@ def fit_noise_model(
     ok = np.isfinite(i) & np.isfinite(v) & np.isfinite(nu) & (nu > 0)
     i, v, nu = i[ok], v[ok], nu[ok]
     if i.size < MIN_NOISE_PIXELS:
-        raise InputError(
+        raise NoiseUnknownError(
             f"only {i.size} pixels to estimate the camera noise from (at least "
             f"{MIN_NOISE_PIXELS}); give the noise (noise_sigma / --noise-sigma DN)"
         )
@@ -664,7 +684,7 @@ def estimate_noise(sets: Sequence[tuple[ArrayLike, FringeSpec]], bit_depth: int)
 
     Raises
     ------
-    InputError
+    NoiseUnknownError
         No usable set, or too few unclipped pixels.
 
     References
@@ -722,7 +742,7 @@ def estimate_noise(sets: Sequence[tuple[ArrayLike, FringeSpec]], bit_depth: int)
             dofs.append(np.full(idx.size, k - 3.0))
         used.append(n)
     if not used:
-        raise InputError(
+        raise NoiseUnknownError(
             "no sinusoidal set with 4 or more shifts to estimate the camera noise from; give "
             "the noise (noise_sigma / --noise-sigma DN)"
         )
@@ -992,7 +1012,7 @@ def predict_uncertainty(
 
     Raises
     ------
-    InputError
+    NoiseUnknownError
         No noise given or recorded and no set to estimate it from (all N = 3, or triangular).
 
     References

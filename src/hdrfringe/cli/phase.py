@@ -101,17 +101,14 @@ def phase(
         )
     unc, unc_block = None, None
     if uncertainty:
-        from hdrfringe.uncertainty import NoiseModel, predict_uncertainty
+        from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, predict_uncertainty
 
         noise = None
         if noise_sigma is not None:
             noise = NoiseModel(noise_sigma, source="given (--noise-sigma)")
-
         try:
             unc = predict_uncertainty(captures, decoded, noise=noise)
-        except InputError as exc:  # no noise given and none to estimate (every set N = 3)
-            if noise is not None:
-                raise
+        except NoiseUnknownError as exc:  # none given and none to estimate (every set N = 3)
             unc_block = {"predicted": False, "reason": str(exc)}
     with staged_output_dir(output, force=force) as tmp:
         summary = write_phase_maps(tmp, decoded, str(folder), uncertainty=unc)
