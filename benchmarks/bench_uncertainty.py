@@ -5,7 +5,8 @@ from the same rig (0, 5, 10 mm) are made in memory; then ``pipeline.measure`` fo
 ``write_measurement`` (everything ``hdrfringe measure`` does after reading the folder) runs with
 and without ``uncertainty``, interleaved, ``--repeats`` times each. Printed: the median time of
 each, the ratio of the medians and the per-repeat ratios, and the noise the estimate found
-against the rig's own (read 1 DN, rounding 1/12 DN^2, full well 20000 e at 8 bits).
+against the rig's own (read 1 DN, rounding 1/12 DN^2, full well 20000 e at 8 bits), and the whole
+``uncertainty`` block of ``metrics.json`` (the example in docs/uncertainty.md).
 
     .venv/bin/python benchmarks/bench_uncertainty.py               # about 2 min
     .venv/bin/python benchmarks/bench_uncertainty.py --repeats 3
@@ -14,6 +15,7 @@ against the rig's own (read 1 DN, rounding 1/12 DN^2, full well 20000 e at 8 bit
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import tempfile
 import time
@@ -65,6 +67,7 @@ def main() -> None:
         f"(the rig's {truth:.3f}); median phase std {u['phase_std_median_rad']:.4f} rad, "
         f"height std {u['height_std_median_mm']:.4f} mm"
     )
+    print("metrics.json uncertainty block:", json.dumps(u, indent=1))
 
 
 if __name__ == "__main__":
