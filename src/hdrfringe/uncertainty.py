@@ -641,13 +641,15 @@ def fit_noise_model(
         kept = v[g] < first * cut[g]
         level[j] = np.sum(v[g][kept]) / np.sum(kept_mean[g])
     count = np.array([g.size for g in groups], dtype=np.float64)
-    w = count / np.maximum(level, 1e-12) ** 2
+    if not np.isfinite(level).all() or level.max() <= 0:  # noise-free data (synthetic images)
+        return NoiseModel(0.0, 0.0, source=source, pixels=int(i.size))
+    w = count / np.maximum(level, 1e-6 * level.max()) ** 2
     read2, gain = 0.0, 0.0
     # a slope needs intensities that differ: over a spread below 10 % of the level it is
     # noise, and one sigma (the level's) is what the data support
     if nbins >= 2 and np.ptp(centre) > 0.1 * np.median(centre):
-        x = np.column_stack([np.ones(nbins), centre])
-        read2, gain = np.linalg.solve(x.T @ (w[:, None] * x), x.T @ (w * level))
+        x = np.column_stack([np.ones(nbins), centre]) * np.sqrt(w)[:, None]
+        read2, gain = np.linalg.lstsq(x, level * np.sqrt(w), rcond=None)[0]
     if gain <= 0 or nbins < 2:
         read2, gain = float(np.sum(w * level) / np.sum(w)), 0.0
     elif read2 < 0:
@@ -744,6 +746,11 @@ def estimate_noise(sets: Sequence[tuple[ArrayLike, FringeSpec]], bit_depth: int)
     if not used:
         raise NoiseUnknownError(
             "no sinusoidal set with 4 or more shifts to estimate the camera noise from; give "
+            "the noise (noise_sigma / --noise-sigma DN)"
+        )
+    if not means:
+        raise NoiseUnknownError(
+            "no pixel has 4 or more unclipped shifts to estimate the camera noise from; give "
             "the noise (noise_sigma / --noise-sigma DN)"
         )
     steps = ", ".join(str(n) for n in sorted(set(used)))
