@@ -10,6 +10,7 @@ against the rig's own (read 1 DN, rounding 1/12 DN^2, full well 20000 e at 8 bit
 
     .venv/bin/python benchmarks/bench_uncertainty.py               # about 2 min
     .venv/bin/python benchmarks/bench_uncertainty.py --repeats 3
+    .venv/bin/python benchmarks/bench_uncertainty.py --cli      # the command too, ~1 min more
 """
 
 from __future__ import annotations
@@ -17,12 +18,18 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+from hdrfringe.calibration import Calibration
+from hdrfringe.captures import Captures
+from hdrfringe.io.calibration_file import save_calibration
+from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.measurement_outputs import write_measurement
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate, measure
@@ -33,6 +40,12 @@ from hdrfringe.rig.simulated import CameraModel, SimulatedRig
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument(
+        "--cli",
+        action="store_true",
+        help="also time `hdrfringe measure FOLDER -c CAL` with and without --no-uncertainty "
+        "(start-up, reading and writing included), interleaved",
+    )
     args = ap.parse_args()
     cam = CameraModel()  # 648 x 494, the thesis's camera
     frames = [f for p in (1024.0, 64.0, 8.0) for f in FringeSpec("sinusoidal", 4, p).frames()]
@@ -57,6 +70,8 @@ def main() -> None:
     print(f"measure + write, 648x494, 3 sets of 4: with {on:.3f} s, without {off:.3f} s (medians)")
     ratios = [round(a / b, 3) for a, b in zip(times[True], times[False], strict=True)]
     print(f"ratio of medians {on / off:.3f}; per repeat {ratios}")
+    if args.cli:
+        _time_cli(caps, cal, args.repeats)
     res = measure(caps, cal)
     u = res.metrics.uncertainty
     assert u is not None
@@ -68,6 +83,28 @@ def main() -> None:
         f"height std {u['height_std_median_mm']:.4f} mm"
     )
     print("metrics.json uncertainty block:", json.dumps(u, indent=1))
+
+
+def _time_cli(caps: Captures, cal: Calibration, repeats: int) -> None:
+    """The command itself, in a fresh interpreter per run (what a user waits for)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        folder, cal_file = Path(tmp) / "part", Path(tmp) / "cal.h5"
+        write_capture_folder(folder, caps)
+        save_calibration(cal_file, cal)
+        times: dict[bool, list[float]] = {True: [], False: []}
+        for _ in range(repeats):
+            for on in (True, False):
+                cmd = [sys.executable, "-m", "hdrfringe.cli", "measure", str(folder), "-c",
+                       str(cal_file), "-o", str(Path(tmp) / f"out_{on}"), "--force"]  # fmt: skip
+                if not on:
+                    cmd.append("--no-uncertainty")
+                t0 = time.perf_counter()
+                subprocess.run(cmd, check=True, capture_output=True)
+                times[on].append(time.perf_counter() - t0)
+    on, off = (statistics.median(times[k]) for k in (True, False))
+    ratios = [round(a / b, 3) for a, b in zip(times[True], times[False], strict=True)]
+    print(f"hdrfringe measure (CLI): with {on:.3f} s, without {off:.3f} s (medians), ratio "
+          f"{on / off:.3f}; per repeat {ratios}")  # fmt: skip
 
 
 if __name__ == "__main__":
