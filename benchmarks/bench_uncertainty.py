@@ -8,7 +8,7 @@ each, the ratio of the medians and the per-repeat ratios, and the noise the esti
 against the rig's own (read 1 DN, rounding 1/12 DN^2, full well 20000 e at 8 bits), and the whole
 ``uncertainty`` block of ``metrics.json`` (the example in docs/uncertainty.md).
 
-    .venv/bin/python benchmarks/bench_uncertainty.py               # about 2 min
+    .venv/bin/python benchmarks/bench_uncertainty.py               # about 30 s idle
     .venv/bin/python benchmarks/bench_uncertainty.py --repeats 3
     .venv/bin/python benchmarks/bench_uncertainty.py --cli      # the command too, ~1 min more
 """
