@@ -50,6 +50,7 @@ LAYERS: dict[str, int] = {
     "saturation.estimate": CORE,
     "saturation.dpa_rules": CORE,
     "saturation_tolerant": CORE,
+    "uncertainty": CORE,
     "saturation.adaptive_map": CORE,
     # 1 acquisition: rigs and the strategies that drive them
     "rig": ACQUISITION,

@@ -107,6 +107,11 @@ from .strategies.exposure import run_at_exposure as run_at_exposure
 from .strategies.lpa import lpa as lpa
 from .strategies.multiexposure import multiexposure as multiexposure
 from .strategies.uniform import uniform as uniform
+from .uncertainty import NoiseModel as NoiseModel
+from .uncertainty import Uncertainty as Uncertainty
+from .uncertainty import estimate_noise as estimate_noise
+from .uncertainty import predict_phase_std as predict_phase_std
+from .uncertainty import predict_uncertainty as predict_uncertainty
 from .unwrap import absolute_phase as absolute_phase
 from .unwrap import absolute_phase_from_centerline as absolute_phase_from_centerline
 from .unwrap import detect_centerline as detect_centerline

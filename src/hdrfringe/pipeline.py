@@ -43,6 +43,7 @@ from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.stereo import StereoCalibration, StereoMaps, projector_coordinate, triangulate_maps
 from hdrfringe.strategies import StrategyResult, get_strategy, make_params
 from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
+from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, Uncertainty, predict_uncertainty
 
 __all__ = [
     "ADAPTIVE_METRICS",
@@ -608,6 +609,11 @@ class MeasurementMetrics:
         With the saturation-tolerant decoder (``saturated="exclude"``, the ``tolerant``
         method): ``name``, ``min_shifts``, ``inverted`` and ``shifts_used_histogram`` (pixels
         of the finest set whose fit used k images, k = 0, 1, ...); None with the standard one.
+    uncertainty : dict or None
+        The predicted phase and height std (:meth:`Uncertainty.summary
+        <hdrfringe.uncertainty.Uncertainty.summary>`: the noise model and its source, sigma_I
+        used, median predicted std), or ``{"predicted": False, "reason": ...}``; None when not
+        asked for (docs/uncertainty.md).
 
     References
     ----------
@@ -643,6 +649,7 @@ class MeasurementMetrics:
     notes: tuple[str, ...] = ()
     regions: Mapping[str, Any] | None = None
     decoder: Mapping[str, Any] | None = None
+    uncertainty: Mapping[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """``metrics.json``: the fields that apply, in a fixed order, JSON-safe.
@@ -693,6 +700,8 @@ class MeasurementMetrics:
             d["decoder"] = dict(self.decoder)
         if self.stereo is not None:
             d["stereo"] = dict(self.stereo)
+        if self.uncertainty is not None:
+            d["uncertainty"] = dict(self.uncertainty)
         d["skipped"] = list(self.skipped)
         d["notes"] = list(self.notes)
         return _json_safe(d)
@@ -720,6 +729,10 @@ class MeasurementResult:
         DPA's CDFs (thesis Fig. 6.3), one per pitch; None for another method.
     stereo : StereoMaps or None
         The triangulated points, with a stereo calibration.
+    uncertainty : Uncertainty or None
+        The predicted phase std of each family's finest set and, with a phase-to-height
+        calibration, the height std (:func:`hdrfringe.uncertainty.predict_uncertainty`);
+        None when not asked for or not predictable (``metrics.uncertainty`` says why).
 
     Examples
     --------
@@ -730,6 +743,8 @@ class MeasurementResult:
     >>> res = measure(rig.capture_folder(frames))
     >>> res.height_mm is None, res.skipped, res.metrics.saturated_fraction
     (True, ('height (no --calibration given)',), 0.0)
+    >>> res.uncertainty.phase_std.shape, res.metrics.uncertainty["noise"]["source"]
+    ((62, 81), 'estimated from the residual of 2 sets with N >= 4 (4 shifts)')
     """
 
     captures: Captures
@@ -740,6 +755,7 @@ class MeasurementResult:
     strategy_results: tuple[StrategyResult, ...] = ()
     dpa: tuple[DPACDFs, ...] | None = None
     stereo: StereoMaps | None = None
+    uncertainty: Uncertainty | None = None
 
     @property
     def skipped(self) -> tuple[str, ...]:
@@ -1009,6 +1025,8 @@ def measure(
     calibration_source: str | None = None,
     param_sources: Mapping[str, str] | None = None,
     stereo_directions: str = "auto",
+    uncertainty: bool = True,
+    noise: NoiseModel | float | None = None,
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -1056,6 +1074,13 @@ def measure(
         column or row surface: the direction that carries the depth when the other one's
         convention is unknown (docs/stereo.md, kimthyung). Ignored without a stereo
         calibration.
+    uncertainty : bool
+        Predict the per-pixel phase std and, with a phase-to-height calibration, the height
+        std (:func:`hdrfringe.uncertainty.predict_uncertainty`; docs/uncertainty.md).
+    noise : NoiseModel or float, optional
+        The camera noise for the prediction (a float: one sigma in DN). Default: the capture
+        manifest's, else estimated from the sets with 4 or more shifts; when neither exists
+        nothing is predicted and ``metrics.uncertainty`` says why.
 
     Returns
     -------
@@ -1163,6 +1188,9 @@ def measure(
     summary = adaptive_summary(results)
     if summary:
         fields["adaptive"] = summary
+    unc = None
+    if uncertainty:
+        unc, fields["uncertainty"] = _predict_uncertainty(caps, decoded, calibration, noise)
     notes = list(decoded.notes)
     if isinstance(calibration, Calibration) and calibration_geometry(calibration) is None:
         notes.append(NO_GEOMETRY)
@@ -1174,7 +1202,28 @@ def measure(
         notes=tuple(notes),
         **fields,
     )
-    return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa, stereo)
+    return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa, stereo, unc)
+
+
+def _predict_uncertainty(
+    caps: Captures,
+    decoded: FolderPhase,
+    calibration: Calibration | StereoCalibration | None,
+    noise: NoiseModel | float | None,
+) -> tuple[Uncertainty | None, dict[str, Any]]:
+    """The uncertainty of a measurement and its ``metrics.json`` block; when no noise is given
+    and none can be estimated (every set has 3 shifts), None and the reason."""
+    cal = calibration if isinstance(calibration, Calibration) else None
+    if noise is not None:  # a given noise is checked, never excused
+        noise = noise if isinstance(noise, NoiseModel) else NoiseModel(noise, source="given")
+    try:
+        unc = predict_uncertainty(caps, decoded, noise=noise, calibration=cal, finest_only=True)
+    except NoiseUnknownError as exc:
+        return None, {"predicted": False, "reason": str(exc)}
+    summary = unc.summary()
+    if isinstance(calibration, StereoCalibration):
+        summary["notes"].append("no height std: triangulation's is not modelled")
+    return unc, summary
 
 
 # ---------------------------------------------------------------------------------------------

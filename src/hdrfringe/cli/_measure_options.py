@@ -26,6 +26,7 @@ __all__ = [
     "MeasurePitchOpt",
     "MeasureRigOpt",
     "MethodOpt",
+    "NoiseSigmaOpt",
     "OrderOpt",
     "OutputOpt",
     "TrainAmbientOpt",
@@ -36,6 +37,7 @@ __all__ = [
     "TrainPitchOpt",
     "TrainStepsOpt",
     "TruthOpt",
+    "UncertaintyOpt",
     "live_fringes",
     "strategy_params",
 ]
@@ -67,6 +69,22 @@ MeasurePitchOpt = Annotated[
 ]
 MeasureMiglOpt = Annotated[float, typer.Option(help="Highest MIGL.", rich_help_panel=LIVE_PANEL)]
 ForceOpt = Annotated[bool, typer.Option(help="Replace an existing output folder.")]
+UncertaintyOpt = Annotated[
+    bool,
+    typer.Option(
+        help="Write the predicted per-pixel phase_std.tiff (rad) and, with a calibration, "
+        "height_std.tiff (mm); metrics.json's uncertainty block says which noise was used "
+        "(docs/uncertainty.md)."
+    ),
+]
+NoiseSigmaOpt = Annotated[
+    float | None,
+    typer.Option(
+        help="Camera noise std in DN for the predicted std (one value for every intensity); "
+        "default: the manifest's camera.read_noise_dn, else estimated from the sets with 4 or "
+        "more shifts."
+    ),
+]
 
 # --- train-correction -----------------------------------------------------------------------
 TrainFolderArg = Annotated[

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -16,7 +17,9 @@ from hdrfringe.cli._measure_options import (
     MeasurePitchOpt,
     MeasureRigOpt,
     MethodOpt,
+    NoiseSigmaOpt,
     OutputOpt,
+    UncertaintyOpt,
     live_fringes,
     strategy_params,
 )
@@ -121,6 +124,8 @@ def measure(
             "figures and metrics only (faster).",
         ),
     ] = True,
+    uncertainty: UncertaintyOpt = True,
+    noise_sigma: NoiseSigmaOpt = None,
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -144,6 +149,10 @@ def measure(
     )
     if output is None:
         raise InputError("no output folder: give -o/--output OUT")
+    if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
+        raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
+    if noise_sigma is not None and not uncertainty:
+        raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     if live and method is None:
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
@@ -179,7 +188,12 @@ def measure(
         "param_sources": sources,
         "calibration_source": None if calibration is None else str(calibration),
         "stereo_directions": stereo_directions,
+        "uncertainty": uncertainty,
     }
+    if noise_sigma is not None:
+        from hdrfringe.uncertainty import NoiseModel
+
+        kwargs["noise"] = NoiseModel(noise_sigma, source="given (--noise-sigma)")
     if hardware is not None:
         assert method is not None
         hw_rig, hw_config = hardware
@@ -283,6 +297,10 @@ def print_summary(result: Any, output: Path) -> None:
         if "triangulation_residual_mm" in st:
             line += f", ray-ray residual median {st['triangulation_residual_mm']['median']:.3f} mm"
         console.print(line)
+    if m.uncertainty is not None:
+        from hdrfringe.uncertainty import describe_uncertainty
+
+        console.print(describe_uncertainty(m.uncertainty))
     for sk in m.skipped:
         console.print(f"skipped: {sk}")
     for note in m.notes:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -44,6 +45,22 @@ def phase(
             "summary only (faster).",
         ),
     ] = True,
+    uncertainty: Annotated[
+        bool,
+        typer.Option(
+            help="Write the predicted per-pixel phase_std.tiff (rad) of every set; "
+            "phase_summary.json's uncertainty block says which noise was used "
+            "(docs/uncertainty.md).",
+        ),
+    ] = True,
+    noise_sigma: Annotated[
+        float | None,
+        typer.Option(
+            help="Camera noise std in DN for the predicted std (one value for every "
+            "intensity); default: the manifest's camera.read_noise_dn, else estimated from the "
+            "sets with 4 or more shifts.",
+        ),
+    ] = None,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe._validation import SATURATED_MODES, describe_saturated
@@ -66,6 +83,10 @@ def phase(
         )
     if saturated == "flag" and min_shifts != 3:
         raise InputError("--min-shifts applies to --saturated exclude; add it or drop --min-shifts")
+    if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
+        raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
+    if noise_sigma is not None and not uncertainty:
+        raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
@@ -86,8 +107,19 @@ def phase(
         decoded = decode_captures(
             captures, min_modulation=min_modulation, saturated="exclude", min_shifts=min_shifts
         )
+    unc, unc_block = None, None
+    if uncertainty:
+        from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, predict_uncertainty
+
+        noise = None
+        if noise_sigma is not None:
+            noise = NoiseModel(noise_sigma, source="given (--noise-sigma)")
+        try:
+            unc = predict_uncertainty(captures, decoded, noise=noise)
+        except NoiseUnknownError as exc:  # none given and none to estimate (every set N = 3)
+            unc_block = {"predicted": False, "reason": str(exc)}
     with staged_output_dir(output, force=force) as tmp:
-        summary = write_phase_maps(tmp, decoded, str(folder), previews=previews)
+        summary = write_phase_maps(tmp, decoded, str(folder), previews=previews, uncertainty=unc)
     n_pixels = captures.image_shape[0] * captures.image_shape[1]
     for s in summary["sets"]:
         n_saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
@@ -98,6 +130,10 @@ def phase(
     for fam in summary["families"]:
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""
         console.print(f"{fam['orientation']}: unwrapped by {fam['unwrapping']}{extra}")
+    if uncertainty:
+        from hdrfringe.uncertainty import describe_uncertainty
+
+        console.print(describe_uncertainty(summary.get("uncertainty", unc_block or {})))
     for note in summary["notes"]:
         console.print(f"note: {note}")
     console.print(f"wrote {len(summary['files'])} files to {output}")

@@ -36,6 +36,7 @@ __all__ = [
     "write_measurement",
     "write_stereo_outputs",
     "write_strategy_outputs",
+    "write_uncertainty_outputs",
 ]
 
 
@@ -105,6 +106,46 @@ def write_height_outputs(
         write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
     write_ply(out / "points.ply", *height_points(height_mm, geometry))
     return [NO_GEOMETRY] if geometry is None else []
+
+
+def write_uncertainty_outputs(
+    out: Path, height_std_mm: NDArray[np.float64], *, previews: bool = True
+) -> list[str]:
+    """Write the predicted height std: ``height_std.tiff`` (float32 mm, NaN where not
+    predicted) and its preview ``height_std.png``.
+
+    Parameters
+    ----------
+    out : Path
+        Output folder.
+    height_std_mm : ndarray, shape (H, W)
+        :attr:`Uncertainty.height_std_mm <hdrfringe.uncertainty.Uncertainty.height_std_mm>`.
+    previews : bool
+        Write the PNG preview (default); False: ``--no-previews``.
+
+    Returns
+    -------
+    list of str
+        The files written.
+
+    References
+    ----------
+    Thesis Eq. 2.15 (``dh/dphi = K``); docs/uncertainty.md.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> write_uncertainty_outputs(Path(tempfile.mkdtemp()), np.full((4, 5), 0.01))
+    ['height_std.tiff', 'height_std.png']
+    """
+    write_map_tiff(out / "height_std.tiff", height_std_mm)
+    if not previews:
+        return ["height_std.tiff"]
+    write_preview_png(
+        out / "height_std.png", height_std_mm, title="predicted height std", cmap="magma",
+        label="mm",
+    )  # fmt: skip
+    return ["height_std.tiff", "height_std.png"]
 
 
 def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) -> list[str]:
@@ -305,9 +346,12 @@ def write_measurement(
 ) -> list[str]:
     """Write a measurement's result folder, staged: complete or not at all.
 
-    Writes the phase maps and ``phase_summary.json`` (docs/phase.md); with a height,
+    Writes the phase maps and ``phase_summary.json`` (docs/phase.md), with the predicted
+    ``phase_std.tiff`` of the primary family's finest set when the result has its
+    uncertainty; with a height,
     ``height.tiff``, ``height.png`` and ``points.ply`` (:meth:`MeasurementResult.points
-    <hdrfringe.pipeline.MeasurementResult.points>`); with a stereo calibration, the
+    <hdrfringe.pipeline.MeasurementResult.points>`) and the predicted ``height_std.tiff``
+    (:func:`write_uncertainty_outputs`); with a stereo calibration, the
     triangulated outputs instead (:func:`write_stereo_outputs`); with a strategy, its index
     map and pie chart (:func:`write_strategy_outputs`); for DPA, ``dpa_cdf.png`` (thesis
     Fig. 6.3); for the adaptive projection, its MIGL maps (:func:`write_adaptive_outputs`); and
@@ -365,13 +409,23 @@ def write_measurement(
     >>> "metrics.json" in files, written == res.metrics.to_dict()
     (True, True)
     """
+    unc = result.uncertainty
     with staged_output_dir(out, force=force) as tmp:
         if phase_maps:
-            write_phase_maps(tmp, result.decoded, result.metrics.source, previews=previews)
+            write_phase_maps(
+                tmp,
+                result.decoded,
+                result.metrics.source,
+                previews=previews,
+                uncertainty=unc,
+                std_per_set=False,
+            )
         if result.stereo is not None:
             write_stereo_outputs(tmp, result.stereo, previews=previews)
         elif result.height_mm is not None:  # its note is in the metrics already
             write_height_outputs(tmp, result.height_mm, result.geometry, previews=previews)
+            if unc is not None and unc.height_std_mm is not None:
+                write_uncertainty_outputs(tmp, unc.height_std_mm, previews=previews)
         if result.strategy_results:
             write_strategy_outputs(tmp, result.strategy_results, previews=previews)
             write_adaptive_outputs(tmp, result.strategy_results, previews=previews)

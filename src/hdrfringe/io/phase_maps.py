@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -12,6 +13,9 @@ from hdrfringe.io.results import write_map_tiff, write_preview_png
 from hdrfringe.phase import PhaseResult
 from hdrfringe.process import FamilyResult, FolderPhase
 from hdrfringe.saturation_tolerant import TolerantPhaseResult
+
+if TYPE_CHECKING:
+    from hdrfringe.uncertainty import Uncertainty
 
 __all__ = ["SET_MAPS", "write_phase_maps"]
 
@@ -33,7 +37,14 @@ def _preview(files: list[str] | None, path: Path, data: Any, **kw: Any) -> None:
 
 
 def _write_set(
-    out: Path, res: PhaseResult, suffix: str, files: list[str], previews: bool = True
+    out: Path,
+    res: PhaseResult,
+    suffix: str,
+    files: list[str],
+    *,
+    previews: bool = True,
+    phase_std: Mapping[str, np.ndarray] | None = None,
+    label: str = "",
 ) -> None:
     shown = files if previews else None
     for stem, attr, cmap, unit in SET_MAPS:
@@ -62,6 +73,13 @@ def _write_set(
             label="shifts used",
             vmin=0.0,
             vmax=float(images),
+        )
+    if phase_std is not None and label in phase_std:  # the predicted std (docs/uncertainty.md)
+        name = f"phase_std{suffix}"
+        write_map_tiff(out / f"{name}.tiff", phase_std[label])
+        files.append(f"{name}.tiff")
+        _preview(
+            shown, out / f"{name}.png", phase_std[label], title=name, cmap="magma", label="rad"
         )
 
 
@@ -96,7 +114,13 @@ def _write_regions(out: Path, fam: FamilyResult, name: str, previews: bool = Tru
 
 
 def write_phase_maps(
-    out: Path, decoded: FolderPhase, source: str, *, previews: bool = True
+    out: Path,
+    decoded: FolderPhase,
+    source: str,
+    *,
+    previews: bool = True,
+    uncertainty: Uncertainty | None = None,
+    std_per_set: bool = True,
 ) -> dict[str, Any]:
     """Write every map of a decoded folder into ``out`` (an existing, empty staging folder).
 
@@ -121,6 +145,15 @@ def write_phase_maps(
     previews : bool
         Write a PNG preview beside every map (default). False: the maps and the summary only
         (``--no-previews``; the previews cost about as much as the maps).
+    uncertainty : Uncertainty, optional
+        The predicted phase std (:func:`hdrfringe.uncertainty.predict_uncertainty`): every set
+        also gets ``phase_std.tiff`` (float32 rad, NaN where not predicted) and its preview,
+        and the summary an ``uncertainty`` block (:meth:`Uncertainty.summary
+        <hdrfringe.uncertainty.Uncertainty.summary>`). Without it the folder is what it was.
+    std_per_set : bool
+        With ``uncertainty`` and several sets: also ``phase_std__<set label>.tiff`` for every
+        set predicted (False: only the unsuffixed ``phase_std.tiff`` of the primary family's
+        finest set, what ``measure`` writes).
 
     Returns
     -------
@@ -163,13 +196,41 @@ def write_phase_maps(
     """
     files: list[str] = []
     primary = decoded.primary
+    std = None if uncertainty is None else uncertainty.set_phase_std
     if len(decoded.sets) == 1:
-        _write_set(out, decoded.set_results[decoded.sets[0].label], "", files, previews)
+        label = decoded.sets[0].label
+        _write_set(
+            out,
+            decoded.set_results[label],
+            "",
+            files,
+            previews=previews,
+            phase_std=std,
+            label=label,
+        )
     else:
         for s in decoded.sets:
-            _write_set(out, decoded.set_results[s.label], f"__{s.label}", files, previews)
+            each = std if std_per_set else None
+            _write_set(
+                out,
+                decoded.set_results[s.label],
+                f"__{s.label}",
+                files,
+                previews=previews,
+                phase_std=each,
+                label=s.label,
+            )
         if primary is not None:
-            _write_set(out, decoded.set_results[primary.sets[-1].label], "", files, previews)
+            label = primary.sets[-1].label
+            _write_set(
+                out,
+                decoded.set_results[label],
+                "",
+                files,
+                previews=previews,
+                phase_std=std,
+                label=label,
+            )
     shown = files if previews else None
     families = []
     for i, fam in enumerate(decoded.families):
@@ -226,7 +287,9 @@ def write_phase_maps(
         "sets": sets,
         "families": families,
         "notes": decoded.notes,
-        "files": sorted(files),
     }
+    if uncertainty is not None:
+        summary["uncertainty"] = uncertainty.summary()
+    summary["files"] = sorted(files)
     (out / "phase_summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     return summary
