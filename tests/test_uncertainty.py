@@ -292,3 +292,16 @@ def test_noise_estimate_of_rounded_four_step_images_is_not_a_median() -> None:
     resid = flat - design @ (np.linalg.pinv(design) @ flat)
     median = np.median((resid**2).sum(0) / _chi2_factors(1)[0])
     assert median / truth < 0.9  # measured 0.849
+
+
+def test_chi2_table_equals_scipy() -> None:
+    """The precomputed chi-square factors (no scipy import in a ``phase`` run) are scipy's own,
+    for every tabulated nu; other nu still go through scipy."""
+    from hdrfringe.uncertainty import _CHI2_TABLE, _chi2_factors, _chi2_factors_scipy
+
+    nus = np.arange(1, len(_CHI2_TABLE) + 1)
+    for tabulated, computed in zip(_chi2_factors(nus), _chi2_factors_scipy(nus), strict=True):
+        np.testing.assert_allclose(tabulated, computed, rtol=1e-14, atol=0)
+    mixed = np.array([[1.0, 2.5], [40.0, 3.0]])  # a fractional and an untabulated nu
+    for got, computed in zip(_chi2_factors(mixed), _chi2_factors_scipy(mixed), strict=True):
+        np.testing.assert_allclose(got, computed, rtol=1e-14, atol=0)

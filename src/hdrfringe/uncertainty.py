@@ -540,11 +540,50 @@ def predict_phase_std(
 _CUT_QUANTILE = 0.999
 
 
-def _chi2_factors(dof: ArrayLike) -> tuple[F64, F64, F64]:
-    """Per estimate of ``nu`` degrees of freedom (``v = sigma^2 chi2_nu / nu``): the median of
-    ``chi2_nu / nu``, the cut ``q / nu`` at :data:`_CUT_QUANTILE` and ``E[chi2_nu / nu ; below
-    the cut] = P(chi2_(nu+2) < q)``."""
-    from scipy.special import gammainc, gammaincinv  # lazily: the phase command's cold start
+#: ``_chi2_factors`` for nu = 1, 2, ..., 32 degrees of freedom (a fit of k <= 35 unclipped
+#: shifts), precomputed so that a ``phase`` run does not import scipy (cold start, issue 16):
+#: rows (median of chi2_nu / nu, cut q / nu, kept mean), from :func:`_chi2_factors_scipy`
+#: (``python -c "from hdrfringe.uncertainty import _chi2_factors_scipy as f; print(f(range(1,
+#: 33)))"``); tests/test_uncertainty.py checks them against it.
+_CHI2_TABLE: tuple[tuple[float, float, float], ...] = (
+    (0.454936423119572, 10.827566170662733, 0.9873042153129739),
+    (0.6931471805599455, 6.907755278982137, 0.9920922447210179),
+    (0.7886579614584459, 5.422078732079377, 0.9938763305065146),
+    (0.8391734950083306, 4.616706738225792, 0.994834433709568),
+    (0.8702920382191053, 4.103001130486574, 0.9954416306130075),
+    (0.891353437907853, 3.7429574141375537, 0.9958651272363155),
+    (0.9065444565030736, 3.474555192550979, 0.9961796004358563),
+    (0.9180151872127242, 3.2655601947970174, 0.9964236764322908),
+    (0.9269814102503283, 3.097462763472952, 0.9966194487712161),
+    (0.9341817765591969, 2.9588298445074424, 0.9967805193818983),
+    (0.9400907340356206, 2.8421939654763624, 0.996915747162438),
+    (0.945026864785345, 2.742457533946684, 0.9970311645017024),
+    (0.9492119909664543, 2.6560137672977606, 0.9971310301389925),
+    (0.9528052963642528, 2.580233834314152, 0.9972184418989705),
+    (0.9559239673971097, 2.513153214556922, 0.9972957105862568),
+    (0.9586561803126005, 2.453272174423029, 0.9973645973663302),
+    (0.9610695516113216, 2.3994245121707367, 0.9974264696406424),
+    (0.9632167982633744, 2.3506886850933313, 0.9974824064136149),
+    (0.9651396261450775, 2.3063261033956595, 0.9975332713381367),
+    (0.9668714614714128, 2.265737330906293, 0.9975797644892784),
+    (0.9684394077879969, 2.2284303829314913, 0.9976224597882319),
+    (0.9698656730760288, 2.1939973768561445, 0.9976618325313878),
+    (0.9711686270949675, 2.162097063757891, 0.9976982799613765),
+    (0.9723635960870639, 2.1324415740573914, 0.9977321368582281),
+    (0.9734634679153717, 2.1047862310469134, 0.997763687509157),
+    (0.9744791583645102, 2.0789216303298708, 0.9977931750064546),
+    (0.9754199743922753, 2.0546674150276, 0.9978208085477954),
+    (0.9762938999532071, 2.0318673354769152, 0.997846769224878),
+    (0.9771078229856707, 2.0103852927515486, 0.9978712146552982),
+    (0.9778677172220528, 1.9901021434809978, 0.9978942827200776),
+    (0.9785787889741332, 1.9709130993889719, 0.997916094603121),
+    (0.9792455965198277, 1.9527255955340148, 0.9979367572809544),
+)
+
+
+def _chi2_factors_scipy(dof: ArrayLike) -> tuple[F64, F64, F64]:
+    """:func:`_chi2_factors` computed by scipy (any ``nu > 0``)."""
+    from scipy.special import gammainc, gammaincinv
 
     nu = np.asarray(dof, dtype=np.float64)
     values, inverse = np.unique(nu, return_inverse=True)  # a few distinct values: one call each
@@ -556,6 +595,19 @@ def _chi2_factors(dof: ArrayLike) -> tuple[F64, F64, F64]:
         f[inverse].reshape(nu.shape) for f in (median, cut / values, kept_mean)
     )
     return median, cut, kept_mean
+
+
+def _chi2_factors(dof: ArrayLike) -> tuple[F64, F64, F64]:
+    """Per estimate of ``nu`` degrees of freedom (``v = sigma^2 chi2_nu / nu``): the median of
+    ``chi2_nu / nu``, the cut ``q / nu`` at :data:`_CUT_QUANTILE` and ``E[chi2_nu / nu ; below
+    the cut] = P(chi2_(nu+2) < q)``. Whole ``nu`` up to 32 from :data:`_CHI2_TABLE`, others
+    from scipy."""
+    nu = np.asarray(dof, dtype=np.float64)
+    whole = np.rint(nu)
+    if nu.size and np.all(whole == nu) and whole.min() >= 1 and whole.max() <= len(_CHI2_TABLE):
+        table = np.asarray(_CHI2_TABLE, dtype=np.float64)[whole.astype(np.intp) - 1]
+        return table[..., 0], table[..., 1], table[..., 2]
+    return _chi2_factors_scipy(nu)
 
 
 def fit_noise_model(
