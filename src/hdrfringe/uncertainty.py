@@ -1086,14 +1086,21 @@ def predict_uncertainty(
     >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48))
     >>> frames = [f for p in (1024.0, 16.0) for f in FringeSpec("sinusoidal", 8, p).frames()]
     >>> caps = rig.capture_folder(frames)
-    >>> unc = predict_uncertainty(caps, decode_captures(caps))
-    >>> s = unc.summary()  # the rig: read noise 1 DN, gain 255/20000 DN/e, rounding
-    >>> level = s["median_intensity_dn"]
+    >>> decoded = decode_captures(caps)
+    >>> s = predict_uncertainty(caps, decoded).summary()  # the rig records its noise model
+    >>> s["noise"]["source"]
+    'manifest camera.read_noise_dn and camera.gain_dn_per_e'
+    >>> level = s["median_intensity_dn"]  # read noise 1 DN, rounding, gain 255/20000 DN/e
     >>> truth = float(np.sqrt(1 + 1 / 12 + 0.01275 * level))
-    >>> round(level), round(s["sigma_i_dn"], 2), round(truth, 2)
-    (118, 1.62, 1.61)
+    >>> round(level), round(s["sigma_i_dn"], 4) == round(truth, 4)
+    (118, True)
     >>> round(s["phase_std_median_rad"], 4)  # sqrt(2/8) * sigma_I / b
     0.012
+    >>> import dataclasses  # without the manifest's model: estimated from the residuals
+    >>> bare = dataclasses.replace(caps, camera={"focal_px": 1.0})
+    >>> e = predict_uncertainty(bare, decoded).summary()
+    >>> e["noise"]["source"][:9], round(e["sigma_i_dn"], 2)
+    ('estimated', 1.62)
     """
     model = _resolve_noise(captures, noise)
     bits = captures.camera_bit_depth
