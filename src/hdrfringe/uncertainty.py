@@ -28,7 +28,8 @@ The weights ``w_k`` per decoder (derivations in docs/uncertainty.md):
 ``sigma_k`` comes from a :class:`NoiseModel`, ``sigma^2 = read^2 + gain * I`` (read noise and
 shot noise; ``gain = 0``: one sigma for every intensity) evaluated at the pixel's *model*
 intensity ``I_k = a + b cos(theta + delta_k)`` of each shift. The model is given, read from the
-capture manifest (``camera.read_noise_dn``, ``camera.gain_dn_per_e``), or estimated from the
+capture manifest (``camera.read_noise_dn``, ``camera.gain_dn_per_e``: the virtual rig writes its
+true model, ``capture`` the rig configuration's ``rig check`` noise), or estimated from the
 data (:func:`estimate_noise`: the residual of the least-squares sinusoid fit of every set with
 N >= 4 shifts, N - 3 degrees of freedom per pixel, pooled over the image by mean intensity).
 
@@ -824,7 +825,9 @@ def noise_from_manifest(camera: Mapping[str, Any]) -> NoiseModel | None:
     ----------
     camera : mapping
         :attr:`Captures.camera <hdrfringe.captures.Captures>`: ``read_noise_dn`` (required for
-        a model) and ``gain_dn_per_e`` (optional, default 0).
+        a model) and ``gain_dn_per_e`` (optional, default 0), as the virtual rig
+        (:meth:`~hdrfringe.rig.simulated.CameraModel.noise_manifest`) and ``capture`` (the rig
+        configuration's ``camera.read_noise_dn``) write them.
 
     Returns
     -------
