@@ -122,6 +122,7 @@ def test_measure_writes_phase_and_height_std(folders: dict, tmp_path: Path) -> N
             assert a[name] == b[name], name
     metrics = json.loads(a["metrics.json"])
     assert _without(metrics) == json.loads(b["metrics.json"])
+    assert metrics["uncertainty"]["noise"]["source"].startswith("manifest camera.read_noise_dn")
     assert _without(json.loads(a["phase_summary.json"])) == json.loads(b["phase_summary.json"])
     cal = load_calibration(folders["cal"])
     phase_std = read_map_tiff(on / "phase_std.tiff").astype(np.float64)
