@@ -195,10 +195,14 @@ def test_capture_with_a_rig_config_and_a_wrong_projector_size(
     rig_toml: Path, xdisplay: str, tmp_path: Path
 ) -> None:
     caps = tmp_path / "caps"
-    r = cli("capture", "--rig-config", str(rig_toml), "--pitch", "1024", "--no-centerline",
+    noisy = tmp_path / "noisy.toml"  # with the noise rig check writes: the manifest records it
+    noisy.write_text(rig_toml.read_text().replace("[camera]\n", "[camera]\nread_noise_dn = 1.25\n"))
+    r = cli("capture", "--rig-config", str(noisy), "--pitch", "1024", "--no-centerline",
             "--exposure-ms", "6", "-o", str(caps))  # fmt: skip
     assert r.returncode == 0, r.stderr
     manifest = json.loads((caps / "manifest.json").read_text())
+    assert manifest["camera"]["read_noise_dn"] == 1.25
+    assert manifest["capture"]["rig"]["camera"]["read_noise_dn"] == 1.25
     rig = manifest["capture"]["rig"]
     # given: overrides the camera's own 10 ms, at which white saturates every pixel here
     assert rig["camera"]["exposure_ms"] == 6.0
@@ -232,6 +236,8 @@ def test_rig_check_writes_the_config_with_the_measured_settle_and_discard(
     assert cfg.sync.discard == report["recommended"]["discard"] == report["latency"]
     assert cfg.sync.settle_s == report["recommended"]["settle"] > 0
     assert cfg.camera.spec == three  # the option given, not the file's latency-1 camera
+    # the camera noise the report gives, for capture to record (the file had none)
+    assert cfg.camera.read_noise_dn == round(report["noise_std"], 4) > 0
     assert cfg.name == "loop rig" and cfg.gamma == 2.812 and cfg.sync.max_grabs == 3
     assert cfg.projector.size == SCREEN
     assert report["rig"]["config_file"]["path"] == str(rig_toml)

@@ -92,6 +92,18 @@ def test_text_with_special_characters_round_trips(tmp_path: Path, text: str) -> 
         ("[camera]\nexposure_ms = nan\n", "got nan"),
         ("[camera]\ngain_db = inf\n", "'camera.gain_db' must be a finite number of dB, got inf"),
         ('[camera]\npixel_format = "Mono12p"\n', "'camera.pixel_format' must be one of Mono8"),
+        (
+            "[camera]\nread_noise_dn = -0.5\n",
+            "'camera.read_noise_dn' must be a finite number of DN >= 0",
+        ),
+        (
+            '[camera]\nread_noise_dn = "low"\n',
+            "'camera.read_noise_dn' must be a finite number of DN",
+        ),
+        (
+            "[camera]\nread_noise = 2\n",
+            "unknown key 'camera.read_noise'; did you mean 'read_noise_dn'?",
+        ),
         ("[camera]\nspec = 5\n", "'camera.spec' must be non-empty text"),
         ('[camera]\nspec = ""\n', "'camera.spec' must be non-empty text"),
         ("[projector]\nwidth = 1920\n", "projector width and height go together"),

@@ -7,6 +7,7 @@ calibration) and an ``uncertainty`` block, and every other file is byte for byte
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -37,6 +38,10 @@ def folders(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         caps = SimulatedRig(white_plate(4.0), camera=CAMERA).capture_folder(_frames(steps))
         write_capture_folder(root / f"part{steps}", caps)
         out[f"part{steps}"] = root / f"part{steps}"
+    # a folder whose manifest records no noise model (a camera that does not know it)
+    bare = {k: v for k, v in caps.camera.items() if k not in ("read_noise_dn", "gain_dn_per_e")}
+    write_capture_folder(root / "part3_bare", dataclasses.replace(caps, camera=bare))
+    out["part3_bare"] = root / "part3_bare"
     plates = [
         SimulatedRig(white_plate(d), camera=CAMERA).capture_folder(_frames(4)) for d in (0, 5, 10)
     ]
@@ -81,11 +86,15 @@ def test_phase_writes_the_std_of_every_set_and_nothing_else_changes(
     summary = json.loads(a["phase_summary.json"])
     assert _without(summary) == json.loads(b["phase_summary.json"])
     unc = summary["uncertainty"]
-    assert unc["predicted"] and unc["noise"]["source"].startswith("estimated")
+    # the virtual rig's folder records its noise model (the sensor's: read 1 DN, rounding,
+    # 255 / 20000 DN per electron), and phase uses it
+    assert unc["predicted"] and unc["noise"]["source"].startswith("manifest camera.read_noise_dn")
+    assert unc["noise"]["read_noise_dn"] == pytest.approx(np.sqrt(1 + 1 / 12))
+    assert unc["noise"]["gain_dn_per_e"] == pytest.approx(255 / 20000)
     std = read_map_tiff(on / "phase_std.tiff")
     valid = np.isfinite(read_map_tiff(on / "wrapped_phase.tiff"))
     assert np.isfinite(std[valid]).all() and np.isnan(std[~valid]).all()
-    # the textbook form at the estimated sigma (N = 4: exact for read + shot noise at a)
+    # the textbook form at the manifest's sigma (N = 4: exact for read + shot noise at a)
     b_map = read_map_tiff(on / "modulation.tiff").astype(np.float64)
     a_map = read_map_tiff(on / "mean_intensity.tiff").astype(np.float64)
     noise = unc["noise"]
@@ -113,6 +122,7 @@ def test_measure_writes_phase_and_height_std(folders: dict, tmp_path: Path) -> N
             assert a[name] == b[name], name
     metrics = json.loads(a["metrics.json"])
     assert _without(metrics) == json.loads(b["metrics.json"])
+    assert metrics["uncertainty"]["noise"]["source"].startswith("manifest camera.read_noise_dn")
     assert _without(json.loads(a["phase_summary.json"])) == json.loads(b["phase_summary.json"])
     cal = load_calibration(folders["cal"])
     phase_std = read_map_tiff(on / "phase_std.tiff").astype(np.float64)
@@ -125,14 +135,29 @@ def test_measure_writes_phase_and_height_std(folders: dict, tmp_path: Path) -> N
 
 
 def test_three_step_folder_needs_the_noise(folders: dict, tmp_path: Path) -> None:
-    res = run_cli_in_process("phase", str(folders["part3"]), "-o", str(tmp_path / "a"))
+    res = run_cli_in_process("phase", str(folders["part3_bare"]), "-o", str(tmp_path / "a"))
     assert res.returncode == 0, res.stderr
-    assert "no predicted std: no sinusoidal set with 4 or more shifts" in " ".join(
-        res.stdout.split()
-    )
+    reason = "no predicted std: no sinusoidal set with 4 or more shifts"
+    assert reason in " ".join(res.stdout.split())
     assert not list((tmp_path / "a").glob("phase_std*"))
+    # the summary says why, as measure's metrics do; every other key as without the block
+    summary = json.loads((tmp_path / "a" / "phase_summary.json").read_text())
+    block = summary["uncertainty"]
+    assert block["predicted"] is False and "--noise-sigma" in block["reason"]
+    assert block["reason"].startswith(reason.removeprefix("no predicted std: "))
+    assert list(summary)[-2:] == ["uncertainty", "files"]
+    written = sorted(p.name for p in (tmp_path / "a").iterdir())
+    assert sorted([*summary["files"], "phase_summary.json"]) == written
+    # the rig's folder records its noise: predicted from the manifest
+    res = run_cli_in_process("phase", str(folders["part3"]), "-o", str(tmp_path / "m"))
+    assert res.returncode == 0, res.stderr
+    summary = json.loads((tmp_path / "m" / "phase_summary.json").read_text())
+    assert summary["uncertainty"]["noise"]["source"].startswith("manifest")
+    assert (tmp_path / "m" / "phase_std.tiff").is_file()
     out = tmp_path / "b"
-    res = run_cli_in_process("phase", str(folders["part3"]), "-o", str(out), "--noise-sigma", "1.6")
+    res = run_cli_in_process(
+        "phase", str(folders["part3_bare"]), "-o", str(out), "--noise-sigma", "1.6"
+    )
     assert res.returncode == 0, res.stderr
     summary = json.loads((out / "phase_summary.json").read_text())
     assert summary["uncertainty"]["noise"]["source"] == "given (--noise-sigma)"
@@ -141,6 +166,8 @@ def test_three_step_folder_needs_the_noise(folders: dict, tmp_path: Path) -> Non
         (("--noise-sigma", "-1"), "--noise-sigma must be a finite number of DN >= 0, got -1"),
         (("--noise-sigma", "1", "--no-uncertainty"), "drop --no-uncertainty"),
     ):
-        res = run_cli_in_process("phase", str(folders["part3"]), "-o", str(tmp_path / "c"), *bad)
+        res = run_cli_in_process(
+            "phase", str(folders["part3_bare"]), "-o", str(tmp_path / "c"), *bad
+        )
         assert res.returncode == 2 and message in " ".join(res.stderr.split()), res.stderr
         assert not (tmp_path / "c").exists()

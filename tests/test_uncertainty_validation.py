@@ -40,7 +40,7 @@ def _broken_ratios(ratio: float, modulation: np.ndarray, mean: np.ndarray) -> tu
     return ratio * np.sqrt(2.0), ratio * float(np.nanmedian(mean / modulation))
 
 
-def _repeat(steps: int, model: str, camera_noise: dict | None) -> dict[str, float]:
+def _repeat(steps: int, model: str, manifest_noise: bool) -> dict[str, float]:
     frames = [f for p in (1024.0, 16.0) for f in FringeSpec("sinusoidal", steps, p).frames()]
     plates = [
         SimulatedRig(white_plate(d), camera=CAMERA).capture_folder(frames) for d in (0, 5, 10)
@@ -50,8 +50,11 @@ def _repeat(steps: int, model: str, camera_noise: dict | None) -> dict[str, floa
     phases, heights, phase_var, height_var = [], [], [], []
     for _ in range(REPEATS):
         caps = rig.capture_folder(frames)
-        if camera_noise is not None:  # as a manifest's camera would record it
-            caps = dataclasses.replace(caps, camera={**caps.camera, **camera_noise})
+        if manifest_noise:  # the rig records its noise model: the sensor's own (reference)
+            assert {k: caps.camera[k] for k in RIG_NOISE} == pytest.approx(RIG_NOISE)
+        else:  # without it, the noise is estimated from the data
+            kept = {k: v for k, v in caps.camera.items() if k not in RIG_NOISE}
+            caps = dataclasses.replace(caps, camera=kept)
         res = measure(caps, cal)
         assert res.uncertainty is not None and res.uncertainty.height_std_mm is not None
         phases.append(res.decoded.primary.absolute_phase)
@@ -80,7 +83,7 @@ def _repeat(steps: int, model: str, camera_noise: dict | None) -> dict[str, floa
 def estimated() -> dict[str, float]:
     """4-step sets, the noise estimated from their residuals; a rational calibration (its
     derivative, not a constant K, carries the phase std to the height)."""
-    return _repeat(4, "rational", None)
+    return _repeat(4, "rational", manifest_noise=False)
 
 
 def test_virtual_rig_phase_and_height_std_within_15_percent(estimated: dict) -> None:
@@ -96,7 +99,7 @@ def test_virtual_rig_phase_and_height_std_within_15_percent(estimated: dict) -> 
 def test_virtual_rig_three_step_with_the_manifest_noise() -> None:
     """3-step sets cannot estimate the noise (no residual); the manifest's camera model is used,
     and the N = 3 shot-noise term (cos 3 phi) is in the prediction."""
-    res = _repeat(3, "linear", RIG_NOISE)
+    res = _repeat(3, "linear", manifest_noise=True)
     print(f"[uncertainty] virtual rig, 3-step, manifest noise: {res}")
     assert res["source"] == "manifest camera.read_noise_dn and camera.gain_dn_per_e"
     assert abs(res["phase"] - 1) < 0.15
@@ -125,7 +128,10 @@ def test_virtual_rig_tolerant_decoder_under_saturation() -> None:
     frames = FringeSpec("sinusoidal", 8, 16.0).frames()
     phases, variances, used, full = [], [], [], []
     for _ in range(25):
-        caps = rig.capture_folder(frames)
+        caps = rig.capture_folder(frames)  # without the rig's noise model: estimated
+        caps = dataclasses.replace(
+            caps, camera={k: v for k, v in caps.camera.items() if k not in RIG_NOISE}
+        )
         decoded = decode_captures(caps, saturated="exclude")
         unc = predict_uncertainty(caps, decoded)
         (label,) = decoded.set_results

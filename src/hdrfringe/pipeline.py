@@ -744,7 +744,7 @@ class MeasurementResult:
     >>> res.height_mm is None, res.skipped, res.metrics.saturated_fraction
     (True, ('height (no --calibration given)',), 0.0)
     >>> res.uncertainty.phase_std.shape, res.metrics.uncertainty["noise"]["source"]
-    ((62, 81), 'estimated from the residual of 2 sets with N >= 4 (4 shifts)')
+    ((62, 81), 'manifest camera.read_noise_dn and camera.gain_dn_per_e')
     """
 
     captures: Captures

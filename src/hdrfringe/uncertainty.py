@@ -28,7 +28,8 @@ The weights ``w_k`` per decoder (derivations in docs/uncertainty.md):
 ``sigma_k`` comes from a :class:`NoiseModel`, ``sigma^2 = read^2 + gain * I`` (read noise and
 shot noise; ``gain = 0``: one sigma for every intensity) evaluated at the pixel's *model*
 intensity ``I_k = a + b cos(theta + delta_k)`` of each shift. The model is given, read from the
-capture manifest (``camera.read_noise_dn``, ``camera.gain_dn_per_e``), or estimated from the
+capture manifest (``camera.read_noise_dn``, ``camera.gain_dn_per_e``: the virtual rig writes its
+true model, ``capture`` the rig configuration's ``rig check`` noise), or estimated from the
 data (:func:`estimate_noise`: the residual of the least-squares sinusoid fit of every set with
 N >= 4 shifts, N - 3 degrees of freedom per pixel, pooled over the image by mean intensity).
 
@@ -824,7 +825,9 @@ def noise_from_manifest(camera: Mapping[str, Any]) -> NoiseModel | None:
     ----------
     camera : mapping
         :attr:`Captures.camera <hdrfringe.captures.Captures>`: ``read_noise_dn`` (required for
-        a model) and ``gain_dn_per_e`` (optional, default 0).
+        a model) and ``gain_dn_per_e`` (optional, default 0), as the virtual rig
+        (:meth:`~hdrfringe.rig.simulated.CameraModel.noise_manifest`) and ``capture`` (the rig
+        configuration's ``camera.read_noise_dn``) write them.
 
     Returns
     -------
@@ -1086,14 +1089,21 @@ def predict_uncertainty(
     >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48))
     >>> frames = [f for p in (1024.0, 16.0) for f in FringeSpec("sinusoidal", 8, p).frames()]
     >>> caps = rig.capture_folder(frames)
-    >>> unc = predict_uncertainty(caps, decode_captures(caps))
-    >>> s = unc.summary()  # the rig: read noise 1 DN, gain 255/20000 DN/e, rounding
-    >>> level = s["median_intensity_dn"]
+    >>> decoded = decode_captures(caps)
+    >>> s = predict_uncertainty(caps, decoded).summary()  # the rig records its noise model
+    >>> s["noise"]["source"]
+    'manifest camera.read_noise_dn and camera.gain_dn_per_e'
+    >>> level = s["median_intensity_dn"]  # read noise 1 DN, rounding, gain 255/20000 DN/e
     >>> truth = float(np.sqrt(1 + 1 / 12 + 0.01275 * level))
-    >>> round(level), round(s["sigma_i_dn"], 2), round(truth, 2)
-    (118, 1.62, 1.61)
+    >>> round(level), round(s["sigma_i_dn"], 4) == round(truth, 4)
+    (118, True)
     >>> round(s["phase_std_median_rad"], 4)  # sqrt(2/8) * sigma_I / b
     0.012
+    >>> import dataclasses  # without the manifest's model: estimated from the residuals
+    >>> bare = dataclasses.replace(caps, camera={"focal_px": 1.0})
+    >>> e = predict_uncertainty(bare, decoded).summary()
+    >>> e["noise"]["source"][:9], round(e["sigma_i_dn"], 2)
+    ('estimated', 1.62)
     """
     model = _resolve_noise(captures, noise)
     bits = captures.camera_bit_depth

@@ -267,7 +267,10 @@ def live_record(
     log : dict
         ``state`` plus the noise variance and the per-frame timing.
     """
-    caps = recorder.captures(name=name, camera={"spec": config.camera.spec})
+    camera: dict[str, Any] = {"spec": config.camera.spec}
+    if config.camera.read_noise_dn is not None:  # rig check's, for the predicted std
+        camera["read_noise_dn"] = config.camera.read_noise_dn
+    caps = recorder.captures(name=name, camera=camera)
     sync = config.sync
     state: dict[str, Any] = {} if method is None else {"method": method}
     state.update(entries or {})

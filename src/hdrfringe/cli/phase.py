@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Annotated
@@ -120,6 +121,11 @@ def phase(
             unc_block = {"predicted": False, "reason": str(exc)}
     with staged_output_dir(output, force=force) as tmp:
         summary = write_phase_maps(tmp, decoded, str(folder), previews=previews, uncertainty=unc)
+        if unc_block is not None:  # not predicted: the reason, where the block would be
+            files = summary.pop("files")
+            summary |= {"uncertainty": unc_block, "files": files}
+            text = json.dumps(summary, indent=1) + "\n"
+            (Path(tmp) / "phase_summary.json").write_text(text, encoding="utf-8")
     n_pixels = captures.image_shape[0] * captures.image_shape[1]
     for s in summary["sets"]:
         n_saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n

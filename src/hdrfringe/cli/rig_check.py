@@ -47,8 +47,8 @@ def check(
         Path | None,
         typer.Option(
             "--write-config",
-            help="Write the rig configuration (TOML) with the measured settle and discard "
-            "filled in, for capture --rig-config.",
+            help="Write the rig configuration (TOML) with the measured settle, discard and "
+            "camera noise filled in, for capture --rig-config.",
         ),
     ] = None,
     force: Annotated[
@@ -63,7 +63,8 @@ def check(
     clips at the exposure given (saturated fraction), and gives the camera noise (standard
     deviation of repeated grabs of a static gray frame). The rig comes from --rig-config
     and/or the options (an option given overrides the file); --write-config writes it back
-    with sync.settle_s and sync.discard set to the recommended values.
+    with sync.settle_s and sync.discard set to the recommended values and camera.read_noise_dn
+    to the noise (capture records it for the predicted std).
     """
     from hdrfringe.hardware.rig import check_rig
     from hdrfringe.io.results import check_output_against_inputs, check_output_file
@@ -102,13 +103,18 @@ def check(
     text = json.dumps(report, indent=1) + "\n"
     toml = None
     if write_config is not None:
-        measured = {"sync.settle_s": result.settle_s, "sync.discard": result.discard}
+        measured = {
+            "sync.settle_s": result.settle_s,
+            "sync.discard": result.discard,
+            "camera.read_noise_dn": round(result.noise_std, 4),
+        }
         source = f", from {config.source}" if config.source else ""
         header = (
             f"Rig configuration written by hdrfringe rig check{source} (docs/hardware.md).\n"
             f"sync.settle_s and sync.discard: measured (latency {result.latency} grabs, "
             f"{result.grab_period_s:.4f} s per grab); white saturated fraction "
-            f"{result.white_saturated_fraction:.4f}; noise std {result.noise_std:.3f} DN."
+            f"{result.white_saturated_fraction:.4f}; camera.read_noise_dn: the noise std "
+            f"of repeated grabs of mid-gray, {result.noise_std:.3f} DN (capture records it)."
         )
         toml = rig_config_toml(config.replace(measured), header=header, base=write_config.parent)
     with _staged(checked, force) as tmp_report, _staged(checked_config, force) as tmp_config:

@@ -57,7 +57,7 @@ _SYNC_KINDS: dict[str, str] = {
 _KEYS: dict[str, tuple[str, ...]] = {
     "": ("name", "gamma", "projector", "camera", "sync"),
     "projector": ("spec", "width", "height"),
-    "camera": ("spec", "exposure_ms", "gain_db", "pixel_format", "trigger_line"),
+    "camera": ("spec", "exposure_ms", "gain_db", "pixel_format", "trigger_line", "read_noise_dn"),
     "sync": tuple(_SYNC_KINDS),
 }
 
@@ -107,7 +107,9 @@ def _check_value(
     else:  # seconds, ms, db, gamma, number: finite numbers
         positive = kind in ("ms", "gamma")
         ok = number and math.isfinite(value)
-        ok = ok and (value > 0 if positive else (value >= 0 if kind == "seconds" else True))
+        ok = ok and (
+            value > 0 if positive else (value >= 0 if kind in ("seconds", "noise") else True)
+        )
         if kind == "seconds" and ok and value > 3600:
             ok = False
         if not ok:
@@ -116,6 +118,7 @@ def _check_value(
                 "gamma": "a positive number (the pre-compensation exponent, e.g. 2.2)",
                 "seconds": "a number of seconds in 0..3600",
                 "db": "a finite number of dB",
+                "noise": "a finite number of DN >= 0 (the noise std rig check measured)",
             }.get(kind, "a finite number")
             raise InputError(_bad(where, f"{name} must be {must}, got {_short(value)}", fix))
 
@@ -186,6 +189,11 @@ class CameraConfig:
     trigger_line : str, optional
         The camera input the projector's sync output is wired to (``--sync hardware``), for
         cameras with a hardware trigger (Basler, GenICam); None: the back end's ``Line1``.
+    read_noise_dn : float, optional
+        The camera's noise standard deviation in DN at these settings, as ``hdrfringe rig
+        check`` measured it (``--write-config``); ``capture`` records it in the capture
+        manifest (``camera.read_noise_dn``), from which ``phase`` and ``measure`` predict
+        their std (docs/uncertainty.md). None: not known.
 
     Raises
     ------
@@ -203,6 +211,7 @@ class CameraConfig:
     gain_db: float | None = None
     pixel_format: str | None = None
     trigger_line: str | None = None
+    read_noise_dn: float | None = None
 
     def __post_init__(self) -> None:
         _validate(self, "camera", "rig configuration", None)
@@ -228,6 +237,7 @@ _KINDS: dict[str, str] = {
     "camera.gain_db": "db",
     "camera.pixel_format": "format",
     "camera.trigger_line": "text",
+    "camera.read_noise_dn": "noise",
     **{f"sync.{k}": v for k, v in _SYNC_KINDS.items()},
 }
 
@@ -256,7 +266,7 @@ def _check_key(
 
 def _normal(key: str, value: Any) -> Any:
     """Numbers of the real-valued fields as float (a file may write ``20`` for ``20.0``)."""
-    if _KINDS[key] in ("ms", "db", "seconds", "gamma", "number"):
+    if _KINDS[key] in ("ms", "db", "seconds", "gamma", "number", "noise"):
         return float(value)
     return value
 

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from hdrfringe.captures import Captures
 from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame
-from hdrfringe.rig.modify import modify_captures
+from hdrfringe.rig.modify import lux_to_dn, modify_captures
 from hdrfringe.rig.simulated import SimulatedRig
 
 __all__ = ["IntensityModification", "simulated_captures"]
@@ -144,6 +144,34 @@ class IntensityModification:
         return entry
 
 
+def _modified_noise(
+    camera: dict[str, Any], modification: IntensityModification, bit_depth: int
+) -> dict[str, Any]:
+    """The camera entry with the noise model of the modified images.
+
+    Eq. 4.1 adds ``D`` DN after the readout (no shot noise of its own) and Gaussian noise of
+    ``sigma_n``, rounded again: at an image value ``I* = I + D`` the variance is
+    ``r^2 + g (I* - D) + sigma_n^2 (+ 1/12 for the second rounding)``, the same line with
+    ``r^2 - g D + sigma_n^2 (+ 1/12)`` at zero. When that is negative (much light added to
+    a camera of little read noise) the line does not describe the images and the noise keys
+    are left out (``phase`` and ``measure`` then estimate the noise from the images).
+    """
+    if "read_noise_dn" not in camera:
+        return camera
+    gain = float(camera.get("gain_dn_per_e", 0.0))
+    added = modification.add_dn + (
+        float(lux_to_dn(modification.add_lux, bit_depth)) if modification.add_lux else 0.0
+    )
+    var = float(camera["read_noise_dn"]) ** 2 - gain * added
+    if modification.noise_sigma > 0:
+        var += modification.noise_sigma**2 + 1.0 / 12.0
+    out = {k: v for k, v in camera.items() if k not in ("read_noise_dn", "gain_dn_per_e")}
+    if var >= 0:
+        out["read_noise_dn"] = math.sqrt(var)
+        out["gain_dn_per_e"] = gain
+    return out
+
+
 def simulated_captures(
     rig: SimulatedRig,
     frames: Sequence[Frame],
@@ -193,14 +221,16 @@ def simulated_captures(
         if progress is not None:
             progress()
     stack = np.stack(images)
+    camera = rig.camera_manifest()
     if modification is not None and not modification.is_identity:
         stack = modification.apply(stack, rig.camera_bit_depth)
+        camera = _modified_noise(camera, modification, rig.camera_bit_depth)
     return Captures(
         frames,
         stack,
         rig.camera_bit_depth,
         projector=rig.projector,
         scene=rig.scene.to_manifest(),
-        camera=rig.camera_manifest(),
+        camera=camera,
         maps={"truth_height_mm": rig.truth().height_mm},
     )

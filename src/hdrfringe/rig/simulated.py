@@ -236,6 +236,50 @@ class CameraModel:
         """Read-noise standard deviation in DN at this bit depth."""
         return self.read_noise_dn8 * self.full_scale / 255.0
 
+    @property
+    def gain_dn_per_e(self) -> float:
+        """Shot-noise gain in DN per electron, ``(2^B - 1) / full_well_e`` (0 without shot
+        noise): a signal of ``I`` DN holds ``I / g`` electrons, so its shot-noise variance is
+        ``g I`` DN^2."""
+        return self.full_scale / self.full_well_e if self.full_well_e is not None else 0.0
+
+    def noise_manifest(self, gain: float = 1.0) -> dict[str, float]:
+        """The camera's noise model as a capture manifest records it (``camera.read_noise_dn``,
+        ``camera.gain_dn_per_e``; :func:`hdrfringe.uncertainty.noise_from_manifest`).
+
+        The images' variance at a signal of ``I`` DN is ``read_noise_dn^2 + gain_dn_per_e * I``
+        with ``read_noise_dn^2 = (G sigma_r)^2 + 1/12`` (the read noise and the rounding to
+        integers, the uniform quantisation error's variance) and ``gain_dn_per_e = G g``, at
+        the analogue gain ``G`` (:func:`~hdrfringe.rig.camera.sensor_readout`). A camera
+        without read and shot noise records nothing (its images repeat exactly).
+
+        Parameters
+        ----------
+        gain : float
+            Linear analogue gain ``G`` of the captures (1.0: 0 dB).
+
+        Returns
+        -------
+        dict
+            ``{"read_noise_dn": ..., "gain_dn_per_e": ...}``, or empty without noise.
+
+        References
+        ----------
+        Thesis Eq. 3.3 (the signal); docs/uncertainty.md (the noise model).
+
+        Examples
+        --------
+        >>> m = CameraModel().noise_manifest()
+        >>> round(m["read_noise_dn"], 4), m["gain_dn_per_e"]
+        (1.0408, 0.01275)
+        >>> CameraModel(read_noise_dn8=0.0, full_well_e=None).noise_manifest()
+        {}
+        """
+        read, shot = self.read_noise_dn * gain, self.gain_dn_per_e * gain
+        if read <= 0 and shot <= 0:
+            return {}
+        return {"read_noise_dn": math.sqrt(read * read + 1.0 / 12.0), "gain_dn_per_e": shot}
+
     def with_aperture_for(self, reflectivity: float, peak_fraction: float = 0.85) -> CameraModel:
         """The same camera with the aperture opened until ``reflectivity`` peaks at a fraction.
 
@@ -1176,10 +1220,16 @@ class SimulatedRig(RigBase):
         )
 
     def camera_manifest(self) -> dict[str, float]:
-        """The camera geometry a capture manifest records (``focal_px``, ``standoff_mm``), from
-        which measurements place their points in millimetres."""
+        """The camera a capture manifest records: its geometry (``focal_px``, ``standoff_mm``),
+        from which measurements place their points in millimetres, and its true noise model at
+        the rig's gain (``read_noise_dn``, ``gain_dn_per_e``; :meth:`CameraModel.noise_manifest`),
+        which ``phase`` and ``measure`` predict their std from."""
         g = self.geometry
-        return {"focal_px": g.camera_focal_px(self.image_shape[1]), "standoff_mm": g.standoff_mm}
+        return {
+            "focal_px": g.camera_focal_px(self.image_shape[1]),
+            "standoff_mm": g.standoff_mm,
+            **self.camera.noise_manifest(_gain_factor(self.camera_settings)),
+        }
 
     def truth(self) -> GroundTruth:
         """Ground truth per camera pixel, evaluated at the pixel centres (cached, read-only)."""
