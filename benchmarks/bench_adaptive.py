@@ -135,13 +135,15 @@ def run(width: int, height: int, study: bool = False) -> dict[str, dict[str, dic
 
 def specular_breakdown(width: int, height: int) -> list[tuple[str, int, float]]:
     """Adaptive on the specular part: phase-error std by distance (camera px) to the pixels
-    it leaves uncovered (the highlight), ``(band, pixels, std rad)``."""
+    it leaves uncovered without its top-up (the highlight), ``(band, pixels, std rad)``;
+    then without the bias correction, with the top-up, and on the pixels the top-up adds."""
     from scipy import ndimage
 
     from hdrfringe.rig.factory import virtual_rig
 
+    # the highlight: what adaptive leaves uncovered without its top-up
     rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
-    r = phase_error(rig, "adaptive", {})
+    r = phase_error(rig, "adaptive", {"topup": False})
     truth = rig.truth()
     err = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
     ok = truth.valid & np.isfinite(err)
@@ -152,10 +154,18 @@ def specular_breakdown(width: int, height: int) -> list[tuple[str, int, float]]:
         out.append((f"{lo}-{hi} px", int(m.sum()), float(err[m].std())))
     # the same without the map-bias correction (docs/adaptive.md, step 4)
     rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
-    r = phase_error(rig, "adaptive", {"bias_correction": False})
+    r = phase_error(rig, "adaptive", {"bias_correction": False, "topup": False})
     err = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
     ok = truth.valid & np.isfinite(err)
     out.append(("all, no bias correction", int(ok.sum()), float(err[ok].std())))
+    # with the top-up (the default): the field, and the pixels it adds
+    rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
+    r = phase_error(rig, "adaptive", {})
+    err_t = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
+    ok_t = truth.valid & np.isfinite(err_t)
+    out.append(("all, with top-up", int(ok_t.sum()), float(err_t[ok_t].std())))
+    added = ok_t & (dist == 0)
+    out.append(("top-up adds", int(added.sum()), float(err_t[added].std())))
     return out
 
 
