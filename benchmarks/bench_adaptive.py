@@ -11,6 +11,11 @@ the rig's ground truth, over the pixels the truth calls valid; the table gives t
 captured, the error's mean (bias) and standard deviation, its RMSE and the coverage (valid
 pixels with an absolute phase).
 
+``--topup`` compares, on the specular part only, adaptive with and without its coverage
+top-up against LPA S=1 where both are valid (docs/adaptive.md, "Top-up"), then prints the
+top-up's details on the checkerboard, the 600 lx plate and the glossy dome, where it must
+not run.
+
 Scenes: the checkerboard with the aperture opened for the black squares (the thesis's
 Sec. 5.2 board) and the white plate under 600 lx (Sec. 4.2). Rows: LPA S=1, DPA 10 % with the
 pending bound, adaptive, adaptive without its boost set, adaptive with the automatic exposure;
@@ -34,6 +39,7 @@ from hdrfringe.pipeline import composite_captures, strategy_absolute_phases
 from hdrfringe.process import decode_captures
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
+from hdrfringe.strategies.adaptive import adaptive_sets
 
 PITCHES = (1024.0, 64.0, 8.0)
 STRATEGIES: tuple[tuple[str, str, dict[str, Any]], ...] = (
@@ -76,8 +82,11 @@ SCENES: dict[str, Callable[..., SimulatedRig]] = {
 }
 
 
-def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[str, Any]:
-    """Measure with ``method`` and compare the finest absolute phase with the ground truth."""
+def error_map(
+    rig: SimulatedRig, method: str, params: dict[str, Any]
+) -> tuple[np.ndarray, np.ndarray, list[Any], float]:
+    """Measure with ``method``: the finest absolute phase minus the truth, the pixels valid in
+    the truth with a phase, the strategy results and the seconds taken."""
     specs = [FringeSpec("sinusoidal", 4, p) for p in PITCHES]
     t0 = time.perf_counter()
     caps, results = composite_captures(rig, specs, method, params)
@@ -87,7 +96,12 @@ def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[
     assert fam is not None and fam.absolute_phase is not None
     truth = rig.truth()
     err = fam.absolute_phase - 2 * np.pi * truth.u / PITCHES[-1]
-    ok = truth.valid & np.isfinite(err)
+    return err, truth.valid & np.isfinite(err), results, seconds
+
+
+def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Measure with ``method`` and compare the finest absolute phase with the ground truth."""
+    err, ok, results, seconds = error_map(rig, method, params)
     e = err[ok]
     return {
         "images": int(sum(r.images_captured for r in results)),
@@ -95,7 +109,7 @@ def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[
         "bias_rad": float(e.mean()),
         "std_rad": float(e.std()),
         "rmse_rad": float(np.sqrt(np.mean(e**2))),
-        "coverage": float(ok.sum() / truth.valid.sum()),
+        "coverage": float(ok.sum() / rig.truth().valid.sum()),
         "seconds": round(seconds, 2),
         "details": results[-1].details,
     }
@@ -124,13 +138,15 @@ def run(width: int, height: int, study: bool = False) -> dict[str, dict[str, dic
 
 def specular_breakdown(width: int, height: int) -> list[tuple[str, int, float]]:
     """Adaptive on the specular part: phase-error std by distance (camera px) to the pixels
-    it leaves uncovered (the highlight), ``(band, pixels, std rad)``."""
+    it leaves uncovered without its top-up (the highlight), ``(band, pixels, std rad)``;
+    then without the bias correction, with the top-up, and on the pixels the top-up adds."""
     from scipy import ndimage
 
     from hdrfringe.rig.factory import virtual_rig
 
+    # the highlight: what adaptive leaves uncovered without its top-up
     rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
-    r = phase_error(rig, "adaptive", {})
+    r = phase_error(rig, "adaptive", {"topup": False})
     truth = rig.truth()
     err = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
     ok = truth.valid & np.isfinite(err)
@@ -141,10 +157,83 @@ def specular_breakdown(width: int, height: int) -> list[tuple[str, int, float]]:
         out.append((f"{lo}-{hi} px", int(m.sum()), float(err[m].std())))
     # the same without the map-bias correction (docs/adaptive.md, step 4)
     rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
-    r = phase_error(rig, "adaptive", {"bias_correction": False})
+    r = phase_error(rig, "adaptive", {"bias_correction": False, "topup": False})
     err = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
     ok = truth.valid & np.isfinite(err)
     out.append(("all, no bias correction", int(ok.sum()), float(err[ok].std())))
+    # with the top-up (the default): the field, and the pixels it adds
+    rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
+    r = phase_error(rig, "adaptive", {})
+    err_t = r["details"]["absolute_phase"] - 2 * np.pi * truth.u / PITCHES[-1]
+    ok_t = truth.valid & np.isfinite(err_t)
+    out.append(("all, with top-up", int(ok_t.sum()), float(err_t[ok_t].std())))
+    added = ok_t & (dist == 0)
+    out.append(("top-up adds", int(added.sum()), float(err_t[added].std())))
+    return out
+
+
+#: ``--topup``: the rows on the specular part (label, method, params).
+TOPUP_ROWS: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    ("LPA S=1", "lpa", {"step": 1.0}),
+    ("adaptive, no top-up", "adaptive", {"topup": False}),
+    ("adaptive", "adaptive", {}),
+    ("adaptive + exposure, no top-up", "adaptive", {"auto_exposure": True, "topup": False}),
+    ("adaptive + exposure", "adaptive", {"auto_exposure": True}),
+)
+
+
+def topup_study(width: int, height: int) -> list[dict[str, Any]]:
+    """The coverage top-up on the specular part (docs/adaptive.md, "Top-up"), each row on a
+    fresh rig (seed 0): images, coverage, std and std in order (|error| <= pi), and the std
+    over the pixels where the row and LPA S=1 are both valid and in order, beside LPA's there.
+    """
+    from hdrfringe.rig.factory import virtual_rig
+
+    out: list[dict[str, Any]] = []
+    ref: tuple[np.ndarray, np.ndarray] | None = None
+    for label, method, params in TOPUP_ROWS:
+        rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
+        err, ok, results, seconds = error_map(rig, method, params)
+        good = ok & (np.abs(np.where(ok, err, 0.0)) <= np.pi)
+        if ref is None:
+            ref = (err, good)
+        both = good & ref[1]
+        d = results[-1].details
+        out.append(
+            {
+                "label": label,
+                "images": int(sum(r.images_captured for r in results)),
+                "coverage": float(ok.sum() / rig.truth().valid.sum()),
+                "std_rad": float(err[ok].std()),
+                "std_in_order_rad": float(err[good].std()),
+                "both_px": int(both.sum()),
+                "std_both_rad": float(err[both].std()),
+                "lpa_std_both_rad": float(ref[0][both].std()),
+                "topup": d.get("topup"),
+                "exposure_ms": d.get("exposure_ms"),
+                "seconds": round(seconds, 1),
+            }
+        )
+    return out
+
+
+def topup_elsewhere(width: int, height: int) -> list[tuple[str, bool, dict[str, Any]]]:
+    """The top-up's details on the scenes where it must not run (checkerboard, 600 lx plate,
+    glossy dome; with and without the automatic exposure): ``(scene, auto_exposure, topup)``.
+    """
+    from hdrfringe.rig.factory import virtual_rig
+
+    specs = [FringeSpec("sinusoidal", 4, p) for p in PITCHES]
+    out = []
+    for scene, kw in (
+        ("checkerboard", {}),
+        ("white_plate", {"ambient_lux": 600.0}),
+        ("glossy", {}),
+    ):
+        for auto in (False, True):
+            rig = virtual_rig(scene, resolution=(width, height), seed=0, **kw)
+            fine = adaptive_sets(rig, specs, auto_exposure=auto)[-1]
+            out.append((scene, auto, fine.details["topup"]))
     return out
 
 
@@ -159,8 +248,26 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="only: adaptive's error by distance to the highlight",
     )
+    ap.add_argument(
+        "--topup",
+        action="store_true",
+        help="only: the coverage top-up on the specular part against LPA S=1",
+    )
     args = ap.parse_args(argv)
     width, height = (int(x) for x in args.camera.lower().split("x"))
+    if args.topup:
+        print(f"specular part, camera {width}x{height}, 4-step, pitches 1024, 64, 8 px, seed 0")
+        for r in topup_study(width, height):
+            both = r["std_both_rad"] / r["lpa_std_both_rad"]
+            print(
+                f"  {r['label']:32} {r['images']:5d} img  coverage {100 * r['coverage']:6.2f} %"
+                f"  std {1e3 * r['std_rad']:7.2f}  in order {1e3 * r['std_in_order_rad']:6.2f}"
+                f"  where both valid ({r['both_px']} px) {1e3 * r['std_both_rad']:6.2f} mrad"
+                f" = {both:.3f}x LPA's  {r['seconds']:6.1f} s  top-up {r['topup']}"
+            )
+        for scene, auto, topup in topup_elsewhere(width, height):
+            print(f"  {scene}{' + exposure' if auto else ''}: top-up {topup}")
+        return 0
     if args.specular:
         print(f"specular part, adaptive, camera {width}x{height}: std by distance to uncovered")
         for band, n, std in specular_breakdown(width, height):

@@ -49,6 +49,7 @@ from hdrfringe.saturation.adaptive_map import (
 )
 from hdrfringe.strategies.adaptive import adaptive_sets, mapping_pitches
 from hdrfringe.strategies.conventional import conventional
+from hdrfringe.strategies.exposure import FixedExposureRig
 from hdrfringe.strategies.lpa import lpa
 from tests.conftest import run_cli
 
@@ -336,19 +337,32 @@ def test_the_boost_set_feeds_the_board_edges_and_stays_off_the_plate(
     assert board["std_adaptive"] < 0.7 * full_radius
 
 
-def test_a_highlight_that_holds_the_mapping_low_gets_a_bright_ladder() -> None:
+@pytest.fixture(scope="module")
+def specular() -> dict[str, Any]:
+    """Adaptive on the specular part without and with the coverage top-up (fresh rigs)."""
+    out: dict[str, Any] = {}
+    for name, kw in (("without", {"topup": False}), ("with", {})):
+        rig = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
+        res = adaptive_sets(rig, SPECS, **kw)
+        truth = rig.truth()
+        err = res[-1].details["absolute_phase"] - TWO_PI * truth.u / SPECS[-1].pitch_px
+        out[name] = (rig, res, err, truth.valid & np.isfinite(err))
+    return out
+
+
+def test_a_highlight_that_holds_the_mapping_low_gets_a_bright_ladder(
+    specular: dict[str, Any],
+) -> None:
     """The specular part: its highlight keeps the automatic mapping MIGL at 60-66, where the
     diffuse metal carries no fringe (a quarter of the field unmapped: coverage 0.74). The
     ladder captured again at the full MIGL and merged per pixel maps it: coverage 0.986 (the
     rest is the highlight, which clips at any MIGL, as it does for LPA), no order errors.
     Rejects the single low ladder (0.74) and a merge that loses mapped pixels."""
-    rig = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
-    fine = adaptive_sets(rig, SPECS)[-1]
+    rig, res, err, ok = specular["without"]
+    fine = res[-1]
     d = fine.details
     assert d["mapping_bright_migl"] == 255.0 and d["images_per_step"]["mapping"] == 32
     truth = rig.truth()
-    err = d["absolute_phase"] - TWO_PI * truth.u / SPECS[-1].pitch_px
-    ok = truth.valid & np.isfinite(err)
     assert ok.sum() >= 0.98 * truth.valid.sum()
     assert np.mean(np.abs(err[ok]) > np.pi) < 1e-3
     lost = truth.valid & ~ok
@@ -361,6 +375,52 @@ def test_a_highlight_that_holds_the_mapping_low_gets_a_bright_ladder() -> None:
     print(f"\nspecular 160x120: lost {lost.mean():.4f}, clip at imin {at_imin.mean():.4f}, "
           f"at MIGL 60 {floor:.4f}")  # fmt: skip
     assert at_imin.any() and lost.mean() <= floor + 0.01
+    assert d["topup"]["pixels"] > 0 and d["topup"]["skipped"] == "turned off (topup=False)"
+
+
+def test_the_topup_covers_the_highlight_at_a_shorter_exposure(
+    specular: dict[str, Any], board: dict[str, Any], lit_plate: dict[str, Any]
+) -> None:
+    """The pixels that clip at the lowest usable MIGL get one set more at 1/16 of the
+    exposure (0.625 ms), merged where they decode, with fringe orders from their neighbours:
+    coverage 0.986 -> 0.9997, every pixel that clips under the projector's imin alone at
+    10 ms (which no MIGL strategy covers) included, no order error, and the pixels covered
+    before untouched. Rejects no top-up (0.986), orders taken from a wrong ring or a patch
+    unwrapped inconsistently (order errors), a merge that overwrites unclipped pixels
+    (changed phases), and a top-up on the board or the plate, where nothing clips at the
+    lowest MIGL (no images there)."""
+    _, _, err0, ok0 = specular["without"]
+    rig, res, err, ok = specular["with"]
+    fine = res[-1]
+    d = fine.details
+    truth = rig.truth()
+    assert d["topup"]["exposures_ms"] == [0.625] and d["images_per_step"]["topup"] == 4
+    assert fine.captured[-1].exposure_ms == 0.625
+    assert sum(r.images_captured for r in res) == sum(d["images_per_step"].values()) == 52
+    cov0, cov = ok0.sum() / truth.valid.sum(), ok.sum() / truth.valid.sum()
+    print(f"\nspecular 160x120 coverage: {cov0:.4f} -> {cov:.4f}, {d['topup']}")
+    assert cov0 < 0.99 and cov >= 0.999
+    at_imin = rig.expected_signal([UniformFrame(SPECS[-1].imin)])[0] >= 255
+    assert (at_imin & truth.valid).sum() > 20 and ok[at_imin & truth.valid].all()
+    assert not np.any(np.abs(err[ok]) > np.pi)
+    np.testing.assert_array_equal(err[ok0], err0[ok0])
+    for scene in (board, lit_plate):
+        adapted = scene["adaptive"].strategy_results[-1].details
+        assert adapted["topup"]["pixels"] == 0 and adapted["images_per_step"]["topup"] == 0
+
+
+def test_a_rig_that_cannot_shorten_its_exposure_skips_the_topup(
+    specular: dict[str, Any],
+) -> None:
+    """A rig held at one exposure (as a replayed folder is) refuses the top-up's: it is
+    skipped, no image counted, the reason in the details, the rest as without it."""
+    _, res0, _, _ = specular["without"]
+    rig = FixedExposureRig(SimulatedRig(specular_part(), camera=CameraModel(*CAM)), 10.0)
+    fine = adaptive_sets(rig, SPECS)[-1]
+    d = fine.details
+    assert d["images_per_step"]["topup"] == 0 and d["topup"]["exposures_ms"] == []
+    assert d["topup"]["skipped"].startswith("the rig cannot capture at 0.625 ms")
+    np.testing.assert_array_equal(d["absolute_phase"], res0[-1].details["absolute_phase"])
 
 
 # ---------------------------------------------------------------------------------------------

@@ -46,7 +46,7 @@ from numpy.typing import NDArray
 
 from hdrfringe._validation import saturation_count
 from hdrfringe.captures import CameraSettings
-from hdrfringe.errors import InputError
+from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.frames import PixelwiseFringeFrame
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
@@ -75,7 +75,7 @@ from hdrfringe.strategies.base import (
     register,
 )
 from hdrfringe.strategies.exposure import choose_exposure
-from hdrfringe.unwrap import unwrap_temporal
+from hdrfringe.unwrap import unwrap_spatial, unwrap_temporal
 
 __all__ = ["Adaptive", "AdaptiveParams", "adaptive", "adaptive_sets", "mapping_pitches"]
 
@@ -106,6 +106,25 @@ BIAS_MIN_RAD = 0.05
 BRIGHT_MIN_FRACTION = 0.02
 #: Window (camera pixels) of the median that denoises each mapping level before unwrapping.
 MEDIAN_WINDOW = 5
+#: Coverage top-up: the first exposure is the reference's divided by this. The pixels it is for
+#: clip at the lowest usable MIGL (often under the projector's ``imin`` alone); on the specular
+#: part at 160 x 120 and 10 ms, 1/16 (0.625 ms) leaves none clipped while 1/8 leaves 28 of
+#: 149 (tests/test_adaptive.py), and the multi-exposure baseline's shortest is 1/16 too.
+TOPUP_FIRST_DIVISOR = 16.0
+#: Top-up sets at most: each next one 4x shorter, only while top-up pixels still clip. None is
+#: captured longer for modulation: on the specular part at 160 x 120 a second set at the
+#: exposure the brightest top-up pixel allowed (1.2 ms against 0.625) left the new pixels'
+#: error at 0.297 rad against 0.298 (the highlight's own bias, not noise, dominates there).
+TOPUP_MAX_SETS = 3
+#: Fraction of the mapped pixels that must clip at the lowest usable MIGL for the top-up to
+#: be captured (as the boost's :data:`BOOST_MIN_FRACTION`): a few stray pixels are not worth
+#: 4 images (glossy dome at 160 x 120 with the automatic exposure: 2 pixels).
+TOPUP_MIN_FRACTION = 0.002
+#: Ring (camera pixels) of pixels with known fringe orders that anchors a patch unwrapped
+#: spatially (the top-up's pixels, whose mapping clipped, have no orders of their own).
+ORDER_RING_PX = 2
+#: Fraction of a patch's ring that must agree with its shift (within a quarter period).
+ORDER_RING_AGREE = 0.5
 
 ORIENTATIONS = ("vertical", "horizontal")
 
@@ -336,6 +355,84 @@ def _correct_map_bias(
     return absolute - np.where(apply, bias, 0.0), sigma
 
 
+def _capture_topup(
+    rig: Rig,
+    spec: FringeSpec,
+    need: NDArray[np.bool_],
+    reference_ms: float | None,
+) -> tuple[list[tuple[float, NDArray]], str | None]:
+    """The top-up sets: ``spec`` at its full MIGL at exposures short enough for ``need``.
+
+    The first at ``reference_ms / TOPUP_FIRST_DIVISOR``, each next one 4x shorter while
+    pixels of ``need`` still clip, at most :data:`TOPUP_MAX_SETS`. Returns the
+    ``(exposure_ms, images)`` captured and, when none could be, why.
+    """
+    if reference_ms is None or not (np.isfinite(reference_ms) and reference_ms > 0):
+        return [], "the rig reports no exposure time to shorten"
+    bits = rig.camera_bit_depth
+    t = float(f"{reference_ms / TOPUP_FIRST_DIVISOR:.4g}")
+    out: list[tuple[float, NDArray]] = []
+    for _ in range(TOPUP_MAX_SETS):
+        try:
+            imgs = rig.capture(spec.frames(), CameraSettings(exposure_ms=t))
+        except HdrFringeError as exc:  # e.g. a replayed folder: its exposures are fixed
+            return out, f"the rig cannot capture at {t:g} ms ({exc})"
+        out.append((t, imgs))
+        if not (need & (saturation_count(imgs, bits) > 0)).any():
+            break
+        t = float(f"{t / 4.0:.4g}")
+    return out, None
+
+
+def _orders_from_neighbours(
+    absolute: NDArray[np.float64],
+    wrapped: NDArray[np.float64],
+    valid: NDArray[np.bool_],
+    seeds: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], int]:
+    """Fringe orders for the top-up's pixels, which the mapping could not give (it clipped).
+
+    Each patch of decoded pixels without an order that holds a pixel of ``seeds`` (the
+    top-up's), with a ring of :data:`ORDER_RING_PX` pixels of known absolute phase, is
+    unwrapped spatially (:func:`~hdrfringe.unwrap.unwrap_spatial`) and shifted by the whole
+    number of periods that puts the ring on its known phase (the median over the ring). The
+    patch keeps no phase where the ring disagrees: fewer than :data:`ORDER_RING_AGREE` of its
+    pixels within a quarter period of the shift (a fringe sampled too coarsely for spatial
+    unwrapping, more than half a period per camera pixel). Returns the phase and the pixels
+    given an order.
+    """
+    missing = valid & np.isfinite(wrapped) & ~np.isfinite(absolute)
+    if not (missing & seeds).any():
+        return absolute, 0
+    from scipy import ndimage  # here: measure imports this module (cold start, issue 16)
+
+    patches, n = ndimage.label(missing)
+    keep = np.zeros(n + 1, bool)
+    keep[np.unique(patches[missing & seeds])] = True
+    keep[0] = False
+    missing &= keep[patches]
+    known = np.isfinite(absolute)
+    ring = ndimage.binary_dilation(missing, iterations=ORDER_RING_PX) & known
+    region = missing | ring
+    unwrapped = unwrap_spatial(np.where(region, wrapped, np.nan), region)
+    labels, n = ndimage.label(region)
+    out = absolute.copy()
+    given = 0
+    for j in range(1, n + 1):
+        patch = labels == j
+        anchor = patch & ring & np.isfinite(unwrapped)
+        fill = patch & missing & np.isfinite(unwrapped)
+        if not anchor.any() or not fill.any():
+            continue
+        shift = (absolute[anchor] - unwrapped[anchor]) / (2 * np.pi)
+        k = np.rint(np.median(shift))
+        if np.mean(np.abs(shift - k) < 0.25) < ORDER_RING_AGREE:
+            continue
+        out[fill] = unwrapped[fill] + 2 * np.pi * k
+        given += int(fill.sum())
+    return out, given
+
+
 def _check_specs(rig: Rig, specs: Sequence[FringeSpec]) -> list[FringeSpec]:
     specs = list(specs)
     if not specs:
@@ -371,6 +468,7 @@ def adaptive_sets(
     smooth_px: float = 3.0,
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
+    topup: bool = True,
 ) -> tuple[StrategyResult, ...]:
     """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
 
@@ -412,6 +510,14 @@ def adaptive_sets(
         at it. Where that set has no saturated pixel the rig's exposure is kept (one set;
         Requirement 4). The choice's sets are counted (``images_per_step["exposure"]``).
         Not together with ``exposure_ms``.
+    topup : bool
+        Coverage top-up: where pixels still clip after the check passes at the lowest usable
+        MIGL (or clipped in the mapping, response unknown), capture the finest set at its full
+        MIGL at a shorter exposure chosen for them (at most :data:`TOPUP_MAX_SETS` sets),
+        merge it per pixel by the larger unclipped modulation and give those pixels fringe
+        orders from their neighbours' (spatial unwrapping anchored on a ring of known
+        orders). Skipped, with the reason in ``details["topup"]``, where the rig cannot
+        change its exposure (a replayed folder).
 
     Returns
     -------
@@ -511,6 +617,7 @@ def adaptive_sets(
     # --- 2. the camera-side levels and the projector map -------------------------------------
     t0 = time.perf_counter()
     full_p = float(first.migl)
+    floor = float(default_min_migl(first))  # the lowest MIGL that carries a fringe
     base_levels = safe_migl(
         mp.gain, mp.ambient, bits, margin=margin, imin=first.imin, projector_full=full_p
     )
@@ -704,6 +811,52 @@ def adaptive_sets(
                 boosts = 1
         t_boost = time.perf_counter() - t0
 
+        # top-up: pixels that clip even at the lowest usable MIGL (or in the mapping, where
+        # their response is unknown) only come under at a shorter exposure (docs/adaptive.md)
+        t0 = time.perf_counter()
+        stuck = remaining & ((index <= floor + 0.5) | mp.saturated)
+        topup_info: dict[str, Any] = {
+            "pixels": int(stuck.sum()),
+            "exposures_ms": [],
+            "taken": 0,
+            "ordered_from_neighbours": 0,
+            "skipped": None,
+        }
+        n_topup = 0
+        worth = stuck.sum() >= max(1.0, TOPUP_MIN_FRACTION * float(mapped.sum()))
+        if topup and worth:
+            reference = exposure_ms if exposure_ms is not None else rig.camera_settings.exposure_ms
+            sets_t, why = _capture_topup(rig, spec, remaining, reference)
+            topup_info["skipped"] = why
+            full_map = np.full(shape, full_p)
+            for t_set, imgs in sets_t:
+                clipped.append(int((saturation_count(imgs, bits) > 0).sum()))
+                had = decode_set(composite, spec, bits)
+                new_dec = decode_set(imgs, spec, bits)
+                gain = (
+                    new_dec.valid & remaining & (~had.valid | (new_dec.modulation > had.modulation))
+                )
+                composite[:, gain] = imgs[:, gain]
+                if not any(m is full_map for m in used):
+                    used.append(full_map)
+                source[gain] = len(used) - 1
+                index[gain] = np.float32(full_p)
+                newly.append(int(gain.sum()))
+                captured.append(CapturedSet(migl=full_p, exposure_ms=t_set))
+                topup_info["exposures_ms"].append(t_set)
+            n_topup = len(sets_t)
+            took = remaining & decode_set(composite, spec, bits).valid
+            topup_info["taken"] = int(took.sum())
+            remaining &= ~took
+        elif stuck.any():
+            topup_info["skipped"] = (
+                "turned off (topup=False)"
+                if not topup
+                else f"{int(stuck.sum())} pixels, below {100 * TOPUP_MIN_FRACTION:g} % of the "
+                "mapped ones"
+            )
+        t_topup = time.perf_counter() - t0
+
         if i == owner:
             captured[:0] = [CapturedSet(migl=m, exposure_ms=t) for t, m in chosen] + [
                 CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare
@@ -714,6 +867,12 @@ def adaptive_sets(
         wrapped = decode_set(composite, spec, bits).wrapped_phase
         predicted = mp.absolute[orient] * (pitches[orient][-1] / spec.pitch_px)
         absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
+        if n_topup:  # the top-up's pixels clipped in the mapping: orders from neighbours
+            t1 = time.perf_counter()
+            final = decode_set(composite, spec, bits)
+            absolute, filled = _orders_from_neighbours(absolute, wrapped, final.valid, took)
+            topup_info["ordered_from_neighbours"] = filled
+            t_topup += time.perf_counter() - t1
         t0 = time.perf_counter()
         blur = None
         if bias_correction:
@@ -742,6 +901,7 @@ def adaptive_sets(
                 "refit_passes": refits,
                 "check_passes": passes,
                 "boost_passes": boosts,
+                "topup": topup_info,
                 "clipped_per_capture": clipped,
                 "absolute_phase": absolute,
                 "images_per_step": {
@@ -751,6 +911,7 @@ def adaptive_sets(
                     "refit": refits * steps,
                     "check": passes * steps,
                     "boost": boosts * steps,
+                    "topup": n_topup * steps,
                 },
                 "sets_per_step": {
                     "exposure": len(chosen),
@@ -759,6 +920,7 @@ def adaptive_sets(
                     "refit": refits,
                     "check": passes,
                     "boost": boosts,
+                    "topup": n_topup,
                 },
                 "seconds_per_step": {
                     "exposure": round(t_exposure, 4),
@@ -768,6 +930,7 @@ def adaptive_sets(
                     "refit": round(t_refit, 4),
                     "check": round(t_check, 4),
                     "boost": round(t_boost, 4),
+                    "topup": round(t_topup, 4),
                     "bias": round(t_bias, 4),
                 },
                 "blur_sigma_px": blur,
@@ -793,6 +956,7 @@ def adaptive(
     smooth_px: float = 3.0,
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
+    topup: bool = True,
 ) -> StrategyResult:
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
@@ -807,7 +971,7 @@ def adaptive(
         The set at its highest MIGL.
     margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px
         As :func:`adaptive_sets`.
-    exposure_ms, auto_exposure
+    exposure_ms, auto_exposure, topup
         As :func:`adaptive_sets`.
 
     Returns
@@ -826,7 +990,7 @@ def adaptive(
     ...                    lighting=Lighting(ambient_lux=600))
     >>> res = adaptive(rig, FringeSpec("sinusoidal", 4, 8.0))
     >>> res.details["sets_per_step"]
-    {'exposure': 0, 'mapping': 4, 'adapted': 1, 'refit': 1, 'check': 0, 'boost': 0}
+    {'exposure': 0, 'mapping': 4, 'adapted': 1, 'refit': 1, 'check': 0, 'boost': 0, 'topup': 0}
     """
     (res,) = adaptive_sets(
         rig,
@@ -841,6 +1005,7 @@ def adaptive(
         smooth_px=smooth_px,
         exposure_ms=exposure_ms,
         auto_exposure=auto_exposure,
+        topup=topup,
     )
     return res
 
@@ -873,6 +1038,9 @@ class AdaptiveParams:
     auto_exposure : bool
         Choose the exposure first, then the MIGL map (``--adaptive-auto-exposure``; thesis
         Sec. 7.3, "adaptive + exposure" in docs/compare.md).
+    topup : bool
+        Where pixels clip even at the lowest usable MIGL, one or two sets more at a shorter
+        exposure for them, merged per pixel (docs/adaptive.md, "Top-up").
 
     References
     ----------
@@ -950,6 +1118,13 @@ class AdaptiveParams:
             "cli": "--adaptive-auto-exposure",
         },
     )
+    topup: bool = field(
+        default=True,
+        metadata={
+            "help": "where pixels clip even at the lowest usable MIGL, the finest set at a "
+            "shorter exposure for them, merged per pixel by the larger unclipped modulation.",
+        },
+    )
 
 
 @register
@@ -1003,6 +1178,7 @@ class Adaptive(FunctionStrategy):
             smooth_px=params.smooth_px,
             exposure_ms=params.exposure_ms,
             auto_exposure=params.auto_exposure,
+            topup=params.topup,
         )
 
     def describe(self, params: AdaptiveParams) -> str:
