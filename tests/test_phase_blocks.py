@@ -304,3 +304,34 @@ def test_float32_maps_halve_the_outputs_and_nothing_else_grows() -> None:
     assert result.wrapped_phase.dtype == np.float32
     assert peak <= (4 * 4 + 2) * px + work, (peak, imgs.nbytes)
     assert peak < (4 * 8 + 2) * px  # below the float64 maps alone
+
+
+def test_phase_command_map_dtype_float32_writes_the_same_tiffs(capture_folder, tmp_path) -> None:
+    """``hdrfringe phase --map-dtype float32`` against the default on the conftest folder
+    (4-step, centerline): the per-set TIFFs (stored as float32 either way) are identical byte
+    for byte in their values; the unwrapped and absolute phases, computed from the rounded
+    wrapped phase, are within 1e-6 rad with the same NaN pattern; a bad value is refused."""
+    import tifffile
+
+    from tests.conftest import run_cli_in_process
+
+    outs = {}
+    for dt in ("float64", "float32"):
+        out = tmp_path / dt
+        res = run_cli_in_process(
+            "phase", str(capture_folder), "-o", str(out), "--no-previews", "--map-dtype", dt
+        )
+        assert res.returncode == 0, res.stderr
+        outs[dt] = {p.relative_to(out): tifffile.imread(p) for p in sorted(out.rglob("*.tif*"))}
+    assert outs["float64"].keys() == outs["float32"].keys() and outs["float64"]
+    differ = []
+    for name, a in outs["float64"].items():
+        b = outs["float32"][name]
+        assert a.dtype == b.dtype and np.array_equal(np.isnan(a), np.isnan(b)), name
+        if not np.array_equal(a, b, equal_nan=True):
+            differ.append(str(name))
+            assert np.nanmax(np.abs(a.astype(np.float64) - b)) <= 1e-6, name
+    assert all("unwrapped" in n or "absolute" in n or "std" in n for n in differ), differ
+    bad = run_cli_in_process("phase", str(capture_folder), "-o", str(tmp_path / "x"),
+                             "--map-dtype", "float16")  # fmt: skip
+    assert bad.returncode == 2 and "--map-dtype" in bad.stderr
