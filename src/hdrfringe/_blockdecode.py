@@ -18,6 +18,10 @@ I_0 sin(delta_0) + I_1 sin(delta_1) + ...`` (multiply, then add, in float64), ``
 benchmarks/bench_phase.py), not to a BLAS product, whose fused multiply-adds round
 differently in the last bit.
 
+Maps stored in float32 (``dtype=np.float32``, ``decode_set(..., dtype=...)``) are computed the
+same way in float64 per block and rounded into the maps at the end of each block: the float64
+maps' ``astype(np.float32)``, bit for bit, at half the output memory.
+
 Blocks are handed out one at a time to at most :func:`decode_threads` threads (numpy releases
 the GIL inside its ufunc loops, so two threads keep two cores busy without BLAS); the pool is
 created per call and joined before returning, so no thread outlives a call. Images of fewer

@@ -212,8 +212,9 @@ def unwrap_spatial(
     is made continuous by adding to every valid pixel the integer multiple of ``2*pi`` that keeps
     the difference between 4-connected valid neighbours below ``pi``, following the most reliable
     pixels first (the sorting-by-reliability path-following algorithm of Herraez et al., as
-    implemented by :func:`skimage.restoration.unwrap_phase`). The map is exact wherever the true
-    phase changes by less than ``pi`` between neighbours.
+    implemented by :func:`skimage.restoration.unwrap_phase`, which is called only for maps whose
+    loops do not close; see Notes). The map is exact wherever the true phase changes by less
+    than ``pi`` between neighbours.
 
     Parameters
     ----------
@@ -264,10 +265,17 @@ def unwrap_spatial(
     *NaN.* scikit-image's unwrapper does not return when its input contains NaN, so NaN is
     never passed to it: invalid pixels are replaced by 0 and masked.
 
-    The fringe orders are deterministic (the unwrapper's random generator is seeded); the last
-    bit of the values may depend on earlier calls in the same process, because scikit-image's
-    2-D unwrapper also draws from the C library's ``rand()`` (benchmarks/README.md, spatial
-    unwrapping).
+    *Loops that close.* Where the wrapped differences between valid neighbours sum to zero
+    round every loop of valid pixels (no residue, no hole whose boundary turns by ``2*pi``),
+    the orders are found by integrating those differences (row runs joined vertically, every
+    edge checked) instead of by scikit-image: the same orders, since every path gives them
+    there, at a fraction of the cost. Elsewhere scikit-image decides.
+
+    *Determinism.* Values are exactly ``wrapped + 2*pi*K`` (integer ``K``, one rounding), and
+    each region's orders are counted from its first pixel before anchoring, so where loops
+    close no bit depends on anything but the input. Where scikit-image decides, the orders of
+    pixels on which paths disagree can depend on earlier calls in the process: its border
+    reliabilities are drawn from the C library's ``rand()`` (docs/unwrapping.md).
 
     References
     ----------
