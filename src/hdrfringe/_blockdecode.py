@@ -200,8 +200,15 @@ def _decode_block(
     # float64 destinations of this block: the maps themselves, or (float32 maps) the staging
     # arrays, rounded into the maps at the end: the same values as the float64 maps' astype.
     staged = work.staged is not None
+    phase: F64
+    modulation: F64 | None
+    total: F64 | None
+    psi: F64 | None
     if work.staged is not None:
         phase, modulation, total, psi = (a[:m] for a in work.staged)
+        modulation = None if maps.modulation is None else modulation
+        total = None if maps.mean is None else total
+        psi = None if maps.data_modulation is None else psi
     else:
         phase = maps.phase[p0:p1]
         modulation = None if maps.modulation is None else maps.modulation[p0:p1]
@@ -225,7 +232,7 @@ def _decode_block(
         s += tmp
         np.multiply(f, cos_d[k], out=tmp)
         c += tmp
-        if quality:
+        if total is not None:
             total += f
         if sat is not None:
             np.greater_equal(img, limit, out=flag)

@@ -394,7 +394,11 @@ def unwrap_spatial(
         shift[(1 if lab is None else lab[i_ref]) - 1] = _orders_to_window(unwrapped[i_ref], target)
     # Values exactly `w + 2*pi*K` with the integer order K, computed in one step: the same
     # orders give the same bits, whatever split of K the steps above went through.
-    orders += shift[0] if n == 1 else shift[lab - 1]
+    if n == 1:
+        orders += shift[0]
+    else:
+        assert lab is not None
+        orders += shift[lab - 1]
     orders *= TWO_PI
     orders += w
     if all_valid:
