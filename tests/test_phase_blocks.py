@@ -335,3 +335,30 @@ def test_phase_command_map_dtype_float32_writes_the_same_tiffs(capture_folder, t
     bad = run_cli_in_process("phase", str(capture_folder), "-o", str(tmp_path / "x"),
                              "--map-dtype", "float16")  # fmt: skip
     assert bad.returncode == 2 and "--map-dtype" in bad.stderr
+
+
+def test_decode_captures_map_dtype() -> None:
+    """decode_captures(map_dtype="float32"): float32 set maps equal to the float64 ones
+    rounded, the unwrapped phase float64 within 2.4e-7 rad; bad values refused."""
+    from hdrfringe.captures import Captures, ProjectorInfo
+    from hdrfringe.errors import InputError
+    from hdrfringe.patterns import fringe_gray
+    from hdrfringe.process import decode_captures
+
+    spec = FringeSpec("sinusoidal", 4, 1024.0)
+    x = np.tile(np.arange(40.0) * 7.3, (6, 1))
+    images = np.stack([np.rint(fringe_gray(x, spec, k)) for k in range(4)]).astype(np.uint8)
+    caps = Captures(spec.frames(), images, 8, projector=ProjectorInfo())
+    d64 = decode_captures(caps)
+    d32 = decode_captures(caps, map_dtype="float32")
+    (label,) = d64.set_results
+    a, b = d64.set_results[label], d32.set_results[label]
+    for name in F32_FIELDS:
+        assert_same(getattr(b, name), getattr(a, name).astype(np.float32), name)
+    u64, u32 = d64.primary.unwrapped_phase, d32.primary.unwrapped_phase
+    assert u32.dtype == np.float64 and np.array_equal(np.isnan(u64), np.isnan(u32))
+    assert np.nanmax(np.abs(u64 - u32)) <= 2.4e-7
+    with pytest.raises(InputError, match="float64 or float32"):
+        decode_captures(caps, map_dtype="float16")
+    with pytest.raises(InputError, match="saturated='flag'"):
+        decode_captures(caps, map_dtype="float32", saturated="exclude")
