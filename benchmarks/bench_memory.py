@@ -15,7 +15,8 @@ in uint8, then measures the decode call alone in two ways:
   operating system had to provide, whatever allocated it (Linux only, else left out).
 
 Both are printed as MB and as a multiple of the input stack. The cases: hdrfringe's
-``decode_set`` (every map: phase, I', I'', psi in float64, saturation count, validity),
+``decode_set`` (every map: phase, I', I'', psi in float64, saturation count, validity), the
+same with ``dtype=np.float32`` (computed in float64 per block, stored in float32),
 ``sinusoidal_phase`` with and without the quality maps, the sweeps' float32 phase
 (``wrapped_phase(dtype=float32)``), the plain-numpy reference of bench_phase.py, and the
 ``fringes`` package's decode when installed (a separate environment: ``pip install -e
@@ -43,6 +44,7 @@ PITCH = 16.0
 
 CASES = (
     "decode_set",
+    "decode_set_float32",
     "sinusoidal_phase",
     "sinusoidal_phase_no_quality",
     "wrapped_phase_float32",
@@ -104,6 +106,7 @@ def case_call(name: str, imgs: np.ndarray) -> Callable[[], Any] | None:
     spec = FringeSpec("sinusoidal", n, PITCH, "vertical", 40, 255)
     calls: dict[str, Callable[[], Any]] = {
         "decode_set": lambda: decode_set(imgs, spec, 8),
+        "decode_set_float32": lambda: decode_set(imgs, spec, 8, dtype=np.float32),
         "sinusoidal_phase": lambda: sinusoidal_phase(imgs),
         "sinusoidal_phase_no_quality": lambda: sinusoidal_phase(imgs, quality=False),
         "wrapped_phase_float32": lambda: wrapped_phase(imgs, spec, dtype=np.float32),

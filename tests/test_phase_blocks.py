@@ -228,3 +228,137 @@ def test_non_contiguous_stacks_decode_like_contiguous_ones(view, monkeypatch) ->
     for got, name in ((res.wrapped_phase, "phase"), (res.data_modulation, "psi")):
         assert_same(got, ref[name], name)
     assert_same(res.valid, ref["valid"], "valid")
+
+
+# --- float32 maps (decode_set(dtype=np.float32), issue 16: peak memory) ---------------------
+
+F32_FIELDS = ("wrapped_phase", "modulation", "mean_intensity", "data_modulation")
+
+
+@pytest.mark.parametrize(("n", "shape", "dtype"), CASES[2:6])
+@pytest.mark.parametrize("block", [64, 4096])
+def test_float32_maps_are_the_float64_maps_rounded(n, shape, dtype, block, monkeypatch) -> None:
+    """float32 maps = the float64 maps' astype(float32), bit for bit (so the TIFFs, which store
+    astype(float32), are identical); validity and saturation count identical; the phase within
+    half a float32 ulp of the plain float64 loop written here (2.4e-7 rad, inside 1e-6)."""
+    monkeypatch.setattr(_blockdecode, "BLOCK_PIXELS", block)
+    rng = np.random.default_rng(n * 77 + shape[0])
+    imgs = stack(rng, n, shape, dtype)
+    bits = 12 if dtype == np.uint16 else 8
+    full = (1 << bits) - 1
+    spec = FringeSpec("sinusoidal", n, 7.3)
+    mask = rng.random(shape) < 0.8
+    for kw in ({}, {"mask": mask, "min_modulation": 5.0, "reject_saturated": False}):
+        r64 = decode_set(imgs, spec, bits, **kw)
+        r32 = decode_set(imgs, spec, bits, dtype=np.float32, **kw)
+        for name in F32_FIELDS:
+            assert_same(getattr(r32, name), getattr(r64, name).astype(np.float32), name)
+        assert_same(r32.valid, r64.valid, "valid")
+        assert_same(r32.saturation_count, r64.saturation_count, "saturation count")
+        thr = kw.get("min_modulation", 2.0 * full / 255)
+        ref = reference(imgs, full, thr, kw.get("reject_saturated", True), kw.get("mask"))
+        ok = ref["valid"]
+        err = np.abs(r32.wrapped_phase[ok].astype(np.float64) - ref["phase"][ok])
+        assert err.size == 0 or err.max() <= 2.0**-22 + 1e-15  # half ulp in [4, 8): 2.38e-7
+
+
+def test_float32_for_the_general_path_and_bad_dtypes() -> None:
+    """Least-squares and triangular sets (no block kernel) give the rounded float64 maps too;
+    a dtype other than float32/float64 is an InputError."""
+    from hdrfringe.errors import InputError
+    from hdrfringe.patterns import fringe_gray
+
+    x = np.arange(40.0)[None, :] + np.arange(6.0)[:, None]
+    for spec in (
+        FringeSpec("sinusoidal", 4, 9.0, shifts_deg=(0.0, 80.0, 185.0, 270.0)),
+        FringeSpec("triangular", 3, 9.0),
+    ):
+        imgs = np.stack([np.rint(fringe_gray(x, spec, k)) for k in range(spec.steps)])
+        imgs = (imgs * 0.8 + 20).astype(np.uint8)
+        r64 = decode_set(imgs, spec, 8)
+        r32 = decode_set(imgs, spec, 8, dtype=np.float32)
+        for name in F32_FIELDS:
+            assert_same(getattr(r32, name), getattr(r64, name).astype(np.float32), name)
+        assert_same(r32.valid, r64.valid, "valid")
+    with pytest.raises(InputError, match="float32 or float64"):
+        decode_set(imgs, spec, 8, dtype=np.float16)
+
+
+def test_float32_maps_halve_the_outputs_and_nothing_else_grows() -> None:
+    """tracemalloc peak of an 8-step uint8 decode with float32 maps: 4 x 4 + 2 bytes per pixel
+    of outputs (2.25x the stack) plus the work and staging blocks, not the float64 maps."""
+    rng = np.random.default_rng(5)
+    imgs = rng.integers(0, 255, (8, 800, 1000), dtype=np.uint8)  # 6.4 MB: outputs >> work
+    spec = FringeSpec("sinusoidal", 8, 9.0)
+    px = 800 * 1000
+    block = _blockdecode.BLOCK_PIXELS
+    threads = _blockdecode.decode_threads(len(_blockdecode.pixel_blocks(px, block)))
+    work = threads * (8 * 8 + 1) * block + 256 * 1024  # work + staging arrays, slack
+    decode_set(imgs, spec, 8, dtype=np.float32)
+    tracemalloc.start()
+    try:
+        result = decode_set(imgs, spec, 8, dtype=np.float32)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert result.wrapped_phase.dtype == np.float32
+    assert peak <= (4 * 4 + 2) * px + work, (peak, imgs.nbytes)
+    assert peak < (4 * 8 + 2) * px  # below the float64 maps alone
+
+
+def test_phase_command_map_dtype_float32_writes_the_same_tiffs(capture_folder, tmp_path) -> None:
+    """``hdrfringe phase --map-dtype float32`` against the default on the conftest folder
+    (4-step, centerline): the per-set TIFFs (stored as float32 either way) are identical byte
+    for byte in their values; the unwrapped and absolute phases, computed from the rounded
+    wrapped phase, are within 1e-6 rad with the same NaN pattern; a bad value is refused."""
+    import tifffile
+
+    from tests.conftest import run_cli_in_process
+
+    outs = {}
+    for dt in ("float64", "float32"):
+        out = tmp_path / dt
+        res = run_cli_in_process(
+            "phase", str(capture_folder), "-o", str(out), "--no-previews", "--map-dtype", dt
+        )
+        assert res.returncode == 0, res.stderr
+        outs[dt] = {p.relative_to(out): tifffile.imread(p) for p in sorted(out.rglob("*.tif*"))}
+    assert outs["float64"].keys() == outs["float32"].keys() and outs["float64"]
+    differ = []
+    for name, a in outs["float64"].items():
+        b = outs["float32"][name]
+        assert a.dtype == b.dtype and np.array_equal(np.isnan(a), np.isnan(b)), name
+        if not np.array_equal(a, b, equal_nan=True):
+            differ.append(str(name))
+            assert np.nanmax(np.abs(a.astype(np.float64) - b)) <= 1e-6, name
+    assert all("unwrapped" in n or "absolute" in n or "std" in n for n in differ), differ
+    bad = run_cli_in_process("phase", str(capture_folder), "-o", str(tmp_path / "x"),
+                             "--map-dtype", "float16")  # fmt: skip
+    assert bad.returncode == 2 and "--map-dtype" in bad.stderr
+
+
+def test_decode_captures_map_dtype() -> None:
+    """decode_captures(map_dtype="float32"): float32 set maps equal to the float64 ones
+    rounded, the unwrapped phase float64 within 2.4e-7 rad; bad values refused."""
+    from hdrfringe.captures import Captures, ProjectorInfo
+    from hdrfringe.errors import InputError
+    from hdrfringe.patterns import fringe_gray
+    from hdrfringe.process import decode_captures
+
+    spec = FringeSpec("sinusoidal", 4, 1024.0)
+    x = np.tile(np.arange(40.0) * 7.3, (6, 1))
+    images = np.stack([np.rint(fringe_gray(x, spec, k)) for k in range(4)]).astype(np.uint8)
+    caps = Captures(spec.frames(), images, 8, projector=ProjectorInfo())
+    d64 = decode_captures(caps)
+    d32 = decode_captures(caps, map_dtype="float32")
+    (label,) = d64.set_results
+    a, b = d64.set_results[label], d32.set_results[label]
+    for name in F32_FIELDS:
+        assert_same(getattr(b, name), getattr(a, name).astype(np.float32), name)
+    u64, u32 = d64.primary.unwrapped_phase, d32.primary.unwrapped_phase
+    assert u32.dtype == np.float64 and np.array_equal(np.isnan(u64), np.isnan(u32))
+    assert np.nanmax(np.abs(u64 - u32)) <= 2.4e-7
+    with pytest.raises(InputError, match="float64 or float32"):
+        decode_captures(caps, map_dtype="float16")
+    with pytest.raises(InputError, match="saturated='flag'"):
+        decode_captures(caps, map_dtype="float32", saturated="exclude")

@@ -18,6 +18,10 @@ I_0 sin(delta_0) + I_1 sin(delta_1) + ...`` (multiply, then add, in float64), ``
 benchmarks/bench_phase.py), not to a BLAS product, whose fused multiply-adds round
 differently in the last bit.
 
+Maps stored in float32 (``dtype=np.float32``, ``decode_set(..., dtype=...)``) are computed the
+same way in float64 per block and rounded into the maps at the end of each block: the float64
+maps' ``astype(np.float32)``, bit for bit, at half the output memory.
+
 Blocks are handed out one at a time to at most :func:`decode_threads` threads (numpy releases
 the GIL inside its ufunc loops, so two threads keep two cores busy without BLAS); the pool is
 created per call and joined before returning, so no thread outlives a call. Images of fewer
@@ -116,7 +120,7 @@ def pixel_blocks(n_pixels: int, block: int) -> list[tuple[int, int]]:
 
 
 class DecodeMaps:
-    """The maps a block decode writes, as flat float64 / uint8 / bool arrays of P pixels.
+    """The maps a block decode writes, as flat float / uint8 / bool arrays of P pixels.
 
     Parameters
     ----------
@@ -126,20 +130,29 @@ class DecodeMaps:
         Allocate the modulation and mean maps.
     validity : bool
         Allocate the data modulation, saturation count and validity maps (``decode_set``).
+    dtype : {float64, float32}
+        Storage of the float maps (phase, modulation, mean, data modulation). The decode
+        computes in float64 either way; float32 maps hold those values rounded to nearest.
 
     Examples
     --------
     >>> maps = DecodeMaps(6, quality=True, validity=False)
     >>> maps.phase.shape, maps.modulation.dtype, maps.valid is None
     ((6,), dtype('float64'), True)
+    >>> DecodeMaps(6, quality=False, validity=False, dtype=np.float32).phase.dtype
+    dtype('float32')
     """
 
-    def __init__(self, n_pixels: int, *, quality: bool, validity: bool) -> None:
+    def __init__(
+        self, n_pixels: int, *, quality: bool, validity: bool, dtype: type = np.float64
+    ) -> None:
         quality = quality or validity
-        self.phase: F64 = np.empty(n_pixels)
-        self.modulation: F64 | None = np.empty(n_pixels) if quality else None
-        self.mean: F64 | None = np.empty(n_pixels) if quality else None
-        self.data_modulation: F64 | None = np.empty(n_pixels) if validity else None
+        self.dtype = np.dtype(dtype)
+        dt = self.dtype
+        self.phase: NDArray = np.empty(n_pixels, dt)
+        self.modulation: NDArray | None = np.empty(n_pixels, dt) if quality else None
+        self.mean: NDArray | None = np.empty(n_pixels, dt) if quality else None
+        self.data_modulation: NDArray | None = np.empty(n_pixels, dt) if validity else None
         self.saturation_count: NDArray[np.uint8] | None = (
             np.empty(n_pixels, dtype=np.uint8) if validity else None
         )
@@ -147,14 +160,18 @@ class DecodeMaps:
 
 
 class _Work:
-    """One thread's cache-sized work arrays."""
+    """One thread's cache-sized work arrays (with ``staging``: float64 copies of the float maps'
+    blocks, for maps stored in float32)."""
 
-    def __init__(self, size: int) -> None:
+    def __init__(self, size: int, staging: bool = False) -> None:
         self.s = np.empty(size)
         self.c = np.empty(size)
         self.f = np.empty(size)
         self.tmp = np.empty(size)
         self.flag = np.empty(size, dtype=bool)
+        self.staged: tuple[F64, F64, F64, F64] | None = None
+        if staging:
+            self.staged = (np.empty(size), np.empty(size), np.empty(size), np.empty(size))
 
 
 def _decode_block(
@@ -180,13 +197,29 @@ def _decode_block(
     s, c, f, tmp, flag = work.s[:m], work.c[:m], work.f[:m], work.tmp[:m], work.flag[:m]
     quality = maps.modulation is not None
     validity = maps.valid is not None
+    # float64 destinations of this block: the maps themselves, or (float32 maps) the staging
+    # arrays, rounded into the maps at the end: the same values as the float64 maps' astype.
+    staged = work.staged is not None
+    phase: F64
+    modulation: F64 | None
+    total: F64 | None
+    psi: F64 | None
+    if work.staged is not None:
+        phase, modulation, total, psi = (a[:m] for a in work.staged)
+        modulation = None if maps.modulation is None else modulation
+        total = None if maps.mean is None else total
+        psi = None if maps.data_modulation is None else psi
+    else:
+        phase = maps.phase[p0:p1]
+        modulation = None if maps.modulation is None else maps.modulation[p0:p1]
+        total = None if maps.mean is None else maps.mean[p0:p1]
+        psi = None if maps.data_modulation is None else maps.data_modulation[p0:p1]
     s.fill(0.0)
     c.fill(0.0)
-    total = sat = None
+    sat = None
     limit = np.inf if full is None else full
     if quality:
-        assert maps.mean is not None
-        total = maps.mean[p0:p1]
+        assert total is not None
         total.fill(0.0)
     if validity:
         assert maps.saturation_count is not None
@@ -204,11 +237,8 @@ def _decode_block(
         if sat is not None:
             np.greater_equal(img, limit, out=flag)
             sat += flag
-    phase = maps.phase[p0:p1]
-    modulation = None
     if quality:
-        assert maps.modulation is not None and total is not None
-        modulation = maps.modulation[p0:p1]
+        assert modulation is not None and total is not None
         np.multiply(s, s, out=modulation)
         np.multiply(c, c, out=tmp)
         modulation += tmp
@@ -225,10 +255,36 @@ def _decode_block(
     phase += tmp
     np.greater_equal(phase, TWO_PI, out=flag)
     np.putmask(phase, flag, 0.0)
-    if not validity:
-        return
-    assert modulation is not None and total is not None and sat is not None
-    assert maps.valid is not None and maps.data_modulation is not None
+    if validity:
+        assert modulation is not None and total is not None and psi is not None
+        _validity(flat, p0, p1, maps, phase, modulation, total, psi, flag, min_modulation,
+                  reject_saturated, mask)  # fmt: skip
+    if staged:
+        np.copyto(maps.phase[p0:p1], phase)  # float64 -> float32, rounded to nearest
+        for dst, src in ((maps.modulation, modulation), (maps.mean, total),
+                         (maps.data_modulation, psi)):  # fmt: skip
+            if dst is not None:
+                assert src is not None
+                np.copyto(dst[p0:p1], src)
+
+
+def _validity(
+    flat: NDArray,
+    p0: int,
+    p1: int,
+    maps: DecodeMaps,
+    phase: F64,
+    modulation: F64,
+    total: F64,
+    psi: F64,
+    flag: NDArray[np.bool_],
+    min_modulation: float,
+    reject_saturated: bool,
+    mask: NDArray[np.bool_] | None,
+) -> None:
+    """Validity, NaN filling and data modulation of one block (float64 block arrays)."""
+    assert maps.valid is not None and maps.saturation_count is not None
+    sat = maps.saturation_count[p0:p1]
     valid = maps.valid[p0:p1]
     np.greater_equal(modulation, min_modulation, out=valid)
     if flat.dtype.kind == "f":  # integer images always give a finite phase
@@ -244,7 +300,6 @@ def _decode_block(
         np.putmask(arr, flag, np.nan)
     # psi = I'/I'' where I'' > 0, else NaN (np.nan, as the fill of data_modulation). Where
     # invalid, I'' is np.nan already and so is the quotient; I'' <= 0 is masked after.
-    psi = maps.data_modulation[p0:p1]
     with np.errstate(divide="ignore", invalid="ignore"):
         np.divide(modulation, total, out=psi)
     np.less_equal(total, 0.0, out=flag)
@@ -252,7 +307,10 @@ def _decode_block(
 
 
 def _run_blocks(
-    blocks: list[tuple[int, int]], worker: Callable[[int, int, _Work], None], size: int
+    blocks: list[tuple[int, int]],
+    worker: Callable[[int, int, _Work], None],
+    size: int,
+    staging: bool = False,
 ) -> None:
     """Run ``worker(p0, p1, work)`` on every block, on up to :func:`decode_threads` threads.
 
@@ -261,7 +319,7 @@ def _run_blocks(
     """
     threads = decode_threads(len(blocks))
     if threads == 1:
-        work = _Work(size)
+        work = _Work(size, staging)
         for p0, p1 in blocks:
             worker(p0, p1, work)
         return
@@ -269,7 +327,7 @@ def _run_blocks(
     failed = threading.Event()
 
     def run() -> None:
-        work = _Work(size)
+        work = _Work(size, staging)
         while not failed.is_set():
             i = next(counter)
             if i >= len(blocks):
@@ -295,6 +353,7 @@ def decode_sinusoidal_blocks(
     reject_saturated: bool = True,
     mask: NDArray[np.bool_] | None = None,
     block: int | None = None,
+    dtype: type = np.float64,
 ) -> DecodeMaps:
     """Eq. 2.2 and the quality maps of a checked (N, P) stack, block by block, in float64.
 
@@ -319,6 +378,10 @@ def decode_sinusoidal_blocks(
     block : int, optional
         Pixels per block (default :data:`BLOCK_PIXELS`; tests use small blocks to exercise
         the edges).
+    dtype : {float64, float32}
+        Storage of the float maps. The computation is float64 either way (validity included);
+        float32 maps are the float64 maps rounded to nearest, bit for bit
+        (``maps64.phase.astype(np.float32)``), at half the memory.
 
     Returns
     -------
@@ -342,7 +405,8 @@ def decode_sinusoidal_blocks(
     delta = TWO_PI * np.arange(n) / n
     sin_d, cos_d = np.sin(delta), np.cos(delta)
     validity = full is not None
-    maps = DecodeMaps(n_pixels, quality=quality, validity=validity)
+    maps = DecodeMaps(n_pixels, quality=quality, validity=validity, dtype=dtype)
+    staging = maps.dtype != np.float64
     blocks = pixel_blocks(n_pixels, block)
 
     def worker(p0: int, p1: int, work: _Work) -> None:
@@ -350,5 +414,5 @@ def decode_sinusoidal_blocks(
             flat, p0, p1, maps, work, sin_d, cos_d, full, min_modulation, reject_saturated, mask
         )
 
-    _run_blocks(blocks, worker, min(block, max(n_pixels, 1)))
+    _run_blocks(blocks, worker, min(block, max(n_pixels, 1)), staging)
     return maps

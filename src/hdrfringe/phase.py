@@ -717,6 +717,7 @@ def decode_set(
     min_modulation: float | None = None,
     reject_saturated: bool = True,
     direction: int = 1,
+    dtype: DTypeLike = np.float64,
 ) -> PhaseResult:
     """Decode one phase-shifted set into phase and quality maps.
 
@@ -738,6 +739,15 @@ def decode_set(
         (thesis Ch. 3). When False its phase is kept, so that saturation error can be measured.
     direction : {1, -1}
         For triangular 2-step only, see :func:`triangular_2step`.
+    dtype : {float64, float32}
+        Storage of the four float maps (phase, modulation, mean, data modulation). Decoding
+        and validity are computed in float64 either way; float32 maps are the float64 ones
+        rounded to nearest, bit for bit (``astype(np.float32)``, what the result TIFFs store),
+        so the phase is within half a float32 ulp, 2.4e-7 rad, of the float64 phase, and the
+        validity and saturation count are identical. float32 halves the outputs of a large
+        set: 8-step uint8, 4.25x the input stack in float64, 2.25x in float32
+        (benchmarks/bench_memory.py). Note: a float64 phase less than 6.4e-8 rad below 2*pi
+        rounds to float32(2*pi).
 
     Returns
     -------
@@ -753,6 +763,10 @@ def decode_set(
     >>> res = decode_set(imgs, spec, 8)
     >>> bool(res.valid.all()), res.saturation_count.max()
     (True, np.uint8(0))
+    >>> small = decode_set(imgs, spec, 8, dtype=np.float32)
+    >>> same = small.wrapped_phase == res.wrapped_phase.astype(np.float32)
+    >>> small.wrapped_phase.dtype, bool(same.all())
+    (dtype('float32'), True)
 
     References
     ----------
@@ -760,6 +774,7 @@ def decode_set(
     """
     stack = as_stack(images, what="decode", n_min=2, bit_depth=bit_depth)
     _check_steps(stack, spec)
+    out_dt = _float_dtype(dtype, "decode_set")
     thr = check_min_modulation(min_modulation, bit_depth)
     if thr is None:
         thr = default_min_modulation(bit_depth)
@@ -769,7 +784,7 @@ def decode_set(
         if m.shape != stack.shape[1:]:
             raise InputError(f"mask shape {m.shape} does not match image shape {stack.shape[1:]}")
     if spec.pattern == "sinusoidal" and spec.has_standard_phase:
-        return _decode_set_blocks(stack, spec, bit_depth, thr, reject_saturated, m)
+        return _decode_set_blocks(stack, spec, bit_depth, thr, reject_saturated, m, out_dt)
     phase, modulation, mean = _decode(stack, spec, np.float64, True, direction)
     assert modulation is not None and mean is not None
     sat = saturation_count(stack, bit_depth)
@@ -784,6 +799,8 @@ def decode_set(
     invalid = ~valid
     for arr in (phase, modulation, mean, psi):
         np.copyto(arr, np.nan, where=invalid)
+    if out_dt != np.float64:
+        phase, modulation, mean, psi = (a.astype(out_dt) for a in (phase, modulation, mean, psi))
     return PhaseResult(
         wrapped_phase=phase,
         modulation=modulation,
@@ -802,6 +819,7 @@ def _decode_set_blocks(
     min_modulation: float,
     reject_saturated: bool,
     mask: NDArray[np.bool_] | None,
+    dtype: np.dtype = np.dtype(np.float64),
 ) -> PhaseResult:
     """:func:`decode_set` of a standard sinusoidal set in one fused pass per block of pixels.
 
@@ -820,6 +838,7 @@ def _decode_set_blocks(
         min_modulation=min_modulation,
         reject_saturated=reject_saturated,
         mask=None if mask is None else mask.reshape(-1),
+        dtype=dtype.type,
     )
     assert maps.modulation is not None and maps.mean is not None
     assert maps.data_modulation is not None and maps.saturation_count is not None

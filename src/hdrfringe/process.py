@@ -270,6 +270,7 @@ def decode_captures(
     saturated: str = "flag",
     min_shifts: int = 3,
     given_phases: Mapping[str, NDArray[np.float64]] | None = None,
+    map_dtype: str = "float64",
 ) -> FolderPhase:
     """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
@@ -296,6 +297,11 @@ def decode_captures(
         it (the adaptive projection unwraps it with its mapping's fringe orders and corrects
         its map's bias, :mod:`hdrfringe.strategies.adaptive`); it replaces the family's own
         unwrapping wherever the captured finest set decodes (valid, unsaturated).
+    map_dtype : {"float64", "float32"}
+        Storage of each set's float maps, ``saturated="flag"`` only (``dtype`` of
+        :func:`hdrfringe.phase.decode_set`: computed in float64, float32 rounds the stored
+        maps, halving their memory). The unwrapped and absolute phases are float64 either way,
+        computed from the stored wrapped phases.
 
     Returns
     -------
@@ -306,7 +312,8 @@ def decode_captures(
     ------
     InputError
         ``min_modulation`` not a number of DN in ``0 .. full_scale / 2`` (NaN made every pixel
-        invalid and was blamed on the centerline); an unknown ``saturated`` mode.
+        invalid and was blamed on the centerline); an unknown ``saturated`` mode or
+        ``map_dtype``, or float32 maps with ``saturated="exclude"``.
 
     References
     ----------
@@ -330,6 +337,13 @@ def decode_captures(
         raise InputError(
             f"saturated mode {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
         )
+    if map_dtype not in ("float64", "float32"):
+        raise InputError(f"map_dtype {map_dtype!r} is unknown; give float64 or float32")
+    if map_dtype != "float64" and saturated != "flag":
+        raise InputError(
+            f"map_dtype {map_dtype} applies to saturated='flag'; leave map_dtype at float64 "
+            "with saturated='exclude'"
+        )
     if saturated == "exclude":
         out = _decode_excluding(captures, min_modulation, min_shifts)
         results = out.set_results
@@ -342,6 +356,7 @@ def decode_captures(
                 captures.camera_bit_depth,
                 min_modulation=min_modulation,
                 reject_saturated=reject_saturated,
+                dtype=np.dtype(map_dtype),
             )
         out = FolderPhase(set_results=results, sets=list(captures.sets))
     if not captures.sets:
@@ -366,7 +381,7 @@ def decode_captures(
             code = None
         gc_valid = None
         if spans:
-            base = coarse_phase
+            base = np.asarray(coarse_phase, dtype=np.float64)  # float32 maps: float64 phases
             method = "coarse set spans the projector with one period"
             unwrapping = "one-period"
         elif code is not None:

@@ -212,8 +212,9 @@ def unwrap_spatial(
     is made continuous by adding to every valid pixel the integer multiple of ``2*pi`` that keeps
     the difference between 4-connected valid neighbours below ``pi``, following the most reliable
     pixels first (the sorting-by-reliability path-following algorithm of Herraez et al., as
-    implemented by :func:`skimage.restoration.unwrap_phase`). The map is exact wherever the true
-    phase changes by less than ``pi`` between neighbours.
+    implemented by :func:`skimage.restoration.unwrap_phase`, which is called only for maps whose
+    loops do not close; see Notes). The map is exact wherever the true phase changes by less
+    than ``pi`` between neighbours.
 
     Parameters
     ----------
@@ -264,10 +265,17 @@ def unwrap_spatial(
     *NaN.* scikit-image's unwrapper does not return when its input contains NaN, so NaN is
     never passed to it: invalid pixels are replaced by 0 and masked.
 
-    The fringe orders are deterministic (the unwrapper's random generator is seeded); the last
-    bit of the values may depend on earlier calls in the same process, because scikit-image's
-    2-D unwrapper also draws from the C library's ``rand()`` (benchmarks/README.md, spatial
-    unwrapping).
+    *Loops that close.* Where the wrapped differences between valid neighbours sum to zero
+    round every loop of valid pixels (no residue, no hole whose boundary turns by ``2*pi``),
+    the orders are found by integrating those differences (row runs joined vertically, every
+    edge checked) instead of by scikit-image: the same orders, since every path gives them
+    there, at a fraction of the cost. Elsewhere scikit-image decides.
+
+    *Determinism.* Values are exactly ``wrapped + 2*pi*K`` (integer ``K``, one rounding), and
+    each region's orders are counted from its first pixel before anchoring, so where loops
+    close no bit depends on anything but the input. Where scikit-image decides, the orders of
+    pixels on which paths disagree can depend on earlier calls in the process: its border
+    reliabilities are drawn from the C library's ``rand()`` (docs/unwrapping.md).
 
     References
     ----------
@@ -305,9 +313,6 @@ def unwrap_spatial(
     out = np.full(phase.shape, np.nan)
     if not valid.any():
         return out
-    # imported here: only spatial unwrapping needs them (cold start of temporal-only commands)
-    from skimage.restoration import unwrap_phase
-
     # A map without invalid pixels is one region: no labelling, no masked array, no gathers.
     all_valid = bool(valid.all())
     labels: NDArray | None = None
@@ -338,45 +343,187 @@ def unwrap_spatial(
         phase[~valid] = 0.0
     centred = np.mod(phase, TWO_PI)
     centred -= np.pi
-    with warnings.catch_warnings():
-        # (1, W) and (H, 1) images work but warn about the length-1 dimension.
-        warnings.filterwarnings("ignore", message="Image has a length 1 dimension")
-        if all_valid:  # nothing masked: the same call as with an all-False mask
-            raw = unwrap_phase(centred, rng=_SKIMAGE_SEED)
-        else:
-            centred[~valid] = 0.0
-            raw = np.ma.getdata(unwrap_phase(np.ma.array(centred, mask=~valid), rng=_SKIMAGE_SEED))
+    # Fringe orders by integrating the wrapped differences when every loop of valid pixels
+    # closes (no residue): then every path-following unwrapper gives these orders up to one
+    # constant per region. Otherwise scikit-image decides (its path matters there).
+    path = _path_orders(centred, None if all_valid else valid)
+    if path is not None:
+        raw = centred + TWO_PI * path
+    else:
+        # imported here: only maps with residues need it (cold start)
+        from skimage.restoration import unwrap_phase
 
-    # Integer fringe order of every valid pixel relative to its wrapped value.
-    # In place in a fresh array, in the order of `w + 2*pi * rint((raw + pi - w) / (2*pi))`.
+        with warnings.catch_warnings():
+            # (1, W) and (H, 1) images work but warn about the length-1 dimension.
+            warnings.filterwarnings("ignore", message="Image has a length 1 dimension")
+            if all_valid:  # nothing masked: the same call as with an all-False mask
+                raw = unwrap_phase(centred, rng=_SKIMAGE_SEED)
+            else:
+                centred[~valid] = 0.0
+                masked = np.ma.array(centred, mask=~valid)
+                raw = np.ma.getdata(unwrap_phase(masked, rng=_SKIMAGE_SEED))
+
+    # Integer fringe order of every valid pixel relative to its wrapped value, in place in a
+    # fresh array: `rint((raw + pi - w) / (2*pi))`.
     w = phase.ravel() if all_valid else phase[valid]
-    unwrapped = raw.ravel() if all_valid else raw[valid]
-    unwrapped += np.pi
-    unwrapped -= w
-    unwrapped /= TWO_PI
-    np.rint(unwrapped, out=unwrapped)  # the fringe order
-    unwrapped *= TWO_PI
-    unwrapped += w
+    orders = raw.ravel() if all_valid else raw[valid]
+    orders += np.pi
+    orders -= w
+    orders /= TWO_PI
+    np.rint(orders, out=orders)
     lab = None if labels is None else labels[valid]
+    # Each region's orders counted from its first pixel (raster order): the unwrapper's own
+    # constant per region (scikit-image's depends on C rand(), ours on the integration's
+    # start) drops out, and so from here on the result depends on the orders' differences only.
+    if n == 1:
+        orders -= orders[0]
+    else:
+        assert lab is not None
+        firsts = np.flatnonzero(np.diff(np.maximum.accumulate(lab), prepend=0) > 0)
+        orders -= orders[firsts][lab - 1]
+    unwrapped = orders * TWO_PI
+    unwrapped += w
 
     # Regions are anchored by their median; with a reference pixel, `target` is for that pixel.
     median_target = target if ref is None else None
     shift = _orders_to_window(_component_medians(lab, unwrapped, n), median_target)
-    if all_valid:
-        out = unwrapped.reshape(phase.shape)
-    else:
-        out[valid] = unwrapped
     if ref is not None:
-        shift[(1 if labels is None else labels[ref]) - 1] = _orders_to_window(out[ref], target)
-    if n == 1:  # one region: one offset
-        add: NDArray | np.float64 = TWO_PI * shift[0]
+        i_ref = int(np.ravel_multi_index(ref, phase.shape))
+        if not all_valid:  # its index among the valid pixels
+            i_ref = int(np.count_nonzero(valid.ravel()[:i_ref]))
+        shift[(1 if lab is None else lab[i_ref]) - 1] = _orders_to_window(unwrapped[i_ref], target)
+    # Values exactly `w + 2*pi*K` with the integer order K, computed in one step: the same
+    # orders give the same bits, whatever split of K the steps above went through.
+    if n == 1:
+        orders += shift[0]
     else:
         assert lab is not None
-        add = TWO_PI * shift[lab - 1]
+        orders += shift[lab - 1]
+    orders *= TWO_PI
+    orders += w
     if all_valid:
-        out += add
-    else:
-        out[valid] += add
+        return orders.reshape(phase.shape)
+    out[valid] = orders
+    return out
+
+
+def _path_orders(
+    centred: NDArray[np.float64], valid: NDArray[np.bool_] | None
+) -> NDArray[np.float64] | None:
+    """Fringe orders of a wrapped map by integrating its wrapped differences, or None.
+
+    ``k[q] - k[p]`` for 4-neighbours ``p, q`` (``q`` right of or below ``p``) is +1 where
+    ``c[p] - c[q] > pi``, -1 where it is ``< -pi``, else 0 (scikit-image's rule, ties at
+    exactly pi included). Orders are integrated along each row run of valid pixels; every run
+    takes its offset from the first run above it that it touches (a forest of runs, offsets
+    accumulated by pointer jumping); trees that touch only below are joined by a small
+    union-find. Every vertical edge is then checked: if any loop of valid pixels does not
+    close (a residue, or a hole whose boundary turns by 2 pi), the orders depend on the path
+    and None is returned. Otherwise the result is the only unwrapping up to one constant per
+    4-connected region.
+
+    Parameters
+    ----------
+    centred : ndarray of float64, shape (H, W)
+        Wrapped phase in [-pi, pi) (any value at invalid pixels).
+    valid : ndarray of bool, shape (H, W), or None
+        Valid pixels (None: all).
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W), or None
+        Integer orders (meaningless at invalid pixels), or None if the map has a loop that
+        does not close.
+    """
+    h, w = centred.shape
+    d = centred[:, :-1] - centred[:, 1:]
+    jx = (d > np.pi).view(np.int8) - (d < -np.pi).view(np.int8)
+    d = centred[:-1] - centred[1:]
+    jy = (d > np.pi).view(np.int8) - (d < -np.pi).view(np.int8)
+    del d
+    k_row = np.zeros((h, w), np.int32)  # |orders| < 2^31: a map has fewer pixels than that
+    if valid is None:
+        np.cumsum(jx, axis=1, dtype=np.int32, out=k_row[:, 1:])
+        col = np.zeros(h, np.int32)
+        np.cumsum(jy[:, 0], dtype=np.int32, out=col[1:])
+        k_row += col[:, None]
+        if not np.array_equal(k_row[1:] - k_row[:-1], jy):
+            return None
+        return k_row.astype(np.float64)
+    jx[~(valid[:, :-1] & valid[:, 1:])] = 0  # across gaps: the runs' offsets decide
+    np.cumsum(jx, axis=1, dtype=np.int32, out=k_row[:, 1:])
+    starts = valid.copy()
+    starts[:, 1:] &= ~valid[:, :-1]
+    run = np.cumsum(starts.ravel(), dtype=np.int64) - 1  # run of each valid pixel, raster order
+    n_runs = int(run[-1]) + 1
+    top = np.flatnonzero((valid[:-1] & valid[1:]).ravel())  # vertical edges (top pixel)
+    bot = top + w
+    kr = k_row.ravel()
+    need = jy.ravel()[top].astype(np.int64) - (kr[bot] - kr[top])  # offset below - above
+    ra, rb = run[top], run[bot]
+    parent = np.arange(n_runs)
+    off = np.zeros(n_runs, np.int64)
+    if top.size:
+        first = np.flatnonzero(np.diff(rb, prepend=-1))  # rb is sorted: each run's first edge
+        parent[rb[first]] = ra[first]
+        off[rb[first]] = need[first]
+    while True:  # pointer jumping: offsets relative to each tree's root
+        grand = parent[parent]
+        if np.array_equal(grand, parent):
+            break
+        off += off[parent]
+        parent = grand
+    resid = need - (off[rb] - off[ra])
+    ta, tb = parent[ra], parent[rb]
+    same = ta == tb
+    if resid[same].any():
+        return None
+    if not same.all():
+        root_off = _join_trees(ta[~same], tb[~same], resid[~same])
+        if root_off is None:
+            return None
+        extra = np.zeros(n_runs, np.int64)
+        extra[list(root_off)] = list(root_off.values())
+        off += extra[parent]
+    orders = off[run].reshape(h, w).astype(np.float64)  # invalid pixels: any run, harmless
+    orders += k_row
+    return orders
+
+
+def _join_trees(a: NDArray, b: NDArray, delta: NDArray) -> dict[int, int] | None:
+    """Offsets ``z`` with ``z[b] - z[a] = delta`` for every pair (union-find), or None if
+    two pairs disagree. Keys: the roots that need a non-zero offset."""
+    pairs = np.unique(np.stack([a, b, delta], axis=1), axis=0)
+    up: dict[int, tuple[int, int]] = {}  # node -> (parent, z[node] - z[parent])
+
+    def find(x: int) -> tuple[int, int]:
+        total = 0
+        path = []
+        while x in up:
+            path.append(x)
+            p, d = up[x]
+            total += d
+            x = p
+        acc = total
+        for node in path:  # path compression: straight to the root
+            p, d = up[node]
+            up[node] = (x, acc)
+            acc -= d
+        return x, total
+
+    for x, y, dz in pairs.tolist():
+        rx, zx = find(x)
+        ry, zy = find(y)
+        if rx == ry:
+            if zy - zx != dz:
+                return None
+            continue
+        up[ry] = (rx, zx + dz - zy)
+    out = {}
+    for node in list(up):
+        _, z = find(node)
+        if z:
+            out[node] = z
     return out
 
 

@@ -62,6 +62,14 @@ def phase(
             "sets with 4 or more shifts.",
         ),
     ] = None,
+    map_dtype: Annotated[
+        str,
+        typer.Option(
+            help="float64: decode into float64 maps (default); float32: the same float64 "
+            "computation stored in float32, half the memory for large images (the written "
+            "TIFFs are float32 either way; docs/phase.md).",
+        ),
+    ] = "float64",
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe._validation import SATURATED_MODES, describe_saturated
@@ -86,6 +94,10 @@ def phase(
         raise InputError("--min-shifts applies to --saturated exclude; add it or drop --min-shifts")
     if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
         raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
+    if map_dtype not in ("float64", "float32"):
+        raise InputError(f"--map-dtype {map_dtype!r} is unknown; give float64 or float32")
+    if map_dtype != "float64" and saturated != "flag":
+        raise InputError("--map-dtype float32 applies to --saturated flag; drop one of them")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     check_output_against_inputs(output, [folder])
@@ -102,7 +114,10 @@ def phase(
 
     if saturated == "flag":
         decoded = decode_captures(
-            captures, min_modulation=min_modulation, reject_saturated=not keep_saturated
+            captures,
+            min_modulation=min_modulation,
+            reject_saturated=not keep_saturated,
+            map_dtype=map_dtype,
         )
     else:
         decoded = decode_captures(
