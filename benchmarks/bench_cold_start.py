@@ -51,6 +51,7 @@ from hdrfringe.io.phase_maps import write_phase_maps
 from hdrfringe.io.results import check_output_dir, staged_output_dir
 from hdrfringe.patterns import FringeSpec, fringe_gray
 from hdrfringe.process import decode_captures
+from hdrfringe.uncertainty import predict_uncertainty
 
 HEIGHT, WIDTH = 494, 648
 SEED = 20240601
@@ -76,8 +77,9 @@ def library_phase(folder: Path, out: Path) -> None:
     out = check_output_dir(out, True)
     captures = read_capture_folder(folder)
     decoded = decode_captures(captures)
+    unc = predict_uncertainty(captures, decoded)  # the command's default (--uncertainty)
     with staged_output_dir(out, force=True) as tmp:
-        write_phase_maps(tmp, decoded, str(folder))
+        write_phase_maps(tmp, decoded, str(folder), uncertainty=unc)
 
 
 @contextlib.contextmanager
