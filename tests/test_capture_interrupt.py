@@ -42,11 +42,15 @@ def start_capture(display: str, out: Path) -> subprocess.Popen[str]:
     camera = f"loop:checkerboard?display={display}&size=80x60"
     args = ["capture", "--projector", f"screen:0@{display}", "--camera", camera,
             "--pitch", "1024,64,8", "--settle", SETTLE, "-o", str(out)]  # fmt: skip
+    # A shell that starts jobs in the background (CI may) hands them SIGINT ignored, and
+    # Python then installs no KeyboardInterrupt handler: the child gets the default back, so
+    # the Ctrl-C test's signal reaches the command (it ran to the end, exit 0, without this)
     return subprocess.Popen(
         [sys.executable, "-m", "hdrfringe.cli", *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
 
 
