@@ -28,7 +28,6 @@ import inspect
 import json
 import os
 import platform
-import resource
 import statistics
 import subprocess
 import sys
@@ -36,7 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench_cold_start import compiled_package
+from bench_cold_start import _run, compiled_package
 from hdrfringe import pipeline
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.measurement_outputs import write_measurement
@@ -65,18 +64,6 @@ def library_measure(folder: Path, out: Path, previews: bool = True) -> tuple[flo
     kw = {"previews": previews} if HAS_NO_PREVIEWS else {}
     write_measurement(result, out, force=True, **kw)
     return t1 - t0, t2 - t1, time.perf_counter() - t2
-
-
-def _children_cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
-
-
-def _run(cmd: list[str]) -> tuple[float, float]:
-    """Wall and CPU time of one run of ``cmd``."""
-    c0, t0 = _children_cpu(), time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - t0, _children_cpu() - c0
 
 
 def main() -> None:
