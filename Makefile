@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
 .PHONY: install system-packages demo test lint bench bench-sweep bench-cold bench-peers \
-	bench-memory bench-measure bench-unwrap clean
+	bench-memory bench-measure bench-unwrap native clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -14,9 +14,13 @@ X_PACKAGES := xvfb libgl1 libglx-mesa0 libgl1-mesa-dri libx11-6 libxext6 libxi6 
 	libxrandr2 libxrender1 libxxf86vm1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-$(STAMP): pyproject.toml
+NATIVE_SRC := $(wildcard src/hdrfringe/_native/*.c)
+
+# The editable install compiles the native kernels in place (setup.py); a changed C file
+# reinstalls.
+$(STAMP): pyproject.toml setup.py $(NATIVE_SRC)
 	$(PY) -m venv $(VENV)
-	$(VENV)/bin/pip install --quiet --upgrade pip
+	$(VENV)/bin/pip install --quiet --upgrade pip "setuptools>=77"
 	$(VENV)/bin/pip install --quiet -e ".[dev]"
 	touch $(STAMP)
 
@@ -29,6 +33,11 @@ system-packages:
 	fi
 
 install: $(STAMP) system-packages
+
+# Rebuild the native kernels in place after editing src/hdrfringe/_native/*.c (a worktree run
+# with PYTHONPATH=src uses them from there).
+native: $(STAMP)
+	$(VENV)/bin/python setup.py -q build_ext --inplace
 
 demo: $(STAMP)
 	$(VENV)/bin/hdrfringe demo -o $(OUT) --force

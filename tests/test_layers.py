@@ -36,6 +36,7 @@ LAYERS: dict[str, int] = {
     "captures": CORE,
     "phase": CORE,
     "_blockdecode": CORE,
+    "_native": CORE,
     "unwrap": CORE,
     "graycode": CORE,
     "calibration": CORE,
