@@ -65,7 +65,15 @@ from hdrfringe.saturation.estimate import (
 from hdrfringe.strategies.dpa import dpa
 from hdrfringe.strategies.lpa import lpa
 
-__all__ = ["PATTERN", "cell_study", "corrections", "grid_study", "main", "training_truth"]
+__all__ = [
+    "PATTERN",
+    "board_study",
+    "cell_study",
+    "corrections",
+    "grid_study",
+    "main",
+    "training_truth",
+]
 
 PATTERN = "sinusoidal-4"
 #: Full scale minus half a gray level: where the rounded reading of a signal saturates.
@@ -140,6 +148,17 @@ def _setup(exp: Experiment, base: Ch4Setup, pitch: int, depth: float) -> tuple[A
     sweep = PlateSweep(depth, setup, spec, scene=exp.scene_at(depth))
     rig = SweepRig(sweep, setup, exp.lux, (exp.name, PATTERN, pitch, depth))
     return setup, spec, cal, mask, sweep, rig
+
+
+class _NoiseFreeRig(SweepRig):
+    """:class:`SweepRig` without sensor noise: the signal rounded and clipped."""
+
+    def capture(self, frames: Sequence[Any], settings: Any = None) -> NDArray:
+        migl = float(frames[0].spec.migl)
+        if migl not in self._sets:
+            signal = self.sweep.signal(migl, self.lux)
+            self._sets[migl] = np.clip(np.rint(signal), 0, 255).astype(np.uint8)
+        return self._sets[migl]
 
 
 def _height_error(res: Any, sweep: PlateSweep, cal: Any) -> NDArray:
@@ -239,6 +258,125 @@ def cell_study(
     return out
 
 
+def board_study(
+    base: Ch4Setup,
+    pitch: int = 14,
+    depth_mm: float = 18.0,
+    steps: Sequence[int] = (15, 20, 30, 45),
+    tops: Sequence[int] = tuple(range(255, 240, -1)),
+) -> dict[str, Any]:
+    """LPA's large-step penalty on the checkerboard (Table 6.2): where the white squares clear.
+
+    LPA with step S merges each pixel at the first captured MIGL ``top - k S`` at or below its
+    best. The study records the white (saturated at 255) squares' noise-free ``ideal`` MIGLs,
+    and, for each S, the std and the mean ``gap`` (ideal minus merged MIGL) with the
+    reproduction's top MIGL 255 and averaged over the top MIGLs ``tops`` (every alignment of the
+    MIGL grid against the white squares' clearing MIGL).
+
+    Returns
+    -------
+    dict
+        ``white``: pixels and ideal-MIGL percentiles; ``lpa``: per S, per top: std (all, white,
+        black) and the white squares' mean gap; ``noise_free``: per S at top 255, the std
+        (all, white, black) of the same method on the noise-free images (rounded and clipped):
+        the part of the std that does not depend on the noise; ``plate_noise_free_std_mm``: the
+        std of the white plate at the same position, unsaturated (MIGL 150, 0 lx), noise-free,
+        with the same calibration.
+    """
+    exp = experiments(quick=True, preset=base.preset)["checkerboard"]
+    setup, spec, cal, mask, sweep, rig = _setup(exp, base, pitch, depth_mm)
+    top = rig.capture(spec.frames())
+    white = mask & (saturation_count(top, 8) > 0)
+    black = mask & ~white
+    ideal = np.full(white.shape, np.nan)
+    for m in range(255, int(setup.imin), -1):
+        new = np.isnan(ideal) & (sweep.signal(float(m), exp.lux).max(axis=0) < FULL)
+        ideal[new] = m
+    vals, counts = np.unique(ideal[white], return_counts=True)
+    modes = sorted(zip(counts.tolist(), vals.tolist(), strict=True), reverse=True)[:4]
+    out: dict[str, Any] = {
+        "pitch_px": pitch,
+        "depth_mm": depth_mm,
+        "white": {
+            "pixels": int(white.sum()),
+            "of": int(mask.sum()),
+            "ideal_migl_p5_p50_p95": _pct(ideal[white]),
+            "ideal_migl_modes": [[float(v), int(c)] for c, v in modes],
+        },
+        "lpa": {},
+    }
+    for s in steps:
+        rows = []
+        for t in tops:
+            res = lpa(rig, spec.with_migl(float(t)), step=float(s))
+            err = _height_error(res, sweep, cal)
+            gap = ideal - res.index_map
+            rows.append(
+                {
+                    "top": t,
+                    "sets": res.sets_captured,
+                    "std_mm": [float(err[r].std()) for r in (mask, white, black)],
+                    "gap_white": float(np.nanmean(gap[white])),
+                }
+            )
+        out["lpa"][str(s)] = rows
+    quiet = _NoiseFreeRig(sweep, setup, exp.lux, rig.key)
+    out["noise_free"] = {}
+    for s in steps:
+        err = _height_error(lpa(quiet, spec, step=float(s)), sweep, cal)
+        out["noise_free"][str(s)] = [float(err[r].std()) for r in (mask, white, black)]
+    plate = PlateSweep(depth_mm, setup, spec, scene=white_plate(depth_mm))
+    images = np.clip(np.rint(plate.signal(150.0, 0.0)), 0, 255).astype(np.uint8)
+    phase = orders_from_expected(sweep_phase(images, spec), plate.expected_phase)
+    err = np.asarray(cal.height(phase) - plate.truth_height_mm)
+    out["plate_noise_free_std_mm"] = float(err[mask].std())
+    return out
+
+
+def board_dpa(
+    base: Ch4Setup,
+    corr: dict[str, CorrectionPolynomial],
+    pitch: int = 8,
+    depth_mm: float = 18.0,
+) -> dict[str, Any]:
+    """DPA 10 % on one checkerboard cell with each correction: where it places the estimable
+    saturated pixels and where it captures.
+
+    Returns
+    -------
+    dict
+        ``by_saturated_shifts`` at 255, the raw Eq. 6.2 peak of the one-saturated-shift pixels
+        (p5/50/95), and per correction the CDF MIGL of those pixels (p5/50/95, minimum), the
+        MIGLs DPA captured, its rules and its std.
+    """
+    exp = experiments(quick=True, preset=base.preset)["checkerboard"]
+    setup, spec, cal, mask, sweep, rig = _setup(exp, base, pitch, depth_mm)
+    top = rig.capture(spec.frames())
+    nsat = saturation_count(top, 8)
+    peak, trough = peak_and_trough(top, 8, nsat > 0)
+    one = nsat == 1
+    out: dict[str, Any] = {
+        "pitch_px": pitch,
+        "depth_mm": depth_mm,
+        "by_saturated_shifts": [int((nsat == k).sum()) for k in range(5)],
+        "raw_peak_p5_p50_p95": _pct(peak[one]),
+    }
+    for k, c in corr.items():
+        m = unsaturation_migl(
+            c.apply(peak[one]), 255, setup.imin, 8, model=c.truth, offset=trough[one]
+        )
+        m = np.minimum(np.floor(m), 254.0)
+        res = _run("dpa-10", rig, c)
+        out[k] = {
+            "cdf_migl_p5_p50_p95": _pct(m),
+            "cdf_migl_min": float(m.min()),
+            "migls": [float(v) for v in res.migls],
+            "rules": res.details.get("rules"),
+            "std_mm": float(_height_error(res, sweep, cal)[mask].std()),
+        }
+    return out
+
+
 def grid_study(
     base: Ch4Setup, corr: dict[str, CorrectionPolynomial], stores: Sequence[str]
 ) -> dict[str, Any]:
@@ -267,6 +405,41 @@ def grid_study(
                 print(f"{store} pitch {pitch} depth {depth}: {time.perf_counter() - t0:.0f} s")
         out[store] = rows
     return out
+
+
+def board_summary(board: dict[str, Any]) -> list[str]:
+    """Plain-text lines of :func:`board_study`."""
+    w = board["white"]
+    lines = [
+        f"checkerboard pitch {board['pitch_px']} px, depth {board['depth_mm']} mm: white "
+        f"(saturated at 255) {w['pixels']} of {w['of']} pixels, ideal MIGL p5/50/95 "
+        f"{w['ideal_migl_p5_p50_p95']}, most common [MIGL, pixels] {w['ideal_migl_modes']}"
+    ]
+    lines.append(
+        f"  noise-free unsaturated white plate (MIGL 150, same calibration): std "
+        f"{board['plate_noise_free_std_mm']:.3f} mm"
+    )
+    ref = board["lpa"].get("15")
+    for s, rows in board["lpa"].items():
+        at255 = rows[0]
+        line = (
+            f"  LPA S={s:>2s} top 255: sets {at255['sets']:3d} std all/white/black "
+            f"{'/'.join(f'{v:.3f}' for v in at255['std_mm'])} mm, white gap "
+            f"{at255['gap_white']:5.1f}"
+        )
+        if ref is not None:
+            r0 = at255["std_mm"][0] / ref[0]["std_mm"][0]
+            ratios = [r["std_mm"][0] / q["std_mm"][0] for r, q in zip(rows, ref, strict=True)]
+            gaps = np.mean([r["gap_white"] for r in rows])
+            line += (
+                f"; std / S=15: {r0:.3f} at top 255, mean {np.mean(ratios):.3f} (range "
+                f"{min(ratios):.3f}-{max(ratios):.3f}) over tops {rows[-1]['top']}.."
+                f"{rows[0]['top']}, white gap mean {gaps:.1f}"
+            )
+        quiet = board["noise_free"][s]
+        line += f"; noise-free std all/white/black {'/'.join(f'{v:.3f}' for v in quiet)}"
+        lines.append(line)
+    return lines
 
 
 def summary(cell: dict[str, Any], grid: dict[str, Any] | None) -> str:
@@ -313,6 +486,22 @@ def summary(cell: dict[str, Any], grid: dict[str, Any] | None) -> str:
         lines.append(
             f"  correction {name}: training RMSE {c['rmse_before']:.2f} -> {c['rmse_after']:.2f}"
         )
+    if "board" in cell:
+        lines += board_summary(cell["board"])
+    if "board_dpa" in cell:
+        b = cell["board_dpa"]
+        lines.append(
+            f"checkerboard pitch {b['pitch_px']} px, depth {b['depth_mm']} mm, DPA 10 %: "
+            f"saturated shifts 0..4 at 255 {b['by_saturated_shifts']}, raw Eq. 6.2 peak of the "
+            f"one-saturated pixels p5/50/95 {b['raw_peak_p5_p50_p95']} DN"
+        )
+        for k in ("scaled", "thesis"):
+            r = b[k]
+            lines.append(
+                f"  correction {k}: CDF MIGL p5/50/95 {r['cdf_migl_p5_p50_p95']} min "
+                f"{r['cdf_migl_min']:g}; captures {r['migls']} ({r['rules']}); std "
+                f"{r['std_mm']:.3f} mm"
+            )
     for store, rows in (grid or {}).items():
         lines.append(f"grid {store} (means over {len(next(iter(rows.values()))['sets'])} cells):")
         for label, r in rows.items():
@@ -340,6 +529,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         k: {"truth": c.truth, "rmse_before": c.rmse_before, "rmse_after": c.rmse_after}
         for k, c in corr.items()
     }
+    cell["board"] = board_study(base, args.pitch, args.depth)
+    cell["board_dpa"] = board_dpa(base, corr)
     grid = grid_study(base, corr, ("ch6_plate", "checkerboard")) if args.grid else None
     print(summary(cell, grid))
     print(f"({time.perf_counter() - t0:.0f} s)")
