@@ -16,13 +16,18 @@ default pitch 14 px at 18 mm), measured step by step against the rig's noise-fre
   the captures, the phase-height std over the glint and over the rest, and how many gray levels
   below its ``ideal`` MIGL each pixel was merged into the composite (``gap``).
 
+On the checkerboard (Table 6.2): LPA's large-step penalty at the same pitch and depth, with the
+white squares' ideal MIGLs, the gap per step, the std of the same runs on noise-free images and
+the ratios averaged over 15 top MIGLs (:func:`board_study`); and DPA 10 % at 8 px with each
+correction (:func:`board_dpa`).
+
 ``--grid`` runs the sets and stds of those methods over the quick grid's nine cells (pitches
 8/14/20, depths 10/18/26 mm) of the glint plate and of the checkerboard (Tables 6.1 and 6.2).
 docs/reproduction.md ("Thesis-matched preset") quotes the output.
 
 Run: ``.venv/bin/python benchmarks/study_dpa_glint.py [--pitch 14 --depth 18] [--grid]
-[--json out.json]`` (one cell about 1 minute on one core including the 25-position training;
-``--grid`` about 10 minutes more).
+[--json out.json]`` (about 2 minutes on one core at load 10, the 25-position training included;
+``--grid`` about 3 minutes more).
 """
 
 from __future__ import annotations
