@@ -9,8 +9,10 @@ default pitch 14 px at 18 mm), measured step by step against the rig's noise-fre
   signal drops below full scale (``ideal``: its best MIGL);
 * the Eq. 6.2 estimate of the one-saturated-shift pixels against the noise-free peak, raw and
   after each correction polynomial, and the unsaturation MIGL the CDF gives it against ``ideal``;
-* the training truth: the scaled truth of the 25-position training (what the reproduction
-  trains on) against the noise-free peak at one training position;
+* the training: how much the Eq. 6.2 estimate tells about each truth on the 25-position
+  training pixels (correlation; the truth's own spread against the corrected RMSE; the range of
+  corrected values), and the scaled truth (what the reproduction trains on) against the
+  noise-free peak at one training position;
 * every method (LPA S = 15/20/30, DPA 10 %/20 % with the reproduction's correction, and with
   the correction trained on Eq. 6.3's truth as the thesis does): sets, the MIGLs and rules of
   the captures, the phase-height std over the glint and over the rest, and how many gray levels
@@ -95,15 +97,46 @@ METHODS = (
 )
 
 
-def corrections(base: Ch4Setup) -> dict[str, CorrectionPolynomial]:
-    """The reproduction's correction (scaled truth) and the thesis's (Eq. 6.3 truth).
+def corrections(base: Ch4Setup) -> tuple[dict[str, CorrectionPolynomial], dict[str, Any]]:
+    """The reproduction's correction (scaled truth) and the thesis's (Eq. 6.3 truth), and what
+    the Eq. 6.2 estimate tells about each truth on the training pixels.
 
     Both from one 25-position training sweep (:func:`~hdrfringe.reproduce.adaptive.training_data`);
     ``"scaled"`` is what :func:`~hdrfringe.reproduce.adaptive.train_correction` returns for a
     preset.
+
+    Returns
+    -------
+    (dict, dict)
+        The polynomials by truth; per truth the training pixels' ``correlation`` of estimate and
+        truth, the truth's ``truth_std_dn`` (the RMSE of predicting every pixel by the mean),
+        ``rmse_before_dn`` / ``rmse_after_dn`` of the correction, its corrected value at the
+        training domain's ends and highest inside it (``corrected_range_dn``).
     """
     data = training_data(base, training_depths(base))
-    return {truth: data.train(2, truth=truth) for truth in ("scaled", "thesis")}
+    polys: dict[str, CorrectionPolynomial] = {}
+    info: dict[str, Any] = {}
+    for truth in ("scaled", "thesis"):
+        poly = data.train(2, truth=truth)
+        est, true = data.samples(truth=truth)
+        grid = np.linspace(*poly.domain, 301)
+        corrected = poly.apply(grid)
+        polys[truth] = poly
+        info[truth] = {
+            "pixels": int(est.size),
+            "correlation": float(np.corrcoef(est, true)[0, 1]),
+            "truth_mean_dn": float(true.mean()),
+            "truth_std_dn": float(true.std()),
+            "rmse_before_dn": poly.rmse_before,
+            "rmse_after_dn": poly.rmse_after,
+            "domain_dn": [float(v) for v in poly.domain],
+            "corrected_range_dn": [
+                float(corrected[0]),
+                float(corrected[-1]),
+                float(corrected.max()),
+            ],
+        }
+    return polys, info
 
 
 def training_truth(base: Ch4Setup, depth_mm: float = 26.0) -> dict[str, float]:
@@ -488,8 +521,14 @@ def summary(cell: dict[str, Any], grid: dict[str, Any] | None) -> str:
             f"bias {t['bias_dn']:+.2f} DN, RMSE {t['rmse_dn']:.2f} DN"
         )
     for name, c in cell.get("corrections", {}).items():
+        lo, hi = c["domain_dn"]
         lines.append(
-            f"  correction {name}: training RMSE {c['rmse_before']:.2f} -> {c['rmse_after']:.2f}"
+            f"  correction {name} ({c['pixels']} training pixels): RMSE {c['rmse_before_dn']:.2f}"
+            f" -> {c['rmse_after_dn']:.2f} DN; the truth's own std {c['truth_std_dn']:.2f} DN "
+            f"(mean {c['truth_mean_dn']:.1f}); correlation of estimate and truth "
+            f"{c['correlation']:+.3f}; corrected value at estimate {lo:.0f} / {hi:.0f} DN: "
+            f"{c['corrected_range_dn'][0]:.1f} / {c['corrected_range_dn'][1]:.1f}, highest "
+            f"{c['corrected_range_dn'][2]:.1f}"
         )
     if "board" in cell:
         lines += board_summary(cell["board"])
@@ -527,13 +566,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
     base = Ch4Setup.thesis_matched(quick=True)
-    corr = corrections(base)
+    corr, info = corrections(base)
     cell = cell_study(base, corr, args.pitch, args.depth)
     cell["training_truth"] = training_truth(base)
-    cell["corrections"] = {
-        k: {"truth": c.truth, "rmse_before": c.rmse_before, "rmse_after": c.rmse_after}
-        for k, c in corr.items()
-    }
+    cell["corrections"] = info
     cell["board"] = board_study(base, args.pitch, args.depth)
     cell["board_dpa"] = board_dpa(base, corr)
     grid = grid_study(base, corr, ("ch6_plate", "checkerboard")) if args.grid else None
