@@ -42,6 +42,7 @@ __all__ = [
     "check_interior_tradeoff",
     "check_lpa_beats_every_uniform_set",
     "check_lpa_set_counts",
+    "check_rule_finds_the_tradeoff",
     "check_saturation_costs_more_than_the_tradeoff",
     "correction_rmse",
     "held_out_samples",
@@ -306,6 +307,43 @@ def check_lpa_beats_every_uniform_set(
         f"LPA std {lpa_std:.4f} not {margin:.0%} below the set at {m} ({s:.4f})"
         for m, s in uniform_std.items()
         if not lpa_std <= (1.0 - margin) * s
+    ]
+
+
+def check_rule_finds_the_tradeoff(
+    rule_std: float, tradeoff_std: float, tolerance: float
+) -> list[str]:
+    """Sec. 4.2 without ground truth: the set that the automatic uniform rule picks (the
+    highest MIGL at which nothing saturates) has an error std within ``tolerance`` (relative)
+    of the trade-off's, the best single set found against the known target.
+
+    Parameters
+    ----------
+    rule_std : float
+        Error std of the rule's set (mean over depth).
+    tradeoff_std : float
+        Error std at the trade-off MIGL (mean over depth).
+    tolerance : float
+        Largest allowed ``rule_std / tradeoff_std - 1``.
+
+    Returns
+    -------
+    list of str
+        The violations.
+
+    Examples
+    --------
+    >>> check_rule_finds_the_tradeoff(0.0627, 0.0580, 0.10)
+    []
+    >>> check_rule_finds_the_tradeoff(0.0741, 0.0580, 0.10)
+    ['rule std 0.0741 is 1.278 x the trade-off std 0.0580, not within 10%']
+    """
+    ratio = rule_std / tradeoff_std
+    if abs(ratio - 1.0) <= tolerance:
+        return []
+    return [
+        f"rule std {rule_std:.4f} is {ratio:.3f} x the trade-off std {tradeoff_std:.4f}, "
+        f"not within {tolerance:.0%}"
     ]
 
 
