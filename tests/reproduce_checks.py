@@ -40,12 +40,14 @@ __all__ = [
     "check_dpa_matches_lpa_15",
     "check_dpa_sets_fall_with_pitch",
     "check_interior_tradeoff",
+    "check_levels_flat",
     "check_lpa_beats_every_uniform_set",
     "check_lpa_set_counts",
     "check_rule_finds_the_tradeoff",
     "check_saturation_costs_more_than_the_tradeoff",
     "correction_rmse",
     "held_out_samples",
+    "level_std",
     "lpa_and_uniform_std",
     "lpa_set_count",
     "method_std_by_cell",
@@ -194,6 +196,77 @@ def method_std_by_cell(out: Path, method: str) -> dict[str, float]:
         for pitch, s in zip(ds["pitch"].values, std.values, strict=True):
             cells[f"{store} pitch {pitch}"] = float(s)
     return cells
+
+
+def level_std(
+    plate: xr.Dataset, pattern: str, pitch: int, min_fraction: float = 0.02
+) -> dict[float, float]:
+    """Fig. 5.6 in error std: per MIGL of LPA's index image (``ch5_plate``'s ``level_*``
+    variables) holding at least ``min_fraction`` of the pixels over the depths, the std of
+    those pixels' error at each depth, averaged over the depths weighted by their pixel count.
+
+    Per depth, not pooled over depths as the figure's RMSE is
+    (:func:`~hdrfringe.reproduce.adaptive_report.pooled_levels`): the linear model's bias
+    differs between depths (-0.16 to +0.08 mm on the quick grid), and pooling adds its spread
+    to every level's std (0.09-0.12 mm pooled against 0.054-0.058 mm per depth, sinusoidal
+    3-step, pitch 6).
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` store (or a part of its depths).
+    pattern : str
+        Pattern name.
+    pitch : int
+        Pitch.
+    min_fraction : float
+        Smallest share of the pixels (mean over depth) a level must hold.
+
+    Returns
+    -------
+    dict of float to float
+        Index MIGL to std (mm), highest MIGL first.
+    """
+    cell = plate.sel(pattern=pattern, pitch=pitch)
+    f = np.nan_to_num(cell["level_fraction"].values)  # (depth, level)
+    var = cell["level_rmse_mm"].values ** 2 - cell["level_mean_error_mm"].values ** 2
+    std = np.sqrt(np.clip(np.nan_to_num(var), 0.0, None))
+    total = f.sum(axis=0)
+    keep = total / f.shape[0] >= min_fraction
+    mean = (f * std).sum(axis=0)[keep] / total[keep]
+    return dict(zip(cell["index_migl"].values[keep].tolist(), mean.tolist(), strict=True))
+
+
+def check_levels_flat(std_by_level: Mapping[float, float], ratio: float) -> list[str]:
+    """Fig. 5.6: the pixels LPA composes from each of its MIGLs have about the same error std:
+    the largest is below ``ratio`` times the smallest. A pixel taken from a set in which one
+    of its shifts is saturated carries the saturation error, so its level stands out.
+
+    Parameters
+    ----------
+    std_by_level : mapping of float to float
+        Per index MIGL, the std (:func:`level_std`).
+    ratio : float
+        Bound on max / min.
+
+    Returns
+    -------
+    list of str
+        The violations.
+
+    Examples
+    --------
+    >>> check_levels_flat({255.0: 0.054, 235.0: 0.057}, 1.25)
+    []
+    >>> check_levels_flat({255.0: 0.140, 235.0: 0.057}, 1.25)
+    ['std of the pixels from MIGL 255 is 2.456 x that from MIGL 235, not < 1.25']
+    """
+    hi = max(std_by_level, key=lambda m: std_by_level[m])
+    lo = min(std_by_level, key=lambda m: std_by_level[m])
+    r = std_by_level[hi] / std_by_level[lo]
+    if r < ratio:
+        return []
+    return [f"std of the pixels from MIGL {hi:g} is {r:.3f} x that from MIGL {lo:g}, not < {ratio}"]
 
 
 def check_interior_tradeoff(

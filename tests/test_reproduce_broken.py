@@ -52,6 +52,44 @@ def test_the_table_4_3_check_rejects_a_wrong_tradeoff_and_harmless_saturation(qu
     )
 
 
+def test_the_fig_5_6_check_rejects_an_lpa_that_tests_one_shift_only(
+    quick_run, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """LPA S=5 that tests saturation on the first shift only (the other shifts of a pixel may
+    be saturated when it is composed), rerun on the quick reproduction's four triangular
+    3-step, pitch-6 cells (about 7 s) and put in the store in place of the real one: the step
+    std check rejects it (MIGL 255's pixels, about 70 % of all, have 1.86 x the std of the
+    others), while the former check, the steps' pooled RMSE within 0.05 mm, passed it
+    (0.036 mm) as it passed the real LPA (0.017 mm)."""
+    from hdrfringe._validation import full_scale
+    from hdrfringe.reproduce.adaptive import adaptive_cell, experiments
+    from hdrfringe.reproduce.adaptive_report import pooled_levels
+    from hdrfringe.reproduce.ch4 import QUICK_SETUP
+    from hdrfringe.strategies import lpa as lpa_module
+
+    def first_shift_only(images: np.ndarray, bit_depth: int) -> np.ndarray:
+        return images[0] < full_scale(bit_depth)
+
+    monkeypatch.setattr(lpa_module, "unsaturated_mask", first_shift_only)
+    exp = experiments(quick=True)["ch5_plate"]
+    cell = {"pattern": "triangular-3", "pitch": 6}
+    plate = open_results(quick_run / "ch5_plate.zarr").load()
+    broken = plate.copy(deep=True)
+    for depth in plate["depth_mm"].values:
+        out = adaptive_cell(
+            exp, cell["pattern"], 6, float(depth), QUICK_SETUP, CorrectionPolynomial.identity()
+        )
+        for key in ("level_fraction", "level_rmse_mm", "level_mean_error_mm"):
+            broken[key].loc[{**cell, "depth_mm": depth}] = out[key]
+    levels = checks.level_std(broken, **cell)
+    assert len(levels) >= 4 and max(levels, key=lambda m: levels[m]) == 255.0
+    assert checks.check_levels_flat(levels, 1.3)
+    for ds in (plate, broken):  # the former check passed both
+        lv = pooled_levels(ds, **cell)
+        used = lv["fraction"] >= 0.02
+        assert used.sum() >= 4 and np.ptp(lv["rmse"][used]) < 0.05
+
+
 def test_the_table_5_1_check_rejects_every_single_set_that_the_old_check_accepted(
     quick_run,
 ) -> None:
