@@ -79,11 +79,21 @@ def test_fig_5_6_error_is_flat_over_the_lpa_steps(quick_run) -> None:
 
 
 def test_table_5_2_lpa_beats_the_uniform_tradeoff_on_the_checkerboard(quick_run) -> None:
+    """Table 5.2 (checkerboard, pitch 8): LPA with S = 1..15 has an error std at least 15 %
+    below the uniform trade-off's (measured 0.0748-0.0777 against 0.0988 mm at MIGL 115:
+    21-24 % below; the thesis 0.47-0.48 against 0.83 mm, 42-43 %); set counts fall with S.
+
+    The RMSEs (0.177-0.178 against 0.188 mm) differ by 6 % only: the linear model's bias,
+    -0.160 mm for every method, is most of them. The former check (RMSE and std merely below
+    the trade-off's) passed an LPA whose std is 15 % larger; this one rejects it
+    (test_reproduce_broken)."""
     rows = {r["method"]: r for r in _tables(quick_run)["table_5_2"]}
     _, rmse_u, std_u = rows["uniform"]["ours"]
+    tradeoff = {f"uniform trade-off, MIGL {rows['uniform']['tradeoff_migl']:g}": std_u}
     for s in (1, 2, 3, 5, 10, 15):
         _, rmse, std = rows[f"lpa-{s}"]["ours"]
-        assert rmse < rmse_u and std < std_u, s
+        assert rmse < rmse_u, s
+        assert not checks.check_lpa_beats_every_uniform_set(std, tradeoff, 0.15), s
     sets = [rows[f"lpa-{s}"]["ours"][0] for s in (1, 2, 3, 5, 10, 15, 20, 30, 45)]
     assert sets == sorted(sets, reverse=True) and sets[-1] < sets[0] / 20
     assert rows["uniform"]["tradeoff_migl"] < 200  # the white squares need a low MIGL

@@ -9,6 +9,7 @@ check accepted the broken variant, the test says so too, so the weakness it fixe
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -117,6 +118,20 @@ def test_the_table_5_1_check_rejects_every_single_set_that_the_old_check_accepte
         assert rmse <= 1.15 * tradeoff_rmse, label  # the former check passed it
         std = sets[label]
         assert checks.check_lpa_beats_every_uniform_set(std, sets, 0.01), label
+
+
+def test_the_table_5_2_check_rejects_an_lpa_with_15_percent_more_std(quick_run) -> None:
+    """Table 5.2 (checkerboard, pitch 8): every LPA step S = 1..15 with its error std inflated
+    by 15 % fails the 15 % margin over the uniform trade-off, while the former check (RMSE and
+    std below the trade-off's, same bias) passed each of them."""
+    table = json.loads((quick_run / "tables.json").read_text())["adaptive"]["table_5_2"]
+    rows = {r["method"]: r for r in table}
+    _, rmse_u, std_u = rows["uniform"]["ours"]
+    for s in (1, 2, 3, 5, 10, 15):
+        row = rows[f"lpa-{s}"]
+        std = 1.15 * row["ours"][2]
+        assert _rmse(row["bias_mm"], std) < rmse_u and std < std_u, s  # the former check
+        assert checks.check_lpa_beats_every_uniform_set(std, {"trade-off": std_u}, 0.15), s
 
 
 def test_the_dpa_check_rejects_a_dpa_with_10_percent_more_std(quick_run) -> None:
