@@ -45,12 +45,14 @@ __all__ = [
     "check_lpa_set_counts",
     "check_rule_finds_the_tradeoff",
     "check_saturation_costs_more_than_the_tradeoff",
+    "check_tradeoff_is_saturation_free",
     "correction_rmse",
     "held_out_samples",
     "level_std",
     "lpa_and_uniform_std",
     "lpa_set_count",
     "method_std_by_cell",
+    "table_4_1_std",
     "table_4_3_std",
 ]
 
@@ -352,6 +354,69 @@ def check_saturation_costs_more_than_the_tradeoff(
         out.append(f"std at 255 is {at_top / at_tradeoff:.3f} x the trade-off's, not > {top}")
     if not at_tradeoff < dark_ratio * dark:
         out.append(f"trade-off std is {at_tradeoff / dark:.3f} x the 0 lx one, not < {dark_ratio}")
+    return out
+
+
+def table_4_1_std(out: Path, pattern: str = "sinusoidal-3") -> dict[float, xr.DataArray]:
+    """Table 4.1's sweep (Eq. 4.1: light added to the 0 lx captures) in error std, mean over
+    depth, per added lux: a curve over MIGL, highest first.
+
+    Parameters
+    ----------
+    out : Path
+        A reproduction folder.
+    pattern : str
+        Pattern name (the table's is sinusoidal 3-step).
+
+    Returns
+    -------
+    dict of float to xarray.DataArray
+        Added lux to the std over ``migl``.
+    """
+    sim = open_results(out / "ch4_simulation.zarr").sel(pattern=pattern)
+    std = sim["std_light_mm"].mean("depth_mm").sortby("migl", ascending=False).load()
+    return {float(lux): std.sel(added_lux=lux) for lux in std["added_lux"].values}
+
+
+def check_tradeoff_is_saturation_free(
+    at_top: float, at_tradeoff: float, noise_only: float, top: float, tolerance: float
+) -> list[str]:
+    """Table 4.1: under added light the std at MIGL 255 is more than ``top`` times the
+    trade-off's, and the trade-off's std is within ``tolerance`` (relative) of the noise-only
+    std at the same MIGL: the same captures with less light, where nothing saturates (Eq. 4.1
+    adds light without noise, and a constant offset does not move the phase, so the two differ
+    by saturation alone). The first rejects a trade-off MIGL too low (noise), the second one
+    too high (saturation).
+
+    Parameters
+    ----------
+    at_top, at_tradeoff : float
+        Std at MIGL 255 and at the trade-off MIGL, under the added light.
+    noise_only : float
+        Std at the trade-off MIGL with light that saturates nothing.
+    top, tolerance : float
+        Required ``at_top / at_tradeoff`` (>) and bound on ``|at_tradeoff / noise_only - 1|``.
+
+    Returns
+    -------
+    list of str
+        The violations.
+
+    Examples
+    --------
+    >>> check_tradeoff_is_saturation_free(0.1357, 0.0512, 0.0512, 2.0, 0.05)
+    []
+    >>> len(check_tradeoff_is_saturation_free(0.1357, 0.0806, 0.0475, 2.0, 0.05))
+    2
+    """
+    out = []
+    if not at_top > top * at_tradeoff:
+        out.append(f"std at 255 is {at_top / at_tradeoff:.3f} x the trade-off's, not > {top}")
+    if not abs(at_tradeoff / noise_only - 1.0) <= tolerance:
+        out.append(
+            f"trade-off std is {at_tradeoff / noise_only:.3f} x the noise-only std at its MIGL, "
+            f"not within {tolerance:.0%}"
+        )
     return out
 
 

@@ -91,6 +91,28 @@ def test_the_fig_5_6_check_rejects_an_lpa_that_tests_one_shift_only(
         assert used.sum() >= 4 and np.ptp(lv["rmse"][used]) < 0.05
 
 
+def test_the_table_4_1_check_rejects_tradeoffs_the_rmse_check_accepted(quick_run) -> None:
+    """Table 4.1's sweep with the trade-off search returning another MIGL m: the std check
+    rejects m = 255, 240, 135, 120 and 105 at 600 lx (trade-off 210) and 255..150 at 900 lx
+    (trade-off 135); the former check (RMSE at 255 more than 1.3 x the trade-off's) accepted
+    135 at 600 lx and 210..150 at 900 lx among them."""
+    std = checks.table_4_1_std(quick_run)
+    sim = open_results(quick_run / "ch4_simulation.zarr").sel(pattern="sinusoidal-3")
+    rmse = sim["rmse_light_mm"].mean("depth_mm")
+    cases = {600.0: ((255, 240, 135, 120, 105), (135,)), 900.0: (range(255, 149, -15), (210, 150))}
+    for lux, (wrong, formerly_passed) in cases.items():
+        curve, r = std[lux], rmse.sel(added_lux=lux)
+        for m in (float(m) for m in wrong):
+            at = float(curve.sel(migl=m))
+            noise_only = float(std[300.0].sel(migl=m))
+            violations = checks.check_tradeoff_is_saturation_free(
+                float(curve.sel(migl=255.0)), at, noise_only, 2.0, 0.05
+            )
+            assert violations, (lux, m)
+            former = float(r.sel(migl=255.0)) > 1.3 * float(r.sel(migl=m))
+            assert former == (formerly_passed[-1] <= m <= formerly_passed[0]), (lux, m)
+
+
 def test_the_table_5_1_check_rejects_every_single_set_that_the_old_check_accepted(
     quick_run,
 ) -> None:
