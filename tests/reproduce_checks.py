@@ -40,14 +40,19 @@ __all__ = [
     "check_dpa_matches_lpa_15",
     "check_dpa_sets_fall_with_pitch",
     "check_interior_tradeoff",
+    "check_levels_flat",
     "check_lpa_beats_every_uniform_set",
     "check_lpa_set_counts",
+    "check_rule_finds_the_tradeoff",
     "check_saturation_costs_more_than_the_tradeoff",
+    "check_tradeoff_is_saturation_free",
     "correction_rmse",
     "held_out_samples",
+    "level_std",
     "lpa_and_uniform_std",
     "lpa_set_count",
     "method_std_by_cell",
+    "table_4_1_std",
     "table_4_3_std",
 ]
 
@@ -195,6 +200,77 @@ def method_std_by_cell(out: Path, method: str) -> dict[str, float]:
     return cells
 
 
+def level_std(
+    plate: xr.Dataset, pattern: str, pitch: int, min_fraction: float = 0.02
+) -> dict[float, float]:
+    """Fig. 5.6 in error std: per MIGL of LPA's index image (``ch5_plate``'s ``level_*``
+    variables) holding at least ``min_fraction`` of the pixels over the depths, the std of
+    those pixels' error at each depth, averaged over the depths weighted by their pixel count.
+
+    Per depth, not pooled over depths as the figure's RMSE is
+    (:func:`~hdrfringe.reproduce.adaptive_report.pooled_levels`): the linear model's bias
+    differs between depths (-0.16 to +0.08 mm on the quick grid), and pooling adds its spread
+    to every level's std (0.09-0.12 mm pooled against 0.054-0.058 mm per depth, sinusoidal
+    3-step, pitch 6).
+
+    Parameters
+    ----------
+    plate : xarray.Dataset
+        The ``ch5_plate`` store (or a part of its depths).
+    pattern : str
+        Pattern name.
+    pitch : int
+        Pitch.
+    min_fraction : float
+        Smallest share of the pixels (mean over depth) a level must hold.
+
+    Returns
+    -------
+    dict of float to float
+        Index MIGL to std (mm), highest MIGL first.
+    """
+    cell = plate.sel(pattern=pattern, pitch=pitch)
+    f = np.nan_to_num(cell["level_fraction"].values)  # (depth, level)
+    var = cell["level_rmse_mm"].values ** 2 - cell["level_mean_error_mm"].values ** 2
+    std = np.sqrt(np.clip(np.nan_to_num(var), 0.0, None))
+    total = f.sum(axis=0)
+    keep = total / f.shape[0] >= min_fraction
+    mean = (f * std).sum(axis=0)[keep] / total[keep]
+    return dict(zip(cell["index_migl"].values[keep].tolist(), mean.tolist(), strict=True))
+
+
+def check_levels_flat(std_by_level: Mapping[float, float], ratio: float) -> list[str]:
+    """Fig. 5.6: the pixels LPA composes from each of its MIGLs have about the same error std:
+    the largest is below ``ratio`` times the smallest. A pixel taken from a set in which one
+    of its shifts is saturated carries the saturation error, so its level stands out.
+
+    Parameters
+    ----------
+    std_by_level : mapping of float to float
+        Per index MIGL, the std (:func:`level_std`).
+    ratio : float
+        Bound on max / min.
+
+    Returns
+    -------
+    list of str
+        The violations.
+
+    Examples
+    --------
+    >>> check_levels_flat({255.0: 0.054, 235.0: 0.057}, 1.25)
+    []
+    >>> check_levels_flat({255.0: 0.140, 235.0: 0.057}, 1.25)
+    ['std of the pixels from MIGL 255 is 2.456 x that from MIGL 235, not < 1.25']
+    """
+    hi = max(std_by_level, key=lambda m: std_by_level[m])
+    lo = min(std_by_level, key=lambda m: std_by_level[m])
+    r = std_by_level[hi] / std_by_level[lo]
+    if r < ratio:
+        return []
+    return [f"std of the pixels from MIGL {hi:g} is {r:.3f} x that from MIGL {lo:g}, not < {ratio}"]
+
+
 def check_interior_tradeoff(
     curve: Sequence[float], migls: Sequence[float], top: float, bottom: float
 ) -> list[str]:
@@ -281,6 +357,69 @@ def check_saturation_costs_more_than_the_tradeoff(
     return out
 
 
+def table_4_1_std(out: Path, pattern: str = "sinusoidal-3") -> dict[float, xr.DataArray]:
+    """Table 4.1's sweep (Eq. 4.1: light added to the 0 lx captures) in error std, mean over
+    depth, per added lux: a curve over MIGL, highest first.
+
+    Parameters
+    ----------
+    out : Path
+        A reproduction folder.
+    pattern : str
+        Pattern name (the table's is sinusoidal 3-step).
+
+    Returns
+    -------
+    dict of float to xarray.DataArray
+        Added lux to the std over ``migl``.
+    """
+    sim = open_results(out / "ch4_simulation.zarr").sel(pattern=pattern)
+    std = sim["std_light_mm"].mean("depth_mm").sortby("migl", ascending=False).load()
+    return {float(lux): std.sel(added_lux=lux) for lux in std["added_lux"].values}
+
+
+def check_tradeoff_is_saturation_free(
+    at_top: float, at_tradeoff: float, noise_only: float, top: float, tolerance: float
+) -> list[str]:
+    """Table 4.1: under added light the std at MIGL 255 is more than ``top`` times the
+    trade-off's, and the trade-off's std is within ``tolerance`` (relative) of the noise-only
+    std at the same MIGL: the same captures with less light, where nothing saturates (Eq. 4.1
+    adds light without noise, and a constant offset does not move the phase, so the two differ
+    by saturation alone). The first rejects a trade-off MIGL too low (noise), the second one
+    too high (saturation).
+
+    Parameters
+    ----------
+    at_top, at_tradeoff : float
+        Std at MIGL 255 and at the trade-off MIGL, under the added light.
+    noise_only : float
+        Std at the trade-off MIGL with light that saturates nothing.
+    top, tolerance : float
+        Required ``at_top / at_tradeoff`` (>) and bound on ``|at_tradeoff / noise_only - 1|``.
+
+    Returns
+    -------
+    list of str
+        The violations.
+
+    Examples
+    --------
+    >>> check_tradeoff_is_saturation_free(0.1357, 0.0512, 0.0512, 2.0, 0.05)
+    []
+    >>> len(check_tradeoff_is_saturation_free(0.1357, 0.0806, 0.0475, 2.0, 0.05))
+    2
+    """
+    out = []
+    if not at_top > top * at_tradeoff:
+        out.append(f"std at 255 is {at_top / at_tradeoff:.3f} x the trade-off's, not > {top}")
+    if not abs(at_tradeoff / noise_only - 1.0) <= tolerance:
+        out.append(
+            f"trade-off std is {at_tradeoff / noise_only:.3f} x the noise-only std at its MIGL, "
+            f"not within {tolerance:.0%}"
+        )
+    return out
+
+
 def check_lpa_beats_every_uniform_set(
     lpa_std: float, uniform_std: Mapping[str, float], margin: float
 ) -> list[str]:
@@ -306,6 +445,43 @@ def check_lpa_beats_every_uniform_set(
         f"LPA std {lpa_std:.4f} not {margin:.0%} below the set at {m} ({s:.4f})"
         for m, s in uniform_std.items()
         if not lpa_std <= (1.0 - margin) * s
+    ]
+
+
+def check_rule_finds_the_tradeoff(
+    rule_std: float, tradeoff_std: float, tolerance: float
+) -> list[str]:
+    """Sec. 4.2 without ground truth: the set that the automatic uniform rule picks (the
+    highest MIGL at which nothing saturates) has an error std within ``tolerance`` (relative)
+    of the trade-off's, the best single set found against the known target.
+
+    Parameters
+    ----------
+    rule_std : float
+        Error std of the rule's set (mean over depth).
+    tradeoff_std : float
+        Error std at the trade-off MIGL (mean over depth).
+    tolerance : float
+        Largest allowed ``rule_std / tradeoff_std - 1``.
+
+    Returns
+    -------
+    list of str
+        The violations.
+
+    Examples
+    --------
+    >>> check_rule_finds_the_tradeoff(0.0627, 0.0580, 0.10)
+    []
+    >>> check_rule_finds_the_tradeoff(0.0741, 0.0580, 0.10)
+    ['rule std 0.0741 is 1.278 x the trade-off std 0.0580, not within 10%']
+    """
+    ratio = rule_std / tradeoff_std
+    if abs(ratio - 1.0) <= tolerance:
+        return []
+    return [
+        f"rule std {rule_std:.4f} is {ratio:.3f} x the trade-off std {tradeoff_std:.4f}, "
+        f"not within {tolerance:.0%}"
     ]
 
 

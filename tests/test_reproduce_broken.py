@@ -9,6 +9,7 @@ check accepted the broken variant, the test says so too, so the weakness it fixe
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -52,6 +53,66 @@ def test_the_table_4_3_check_rejects_a_wrong_tradeoff_and_harmless_saturation(qu
     )
 
 
+def test_the_fig_5_6_check_rejects_an_lpa_that_tests_one_shift_only(
+    quick_run, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """LPA S=5 that tests saturation on the first shift only (the other shifts of a pixel may
+    be saturated when it is composed), rerun on the quick reproduction's four triangular
+    3-step, pitch-6 cells (about 7 s) and put in the store in place of the real one: the step
+    std check rejects it (MIGL 255's pixels, about 70 % of all, have 1.86 x the std of the
+    others), while the former check, the steps' pooled RMSE within 0.05 mm, passed it
+    (0.036 mm) as it passed the real LPA (0.017 mm)."""
+    from hdrfringe._validation import full_scale
+    from hdrfringe.reproduce.adaptive import adaptive_cell, experiments
+    from hdrfringe.reproduce.adaptive_report import pooled_levels
+    from hdrfringe.reproduce.ch4 import QUICK_SETUP
+    from hdrfringe.strategies import lpa as lpa_module
+
+    def first_shift_only(images: np.ndarray, bit_depth: int) -> np.ndarray:
+        return images[0] < full_scale(bit_depth)
+
+    monkeypatch.setattr(lpa_module, "unsaturated_mask", first_shift_only)
+    exp = experiments(quick=True)["ch5_plate"]
+    cell = {"pattern": "triangular-3", "pitch": 6}
+    plate = open_results(quick_run / "ch5_plate.zarr").load()
+    broken = plate.copy(deep=True)
+    for depth in plate["depth_mm"].values:
+        out = adaptive_cell(
+            exp, cell["pattern"], 6, float(depth), QUICK_SETUP, CorrectionPolynomial.identity()
+        )
+        for key in ("level_fraction", "level_rmse_mm", "level_mean_error_mm"):
+            broken[key].loc[{**cell, "depth_mm": depth}] = out[key]
+    levels = checks.level_std(broken, **cell)
+    assert len(levels) >= 4 and max(levels, key=lambda m: levels[m]) == 255.0
+    assert checks.check_levels_flat(levels, 1.3)
+    for ds in (plate, broken):  # the former check passed both
+        lv = pooled_levels(ds, **cell)
+        used = lv["fraction"] >= 0.02
+        assert used.sum() >= 4 and np.ptp(lv["rmse"][used]) < 0.05
+
+
+def test_the_table_4_1_check_rejects_tradeoffs_the_rmse_check_accepted(quick_run) -> None:
+    """Table 4.1's sweep with the trade-off search returning another MIGL m: the std check
+    rejects m = 255, 240, 135, 120 and 105 at 600 lx (trade-off 210) and 255..150 at 900 lx
+    (trade-off 135); the former check (RMSE at 255 more than 1.3 x the trade-off's) accepted
+    135 at 600 lx and 210..150 at 900 lx among them."""
+    std = checks.table_4_1_std(quick_run)
+    sim = open_results(quick_run / "ch4_simulation.zarr").sel(pattern="sinusoidal-3")
+    rmse = sim["rmse_light_mm"].mean("depth_mm")
+    cases = {600.0: ((255, 240, 135, 120, 105), (135,)), 900.0: (range(255, 149, -15), (210, 150))}
+    for lux, (wrong, formerly_passed) in cases.items():
+        curve, r = std[lux], rmse.sel(added_lux=lux)
+        for m in (float(m) for m in wrong):
+            at = float(curve.sel(migl=m))
+            noise_only = float(std[300.0].sel(migl=m))
+            violations = checks.check_tradeoff_is_saturation_free(
+                float(curve.sel(migl=255.0)), at, noise_only, 2.0, 0.05
+            )
+            assert violations, (lux, m)
+            former = float(r.sel(migl=255.0)) > 1.3 * float(r.sel(migl=m))
+            assert former == (formerly_passed[-1] <= m <= formerly_passed[0]), (lux, m)
+
+
 def test_the_table_5_1_check_rejects_every_single_set_that_the_old_check_accepted(
     quick_run,
 ) -> None:
@@ -79,6 +140,20 @@ def test_the_table_5_1_check_rejects_every_single_set_that_the_old_check_accepte
         assert rmse <= 1.15 * tradeoff_rmse, label  # the former check passed it
         std = sets[label]
         assert checks.check_lpa_beats_every_uniform_set(std, sets, 0.01), label
+
+
+def test_the_table_5_2_check_rejects_an_lpa_with_15_percent_more_std(quick_run) -> None:
+    """Table 5.2 (checkerboard, pitch 8): every LPA step S = 1..15 with its error std inflated
+    by 15 % fails the 15 % margin over the uniform trade-off, while the former check (RMSE and
+    std below the trade-off's, same bias) passed each of them."""
+    table = json.loads((quick_run / "tables.json").read_text())["adaptive"]["table_5_2"]
+    rows = {r["method"]: r for r in table}
+    _, rmse_u, std_u = rows["uniform"]["ours"]
+    for s in (1, 2, 3, 5, 10, 15):
+        row = rows[f"lpa-{s}"]
+        std = 1.15 * row["ours"][2]
+        assert _rmse(row["bias_mm"], std) < rmse_u and std < std_u, s  # the former check
+        assert checks.check_lpa_beats_every_uniform_set(std, {"trade-off": std_u}, 0.15), s
 
 
 def test_the_dpa_check_rejects_a_dpa_with_10_percent_more_std(quick_run) -> None:

@@ -128,4 +128,8 @@ def test_measure_methods_on_a_checkerboard_sweep(tmp_path: Path) -> None:
     # conventional: white squares saturate and are invalid; the strategies recover them
     assert conv["valid_fraction"] < 0.6
     assert lpa["valid_fraction"] > 0.99 and uni["valid_fraction"] > 0.99
-    assert lpa["rmse_mm"] < uni["rmse_mm"] < 0.3  # thesis Table 5.2: LPA beats the trade-off
+    # thesis Table 5.2: LPA beats the trade-off. In RMSE, as the rational model leaves no bias
+    # (measured 1e-4 mm against the linear model's -0.16 mm that hides method differences,
+    # issue 15): the RMSE is the error std (LPA 0.084, uniform 0.133 mm)
+    assert abs(lpa["bias_mm"]) < 0.005 and abs(uni["bias_mm"]) < 0.005
+    assert lpa["rmse_mm"] < uni["rmse_mm"] < 0.3

@@ -1426,7 +1426,10 @@ def tradeoff_search(
     Returns
     -------
     dict
-        ``rmse_mm`` {migl: RMSE}, ``saturated_fraction`` {migl: fraction}, ``best_migl``.
+        ``rmse_mm`` {migl: RMSE}, ``bias_mm`` {migl: mean error}, ``std_mm`` {migl: error
+        standard deviation}, ``saturated_fraction`` {migl: fraction}, ``best_migl`` (lowest
+        RMSE). Compare methods by ``std_mm``: with the linear model the RMSE is mostly the
+        model's bias, the same at every MIGL (issue 15).
 
     References
     ----------
@@ -1450,6 +1453,8 @@ def tradeoff_search(
     desc = describe_rig(rig)
     truth = desc.truth_height_mm
     rmse: dict[float, float] = {}
+    bias: dict[float, float] = {}
+    std: dict[float, float] = {}
     sat: dict[float, float] = {}
     for m in migls:
         frames = spec.with_migl(float(m)).frames()
@@ -1466,6 +1471,14 @@ def tradeoff_search(
         )
         res = measure(folder, calibration, reject_saturated=False)
         rmse[float(m)] = _nan_if_none(res.metrics.rmse_mm)
+        bias[float(m)] = _nan_if_none(res.metrics.bias_mm)
+        std[float(m)] = _nan_if_none(res.metrics.std_mm)
         sat[float(m)] = _nan_if_none(res.metrics.saturated_fraction)
     best = min(rmse, key=lambda k: (np.nan_to_num(rmse[k], nan=np.inf), -k))
-    return {"rmse_mm": rmse, "saturated_fraction": sat, "best_migl": best}
+    return {
+        "rmse_mm": rmse,
+        "bias_mm": bias,
+        "std_mm": std,
+        "saturated_fraction": sat,
+        "best_migl": best,
+    }
