@@ -463,6 +463,9 @@ def _decode_native(
     def worker(p0: int, p1: int, work: _NativeWork) -> None:
         m = p1 - p0
         c = work.c[:m]
+        ph: int | None
+        mb: int | None
+        tb: int | None
         if work.staged is not None:
             phase = work.staged[0][:m]
             ph, mb, tb = (int(a.ctypes.data) for a in work.staged)
@@ -490,8 +493,9 @@ def _run_blocks(
     """Run ``worker(p0, p1, work)`` on every block, on up to :func:`decode_threads` threads.
 
     ``work`` is one thread's work arrays: ``make_work()``, or ``_Work(size, staging)``.
-    Blocks are taken one at a time from a shared counter (a busy core just takes fewer); an
-    exception in any thread stops the others at their next block and is raised here.
+    Blocks are taken one at a time from a shared counter (a busy core just takes fewer); the
+    calling thread is one of the workers. An exception in any thread stops the others at
+    their next block and is raised here.
     """
     if make_work is None:
 
@@ -519,8 +523,10 @@ def _run_blocks(
                 failed.set()
                 raise
 
-    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="hdrfringe-decode") as pool:
-        futures = [pool.submit(run) for _ in range(threads)]
+    # The calling thread is one of the workers: one thread fewer to start per call.
+    with ThreadPoolExecutor(threads - 1, thread_name_prefix="hdrfringe-decode") as pool:
+        futures = [pool.submit(run) for _ in range(threads - 1)]
+        run()  # an exception here stops the pool's threads at their next block
     for future in futures:
         future.result()
 
