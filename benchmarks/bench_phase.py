@@ -197,12 +197,16 @@ def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) 
     return out
 
 
+#: The native kernel's instruction-set variants (hdrfringe/_native/decode.c, ``isa``).
+ISA_NAMES = ("SSE2", "AVX2", "AVX512F")
+
 BLOCK_SIZES = (2048, 4096, 8192, 16384, 32768, 65536, HEIGHT * WIDTH)
 
 
 def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
     """Time the fused kernel (every decode_set map) per block size, 1 and 2 threads, with the
-    native kernel (when built) and the numpy path.
+    native kernel (when built) and the numpy path; and each instruction-set variant of the
+    native kernel that this CPU runs (default block, 1 thread).
 
     Interleaved: each round times every (path, block, threads) case once; medians over
     ``repeat`` rounds of CPU time (all threads) and wall time per call, plus the plain
@@ -226,6 +230,22 @@ def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
                     f"{path:<6} block {block:>6} px, {threads} thread{'s' if threads > 1 else ''}"
                 )
                 cases[name] = call
+    lib = _native.load("decode")
+    if lib is not None:  # the kernel's instruction-set variants (same bits), default block
+        from hdrfringe import _blockdecode
+
+        for isa in range(int(lib.hf_decode_isa()) + 1):
+
+            def call_isa(isa: int = isa) -> Any:
+                os.environ["HDRFRINGE_DECODE_THREADS"] = "1"
+                os.environ["HDRFRINGE_NATIVE"] = "1"
+                _blockdecode._ISA = isa
+                try:
+                    return decode_sinusoidal_blocks(flat, full=255, min_modulation=2.0)
+                finally:
+                    _blockdecode._ISA = -1
+
+            cases[f"native {ISA_NAMES[isa]:<7} default block, 1 thread"] = call_isa
     cpu: dict[str, list[float]] = {k: [] for k in cases}
     wall: dict[str, list[float]] = {k: [] for k in cases}
     old = {k: os.environ.get(k) for k in ("HDRFRINGE_DECODE_THREADS", "HDRFRINGE_NATIVE")}
@@ -272,9 +292,9 @@ def main(argv: list[str] | None = None) -> int:
             f"median of {repeat} interleaved rounds; load average {os.getloadavg()[0]:.1f}; "
             f"{native_status()}"
         )
-        print(f"\n{'case':<35} {'CPU ms':>7} {'wall ms':>8}")
+        print(f"\n{'case':<40} {'CPU ms':>7} {'wall ms':>8}")
         for r in block_sweep(imgs, repeat):
-            print(f"{r['case']:<35} {r['cpu_ms']:7.2f} {r['wall_ms']:8.2f}")
+            print(f"{r['case']:<40} {r['cpu_ms']:7.2f} {r['wall_ms']:8.2f}")
         return 0
     maps = wrapped_maps(rng)
     sat_frac = float(np.mean((imgs == 255).any(axis=0)))
