@@ -35,6 +35,7 @@ import sys
 import time
 import timeit
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -205,8 +206,9 @@ BLOCK_SIZES = (2048, 4096, 8192, 16384, 32768, 65536, HEIGHT * WIDTH)
 
 def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
     """Time the fused kernel (every decode_set map) per block size, 1 and 2 threads, with the
-    native kernel (when built) and the numpy path; and each instruction-set variant of the
-    native kernel that this CPU runs (default block, 1 thread).
+    native kernel (when built) and the numpy path; each instruction-set variant of the native
+    kernel that this CPU runs (default block, 1 thread); and the start and join of one pool
+    thread doing nothing (the fixed cost of a second thread).
 
     Interleaved: each round times every (path, block, threads) case once; medians over
     ``repeat`` rounds of CPU time (all threads) and wall time per call, plus the plain
@@ -246,6 +248,12 @@ def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
                     _blockdecode._ISA = -1
 
             cases[f"native {ISA_NAMES[isa]:<7} default block, 1 thread"] = call_isa
+
+    def start_and_join() -> None:  # what the pool of a 2-thread decode costs by itself
+        with ThreadPoolExecutor(1) as pool:
+            pool.submit(int)
+
+    cases["start + join one pool thread (no work)"] = start_and_join
     cpu: dict[str, list[float]] = {k: [] for k in cases}
     wall: dict[str, list[float]] = {k: [] for k in cases}
     old = {k: os.environ.get(k) for k in ("HDRFRINGE_DECODE_THREADS", "HDRFRINGE_NATIVE")}
