@@ -1,12 +1,12 @@
 /* Fused N-step sinusoidal decode of one block of pixels (hdrfringe._blockdecode, issue 16).
  *
  * Two plain C functions on raw buffers, called through ctypes once per block each, with numpy's
- * SIMD np.arctan2 in between (libm's scalar atan2 is several times slower; benchmarks/README.md,
- * "Fused block decode"):
+ * SIMD np.arctan2 in between (libm's scalar atan2 is about 12x slower; benchmarks/README.md,
+ * "Native kernel"):
  *
  *   hf_decode_sums    one pass over the N shifts: S, C, the sum and the saturation count per
  *                     pixel, then -S and C for the atan2, I' = sqrt(S*S + C*C) * (2/N) and
- *                     I'' = sum / N;
+ *                     I'' = sum / N (sum * (1/N) for N a power of two: the same number);
  *   hf_decode_finish  after phase = atan2(-S, C): the wrap to [0, 2*pi), validity, NaN filling,
  *                     psi = I'/I'' and the stores into the maps (float64, or float32 rounded to
  *                     nearest).
