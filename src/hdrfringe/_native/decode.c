@@ -54,8 +54,9 @@ enum { HF_U8 = 0, HF_U16 = 1, HF_F32 = 2, HF_F64 = 3 };
  * SSE2 baseline, and the entry point runs the best one the CPU has (or the one asked for with
  * params.isa, so that tests can compare every variant). The results are the same bits on every
  * path: only IEEE operations (+, *, /, sqrt, comparisons, conversions), each correctly
- * rounded, no fused multiply-add (-ffp-contract=off). Elsewhere: the baseline build only. */
-#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__)
+ * rounded, no fused multiply-add (-ffp-contract=off). Elsewhere (or built with
+ * -DHF_NO_DISPATCH, to try that path here): the baseline build only. */
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(HF_NO_DISPATCH)
 #define HF_X86 1
 #define HF_BODY static inline __attribute__((always_inline))
 #else
@@ -244,21 +245,58 @@ HF_BODY int finish_body(const hf_decode_params *p, int64_t p0, int64_t p1, const
     return 0;
 }
 
+/* The same as finish_body with validity, one pixel at a time: with two doubles per vector
+ * (the SSE2 baseline) the passes of finish_body, with their uint8 <-> double conversions, cost
+ * more than this loop (bench_phase.py --blocks, the SSE2 row); AVX2 and AVX-512F vectorise
+ * them profitably. */
+#define FINISH_SCALAR(T)                                                                    \
+    {                                                                                       \
+        T *out_ph = (T *)p->phase, *out_md = (T *)p->modulation;                            \
+        T *out_tt = (T *)p->mean, *out_ps = (T *)p->psi;                                    \
+        for (int64_t i = 0; i < p1 - p0; i++) {                                             \
+            const int64_t q = p0 + i;                                                       \
+            double a = wrap(ph[i]), md = mb[i], tt = tb[i];                                 \
+            int v = md >= minmod;                                                           \
+            if (p->check_finite) v = v && fabs(a) <= DBL_MAX;                               \
+            if (p->reject_saturated) v = v && p->sat[q] == 0;                               \
+            if (p->mask != NULL) v = v && p->mask[q] != 0;                                  \
+            p->valid[q] = (uint8_t)v;                                                       \
+            if (!v) a = md = tt = nan;                                                      \
+            double ps = md / tt;                                                            \
+            if (tt <= 0.0) ps = nan;                                                        \
+            out_ps[q] = (T)ps;                                                              \
+            out_ph[q] = (T)a;                                                               \
+            out_md[q] = (T)md;                                                              \
+            out_tt[q] = (T)tt;                                                              \
+        }                                                                                   \
+    }
+
+HF_BODY int finish_scalar_body(const hf_decode_params *p, int64_t p0, int64_t p1,
+                               const double *ph, const double *mb, const double *tb) {
+    if (!p->validity) return finish_body(p, p0, p1, ph, mb, tb);
+    const double minmod = p->min_modulation, nan = (double)NAN;
+    if (p->out_f32)
+        FINISH_SCALAR(float)
+    else
+        FINISH_SCALAR(double)
+    return 0;
+}
+
 /* --- entry points ------------------------------------------------------------------------ */
 
 #if HF_X86
-#define HF_VARIANTS(NAME, BODY, PARAMS, ARGS)                                                 \
+#define HF_VARIANTS(NAME, BODY, BASE, PARAMS, ARGS)                                           \
     __attribute__((target("avx512f"))) static int NAME##_avx512f PARAMS { return BODY ARGS; } \
     __attribute__((target("avx2"))) static int NAME##_avx2 PARAMS { return BODY ARGS; }       \
-    static int NAME##_base PARAMS { return BODY ARGS; }
+    static int NAME##_base PARAMS { return BASE ARGS; }
 #define SUMS_PARAMS                                                                           \
     (const hf_decode_params *p, int64_t p0, int64_t p1, double *ys, double *cb, double *mb,   \
      double *tb)
 #define FINISH_PARAMS                                                                         \
     (const hf_decode_params *p, int64_t p0, int64_t p1, const double *ph, const double *mb,   \
      const double *tb)
-HF_VARIANTS(sums, sums_body, SUMS_PARAMS, (p, p0, p1, ys, cb, mb, tb))
-HF_VARIANTS(finish, finish_body, FINISH_PARAMS, (p, p0, p1, ph, mb, tb))
+HF_VARIANTS(sums, sums_body, sums_body, SUMS_PARAMS, (p, p0, p1, ys, cb, mb, tb))
+HF_VARIANTS(finish, finish_body, finish_scalar_body, FINISH_PARAMS, (p, p0, p1, ph, mb, tb))
 
 /* The best instruction set of this CPU: 2 AVX-512F, 1 AVX2, 0 baseline. */
 int hf_decode_isa(void) {
@@ -305,6 +343,6 @@ int hf_decode_finish(const hf_decode_params *p, int64_t p0, int64_t p1, const do
         default: return finish_base(p, p0, p1, ph, mb, tb);
     }
 #else
-    return finish_body(p, p0, p1, ph, mb, tb);
+    return finish_scalar_body(p, p0, p1, ph, mb, tb);
 #endif
 }
