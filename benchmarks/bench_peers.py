@@ -11,7 +11,9 @@ clipped in at least one shift), and a 3-step set of the same scene for OpenCV's 
 decodes three shifts only. Cases:
 
 - hdrfringe ``decode_set``: every map (phase, I', I'', psi, saturation count, validity, NaN
-  where invalid), with its default threads and with ``HDRFRINGE_DECODE_THREADS=1``;
+  where invalid), with its default threads and with ``HDRFRINGE_DECODE_THREADS=1``; with the
+  native kernel (hdrfringe/_native/decode.c, when built: the header line says whether it is)
+  and with the numpy path (``HDRFRINGE_NATIVE=0``);
 - plain numpy: the float64 loop of bench_phase.py (phase, I', I'', saturation count);
 - fringes: its numba decode kernel (``fringes.decoder_numba.decode``, what ``Fringes.decode``
   runs before any unwrapping) on one thread and on all threads;
@@ -69,19 +71,12 @@ def three_step_set() -> tuple[np.ndarray, FringeSpec]:
 
 def with_threads(threads: int, call: Callable[[], Any]) -> Callable[[], Any]:
     """``call`` with ``HDRFRINGE_DECODE_THREADS`` set to ``threads`` for its duration."""
+    return bp.with_env("HDRFRINGE_DECODE_THREADS", str(threads), call)
 
-    def run() -> Any:
-        old = os.environ.get("HDRFRINGE_DECODE_THREADS")
-        os.environ["HDRFRINGE_DECODE_THREADS"] = str(threads)
-        try:
-            return call()
-        finally:
-            if old is None:
-                del os.environ["HDRFRINGE_DECODE_THREADS"]
-            else:
-                os.environ["HDRFRINGE_DECODE_THREADS"] = old
 
-    return run
+def numpy_path(call: Callable[[], Any]) -> Callable[[], Any]:
+    """``call`` with ``HDRFRINGE_NATIVE=0``: hdrfringe's numpy block kernel, no C kernel."""
+    return bp.with_env("HDRFRINGE_NATIVE", "0", call)
 
 
 def fringes_decode(
@@ -209,6 +204,16 @@ def main(argv: list[str] | None = None) -> int:
             lambda r: r.wrapped_phase,
             ref_phase,
         ),
+        "hdrfringe decode_set, numpy path": (
+            numpy_path(lambda: decode_set(imgs, spec, 8)),
+            lambda r: r.wrapped_phase,
+            ref_phase,
+        ),
+        "hdrfringe decode_set, numpy path, 1 thread": (
+            numpy_path(with_threads(1, lambda: decode_set(imgs, spec, 8))),
+            lambda r: r.wrapped_phase,
+            ref_phase,
+        ),
         "plain numpy (phase, I', I'', sat)": (
             lambda: bp.reference_phase(imgs),
             lambda r: r[0],
@@ -287,6 +292,7 @@ def main(argv: list[str] | None = None) -> int:
         f"python {platform.python_version()}, numpy {np.__version__}, {os.cpu_count()} CPUs, "
         f"load average {load_before:.1f} -> {load_after:.1f}; {args.rounds} interleaved rounds"
     )
+    print(bp.native_status())
     print("ratio = case time / hdrfringe time in the same round (decode_set; 3-step rows: ")
     print("sinusoidal_phase 3-step); agree = fraction of pixels within 1e-3 rad of Eq. 2.2\n")
     w = max(len(r["case"]) for r in rows)
@@ -318,6 +324,7 @@ def main(argv: list[str] | None = None) -> int:
             "numpy": np.__version__,
             "cpu_count": os.cpu_count(),
             "load_average": [load_before, load_after],
+            "native": bp.native_status(),
             "results": rows,
         }
         Path(args.json).write_text(json.dumps(payload, indent=1) + "\n", encoding="utf-8")

@@ -2,13 +2,16 @@
 
 Run ``.venv/bin/python benchmarks/bench_phase.py`` (or ``make bench``); ``--json PATH`` also
 writes the results as JSON, ``--quick`` uses fewer repeats; ``--blocks`` times only the fused
-kernel (hdrfringe._blockdecode) per block size on 1 and 2 threads. See benchmarks/README.md.
+kernel (hdrfringe._blockdecode) per block size on 1 and 2 threads, with the native kernel
+(hdrfringe/_native/decode.c) and with the numpy path (``HDRFRINGE_NATIVE=0``). See
+benchmarks/README.md.
 
 What is timed (median of repeated runs, per call):
 
 (a) 4-step sinusoidal set, 648x494 pixels, 8-bit, seeded synthetic with saturation:
     - ``decode_set``: everything the library computes for a set (phase, modulation, mean,
-      data modulation, saturation count, validity, NaN masking);
+      data modulation, saturation count, validity, NaN masking), with the native kernel when
+      it is built, and with the numpy path (``HDRFRINGE_NATIVE=0``);
     - ``sinusoidal_phase`` + ``saturation_count``: the same numerical core without the
       validity bookkeeping;
     - reference: a straightforward numpy loop over the shifts accumulating S, C (and the sum
@@ -32,10 +35,12 @@ import sys
 import time
 import timeit
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
 
+from hdrfringe import _native
 from hdrfringe.patterns import FringeSpec, fringe_gray
 from hdrfringe.phase import decode_set, saturation_count, sinusoidal_phase
 from hdrfringe.unwrap import unwrap_temporal
@@ -113,6 +118,32 @@ def reference_temporal(maps: list[np.ndarray], pitches: tuple[float, ...]) -> np
 # ---------------------------------------------------------------------------------------------
 
 
+def with_env(name: str, value: str, call: Callable[[], Any]) -> Callable[[], Any]:
+    """``call`` with the environment variable ``name`` set to ``value`` for its duration."""
+
+    def run() -> Any:
+        old = os.environ.get(name)
+        os.environ[name] = value
+        try:
+            return call()
+        finally:
+            if old is None:
+                del os.environ[name]
+            else:
+                os.environ[name] = old
+
+    return run
+
+
+def native_status() -> str:
+    """Whether ``decode_set`` runs the native kernel here (built, not disabled)."""
+    if _native.load("decode") is not None:
+        return "native decode kernel: built and used"
+    if not _native.native_enabled():
+        return "native decode kernel: disabled (HDRFRINGE_NATIVE=0)"
+    return "native decode kernel: NOT BUILT (numpy path; run `make native`)"
+
+
 def median_time(func: Callable[[], Any], repeat: int) -> float:
     """Median seconds per call over ``repeat`` timings (each of enough calls to take ~0.2 s)."""
     timer = timeit.Timer(func)
@@ -132,6 +163,8 @@ def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) 
     sat = saturation_count(imgs, 8)
     r_phase, r_b, r_mean, r_sat = reference_phase(imgs)
     res = decode_set(imgs, spec, 8)
+    res_np = with_env("HDRFRINGE_NATIVE", "0", lambda: decode_set(imgs, spec, 8))()
+    fields = ("wrapped_phase", "modulation", "mean_intensity", "data_modulation")
     out = {
         "phase_max_abs_diff_rad": float(wrapped_abs_diff(phase, r_phase).max()),
         "modulation_max_abs_diff_dn": float(np.abs(b - r_b).max()),
@@ -141,6 +174,11 @@ def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) 
             np.nanmax(wrapped_abs_diff(res.wrapped_phase, r_phase))
         ),
         "decode_set_saturation_count_equal": bool(np.array_equal(res.saturation_count, r_sat)),
+        "decode_set_native_equals_numpy_path": bool(
+            all(np.array_equal(getattr(res, f), getattr(res_np, f), equal_nan=True) for f in fields)
+            and np.array_equal(res.valid, res_np.valid)
+            and np.array_equal(res.saturation_count, res_np.saturation_count)
+        ),
     }
     ours_u = unwrap_temporal(maps, list(PITCHES))
     ref_u = reference_temporal(maps, PITCHES)
@@ -152,6 +190,7 @@ def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) 
         and out["saturation_count_equal"]
         and out["decode_set_phase_max_abs_diff_rad"] < 1e-12
         and out["decode_set_saturation_count_equal"]
+        and out["decode_set_native_equals_numpy_path"]
         and out["unwrap_max_abs_diff_rad"] < 1e-12
     )
     if not ok:
@@ -159,30 +198,65 @@ def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) 
     return out
 
 
+#: The native kernel's instruction-set variants (hdrfringe/_native/decode.c, ``isa``).
+ISA_NAMES = ("SSE2", "AVX2", "AVX512F")
+
 BLOCK_SIZES = (2048, 4096, 8192, 16384, 32768, 65536, HEIGHT * WIDTH)
 
 
 def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
-    """Time the fused kernel (every decode_set map) per block size, 1 and 2 threads.
+    """Time the fused kernel (every decode_set map) per block size, 1 and 2 threads, with the
+    native kernel (when built) and the numpy path; each instruction-set variant of the native
+    kernel that this CPU runs (default block, 1 thread); and the start and join of one pool
+    thread doing nothing (the fixed cost of a second thread).
 
-    Interleaved: each round times every (block, threads) pair once; medians over ``repeat``
-    rounds of CPU time (all threads) and wall time per call, plus the plain reference.
+    Interleaved: each round times every (path, block, threads) case once; medians over
+    ``repeat`` rounds of CPU time (all threads) and wall time per call, plus the plain
+    reference.
     """
     from hdrfringe._blockdecode import decode_sinusoidal_blocks
 
     flat = imgs.reshape(imgs.shape[0], -1)
     cases: dict[str, Callable[[], Any]] = {"plain numpy reference": lambda: reference_phase(imgs)}
-    for block in BLOCK_SIZES:
-        for threads in (1, 2):
+    paths = (("native", "1"), ("numpy", "0")) if _native.load("decode") else (("numpy", "0"),)
+    for path, flag in paths:
+        for block in BLOCK_SIZES:
+            for threads in (1, 2):
 
-            def call(block: int = block, threads: int = threads) -> Any:
-                os.environ["HDRFRINGE_DECODE_THREADS"] = str(threads)
-                return decode_sinusoidal_blocks(flat, full=255, min_modulation=2.0, block=block)
+                def call(block: int = block, threads: int = threads, flag: str = flag) -> Any:
+                    os.environ["HDRFRINGE_DECODE_THREADS"] = str(threads)
+                    os.environ["HDRFRINGE_NATIVE"] = flag
+                    return decode_sinusoidal_blocks(flat, full=255, min_modulation=2.0, block=block)
 
-            cases[f"block {block:>6} px, {threads} thread{'s' if threads > 1 else ''}"] = call
+                name = (
+                    f"{path:<6} block {block:>6} px, {threads} thread{'s' if threads > 1 else ''}"
+                )
+                cases[name] = call
+    lib = _native.load("decode")
+    if lib is not None:  # the kernel's instruction-set variants (same bits), default block
+        from hdrfringe import _blockdecode
+
+        for isa in range(int(lib.hf_decode_isa()) + 1):
+
+            def call_isa(isa: int = isa) -> Any:
+                os.environ["HDRFRINGE_DECODE_THREADS"] = "1"
+                os.environ["HDRFRINGE_NATIVE"] = "1"
+                _blockdecode._ISA = isa
+                try:
+                    return decode_sinusoidal_blocks(flat, full=255, min_modulation=2.0)
+                finally:
+                    _blockdecode._ISA = -1
+
+            cases[f"native {ISA_NAMES[isa]:<7} default block, 1 thread"] = call_isa
+
+    def start_and_join() -> None:  # what the pool of a 2-thread decode costs by itself
+        with ThreadPoolExecutor(1) as pool:
+            pool.submit(int)
+
+    cases["start + join one pool thread (no work)"] = start_and_join
     cpu: dict[str, list[float]] = {k: [] for k in cases}
     wall: dict[str, list[float]] = {k: [] for k in cases}
-    old = os.environ.get("HDRFRINGE_DECODE_THREADS")
+    old = {k: os.environ.get(k) for k in ("HDRFRINGE_DECODE_THREADS", "HDRFRINGE_NATIVE")}
     try:
         for _ in range(repeat):
             for name, call in cases.items():
@@ -192,10 +266,11 @@ def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
                 cpu[name].append((time.process_time() - c0) / 5)
                 wall[name].append((time.perf_counter() - w0) / 5)
     finally:
-        if old is None:
-            os.environ.pop("HDRFRINGE_DECODE_THREADS", None)
-        else:
-            os.environ["HDRFRINGE_DECODE_THREADS"] = old
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
     return [
         {
             "case": name,
@@ -222,11 +297,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.blocks:
         print(
             f"fused block decode, every decode_set map: {STEPS}-step {WIDTH}x{HEIGHT} uint8; "
-            f"median of {repeat} interleaved rounds; load average {os.getloadavg()[0]:.1f}"
+            f"median of {repeat} interleaved rounds; load average {os.getloadavg()[0]:.1f}; "
+            f"{native_status()}"
         )
-        print(f"\n{'case':<28} {'CPU ms':>7} {'wall ms':>8}")
+        print(f"\n{'case':<40} {'CPU ms':>7} {'wall ms':>8}")
         for r in block_sweep(imgs, repeat):
-            print(f"{r['case']:<28} {r['cpu_ms']:7.2f} {r['wall_ms']:8.2f}")
+            print(f"{r['case']:<40} {r['cpu_ms']:7.2f} {r['wall_ms']:8.2f}")
         return 0
     maps = wrapped_maps(rng)
     sat_frac = float(np.mean((imgs == 255).any(axis=0)))
@@ -236,6 +312,11 @@ def main(argv: list[str] | None = None) -> int:
         (
             "(a) decode_set vs reference",
             lambda: decode_set(imgs, spec, 8),
+            lambda: reference_phase(imgs),
+        ),
+        (
+            "(a) decode_set, numpy path (HDRFRINGE_NATIVE=0) vs reference",
+            with_env("HDRFRINGE_NATIVE", "0", lambda: decode_set(imgs, spec, 8)),
             lambda: reference_phase(imgs),
         ),
         (
@@ -270,7 +351,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(
         f"python {platform.python_version()}, numpy {np.__version__}, "
-        f"{os.cpu_count()} CPUs, {platform.machine()}; median of {repeat} runs"
+        f"{os.cpu_count()} CPUs, {platform.machine()}; median of {repeat} runs; "
+        f"{native_status()}"
     )
     print(f"agreement: {agreement}")
     w = max(len(r["case"]) for r in rows)
@@ -291,6 +373,7 @@ def main(argv: list[str] | None = None) -> int:
             "numpy": np.__version__,
             "cpu_count": os.cpu_count(),
             "agreement": agreement,
+            "native": native_status(),
             "results": rows,
         }
         with open(args.json, "w", encoding="utf-8") as fh:

@@ -26,18 +26,35 @@ Blocks are handed out one at a time to at most :func:`decode_threads` threads (n
 the GIL inside its ufunc loops, so two threads keep two cores busy without BLAS); the pool is
 created per call and joined before returning, so no thread outlives a call. Images of fewer
 than two blocks are decoded in the calling thread.
+
+Native kernel: when the C library ``hdrfringe/_native/decode.c`` is built
+(:func:`hdrfringe._native.load`) and the stack is uint8, uint16, float32 or float64 with
+contiguous pixels, a block is decoded by two C calls around one ``np.arctan2``:
+``hf_decode_sums`` (one pass per pixel over the N shifts: ``-S``, ``C``, I', I'' and the
+saturation count) and, after numpy's SIMD ``atan2`` on the block, ``hf_decode_finish`` (the
+wrap to [0, 2*pi), validity, NaN filling, psi, the stores, float32 rounding). The C code does
+the same operations in the same order as the numpy kernel below (no fused multiply-add: the
+build uses ``-ffp-contract=off``), so the maps are bit-identical whichever path runs
+(tests/test_native_decode.py). ctypes releases the GIL during each call, so the thread pool
+uses both cores. Without the library, with ``HDRFRINGE_NATIVE=0``, or for other dtypes and
+layouts, the numpy kernel runs.
 """
 
 from __future__ import annotations
 
+import ctypes
 import itertools
 import os
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from functools import cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from hdrfringe import _native
 
 __all__ = [
     "BLOCK_PIXELS",
@@ -306,20 +323,188 @@ def _validity(
     np.putmask(psi, flag, np.nan)
 
 
+# --- native kernel (hdrfringe/_native/decode.c) ---------------------------------------------
+
+#: Stack dtypes the C kernel reads (its ``dtype`` codes); others take the numpy path.
+_NATIVE_DTYPES = {np.dtype(np.uint8): 0, np.dtype(np.uint16): 1, np.dtype(np.float32): 2,
+                  np.dtype(np.float64): 3}  # fmt: skip
+
+
+#: Instruction set of the C kernel's loops: -1 the best the CPU has (decode.c picks it per call),
+#: else 0 baseline (SSE2 on x86-64), 1 AVX2, 2 AVX-512F, capped at what the CPU has. Every
+#: variant gives the same bits (tests/test_native_decode.py runs each one).
+_ISA = -1
+
+
+class _Params(ctypes.Structure):
+    """``hf_decode_params`` of decode.c (same fields, same order)."""
+
+    _fields_ = [
+        ("stack", ctypes.c_void_p),
+        ("row_stride", ctypes.c_int64),
+        ("sin_d", ctypes.c_void_p),
+        ("cos_d", ctypes.c_void_p),
+        ("full", ctypes.c_double),
+        ("min_modulation", ctypes.c_double),
+        ("mask", ctypes.c_void_p),
+        ("phase", ctypes.c_void_p),
+        ("modulation", ctypes.c_void_p),
+        ("mean", ctypes.c_void_p),
+        ("psi", ctypes.c_void_p),
+        ("sat", ctypes.c_void_p),
+        ("valid", ctypes.c_void_p),
+        ("dtype", ctypes.c_int32),
+        ("n", ctypes.c_int32),
+        ("quality", ctypes.c_int32),
+        ("validity", ctypes.c_int32),
+        ("check_finite", ctypes.c_int32),
+        ("reject_saturated", ctypes.c_int32),
+        ("out_f32", ctypes.c_int32),
+        ("isa", ctypes.c_int32),
+    ]
+
+
+@cache
+def _kernel_functions(lib: ctypes.CDLL) -> tuple[Any, Any]:
+    """``hf_decode_sums`` and ``hf_decode_finish`` of ``lib`` with their C signatures."""
+    ptr, i64 = ctypes.c_void_p, ctypes.c_int64
+    sums, finish = lib.hf_decode_sums, lib.hf_decode_finish
+    sums.argtypes = [ctypes.POINTER(_Params), i64, i64, ptr, ptr, ptr, ptr]
+    finish.argtypes = [ctypes.POINTER(_Params), i64, i64, ptr, ptr, ptr]
+    sums.restype = finish.restype = ctypes.c_int
+    return sums, finish
+
+
+def _native_kernels(flat: NDArray) -> tuple[Any, Any] | None:
+    """The C kernel's two functions when it is built, enabled and can read ``flat``, else None.
+
+    Readable: a dtype of :data:`_NATIVE_DTYPES` in native byte order, aligned, pixels
+    contiguous within each shift (any stride between shifts, negative included).
+    """
+    lib = _native.load("decode")
+    code = _NATIVE_DTYPES.get(flat.dtype)
+    if lib is None or code is None or not flat.dtype.isnative or not flat.flags.aligned:
+        return None
+    item = flat.dtype.itemsize
+    if flat.shape[1] > 1 and flat.strides[1] != item:
+        return None
+    if flat.strides[0] % item:
+        return None
+    return _kernel_functions(lib)
+
+
+class _NativeWork:
+    """One thread's scratch for the C kernel: ``C`` of a block, and (float32 maps) float64
+    blocks of the phase, I' and I'' (the float64 maps' own slices are used otherwise)."""
+
+    def __init__(self, size: int, staging: bool) -> None:
+        self.c = np.empty(size)
+        self.staged: tuple[F64, F64, F64] | None = None
+        if staging:
+            self.staged = (np.empty(size), np.empty(size), np.empty(size))
+
+
+def _address(arr: NDArray | None) -> int | None:
+    return None if arr is None else int(arr.ctypes.data)
+
+
+def _decode_native(
+    kernels: tuple[Any, Any],
+    flat: NDArray,
+    maps: DecodeMaps,
+    blocks: list[tuple[int, int]],
+    size: int,
+    sin_d: F64,
+    cos_d: F64,
+    full: float | None,
+    min_modulation: float,
+    reject_saturated: bool,
+    mask: NDArray[np.bool_] | None,
+) -> None:
+    """Decode every block of ``flat`` into ``maps`` with the C kernel (same maps, bit for bit,
+    as :func:`_decode_block`)."""
+    sums, finish = kernels
+    n = flat.shape[0]
+    quality = maps.modulation is not None
+    validity = maps.valid is not None
+    staging = maps.dtype != np.float64
+    mask_c = None if mask is None or not validity else np.ascontiguousarray(mask, dtype=bool)
+    params = _Params(
+        stack=_address(flat),
+        row_stride=flat.strides[0],
+        sin_d=_address(sin_d),
+        cos_d=_address(cos_d),
+        full=np.inf if full is None else float(full),
+        min_modulation=float(min_modulation),
+        mask=_address(mask_c),
+        phase=_address(maps.phase),
+        modulation=_address(maps.modulation),
+        mean=_address(maps.mean),
+        psi=_address(maps.data_modulation),
+        sat=_address(maps.saturation_count),
+        valid=_address(maps.valid),
+        dtype=_NATIVE_DTYPES[flat.dtype],
+        n=n,
+        quality=int(quality),
+        validity=int(validity),
+        check_finite=int(flat.dtype.kind == "f"),
+        reject_saturated=int(reject_saturated),
+        out_f32=int(staging),
+        isa=_ISA,
+    )
+    ref = ctypes.byref(params)
+    phase_map = maps.phase
+    bases = (
+        int(phase_map.ctypes.data),
+        _address(maps.modulation) if quality else None,
+        _address(maps.mean) if quality else None,
+    )
+
+    def worker(p0: int, p1: int, work: _NativeWork) -> None:
+        m = p1 - p0
+        c = work.c[:m]
+        ph: int | None
+        mb: int | None
+        tb: int | None
+        if work.staged is not None:
+            phase = work.staged[0][:m]
+            ph, mb, tb = (int(a.ctypes.data) for a in work.staged)
+        else:
+            phase = phase_map[p0:p1]
+            ph, mb, tb = (None if b is None else b + 8 * p0 for b in bases)
+        if sums(ref, p0, p1, ph, int(c.ctypes.data), mb, tb):
+            raise RuntimeError(f"native decode: unsupported stack dtype {flat.dtype}")
+        np.arctan2(phase, c, out=phase)  # numpy's SIMD atan2 on (-S, C), in place
+        finish(ref, p0, p1, ph, mb, tb)
+
+    # keep the buffers the C code reads alive for the duration of the pool
+    _keep = (flat, sin_d, cos_d, mask_c)
+    _run_blocks(blocks, worker, size, make_work=lambda: _NativeWork(size, staging))
+    del _keep
+
+
 def _run_blocks(
     blocks: list[tuple[int, int]],
-    worker: Callable[[int, int, _Work], None],
+    worker: Callable[[int, int, Any], None],
     size: int,
     staging: bool = False,
+    make_work: Callable[[], Any] | None = None,
 ) -> None:
     """Run ``worker(p0, p1, work)`` on every block, on up to :func:`decode_threads` threads.
 
-    Blocks are taken one at a time from a shared counter (a busy core just takes fewer); an
-    exception in any thread stops the others at their next block and is raised here.
+    ``work`` is one thread's work arrays: ``make_work()``, or ``_Work(size, staging)``.
+    Blocks are taken one at a time from a shared counter (a busy core just takes fewer); the
+    calling thread is one of the workers. An exception in any thread stops the others at
+    their next block and is raised here.
     """
+    if make_work is None:
+
+        def make_work() -> _Work:
+            return _Work(size, staging)
+
     threads = decode_threads(len(blocks))
     if threads == 1:
-        work = _Work(size, staging)
+        work = make_work()
         for p0, p1 in blocks:
             worker(p0, p1, work)
         return
@@ -327,7 +512,7 @@ def _run_blocks(
     failed = threading.Event()
 
     def run() -> None:
-        work = _Work(size, staging)
+        work = make_work()
         while not failed.is_set():
             i = next(counter)
             if i >= len(blocks):
@@ -338,8 +523,10 @@ def _run_blocks(
                 failed.set()
                 raise
 
-    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="hdrfringe-decode") as pool:
-        futures = [pool.submit(run) for _ in range(threads)]
+    # The calling thread is one of the workers: one thread fewer to start per call.
+    with ThreadPoolExecutor(threads - 1, thread_name_prefix="hdrfringe-decode") as pool:
+        futures = [pool.submit(run) for _ in range(threads - 1)]
+        run()  # an exception here stops the pool's threads at their next block
     for future in futures:
         future.result()
 
@@ -408,11 +595,17 @@ def decode_sinusoidal_blocks(
     maps = DecodeMaps(n_pixels, quality=quality, validity=validity, dtype=dtype)
     staging = maps.dtype != np.float64
     blocks = pixel_blocks(n_pixels, block)
+    size = min(block, max(n_pixels, 1))
+    kernels = _native_kernels(flat)
+    if kernels is not None:
+        _decode_native(kernels, flat, maps, blocks, size, sin_d, cos_d, full, min_modulation,
+                       reject_saturated, mask)  # fmt: skip
+        return maps
 
     def worker(p0: int, p1: int, work: _Work) -> None:
         _decode_block(
             flat, p0, p1, maps, work, sin_d, cos_d, full, min_modulation, reject_saturated, mask
         )
 
-    _run_blocks(blocks, worker, min(block, max(n_pixels, 1)), staging)
+    _run_blocks(blocks, worker, size, staging)
     return maps
