@@ -64,7 +64,8 @@ HEIGHT, WIDTH = 494, 648
 #: ``--imports``: label -> modules imported after numpy in a fresh process. The front end
 #: (typer, rich, the command table), then what ``phase`` loads on first use: PNG reading
 #: (imageio over Pillow), TIFF writing, OpenCV (spatial unwrapping's labels), Pillow (header
-#: probe, previews); pydantic is what typer >= 0.29 imports to coerce options.
+#: probe, previews); pydantic's modules that typer >= 0.29 imports to coerce options
+#: (``typer/_adapters.py``; ``import pydantic`` alone loads them lazily).
 IMPORTS: dict[str, str] = {
     "typer + rich": "typer.main, rich.console",
     "cli._app (front end)": "hdrfringe.cli._app",
@@ -72,7 +73,8 @@ IMPORTS: dict[str, str] = {
     "tifffile": "tifffile",
     "cv2": "cv2",
     "PIL (png, draw)": "PIL.Image, PIL.PngImagePlugin, PIL.ImageDraw",
-    "pydantic": "pydantic",
+    "pydantic (typer 0.29's use)": "pydantic.type_adapter, pydantic.functional_validators, "
+    "pydantic.fields",
 }
 SEED = 20240601
 
@@ -176,7 +178,7 @@ def main() -> None:
     print(f"{platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}")
     print(f"median of {args.repeats} interleaved runs (s); load average {os.getloadavg()[0]:.2f}; "
           f"package {'compiled' if args.bytecode else 'as found'}")  # fmt: skip
-    print(f"  {'':<26} {'wall':>7} {'(min':>6} {'max)':>6}  {'cpu':>7}")
+    print(f"  {'':<30} {'wall':>7} {'(min':>6} {'max)':>6}  {'cpu':>7}")
     result: dict[str, dict] = {}
     for label, data in (("wall", times), ("cpu", cpu)):
         med = {k: statistics.median(v) for k, v in data.items()}
@@ -193,7 +195,7 @@ def main() -> None:
         }
     for k in names:
         w, c = times[k], result["cpu"]["median_s"][k]
-        print(f"  {k:<26} {statistics.median(w):7.3f} {min(w):6.3f} {max(w):6.3f}  {c:7.3f}")
+        print(f"  {k:<30} {statistics.median(w):7.3f} {min(w):6.3f} {max(w):6.3f}  {c:7.3f}")
     print(f"  {'ratios':<46} {'wall':>7}  {'cpu':>7}")
     for k in result["wall"]["ratios"]:
         print(f"  {k:<46} {result['wall']['ratios'][k]:7.3f}  {result['cpu']['ratios'][k]:7.3f}")
@@ -202,7 +204,7 @@ def main() -> None:
         print("  CPU beyond import numpy (median - median), s")
         cpu_med = result["cpu"]["median_s"]
         for k in added:
-            print(f"  {k:<26} {cpu_med[k] - cpu_med['import numpy']:7.3f}")
+            print(f"  {k:<30} {cpu_med[k] - cpu_med['import numpy']:7.3f}")
     if args.json:
         args.json.write_text(json.dumps(result))
 
