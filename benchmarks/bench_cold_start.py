@@ -16,6 +16,11 @@ and, in this process after a warm-up, the library-only time of the same ``phase`
 is not start-up. Medians are printed with the ratios the issue asks for:
 ``phase`` cold / (``import numpy`` + library-only), target at most 1.5.
 
+``--imports``: also time, in the same rounds, ``python -c "import numpy, X"`` for what the
+``phase`` run imports beyond numpy (:data:`IMPORTS`: the front end, then the readers and
+writers the work loads on first use) and print each one's CPU beyond ``import numpy``: what
+is left of the start-up, by package.
+
 ``--bytecode``: before timing, compile the package's modules into their ``__pycache__``
 folders (git-ignored; the folders this creates are removed at the end), as an installed
 package has them. Without it, in an environment with ``PYTHONDONTWRITEBYTECODE=1`` and a source
@@ -30,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.util
 import json
 import os
 import platform
@@ -54,6 +60,22 @@ from hdrfringe.process import decode_captures
 from hdrfringe.uncertainty import predict_uncertainty
 
 HEIGHT, WIDTH = 494, 648
+
+#: ``--imports``: label -> modules imported after numpy in a fresh process. The front end
+#: (typer, rich, the command table), then what ``phase`` loads on first use: PNG reading
+#: (imageio over Pillow), TIFF writing, OpenCV (spatial unwrapping's labels), Pillow (header
+#: probe, previews); pydantic's modules that typer >= 0.29 imports to coerce options
+#: (``typer/_adapters.py``; ``import pydantic`` alone loads them lazily).
+IMPORTS: dict[str, str] = {
+    "typer + rich": "typer.main, rich.console",
+    "cli._app (front end)": "hdrfringe.cli._app",
+    "imageio.v3": "imageio.v3",
+    "tifffile": "tifffile",
+    "cv2": "cv2",
+    "PIL (png, draw)": "PIL.Image, PIL.PngImagePlugin, PIL.ImageDraw",
+    "pydantic (typer 0.29's use)": "pydantic.type_adapter, pydantic.functional_validators, "
+    "pydantic.fields",
+}
 SEED = 20240601
 
 
@@ -119,6 +141,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=11)
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--bytecode", action="store_true", help="compile the package first")
+    ap.add_argument("--imports", action="store_true", help="also time the imports, by package")
     args = ap.parse_args()
 
     py = sys.executable
@@ -132,6 +155,12 @@ def main() -> None:
             "cli --help": [py, "-m", "hdrfringe.cli", "--help"],
             "cli phase (cold)": [py, "-m", "hdrfringe.cli", *phase],
         }
+        if args.imports:
+            cases |= {
+                f"+ {k}": [py, "-c", f"import numpy, {v}"]
+                for k, v in IMPORTS.items()
+                if importlib.util.find_spec(v.split(",")[0].split(".")[0]) is not None
+            }
         names = [*cases, "phase library-only"]
         times: dict[str, list[float]] = {k: [] for k in names}
         cpu: dict[str, list[float]] = {k: [] for k in names}
@@ -149,7 +178,7 @@ def main() -> None:
     print(f"{platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}")
     print(f"median of {args.repeats} interleaved runs (s); load average {os.getloadavg()[0]:.2f}; "
           f"package {'compiled' if args.bytecode else 'as found'}")  # fmt: skip
-    print(f"  {'':<22} {'wall':>7} {'(min':>6} {'max)':>6}  {'cpu':>7}")
+    print(f"  {'':<30} {'wall':>7} {'(min':>6} {'max)':>6}  {'cpu':>7}")
     result: dict[str, dict] = {}
     for label, data in (("wall", times), ("cpu", cpu)):
         med = {k: statistics.median(v) for k, v in data.items()}
@@ -166,10 +195,16 @@ def main() -> None:
         }
     for k in names:
         w, c = times[k], result["cpu"]["median_s"][k]
-        print(f"  {k:<22} {statistics.median(w):7.3f} {min(w):6.3f} {max(w):6.3f}  {c:7.3f}")
+        print(f"  {k:<30} {statistics.median(w):7.3f} {min(w):6.3f} {max(w):6.3f}  {c:7.3f}")
     print(f"  {'ratios':<46} {'wall':>7}  {'cpu':>7}")
     for k in result["wall"]["ratios"]:
         print(f"  {k:<46} {result['wall']['ratios'][k]:7.3f}  {result['cpu']['ratios'][k]:7.3f}")
+    added = [k for k in names if k.startswith("+ ")]
+    if added:
+        print("  CPU beyond import numpy (median - median), s")
+        cpu_med = result["cpu"]["median_s"]
+        for k in added:
+            print(f"  {k:<30} {cpu_med[k] - cpu_med['import numpy']:7.3f}")
     if args.json:
         args.json.write_text(json.dumps(result))
 

@@ -53,11 +53,15 @@ try:
 except SystemExit as exc:
     assert exc.code == 0, exc.code
 watched = ("hdrfringe.cli.", "hdrfringe.strategies", "scipy", "matplotlib", "dask", "cv2", "h5py")
+watched += ("pydantic", "importlib.metadata")  # typer >= 0.29's option coercion; --version
 print(" ".join(sorted(m for m in sys.modules if m.startswith(watched))))
 """
 
 
 def test_one_command_imports_only_its_own_module() -> None:
+    """``phase --help`` imports its own module and nothing the help does not show: not the
+    other commands, not pydantic (typer 0.29 builds a pydantic TypeAdapter per option; the
+    pyproject bound keeps typer < 0.29), not importlib.metadata (only ``--version`` reads it)."""
     out = (
         subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, check=True)
         .stdout.splitlines()[-1]
@@ -136,7 +140,7 @@ for command in ("phase", "measure"):
         app([command, folder, "-o", out + "/" + command])
     except SystemExit as exc:
         assert exc.code == 0, (command, exc.code)
-heavy = ("scipy", "skimage", "matplotlib", "dask", "xarray", "h5py")
+heavy = ("scipy", "skimage", "matplotlib", "dask", "xarray", "h5py", "pydantic", "pydantic_core")
 print("temporal:", *sorted(m for m in sys.modules if m.split(".")[0] in heavy))
 try:  # one set: spatial unwrapping (scikit-image's unwrapper, labels and regions by OpenCV)
     app(["phase", sys.argv[3], "-o", out + "/spatial"])
@@ -153,7 +157,9 @@ def test_phase_and_measure_import_no_scipy_or_matplotlib(
     or matplotlib: the commands, the pipeline, the strategy registry that builds measure's
     options and the map previews must import them only where they are used (issue 16, cold
     start: scipy.ndimage alone is about 0.3 s of CPU, matplotlib 0.2 s). A single set
-    (spatial unwrapping) needs scikit-image's unwrapper but still no scipy."""
+    (spatial unwrapping) needs scikit-image's unwrapper but still no scipy. Neither command
+    imports pydantic: typer 0.29 coerces every option through a pydantic TypeAdapter, about
+    0.1 s of CPU per start (benchmarks/README.md, cold start), hence the bound typer < 0.29."""
     from hdrfringe.captures import Captures, ProjectorInfo
     from hdrfringe.io.captures import write_capture_folder
     from hdrfringe.patterns import FringeSpec

@@ -18,7 +18,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import tomllib
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -254,6 +253,8 @@ def load_toml_bounded(
     ...
     hdrfringe.errors.InputError: ...: a number with too many digits or arrays nested too deep; ...
     """
+    import tomllib  # here: reading a capture folder (json) does not pay for it
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: {what} file does not exist; {missing}")
