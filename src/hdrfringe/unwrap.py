@@ -21,6 +21,7 @@ See docs/unwrapping.md for the rules in full.
 
 from __future__ import annotations
 
+import ctypes
 import math
 import warnings
 from collections.abc import Sequence
@@ -30,6 +31,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hdrfringe import _native
 from hdrfringe.errors import InputError
 
 __all__ = [
@@ -347,6 +349,8 @@ def unwrap_spatial(
     # closes (no residue): then every path-following unwrapper gives these orders up to one
     # constant per region. Otherwise scikit-image decides (its path matters there).
     path = _path_orders(centred, None if all_valid else valid)
+    if path is None:  # residues: the reliability-guided unwrapper in C, when it is built
+        path = _native_orders(centred, None if all_valid else valid)
     if path is not None:
         raw = centred + TWO_PI * path
     else:
@@ -488,6 +492,78 @@ def _path_orders(
     orders = off[run].reshape(h, w).astype(np.float64)  # invalid pixels: any run, harmless
     orders += k_row
     return orders
+
+
+def _native_library() -> ctypes.CDLL | None:
+    """The compiled unwrapper (``_native/unwrap.c``) with its argument types, or None."""
+    lib = _native.load("unwrap")
+    if lib is not None and lib.hf_unwrap_orders.argtypes is None:
+        ptr, i64 = ctypes.c_void_p, ctypes.c_int64
+        lib.hf_unwrap_orders.argtypes = [ptr, ptr, i64, i64, ptr, i64, ptr]
+        lib.hf_unwrap_orders.restype = ctypes.c_int
+        lib.hf_unwrap_edge_keys.argtypes = [ptr, ptr, i64, i64, ptr]
+        lib.hf_unwrap_edge_keys.restype = None
+    return lib
+
+
+def _native_orders(
+    centred: NDArray[np.float64],
+    valid: NDArray[np.bool_] | None,
+    order: NDArray[np.int64] | None = None,
+) -> NDArray[np.float64] | None:
+    """Fringe orders by the reliability-guided unwrapper of Herraez et al. (2002) in C, or None
+    when the library is not built (or ``HDRFRINGE_NATIVE=0``) or the map is too large for it.
+
+    Parameters
+    ----------
+    centred : ndarray of float64, shape (H, W)
+        Wrapped phase in [-pi, pi); never read at invalid pixels.
+    valid : ndarray of bool, shape (H, W), or None
+        Valid pixels (None: all).
+    order : ndarray of int64, optional
+        Edge ids (``2 i``: pixel ``i`` and its right neighbour, ``2 i + 1``: and the one below)
+        in the order to visit them; default: by increasing key (the C library's stable radix
+        sort, as ``np.argsort(_native_edge_keys(...), kind="stable")`` orders them).
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W), or None
+        Integer orders, each group's counted from its root (0 at invalid pixels).
+    """
+    lib = _native_library()
+    if lib is None:
+        return None
+    c = np.ascontiguousarray(centred, dtype=np.float64)
+    v = None if valid is None else np.ascontiguousarray(valid, dtype=np.bool_)
+    h, w = c.shape
+    k = np.empty((h, w), np.int32)
+    o = None if order is None else np.ascontiguousarray(order, dtype=np.int64)
+    rc = lib.hf_unwrap_orders(
+        c.ctypes.data, None if v is None else v.ctypes.data, h, w,
+        None if o is None else o.ctypes.data, 0 if o is None else o.size, k.ctypes.data,
+    )  # fmt: skip
+    if rc == -2:  # 2 H W >= 2^31 edges: beyond the kernel's 32-bit ids
+        return None
+    if rc != 0:
+        raise MemoryError(f"the native unwrapper could not allocate its work arrays ({h}x{w})")
+    return k.astype(np.float64)
+
+
+def _native_edge_keys(
+    centred: NDArray[np.float64], valid: NDArray[np.bool_] | None
+) -> NDArray[np.float64]:
+    """The native unwrapper's edge keys (sum of the two pixels' dispersions; inf: no edge),
+    indexed by edge id (see :func:`_native_orders`). Needs the library built."""
+    lib = _native_library()
+    assert lib is not None
+    c = np.ascontiguousarray(centred, dtype=np.float64)
+    v = None if valid is None else np.ascontiguousarray(valid, dtype=np.bool_)
+    keys = np.empty(2 * c.size)
+    lib.hf_unwrap_edge_keys(
+        c.ctypes.data, None if v is None else v.ctypes.data, c.shape[0], c.shape[1],
+        keys.ctypes.data,
+    )  # fmt: skip
+    return keys
 
 
 def _join_trees(a: NDArray, b: NDArray, delta: NDArray) -> dict[int, int] | None:
