@@ -213,10 +213,9 @@ def unwrap_spatial(
     The wrapped phase (Eq. 2.4, or any phase decoded to the contract's ``[0, 2*pi)`` convention)
     is made continuous by adding to every valid pixel the integer multiple of ``2*pi`` that keeps
     the difference between 4-connected valid neighbours below ``pi``, following the most reliable
-    pixels first (the sorting-by-reliability path-following algorithm of Herraez et al., as
-    implemented by :func:`skimage.restoration.unwrap_phase`, which is called only for maps whose
-    loops do not close; see Notes). The map is exact wherever the true phase changes by less
-    than ``pi`` between neighbours.
+    pixels first (the sorting-by-reliability path-following algorithm of Herraez et al.; only
+    maps whose loops do not close need it, see Notes). The map is exact wherever the true phase
+    changes by less than ``pi`` between neighbours.
 
     Parameters
     ----------
@@ -264,24 +263,36 @@ def unwrap_spatial(
     *Degenerate input.* An image with no valid pixel (all NaN, or an all-False mask) gives an
     all-NaN result without error; a single valid pixel keeps its wrapped value.
 
-    *NaN.* scikit-image's unwrapper does not return when its input contains NaN, so NaN is
-    never passed to it: invalid pixels are replaced by 0 and masked.
+    *NaN.* Invalid pixels are never read: they are replaced by 0 and masked (scikit-image's
+    unwrapper, the fallback, does not return when its input contains NaN).
 
     *Loops that close.* Where the wrapped differences between valid neighbours sum to zero
     round every loop of valid pixels (no residue, no hole whose boundary turns by ``2*pi``),
     the orders are found by integrating those differences (row runs joined vertically, every
-    edge checked) instead of by scikit-image: the same orders, since every path gives them
-    there, at a fraction of the cost. Elsewhere scikit-image decides.
+    edge checked): every path gives the same orders there.
+
+    *Residues.* Elsewhere the path matters, and the reliability-guided unwrapper of Herraez et
+    al. (2002) decides: every pixel's dispersion is the root sum of squares of its four
+    wrapped second differences (on the border and beside invalid pixels, the available ones
+    scaled to four terms), edges between valid neighbours are visited by increasing sum of
+    their two pixels' dispersions (most reliable first, ties by position), and each edge
+    between two groups joins them with the ``2*pi`` offset that keeps its step below ``pi``.
+    It runs in C (``hdrfringe/_native/unwrap.c``); when that library is not built, or
+    ``HDRFRINGE_NATIVE=0``, :func:`skimage.restoration.unwrap_phase` (the same algorithm)
+    decides instead. The two give the same orders except where paths disagree, inside noisy
+    patches (docs/unwrapping.md).
 
     *Determinism.* Values are exactly ``wrapped + 2*pi*K`` (integer ``K``, one rounding), and
-    each region's orders are counted from its first pixel before anchoring, so where loops
-    close no bit depends on anything but the input. Where scikit-image decides, the orders of
-    pixels on which paths disagree can depend on earlier calls in the process: its border
-    reliabilities are drawn from the C library's ``rand()`` (docs/unwrapping.md).
+    each region's orders are counted from its first pixel before anchoring, so no bit depends
+    on anything but the input. Only the scikit-image fallback can depend on earlier calls in
+    the process where paths disagree: its border reliabilities are drawn from the C library's
+    ``rand()`` (docs/unwrapping.md).
 
     References
     ----------
-    Thesis Sec. 2.4 and Fig. 2.4 (phase unwrapping in the measurement process).
+    Thesis Sec. 2.4 and Fig. 2.4 (phase unwrapping in the measurement process); M. A. Herraez
+    et al., "Fast two-dimensional phase-unwrapping algorithm based on sorting by reliability
+    following a noncontinuous path", Appl. Opt. 41(35), 7437-7444 (2002).
 
     Examples
     --------
@@ -340,21 +351,23 @@ def unwrap_spatial(
                 return out
             labels, n = _label4(valid)
 
-    # Shift to [-pi, pi) as scikit-image documents; NaN/inf replaced and masked (see Notes).
+    # Shift to [-pi, pi) (scikit-image's convention, the others' too); NaN/inf replaced and
+    # masked (see Notes).
     if not all_valid:
         phase[~valid] = 0.0
     centred = np.mod(phase, TWO_PI)
     centred -= np.pi
     # Fringe orders by integrating the wrapped differences when every loop of valid pixels
     # closes (no residue): then every path-following unwrapper gives these orders up to one
-    # constant per region. Otherwise scikit-image decides (its path matters there).
+    # constant per region. Otherwise the reliability-guided unwrapper decides (its path
+    # matters there): in C when built, else scikit-image's.
     path = _path_orders(centred, None if all_valid else valid)
     if path is None:  # residues: the reliability-guided unwrapper in C, when it is built
         path = _native_orders(centred, None if all_valid else valid)
     if path is not None:
         raw = centred + TWO_PI * path
     else:
-        # imported here: only maps with residues need it (cold start)
+        # imported here: only maps with residues need it, without the native library
         from skimage.restoration import unwrap_phase
 
         with warnings.catch_warnings():
@@ -378,7 +391,7 @@ def unwrap_spatial(
     lab = None if labels is None else labels[valid]
     # Each region's orders counted from its first pixel (raster order): the unwrapper's own
     # constant per region (scikit-image's depends on C rand(), ours on the integration's
-    # start) drops out, and so from here on the result depends on the orders' differences only.
+    # start or the union-find's roots) drops out, and so from here on the result depends on the orders' differences only.
     if n == 1:
         orders -= orders[0]
     else:
