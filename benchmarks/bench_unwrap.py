@@ -13,7 +13,8 @@ that do not close, and calls the reliability-guided unwrapper in C
 (``hdrfringe/_native/unwrap.c``), or scikit-image when that is not built.
 
 Cases, timed interleaved (one round = one call of each, so a busy machine slows every case
-alike), wall time and CPU time of this process (``time.process_time``: on a shared machine it
+alike; the round starts with another case each time, so that none always follows the same
+one), wall time and CPU time of this process (``time.process_time``: on a shared machine it
 varies much less from run to run), medians of ``--repeats`` rounds:
 
 - ``unwrap_spatial`` as it is now (native kernels on);
@@ -369,8 +370,10 @@ def main() -> None:
             f()
         times: dict[str, list[float]] = {k: [] for k in cases}
         cpu: dict[str, list[float]] = {k: [] for k in cases}
-        for _ in range(args.repeats):
-            for k, f in cases.items():
+        names = list(cases)
+        for i in range(args.repeats):
+            for k in names[i % len(names) :] + names[: i % len(names)]:  # each case leads in turn
+                f = cases[k]
                 c0, t0 = time.process_time(), time.perf_counter()
                 f()
                 times[k].append(1e3 * (time.perf_counter() - t0))
