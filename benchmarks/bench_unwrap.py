@@ -13,8 +13,9 @@ that do not close, and calls the reliability-guided unwrapper in C
 (``hdrfringe/_native/unwrap.c``), or scikit-image when that is not built.
 
 Cases, timed interleaved (one round = one call of each, so a busy machine slows every case
-alike; the round starts with another case each time, so that none always follows the same
-one), wall time and CPU time of this process (``time.process_time``: on a shared machine it
+alike; the cases in a seeded random order each round: a call is slower after some calls
+than after others, through the heap's state, e.g. right after the lexsort version of before),
+wall time and CPU time of this process (``time.process_time``: on a shared machine it
 varies much less from run to run), medians of ``--repeats`` rounds:
 
 - ``unwrap_spatial`` as it is now (native kernels on);
@@ -371,8 +372,9 @@ def main() -> None:
         times: dict[str, list[float]] = {k: [] for k in cases}
         cpu: dict[str, list[float]] = {k: [] for k in cases}
         names = list(cases)
-        for i in range(args.repeats):
-            for k in names[i % len(names) :] + names[: i % len(names)]:  # each case leads in turn
+        shuffle = np.random.default_rng(0)
+        for _ in range(args.repeats):
+            for k in shuffle.permutation(names):  # a case's cost depends on the one before
                 f = cases[k]
                 c0, t0 = time.process_time(), time.perf_counter()
                 f()

@@ -208,8 +208,8 @@ def test_the_kernel_refuses_maps_beyond_its_32_bit_edge_ids() -> None:
 def _reference_orders(centred: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """Herraez et al. (2002) written plainly in numpy and Python, independently of the C
     kernel: dispersions from the four wrapped second differences (the available ones scaled to
-    four terms on the border and beside invalid pixels, 100 with none), edges by increasing
-    D_p + D_q (stable), groups joined by relabelling the smaller one."""
+    four terms beside invalid pixels, 100 with none; 100 added on the image border), edges by
+    increasing D_p + D_q (stable), groups joined by relabelling the smaller one."""
     h, w = centred.shape
     c = np.pad(np.where(valid, centred, np.nan), 1, constant_values=np.nan)
     centre = c[1:-1, 1:-1]
@@ -228,6 +228,8 @@ def _reference_orders(centred: np.ndarray, valid: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         disp = np.where(count == 4, np.sqrt(total), np.sqrt(total * (4.0 / count)))
     disp[count == 0] = 100.0
+    disp[[0, -1], :] += 100.0  # the image border after every interior pixel
+    disp[1:-1, [0, -1]] += 100.0
     keys = np.full(2 * h * w, np.inf)
     d = disp.ravel()
     v = valid.ravel()
