@@ -143,8 +143,9 @@ def test_results_do_not_depend_on_c_rand(name: str) -> None:
 def test_with_residues_a_region_constant_of_scikit_image_changes_no_bit(monkeypatch) -> None:
     """On a map with residues scikit-image decides when the native unwrapper is off (the
     fallback). Its border reliabilities come from rand(), which moves the 2 pi constant it
-    leaves on a region (and, where paths disagree, some orders: benchmarks/README.md). A different constant must not change a bit:
-    scikit-image's result shifted by 2 pi * 7 gives the same bytes."""
+    leaves on a region (and, where paths disagree, some orders: benchmarks/README.md). A
+    different constant must not change a bit: scikit-image's result shifted by 2 pi * 7 gives
+    the same bytes."""
     import skimage.restoration
 
     monkeypatch.setenv("HDRFRINGE_NATIVE", "0")  # the fallback

@@ -274,8 +274,9 @@ def unwrap_spatial(
     *Residues.* Elsewhere the path matters, and the reliability-guided unwrapper of Herraez et
     al. (2002) decides: every pixel's dispersion is the root sum of squares of its four
     wrapped second differences (on the border and beside invalid pixels, the available ones
-    scaled to four terms), edges between valid neighbours are visited by increasing sum of
-    their two pixels' dispersions (most reliable first, ties by position), and each edge
+    scaled to four terms; image-border pixels after every interior one), edges between valid
+    neighbours are visited by increasing sum of their two pixels' dispersions (most reliable
+    first, ties by position), and each edge
     between two groups joins them with the ``2*pi`` offset that keeps its step below ``pi``.
     It runs in C (``hdrfringe/_native/unwrap.c``); when that library is not built, or
     ``HDRFRINGE_NATIVE=0``, :func:`skimage.restoration.unwrap_phase` (the same algorithm)
@@ -391,7 +392,8 @@ def unwrap_spatial(
     lab = None if labels is None else labels[valid]
     # Each region's orders counted from its first pixel (raster order): the unwrapper's own
     # constant per region (scikit-image's depends on C rand(), ours on the integration's
-    # start or the union-find's roots) drops out, and so from here on the result depends on the orders' differences only.
+    # start or the union-find's roots) drops out, and so from here on the result depends on
+    # the orders' differences only.
     if n == 1:
         orders -= orders[0]
     else:
