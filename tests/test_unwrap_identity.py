@@ -105,7 +105,13 @@ CASES = range(24)
 
 
 @pytest.mark.parametrize("case", CASES)
-def test_unwrap_spatial_is_the_implementation_of_before_bit_for_bit(case: int) -> None:
+def test_unwrap_spatial_is_the_implementation_of_before_bit_for_bit(
+    case: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The scikit-image fallback (native kernels off): the orders of before on every map.
+    With the native unwrapper, maps with residues get its orders instead
+    (tests/test_native_unwrap.py; residue-free maps are unaffected by the switch)."""
+    monkeypatch.setenv("HDRFRINGE_NATIVE", "0")
     rng = np.random.default_rng(1000 + case)
     shape = (int(rng.integers(1, 60)), int(rng.integers(1, 90))) if case % 6 == 5 else (48, 80)
     wrapped = np.mod(_surface(rng, shape), TWO_PI)
@@ -147,9 +153,13 @@ def assert_same_orders(got: np.ndarray, ref: np.ndarray, wrapped: np.ndarray) ->
     assert np.all(np.abs(got[ok] - ref[ok]) <= 4 * np.spacing(np.abs(ref[ok])))
 
 
-def test_a_map_without_invalid_pixels_takes_the_unmasked_path_identically() -> None:
+def test_a_map_without_invalid_pixels_takes_the_unmasked_path_identically(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """The all-valid shortcut against the masked path on the same values: a map that differs
-    only by one invalid corner pixel unwraps the rest to the same orders."""
+    only by one invalid corner pixel unwraps the rest to the same orders (scikit-image
+    fallback)."""
+    monkeypatch.setenv("HDRFRINGE_NATIVE", "0")
     rng = np.random.default_rng(7)
     wrapped = np.mod(_surface(rng, (64, 96)), TWO_PI)
     reseed_c_rand()

@@ -1,5 +1,7 @@
-"""``unwrap_spatial``'s two ways to the fringe orders (issue 16): integration where every loop of
-valid pixels closes, scikit-image elsewhere; and what that makes deterministic.
+"""``unwrap_spatial``'s ways to the fringe orders (issue 16): integration where every loop of
+valid pixels closes, elsewhere the native unwrapper (tests/test_native_unwrap.py) or, when it
+is not built, scikit-image; and what that makes deterministic. The scikit-image side here runs
+with the native kernels off.
 
 The integration (``hdrfringe.unwrap._path_orders``) must give, on every map where it answers,
 the orders scikit-image's path gives (the reference: the same function with the integration
@@ -63,6 +65,7 @@ def _maps() -> dict[str, tuple[np.ndarray, np.ndarray | None]]:
 def _skimage_path(monkeypatch: pytest.MonkeyPatch, *args, **kw) -> np.ndarray:
     with monkeypatch.context() as m:
         m.setattr(unwrap_module, "_path_orders", lambda centred, valid: None)
+        m.setenv("HDRFRINGE_NATIVE", "0")  # scikit-image, not the native unwrapper
         reseed_c_rand()
         return unwrap_spatial(*args, **kw)
 
@@ -138,12 +141,14 @@ def test_results_do_not_depend_on_c_rand(name: str) -> None:
 
 
 def test_with_residues_a_region_constant_of_scikit_image_changes_no_bit(monkeypatch) -> None:
-    """On a map with residues scikit-image decides. Its border reliabilities come from rand(),
-    which moves the 2 pi constant it leaves on a region (and, where paths disagree, some
-    orders: measured in benchmarks/README.md). A different constant must not change a bit:
-    scikit-image's result shifted by 2 pi * 7 gives the same bytes."""
+    """On a map with residues scikit-image decides when the native unwrapper is off (the
+    fallback). Its border reliabilities come from rand(), which moves the 2 pi constant it
+    leaves on a region (and, where paths disagree, some orders: benchmarks/README.md). A
+    different constant must not change a bit: scikit-image's result shifted by 2 pi * 7 gives
+    the same bytes."""
     import skimage.restoration
 
+    monkeypatch.setenv("HDRFRINGE_NATIVE", "0")  # the fallback
     wrapped = np.mod(_ramp((24, 32), 9, noise=0.9), TWO_PI)
     assert unwrap_module._path_orders(wrapped - np.pi, None) is None  # residues: skimage
     reseed_c_rand()

@@ -21,6 +21,7 @@ See docs/unwrapping.md for the rules in full.
 
 from __future__ import annotations
 
+import ctypes
 import math
 import warnings
 from collections.abc import Sequence
@@ -30,6 +31,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hdrfringe import _native
 from hdrfringe.errors import InputError
 
 __all__ = [
@@ -211,10 +213,9 @@ def unwrap_spatial(
     The wrapped phase (Eq. 2.4, or any phase decoded to the contract's ``[0, 2*pi)`` convention)
     is made continuous by adding to every valid pixel the integer multiple of ``2*pi`` that keeps
     the difference between 4-connected valid neighbours below ``pi``, following the most reliable
-    pixels first (the sorting-by-reliability path-following algorithm of Herraez et al., as
-    implemented by :func:`skimage.restoration.unwrap_phase`, which is called only for maps whose
-    loops do not close; see Notes). The map is exact wherever the true phase changes by less
-    than ``pi`` between neighbours.
+    pixels first (the sorting-by-reliability path-following algorithm of Herraez et al.; only
+    maps whose loops do not close need it, see Notes). The map is exact wherever the true phase
+    changes by less than ``pi`` between neighbours.
 
     Parameters
     ----------
@@ -262,24 +263,37 @@ def unwrap_spatial(
     *Degenerate input.* An image with no valid pixel (all NaN, or an all-False mask) gives an
     all-NaN result without error; a single valid pixel keeps its wrapped value.
 
-    *NaN.* scikit-image's unwrapper does not return when its input contains NaN, so NaN is
-    never passed to it: invalid pixels are replaced by 0 and masked.
+    *NaN.* Invalid pixels are never read: they are replaced by 0 and masked (scikit-image's
+    unwrapper, the fallback, does not return when its input contains NaN).
 
     *Loops that close.* Where the wrapped differences between valid neighbours sum to zero
     round every loop of valid pixels (no residue, no hole whose boundary turns by ``2*pi``),
     the orders are found by integrating those differences (row runs joined vertically, every
-    edge checked) instead of by scikit-image: the same orders, since every path gives them
-    there, at a fraction of the cost. Elsewhere scikit-image decides.
+    edge checked): every path gives the same orders there.
+
+    *Residues.* Elsewhere the path matters, and the reliability-guided unwrapper of Herraez et
+    al. (2002) decides: every pixel's dispersion is the root sum of squares of its four
+    wrapped second differences (on the border and beside invalid pixels, the available ones
+    scaled to four terms; image-border pixels after every interior one), edges between valid
+    neighbours are visited by increasing sum of their two pixels' dispersions (most reliable
+    first, ties by position), and each edge
+    between two groups joins them with the ``2*pi`` offset that keeps its step below ``pi``.
+    It runs in C (``hdrfringe/_native/unwrap.c``); when that library is not built, or
+    ``HDRFRINGE_NATIVE=0``, :func:`skimage.restoration.unwrap_phase` (the same algorithm)
+    decides instead. The two give the same orders except where paths disagree, inside noisy
+    patches (docs/unwrapping.md).
 
     *Determinism.* Values are exactly ``wrapped + 2*pi*K`` (integer ``K``, one rounding), and
-    each region's orders are counted from its first pixel before anchoring, so where loops
-    close no bit depends on anything but the input. Where scikit-image decides, the orders of
-    pixels on which paths disagree can depend on earlier calls in the process: its border
-    reliabilities are drawn from the C library's ``rand()`` (docs/unwrapping.md).
+    each region's orders are counted from its first pixel before anchoring, so no bit depends
+    on anything but the input. Only the scikit-image fallback can depend on earlier calls in
+    the process where paths disagree: its border reliabilities are drawn from the C library's
+    ``rand()`` (docs/unwrapping.md).
 
     References
     ----------
-    Thesis Sec. 2.4 and Fig. 2.4 (phase unwrapping in the measurement process).
+    Thesis Sec. 2.4 and Fig. 2.4 (phase unwrapping in the measurement process); M. A. Herraez
+    et al., "Fast two-dimensional phase-unwrapping algorithm based on sorting by reliability
+    following a noncontinuous path", Appl. Opt. 41(35), 7437-7444 (2002).
 
     Examples
     --------
@@ -338,19 +352,23 @@ def unwrap_spatial(
                 return out
             labels, n = _label4(valid)
 
-    # Shift to [-pi, pi) as scikit-image documents; NaN/inf replaced and masked (see Notes).
+    # Shift to [-pi, pi) (scikit-image's convention, the others' too); NaN/inf replaced and
+    # masked (see Notes).
     if not all_valid:
         phase[~valid] = 0.0
     centred = np.mod(phase, TWO_PI)
     centred -= np.pi
     # Fringe orders by integrating the wrapped differences when every loop of valid pixels
     # closes (no residue): then every path-following unwrapper gives these orders up to one
-    # constant per region. Otherwise scikit-image decides (its path matters there).
+    # constant per region. Otherwise the reliability-guided unwrapper decides (its path
+    # matters there): in C when built, else scikit-image's.
     path = _path_orders(centred, None if all_valid else valid)
+    if path is None:  # residues: the reliability-guided unwrapper in C, when it is built
+        path = _native_orders(centred, None if all_valid else valid)
     if path is not None:
         raw = centred + TWO_PI * path
     else:
-        # imported here: only maps with residues need it (cold start)
+        # imported here: only maps with residues need it, without the native library
         from skimage.restoration import unwrap_phase
 
         with warnings.catch_warnings():
@@ -374,7 +392,8 @@ def unwrap_spatial(
     lab = None if labels is None else labels[valid]
     # Each region's orders counted from its first pixel (raster order): the unwrapper's own
     # constant per region (scikit-image's depends on C rand(), ours on the integration's
-    # start) drops out, and so from here on the result depends on the orders' differences only.
+    # start or the union-find's roots) drops out, and so from here on the result depends on
+    # the orders' differences only.
     if n == 1:
         orders -= orders[0]
     else:
@@ -488,6 +507,78 @@ def _path_orders(
     orders = off[run].reshape(h, w).astype(np.float64)  # invalid pixels: any run, harmless
     orders += k_row
     return orders
+
+
+def _native_library() -> ctypes.CDLL | None:
+    """The compiled unwrapper (``_native/unwrap.c``) with its argument types, or None."""
+    lib = _native.load("unwrap")
+    if lib is not None and lib.hf_unwrap_orders.argtypes is None:
+        ptr, i64 = ctypes.c_void_p, ctypes.c_int64
+        lib.hf_unwrap_orders.argtypes = [ptr, ptr, i64, i64, ptr, i64, ptr]
+        lib.hf_unwrap_orders.restype = ctypes.c_int
+        lib.hf_unwrap_edge_keys.argtypes = [ptr, ptr, i64, i64, ptr]
+        lib.hf_unwrap_edge_keys.restype = None
+    return lib
+
+
+def _native_orders(
+    centred: NDArray[np.float64],
+    valid: NDArray[np.bool_] | None,
+    order: NDArray[np.int64] | None = None,
+) -> NDArray[np.float64] | None:
+    """Fringe orders by the reliability-guided unwrapper of Herraez et al. (2002) in C, or None
+    when the library is not built (or ``HDRFRINGE_NATIVE=0``) or the map is too large for it.
+
+    Parameters
+    ----------
+    centred : ndarray of float64, shape (H, W)
+        Wrapped phase in [-pi, pi); never read at invalid pixels.
+    valid : ndarray of bool, shape (H, W), or None
+        Valid pixels (None: all).
+    order : ndarray of int64, optional
+        Edge ids (``2 i``: pixel ``i`` and its right neighbour, ``2 i + 1``: and the one below)
+        in the order to visit them; default: by increasing key (the C library's stable radix
+        sort, as ``np.argsort(_native_edge_keys(...), kind="stable")`` orders them).
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W), or None
+        Integer orders, each group's counted from its root (0 at invalid pixels).
+    """
+    lib = _native_library()
+    if lib is None:
+        return None
+    c = np.ascontiguousarray(centred, dtype=np.float64)
+    v = None if valid is None else np.ascontiguousarray(valid, dtype=np.bool_)
+    h, w = c.shape
+    k = np.empty((h, w), np.int32)
+    o = None if order is None else np.ascontiguousarray(order, dtype=np.int64)
+    rc = lib.hf_unwrap_orders(
+        c.ctypes.data, None if v is None else v.ctypes.data, h, w,
+        None if o is None else o.ctypes.data, 0 if o is None else o.size, k.ctypes.data,
+    )  # fmt: skip
+    if rc == -2:  # 2 H W >= 2^31 edges: beyond the kernel's 32-bit ids
+        return None
+    if rc != 0:
+        raise MemoryError(f"the native unwrapper could not allocate its work arrays ({h}x{w})")
+    return k.astype(np.float64)
+
+
+def _native_edge_keys(
+    centred: NDArray[np.float64], valid: NDArray[np.bool_] | None
+) -> NDArray[np.float64]:
+    """The native unwrapper's edge keys (sum of the two pixels' dispersions; inf: no edge),
+    indexed by edge id (see :func:`_native_orders`). Needs the library built."""
+    lib = _native_library()
+    assert lib is not None
+    c = np.ascontiguousarray(centred, dtype=np.float64)
+    v = None if valid is None else np.ascontiguousarray(valid, dtype=np.bool_)
+    keys = np.empty(2 * c.size)
+    lib.hf_unwrap_edge_keys(
+        c.ctypes.data, None if v is None else v.ctypes.data, c.shape[0], c.shape[1],
+        keys.ctypes.data,
+    )  # fmt: skip
+    return keys
 
 
 def _join_trees(a: NDArray, b: NDArray, delta: NDArray) -> dict[int, int] | None:
