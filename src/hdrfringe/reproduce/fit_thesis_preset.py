@@ -66,6 +66,7 @@ __all__ = [
     "fit_gamma_matched_preset",
     "fit_thesis_preset",
     "gamma_scan",
+    "light_probe",
     "main",
     "preset_setup",
 ]
@@ -414,6 +415,57 @@ def fit_gamma_matched_preset(
     }
 
 
+def light_probe(
+    setup: Ch4Setup,
+    migls: Sequence[float] = tuple(float(m) for m in range(255, 174, -10)),
+    lux: float = 600.0,
+    depths_mm: Sequence[float] = FIT_DEPTHS_MM,
+) -> dict[str, Any]:
+    """Table 4.3's sinusoidal 3-step at ``lux`` over MIGLs: does MIGL 255 lose, where is the
+    trade-off?
+
+    Parameters
+    ----------
+    setup : Ch4Setup
+        The rig.
+    migls : sequence of float
+        MIGLs measured (pitch 6, as Table 4.3).
+    lux : float
+        Added ambient light.
+    depths_mm : sequence of float
+        Plate positions measured and calibrated on.
+
+    Returns
+    -------
+    dict
+        ``migls``, ``rmse_mm`` and ``std_mm`` per MIGL (RMSE over positions, mean per-position
+        std), ``tradeoff_migl`` (the lowest RMSE's MIGL) and ``std_ratio_255`` (std at 255 over
+        the lowest std).
+
+    References
+    ----------
+    Thesis Table 4.3 (600 lx), Table 4.1.
+
+    Examples
+    --------
+    >>> setup = Ch4Setup(width=48, height=36, camera_field_mm=24.0)
+    >>> p = light_probe(setup, (255.0, 215.0), 600.0, (10.0, 30.0))
+    >>> p["tradeoff_migl"] in (255.0, 215.0)
+    True
+    """
+    r = ch4_block("sinusoidal-3", SIMULATION_PITCH, [float(lux)], list(migls), depths_mm, setup)
+    rm, b = r["rmse_mm"][0], r["mean_error_mm"][0]
+    rmse = np.sqrt(np.mean(rm * rm, axis=1))
+    std = np.mean(np.sqrt(np.maximum(rm * rm - b * b, 0.0)), axis=1)
+    return {
+        "migls": [float(m) for m in migls],
+        "rmse_mm": [float(v) for v in rmse],
+        "std_mm": [float(v) for v in std],
+        "tradeoff_migl": float(list(migls)[int(np.argmin(rmse))]),
+        "std_ratio_255": float(std[0] / np.min(std)),
+    }
+
+
 #: Thesis Table 6.1: LPA with a step of 15 gray levels took 13.75 sets on the white plate.
 THESIS_LPA15_PLATE_SETS = 13.75
 
@@ -663,9 +715,25 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         metavar="GAMMA",
         help="fit noise and blur only, the projector's gamma fixed (default 2.812: matched)",
     )
+    parser.add_argument(
+        "--probe",
+        type=float,
+        nargs="+",
+        metavar="GAMMA",
+        help="per projector gamma: fit noise and blur (as --gamma-matched), then Table 4.3 "
+        "at 600 lx over MIGLs 255..175 (light_probe)",
+    )
     args = parser.parse_args(argv)
     out: Any
-    if args.gamma_matched is not None:
+    if args.probe:
+        out = {"rows": []}
+        for g in args.probe:
+            fit = fit_gamma_matched_preset(g, max_evaluations=args.max_evaluations, log=False)
+            p = fit["params"]
+            probe = light_probe(preset_setup(p["read_noise_dn8"], p["blur_px"], g))
+            out["rows"].append({"fit": fit, "probe_600lx": probe})
+            print(json.dumps(out["rows"][-1], default=float), flush=True)
+    elif args.gamma_matched is not None:
         out = fit_gamma_matched_preset(args.gamma_matched, max_evaluations=args.max_evaluations)
     elif args.gamma_scan:
         out = {"rows": gamma_scan()}
