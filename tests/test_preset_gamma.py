@@ -41,7 +41,7 @@ def _dsie_before(setup: Ch4Setup) -> float:
 
 def test_registry_and_setup() -> None:
     """Both presets by name; the ``thesis`` preset is unchanged (its documented numbers)."""
-    assert set(PRESETS) == {"thesis", "thesis-gamma"}
+    assert set(PRESETS) == {"thesis", "thesis-gamma", "thesis-gamma-2.2"}
     assert THESIS_PRESET.projector == {"gamma": 9.677}
     assert THESIS_PRESET.camera == {"read_noise_dn8": 7.098, "blur_px": 0.829}
     setup = Ch4Setup.thesis_matched(preset="thesis-gamma")
@@ -63,17 +63,23 @@ def test_runner_setup_follows_the_preset_name() -> None:
     assert _setup(True, "thesis").preset == "thesis"
 
 
-def test_anchor_stds(gamma_setup) -> None:
-    """Table 4.3 at 0 lx within 15 %; the default rig's noise (1 DN) in this rig fails."""
+@pytest.mark.parametrize("name", ["thesis-gamma", "thesis-gamma-2.2"])
+def test_anchor_stds(name: str) -> None:
+    """Table 4.3 at 0 lx (the 3-step stds) within 15 % for both fitted projector gammas."""
+    setup = Ch4Setup.thesis_matched(quick=True, preset=name)
+    assert setup.projector_model().gamma == PRESETS[name].projector["gamma"]
     targets = anchor_targets()
-    m = anchor_metrics(
-        gamma_setup, training_depths_mm=(), patterns=("sinusoidal-3", "triangular-3")
-    )
+    m = anchor_metrics(setup, training_depths_mm=(), patterns=("sinusoidal-3", "triangular-3"))
     for p in ("sinusoidal-3", "triangular-3"):
         assert m.std_mm[p] == pytest.approx(targets[f"std_{p}"], rel=ANCHOR_RTOL), p
+
+
+def test_anchor_rejects_the_default_noise() -> None:
+    """The broken variant: the default rig's read noise (1 DN) in the matched rig."""
     quiet = preset_setup(1.0, THESIS_GAMMA_PRESET.camera["blur_px"], 2.812)
     broken = anchor_metrics(quiet, training_depths_mm=(), patterns=("sinusoidal-3",))
-    assert broken.std_mm["sinusoidal-3"] < (1 - ANCHOR_RTOL) * targets["std_sinusoidal-3"]
+    target = anchor_targets()["std_sinusoidal-3"]
+    assert broken.std_mm["sinusoidal-3"] < (1 - ANCHOR_RTOL) * target
 
 
 def test_dsie_error_is_informative_without_the_mismatch(gamma_setup) -> None:
