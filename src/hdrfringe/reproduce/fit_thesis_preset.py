@@ -53,6 +53,7 @@ __all__ = [
     "FIT_TRAINING_DEPTHS_MM",
     "GAMMA_MATCHED_FIT_KEYS",
     "GLINT_SPOT",
+    "PROBE_MIGLS",
     "THESIS_LPA15_PLATE_SETS",
     "THESIS_TABLE_4_3_0LX_MM",
     "THESIS_WHITE_PLATE_BIAS_MM",
@@ -415,9 +416,13 @@ def fit_gamma_matched_preset(
     }
 
 
+#: MIGLs of :func:`light_probe`: 255 down to 175 by 10.
+PROBE_MIGLS: tuple[float, ...] = tuple(float(v) for v in range(255, 174, -10))
+
+
 def light_probe(
     setup: Ch4Setup,
-    migls: Sequence[float] = tuple(float(m) for m in range(255, 174, -10)),
+    migls: Sequence[float] = PROBE_MIGLS,
     lux: float = 600.0,
     depths_mm: Sequence[float] = FIT_DEPTHS_MM,
 ) -> dict[str, Any]:
