@@ -20,7 +20,13 @@ import pytest
 from hdrfringe.errors import InputError
 from hdrfringe.reproduce.adaptive import experiments, training_data
 from hdrfringe.reproduce.ch4 import Ch4Setup
-from hdrfringe.reproduce.fit_thesis_preset import anchor_metrics, anchor_targets, preset_setup
+from hdrfringe.reproduce.fit_thesis_preset import (
+    THESIS_LPA15_PLATE_SETS,
+    anchor_metrics,
+    anchor_targets,
+    ch6_plate_lpa_sets,
+    preset_setup,
+)
 from hdrfringe.rig.presets import PRESETS, THESIS_GAMMA_PRESET, THESIS_PRESET
 
 #: As tests/test_thesis_preset.py: the fit's residuals are a few %, 5 positions' noise about 2 %.
@@ -51,7 +57,7 @@ def test_registry_and_setup() -> None:
     assert rig.camera.read_noise_dn8 == THESIS_GAMMA_PRESET.camera["read_noise_dn8"]
     assert Ch4Setup.thesis_matched() == Ch4Setup.thesis_matched(preset="thesis")
     plate6 = experiments(True, "thesis-gamma")["ch6_plate"]
-    assert dict(plate6.glint) == THESIS_PRESET.ch6_plate_glint  # the same plate
+    assert dict(plate6.glint) == THESIS_GAMMA_PRESET.ch6_plate_glint
     with pytest.raises(InputError, match="unknown rig preset"):
         Ch4Setup.thesis_matched(preset="nope")
 
@@ -89,3 +95,28 @@ def test_dsie_error_is_informative_without_the_mismatch(gamma_setup) -> None:
     cam = THESIS_GAMMA_PRESET.camera
     mismatched = preset_setup(cam["read_noise_dn8"], cam["blur_px"], 9.677)
     assert _dsie_before(mismatched) > 2 * DSIE_INFORMATIVE_DN
+
+
+def test_refitted_glint_gives_the_thesis_lpa_count(gamma_setup) -> None:
+    """Table 6.1: LPA S=15 took 13.75 sets, i.e. some pixels stayed saturated to near MIGL 64;
+    the refitted glint (peak 1.66) gives that count within 1.5 sets in a mid cell, and its spot
+    clears (noise-free) above the thesis's floor of 60. The broken variant, the ``thesis``
+    preset's glint (43.65, fitted behind gamma 9.677), on this linear projector leaves 707
+    pixels saturated at MIGL 60 (594 at 41): LPA runs to its floor in every cell (14 sets, the
+    count cannot tell) and those pixels are never measured."""
+    from hdrfringe.reproduce.adaptive import PLATE_LUX
+    from hdrfringe.reproduce.ch4 import PlateSweep, pattern_spec
+    from hdrfringe.rig.presets import glint_plate
+
+    level = gamma_setup.camera_model().white_level
+    glint = THESIS_GAMMA_PRESET.ch6_plate_glint
+    assert glint is not None and THESIS_PRESET.ch6_plate_glint is not None
+    sets = ch6_plate_lpa_sets(level, gamma_setup, (14,), (18.0,), glint=glint)
+    assert abs(sets - THESIS_LPA15_PLATE_SETS) <= 1.5
+    matte = ch6_plate_lpa_sets(level, gamma_setup, (14,), (18.0,))
+    assert matte < THESIS_LPA15_PLATE_SETS - 5
+    spec = pattern_spec("sinusoidal-4", 14, gamma_setup.imin)
+    for g, cleared in ((glint, True), (THESIS_PRESET.ch6_plate_glint, False)):
+        sweep = PlateSweep(18.0, gamma_setup, spec, scene=glint_plate(18.0, **g))
+        saturated = int((sweep.signal(60.0, PLATE_LUX).max(axis=0) >= 255.0).sum())
+        assert (saturated == 0) == cleared, (g["specular"], saturated)

@@ -646,13 +646,17 @@ GLINT_SPOT: dict[str, float] = {
 
 
 def fit_ch6_plate_glint(
-    target: float = THESIS_LPA15_PLATE_SETS, low: float = 1.0, high: float = 400.0
+    target: float = THESIS_LPA15_PLATE_SETS,
+    low: float = 1.0,
+    high: float = 400.0,
+    preset: str = "thesis",
+    halvings: int = 12,
 ) -> dict[str, Any]:
     """The peak gain of a glint (:data:`GLINT_SPOT`) on the matte Ch. 6 plate (default
     aperture) at which LPA (step 15) takes ``target`` sets on average.
 
-    Bisection on the gain in log space (the count grows with it), 12 halvings, on the quick
-    grid's cells of the ``thesis`` preset.
+    Bisection on the gain in log space (the count grows with it), ``halvings`` halvings, on
+    the quick grid's cells of the ``preset``.
 
     Parameters
     ----------
@@ -660,6 +664,10 @@ def fit_ch6_plate_glint(
         Mean sets (thesis Table 6.1: 13.75).
     low, high : float
         Bracket of the gain.
+    preset : str
+        The rig preset (:data:`hdrfringe.rig.presets.PRESETS`).
+    halvings : int
+        Bisection steps (12: the gain to 0.06 %; 8: to 1.9 %).
 
     Returns
     -------
@@ -670,15 +678,16 @@ def fit_ch6_plate_glint(
     ----------
     Thesis Sec. 6.2, Table 6.1.
     """
-    level = Ch4Setup.thesis_matched(quick=True).camera_model().white_level
-    for _ in range(12):
+    setup = Ch4Setup.thesis_matched(quick=True, preset=preset)
+    level = setup.camera_model().white_level
+    for _ in range(int(halvings)):
         mid = math.sqrt(low * high)
-        if ch6_plate_lpa_sets(level, glint={**GLINT_SPOT, "specular": mid}) < target:
+        if ch6_plate_lpa_sets(level, setup, glint={**GLINT_SPOT, "specular": mid}) < target:
             low = mid
         else:
             high = mid
     gain = round(math.sqrt(low * high), 2)
-    sets = ch6_plate_lpa_sets(level, glint={**GLINT_SPOT, "specular": gain})
+    sets = ch6_plate_lpa_sets(level, setup, glint={**GLINT_SPOT, "specular": gain})
     return {"specular": gain, "lpa15_sets": sets, "target": target, **GLINT_SPOT}
 
 
@@ -728,6 +737,16 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
         help="per projector gamma: fit noise and blur (as --gamma-matched), then Table 4.3 "
         "at 600 lx over MIGLs 255..175 (light_probe)",
     )
+    parser.add_argument("--preset", default="thesis", help="the rig preset of --glint")
+    parser.add_argument("--halvings", type=int, default=12, help="bisection steps of --glint")
+    parser.add_argument(
+        "--glint-bracket",
+        type=float,
+        nargs=2,
+        default=(1.0, 400.0),
+        metavar=("LOW", "HIGH"),
+        help="bracket of --glint's peak gain",
+    )
     args = parser.parse_args(argv)
     out: Any
     if args.probe:
@@ -749,7 +768,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     elif args.aperture:
         out = fit_ch6_plate_aperture()
     elif args.glint:
-        out = fit_ch6_plate_glint()
+        low, high = args.glint_bracket
+        out = fit_ch6_plate_glint(low=low, high=high, preset=args.preset, halvings=args.halvings)
     elif args.check:
         from hdrfringe.reproduce.ch4 import THESIS_DEPTHS_MM
 

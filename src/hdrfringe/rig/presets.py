@@ -252,28 +252,33 @@ THESIS_PRESET = RigPreset(
 # and blur (their ratio stays near 1.12 against the thesis's 1.23), so the fit lands on a ridge;
 # it ended at the `thesis` preset's blur. Not fitted, and predicted: the DSIE error, 13.8 DN
 # before and 6.8 after correction (Eq. 6.3 truth, one position; thesis 71.05 and 2.99). The Ch. 6
-# plate keeps the `thesis` preset's glint (the same plate; its LPA count is then a prediction).
+# plate's glint refitted as the `thesis` preset's (`... --glint --preset thesis-gamma`: Table
+# 6.1's LPA S=15 count, 13.67 sets at peak gain 1.66): the `thesis` preset's gain, 43.65, fitted
+# behind a projector whose light at MIGL 64 is 0.9 % of its light at 255, keeps the spot
+# saturated at every MIGL on a linear projector (LPA S=15 then stops at its floor, 14 sets).
 THESIS_GAMMA_PRESET = RigPreset(
     name="thesis-gamma",
     camera={"read_noise_dn8": 6.423, "blur_px": 0.826},
     projector={"gamma": 2.812},
     gamma_precompensation=2.812,
-    ch6_plate_glint=dict(THESIS_PRESET.ch6_plate_glint or {}),
-    source="python -m hdrfringe.reproduce.fit_thesis_preset --gamma-matched",
+    ch6_plate_glint={**(THESIS_PRESET.ch6_plate_glint or {}), "specular": 1.66},
+    source="python -m hdrfringe.reproduce.fit_thesis_preset --gamma-matched "
+    "[--glint --preset thesis-gamma]",
 )
 
 # Fitted by `python -m hdrfringe.reproduce.fit_thesis_preset --probe 2.2` (as `thesis-gamma`,
 # 16 evaluations, the projector's true gamma fixed at 2.2 behind the 2.812 pre-compensation: a
 # small mismatch the other way from `thesis`'s, the light growing as the input gray to the
 # power 0.78): sinusoidal 3-step std 0.284 mm, triangular 3-step 0.318 mm; predicted DSIE error
-# 15.5 DN before and 7.5 after correction (one position, Eq. 6.3 truth).
+# 15.5 DN before and 7.5 after correction (one position, Eq. 6.3 truth). Its glint by `...
+# --glint --preset thesis-gamma-2.2 --glint-bracket 0.01 4`: 13.78 sets at peak gain 0.99.
 THESIS_GAMMA_2_2_PRESET = RigPreset(
     name="thesis-gamma-2.2",
     camera={"read_noise_dn8": 6.238, "blur_px": 0.777},
     projector={"gamma": 2.2},
     gamma_precompensation=2.812,
-    ch6_plate_glint=dict(THESIS_PRESET.ch6_plate_glint or {}),
-    source="python -m hdrfringe.reproduce.fit_thesis_preset --probe 2.2",
+    ch6_plate_glint={**(THESIS_PRESET.ch6_plate_glint or {}), "specular": 0.99},
+    source="python -m hdrfringe.reproduce.fit_thesis_preset --probe 2.2 [--glint ...]",
 )
 
 #: Every preset by name.
