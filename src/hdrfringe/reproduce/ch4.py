@@ -161,8 +161,9 @@ class Ch4Setup:
         The exponent the patterns are pre-compensated with (Eq. 2.17); a projector ``gamma``
         different from it leaves a residual nonlinearity.
     preset : str
-        Name of the rig preset this setup was made from (``""``: the default rig; ``"thesis"``:
-        :meth:`thesis_matched`). Part of a sweep's identity, shown in the report.
+        Name of the rig preset this setup was made from (``""``: the default rig; ``"thesis"``,
+        ``"thesis-gamma"``, ...: :meth:`thesis_matched`). Part of a sweep's identity, shown in
+        the report.
 
     References
     ----------
