@@ -7,7 +7,10 @@ pre-compensation of Eq. 2.17) to **one anchor**: thesis Table 4.3 at 0 lx (the R
 of the three patterns at a pitch of 6 px) and the DSIE error of Sec. 6.1.2 (71.05 DN before
 correction). Everything else the reproduction reports with the preset is a prediction.
 The fit is ``python -m hdrfringe.reproduce.fit_thesis_preset`` (docs/virtual_rig.md,
-"Thesis-matched preset").
+"Thesis-matched preset"). The ``thesis-gamma`` presets drop the DSIE anchor: the projector's
+gamma is fixed (2.812, its pre-compensation; or 2.2) and only the noise and blur are fitted to
+Table 4.3 at 0 lx (``... fit_thesis_preset --gamma-matched``; docs/virtual_rig.md,
+"Gamma-matched preset").
 """
 
 from __future__ import annotations
