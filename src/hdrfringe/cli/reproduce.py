@@ -35,7 +35,10 @@ def reproduce(
     ] = False,
     preset: Annotated[
         str,
-        typer.Option(help="Rig preset: 'thesis' (fitted to Table 4.3 and the DSIE error)."),
+        typer.Option(
+            help="Rig preset: 'thesis' (fitted to Table 4.3 and the DSIE error) or "
+            "'thesis-gamma' (projector gamma matched, fitted to Table 4.3 only)."
+        ),
     ] = "",
     unwrap: Annotated[
         str,

@@ -161,8 +161,9 @@ class Ch4Setup:
         The exponent the patterns are pre-compensated with (Eq. 2.17); a projector ``gamma``
         different from it leaves a residual nonlinearity.
     preset : str
-        Name of the rig preset this setup was made from (``""``: the default rig; ``"thesis"``:
-        :meth:`thesis_matched`). Part of a sweep's identity, shown in the report.
+        Name of the rig preset this setup was made from (``""``: the default rig; ``"thesis"``,
+        ``"thesis-gamma"``, ...: :meth:`thesis_matched`). Part of a sweep's identity, shown in
+        the report.
 
     References
     ----------
@@ -192,7 +193,7 @@ class Ch4Setup:
     preset: str = ""
 
     @classmethod
-    def thesis_matched(cls, quick: bool = False, seed: int = 0) -> Ch4Setup:
+    def thesis_matched(cls, quick: bool = False, seed: int = 0, preset: str = "thesis") -> Ch4Setup:
         """The ``thesis`` preset: noise, blur, vignetting and projector gamma mismatch fitted to
         thesis Table 4.3 (0 lx, MIGL 255, pitch 6) and the DSIE error of Sec. 6.1.2.
 
@@ -202,11 +203,14 @@ class Ch4Setup:
             The quick grid's quarter-size view (:data:`QUICK_SETUP`) instead of the full camera.
         seed : int
             Noise seed.
+        preset : str
+            The preset's name in :data:`hdrfringe.rig.presets.PRESETS` (``"thesis-gamma"``: the
+            projector's gamma matched, noise and blur fitted to Table 4.3 at 0 lx only).
 
         Returns
         -------
         Ch4Setup
-            With the parameters of :data:`hdrfringe.rig.presets.THESIS_PRESET`.
+            With the parameters of :data:`hdrfringe.rig.presets.THESIS_PRESET` (or ``preset``).
 
         References
         ----------
@@ -217,8 +221,11 @@ class Ch4Setup:
         >>> Ch4Setup.thesis_matched().camera_model().read_noise_dn8 > 1.0
         True
         """
-        from hdrfringe.rig.presets import THESIS_PRESET, natural_vignetting
+        from hdrfringe.rig.presets import PRESETS, natural_vignetting
 
+        if preset not in PRESETS:
+            raise InputError(f"unknown rig preset {preset!r}; use one of {', '.join(PRESETS)}")
+        chosen = PRESETS[preset]
         base = QUICK_SETUP if quick else cls()
         geometry = RigGeometry(camera_field_mm=base.camera_field_mm)
         lens = natural_vignetting(geometry, base.width, base.height)
@@ -226,10 +233,10 @@ class Ch4Setup:
             **{
                 **base.to_dict(),
                 "seed": int(seed),
-                "camera": {**THESIS_PRESET.camera, "vignetting": lens},
-                "projector": dict(THESIS_PRESET.projector),
-                "gamma_precompensation": THESIS_PRESET.gamma_precompensation,
-                "preset": THESIS_PRESET.name,
+                "camera": {**chosen.camera, "vignetting": lens},
+                "projector": dict(chosen.projector),
+                "gamma_precompensation": chosen.gamma_precompensation,
+                "preset": chosen.name,
             }
         )
 

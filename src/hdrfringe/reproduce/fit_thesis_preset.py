@@ -29,6 +29,13 @@ the sinusoidal 3-step's std is near the thesis's (0.2 to 0.45 mm) the triangular
 only 1.5 to 2.6 times it, against the thesis's 3.8 (``--explore``: read noise 2 and 4 DN,
 camera blur 0.5 to 1.5 px, defocus 0.6 to 1.3 px, gamma 8); weighting it in would pull the
 sinusoidal numbers, which every later chapter uses, away from the thesis.
+
+**Without the DSIE anchor** (``--gamma-matched [GAMMA]``, the ``thesis-gamma`` presets): the
+projector's true gamma is fixed (default: its pre-compensation, no residual nonlinearity) and
+only the noise and blur are fitted to the two 3-step stds (:func:`fit_gamma_matched_preset`);
+the DSIE error is then a prediction. ``--probe GAMMA ...`` repeats that fit per gamma and
+measures Table 4.3 at 600 lx over MIGLs (:func:`light_probe`); ``--glint --preset NAME`` fits a
+preset's Ch. 6 glint. docs/reproduction.md, "Gamma-matched preset", gives the results.
 """
 
 from __future__ import annotations
@@ -51,7 +58,9 @@ __all__ = [
     "FIT_DEPTHS_MM",
     "FIT_KEYS",
     "FIT_TRAINING_DEPTHS_MM",
+    "GAMMA_MATCHED_FIT_KEYS",
     "GLINT_SPOT",
+    "PROBE_MIGLS",
     "THESIS_LPA15_PLATE_SETS",
     "THESIS_TABLE_4_3_0LX_MM",
     "THESIS_WHITE_PLATE_BIAS_MM",
@@ -62,8 +71,10 @@ __all__ = [
     "explore_triangular_2step",
     "fit_ch6_plate_aperture",
     "fit_ch6_plate_glint",
+    "fit_gamma_matched_preset",
     "fit_thesis_preset",
     "gamma_scan",
+    "light_probe",
     "main",
     "preset_setup",
 ]
@@ -318,6 +329,155 @@ def fit_thesis_preset(
     }
 
 
+#: The numbers the gamma-matched fit matches: Table 4.3's 0 lx anchor only (no DSIE error).
+GAMMA_MATCHED_FIT_KEYS: tuple[str, ...] = ("std_sinusoidal-3", "std_triangular-3")
+
+
+def fit_gamma_matched_preset(
+    gamma: float = 2.812,
+    start: Sequence[float] = (7.0, 0.8),
+    max_evaluations: int = 24,
+    log: bool = True,
+) -> dict[str, Any]:
+    """Nelder-Mead fit of (read noise, camera blur) to Table 4.3's 0 lx anchor at a fixed gamma.
+
+    The ``thesis-gamma`` preset: the projector's true gamma is given (default: equal to the
+    pre-compensation 2.812, Eq. 2.16 against Eq. 2.17), and only the sinusoidal and triangular
+    3-step stds of :func:`anchor_targets` are matched (:data:`GAMMA_MATCHED_FIT_KEYS`); the DSIE
+    error before and after correction is then a prediction (reported in ``metrics``).
+
+    Parameters
+    ----------
+    gamma : float
+        The projector's true gamma (fixed).
+    start : sequence of 2 float
+        Starting read noise (DN8) and blur (px).
+    max_evaluations : int
+        Objective evaluations allowed (each a few seconds on the quick view).
+    log : bool
+        Print each evaluation.
+
+    Returns
+    -------
+    dict
+        ``params`` (read_noise_dn8, blur_px and the fixed gamma), ``metrics`` (anchor values
+        and the DSIE errors at one training position), ``targets``, ``objective``,
+        ``evaluations``, ``seconds``.
+
+    References
+    ----------
+    Thesis Table 4.3 (0 lx, MIGL 255, pitch 6), Sec. 6.1.2; issue 15 item 3.
+    """
+    from scipy.optimize import minimize
+
+    targets = anchor_targets()
+    seen: dict[tuple[float, ...], float] = {}
+    t0 = time.perf_counter()
+
+    def objective(values: dict[str, float]) -> float:
+        total = 0.0
+        for k in GAMMA_MATCHED_FIT_KEYS:
+            v, t = values[k], targets[k]
+            total += math.log(v / t) ** 2 if math.isfinite(v) and v > 0 else 100.0
+        return total
+
+    def f(x: np.ndarray) -> float:
+        noise, blur = (float(v) for v in x)
+        if noise < 0 or blur < 0:
+            return 1e3
+        key = (round(noise, 3), round(blur, 3))
+        if key not in seen:
+            m = anchor_metrics(
+                preset_setup(noise, blur, gamma),
+                training_depths_mm=(),
+                patterns=("sinusoidal-3", "triangular-3"),
+            )
+            seen[key] = objective(m.values())
+            if log:
+                vals = {k: round(v, 4) for k, v in m.values().items() if k in targets}
+                print(f"{key} -> {seen[key]:.5f} {vals}", flush=True)
+        return seen[key]
+
+    x0 = np.asarray(start, dtype=float)
+    simplex = np.vstack([x0, x0 + np.diag([-1.5, 0.3])])
+    res = minimize(
+        f,
+        x0,
+        method="Nelder-Mead",
+        options={
+            "maxfev": int(max_evaluations),
+            "xatol": 0.01,
+            "fatol": 1e-4,
+            "initial_simplex": simplex,
+        },
+    )
+    noise, blur = (round(float(v), 3) for v in res.x)
+    best = anchor_metrics(preset_setup(noise, blur, gamma))
+    return {
+        "params": {"read_noise_dn8": noise, "blur_px": blur, "gamma": float(gamma)},
+        "metrics": best.__dict__,
+        "targets": targets,
+        "objective": objective(best.values()),
+        "evaluations": len(seen),
+        "seconds": time.perf_counter() - t0,
+    }
+
+
+#: MIGLs of :func:`light_probe`: 255 down to 175 by 10.
+PROBE_MIGLS: tuple[float, ...] = tuple(float(v) for v in range(255, 174, -10))
+
+
+def light_probe(
+    setup: Ch4Setup,
+    migls: Sequence[float] = PROBE_MIGLS,
+    lux: float = 600.0,
+    depths_mm: Sequence[float] = FIT_DEPTHS_MM,
+) -> dict[str, Any]:
+    """Table 4.3's sinusoidal 3-step at ``lux`` over MIGLs: does MIGL 255 lose, where is the
+    trade-off?
+
+    Parameters
+    ----------
+    setup : Ch4Setup
+        The rig.
+    migls : sequence of float
+        MIGLs measured (pitch 6, as Table 4.3).
+    lux : float
+        Added ambient light.
+    depths_mm : sequence of float
+        Plate positions measured and calibrated on.
+
+    Returns
+    -------
+    dict
+        ``migls``, ``rmse_mm`` and ``std_mm`` per MIGL (RMSE over positions, mean per-position
+        std), ``tradeoff_migl`` (the lowest RMSE's MIGL) and ``std_ratio_255`` (std at 255 over
+        the lowest std).
+
+    References
+    ----------
+    Thesis Table 4.3 (600 lx), Table 4.1.
+
+    Examples
+    --------
+    >>> setup = Ch4Setup(width=48, height=36, camera_field_mm=24.0)
+    >>> p = light_probe(setup, (255.0, 215.0), 600.0, (10.0, 30.0))
+    >>> p["tradeoff_migl"] in (255.0, 215.0)
+    True
+    """
+    r = ch4_block("sinusoidal-3", SIMULATION_PITCH, [float(lux)], list(migls), depths_mm, setup)
+    rm, b = r["rmse_mm"][0], r["mean_error_mm"][0]
+    rmse = np.sqrt(np.mean(rm * rm, axis=1))
+    std = np.mean(np.sqrt(np.maximum(rm * rm - b * b, 0.0)), axis=1)
+    return {
+        "migls": [float(m) for m in migls],
+        "rmse_mm": [float(v) for v in rmse],
+        "std_mm": [float(v) for v in std],
+        "tradeoff_migl": float(list(migls)[int(np.argmin(rmse))]),
+        "std_ratio_255": float(std[0] / np.min(std)),
+    }
+
+
 #: Thesis Table 6.1: LPA with a step of 15 gray levels took 13.75 sets on the white plate.
 THESIS_LPA15_PLATE_SETS = 13.75
 
@@ -493,13 +653,17 @@ GLINT_SPOT: dict[str, float] = {
 
 
 def fit_ch6_plate_glint(
-    target: float = THESIS_LPA15_PLATE_SETS, low: float = 1.0, high: float = 400.0
+    target: float = THESIS_LPA15_PLATE_SETS,
+    low: float = 1.0,
+    high: float = 400.0,
+    preset: str = "thesis",
+    halvings: int = 12,
 ) -> dict[str, Any]:
     """The peak gain of a glint (:data:`GLINT_SPOT`) on the matte Ch. 6 plate (default
     aperture) at which LPA (step 15) takes ``target`` sets on average.
 
-    Bisection on the gain in log space (the count grows with it), 12 halvings, on the quick
-    grid's cells of the ``thesis`` preset.
+    Bisection on the gain in log space (the count grows with it), ``halvings`` halvings, on
+    the quick grid's cells of the ``preset``.
 
     Parameters
     ----------
@@ -507,6 +671,10 @@ def fit_ch6_plate_glint(
         Mean sets (thesis Table 6.1: 13.75).
     low, high : float
         Bracket of the gain.
+    preset : str
+        The rig preset (:data:`hdrfringe.rig.presets.PRESETS`).
+    halvings : int
+        Bisection steps (12: the gain to 0.06 %; 8: to 1.9 %).
 
     Returns
     -------
@@ -517,15 +685,16 @@ def fit_ch6_plate_glint(
     ----------
     Thesis Sec. 6.2, Table 6.1.
     """
-    level = Ch4Setup.thesis_matched(quick=True).camera_model().white_level
-    for _ in range(12):
+    setup = Ch4Setup.thesis_matched(quick=True, preset=preset)
+    level = setup.camera_model().white_level
+    for _ in range(int(halvings)):
         mid = math.sqrt(low * high)
-        if ch6_plate_lpa_sets(level, glint={**GLINT_SPOT, "specular": mid}) < target:
+        if ch6_plate_lpa_sets(level, setup, glint={**GLINT_SPOT, "specular": mid}) < target:
             low = mid
         else:
             high = mid
     gain = round(math.sqrt(low * high), 2)
-    sets = ch6_plate_lpa_sets(level, glint={**GLINT_SPOT, "specular": gain})
+    sets = ch6_plate_lpa_sets(level, setup, glint={**GLINT_SPOT, "specular": gain})
     return {"specular": gain, "lpa15_sets": sets, "target": target, **GLINT_SPOT}
 
 
@@ -558,9 +727,46 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     parser.add_argument(
         "--gamma-scan", action="store_true", help="DSIE error against the projector's gamma"
     )
+    parser.add_argument(
+        "--gamma-matched",
+        type=float,
+        nargs="?",
+        const=2.812,
+        default=None,
+        metavar="GAMMA",
+        help="fit noise and blur only, the projector's gamma fixed (default 2.812: matched)",
+    )
+    parser.add_argument(
+        "--probe",
+        type=float,
+        nargs="+",
+        metavar="GAMMA",
+        help="per projector gamma: fit noise and blur (as --gamma-matched), then Table 4.3 "
+        "at 600 lx over MIGLs 255..175 (light_probe)",
+    )
+    parser.add_argument("--preset", default="thesis", help="the rig preset of --glint")
+    parser.add_argument("--halvings", type=int, default=12, help="bisection steps of --glint")
+    parser.add_argument(
+        "--glint-bracket",
+        type=float,
+        nargs=2,
+        default=(1.0, 400.0),
+        metavar=("LOW", "HIGH"),
+        help="bracket of --glint's peak gain",
+    )
     args = parser.parse_args(argv)
     out: Any
-    if args.gamma_scan:
+    if args.probe:
+        out = {"rows": []}
+        for g in args.probe:
+            fit = fit_gamma_matched_preset(g, max_evaluations=args.max_evaluations, log=False)
+            p = fit["params"]
+            probe = light_probe(preset_setup(p["read_noise_dn8"], p["blur_px"], g))
+            out["rows"].append({"fit": fit, "probe_600lx": probe})
+            print(json.dumps(out["rows"][-1], default=float), flush=True)
+    elif args.gamma_matched is not None:
+        out = fit_gamma_matched_preset(args.gamma_matched, max_evaluations=args.max_evaluations)
+    elif args.gamma_scan:
         out = {"rows": gamma_scan()}
     elif args.explore:
         rows = explore_triangular_2step()
@@ -569,7 +775,8 @@ def main(argv: Sequence[str] | None = None) -> dict[str, Any]:
     elif args.aperture:
         out = fit_ch6_plate_aperture()
     elif args.glint:
-        out = fit_ch6_plate_glint()
+        low, high = args.glint_bracket
+        out = fit_ch6_plate_glint(low=low, high=high, preset=args.preset, halvings=args.halvings)
     elif args.check:
         from hdrfringe.reproduce.ch4 import THESIS_DEPTHS_MM
 

@@ -77,7 +77,7 @@ def _setup(quick: bool, preset: str) -> Any:
     from hdrfringe.reproduce import ch4
 
     if preset:
-        return ch4.Ch4Setup.thesis_matched(quick=quick)
+        return ch4.Ch4Setup.thesis_matched(quick=quick, preset=preset)
     return ch4.QUICK_SETUP if quick else ch4.Ch4Setup()
 
 
