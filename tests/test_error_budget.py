@@ -23,7 +23,13 @@ import xarray as xr
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate, measure
 from hdrfringe.reproduce.ch4 import Ch4Setup
-from hdrfringe.reproduce.ch4_report import FAILURE_MM, Notes, _vs, saturation_onset
+from hdrfringe.reproduce.ch4_report import (
+    FAILURE_MM,
+    Notes,
+    _onset_words,
+    _vs,
+    saturation_onset,
+)
 from hdrfringe.reproduce.engine import open_results
 from hdrfringe.reproduce.model_residual import model_residual
 from hdrfringe.rig.scenes import white_plate
@@ -100,6 +106,13 @@ def test_saturation_onset_is_the_highest_clear_migl() -> None:
 
 
 @pytest.mark.xdist_group("dask-cluster")
+def test_an_onset_that_never_clears_is_said_in_words() -> None:
+    """A light level at which some pixel saturates at every MIGL swept (NaN onset: the
+    gamma 2.2 preset at 900 lx) reads as such in the report, not "MIGL nan"."""
+    assert _onset_words(float("nan")) == "some pixel saturated at every MIGL of the sweep"
+    assert _onset_words(120.0) == "no pixel saturated at or below MIGL 120"
+
+
 def test_ch4_stores_decompose_the_rmse(quick_run) -> None:
     ds = open_results(quick_run / "ch4.zarr")
     rmse, bias, std = (ds[v].values for v in ("rmse_mm", "mean_error_mm", "std_mm"))

@@ -253,6 +253,13 @@ def saturation_onset(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> dict[flo
     return out
 
 
+def _onset_words(onset: float) -> str:
+    """Where saturation starts, in words (NaN: some pixel saturates at every MIGL swept)."""
+    if np.isfinite(onset):
+        return f"no pixel saturated at or below MIGL {onset:.0f}"
+    return "some pixel saturated at every MIGL of the sweep"
+
+
 def table_4_1(sim: xr.Dataset, pattern: str = "sinusoidal-3") -> list[dict[str, Any]]:
     """Table 4.1: per added light, the trade-off MIGL, the RMSE at 255 and at the trade-off
     (Eq. 4.1 simulation), with our bias and std and where saturation starts.
@@ -689,8 +696,8 @@ def differences_markdown(ds: xr.Dataset, sim: xr.Dataset) -> str:
             + ". The trade-off follows where saturation starts on the rig's response, a few "
             "MIGL above it (ours: "
             + ", ".join(
-                f"{r['lux']:g} lx: no pixel saturated at or below MIGL "
-                f"{r['saturation_onset_migl']:.0f}, trade-off {r['ours'][0]:.0f} with "
+                f"{r['lux']:g} lx: {_onset_words(r['saturation_onset_migl'])}, trade-off "
+                f"{r['ours'][0]:.0f} with "
                 f"{100 * r['saturated_fraction_at_tradeoff']:.1f} % of the pixels saturated"
                 for r in t41
             )
