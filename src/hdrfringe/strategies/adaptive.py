@@ -53,6 +53,7 @@ from hdrfringe.phase import decode_set
 from hdrfringe.rig.base import Rig
 from hdrfringe.saturation.adaptive_map import (
     boosted_map,
+    epipolar_rows,
     fill_holes,
     fit_blur_sigma,
     footprint_px,
@@ -66,6 +67,7 @@ from hdrfringe.saturation.adaptive_map import (
     safe_migl,
     sample_map,
 )
+from hdrfringe.stereo import StereoCalibration
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
@@ -125,6 +127,13 @@ TOPUP_MIN_FRACTION = 0.002
 ORDER_RING_PX = 2
 #: Fraction of a patch's ring that must agree with its shift (within a quarter period).
 ORDER_RING_AGREE = 0.5
+
+#: Full-MIGL mapping (``full_mapping``): the largest fraction of the camera pixels that may
+#: clip in the first mapping set at the full MIGL for the whole mapping to stay there (those
+#: pixels are left to the top-up). A highlight clips a few percent (the specular part at
+#: 648 x 494: 1.5 %); a scene that is bright all over (the checkerboard's white squares, the
+#: plate under 600 lx) clips far more and falls back to the low-MIGL mapping.
+FULL_MAPPING_MAX_CLIPPED = 0.05
 
 ORIENTATIONS = ("vertical", "horizontal")
 
@@ -190,6 +199,7 @@ def _measure_mapping(
     migl: float,
     settings: CameraSettings | None,
     auto: bool,
+    first_images: NDArray | None = None,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -201,7 +211,8 @@ def _measure_mapping(
     :data:`BRIGHT_MIN_FRACTION` of the pixels neither clipped nor decoded in every set (a
     scene whose highlight holds the mapping MIGL so low that its dim surface carries no fringe), the
     ladder is captured once more at the full MIGL and merged per pixel: the bright capture
-    where it did not clip (Eq. 5.1).
+    where it did not clip (Eq. 5.1). ``first_images``: the first set, already captured at
+    ``migl`` (the full-MIGL mapping's trial set).
     """
     bits = rig.camera_bit_depth
     imin = template.imin
@@ -237,7 +248,10 @@ def _measure_mapping(
         for p in ps:
             m = migl if not gains and not imgs else m_next
             spec = spec_at(orient, p, m)
-            imgs.append(_capture(rig, spec.frames(), settings))
+            if first_images is not None and not gains and not imgs:
+                imgs.append(first_images)
+            else:
+                imgs.append(_capture(rig, spec.frames(), settings))
             dec = decode_set(imgs[-1], spec, bits)
             ms.append(m)
             saturated |= saturation_count(imgs[-1], bits) > 0
@@ -454,6 +468,50 @@ def _check_specs(rig: Rig, specs: Sequence[FringeSpec]) -> list[FringeSpec]:
     return specs
 
 
+def _epipolar_calibration(
+    rig: Rig,
+    specs: Sequence[FringeSpec],
+    epipolar: bool,
+    calibration: StereoCalibration | None,
+) -> StereoCalibration | None:
+    """The calibration the epipolar mapping uses (None: both orientations are mapped)."""
+    if not epipolar:
+        if calibration is not None:
+            raise InputError(
+                "adaptive: stereo_calibration is used by the epipolar mapping only; give "
+                "epipolar=True (--adaptive-epipolar) or drop it"
+            )
+        return None
+    if any(s.orientation != "vertical" for s in specs):
+        raise InputError(
+            "adaptive --adaptive-epipolar maps vertical fringes only (the row comes from the "
+            "calibration); measure vertical sets only, or drop --adaptive-epipolar"
+        )
+    if calibration is None:
+        own = getattr(rig, "stereo_calibration", None)
+        if not callable(own):
+            raise InputError(
+                f"adaptive --adaptive-epipolar needs a projector-camera calibration and the "
+                f"{type(rig).__name__} rig has none; pass stereo_calibration= (Python) or drop "
+                "--adaptive-epipolar"
+            )
+        calibration = own()
+    if not isinstance(calibration, StereoCalibration):
+        raise InputError(
+            "adaptive: stereo_calibration must be a hdrfringe.stereo.StereoCalibration, got "
+            f"{type(calibration).__name__}"
+        )
+    cam = (rig.image_shape[1], rig.image_shape[0])
+    proj = (rig.projector.width, rig.projector.height)
+    if tuple(calibration.camera.size) != cam or tuple(calibration.projector.size) != proj:
+        raise InputError(
+            f"adaptive: the stereo calibration is for a {calibration.camera.size} camera and a "
+            f"{calibration.projector.size} projector, the rig has {cam} and {proj}; give this "
+            "rig's calibration"
+        )
+    return calibration
+
+
 def adaptive_sets(
     rig: Rig,
     specs: Sequence[FringeSpec],
@@ -469,6 +527,9 @@ def adaptive_sets(
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
+    epipolar: bool = False,
+    stereo_calibration: StereoCalibration | None = None,
+    full_mapping: bool = False,
 ) -> tuple[StrategyResult, ...]:
     """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
 
@@ -518,6 +579,22 @@ def adaptive_sets(
         orders from their neighbours' (spatial unwrapping anchored on a ring of known
         orders). Skipped, with the reason in ``details["topup"]``, where the rig cannot
         change its exposure (a replayed folder).
+    epipolar : bool
+        Map one orientation only, the measurement's (vertical fringes), and take each camera
+        pixel's projector row from the epipolar constraint: its ray meets the plane of its
+        projector column in one 3-D point whose projection gives the row
+        (:func:`~hdrfringe.saturation.adaptive_map.epipolar_rows`). Saves the other
+        orientation's ladder. Needs a projector-camera calibration: ``stereo_calibration``,
+        else the rig's own (the virtual rig's ``stereo_calibration()``, its true geometry).
+    stereo_calibration : StereoCalibration, optional
+        The calibration for ``epipolar`` (camera and projector sizes of this rig).
+    full_mapping : bool
+        Capture the first mapping set at the full MIGL. Where at most
+        :data:`FULL_MAPPING_MAX_CLIPPED` of the pixels clip in it (a highlight), the whole
+        mapping stays at the full MIGL, the clipped pixels are left to the top-up (their
+        response is unknown) and the refit, check and boost passes are not captured;
+        otherwise that set is spent (counted with the mapping) and the low-MIGL mapping
+        follows as without it. Not with ``mapping_migl``.
 
     Returns
     -------
@@ -566,6 +643,17 @@ def adaptive_sets(
             "adaptive: give a fixed exposure (--adaptive-exposure-ms) or the automatic one "
             "(--adaptive-auto-exposure), not both"
         )
+    calib = _epipolar_calibration(rig, specs, epipolar, stereo_calibration)
+    if full_mapping and mapping_migl is not None:
+        raise InputError(
+            "adaptive: --adaptive-full-mapping chooses the mapping MIGL itself; drop "
+            "--mapping-migl or --adaptive-full-mapping"
+        )
+    if full_mapping and not topup:
+        raise InputError(
+            "adaptive: --adaptive-full-mapping leaves the pixels that clip at the full MIGL to "
+            "the top-up; drop --no-adaptive-topup or --adaptive-full-mapping"
+        )
     first = specs[0]
     m0 = default_min_migl(first) if mapping_migl is None else float(mapping_migl)
     if not first.imin < m0 <= first.migl:
@@ -593,6 +681,8 @@ def adaptive_sets(
     finest: dict[str, int] = {}
     pitches: dict[str, list[float]] = {}
     for orient in ORIENTATIONS:
+        if calib is not None and not any(s.orientation == orient for s in specs):
+            continue  # the epipolar constraint gives this coordinate
         extent = proj.width if orient == "vertical" else proj.height
         own = sorted(
             (i for i, s in enumerate(specs) if s.orientation == orient),
@@ -609,9 +699,31 @@ def adaptive_sets(
     # --- 1. mapping at a low MIGL: response, coordinates, fringe orders ----------------------
     t0 = time.perf_counter()
     # the first (darkest, noisiest) set in the orientation the measurement does not unwrap
-    pitches = {o: pitches[o] for o in sorted(ORIENTATIONS, key=lambda o: o in finest)}
-    mp = _measure_mapping(rig, first, pitches, m0, settings, auto=mapping_migl is None)
-    u, v = mp.coords["vertical"], mp.coords["horizontal"]
+    pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o in finest)}
+    trial: list[float] = []  # a full-MIGL first set that was not kept (counted, not used)
+    full_mapped = False
+    full_clipped: float | None = None
+    if full_mapping:
+        o0 = next(iter(pitches))
+        spec0 = FringeSpec(
+            first.pattern,
+            first.steps,
+            pitches[o0][0],
+            o0,
+            first.imin,
+            first.migl,  # type: ignore[arg-type]
+        )
+        imgs0 = _capture(rig, spec0.frames(), settings)
+        full_clipped = float(np.mean(saturation_count(imgs0, bits) > 0))
+        if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
+            m0, full_mapped = float(first.migl), True
+            mp = _measure_mapping(rig, first, pitches, m0, settings, auto=False, first_images=imgs0)
+        else:
+            trial = [float(first.migl)]
+    if not full_mapped:
+        mp = _measure_mapping(rig, first, pitches, m0, settings, auto=mapping_migl is None)
+    u = mp.coords["vertical"]
+    v = mp.coords["horizontal"] if calib is None else epipolar_rows(calib, u)
     t_map = time.perf_counter() - t0
 
     # --- 2. the camera-side levels and the projector map -------------------------------------
@@ -675,11 +787,12 @@ def adaptive_sets(
     # the mapping sets no spec stands for are counted with the first adapted set
     spare = [
         m
-        for o in ORIENTATIONS
+        for o in pitches
         for k, p in enumerate(pitches[o])
         if not any(s.orientation == o and s.pitch_px == p for s in specs)
         for m in [mp.migls[o][k]] + ([] if mp.bright_migl is None else [mp.bright_migl])
     ]
+    spare += trial
     owner = min(finest.values())
 
     # --- 3. per orientation: the adapted set, the refit pass, the check passes ----------------
@@ -706,7 +819,7 @@ def adaptive_sets(
         # refit: the set's own offset and modulation give each pixel's level at this pitch
         t0 = time.perf_counter()
         refits = 0
-        if refit:
+        if refit and not full_mapped:
             dec = decode_set(composite, spec, bits, reject_saturated=False)
             got = np.where(np.isfinite(received), received, full_p)
             up = refined_migl(
@@ -748,7 +861,7 @@ def adaptive_sets(
         # check passes: lower the level only where a shift still clipped, merge there (Eq. 5.1)
         t0 = time.perf_counter()
         passes = 0
-        while remaining.any() and passes < iterations:
+        while remaining.any() and passes < (0 if full_mapped else iterations):
             got = np.where(np.isfinite(received), received, full_p)
             lowered, _ = lowered_where_clipped(
                 levels, composite, got, ambient, bits, margin=margin, imin=first.imin
@@ -776,7 +889,7 @@ def adaptive_sets(
         # gives a larger unclipped modulation (LPA's rule: the best unsaturated set)
         t0 = time.perf_counter()
         boosts = 0
-        if boost:
+        if boost and not full_mapped:
             short = (received - first.imin) < BOOST_RATIO * (levels - first.imin)
             wanted = np.isfinite(received) & np.isfinite(levels) & short & ~remaining
             if wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(received).sum():
@@ -881,6 +994,7 @@ def adaptive_sets(
             )
         t_bias = time.perf_counter() - t0
         n_map = sum(len(p) for p in pitches.values()) * (1 if mp.bright_migl is None else 2)
+        n_map += len(trial)
         results[i] = StrategyResult(
             images=composite,
             spec=spec,
@@ -935,6 +1049,10 @@ def adaptive_sets(
                 },
                 "blur_sigma_px": blur,
                 "exposure_ms": exposure_ms,
+                "epipolar": calib is not None,
+                "full_mapping": {"clipped_fraction": full_clipped, "kept": full_mapped}
+                if full_mapping
+                else None,
             },
         )
     out = tuple(r for r in results if r is not None)
@@ -957,6 +1075,9 @@ def adaptive(
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
+    epipolar: bool = False,
+    stereo_calibration: StereoCalibration | None = None,
+    full_mapping: bool = False,
 ) -> StrategyResult:
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
@@ -971,7 +1092,7 @@ def adaptive(
         The set at its highest MIGL.
     margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px
         As :func:`adaptive_sets`.
-    exposure_ms, auto_exposure, topup
+    exposure_ms, auto_exposure, topup, epipolar, stereo_calibration, full_mapping
         As :func:`adaptive_sets`.
 
     Returns
@@ -1006,6 +1127,9 @@ def adaptive(
         exposure_ms=exposure_ms,
         auto_exposure=auto_exposure,
         topup=topup,
+        epipolar=epipolar,
+        stereo_calibration=stereo_calibration,
+        full_mapping=full_mapping,
     )
     return res
 
@@ -1041,6 +1165,14 @@ class AdaptiveParams:
     topup : bool
         Where pixels clip even at the lowest usable MIGL, one or two sets more at a shorter
         exposure for them, merged per pixel (docs/adaptive.md, "Top-up").
+    epipolar : bool
+        Map the vertical orientation only and take the projector row from the epipolar
+        constraint (``--adaptive-epipolar``; docs/adaptive.md).
+    stereo_calibration : StereoCalibration, optional
+        The calibration ``epipolar`` uses; None: the rig's own (the virtual rig's true one).
+    full_mapping : bool
+        Map at the full MIGL where only a highlight clips in the first set, leaving it to
+        the top-up; no refit, check or boost then (``--adaptive-full-mapping``).
 
     References
     ----------
@@ -1078,6 +1210,7 @@ class AdaptiveParams:
         metadata={
             "help": "one more set where the map gives pixels much less than their own level "
             "(a dim pixel next to a bright one), kept per pixel where its modulation is larger.",
+            "cli": "--adaptive-boost",
         },
     )
     bias_correction: bool = field(
@@ -1123,6 +1256,33 @@ class AdaptiveParams:
         metadata={
             "help": "where pixels clip even at the lowest usable MIGL, the finest set at a "
             "shorter exposure for them, merged per pixel by the larger unclipped modulation.",
+            "cli": "--adaptive-topup",
+        },
+    )
+    epipolar: bool = field(
+        default=False,
+        metadata={
+            "help": "map the vertical fringes only and take each pixel's projector row from "
+            "the projector-camera calibration (epipolar constraint): the horizontal mapping "
+            "ladder is not captured. Needs a calibration (the virtual rig has its own).",
+            "cli": "--adaptive-epipolar",
+        },
+    )
+    stereo_calibration: StereoCalibration | None = field(
+        default=None,
+        metadata={
+            "help": "the projector-camera calibration the epipolar mapping uses (default: the "
+            "rig's own).",
+        },
+    )
+    full_mapping: bool = field(
+        default=False,
+        metadata={
+            "help": "capture the first mapping set at the full MIGL; where at most 5 % of the "
+            "pixels clip in it (a highlight) map at the full MIGL, leave the clipped pixels to "
+            "the top-up and skip the refit, check and boost sets; else fall back to the "
+            "low-MIGL mapping (4 images spent).",
+            "cli": "--adaptive-full-mapping",
         },
     )
 
@@ -1179,6 +1339,9 @@ class Adaptive(FunctionStrategy):
             exposure_ms=params.exposure_ms,
             auto_exposure=params.auto_exposure,
             topup=params.topup,
+            epipolar=params.epipolar,
+            stereo_calibration=params.stereo_calibration,
+            full_mapping=params.full_mapping,
         )
 
     def describe(self, params: AdaptiveParams) -> str:
