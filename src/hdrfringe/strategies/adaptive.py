@@ -705,14 +705,7 @@ def adaptive_sets(
     full_clipped: float | None = None
     if full_mapping:
         o0 = next(iter(pitches))
-        spec0 = FringeSpec(
-            first.pattern,
-            first.steps,
-            pitches[o0][0],
-            o0,
-            first.imin,
-            first.migl,  # type: ignore[arg-type]
-        )
+        spec0 = FringeSpec(first.pattern, first.steps, pitches[o0][0], o0, first.imin, first.migl)  # type: ignore[arg-type]
         imgs0 = _capture(rig, spec0.frames(), settings)
         full_clipped = float(np.mean(saturation_count(imgs0, bits) > 0))
         if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
