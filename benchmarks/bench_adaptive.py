@@ -191,6 +191,13 @@ EPIPOLAR_ROWS: tuple[tuple[str, str, dict[str, Any]], ...] = (
     ("adaptive, epipolar", "adaptive", {"epipolar": True}),
     ("adaptive, full mapping", "adaptive", {"full_mapping": True}),
     ("adaptive, epipolar + full mapping", "adaptive", {"epipolar": True, "full_mapping": True}),
+    # the full-MIGL mapping with the refit, check and boost sets kept (a given mapping MIGL:
+    # no bright ladder either), to show what skipping them does
+    (
+        "epipolar, MIGL 255 mapping + refit etc.",
+        "adaptive",
+        {"epipolar": True, "mapping_migl": 255.0},
+    ),
     (
         "epipolar + full mapping + exposure",
         "adaptive",

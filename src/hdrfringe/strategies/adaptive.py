@@ -31,6 +31,13 @@ Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
    (:func:`~hdrfringe.saturation.adaptive_map.map_phase_bias`, the blur fitted against the
    mapping). The result is ``details["absolute_phase"]``, which
    :func:`hdrfringe.pipeline.measure` uses for the family's absolute phase.
+
+With ``epipolar`` the mapping is the vertical ladder only, each pixel's projector row from the
+projector-camera calibration (:func:`~hdrfringe.saturation.adaptive_map.epipolar_rows`); with
+``full_mapping`` the first mapping set is tried at the full MIGL and, where only a highlight
+clips in it, the whole mapping stays there, the highlight is left to the top-up and the refit,
+check and boost sets are not captured (docs/adaptive.md, "One direction + the epipolar
+constraint, and the full-MIGL mapping").
 """
 
 from __future__ import annotations
@@ -130,9 +137,10 @@ ORDER_RING_AGREE = 0.5
 
 #: Full-MIGL mapping (``full_mapping``): the largest fraction of the camera pixels that may
 #: clip in the first mapping set at the full MIGL for the whole mapping to stay there (those
-#: pixels are left to the top-up). A highlight clips a few percent (the specular part at
-#: 648 x 494: 1.5 %); a scene that is bright all over (the checkerboard's white squares, the
-#: plate under 600 lx) clips far more and falls back to the low-MIGL mapping.
+#: pixels are left to the top-up). A highlight clips a few percent (the specular part: 1.48 %
+#: at 648 x 494, ``bench_adaptive.py --epipolar``; 1.4 % at 160 x 120, tests/test_adaptive.py);
+#: a scene bright all over clips far more (the checkerboard's white squares 62 %, the plate
+#: under 600 lx all of it) and falls back to the low-MIGL mapping.
 FULL_MAPPING_MAX_CLIPPED = 0.05
 
 ORIENTATIONS = ("vertical", "horizontal")
