@@ -208,6 +208,7 @@ def _measure_mapping(
     settings: CameraSettings | None,
     auto: bool,
     first_images: NDArray | None = None,
+    trial: tuple[NDArray, float] | None = None,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -220,7 +221,9 @@ def _measure_mapping(
     scene whose highlight holds the mapping MIGL so low that its dim surface carries no fringe), the
     ladder is captured once more at the full MIGL and merged per pixel: the bright capture
     where it did not clip (Eq. 5.1). ``first_images``: the first set, already captured at
-    ``migl`` (the full-MIGL mapping's trial set).
+    ``migl`` (the full-MIGL mapping's trial set). ``trial``: the first set captured at a
+    higher MIGL (the full-MIGL mapping's trial set where too much clipped in it), merged into
+    the first set where it did not clip (Eq. 5.1) and added to the response there.
     """
     bits = rig.camera_bit_depth
     imin = template.imin
@@ -253,7 +256,7 @@ def _measure_mapping(
     for orient, ps in pitches.items():
         imgs: list[NDArray] = []
         ms: list[float] = []
-        for p in ps:
+        for k_, p in enumerate(ps):
             m = migl if not gains and not imgs else m_next
             spec = spec_at(orient, p, m)
             if first_images is not None and not gains and not imgs:
@@ -264,6 +267,11 @@ def _measure_mapping(
             ms.append(m)
             saturated |= saturation_count(imgs[-1], bits) > 0
             decodes &= dec.valid
+            if len(pitches) == 1 and k_ == 1:
+                # one orientation (epipolar): its second set, at the automatic MIGL, stands in
+                # for the other orientation's one-period set in the response (its pitch, 16x
+                # the finest, loses little modulation to the blur)
+                add_response(dec, m, np.ones(dec.valid.shape, bool))
             if p == ps[0]:  # a one-period set: the response
                 g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
                 add_response(dec, m, np.ones(g.shape, bool))
@@ -281,6 +289,14 @@ def _measure_mapping(
         images[orient] = imgs
         migls[orient] = ms
         index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
+
+    if trial is not None:  # a brighter capture of the first set: merged where it did not clip
+        t_imgs, t_migl = trial
+        o0 = next(iter(pitches))
+        take = saturation_count(t_imgs, bits) == 0
+        images[o0][0] = np.where(take, t_imgs, images[o0][0])
+        index[o0][0] = np.where(take, np.float32(t_migl), index[o0][0])
+        add_response(decode_set(t_imgs, spec_at(o0, pitches[o0][0], t_migl), bits), t_migl, take)
 
     # pass 2, only where the low ladder left much of the field dark: the full MIGL, merged
     bright: float | None = None
@@ -708,7 +724,8 @@ def adaptive_sets(
     t0 = time.perf_counter()
     # the first (darkest, noisiest) set in the orientation the measurement does not unwrap
     pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o in finest)}
-    trial: list[float] = []  # a full-MIGL first set that was not kept (counted, not used)
+    trial: list[float] = []  # a full-MIGL first set that was not kept (counted)
+    trial_images: tuple[NDArray, float] | None = None
     full_mapped = False
     full_clipped: float | None = None
     if full_mapping:
@@ -720,9 +737,11 @@ def adaptive_sets(
             m0, full_mapped = float(first.migl), True
             mp = _measure_mapping(rig, first, pitches, m0, settings, auto=False, first_images=imgs0)
         else:
-            trial = [float(first.migl)]
+            trial, trial_images = [float(first.migl)], (imgs0, float(first.migl))
     if not full_mapped:
-        mp = _measure_mapping(rig, first, pitches, m0, settings, auto=mapping_migl is None)
+        mp = _measure_mapping(
+            rig, first, pitches, m0, settings, auto=mapping_migl is None, trial=trial_images
+        )
     u = mp.coords["vertical"]
     v = mp.coords["horizontal"] if calib is None else epipolar_rows(calib, u)
     t_map = time.perf_counter() - t0
@@ -746,6 +765,7 @@ def adaptive_sets(
     uf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, u, np.nan)), u)
     vf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, v, np.nan)), v)
     radius = footprint_px(u, v) + float(blur_px)
+    shape_cam = u.shape
     shape = (proj.height, proj.width)
     ambient = np.where(np.isfinite(mp.ambient), mp.ambient, 0.0)
 
@@ -981,10 +1001,15 @@ def adaptive_sets(
         wrapped = decode_set(composite, spec, bits).wrapped_phase
         predicted = mp.absolute[orient] * (pitches[orient][-1] / spec.pitch_px)
         absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
-        if n_topup:  # the top-up's pixels clipped in the mapping: orders from neighbours
+        # pixels clipped in the mapping have no orders: the top-up's, and with the full-MIGL
+        # mapping any that the adapted set decoded (a glint under the half-way level)
+        seeds = took if n_topup else np.zeros(shape_cam, bool)
+        if full_mapped:
+            seeds = seeds | mp.saturated
+        if seeds.any():
             t1 = time.perf_counter()
             final = decode_set(composite, spec, bits)
-            absolute, filled = _orders_from_neighbours(absolute, wrapped, final.valid, took)
+            absolute, filled = _orders_from_neighbours(absolute, wrapped, final.valid, seeds)
             topup_info["ordered_from_neighbours"] = filled
             t_topup += time.perf_counter() - t1
         t0 = time.perf_counter()
