@@ -250,6 +250,39 @@ def topup_study(
     return out
 
 
+#: ``--draws``: adaptive and adaptive with epipolar + full mapping (label, params).
+DRAW_ROWS: tuple[tuple[str, dict[str, Any]], ...] = (
+    ("adaptive", {}),
+    ("epipolar + full mapping", {"epipolar": True, "full_mapping": True}),
+)
+
+
+def draw_study(width: int, height: int, scene: str) -> list[tuple[str, str, float]]:
+    """How the std in order depends on the noise draw: each row on fresh rigs of seeds 0-3,
+    then three times in a row on one rig of seed 0 (each run draws new noise for the frames it
+    repeats, as the compare's shared rig does). ``(label, draw, std rad)``."""
+    from hdrfringe.pipeline import measure
+    from hdrfringe.rig.factory import virtual_rig
+
+    specs = [FringeSpec("sinusoidal", 4, p) for p in PITCHES]
+
+    def std_of(rig: SimulatedRig, params: dict[str, Any]) -> float:
+        res = measure(rig, method="adaptive", params=params, specs=specs)
+        err = res.decoded.primary.absolute_phase - 2 * np.pi * rig.truth().u / PITCHES[-1]
+        ok = rig.truth().valid & np.isfinite(err)
+        return float(err[ok & (np.abs(np.where(ok, err, 0.0)) <= np.pi)].std())
+
+    out = []
+    for label, params in DRAW_ROWS:
+        for seed in range(4):
+            rig = virtual_rig(resolution=(width, height), seed=seed, **COMPARE_SCENES[scene])
+            out.append((label, f"seed {seed}", std_of(rig, params)))
+        rig = virtual_rig(resolution=(width, height), seed=0, **COMPARE_SCENES[scene])
+        for k in range(3):
+            out.append((label, f"seed 0, run {k + 1} on one rig", std_of(rig, params)))
+    return out
+
+
 def topup_elsewhere(width: int, height: int) -> list[tuple[str, bool, dict[str, Any]]]:
     """The top-up's details on the scenes where it must not run (checkerboard, 600 lx plate,
     glossy dome; with and without the automatic exposure): ``(scene, auto_exposure, topup)``.
@@ -288,12 +321,24 @@ def main(argv: list[str] | None = None) -> int:
         "against LPA S=1 (the specular part, then the checkerboard and the 600 lx plate)",
     )
     ap.add_argument(
+        "--draws",
+        default=None,
+        metavar="SCENE",
+        help="only: adaptive and epipolar + full mapping over noise draws on SCENE (a compare "
+        "scene: checkerboard, specular_part, ...)",
+    )
+    ap.add_argument(
         "--topup",
         action="store_true",
         help="only: the coverage top-up on the specular part against LPA S=1",
     )
     args = ap.parse_args(argv)
     width, height = (int(x) for x in args.camera.lower().split("x"))
+    if args.draws:
+        print(f"{args.draws}, camera {width}x{height}, std in order by noise draw")
+        for label, draw, std in draw_study(width, height, args.draws):
+            print(f"  {label:26} {draw:26} {1e3 * std:7.2f} mrad")
+        return 0
     if args.epipolar:
         print(f"camera {width}x{height}, 4-step, pitches 1024, 64, 8 px, seed 0")
         for scene in ("specular_part", "checkerboard", "white_plate_600lx"):
