@@ -139,8 +139,8 @@ ORDER_RING_AGREE = 0.5
 #: clip in the first mapping set at the full MIGL for the whole mapping to stay there (those
 #: pixels are left to the top-up). A highlight clips a few percent (the specular part: 1.48 %
 #: at 648 x 494, ``bench_adaptive.py --epipolar``; 1.4 % at 160 x 120, tests/test_adaptive.py);
-#: a scene bright all over clips far more (the checkerboard's white squares 62 %, the plate
-#: under 600 lx all of it) and falls back to the low-MIGL mapping.
+#: a scene bright all over clips far more (the checkerboard's white squares 53 % at 648 x 494,
+#: 62 % at 160 x 120; the plate under 600 lx all of it) and falls back to the low-MIGL mapping.
 FULL_MAPPING_MAX_CLIPPED = 0.05
 
 ORIENTATIONS = ("vertical", "horizontal")
@@ -617,8 +617,9 @@ def adaptive_sets(
         :data:`FULL_MAPPING_MAX_CLIPPED` of the pixels clip in it (a highlight), the whole
         mapping stays at the full MIGL, the clipped pixels are left to the top-up (their
         response is unknown) and the refit, check and boost passes are not captured;
-        otherwise that set is spent (counted with the mapping) and the low-MIGL mapping
-        follows as without it. Not with ``mapping_migl``.
+        otherwise the low-MIGL mapping follows, with that set (counted with the mapping)
+        merged into its first set where it did not clip. Not with ``mapping_migl`` or
+        without ``topup``.
 
     Returns
     -------
@@ -808,7 +809,8 @@ def adaptive_sets(
     # the mapping sets no spec stands for are counted with the first adapted set
     spare = [
         m
-        for o in pitches
+        for o in ORIENTATIONS
+        if o in pitches
         for k, p in enumerate(pitches[o])
         if not any(s.orientation == o and s.pitch_px == p for s in specs)
         for m in [mp.migls[o][k]] + ([] if mp.bright_migl is None else [mp.bright_migl])
@@ -1307,7 +1309,7 @@ class AdaptiveParams:
             "help": "capture the first mapping set at the full MIGL; where at most 5 % of the "
             "pixels clip in it (a highlight) map at the full MIGL, leave the clipped pixels to "
             "the top-up and skip the refit, check and boost sets; else fall back to the "
-            "low-MIGL mapping (4 images spent).",
+            "low-MIGL mapping (the trial set merged into it where it did not clip).",
             "cli": "--adaptive-full-mapping",
         },
     )
