@@ -254,6 +254,10 @@ def topup_study(
 DRAW_ROWS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("adaptive", {}),
     ("epipolar + full mapping", {"epipolar": True, "full_mapping": True}),
+    (
+        "the same, no bias corr.",
+        {"epipolar": True, "full_mapping": True, "bias_correction": False},
+    ),
 )
 
 

@@ -207,9 +207,9 @@ METHODS: tuple[Method, ...] = (
     Method("adaptive-exposure", "adaptive + exposure", "adaptive", {"auto_exposure": True}),
     Method(
         "adaptive-epipolar",
-        "adaptive, epipolar + full mapping",
+        "adaptive, epipolar + full mapping, no bias corr.",
         "adaptive",
-        {"epipolar": True, "full_mapping": True},
+        {"epipolar": True, "full_mapping": True, "bias_correction": False},
     ),
 )
 

@@ -1246,6 +1246,7 @@ class AdaptiveParams:
         metadata={
             "help": "subtract the phase bias of the map's steps under the blur (the blur "
             "fitted against the mapping).",
+            "cli": "--adaptive-bias-correction",
         },
     )
     mapping_migl: float | None = field(
