@@ -253,6 +253,7 @@ def topup_study(
 #: ``--draws``: adaptive and adaptive with epipolar + full mapping (label, params).
 DRAW_ROWS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("adaptive", {}),
+    ("adaptive, no bias corr.", {"bias_correction": False}),
     ("epipolar + full mapping", {"epipolar": True, "full_mapping": True}),
     (
         "the same, no bias corr.",
