@@ -37,6 +37,7 @@ import numpy as np
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import composite_captures, strategy_absolute_phases
 from hdrfringe.process import decode_captures
+from hdrfringe.reproduce.compare import SCENES as COMPARE_SCENES
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.strategies.adaptive import adaptive_sets
@@ -182,17 +183,47 @@ TOPUP_ROWS: tuple[tuple[str, str, dict[str, Any]], ...] = (
 )
 
 
-def topup_study(width: int, height: int) -> list[dict[str, Any]]:
+#: ``--epipolar``: one mapping direction + the epipolar constraint and the full-MIGL mapping
+#: on the specular part, one at a time and together (docs/adaptive.md), beside LPA S=1.
+EPIPOLAR_ROWS: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    ("LPA S=1", "lpa", {"step": 1.0}),
+    ("adaptive", "adaptive", {}),
+    ("adaptive, epipolar", "adaptive", {"epipolar": True}),
+    ("adaptive, full mapping", "adaptive", {"full_mapping": True}),
+    ("adaptive, epipolar + full mapping", "adaptive", {"epipolar": True, "full_mapping": True}),
+    # the full-MIGL mapping with the refit, check and boost sets kept (a given mapping MIGL:
+    # no bright ladder either), to show what skipping them does
+    (
+        "epipolar, MIGL 255 mapping + refit etc.",
+        "adaptive",
+        {"epipolar": True, "mapping_migl": 255.0},
+    ),
+    (
+        "epipolar + full mapping + exposure",
+        "adaptive",
+        {"epipolar": True, "full_mapping": True, "auto_exposure": True},
+    ),
+)
+
+
+def topup_study(
+    width: int,
+    height: int,
+    rows: tuple[tuple[str, str, dict[str, Any]], ...] = TOPUP_ROWS,
+    scene: str = "specular_part",
+) -> list[dict[str, Any]]:
     """The coverage top-up on the specular part (docs/adaptive.md, "Top-up"), each row on a
     fresh rig (seed 0): images, coverage, std and std in order (|error| <= pi), and the std
     over the pixels where the row and LPA S=1 are both valid and in order, beside LPA's there.
+    ``rows`` (the first must be LPA S=1) and ``scene`` (a name of
+    :data:`hdrfringe.reproduce.compare.SCENES`; ``--epipolar``) change what is run.
     """
     from hdrfringe.rig.factory import virtual_rig
 
     out: list[dict[str, Any]] = []
     ref: tuple[np.ndarray, np.ndarray] | None = None
-    for label, method, params in TOPUP_ROWS:
-        rig = virtual_rig("specular_part", resolution=(width, height), seed=0)
+    for label, method, params in rows:
+        rig = virtual_rig(resolution=(width, height), seed=0, **COMPARE_SCENES[scene])
         err, ok, results, seconds = error_map(rig, method, params)
         good = ok & (np.abs(np.where(ok, err, 0.0)) <= np.pi)
         if ref is None:
@@ -210,10 +241,50 @@ def topup_study(width: int, height: int) -> list[dict[str, Any]]:
                 "std_both_rad": float(err[both].std()),
                 "lpa_std_both_rad": float(ref[0][both].std()),
                 "topup": d.get("topup"),
+                "images_per_step": d.get("images_per_step"),
+                "full_mapping": d.get("full_mapping"),
                 "exposure_ms": d.get("exposure_ms"),
                 "seconds": round(seconds, 1),
             }
         )
+    return out
+
+
+#: ``--draws``: adaptive and adaptive with epipolar + full mapping (label, params).
+DRAW_ROWS: tuple[tuple[str, dict[str, Any]], ...] = (
+    ("adaptive", {}),
+    ("adaptive, no bias corr.", {"bias_correction": False}),
+    ("epipolar + full mapping", {"epipolar": True, "full_mapping": True}),
+    (
+        "the same, no bias corr.",
+        {"epipolar": True, "full_mapping": True, "bias_correction": False},
+    ),
+)
+
+
+def draw_study(width: int, height: int, scene: str) -> list[tuple[str, str, float]]:
+    """How the std in order depends on the noise draw: each row on fresh rigs of seeds 0-3,
+    then three times in a row on one rig of seed 0 (each run draws new noise for the frames it
+    repeats, as the compare's shared rig does). ``(label, draw, std rad)``."""
+    from hdrfringe.pipeline import measure
+    from hdrfringe.rig.factory import virtual_rig
+
+    specs = [FringeSpec("sinusoidal", 4, p) for p in PITCHES]
+
+    def std_of(rig: SimulatedRig, params: dict[str, Any]) -> float:
+        res = measure(rig, method="adaptive", params=params, specs=specs)
+        err = res.decoded.primary.absolute_phase - 2 * np.pi * rig.truth().u / PITCHES[-1]
+        ok = rig.truth().valid & np.isfinite(err)
+        return float(err[ok & (np.abs(np.where(ok, err, 0.0)) <= np.pi)].std())
+
+    out = []
+    for label, params in DRAW_ROWS:
+        for seed in range(4):
+            rig = virtual_rig(resolution=(width, height), seed=seed, **COMPARE_SCENES[scene])
+            out.append((label, f"seed {seed}", std_of(rig, params)))
+        rig = virtual_rig(resolution=(width, height), seed=0, **COMPARE_SCENES[scene])
+        for k in range(3):
+            out.append((label, f"seed 0, run {k + 1} on one rig", std_of(rig, params)))
     return out
 
 
@@ -249,12 +320,45 @@ def main(argv: list[str] | None = None) -> int:
         help="only: adaptive's error by distance to the highlight",
     )
     ap.add_argument(
+        "--epipolar",
+        action="store_true",
+        help="only: one mapping direction + the epipolar constraint and the full-MIGL mapping "
+        "against LPA S=1 (the specular part, then the checkerboard and the 600 lx plate)",
+    )
+    ap.add_argument(
+        "--draws",
+        default=None,
+        metavar="SCENE",
+        help="only: adaptive and epipolar + full mapping over noise draws on SCENE (a compare "
+        "scene: checkerboard, specular_part, ...)",
+    )
+    ap.add_argument(
         "--topup",
         action="store_true",
         help="only: the coverage top-up on the specular part against LPA S=1",
     )
     args = ap.parse_args(argv)
     width, height = (int(x) for x in args.camera.lower().split("x"))
+    if args.draws:
+        print(f"{args.draws}, camera {width}x{height}, std in order by noise draw")
+        for label, draw, std in draw_study(width, height, args.draws):
+            print(f"  {label:26} {draw:26} {1e3 * std:7.2f} mrad")
+        return 0
+    if args.epipolar:
+        print(f"camera {width}x{height}, 4-step, pitches 1024, 64, 8 px, seed 0")
+        for scene in ("specular_part", "checkerboard", "white_plate_600lx"):
+            print(scene)
+            rows = EPIPOLAR_ROWS if scene == "specular_part" else EPIPOLAR_ROWS[:5]
+            for r in topup_study(width, height, rows, scene):
+                both = r["std_both_rad"] / r["lpa_std_both_rad"]
+                print(
+                    f"  {r['label']:36} {r['images']:5d} img  coverage "
+                    f"{100 * r['coverage']:6.2f} %  in order {1e3 * r['std_in_order_rad']:6.2f}"
+                    f"  both valid ({r['both_px']} px) {1e3 * r['std_both_rad']:6.2f} mrad"
+                    f" = {both:.3f}x LPA's  {r['seconds']:6.1f} s  {r['images_per_step']}"
+                    f"  {r['full_mapping']}"
+                )
+        return 0
     if args.topup:
         print(f"specular part, camera {width}x{height}, 4-step, pitches 1024, 64, 8 px, seed 0")
         for r in topup_study(width, height):

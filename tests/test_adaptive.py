@@ -23,6 +23,7 @@ from hdrfringe.frames import UniformFrame
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.pipeline import composite_captures, measure
+from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.scenes import (
     BLACK_PLATE_REFLECTIVITY,
     checkerboard,
@@ -33,6 +34,7 @@ from hdrfringe.rig.scenes import (
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.saturation.adaptive_map import (
     boosted_map,
+    epipolar_rows,
     erode_map,
     fill_holes,
     fit_blur_sigma,
@@ -47,6 +49,7 @@ from hdrfringe.saturation.adaptive_map import (
     scatter_min,
     smooth_below,
 )
+from hdrfringe.stereo import StereoCalibration
 from hdrfringe.strategies.adaptive import adaptive_sets, mapping_pitches
 from hdrfringe.strategies.conventional import conventional
 from hdrfringe.strategies.exposure import FixedExposureRig
@@ -551,3 +554,155 @@ def test_the_pie_of_a_per_pixel_map_bins_down_never_above_the_top_migl(
     binned = seen[0]
     assert float(binned.max()) == 250.0 and float(binned.min()) == 60.0
     assert np.all(binned <= index) and np.all(index - binned < 10.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# one mapping direction + the epipolar constraint, and the full-MIGL mapping (the image bound
+# on the specular part: a quarter of DPA + bound's 68 images at 648 x 494 is 17)
+# ---------------------------------------------------------------------------------------------
+
+
+def test_epipolar_rows_give_the_true_projector_row() -> None:
+    """With the virtual rig's true calibration, the true projector column of each camera pixel
+    gives its true row on the specular part's curved surface (to 1e-9 px); a calibration
+    rotated by 0.2 degree misses by pixels (rejects a wrong frame or a transposed rotation),
+    and a calibration of another camera is refused."""
+    rig = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
+    truth = rig.truth()
+    calib = rig.stereo_calibration()
+    v = epipolar_rows(calib, np.where(truth.valid, truth.u, np.nan))
+    assert np.isfinite(v[truth.valid]).all() and not np.isfinite(v[~truth.valid]).any()
+    assert np.max(np.abs(v - truth.v)[truth.valid]) < 1e-9
+    a = np.deg2rad(0.2)
+    tilt = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    off = StereoCalibration(
+        calib.camera, calib.projector, tilt @ calib.rotation, calib.translation_mm
+    )
+    assert np.nanmin(np.abs(epipolar_rows(off, truth.u) - truth.v)[truth.valid]) > 5.0
+    with pytest.raises(InputError, match="calibration's camera is 160 x 120"):
+        epipolar_rows(calib, np.zeros((60, 80)))
+
+
+@pytest.fixture(scope="module")
+def epipolar_specular() -> dict[str, Any]:
+    """The specular part with one mapping direction + the epipolar constraint and the
+    full-MIGL mapping, and LPA S=1's wrapped phase on a fresh rig (no order error possible)."""
+    fine = SPECS[-1]
+    rig = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
+    res = adaptive_sets(rig, SPECS, epipolar=True, full_mapping=True)
+    truth = rig.truth()
+    err = res[-1].details["absolute_phase"] - TWO_PI * truth.u / fine.pitch_px
+    rig_l = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
+    ref = lpa(rig_l, fine, step=1.0)
+    wrapped = decode_set(ref.images, fine, 8).wrapped_phase - TWO_PI * truth.u / fine.pitch_px
+    e = np.angle(np.exp(1j * wrapped))
+    return {
+        "res": res,
+        "err": err,
+        "valid": truth.valid,
+        "std_lpa": float(np.nanstd(e[truth.valid])),
+    }
+
+
+def test_epipolar_full_mapping_meets_the_bound_on_the_specular_part(
+    epipolar_specular: dict[str, Any],
+) -> None:
+    """16 images: the vertical ladder (1024 + 64 px) at the full MIGL, no horizontal ladder,
+    the adapted set, the top-up at 1/16 of the exposure for the highlight that clipped in the
+    mapping (1.4 % of the pixels); no refit, check or boost set. Full coverage, no order
+    error, std within 5 % of LPA S=1's (1.016x here). Rejects both ladders (24 or more), the
+    low mapping with its bright repeat (36), a full mapping without the top-up (the
+    highlight uncovered) and a row from the calibration that misplaces the map (clipping,
+    order errors)."""
+    res, err, valid = epipolar_specular["res"], epipolar_specular["err"], epipolar_specular["valid"]
+    d = res[-1].details
+    print(f"\nspecular epipolar: {d['images_per_step']}, {d['full_mapping']}, std "
+          f"{np.std(err[valid]):.4f} vs LPA {epipolar_specular['std_lpa']:.4f}")  # fmt: skip
+    assert d["epipolar"] and d["full_mapping"]["kept"]
+    assert 0.005 < d["full_mapping"]["clipped_fraction"] <= adaptive_module.FULL_MAPPING_MAX_CLIPPED
+    assert d["mapping_pitches"] == {"vertical": [1024.0, 64.0]}
+    assert d["mapping_migls"] == {"vertical": [255.0, 255.0]}
+    assert d["images_per_step"] == {
+        "exposure": 0, "mapping": 8, "adapted": 4, "refit": 0, "check": 0, "boost": 0, "topup": 4
+    }  # fmt: skip
+    assert sum(r.images_captured for r in res) == 16
+    assert np.isfinite(err[valid]).all()
+    assert not np.any(np.abs(err[valid]) > np.pi)
+    assert np.std(err[valid]) <= 1.05 * epipolar_specular["std_lpa"]
+
+
+def test_full_mapping_orders_the_glints_the_adapted_set_decodes() -> None:
+    """On the glossy dome 0.4 % of the pixels clip in the full-MIGL mapping (no response, no
+    fringe order) but not in the adapted set at their half-way level, so no top-up is
+    captured for them: their orders come from their neighbours (spatial unwrapping anchored
+    on known orders). Rejects leaving them without a phase (coverage 0.996) and orders from
+    a wrong ring (order errors)."""
+    rig = virtual_rig("glossy", resolution=CAM, seed=0)
+    res = adaptive_sets(rig, SPECS, epipolar=True, full_mapping=True)
+    d = res[-1].details
+    truth = rig.truth()
+    err = d["absolute_phase"] - TWO_PI * truth.u / SPECS[-1].pitch_px
+    ok = truth.valid & np.isfinite(err)
+    assert d["full_mapping"]["kept"] and 0.002 < d["full_mapping"]["clipped_fraction"] < 0.01
+    assert d["images_per_step"]["topup"] == 0 and d["topup"]["ordered_from_neighbours"] > 50
+    assert ok.sum() >= 0.999 * truth.valid.sum()
+    assert not np.any(np.abs(err[ok]) > np.pi)
+
+
+def test_full_mapping_falls_back_where_the_scene_is_bright_all_over(
+    board: dict[str, Any], lit_plate: dict[str, Any]
+) -> None:
+    """The checkerboard's white squares (62 % of the pixels) and the 600 lx plate (all) clip in
+    the full-MIGL trial set: the low-MIGL mapping follows, one direction only (8 images
+    less), with the trial set (4 images) merged into its first set where it did not clip.
+    The done-when still holds there (coverage, std within 5 % of LPA S=1's, a quarter of
+    DPA + bound's images). Rejects keeping a full mapping that clipped half the field (the
+    board's white squares unmapped)."""
+    for name, scene, make in (("board", board, board_rig), ("plate", lit_plate, plate_rig)):
+        rig = make()
+        res = adaptive_sets(rig, SPECS, epipolar=True, full_mapping=True)
+        d = res[-1].details
+        std, cov = phase_error(rig, d["absolute_phase"], SPECS[-1].pitch_px)
+        images = sum(r.images_captured for r in res)
+        print(f"\n{name} epipolar + full mapping: {images} images, std {std:.4f} (LPA "
+              f"{scene['std_lpa']:.4f}), {d['full_mapping']}")  # fmt: skip
+        assert not d["full_mapping"]["kept"]
+        assert d["full_mapping"]["clipped_fraction"] > 0.5
+        assert d["images_per_step"]["mapping"] == 12 and d["mapping_migls"]["vertical"][0] < 255
+        assert images == scene["images_adaptive"] - 4
+        assert cov == 1.0 and std <= 1.05 * scene["std_lpa"]
+        assert 4 * images <= scene["images_dpa"]
+
+
+def test_epipolar_and_full_mapping_refuse_what_they_cannot_do() -> None:
+    rig = plate_rig()
+    horizontal = [FringeSpec("sinusoidal", 4, 16.0, "horizontal")]
+    with pytest.raises(InputError, match="vertical fringes only"):
+        adaptive_sets(rig, horizontal, epipolar=True)
+    with pytest.raises(InputError, match="has none"):
+        adaptive_sets(FixedExposureRig(rig, 10.0), SPECS, epipolar=True)
+    with pytest.raises(InputError, match="epipolar mapping only"):
+        adaptive_sets(rig, SPECS, stereo_calibration=rig.stereo_calibration())
+    other = SimulatedRig(white_plate(), camera=CameraModel(80, 60)).stereo_calibration()
+    with pytest.raises(InputError, match="give this rig's calibration"):
+        adaptive_sets(rig, SPECS, epipolar=True, stereo_calibration=other)
+    with pytest.raises(InputError, match="drop --mapping-migl"):
+        adaptive_sets(rig, SPECS, full_mapping=True, mapping_migl=100.0)
+    with pytest.raises(InputError, match="drop --no-adaptive-topup"):
+        adaptive_sets(rig, SPECS, full_mapping=True, topup=False)
+
+
+def test_the_cli_takes_the_new_switches_and_refuses_full_mapping_without_topup(
+    tmp_path: Path,
+) -> None:
+    """--adaptive-full-mapping, --no-adaptive-topup, --adaptive-epipolar and --adaptive-boost
+    reach the strategy (its refusal, before any capture), as one line on stderr."""
+    res = run_cli(
+        "measure", "--rig", "sim", "--scene", "specular_part", "--method", "adaptive",
+        "--adaptive-epipolar", "--adaptive-full-mapping", "--no-adaptive-topup",
+        "--no-adaptive-boost", "-o", str(tmp_path / "out"), timeout=120,
+    )  # fmt: skip
+    assert res.returncode != 0
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "drop --no-adaptive-topup" in lines[0], res.stderr
+    assert not (tmp_path / "out" / "metrics.json").exists()

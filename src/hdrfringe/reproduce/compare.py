@@ -205,6 +205,12 @@ METHODS: tuple[Method, ...] = (
     Method("tolerant-inverted", "tolerant + inverted", "tolerant", {"inverted": True}),
     Method("adaptive", "adaptive", "adaptive"),
     Method("adaptive-exposure", "adaptive + exposure", "adaptive", {"auto_exposure": True}),
+    Method(
+        "adaptive-epipolar",
+        "adaptive, epipolar + full mapping, no bias corr.",
+        "adaptive",
+        {"epipolar": True, "full_mapping": True, "bias_correction": False},
+    ),
 )
 
 
@@ -558,7 +564,7 @@ def _scene_summary(rows: Sequence[CompareRow]) -> str | None:
     by = {r.method: r for r in rows if r.available}
     lpa, dpa = by.get("lpa-1"), by.get("dpa-bound")
     parts = []
-    for name in ("adaptive", "adaptive-exposure"):
+    for name in ("adaptive", "adaptive-exposure", "adaptive-epipolar"):
         ad = by.get(name)
         if ad is None or lpa is None or dpa is None:
             continue

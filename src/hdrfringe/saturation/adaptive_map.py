@@ -38,9 +38,11 @@ from numpy.typing import ArrayLike, NDArray
 from hdrfringe._validation import full_scale, saturation_count
 from hdrfringe.errors import InputError
 from hdrfringe.saturation.estimate import saturated_peak_lower_bound
+from hdrfringe.stereo import StereoCalibration, triangulate
 
 __all__ = [
     "boosted_map",
+    "epipolar_rows",
     "erode_map",
     "fill_holes",
     "fit_blur_sigma",
@@ -279,6 +281,71 @@ def median_smooth(image: ArrayLike, size: int) -> F64:
         out = np.nanmedian(windows.reshape(*img.shape, -1), axis=-1)
     out[~np.isfinite(img)] = np.nan
     return np.asarray(out, np.float64)
+
+
+def epipolar_rows(calibration: StereoCalibration, u: ArrayLike) -> F64:
+    """Projector row of each camera pixel from its projector column and the calibration.
+
+    The camera pixel's ray meets the projector's column surface of ``u`` in one 3-D point
+    (:func:`hdrfringe.stereo.triangulate` with ``u_proj`` alone); its projection into the
+    projector is ``(u, v)``. One phase direction plus the epipolar constraint thus gives both
+    projector coordinates (Zhao et al. 2025), where the scene is a single surface along the ray.
+
+    Parameters
+    ----------
+    calibration : StereoCalibration
+        The projector-camera calibration; its camera size must be ``u``'s shape (width, height).
+    u : array_like, shape (H, W)
+        Projector column per camera pixel (NaN invalid), pixel centres at integers.
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+        The projector row (NaN where ``u`` is NaN or the ray does not meet the column in front
+        of both lenses).
+
+    Raises
+    ------
+    InputError
+        When ``u`` is not an image of the calibration's camera size.
+
+    References
+    ----------
+    Zhang & Huang 2006 (the projector as an inverse camera); docs/adaptive.md ("One direction
+    + the epipolar constraint").
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.simulated import RigGeometry
+    >>> calib = RigGeometry().stereo_calibration((8, 6), (1024, 768))
+    >>> k = calib.camera.matrix  # the ray of camera pixel (column 3, row 2), 1850 mm deep
+    >>> point = 1850.0 * np.array([(3 - k[0, 2]) / k[0, 0], (2 - k[1, 2]) / k[1, 1], 1.0])
+    >>> pu, pv = calib.projector.project(point @ calib.rotation.T + calib.translation_mm)
+    >>> u = np.full((6, 8), np.nan)
+    >>> u[2, 3] = pu
+    >>> v = epipolar_rows(calib, u)
+    >>> int(np.isfinite(v).sum()), round(float(v[2, 3] - pv), 6)
+    (1, 0.0)
+    """
+    uu = _image(u, "u")
+    if not isinstance(calibration, StereoCalibration):
+        raise InputError("epipolar_rows: calibration must be a hdrfringe.stereo.StereoCalibration")
+    width, height = calibration.camera.size
+    if uu.shape != (height, width):
+        raise InputError(
+            f"epipolar_rows: u has shape {uu.shape}, but the calibration's camera is "
+            f"{width} x {height}; give the calibration of this camera"
+        )
+    rows, cols = np.mgrid[0:height, 0:width].astype(np.float64)
+    ok = np.isfinite(uu)
+    out = np.full(uu.shape, np.nan)
+    if ok.any():
+        xyz = triangulate(calibration, cols[ok], rows[ok], u_proj=uu[ok]).xyz
+        _, v = calibration.projector.project(
+            xyz @ calibration.rotation.T + calibration.translation_mm
+        )
+        out[ok] = v
+    return out
 
 
 def projector_coordinates(absolute_phase: ArrayLike, pitch_px: float) -> F64:

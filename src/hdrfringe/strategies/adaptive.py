@@ -31,6 +31,13 @@ Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
    (:func:`~hdrfringe.saturation.adaptive_map.map_phase_bias`, the blur fitted against the
    mapping). The result is ``details["absolute_phase"]``, which
    :func:`hdrfringe.pipeline.measure` uses for the family's absolute phase.
+
+With ``epipolar`` the mapping is the vertical ladder only, each pixel's projector row from the
+projector-camera calibration (:func:`~hdrfringe.saturation.adaptive_map.epipolar_rows`); with
+``full_mapping`` the first mapping set is tried at the full MIGL and, where only a highlight
+clips in it, the whole mapping stays there, the highlight is left to the top-up and the refit,
+check and boost sets are not captured (docs/adaptive.md, "One direction + the epipolar
+constraint, and the full-MIGL mapping").
 """
 
 from __future__ import annotations
@@ -53,6 +60,7 @@ from hdrfringe.phase import decode_set
 from hdrfringe.rig.base import Rig
 from hdrfringe.saturation.adaptive_map import (
     boosted_map,
+    epipolar_rows,
     fill_holes,
     fit_blur_sigma,
     footprint_px,
@@ -66,6 +74,7 @@ from hdrfringe.saturation.adaptive_map import (
     safe_migl,
     sample_map,
 )
+from hdrfringe.stereo import StereoCalibration
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
@@ -125,6 +134,14 @@ TOPUP_MIN_FRACTION = 0.002
 ORDER_RING_PX = 2
 #: Fraction of a patch's ring that must agree with its shift (within a quarter period).
 ORDER_RING_AGREE = 0.5
+
+#: Full-MIGL mapping (``full_mapping``): the largest fraction of the camera pixels that may
+#: clip in the first mapping set at the full MIGL for the whole mapping to stay there (those
+#: pixels are left to the top-up). A highlight clips a few percent (the specular part: 1.48 %
+#: at 648 x 494, ``bench_adaptive.py --epipolar``; 1.4 % at 160 x 120, tests/test_adaptive.py);
+#: a scene bright all over clips far more (the checkerboard's white squares 53 % at 648 x 494,
+#: 62 % at 160 x 120; the plate under 600 lx all of it) and falls back to the low-MIGL mapping.
+FULL_MAPPING_MAX_CLIPPED = 0.05
 
 ORIENTATIONS = ("vertical", "horizontal")
 
@@ -190,6 +207,8 @@ def _measure_mapping(
     migl: float,
     settings: CameraSettings | None,
     auto: bool,
+    first_images: NDArray | None = None,
+    trial: tuple[NDArray, float] | None = None,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -201,7 +220,10 @@ def _measure_mapping(
     :data:`BRIGHT_MIN_FRACTION` of the pixels neither clipped nor decoded in every set (a
     scene whose highlight holds the mapping MIGL so low that its dim surface carries no fringe), the
     ladder is captured once more at the full MIGL and merged per pixel: the bright capture
-    where it did not clip (Eq. 5.1).
+    where it did not clip (Eq. 5.1). ``first_images``: the first set, already captured at
+    ``migl`` (the full-MIGL mapping's trial set). ``trial``: the first set captured at a
+    higher MIGL (the full-MIGL mapping's trial set where too much clipped in it), merged into
+    the first set where it did not clip (Eq. 5.1) and added to the response there.
     """
     bits = rig.camera_bit_depth
     imin = template.imin
@@ -234,14 +256,22 @@ def _measure_mapping(
     for orient, ps in pitches.items():
         imgs: list[NDArray] = []
         ms: list[float] = []
-        for p in ps:
+        for k_, p in enumerate(ps):
             m = migl if not gains and not imgs else m_next
             spec = spec_at(orient, p, m)
-            imgs.append(_capture(rig, spec.frames(), settings))
+            if first_images is not None and not gains and not imgs:
+                imgs.append(first_images)
+            else:
+                imgs.append(_capture(rig, spec.frames(), settings))
             dec = decode_set(imgs[-1], spec, bits)
             ms.append(m)
             saturated |= saturation_count(imgs[-1], bits) > 0
             decodes &= dec.valid
+            if len(pitches) == 1 and k_ == 1:
+                # one orientation (epipolar): its second set, at the automatic MIGL, stands in
+                # for the other orientation's one-period set in the response (its pitch, 16x
+                # the finest, loses little modulation to the blur)
+                add_response(dec, m, np.ones(dec.valid.shape, bool))
             if p == ps[0]:  # a one-period set: the response
                 g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
                 add_response(dec, m, np.ones(g.shape, bool))
@@ -259,6 +289,14 @@ def _measure_mapping(
         images[orient] = imgs
         migls[orient] = ms
         index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
+
+    if trial is not None:  # a brighter capture of the first set: merged where it did not clip
+        t_imgs, t_migl = trial
+        o0 = next(iter(pitches))
+        take = saturation_count(t_imgs, bits) == 0
+        images[o0][0] = np.where(take, t_imgs, images[o0][0])
+        index[o0][0] = np.where(take, np.float32(t_migl), index[o0][0])
+        add_response(decode_set(t_imgs, spec_at(o0, pitches[o0][0], t_migl), bits), t_migl, take)
 
     # pass 2, only where the low ladder left much of the field dark: the full MIGL, merged
     bright: float | None = None
@@ -454,6 +492,50 @@ def _check_specs(rig: Rig, specs: Sequence[FringeSpec]) -> list[FringeSpec]:
     return specs
 
 
+def _epipolar_calibration(
+    rig: Rig,
+    specs: Sequence[FringeSpec],
+    epipolar: bool,
+    calibration: StereoCalibration | None,
+) -> StereoCalibration | None:
+    """The calibration the epipolar mapping uses (None: both orientations are mapped)."""
+    if not epipolar:
+        if calibration is not None:
+            raise InputError(
+                "adaptive: stereo_calibration is used by the epipolar mapping only; give "
+                "epipolar=True (--adaptive-epipolar) or drop it"
+            )
+        return None
+    if any(s.orientation != "vertical" for s in specs):
+        raise InputError(
+            "adaptive --adaptive-epipolar maps vertical fringes only (the row comes from the "
+            "calibration); measure vertical sets only, or drop --adaptive-epipolar"
+        )
+    if calibration is None:
+        own = getattr(rig, "stereo_calibration", None)
+        if not callable(own):
+            raise InputError(
+                f"adaptive --adaptive-epipolar needs a projector-camera calibration and the "
+                f"{type(rig).__name__} rig has none; pass stereo_calibration= (Python) or drop "
+                "--adaptive-epipolar"
+            )
+        calibration = own()
+    if not isinstance(calibration, StereoCalibration):
+        raise InputError(
+            "adaptive: stereo_calibration must be a hdrfringe.stereo.StereoCalibration, got "
+            f"{type(calibration).__name__}"
+        )
+    cam = (rig.image_shape[1], rig.image_shape[0])
+    proj = (rig.projector.width, rig.projector.height)
+    if tuple(calibration.camera.size) != cam or tuple(calibration.projector.size) != proj:
+        raise InputError(
+            f"adaptive: the stereo calibration is for a {calibration.camera.size} camera and a "
+            f"{calibration.projector.size} projector, the rig has {cam} and {proj}; give this "
+            "rig's calibration"
+        )
+    return calibration
+
+
 def adaptive_sets(
     rig: Rig,
     specs: Sequence[FringeSpec],
@@ -469,6 +551,9 @@ def adaptive_sets(
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
+    epipolar: bool = False,
+    stereo_calibration: StereoCalibration | None = None,
+    full_mapping: bool = False,
 ) -> tuple[StrategyResult, ...]:
     """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
 
@@ -518,6 +603,23 @@ def adaptive_sets(
         orders from their neighbours' (spatial unwrapping anchored on a ring of known
         orders). Skipped, with the reason in ``details["topup"]``, where the rig cannot
         change its exposure (a replayed folder).
+    epipolar : bool
+        Map one orientation only, the measurement's (vertical fringes), and take each camera
+        pixel's projector row from the epipolar constraint: its ray meets the plane of its
+        projector column in one 3-D point whose projection gives the row
+        (:func:`~hdrfringe.saturation.adaptive_map.epipolar_rows`). Saves the other
+        orientation's ladder. Needs a projector-camera calibration: ``stereo_calibration``,
+        else the rig's own (the virtual rig's ``stereo_calibration()``, its true geometry).
+    stereo_calibration : StereoCalibration, optional
+        The calibration for ``epipolar`` (camera and projector sizes of this rig).
+    full_mapping : bool
+        Capture the first mapping set at the full MIGL. Where at most
+        :data:`FULL_MAPPING_MAX_CLIPPED` of the pixels clip in it (a highlight), the whole
+        mapping stays at the full MIGL, the clipped pixels are left to the top-up (their
+        response is unknown) and the refit, check and boost passes are not captured;
+        otherwise the low-MIGL mapping follows, with that set (counted with the mapping)
+        merged into its first set where it did not clip. Not with ``mapping_migl`` or
+        without ``topup``.
 
     Returns
     -------
@@ -566,6 +668,17 @@ def adaptive_sets(
             "adaptive: give a fixed exposure (--adaptive-exposure-ms) or the automatic one "
             "(--adaptive-auto-exposure), not both"
         )
+    calib = _epipolar_calibration(rig, specs, epipolar, stereo_calibration)
+    if full_mapping and mapping_migl is not None:
+        raise InputError(
+            "adaptive: --adaptive-full-mapping chooses the mapping MIGL itself; drop "
+            "--mapping-migl or --adaptive-full-mapping"
+        )
+    if full_mapping and not topup:
+        raise InputError(
+            "adaptive: --adaptive-full-mapping leaves the pixels that clip at the full MIGL to "
+            "the top-up; drop --no-adaptive-topup or --adaptive-full-mapping"
+        )
     first = specs[0]
     m0 = default_min_migl(first) if mapping_migl is None else float(mapping_migl)
     if not first.imin < m0 <= first.migl:
@@ -593,6 +706,8 @@ def adaptive_sets(
     finest: dict[str, int] = {}
     pitches: dict[str, list[float]] = {}
     for orient in ORIENTATIONS:
+        if calib is not None and not any(s.orientation == orient for s in specs):
+            continue  # the epipolar constraint gives this coordinate
         extent = proj.width if orient == "vertical" else proj.height
         own = sorted(
             (i for i, s in enumerate(specs) if s.orientation == orient),
@@ -609,9 +724,27 @@ def adaptive_sets(
     # --- 1. mapping at a low MIGL: response, coordinates, fringe orders ----------------------
     t0 = time.perf_counter()
     # the first (darkest, noisiest) set in the orientation the measurement does not unwrap
-    pitches = {o: pitches[o] for o in sorted(ORIENTATIONS, key=lambda o: o in finest)}
-    mp = _measure_mapping(rig, first, pitches, m0, settings, auto=mapping_migl is None)
-    u, v = mp.coords["vertical"], mp.coords["horizontal"]
+    pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o in finest)}
+    trial: list[float] = []  # a full-MIGL first set that was not kept (counted)
+    trial_images: tuple[NDArray, float] | None = None
+    full_mapped = False
+    full_clipped: float | None = None
+    if full_mapping:
+        o0 = next(iter(pitches))
+        spec0 = FringeSpec(first.pattern, first.steps, pitches[o0][0], o0, first.imin, first.migl)  # type: ignore[arg-type]
+        imgs0 = _capture(rig, spec0.frames(), settings)
+        full_clipped = float(np.mean(saturation_count(imgs0, bits) > 0))
+        if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
+            m0, full_mapped = float(first.migl), True
+            mp = _measure_mapping(rig, first, pitches, m0, settings, auto=False, first_images=imgs0)
+        else:
+            trial, trial_images = [float(first.migl)], (imgs0, float(first.migl))
+    if not full_mapped:
+        mp = _measure_mapping(
+            rig, first, pitches, m0, settings, auto=mapping_migl is None, trial=trial_images
+        )
+    u = mp.coords["vertical"]
+    v = mp.coords["horizontal"] if calib is None else epipolar_rows(calib, u)
     t_map = time.perf_counter() - t0
 
     # --- 2. the camera-side levels and the projector map -------------------------------------
@@ -633,6 +766,7 @@ def adaptive_sets(
     uf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, u, np.nan)), u)
     vf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, v, np.nan)), v)
     radius = footprint_px(u, v) + float(blur_px)
+    shape_cam = u.shape
     shape = (proj.height, proj.width)
     ambient = np.where(np.isfinite(mp.ambient), mp.ambient, 0.0)
 
@@ -676,10 +810,12 @@ def adaptive_sets(
     spare = [
         m
         for o in ORIENTATIONS
+        if o in pitches
         for k, p in enumerate(pitches[o])
         if not any(s.orientation == o and s.pitch_px == p for s in specs)
         for m in [mp.migls[o][k]] + ([] if mp.bright_migl is None else [mp.bright_migl])
     ]
+    spare += trial
     owner = min(finest.values())
 
     # --- 3. per orientation: the adapted set, the refit pass, the check passes ----------------
@@ -706,7 +842,7 @@ def adaptive_sets(
         # refit: the set's own offset and modulation give each pixel's level at this pitch
         t0 = time.perf_counter()
         refits = 0
-        if refit:
+        if refit and not full_mapped:
             dec = decode_set(composite, spec, bits, reject_saturated=False)
             got = np.where(np.isfinite(received), received, full_p)
             up = refined_migl(
@@ -748,7 +884,7 @@ def adaptive_sets(
         # check passes: lower the level only where a shift still clipped, merge there (Eq. 5.1)
         t0 = time.perf_counter()
         passes = 0
-        while remaining.any() and passes < iterations:
+        while remaining.any() and passes < (0 if full_mapped else iterations):
             got = np.where(np.isfinite(received), received, full_p)
             lowered, _ = lowered_where_clipped(
                 levels, composite, got, ambient, bits, margin=margin, imin=first.imin
@@ -776,7 +912,7 @@ def adaptive_sets(
         # gives a larger unclipped modulation (LPA's rule: the best unsaturated set)
         t0 = time.perf_counter()
         boosts = 0
-        if boost:
+        if boost and not full_mapped:
             short = (received - first.imin) < BOOST_RATIO * (levels - first.imin)
             wanted = np.isfinite(received) & np.isfinite(levels) & short & ~remaining
             if wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(received).sum():
@@ -867,10 +1003,15 @@ def adaptive_sets(
         wrapped = decode_set(composite, spec, bits).wrapped_phase
         predicted = mp.absolute[orient] * (pitches[orient][-1] / spec.pitch_px)
         absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
-        if n_topup:  # the top-up's pixels clipped in the mapping: orders from neighbours
+        # pixels clipped in the mapping have no orders: the top-up's, and with the full-MIGL
+        # mapping any that the adapted set decoded (a glint under the half-way level)
+        seeds = took if n_topup else np.zeros(shape_cam, bool)
+        if full_mapped:
+            seeds = seeds | mp.saturated
+        if seeds.any():
             t1 = time.perf_counter()
             final = decode_set(composite, spec, bits)
-            absolute, filled = _orders_from_neighbours(absolute, wrapped, final.valid, took)
+            absolute, filled = _orders_from_neighbours(absolute, wrapped, final.valid, seeds)
             topup_info["ordered_from_neighbours"] = filled
             t_topup += time.perf_counter() - t1
         t0 = time.perf_counter()
@@ -881,6 +1022,7 @@ def adaptive_sets(
             )
         t_bias = time.perf_counter() - t0
         n_map = sum(len(p) for p in pitches.values()) * (1 if mp.bright_migl is None else 2)
+        n_map += len(trial)
         results[i] = StrategyResult(
             images=composite,
             spec=spec,
@@ -935,6 +1077,10 @@ def adaptive_sets(
                 },
                 "blur_sigma_px": blur,
                 "exposure_ms": exposure_ms,
+                "epipolar": calib is not None,
+                "full_mapping": {"clipped_fraction": full_clipped, "kept": full_mapped}
+                if full_mapping
+                else None,
             },
         )
     out = tuple(r for r in results if r is not None)
@@ -957,6 +1103,9 @@ def adaptive(
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
+    epipolar: bool = False,
+    stereo_calibration: StereoCalibration | None = None,
+    full_mapping: bool = False,
 ) -> StrategyResult:
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
@@ -971,7 +1120,7 @@ def adaptive(
         The set at its highest MIGL.
     margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px
         As :func:`adaptive_sets`.
-    exposure_ms, auto_exposure, topup
+    exposure_ms, auto_exposure, topup, epipolar, stereo_calibration, full_mapping
         As :func:`adaptive_sets`.
 
     Returns
@@ -1006,6 +1155,9 @@ def adaptive(
         exposure_ms=exposure_ms,
         auto_exposure=auto_exposure,
         topup=topup,
+        epipolar=epipolar,
+        stereo_calibration=stereo_calibration,
+        full_mapping=full_mapping,
     )
     return res
 
@@ -1041,6 +1193,14 @@ class AdaptiveParams:
     topup : bool
         Where pixels clip even at the lowest usable MIGL, one or two sets more at a shorter
         exposure for them, merged per pixel (docs/adaptive.md, "Top-up").
+    epipolar : bool
+        Map the vertical orientation only and take the projector row from the epipolar
+        constraint (``--adaptive-epipolar``; docs/adaptive.md).
+    stereo_calibration : StereoCalibration, optional
+        The calibration ``epipolar`` uses; None: the rig's own (the virtual rig's true one).
+    full_mapping : bool
+        Map at the full MIGL where only a highlight clips in the first set, leaving it to
+        the top-up; no refit, check or boost then (``--adaptive-full-mapping``).
 
     References
     ----------
@@ -1078,6 +1238,7 @@ class AdaptiveParams:
         metadata={
             "help": "one more set where the map gives pixels much less than their own level "
             "(a dim pixel next to a bright one), kept per pixel where its modulation is larger.",
+            "cli": "--adaptive-boost",
         },
     )
     bias_correction: bool = field(
@@ -1085,6 +1246,7 @@ class AdaptiveParams:
         metadata={
             "help": "subtract the phase bias of the map's steps under the blur (the blur "
             "fitted against the mapping).",
+            "cli": "--adaptive-bias-correction",
         },
     )
     mapping_migl: float | None = field(
@@ -1123,6 +1285,33 @@ class AdaptiveParams:
         metadata={
             "help": "where pixels clip even at the lowest usable MIGL, the finest set at a "
             "shorter exposure for them, merged per pixel by the larger unclipped modulation.",
+            "cli": "--adaptive-topup",
+        },
+    )
+    epipolar: bool = field(
+        default=False,
+        metadata={
+            "help": "map the vertical fringes only and take each pixel's projector row from "
+            "the projector-camera calibration (epipolar constraint): the horizontal mapping "
+            "ladder is not captured. Needs a calibration (the virtual rig has its own).",
+            "cli": "--adaptive-epipolar",
+        },
+    )
+    stereo_calibration: StereoCalibration | None = field(
+        default=None,
+        metadata={
+            "help": "the projector-camera calibration the epipolar mapping uses (default: the "
+            "rig's own).",
+        },
+    )
+    full_mapping: bool = field(
+        default=False,
+        metadata={
+            "help": "capture the first mapping set at the full MIGL; where at most 5 % of the "
+            "pixels clip in it (a highlight) map at the full MIGL, leave the clipped pixels to "
+            "the top-up and skip the refit, check and boost sets; else fall back to the "
+            "low-MIGL mapping (the trial set merged into it where it did not clip).",
+            "cli": "--adaptive-full-mapping",
         },
     )
 
@@ -1179,6 +1368,9 @@ class Adaptive(FunctionStrategy):
             exposure_ms=params.exposure_ms,
             auto_exposure=params.auto_exposure,
             topup=params.topup,
+            epipolar=params.epipolar,
+            stereo_calibration=params.stereo_calibration,
+            full_mapping=params.full_mapping,
         )
 
     def describe(self, params: AdaptiveParams) -> str:
