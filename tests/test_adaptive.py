@@ -692,6 +692,26 @@ def test_epipolar_and_full_mapping_refuse_what_they_cannot_do() -> None:
         adaptive_sets(rig, SPECS, full_mapping=True, topup=False)
 
 
+def test_measure_hands_its_stereo_calibration_to_the_epipolar_mapping() -> None:
+    """``pipeline.measure(rig, stereo_calibration, method="adaptive", params={"epipolar":
+    True})`` (what ``measure --calibration STEREO.h5 --adaptive-epipolar`` on a live rig does)
+    maps with the calibration it measures with, on a rig that has no calibration of its own;
+    without it the strategy refuses."""
+    from hdrfringe.pipeline import measure
+
+    rig = plate_rig()
+    calib = rig.stereo_calibration()
+    bare = FixedExposureRig(rig, 10.0)
+    params = {"epipolar": True, "topup": False}
+    with pytest.raises(InputError, match="measure --calibration STEREO.h5"):
+        measure(bare, None, method="adaptive", params=params, specs=SPECS, uncertainty=False)
+    res = measure(bare, calib, method="adaptive", params=params, specs=SPECS, uncertainty=False)
+    assert res.metrics.strategy is not None
+    assert res.strategy_results[-1].details["epipolar"]  # the adapted (finest) set
+    assert res.metrics.adaptive is not None and res.metrics.adaptive["vertical"]["epipolar"] is True
+    assert res.metrics.stereo is not None and res.metrics.stereo["n_points"] > 0
+
+
 def test_the_cli_takes_the_new_switches_and_refuses_full_mapping_without_topup(
     tmp_path: Path,
 ) -> None:

@@ -402,6 +402,8 @@ ADAPTIVE_METRICS = (
     "boost_passes",
     "exposure_ms",
     "topup",
+    "epipolar",
+    "full_mapping",
     "images_per_step",
     "sets_per_step",
     "seconds_per_step",
@@ -1160,6 +1162,15 @@ def measure(
                 source.camera_bit_depth,
                 calibration_source,
             )
+        # The epipolar adaptive mapping takes the projector row from a projector-camera
+        # calibration: the one measured with (measure --calibration STEREO.h5) when the
+        # strategy was given none (docs/adaptive.md).
+        if (
+            isinstance(calibration, StereoCalibration)
+            and getattr(p, "epipolar", False)
+            and getattr(p, "stereo_calibration", False) is None
+        ):
+            p = dataclasses.replace(p, stereo_calibration=calibration)
         description = describe_rig(source)
         caps, results = composite_captures(
             source, specs, method, p, centerline=centerline, description=description
