@@ -703,7 +703,7 @@ def test_measure_hands_its_stereo_calibration_to_the_epipolar_mapping() -> None:
     calib = rig.stereo_calibration()
     bare = FixedExposureRig(rig, 10.0)
     params = {"epipolar": True, "topup": False}
-    with pytest.raises(InputError, match="measure --calibration STEREO.h5"):
+    with pytest.raises(InputError, match=r"measure --calibration STEREO\.h5"):
         measure(bare, None, method="adaptive", params=params, specs=SPECS, uncertainty=False)
     res = measure(bare, calib, method="adaptive", params=params, specs=SPECS, uncertainty=False)
     assert res.metrics.strategy is not None

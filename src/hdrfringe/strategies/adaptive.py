@@ -516,8 +516,8 @@ def _epipolar_calibration(
         if not callable(own):
             raise InputError(
                 f"adaptive --adaptive-epipolar needs a projector-camera calibration and the "
-                f"{type(rig).__name__} rig has none; give one (measure --calibration STEREO.h5, or stereo_calibration= "
-                "in Python) or drop --adaptive-epipolar"
+                f"{type(rig).__name__} rig has none; give one (measure --calibration "
+                "STEREO.h5, or stereo_calibration= in Python) or drop --adaptive-epipolar"
             )
         calibration = own()
     if not isinstance(calibration, StereoCalibration):
