@@ -477,15 +477,20 @@ def test_a_mapping_off_by_half_a_fringe_clips(
 # ---------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("auto_exposure", [False, True])
+@pytest.mark.parametrize(
+    ("auto_exposure", "variant"),
+    [(False, {}), (True, {}), (False, {"epipolar": True, "full_mapping": True})],
+    ids=["adaptive", "adaptive+exposure", "epipolar+full-mapping"],
+)
 @pytest.mark.parametrize(("reflectivity", "lux"), [(0.45, 60.0)])
 def test_nothing_saturated_gives_the_conventional_result(
-    reflectivity: float, lux: float, auto_exposure: bool
+    reflectivity: float, lux: float, auto_exposure: bool, variant: dict[str, bool]
 ) -> None:
     """Requirement 4: without saturation every projector pixel is at the top MIGL and the
     phase is the conventional one within noise, with the same coverage. With the automatic
     exposure (adaptive + exposure) the rig's exposure is kept after one set: a choice that
-    raised it for the dim plate would not be the conventional result."""
+    raised it for the dim plate would not be the conventional result. The same for the
+    one-direction full-MIGL mapping (``--adaptive-epipolar --adaptive-full-mapping``)."""
 
     def rig() -> SimulatedRig:
         return SimulatedRig(
@@ -496,7 +501,7 @@ def test_nothing_saturated_gives_the_conventional_result(
     conv = conventional(rig(), fine)
     assert conv.images.max() < 255
     r = rig()
-    res = adaptive_sets(r, SPECS, auto_exposure=auto_exposure)[-1]
+    res = adaptive_sets(r, SPECS, auto_exposure=auto_exposure, **variant)[-1]
     assert res.details["images_per_step"]["exposure"] == (4 if auto_exposure else 0)
     assert res.details["exposure_ms"] == (10.0 if auto_exposure else None)
     assert np.all(res.details["projector_migl_map"] == 255.0)
