@@ -93,6 +93,18 @@ _PYTHON_DEFAULT_FILTERS = (
 )
 
 
+def _child_console_width(pipe_width: int) -> int:
+    """The width ``hdrfringe.cli._app.console`` takes in a child process of this one, whose
+    standard output is a pipe: ``COLUMNS`` as the C library's environment holds it, else
+    ``pipe_width``."""
+    import ctypes
+
+    getenv = ctypes.CDLL(None).getenv
+    getenv.restype = ctypes.c_char_p
+    value = getenv(b"COLUMNS")
+    return int(value) if value else pipe_width
+
+
 def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
     """Run the command line in this process, through the entry point ``python -m hdrfringe.cli``
     calls (``hdrfringe.cli.app()``: typer's ``Typer.__call__``, click's standalone ``main``
@@ -120,6 +132,10 @@ def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
         # the CLI, maybe on a terminal under `pytest -s`); run_cli's process writes to pipes
         mock.patch.object(_app.console, "_color_system", None),
         mock.patch.object(_app.err_console, "_color_system", None),
+        # and its width from its own environment: GNU readline, once imported here (pytest's
+        # debugger support does), exports COLUMNS at the C level, which os.environ does not
+        # show but a child process inherits (the console then takes it; else PIPE_WIDTH)
+        mock.patch.object(_app.console, "_width", _child_console_width(_app.PIPE_WIDTH)),
     ):
         warnings.resetwarnings()
         for action, category, module in reversed(_PYTHON_DEFAULT_FILTERS):

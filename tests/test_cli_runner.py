@@ -7,6 +7,9 @@ catch (an escaping exception's traceback, a warning on stderr) are visible in it
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -66,3 +69,21 @@ def test_a_warning_reaches_stderr(
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert res.returncode == 2 and lines[0] == "error: bad input: fix it"
     assert any("RuntimeWarning: invalid value encountered" in ln for ln in lines[1:]), lines
+
+
+def test_tables_are_not_cut_to_80_columns_when_stdout_is_a_pipe() -> None:
+    """Piped to a file or CI log, rich would take 80 columns and cut the demo's tables to
+    ellipses ("DPA 10 % + bo…"); the command line's console takes ``PIPE_WIDTH`` there, and
+    ``COLUMNS`` still sets the width (a plain ``Console()`` gives 80 and fails)."""
+    code = "from hdrfringe.cli._app import PIPE_WIDTH, console; print(console.width, PIPE_WIDTH)"
+    env = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60
+    )
+    width, pipe_width = map(int, res.stdout.split())
+    assert width == pipe_width >= 120
+    env["COLUMNS"] = "100"
+    res = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=60
+    )
+    assert int(res.stdout.split()[0]) == 100

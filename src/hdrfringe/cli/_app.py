@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import importlib
 import math
+import os
 import sys
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from typing import Annotated, Any, TypeVar
@@ -234,7 +235,10 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
-console = Console()
+#: Width of standard output when it is not a terminal (a log file, a pipe, CI): rich would take
+#: 80 columns and cut the demo's tables to ellipses; COLUMNS, when exported, still sets it.
+PIPE_WIDTH = 160
+console = Console(width=None if sys.stdout.isatty() or "COLUMNS" in os.environ else PIPE_WIDTH)
 err_console = Console(stderr=True, soft_wrap=True)
 
 F = TypeVar("F", bound=Callable[..., Any])
