@@ -55,6 +55,7 @@ from .patterns import fringe_gray as fringe_gray
 from .patterns import fringe_profile as fringe_profile
 from .patterns import precompensate_gamma as precompensate_gamma
 from .phase import PhaseResult as PhaseResult
+from .phase import angle_difference as angle_difference
 from .phase import data_modulation as data_modulation
 from .phase import decode_set as decode_set
 from .phase import saturation_count as saturation_count

@@ -940,8 +940,8 @@ class Captures:
         >>> from hdrfringe.frames import UniformFrame
         >>> caps = Captures([UniformFrame(128)], np.zeros((1, 2, 2), np.uint8), 8,
         ...                 maps={"truth_height_mm": np.ones((2, 2))})
-        >>> caps.map("truth_height_mm").sum(), caps.map("depth")
-        (np.float64(4.0), None)
+        >>> float(caps.map("truth_height_mm").sum()), caps.map("depth")
+        (4.0, None)
         """
         return self.maps.get(key)
 
