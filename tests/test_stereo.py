@@ -319,10 +319,13 @@ def small_scene() -> tuple[np.ndarray, np.ndarray]:
     """
     rows, cols = np.mgrid[0:120, 0:160].astype(float)
     k = SMALL_CAM.matrix
-    und = cv2.undistortPoints(
-        np.stack([cols, rows], -1).reshape(-1, 1, 2), k, SMALL_CAM.distortion,
-        criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12),
-    ).reshape(120, 160, 2)  # fmt: skip
+    pix = np.stack([cols, rows], -1).reshape(-1, 1, 2)
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+    if hasattr(cv2, "undistortPointsIter"):  # OpenCV 4.x (4.11: the last for numpy 1.x)
+        und = cv2.undistortPointsIter(pix, k, SMALL_CAM.distortion, None, None, criteria)
+    else:  # OpenCV 5: the criteria are a keyword of undistortPoints
+        und = cv2.undistortPoints(pix, k, SMALL_CAM.distortion, criteria=criteria)
+    und = und.reshape(120, 160, 2)
     ray = np.dstack([und, np.ones((120, 160))])
     n = np.array([0.1, -0.05, -1.0])
     n /= np.linalg.norm(n)

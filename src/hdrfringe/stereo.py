@@ -73,6 +73,17 @@ def _finite_array(value: ArrayLike, name: str, shape: tuple[int, ...] | None = N
     return arr
 
 
+def _undistort_points(src: F64, k: F64, d: F64) -> F64:
+    """``cv2.undistortPoints`` with :data:`_UNDISTORT_CRITERIA` (its iteration limits).
+
+    OpenCV 4.x names the variant that takes the criteria ``undistortPointsIter`` (its
+    ``undistortPoints`` refuses the keyword up to 4.11, the last release for numpy 1.x);
+    OpenCV 5 has only ``undistortPoints``, with ``criteria`` as a keyword. Same algorithm."""
+    iterative = getattr(cv2, "undistortPointsIter", None)
+    if iterative is not None:
+        return np.asarray(iterative(src, k, d, None, None, _UNDISTORT_CRITERIA))
+    return np.asarray(cv2.undistortPoints(src, k, d, criteria=_UNDISTORT_CRITERIA))
+
 @dataclass(frozen=True, eq=False)
 class LensModel:
     """A pinhole lens with OpenCV distortion: a camera, or a projector as an inverse camera.
@@ -239,7 +250,7 @@ class LensModel:
             plain_u = fu[ok] - self.skew * (fv[ok] - self.matrix[1, 2]) / self.matrix[1, 1]
             src = np.stack([plain_u, fv[ok]], axis=-1).reshape(-1, 1, 2)
             k, d = self._plain_matrix(), self._distortion_for_cv()
-            out = cv2.undistortPoints(src, k, d, criteria=_UNDISTORT_CRITERIA).reshape(-1, 2)
+            out = _undistort_points(src, k, d).reshape(-1, 2)
             if check and self.distortion.size and np.any(self.distortion):
                 back, _ = cv2.projectPoints(
                     np.concatenate([out, np.ones((out.shape[0], 1))], axis=1),
