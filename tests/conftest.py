@@ -170,6 +170,14 @@ def white_plate_series(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Mark the tests that use the quick reproduction (``quick_run``) ``quick_reproduction``:
+    ``make test`` runs them in its narrowed numeric run only, so that the 90 s sweep runs once."""
+    for item in items:
+        if "quick_run" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.quick_reproduction)
+
+
 @pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave
 def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """``hdrfringe reproduce all --quick`` (Ch. 4, 5 and 6 on the reduced grid), run once.
