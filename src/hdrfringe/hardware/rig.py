@@ -105,7 +105,13 @@ class SyncSettings:
     grab_timeout_s : float
         Timeout of each grab.
     verify : bool
-        Verify each image (switch off only for a scene that does not respond to the projector).
+        Verify each image (switch off only for a scene that does not respond to the projector;
+        that also skips the view check).
+    view_check : bool
+        At opening, check that the camera's image follows the projector (white, black, white:
+        :meth:`HardwareRig.open`) and refuse a camera that does not see it; switch off only for
+        a rig whose camera is not meant to see the projector (a test with pylon's emulated
+        camera).
 
     Raises
     ------
@@ -130,6 +136,7 @@ class SyncSettings:
     history: int = 2
     grab_timeout_s: float = 2.0
     verify: bool = True
+    view_check: bool = True
 
     def __post_init__(self) -> None:
         if self.mode not in SYNC_MODES:
@@ -316,6 +323,9 @@ class HardwareRig(RigBase):
     noise_var : float
         The camera noise variance (LSB^2) estimated at :meth:`open` (the larger of the
         mid-gray and white estimates).
+    view_ratio : float or None
+        How clearly the camera saw the projector at :meth:`open` (the smallest
+        :func:`change_ratio` of the view check); None when it was not run.
 
     References
     ----------
@@ -359,6 +369,7 @@ class HardwareRig(RigBase):
         self._sleep = sleep
         self.log: list[FrameTiming] = []
         self.noise_var = MIN_NOISE_VARIANCE
+        self.view_ratio: float | None = None
         self._history: list[_Shown] = []
         self._applied = CameraSettings()
         self._open = False
@@ -389,14 +400,19 @@ class HardwareRig(RigBase):
 
     # -- devices -----------------------------------------------------------------------
     def open(self) -> None:
-        """Open projector and camera, apply the settings, measure the noise on gray and white.
+        """Open projector and camera, apply the settings, measure the noise on gray and white,
+        and check that the camera sees the projector.
+
+        The view check (``sync.view_check`` and ``sync.verify``, both on by default) shows
+        black and then white again after the noise measurement and requires both changes to
+        show in the image clearly above the camera noise (:meth:`_view_check`).
 
         Raises
         ------
         SyncError
             With verification on: the camera saturates every pixel of every image of both
             the mid-gray and the white frame, so the noise cannot be measured (lower the
-            exposure or gain).
+            exposure or gain); or its image does not follow the projector (the view check).
         """
         if self._open:
             return
@@ -414,6 +430,8 @@ class HardwareRig(RigBase):
             self.log = []
             self._history = []
             self._baseline()
+            if self.sync.verify and self.sync.view_check:
+                self._view_check()
         except BaseException:
             self._open = False
             self.close()
@@ -487,6 +505,43 @@ class HardwareRig(RigBase):
         self.image_shape = (int(last.shape[0]), int(last.shape[1]))
         self._history = [_Shown(shown, last, self._applied)]
 
+    def _view_check(self) -> None:
+        """Refuse a camera whose image does not follow the projector.
+
+        White is on screen (:meth:`_baseline`); the rig shows black, then white again, and
+        takes the latest image of each as :meth:`_settled` does. Both changes must show in
+        the image: each of the two white images must differ from the black one by more than
+        ``threshold`` times the noise, where the noise is the larger of the camera noise and
+        half the mean squared difference of the two white images. The two whites are twice as
+        far apart in time as each is from the black, so an image that changes by itself (a
+        camera's moving test pattern, a drifting scene) differs between them at least as much
+        as across the change and is refused, while a camera that sees the projector shows the
+        change far above its noise. Ends with white on screen and its image as the reference.
+        """
+        width, height = self.projector.width, self.projector.height
+        bits = self.camera_bit_depth
+        first = self._history[-1].capture
+        black = np.zeros((height, width), np.uint8)
+        white = np.full((height, width), 255, np.uint8)
+        self.projector_device.show(black)
+        dark, _ = self._settled()
+        self.projector_device.show(white)
+        second, _ = self._settled()
+        noise = max(self.noise_var, noise_variance(first, second, bits))
+        ratio = min(change_ratio(w, dark, noise, bits) for w in (first, second))
+        self.view_ratio = ratio
+        self._history = [_Shown(white, second, self._applied)]
+        if ratio <= self.sync.threshold:
+            name = getattr(self.camera, "name", None) or "the camera"
+            raise SyncError(
+                f"camera {name} does not see the projector: its image did not follow the "
+                f"projector from white to black and back (change {ratio:.2g}x the noise and "
+                f"drift, needs {self.sync.threshold:g}x); point the camera at the projected "
+                "area and check its exposure and aperture, or give --no-view-check "
+                "(sync.view_check = false) for a rig whose camera is not meant to see the "
+                "projector (docs/hardware.md)"
+            )
+
     def _rebaseline(self) -> None:
         """After a change of exposure or gain: a new image of the frame on screen, and older
         images (at the old settings) forgotten."""
@@ -516,7 +571,8 @@ class HardwareRig(RigBase):
         >>> from hdrfringe.hardware.camera import open_camera
         >>> from hdrfringe.hardware.projector import FolderProjector
         >>> play = FolderProjector(Path(tempfile.mkdtemp()) / "play", 64, 48)
-        >>> with HardwareRig(play, open_camera("pylon:emu"), SyncSettings(settle_s=0.0)) as rig:
+        >>> sync = SyncSettings(settle_s=0.0, view_check=False)  # the emulation sees no projector
+        >>> with HardwareRig(play, open_camera("pylon:emu"), sync) as rig:
         ...     rig.rebaseline()
         ...     len(rig.log)
         0
