@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -265,3 +266,29 @@ def test_rig_check_on_a_latency_in_grabs_without_x() -> None:
 def test_recommend_sync_covers_a_mixed_latency_with_both() -> None:
     # waiting shortened 4 stale grabs to 1: a time, then a queue of one image
     assert recommend_sync(4, 0.25, 1) == (0.25, 1, "mixed")
+
+
+# -- docs/hardware.md's X server recipe -------------------------------------------------------
+
+
+def test_the_documented_xvfb_recipe_opens_a_free_display(tmp_path: Path) -> None:
+    """The sh block of docs/hardware.md that starts Xvfb with -displayfd runs (without its
+    ``hdrfringe`` line): it opens a display other than a fixed number, whose screen is the
+    size asked for, and stops it again."""
+    text = (Path(__file__).parents[1] / "docs" / "hardware.md").read_text()
+    blocks = [b.split("```", 1)[0] for b in text.split("```sh\n")[1:]]
+    (block,) = [b for b in blocks if "-displayfd" in b]
+    # no command of the page starts Xvfb on a fixed display number
+    assert not [b for b in blocks if re.search(r"Xvfb\s+:\d", b)]
+    lines = [ln for ln in block.splitlines() if not ln.startswith("hdrfringe ")]
+    grab = f'{sys.executable} -c "from PIL import ImageGrab; import os; '
+    grab += "print(os.environ['DISPLAY'], *ImageGrab.grab(xdisplay=os.environ['DISPLAY']).size)\""
+    kill = lines.index('kill "$XVFB_PID"')
+    script = "\n".join([*lines[:kill], grab, *lines[kill:], 'wait "$XVFB_PID" 2>/dev/null; true'])
+    (tmp_path / "recipe.sh").write_text(script + "\n")
+    r = subprocess.run(["bash", str(tmp_path / "recipe.sh")], capture_output=True, text=True,
+                       timeout=60)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    display, width, height = r.stdout.split()
+    assert display.startswith(":") and display[1:].isdigit()
+    assert (int(width), int(height)) == (1024, 768)
