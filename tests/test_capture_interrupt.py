@@ -162,8 +162,9 @@ def test_window_closed_mid_capture_is_a_one_line_error_and_writes_nothing(
     out = tmp_path / "caps"
     proc = start_capture(xdisplay, out)
     try:
-        # the root, the rig's mid-gray and white (its noise reference), the first fringe
-        wait_for_screens(xdisplay, proc, 4)
+        # the root, the rig's mid-gray and white (its noise reference), the view check's black
+        # and white, the first fringe
+        wait_for_screens(xdisplay, proc, 6)
         close_window(xdisplay, projector_window(xdisplay), how)
         _, stderr = proc.communicate(timeout=60)
     finally:
@@ -183,9 +184,9 @@ def test_ctrl_c_mid_capture_keeps_the_complete_sets_and_says_so(
     out = tmp_path / "caps"
     proc = start_capture(xdisplay, out)
     try:
-        # the root, the rig's mid-gray and white, the four frames of the first set, the second
-        # set's first
-        wait_for_screens(xdisplay, proc, 8)
+        # the root, the rig's mid-gray and white, the view check's black and white, the four
+        # frames of the first set, the second set's first
+        wait_for_screens(xdisplay, proc, 10)
         os.kill(proc.pid, signal.SIGINT)
         _, stderr = proc.communicate(timeout=60)
     finally:

@@ -129,9 +129,9 @@ def fake_rig(camera: type[FakeCamera] = FakeCamera, **kwargs: Any) -> Any:
 
 
 FAKE = ["--projector", "screen:0", "--camera", "fake:0", "--pitch", "64,16"]
-#: Grabs: OPEN_GRABS when the rig opens (2 x (0 discarded + 5 + 2): mid-gray and white), per
-#: pose 7 for the new reference image and one per frame of the 17 (2 orientations x 2 pitches
-#: x 4 steps + white).
+#: Grabs: OPEN_GRABS when the rig opens (4 x (0 discarded + 5 + 2): mid-gray, white and the
+#: view check's black and white), per pose 7 for the new reference image and one per frame of
+#: the 17 (2 orientations x 2 pitches x 4 steps + white).
 OPEN, PER_POSE = OPEN_GRABS, 7 + 17
 
 
@@ -186,9 +186,9 @@ def test_an_error_mid_run_keeps_the_complete_poses(
 ) -> None:
     from hdrfringe.cli import capture_poses
 
-    # latency 0 for the rig's mid-gray and white and pose 1, then 9 stale grabs: a sync error
-    # in pose 2
-    latencies = iter([0] * 19 + [9] * 100)
+    # latency 0 for the rig's mid-gray, white, black and white and pose 1, then 9 stale grabs:
+    # a sync error in pose 2
+    latencies = iter([0] * 21 + [9] * 100)
     monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig(latency=latencies))
     out = tmp_path / "poses"
     r = invoke([*FAKE, "--poses", "3", "--interval", "0", "-o", str(out)])

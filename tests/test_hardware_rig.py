@@ -193,9 +193,10 @@ def test_too_many_stale_grabs_give_one_line_error() -> None:
         rig.capture(fringe_frames())
     msg = str(err.value)
     assert "\n" not in msg
-    assert "projector frame 3" in msg and "3 grabs" in msg and "rig check" in msg
-    # open: discard + max_grabs + 2 for mid-gray and again for white; 3 for the frame
-    assert camera.grabs == 2 * (0 + 3 + 2) + 3
+    assert "projector frame 5" in msg and "3 grabs" in msg and "rig check" in msg
+    # open: discard + max_grabs + 2 for mid-gray, white, and the view check's black and white;
+    # 3 for the frame
+    assert camera.grabs == 4 * (0 + 3 + 2) + 3
 
 
 def test_a_stale_image_from_a_camera_queue_two_frames_old_is_rejected() -> None:
@@ -207,7 +208,8 @@ def test_a_stale_image_from_a_camera_queue_two_frames_old_is_rejected() -> None:
 
     def queue(previous: np.ndarray | None, current: np.ndarray) -> None:
         older.append(previous)
-        if len(older) >= 4:  # from the second frame after the rig's mid-gray and white on
+        # from the second frame after the rig's mid-gray, white, black and white on
+        if len(older) >= 6:
             camera.stale, camera.pending = older[-2], 1
 
     projector.listeners = [queue]
@@ -527,8 +529,9 @@ def test_white_saturating_every_pixel_does_not_let_stale_images_through(xdisplay
 
 
 #: Grabs when a rig with the default SyncSettings opens: discard + max_grabs + 2 images of
-#: mid-gray, then as many of white (the noise estimate and the first reference image).
-OPEN_GRABS = 2 * (0 + 5 + 2)
+#: mid-gray, then as many of white (the noise estimate), then of black and white again (the
+#: view check; the last white is the first reference image).
+OPEN_GRABS = 4 * (0 + 5 + 2)
 
 
 class InterruptingCamera(FakeCamera):
@@ -574,7 +577,7 @@ def test_ctrl_c_mid_capture_keeps_complete_sets_and_says_so(
     assert full.returncode == 0, full.stderr
     n_full = len(read_capture_folder(tmp_path / "full").frames)
     assert n_full > 8
-    # open takes 2 x (0 + 5 + 2) grabs; then one grab per frame: interrupt in the second set
+    # open takes 4 x (0 + 5 + 2) grabs; then one grab per frame: interrupt in the second set
     r = run_capture(monkeypatch, tmp_path / "cut", at=OPEN_GRABS + 4 + 2)
     assert r.returncode == 2
     assert "interrupted (Ctrl-C) after 1 complete sets" in " ".join(r.stderr.split())

@@ -68,12 +68,14 @@ __all__ = [
     "HwRigConfigOpt",
     "HwSettleOpt",
     "HwSyncOpt",
+    "HwViewCheckOpt",
     "MaxGrabsOpt",
     "PixelFormatOpt",
     "ProjectorOpt",
     "RigConfigOpt",
     "SettleOpt",
     "SyncOpt",
+    "ViewCheckOpt",
     "announce_live",
     "capture",
     "hardware_options",
@@ -97,7 +99,20 @@ RIG_OPTION_KEYS: dict[str, str] = {
     "exposure_ms": "camera.exposure_ms",
     "gain_db": "camera.gain_db",
     "pixel_format": "camera.pixel_format",
+    "view_check": "sync.view_check",
 }
+_VIEW_CHECK_HELP = (
+    "Before capturing, check that the camera sees the projector (its image follows white, "
+    "black, white) and refuse if not; --no-view-check for a rig whose camera is not meant to "
+    "see it (docs/hardware.md)."
+)
+ViewCheckOpt = Annotated[bool, typer.Option("--view-check/--no-view-check", help=_VIEW_CHECK_HELP)]
+HwViewCheckOpt = Annotated[
+    bool,
+    typer.Option(
+        "--view-check/--no-view-check", help=_VIEW_CHECK_HELP, rich_help_panel=HARDWARE_PANEL
+    ),
+]
 #: How messages name a key set from an option.
 _OPTION_LABELS = {key: "--" + name.replace("_", "-") for name, key in RIG_OPTION_KEYS.items()}
 
@@ -265,7 +280,8 @@ def live_record(
         Method, completeness, devices, sync settings and the resolved rig configuration
         (``rig``, with ``config_file``: path and SHA-256 when a file was read).
     log : dict
-        ``state`` plus the noise variance and the per-frame timing.
+        ``state`` plus the noise variance, the view check's change ratio (``view_change``,
+        None when it was off) and the per-frame timing.
     """
     camera: dict[str, Any] = {"spec": config.camera.spec}
     if config.camera.read_noise_dn is not None:  # rig check's, for the predicted std
@@ -291,7 +307,12 @@ def live_record(
     if stopped is not None:
         state["stopped"] = stopped
     frames = [t.to_dict() for t in rig.log[start:]]
-    log = {**state, "noise_variance": rig.noise_var, "frames": frames}
+    log = {
+        **state,
+        "noise_variance": rig.noise_var,
+        "view_change": getattr(rig, "view_ratio", None),
+        "frames": frames,
+    }
     return caps, state, log
 
 
@@ -332,6 +353,7 @@ def capture(
     exposure_ms: ExposureOpt = None,
     gain_db: GainOpt = None,
     pixel_format: PixelFormatOpt = None,
+    view_check: ViewCheckOpt = True,
     force: ForceOpt = False,
     **strategy_options: Any,
 ) -> None:
@@ -344,7 +366,8 @@ def capture(
     mid-capture writes the complete sets captured so far, marks the folder incomplete
     (manifest "capture": {"complete": false}) and exits with code 2 (before the first set, or
     a second Ctrl-C while writing: nothing written, code 130). Any other error (sync, camera
-    timeout, window closed) writes nothing.
+    timeout, window closed) writes nothing. Before the first pattern the rig checks that the
+    camera sees the projector (white, black, white) and refuses if not (--no-view-check: off).
     """
     from hdrfringe import pipeline
     from hdrfringe.hardware.rig import Recorder
@@ -361,7 +384,7 @@ def capture(
     rig, config = hardware_rig(
         ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
         discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
-        gain_db=gain_db, pixel_format=pixel_format,
+        gain_db=gain_db, pixel_format=pixel_format, view_check=view_check,
     )  # fmt: skip
     check_output_against_inputs(output, [*sources.values(), rig_config, config.gamma_file])
     checked = check_output_dir(output, force)

@@ -33,6 +33,7 @@ from hdrfringe.cli.capture import (
     RigConfigOpt,
     SettleOpt,
     SyncOpt,
+    ViewCheckOpt,
     hardware_rig,
     live_record,
     write_capture_output,
@@ -194,6 +195,7 @@ def capture_gamma(
     exposure_ms: ExposureOpt = None,
     gain_db: GainOpt = None,
     pixel_format: PixelFormatOpt = None,
+    view_check: ViewCheckOpt = True,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Project the gamma-estimation program live and write the capture folder `gamma` reads.
@@ -252,7 +254,7 @@ def capture_gamma(
     rig, config = _gamma_rig(
         ctx, rig_config, gamma, projector=projector, camera=camera, sync=sync, settle=settle,
         discard=discard, max_grabs=max_grabs, exposure_ms=exposure_ms, gain_db=gain_db,
-        pixel_format=pixel_format,
+        pixel_format=pixel_format, view_check=view_check,
     )  # fmt: skip
     check_output_against_inputs(output, [rig_config, config.gamma_file])
     checked = check_output_dir(output, force)

@@ -33,6 +33,7 @@ from hdrfringe.cli.capture import (
     RigConfigOpt,
     SettleOpt,
     SyncOpt,
+    ViewCheckOpt,
     hardware_rig,
     live_record,
     write_capture_output,
@@ -144,6 +145,7 @@ def capture_poses(
     exposure_ms: ExposureOpt = None,
     gain_db: GainOpt = None,
     pixel_format: PixelFormatOpt = None,
+    view_check: ViewCheckOpt = True,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Capture the board poses of a stereo calibration live, one capture folder per pose.
@@ -177,7 +179,7 @@ def capture_poses(
     rig, config = _poses_rig(
         ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
         discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
-        gain_db=gain_db, pixel_format=pixel_format,
+        gain_db=gain_db, pixel_format=pixel_format, view_check=view_check,
     )  # fmt: skip
     check_output_against_inputs(output, [rig_config, config.gamma_file])
     checked = check_output_dir(output, force)

@@ -24,6 +24,14 @@ from hdrfringe.errors import InputError
 
 __all__ = ["check", "rig_app"]
 
+#: How the written configuration's comment says what the latency counts.
+_UNITS = {
+    "none": "no latency",
+    "grabs": "a latency in grabs, only discarding covers it",
+    "seconds": "a latency in time, the settle covers it",
+    "mixed": "a latency in time, then grabs",
+}
+
 rig_app = typer.Typer(help="Real projector-camera rigs (docs/hardware.md).", no_args_is_help=True)
 app.add_typer(rig_app, name="rig")
 
@@ -58,10 +66,12 @@ def check(
     """Measure the display-to-capture latency, pick a safe settle, check white, report noise.
 
     The projector alternates black and white; the grabs until each change shows are the
-    latency (in frames). The report (JSON on stdout, and in OUTPUT with -o) recommends --discard
-    (the latency) and --settle (one grab period beyond it) for capture, says whether white
-    clips at the exposure given (saturated fraction), and gives the camera noise (standard
-    deviation of repeated grabs of a static gray frame). The rig comes from --rig-config
+    latency (in grabs), the time until then its latency in seconds. Two more changes, timed
+    after waiting that long, tell whether the latency passes with time (then --settle covers
+    it) or counts grabs (a camera queue: only --discard covers it, and the settle is 0); the
+    report (JSON on stdout, and in OUTPUT with -o) recommends --settle and --discard so, says
+    whether white clips at the exposure given (saturated fraction), and gives the camera noise
+    (standard deviation of repeated grabs of a static gray frame). The rig comes from --rig-config
     and/or the options (an option given overrides the file); --write-config writes it back
     with sync.settle_s and sync.discard set to the recommended values and camera.read_noise_dn
     to the noise (capture records it for the predicted std).
@@ -111,8 +121,10 @@ def check(
         source = f", from {config.source}" if config.source else ""
         header = (
             f"Rig configuration written by hdrfringe rig check{source} (docs/hardware.md).\n"
-            f"sync.settle_s and sync.discard: measured (latency {result.latency} grabs, "
-            f"{result.grab_period_s:.4f} s per grab); white saturated fraction "
+            f"sync.settle_s and sync.discard: measured (latency {result.latency} grabs or "
+            f"{result.latency_s:.4f} s, {result.latency_after_settle} grabs after waiting that "
+            f"long: {_UNITS[result.latency_unit]}; {result.grab_period_s:.4f} s per grab); "
+            "white saturated fraction "
             f"{result.white_saturated_fraction:.4f}; camera.read_noise_dn: the noise std "
             f"of repeated grabs of mid-gray, {result.noise_std:.3f} DN (capture records it)."
         )

@@ -46,6 +46,13 @@ def simulate(
         typer.Option(help="A MIGL sweep start:stop:step (e.g. 255:60:1) for offline strategies."),
     ] = None,
     bit_depth: Annotated[int, typer.Option(help="Camera bit depth B (8, 10, 12, 16).")] = 8,
+    resolution: Annotated[
+        str | None,
+        typer.Option(
+            help="Camera WIDTHxHEIGHT over the same field of view (default: the rig's 648x494; "
+            "e.g. 162x124, the loop camera's size=, for a calibration at that size)."
+        ),
+    ] = None,
     ambient_lux: AmbientOpt = 0.0,
     noise: NoiseOpt = 1.0,
     shot_noise: Annotated[bool, typer.Option(help="Photon shot noise.")] = True,
@@ -80,16 +87,20 @@ def simulate(
 
     Every folder also holds the scene's true height map (truth_height_mm.tiff) and the camera
     geometry, so measurements can report their error. With --series, DIR holds one folder per
-    depth (a calibration series: reference plane + positions).
+    depth (a calibration series: reference plane + positions). --resolution sets the camera's
+    pixel count over the same field of view (the loop camera's size=, so that a calibration
+    of captures at that size can be made).
     """
     from hdrfringe._validation import describe_saturated
     from hdrfringe.io.results import check_output_dir
     from hdrfringe.io.simulation import series_depths, series_folder_name, write_simulation
     from hdrfringe.limits import MAX_SERIES_FOLDERS
     from hdrfringe.programs import fringe_program
+    from hdrfringe.reproduce.compare import parse_resolution
     from hdrfringe.rig.acquire import IntensityModification
     from hdrfringe.rig.factory import virtual_rig
 
+    size = parse_resolution(resolution)
     output = check_output_dir(output, force)
     orients = parse_orientations(orientation)
     depths: Sequence[float | None] = [depth_mm]
@@ -98,6 +109,7 @@ def simulate(
         depths = series_depths(series_mm, reference=reference)
     rig_options = {"ambient_lux": ambient_lux, "noise": noise, "shot_noise": shot_noise}
     rig_options |= {"aperture": aperture, "gamma": gamma, "bit_depth": bit_depth, "ideal": ideal}
+    rig_options |= {"resolution": size}
     rigs = [virtual_rig(scene, depth_mm=d, seed=seed, **rig_options) for d in depths]
     mod = IntensityModification(add_lux, add_dn, add_noise, seed)
     frames = fringe_program(

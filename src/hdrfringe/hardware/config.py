@@ -53,6 +53,7 @@ _SYNC_KINDS: dict[str, str] = {
     "threshold": "number",
     "history": "count",
     "verify": "bool",
+    "view_check": "bool",
 }
 _KEYS: dict[str, tuple[str, ...]] = {
     "": ("name", "gamma", "projector", "camera", "sync"),

@@ -43,6 +43,7 @@ from hdrfringe.hardware.projector import Projector, render_for_projector
 from hdrfringe.rig.base import RigBase
 
 __all__ = [
+    "SETTLE_PROBES",
     "SYNC_MODES",
     "FrameTiming",
     "HardwareRig",
@@ -54,6 +55,7 @@ __all__ = [
     "check_rig",
     "noise_variance",
     "open_projector",
+    "recommend_sync",
 ]
 
 #: ``software``: settle delay, discard, verify, retry; ``hardware``: the camera's trigger.
@@ -103,7 +105,13 @@ class SyncSettings:
     grab_timeout_s : float
         Timeout of each grab.
     verify : bool
-        Verify each image (switch off only for a scene that does not respond to the projector).
+        Verify each image (switch off only for a scene that does not respond to the projector;
+        that also skips the view check).
+    view_check : bool
+        At opening, check that the camera's image follows the projector (white, black, white:
+        :meth:`HardwareRig.open`) and refuse a camera that does not see it; switch off only for
+        a rig whose camera is not meant to see the projector (a test with pylon's emulated
+        camera).
 
     Raises
     ------
@@ -128,6 +136,7 @@ class SyncSettings:
     history: int = 2
     grab_timeout_s: float = 2.0
     verify: bool = True
+    view_check: bool = True
 
     def __post_init__(self) -> None:
         if self.mode not in SYNC_MODES:
@@ -314,6 +323,9 @@ class HardwareRig(RigBase):
     noise_var : float
         The camera noise variance (LSB^2) estimated at :meth:`open` (the larger of the
         mid-gray and white estimates).
+    view_ratio : float or None
+        How clearly the camera saw the projector at :meth:`open` (the smallest
+        :func:`change_ratio` of the view check); None when it was not run.
 
     References
     ----------
@@ -357,6 +369,7 @@ class HardwareRig(RigBase):
         self._sleep = sleep
         self.log: list[FrameTiming] = []
         self.noise_var = MIN_NOISE_VARIANCE
+        self.view_ratio: float | None = None
         self._history: list[_Shown] = []
         self._applied = CameraSettings()
         self._open = False
@@ -387,14 +400,19 @@ class HardwareRig(RigBase):
 
     # -- devices -----------------------------------------------------------------------
     def open(self) -> None:
-        """Open projector and camera, apply the settings, measure the noise on gray and white.
+        """Open projector and camera, apply the settings, measure the noise on gray and white,
+        and check that the camera sees the projector.
+
+        The view check (``sync.view_check`` and ``sync.verify``, both on by default) shows
+        black and then white again after the noise measurement and requires both changes to
+        show in the image clearly above the camera noise (:meth:`_view_check`).
 
         Raises
         ------
         SyncError
             With verification on: the camera saturates every pixel of every image of both
             the mid-gray and the white frame, so the noise cannot be measured (lower the
-            exposure or gain).
+            exposure or gain); or its image does not follow the projector (the view check).
         """
         if self._open:
             return
@@ -412,6 +430,8 @@ class HardwareRig(RigBase):
             self.log = []
             self._history = []
             self._baseline()
+            if self.sync.verify and self.sync.view_check:
+                self._view_check()
         except BaseException:
             self._open = False
             self.close()
@@ -485,6 +505,43 @@ class HardwareRig(RigBase):
         self.image_shape = (int(last.shape[0]), int(last.shape[1]))
         self._history = [_Shown(shown, last, self._applied)]
 
+    def _view_check(self) -> None:
+        """Refuse a camera whose image does not follow the projector.
+
+        White is on screen (:meth:`_baseline`); the rig shows black, then white again, and
+        takes the latest image of each as :meth:`_settled` does. Both changes must show in
+        the image: each of the two white images must differ from the black one by more than
+        ``threshold`` times the noise, where the noise is the larger of the camera noise and
+        half the mean squared difference of the two white images. The two whites are twice as
+        far apart in time as each is from the black, so an image that changes by itself (a
+        camera's moving test pattern, a drifting scene) differs between them at least as much
+        as across the change and is refused, while a camera that sees the projector shows the
+        change far above its noise. Ends with white on screen and its image as the reference.
+        """
+        width, height = self.projector.width, self.projector.height
+        bits = self.camera_bit_depth
+        first = self._history[-1].capture
+        black = np.zeros((height, width), np.uint8)
+        white = np.full((height, width), 255, np.uint8)
+        self.projector_device.show(black)
+        dark, _ = self._settled()
+        self.projector_device.show(white)
+        second, _ = self._settled()
+        noise = max(self.noise_var, noise_variance(first, second, bits))
+        ratio = min(change_ratio(w, dark, noise, bits) for w in (first, second))
+        self.view_ratio = ratio
+        self._history = [_Shown(white, second, self._applied)]
+        if ratio <= self.sync.threshold:
+            name = getattr(self.camera, "name", None) or "the camera"
+            raise SyncError(
+                f"camera {name} does not see the projector: its image did not follow the "
+                f"projector from white to black and back (change {ratio:.2g}x the noise and "
+                f"drift, needs {self.sync.threshold:g}x); point the camera at the projected "
+                "area and check its exposure and aperture, or give --no-view-check "
+                "(sync.view_check = false) for a rig whose camera is not meant to see the "
+                "projector (docs/hardware.md)"
+            )
+
     def _rebaseline(self) -> None:
         """After a change of exposure or gain: a new image of the frame on screen, and older
         images (at the old settings) forgotten."""
@@ -514,7 +571,8 @@ class HardwareRig(RigBase):
         >>> from hdrfringe.hardware.camera import open_camera
         >>> from hdrfringe.hardware.projector import FolderProjector
         >>> play = FolderProjector(Path(tempfile.mkdtemp()) / "play", 64, 48)
-        >>> with HardwareRig(play, open_camera("pylon:emu"), SyncSettings(settle_s=0.0)) as rig:
+        >>> sync = SyncSettings(settle_s=0.0, view_check=False)  # the emulation sees no projector
+        >>> with HardwareRig(play, open_camera("pylon:emu"), sync) as rig:
         ...     rig.rebaseline()
         ...     len(rig.log)
         0
@@ -808,15 +866,26 @@ class RigCheck:
     Parameters
     ----------
     latencies : tuple of int
-        Per display change: stale grabs before the first image that showed the change.
+        Per display change: stale grabs before the first image that showed the change, the
+        camera grabbed without delay.
     latency : int
         The largest of them.
+    latency_s : float
+        Seconds from showing a change to the end of the first grab that showed it (the
+        largest over the changes): the latency as a time.
+    latency_after_settle : int
+        Stale grabs after a change when the rig first waits ``latency_s`` (the largest over
+        the probes): equal to ``latency`` when waiting does not shorten it (the latency counts
+        grabs: a camera queue), 0 when it ends with time (the projector's or camera's delay).
+    latency_unit : {"none", "grabs", "seconds", "mixed"}
+        What the latency counts: nothing (0), grabs, time, or time then grabs.
     grab_period_s : float
         Median seconds per grab.
     discard : int
-        Recommended ``--discard``: the latency.
+        Recommended ``--discard``: the stale grabs left after the recommended settle.
     settle_s : float
-        Recommended ``--settle``: one grab period beyond the latency (the margin), in seconds.
+        Recommended ``--settle``: ``latency_s`` when waiting shortens the latency, else 0
+        (a wait cannot replace discarding grabs that the camera delivers in order).
     white_saturated_fraction : float
         Fraction of pixels saturated when the projector shows white at the chosen exposure.
     noise_std : float
@@ -831,12 +900,16 @@ class RigCheck:
 
     Examples
     --------
-    >>> RigCheck((2, 2), 2, 0.03, 2, 0.09, 0.0, 1.1, 1.2, 8, (4, 6)).to_dict()["clips"]
-    False
+    >>> check = RigCheck((2, 2), 2, 0.09, 2, "grabs", 0.03, 2, 0.0, 0.0, 1.1, 1.2, 8, (4, 6))
+    >>> check.to_dict()["recommended"], check.to_dict()["clips"]
+    ({'settle': 0.0, 'discard': 2}, False)
     """
 
     latencies: tuple[int, ...]
     latency: int
+    latency_s: float
+    latency_after_settle: int
+    latency_unit: str
     grab_period_s: float
     discard: int
     settle_s: float
@@ -861,6 +934,57 @@ class RigCheck:
         return out
 
 
+#: Display changes timed again after waiting ``latency_s`` (``rig check``): do they still show
+#: stale grabs (a latency in grabs) or not (a latency in time)?
+SETTLE_PROBES = 2
+
+
+def recommend_sync(latency: int, latency_s: float, after_settle: int) -> tuple[float, int, str]:
+    """The settle and discard that cover a measured latency, in the unit it counts.
+
+    A latency is a number of stale grabs (grabbing at once after a change) and a time
+    (``latency_s``, until the first grab that showed the change ended). Waiting ``latency_s``
+    before grabbing tells which it is: when fewer grabs are stale after the wait
+    (``after_settle < latency``), the latency passes with time and the settle is ``latency_s``
+    (rounded up to 0.1 ms) with the grabs still stale after it discarded; when the same number
+    is stale, the camera delivers its images in order whatever the wait (a queue, or the loop
+    camera), so the settle is 0 and ``discard`` drops the ``latency`` stale grabs. (The old
+    recommendation, a settle of ``(latency + 1)`` grab periods on top of discarding
+    ``latency`` grabs, counted the latency twice and, for a latency in grabs, added seconds to
+    every frame for nothing.)
+
+    Parameters
+    ----------
+    latency : int
+        Stale grabs without a wait.
+    latency_s : float
+        Seconds from the change to the end of the first fresh grab without a wait.
+    after_settle : int
+        Stale grabs after waiting ``latency_s``.
+
+    Returns
+    -------
+    settle_s : float
+    discard : int
+    unit : {"none", "grabs", "seconds", "mixed"}
+
+    Examples
+    --------
+    >>> recommend_sync(2, 0.7589, 2)  # the loop camera: two grabs, whatever the wait
+    (0.0, 2, 'grabs')
+    >>> recommend_sync(3, 0.12345, 0)  # a projector's input lag
+    (0.1235, 0, 'seconds')
+    >>> recommend_sync(0, 0.02, 0)
+    (0.0, 0, 'none')
+    """
+    if latency == 0:
+        return 0.0, 0, "none"
+    if after_settle >= latency:
+        return 0.0, latency, "grabs"
+    settle = math.ceil(latency_s * 1e4) / 1e4
+    return settle, after_settle, "seconds" if after_settle == 0 else "mixed"
+
+
 def check_rig(
     projector: Projector,
     camera: Camera,
@@ -878,9 +1002,13 @@ def check_rig(
     Latency: the projector alternates black and white ``changes`` times; after each change
     the camera is grabbed without delay until an image differs from the last image of the
     previous frame by more than ``threshold`` times the noise (:func:`change_ratio`); the
-    grabs before it are the latency of that change. Clipping: the saturated fraction of an
-    image of white at the given exposure. Noise: the per-pixel standard deviation of
-    ``noise_grabs`` images of a static mid-gray (128) frame, over the pixels saturated in none.
+    grabs before it are the latency of that change, and the time from the change to the end
+    of that grab its latency in seconds. Then :data:`SETTLE_PROBES` more changes are timed
+    after waiting that many seconds: whether the wait shortens the latency says whether it
+    counts time or grabs, and so whether a settle or a discard covers it
+    (:func:`recommend_sync`). Clipping: the saturated fraction of an image of white at the
+    given exposure. Noise: the per-pixel standard deviation of ``noise_grabs`` images of a
+    static mid-gray (128) frame, over the pixels saturated in none.
 
     Parameters
     ----------
@@ -938,9 +1066,13 @@ def check_rig(
             camera.set_gain(settings.gain_db)
         bits = int(camera.bit_depth)
         width, height = projector.size
+        periods: list[float] = []
 
         def grab() -> NDArray[Any]:
-            return np.asarray(camera.grab(timeout_s=grab_timeout_s))
+            t = time.perf_counter()
+            image = np.asarray(camera.grab(timeout_s=grab_timeout_s))
+            periods.append(time.perf_counter() - t)
+            return image
 
         def settled(level: int) -> tuple[NDArray[Any], float]:
             projector.show(np.full((height, width), level, np.uint8))
@@ -951,44 +1083,55 @@ def check_rig(
         white, var_white = settled(255)
         reference, var_black = settled(0)
         variance = max(var_white, var_black)
-        latencies: list[int] = []
-        periods: list[float] = []
         level = 255
-        for _ in range(changes):
+
+        def timed_change(wait_s: float) -> tuple[int, float]:
+            """Show the next level, wait, grab until the change shows: (stale grabs, seconds
+            from the change to the end of the grab that showed it)."""
+            nonlocal reference, level
             projector.show(np.full((height, width), level, np.uint8))
+            shown = time.perf_counter()
+            if wait_s > 0:
+                time.sleep(wait_s)
             stale = 0
-            while True:
-                t = time.perf_counter()
-                image = grab()
-                periods.append(time.perf_counter() - t)
-                if change_ratio(image, reference, variance, bits) > threshold:
-                    break
+            while change_ratio(grab(), reference, variance, bits) <= threshold:
                 stale += 1
-                if stale <= max_latency:
-                    continue
-                raise SyncError(
-                    f"rig check: {max_latency + 1} grabs after a change from "
-                    f"{255 - level} to {level} showed no change; point the camera at the "
-                    "projected area, open the aperture, or raise the latency limit"
-                )
-            latencies.append(stale)
+                if stale > max_latency:
+                    raise SyncError(
+                        f"rig check: {max_latency + 1} grabs after a change from "
+                        f"{255 - level} to {level} showed no change; point the camera at the "
+                        "projected area, open the aperture, or raise the latency limit"
+                    )
+            seconds = time.perf_counter() - shown
             # the next reference: an image of this frame past its latency
             for _ in range(max_latency + 1):
                 reference = grab()
             level = 255 - level
+            return stale, seconds
+
+        timed = [timed_change(0.0) for _ in range(changes)]
+        latencies = tuple(stale for stale, _ in timed)
+        latency = max(latencies)
+        latency_s = max(seconds for _, seconds in timed)
+        period = float(np.median(periods))  # before the probes' waits (grabs only anyway)
+        after = 0
+        if latency > 0:
+            after = max(timed_change(latency_s)[0] for _ in range(SETTLE_PROBES))
+        settle, discard, unit = recommend_sync(latency, latency_s, after)
         saturated = float(np.mean(white >= full_scale(bits)))
         gray, _ = settled(128)
         stack = np.stack([gray] + [grab() for _ in range(noise_grabs - 1)]).astype(np.float64)
         use = (stack < full_scale(bits)).all(axis=0)
         std = stack.std(axis=0, ddof=1)[use] if use.any() else np.zeros(1)
-        latency = max(latencies)
-        period = float(np.median(periods))
         return RigCheck(
-            tuple(latencies),
+            latencies,
             latency,
+            round(latency_s, 4),
+            after,
+            unit,
             period,
-            latency,
-            round((latency + 1) * period, 4),
+            discard,
+            settle,
             saturated,
             float(np.median(std)),
             float(np.mean(std)),
