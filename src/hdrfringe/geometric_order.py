@@ -54,13 +54,14 @@ TWO_PI = 2.0 * np.pi
 
 #: Depths (evenly spaced in 1/z, both ends included) at which a ray is projected into the
 #: projector: the ends alone for a pinhole (the coordinate is monotonic along the ray), the
-#: inner ones for a curved epipolar line (lens distortion).
+#: middle one for an epipolar line that lens distortion bends.
 DEFAULT_SAMPLES = 3
 #: How far (a fraction of the pitch) a decoded coordinate may lie outside the range's interval
 #: and still take its order there: phase noise and the calibration's disagreement with the
-#: scene move it (thomriiii: the rows by 10-30 px, docs/stereo.md). A wider margin never makes
-#: a pixel's order wrong, only ambiguous; it shortens the unambiguous range to ``1 - 2 *
-#: margin`` of a pitch.
+#: scene move it (thomriiii: the decoded rows lie some 10 px off the epipolar line, and without
+#: a margin 11 % of its pixels keep an order, docs/stereo.md). A wider margin never makes a
+#: pixel's order wrong, only ambiguous; it shortens the unambiguous range to ``1 - 2 * margin``
+#: of a pitch.
 DEFAULT_MARGIN = 0.125
 #: 8-neighbourhood offsets (row, column) of the isolated-order check.
 _NEIGHBOURS = tuple((dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0))
