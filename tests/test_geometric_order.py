@@ -266,3 +266,18 @@ def test_depth_range_with_captures_of_another_camera_is_refused(scene) -> None: 
     with pytest.raises(InputError, match="calibration's camera is 640x480"):
         geometric_order(caps.images[0, :10, :10] * 0.0, PITCH, "vertical",
                         scene["calibration"], RANGE)  # fmt: skip
+
+
+def test_a_ray_leaving_the_projectors_front_has_no_interval() -> None:
+    """A range reaching behind the projector (its centre 500 mm ahead of the camera): the ray
+    does not project at the near depths, so the pixel has no interval (not the one of the far
+    samples alone, which a running minimum over the samples would keep); one that stays in
+    front is clipped to the projector's extent."""
+    cam = LensModel([[1000, 0, 15.5], [0, 1000, 11.5], [0, 0, 1]], [], (32, 24))
+    proj = LensModel([[1000, 0, 400], [0, 1000, 300], [0, 0, 1]], [], (800, 600))
+    calib = StereoCalibration(cam, proj, np.eye(3), [-100.0, 0, -500.0])
+    lo, hi = ray_coordinate_span(calib, "vertical", (400.0, 2000.0), u_cam=15.5, v_cam=11.5)
+    assert np.isnan(lo) and np.isnan(hi)
+    lo, hi = ray_coordinate_span(calib, "vertical", (600.0, 2000.0), u_cam=15.5, v_cam=11.5)
+    # u = 400 - 1e5 / (z - 500): -600 at 600 mm (clipped to the pattern's edge), 333 at 2 m
+    assert float(lo) == -0.5 and float(hi) == pytest.approx(400 - 1e5 / 1500)

@@ -201,16 +201,16 @@ def ray_coordinate_span(
     depths = 1.0 / np.linspace(1.0 / zmin, 1.0 / zmax, int(samples))
     lo = np.full(rays.shape[0], np.inf)
     hi = np.full(rays.shape[0], -np.inf)
+    lost = np.zeros(rays.shape[0], bool)  # a sample that does not project: the pixel is out
     for z in depths:
         c = _coordinate_at(calibration, rays, np.full(rays.shape[0], z), axis)
         lo = np.fmin(lo, c)
         hi = np.fmax(hi, c)
-        lo[np.isnan(c)] = np.nan  # one sample that does not project: the pixel is out
-        hi[np.isnan(c)] = np.nan
+        lost |= np.isnan(c)
     extent = calibration.projector.size[axis]
     lo = np.maximum(lo, -0.5)
     hi = np.minimum(hi, extent - 0.5)
-    empty = ~(lo <= hi)
+    empty = lost | ~(lo <= hi)
     lo[empty] = np.nan
     hi[empty] = np.nan
     return lo.reshape(shape), hi.reshape(shape)
