@@ -8,8 +8,10 @@ in the projector, along the epipolar line); a wrapped phase ``phi`` of pitch ``p
 coordinates ``p * phi / (2*pi) + k*p``, and the orders ``k`` that fall in the interval are the
 pixel's candidates. Exactly one candidate: the absolute phase. None (the scene leaves the
 range, or the phase is wrong) or several (the range is too deep for the pitch): the pixel is
-invalid, never guessed (An, Hyun & Zhang 2016, Opt. Lasers Eng. 78:131, with a minimum phase map
-from one plane; here the range's two planes bound the order from both sides).
+invalid, never guessed. (An, Hyun & Zhang 2016, Opt. Express 24:18445, bound the order from
+one side with the phase of a virtual plane at the nearest depth; here the range's two planes
+bound it from both sides, so a range too deep for the pitch shows as ambiguity, not as a wrong
+order.)
 
 * :func:`ray_coordinate_span`: ``[lo, hi]`` of every pixel (the ray's projection at depths
   spaced evenly in ``1/z``, with the projector's lens distortion; clipped to the projector's
