@@ -281,3 +281,17 @@ def test_a_ray_leaving_the_projectors_front_has_no_interval() -> None:
     lo, hi = ray_coordinate_span(calib, "vertical", (600.0, 2000.0), u_cam=15.5, v_cam=11.5)
     # u = 400 - 1e5 / (z - 500): -600 at 600 mm (clipped to the pattern's edge), 333 at 2 m
     assert float(lo) == -0.5 and float(hi) == pytest.approx(400 - 1e5 / 1500)
+
+
+def test_projection_in_blocks_is_opencvs_point_by_point() -> None:
+    """``LensModel.project`` calls ``cv2.projectPoints`` in blocks (the rays of a whole image
+    at every sampled depth): across a block boundary the pixels are OpenCV's own, bit for bit."""
+    import cv2
+
+    lens = LensModel([[900, 0, 640], [0, 905, 360], [0, 0, 1]], [-0.2, 0.1, 1e-3, -2e-3, 0.05],
+                     (1280, 720))  # fmt: skip
+    rng = np.random.default_rng(5)
+    pts = np.c_[rng.uniform(-0.5, 0.5, (70_000, 2)), np.ones(70_000)] * rng.uniform(300, 900, 1)
+    u, v = lens.project(pts)
+    ref, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), lens.matrix, lens.distortion)
+    np.testing.assert_array_equal(np.c_[u, v], ref.reshape(-1, 2))

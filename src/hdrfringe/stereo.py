@@ -75,7 +75,7 @@ def _finite_array(value: ArrayLike, name: str, shape: tuple[int, ...] | None = N
 
 #: Points per ``cv2.projectPoints`` call: its Python binding always computes the (2n, 15)
 #: Jacobian, which for a whole image is hundreds of MB; blocks of this size keep it in cache
-#: (4x faster on a 1280 x 720 image) and give the same numbers, point by point.
+#: (several times faster on a whole image) and give the same numbers, point by point.
 _PROJECT_BLOCK = 1 << 16
 
 
