@@ -43,6 +43,7 @@ LAYERS: dict[str, int] = {
     "reconstruct": CORE,
     "stereo": CORE,
     "stereo_calibration": CORE,
+    "geometric_order": CORE,
     "gamma": CORE,
     "gamma.*": CORE,
     "process": CORE,

@@ -23,6 +23,8 @@ from .frames import render_frame as render_frame
 from .gamma import GammaFit as GammaFit
 from .gamma import fit_gamma_fringes as fit_gamma_fringes
 from .gamma import fit_gamma_uniform as fit_gamma_uniform
+from .geometric_order import geometric_order as geometric_order
+from .geometric_order import unambiguous_depth_mm as unambiguous_depth_mm
 from .graycode import absolute_phase_graycode as absolute_phase_graycode
 from .graycode import decode_graycode as decode_graycode
 from .hardware.camera import CameraBase as CameraBase

@@ -35,6 +35,7 @@ from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.frames import Frame
+from hdrfringe.geometric_order import check_depth_range, family_geometric_order
 from hdrfringe.patterns import FringeSpec, same_fringes
 from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
@@ -889,6 +890,50 @@ def _triangulate(
     return dataclasses.replace(maps, quality=quality)
 
 
+def _geometric_orders(
+    caps: Captures,
+    decoded: FolderPhase,
+    calibration: StereoCalibration,
+    depth_range_mm: tuple[float, float] | None,
+    directions: str,
+) -> tuple[FolderPhase, dict[str, Any]]:
+    """The families triangulation will use that lack an absolute phase, ordered from the
+    calibration and the depth range (:func:`~hdrfringe.geometric_order.family_geometric_order`);
+    the ``stereo.fringe_order`` block of the metrics (empty without a depth range). Without a
+    depth range and without any absolute phase: a one-line error naming the option."""
+    keys = {id(f): "u" if f.orientation == "vertical" else "v" for f in decoded.families}
+    used = [f for f in decoded.families if directions in ("auto", keys[id(f)])]
+    if depth_range_mm is None:
+        if used and all(f.absolute_phase is None for f in used):
+            which = {"auto": "no", "u": "no vertical", "v": "no horizontal"}[directions]
+            raise CaptureFormatError(
+                f"{caps.name}: cannot triangulate: {which} fringe family has an absolute phase "
+                "and no depth range was given; give the measuring volume's depths along the "
+                "camera axis (measure --depth-range ZMIN:ZMAX, mm: the fringe order from the "
+                "stereo calibration, docs/stereo.md), or add a set whose pitch spans the "
+                "projector, a Gray code or a centerline frame"
+            )
+        return decoded, {}
+    families, notes, block = [], list(decoded.notes), {}
+    for fam in decoded.families:  # one family per orientation (group_families)
+        key = keys[id(fam)]
+        if not any(fam is f for f in used) or fam.absolute_phase is not None:
+            families.append(fam)
+            if any(fam is f for f in used):
+                block[key] = {"method": fam.absolute_method}
+            continue
+        fam, order = family_geometric_order(decoded, fam, calibration, depth_range_mm)
+        families.append(fam)
+        block[key] = info = order.summary()
+        notes.append(
+            f"{fam.orientation} fringes: absolute phase from the stereo calibration and the depth "
+            f"range {depth_range_mm[0]:g}..{depth_range_mm[1]:g} mm: "
+            f"{100 * info['ambiguous_fraction']:.1f} % of the decoded pixels ambiguous (invalid), "
+            f"{100 * info['no_candidate_fraction']:.1f} % without an order in the range"
+        )
+    return dataclasses.replace(decoded, families=families, notes=notes), block
+
+
 def _measure_captures(
     caps: Captures,
     calibration: Calibration | StereoCalibration | None,
@@ -897,6 +942,7 @@ def _measure_captures(
     stereo_directions: str = "auto",
     min_shifts: int | None = None,
     given_phases: Mapping[str, F64] | None = None,
+    depth_range_mm: tuple[float, float] | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
     calibration, height and its errors (or the triangulated points). Returns the metrics
@@ -926,12 +972,17 @@ def _measure_captures(
         info = caps.projector
         projector = None if info is None else (int(info.width), int(info.height))
         _check_stereo_fits(calibration, caps.image_shape, calibration_source, projector)
+        decoded, orders = _geometric_orders(
+            caps, decoded, calibration, depth_range_mm, stereo_directions
+        )
         maps = _triangulate(caps, decoded, calibration, stereo_directions)
         fields["model"] = "stereo"
         fields["border_px"] = 0
         fields["valid_fraction"] = float(maps.valid.mean())
         fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat))
         fields["stereo"] = maps.summary()
+        if orders:
+            fields["stereo"]["fringe_order"] = orders
         return decoded, maps.height_mm, fields, maps
     phi, spec = _absolute_phase(caps, decoded)
     check_compatible(
@@ -1033,6 +1084,7 @@ def measure(
     stereo_directions: str = "auto",
     uncertainty: bool = True,
     noise: NoiseModel | float | None = None,
+    depth_range_mm: tuple[float, float] | None = None,
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -1087,6 +1139,13 @@ def measure(
         The camera noise for the prediction (a float: one sigma in DN). Default: the capture
         manifest's, else estimated from the sets with 4 or more shifts; when neither exists
         nothing is predicted and ``metrics.uncertainty`` says why.
+    depth_range_mm : tuple of float, optional
+        With a stereo calibration: ``(zmin, zmax)``, the scene's depths along the camera axis
+        (mm). Every family triangulation uses that has no absolute phase (no set spanning the
+        projector, no Gray code, no centerline) takes its fringe order from the calibration
+        and this range (:func:`hdrfringe.geometric_order.family_geometric_order`; pixels where
+        the range admits no order or several are invalid); ``metrics.stereo.fringe_order``
+        records how each direction was ordered. A single pitch then suffices.
 
     Returns
     -------
@@ -1122,6 +1181,13 @@ def measure(
             f"stereo_directions {stereo_directions!r} is unknown; give one of "
             f"{', '.join(_STEREO_DIRECTIONS)}"
         )
+    if depth_range_mm is not None:
+        depth_range_mm = check_depth_range(depth_range_mm)
+        if not isinstance(calibration, StereoCalibration):
+            raise InputError(
+                "a depth range fixes the fringe order with a stereo calibration; give one "
+                "(measure -c STEREO.h5) or drop the depth range (--depth-range)"
+            )
     sources = dict(param_sources or {})
     description: RigDescription | None = None
     p: Any = None
@@ -1190,6 +1256,7 @@ def measure(
         stereo_directions,
         min_shifts=min(tolerant) if tolerant else None,
         given_phases=strategy_absolute_phases(results),
+        depth_range_mm=depth_range_mm,
     )
     dpa = None
     if method == "dpa":

@@ -116,6 +116,24 @@ def measure(
             "fringes only), e.g. the direction that carries the depth (docs/stereo.md).",
         ),
     ] = "auto",
+    depth_range: Annotated[
+        str | None,
+        typer.Option(
+            "--depth-range",
+            help="With a stereo calibration: ZMIN:ZMAX, the scene's depths along the camera "
+            "axis in mm. A fringe family without an absolute phase (no set spanning the "
+            "projector, Gray code or centerline) takes its fringe order from the calibration "
+            "and this range; pixels the range leaves ambiguous are invalid (docs/stereo.md).",
+        ),
+    ] = None,
+    keep_saturated: Annotated[
+        bool,
+        typer.Option(
+            "--keep-saturated",
+            help="Keep the (biased) phase of pixels with saturated shifts, as phase "
+            "--keep-saturated does (default: they are invalid).",
+        ),
+    ] = False,
     previews: Annotated[
         bool,
         typer.Option(
@@ -153,6 +171,7 @@ def measure(
         raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
+    zrange = _depth_range(depth_range, calibration)
     if live and method is None:
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
@@ -189,6 +208,8 @@ def measure(
         "calibration_source": None if calibration is None else str(calibration),
         "stereo_directions": stereo_directions,
         "uncertainty": uncertainty,
+        "depth_range_mm": zrange,
+        "reject_saturated": not keep_saturated,
     }
     if noise_sigma is not None:
         from hdrfringe.uncertainty import NoiseModel
@@ -219,6 +240,27 @@ def measure(
         result = pipeline.measure(read_capture_folder(folder), cal, label=str(folder), **kwargs)
     write_measurement(result, output, force=force, previews=previews)
     print_summary(result, output)
+
+
+def _depth_range(text: str | None, calibration: Path | None) -> tuple[float, float] | None:
+    """``--depth-range ZMIN:ZMAX`` in mm, checked (``0 < ZMIN < ZMAX``, a calibration given)."""
+    if text is None:
+        return None
+    try:
+        zmin, zmax = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise InputError(
+            f"--depth-range {text!r}: give ZMIN:ZMAX in mm along the camera axis, e.g. 550:800"
+        ) from None
+    if not (math.isfinite(zmin) and math.isfinite(zmax) and 0 < zmin < zmax):
+        raise InputError(
+            f"--depth-range {text!r}: give ZMIN:ZMAX with 0 < ZMIN < ZMAX (mm), e.g. 550:800"
+        )
+    if calibration is None:
+        raise InputError(
+            "--depth-range fixes the fringe order with a stereo calibration; give -c STEREO.h5"
+        )
+    return zmin, zmax
 
 
 def _measure_hardware(
