@@ -805,6 +805,12 @@ class StereoCalibrationResult:
         The board.
     settings : dict
         How it was computed (flags, window), for the report.
+    uncertainty : dict
+        Standard errors estimated from the data: ``camera_std_px`` and ``projector_std_px``
+        (``fx, fy, cx, cy`` of the separate calibrations, OpenCV's
+        ``stdDeviationsIntrinsics``: the residual variance times the inverse normal matrix),
+        ``rotation_std_deg``, ``translation_std`` and ``baseline_std`` (board units) of the
+        camera -> projector motion from its per-pose scatter.
 
     Examples
     --------
@@ -815,6 +821,7 @@ class StereoCalibrationResult:
     poses: list[PoseReport]
     board: BoardSpec
     settings: dict[str, Any]
+    uncertainty: dict[str, Any] = field(default_factory=dict)
 
     @property
     def flagged(self) -> list[str]:
@@ -835,6 +842,7 @@ class StereoCalibrationResult:
             "reprojection_rms_px": dict(self.calibration.reprojection_px or {}),
             "poses": [p.to_dict() for p in self.poses],
             "flagged_poses": self.flagged,
+            "uncertainty": dict(self.uncertainty),
             "settings": dict(self.settings),
         }
 
@@ -966,10 +974,10 @@ def calibrate_stereo(
     csize = (int(camera_size[0]), int(camera_size[1]))
     psize = (int(projector_size[0]), int(projector_size[1]))
     try:
-        rms_c, k_c, d_c, rv_c, tv_c, *_ = cv2.calibrateCameraExtended(
+        rms_c, k_c, d_c, rv_c, tv_c, sd_c, *_ = cv2.calibrateCameraExtended(
             obj_c, img_c, csize, np.eye(3), np.zeros(5), flags=flags, criteria=_CRITERIA
         )
-        rms_p, k_p, d_p, rv_p, tv_p, *_ = cv2.calibrateCameraExtended(
+        rms_p, k_p, d_p, rv_p, tv_p, sd_p, *_ = cv2.calibrateCameraExtended(
             obj_p, img_p, psize, np.eye(3), np.zeros(5), flags=flags, criteria=_CRITERIA
         )
         sflags = flags | (cv2.CALIB_USE_INTRINSIC_GUESS if refine_intrinsics else 0)
@@ -1029,6 +1037,11 @@ def calibrate_stereo(
         reprojection_px={"camera": float(rms_c), "projector": float(rms_p), "stereo": rms_s},
         source=source or f"hdrfringe calibrate-stereo, {len(usable)} poses of {board}",
     )
+    uncertainty = {
+        "camera_std_px": _intrinsic_std(sd_c),
+        "projector_std_px": _intrinsic_std(sd_p),
+        **_motion_spread(rv_c, tv_c, rv_p, tv_p),
+    }
     settings = {
         "distortion": distortion,
         "refine_intrinsics": bool(refine_intrinsics),
@@ -1036,4 +1049,45 @@ def calibrate_stereo(
         "poses_given": len(poses),
         "flag_rule": f"stereo RMS > max({FLAG_FACTOR:g} x median, {FLAG_FLOOR_PX:g} px)",
     }
-    return StereoCalibrationResult(calib, reports, board, settings)
+    return StereoCalibrationResult(calib, reports, board, settings, uncertainty)
+
+
+def _intrinsic_std(sd: Any) -> dict[str, float]:
+    """OpenCV's standard deviations of ``fx, fy, cx, cy`` (from the reprojection residuals)."""
+    v = np.asarray(sd, dtype=np.float64).ravel()
+    return {k: float(v[i]) for i, k in enumerate(("fx", "fy", "cx", "cy"))}
+
+
+def _motion_spread(
+    rv_c: Sequence[Any], tv_c: Sequence[Any], rv_p: Sequence[Any], tv_p: Sequence[Any]
+) -> dict[str, float]:
+    """Standard errors of the camera -> projector motion from its per-pose estimates.
+
+    Each pose's board pose in the camera (``R_c, t_c``) and in the projector (``R_p, t_p``),
+    from the separate calibrations, gives one estimate ``R_i = R_p R_c^T``,
+    ``t_i = t_p - R_i t_c``; their scatter over the ``n`` poses divided by ``sqrt(n)`` is the
+    standard error of the mean motion: ``rotation_std_deg`` (the RMS angle between each
+    ``R_i`` and their mean rotation, with ``n - 1`` degrees of freedom), ``translation_std``
+    per axis and ``baseline_std`` (``|t_i|``), board units; sample standard deviations
+    (``ddof = 1``) over ``sqrt(n)``.
+    """
+    rots, trans = [], []
+    for r_c, t_c, r_p, t_p in zip(rv_c, tv_c, rv_p, tv_p, strict=True):
+        rc, rp = (
+            cv2.Rodrigues(np.asarray(r_c, np.float64))[0],
+            cv2.Rodrigues(np.asarray(r_p, np.float64))[0],
+        )
+        ri = rp @ rc.T
+        rots.append(ri)
+        trans.append(np.asarray(t_p, np.float64).ravel() - ri @ np.asarray(t_c, np.float64).ravel())
+    n = len(rots)
+    t = np.array(trans)
+    u, _, vt = np.linalg.svd(np.sum(rots, axis=0))
+    mean_r = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+    angles = [float(np.linalg.norm(cv2.Rodrigues(r @ mean_r.T)[0])) for r in rots]
+    root = math.sqrt(n)
+    return {
+        "rotation_std_deg": math.degrees(math.sqrt(sum(a * a for a in angles) / (n - 1))) / root,
+        "translation_std": (t.std(axis=0, ddof=1) / root).tolist(),
+        "baseline_std": float(np.linalg.norm(t, axis=1).std(ddof=1) / root),
+    }
