@@ -172,6 +172,7 @@ def test_slstudio_principal_point_rotation_baseline(slstudio: dict[str, Any]) ->
     sdc = np.array([unc["camera_std_px"]["cx"], unc["camera_std_px"]["cy"]])
     measured("slstudio camera principal point ours - theirs (fixed) / sigma", (dc, sdc))
     frame_turn = math.degrees(float(np.linalg.norm(dc)) / ours.camera.matrix[0, 0])
+    measured("slstudio camera frame turn |delta c| / f (deg)", round(frame_turn, 3))
     # ... which the camera -> projector rotation carries on top of its own scatter
     angle = _angle_deg(ours.rotation, theirs.rotation)
     bound = 3 * math.sqrt(2) * unc["rotation_std_deg"] + frame_turn
@@ -216,7 +217,8 @@ def test_slstudio_skull_cloud_matches_theirs(slstudio: dict[str, Any], tmp_path:
     raw = np.linalg.norm(p - q, axis=1)
     column_depth = float(np.median(np.linalg.norm(step[ok] - xyz[ok], axis=1)))
     turn = math.degrees(math.acos(min(1.0, (np.trace(rot) - 1) / 2)))
-    measured("skull points compared", int(ok.sum()))
+    n_ref = int(np.all(np.isfinite(ref), axis=-1).sum())
+    measured("skull points compared, SLStudio's points", (int(ok.sum()), n_ref))
     measured("skull median distance before alignment (mm)", round(float(np.median(raw)), 3))
     measured("skull alignment rotation (deg), shift (mm)", (round(turn, 3), (qc - pc).round(2)))
     measured(
