@@ -475,7 +475,7 @@ def graycode_coordinates(captures: Captures) -> dict[str, F64]:
         white = max(lit, key=lambda li: li[0])[1].astype(np.float64)
         black = dark[0].astype(np.float64)
         threshold, contrast = (white + black) / 2, white - black
-    extents = {"vertical": None, "horizontal": None}
+    extents: dict[str, int | None] = {"vertical": None, "horizontal": None}
     if captures.projector is not None:
         extents = {"vertical": captures.projector.width, "horizontal": captures.projector.height}
     for code in codes:
