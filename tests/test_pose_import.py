@@ -57,8 +57,9 @@ def test_crop_pasted_at_its_offset(tmp_path: Path) -> None:
 def test_crop_offset_from_the_cli_and_its_errors(tmp_path: Path) -> None:
     cam, desc, _ = _crop_folder(tmp_path)
     out = tmp_path / "caps"
-    ok = run_cli_in_process("import", str(cam), "-d", str(desc), "-o", str(out),
-                            "--crop-offset", "4,3")  # fmt: skip
+    ok = run_cli_in_process(
+        "import", str(cam), "-d", str(desc), "-o", str(out), "--crop-offset", "4,3"
+    )
     assert ok.returncode == 0, ok.stderr
     assert read_capture_folder(out).images[0][3, 4] == 1
     cases = {
@@ -68,8 +69,9 @@ def test_crop_offset_from_the_cli_and_its_errors(tmp_path: Path) -> None:
     }
     for offset, message in cases.items():
         extra = ["--crop-offset", offset] if offset else []
-        res = run_cli_in_process("import", str(cam), "-d", str(desc), "-o",
-                                 str(tmp_path / "bad"), *extra)  # fmt: skip
+        res = run_cli_in_process(
+            "import", str(cam), "-d", str(desc), "-o", str(tmp_path / "bad"), *extra
+        )
         lines = res.stderr.strip().splitlines()
         assert res.returncode == 2 and len(lines) == 1 and message in lines[0], (offset, lines)
         assert not (tmp_path / "bad").exists()
@@ -114,7 +116,8 @@ def test_projector_coordinates_from_a_code_of_one_pixel_stripes() -> None:
     np.testing.assert_array_equal(u, xx // 2)
     np.testing.assert_array_equal(v, yy // 2)
     coarse = [*opencv_graycode_frames(16, 12, 8.0), UniformFrame(255.0), UniformFrame(0.0)]
-    caps = Captures(coarse, _code_images(coarse, xx // 2, yy // 2, 8.0), 8,
-                    projector=ProjectorInfo(16, 12))  # fmt: skip
+    caps = Captures(
+        coarse, _code_images(coarse, xx // 2, yy // 2, 8.0), 8, projector=ProjectorInfo(16, 12)
+    )
     with pytest.raises(InputError, match="Gray code of stripes of at most 2 projector px"):
         projector_coordinates(caps)
