@@ -72,7 +72,16 @@ def import_(
     if report.ignored:
         shown = ", ".join(report.ignored[:5]) + (", ..." if len(report.ignored) > 5 else "")
         console.print(f"{len(report.ignored)} files not used by the description: {shown}")
-    console.print(
-        f"wrote {output} (capture format version {report.manifest['version']}); next: "
-        f"hdrfringe phase {output} -o OUT"
-    )
+    version = report.manifest["version"]
+    if "fringe" in kinds:
+        console.print(
+            f"wrote {output} (capture format version {version}); next: "
+            f"hdrfringe phase {output} -o OUT"
+        )
+    else:  # no phase to decode: a Gray-code board pose (docs/stereo_calibration.md)
+        console.print(
+            f"wrote {output} (capture format version {version}); no fringe frames, so no "
+            f"phase: as a board pose, next: hdrfringe calibrate-stereo {output} POSE2 POSE3 ... "
+            "--board PATTERN:COLSxROWS:SPACING_MM -o STEREO.h5",
+            highlight=False,
+        )
