@@ -14,18 +14,22 @@ Two pose sets of ``../shared/realdata`` (its README: sources, facts measured on 
 
 Everything goes through the command line (``import``, ``calibrate-stereo``), as a user would.
 
-References the code under test did not produce: the shipped files; for procam-calibration's
-projector, whose shipped intrinsics are not in the units of these images (realdata README:
-2.07 times the focal length any decode of the captures gives), the procedure of its own
-software re-run here with independent code (OpenCV's decode rule, its 17 x 17 least-squares
-homographies, ``cv2.calibrateCamera`` with default flags); for the skull, SLStudio's cloud.
+References the code under test did not produce: the shipped files; each set's own calibration
+procedure re-run here with independent code (SLStudio's decoder, modulation-image corners,
+21 x 21 LMEDS homographies and calibration flags; procam-calibration's OpenCV decode rule, 17 x
+17 least-squares homographies and default flags), which is the reference for
+procam-calibration's projector, whose shipped intrinsics are not in the units of these images
+(realdata README: about 2.07 times the focal length any decode of the captures gives), and
+for the SLStudio baseline, which the shipped file does not reproduce; for the skull,
+SLStudio's cloud.
 
 Tolerances (docs/stereo_calibration.md, "Real poses"): focal lengths 1 % (issue 24); principal
 points ``3 sqrt(2) sigma`` with ``sigma`` OpenCV's standard deviation from our reprojection
 residuals (``stdDeviationsIntrinsics``; the ``sqrt(2)``: the other calibration comes from the
 same kind of data with its own errors); the rotation ``3 sqrt(2) sigma_R`` (per-pose scatter
 of the camera -> projector rotation) plus the turn of the camera frame that a different
-camera principal point makes, ``|delta c| / f``.
+camera principal point makes, ``|delta c| / f``; baselines ``3 sqrt(2)`` standard errors (the
+per-pose scatter), plus, against SLStudio's shipped file, the file's own gap to its procedure.
 
 Prints ``[realdata]`` lines with the measured numbers (``pytest -s``).
 """

@@ -729,8 +729,9 @@ def observe_pose(
     n_bad = int((~pose.mapped).sum())
     if n_bad:
         pose.notes.append(
-            f"{n_bad} of {pts.shape[0]} points not mapped into the projector (too few valid "
-            "phase pixels or a poor local homography)"
+            f"{n_bad} of {pts.shape[0]} points not mapped into the projector (under "
+            f"{min_valid_fraction:.0%} of the window with projector coordinates, or a poor "
+            "local homography)"
         )
     if not pose.usable:
         pose.notes.append("fewer than half the points mapped: pose left out")
