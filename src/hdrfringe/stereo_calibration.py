@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from hdrfringe._validation import full_scale
 from hdrfringe.captures import Captures
 from hdrfringe.errors import InputError
+from hdrfringe.graycode import decode_graycode, stripe_centre
 from hdrfringe.process import decode_captures
 from hdrfringe.stereo import LensModel, StereoCalibration
 
@@ -59,7 +60,10 @@ __all__ = [
     "DISTORTION_MODELS",
     "FLAG_FACTOR",
     "FLAG_FLOOR_PX",
+    "GRAYCODE_MIN_VALID_FRACTION",
+    "MAX_CODE_STRIPE_PX",
     "MIN_POSES",
+    "MIN_VALID_FRACTION",
     "SUBPIX_HALF_WINDOW",
     "SUBPIX_SMOOTHING_PX",
     "BoardPose",
@@ -69,6 +73,7 @@ __all__ = [
     "board_image",
     "calibrate_stereo",
     "detect_board",
+    "graycode_coordinates",
     "map_to_projector",
     "observe_pose",
     "projector_coordinates",
@@ -78,6 +83,14 @@ __all__ = [
 BOARD_PATTERNS = ("checkerboard", "circles")
 #: Distortion models of :func:`calibrate_stereo`: the terms estimated for both lenses.
 DISTORTION_MODELS = ("standard", "radial", "none", "full")
+#: Least fraction of a local homography window with projector coordinates (fringes) ...
+MIN_VALID_FRACTION = 0.5
+#: ... and with coordinates from a Gray code alone (stripe edges stay undecided; see
+#: :func:`observe_pose`).
+GRAYCODE_MIN_VALID_FRACTION = 0.2
+#: Widest Gray-code stripe (projector px) whose centres serve as projector coordinates when
+#: an orientation has no fringes (quantisation ``s / sqrt(12)`` RMS before the local fit).
+MAX_CODE_STRIPE_PX = 2.0
 #: Fewest usable poses a calibration accepts (Zhang's method needs at least 3 views of a plane
 #: for the full intrinsics; more poses, more tilt variety: better).
 MIN_POSES = 3
@@ -338,7 +351,9 @@ def projector_coordinates(captures: Captures) -> tuple[F64, F64]:
     -------
     u, v : ndarray, shape (H, W)
         ``p Phi / (2 pi)`` of the vertical (``u``) and horizontal (``v``) family, projector
-        pixels with centres at integers; NaN where invalid.
+        pixels with centres at integers; NaN where invalid. An orientation without absolute
+        phase but with a Gray code takes the decoded stripe centres
+        (:func:`graycode_coordinates`).
 
     Raises
     ------
@@ -365,19 +380,136 @@ def projector_coordinates(captures: Captures) -> tuple[F64, F64]:
     >>> bool(np.allclose(u, xx, atol=0.3)), bool(np.allclose(v, yy, atol=0.3))
     (True, True)
     """
-    decoded = decode_captures(captures)
+    u, v, _ = _coordinates(captures)
+    return u, v
+
+
+def _coordinates(captures: Captures) -> tuple[F64, F64, list[str]]:
+    """:func:`projector_coordinates` and the orientations taken from the Gray code alone."""
+    from_code: list[str] = []
     out: dict[str, F64] = {}
-    for fam in decoded.families:
-        if fam.absolute_phase is not None:
-            out[fam.orientation] = fam.absolute_phase * fam.pitch_px / (2 * np.pi)
+    if captures.sets:
+        decoded = decode_captures(captures)
+        for fam in decoded.families:
+            if fam.absolute_phase is not None:
+                out[fam.orientation] = fam.absolute_phase * fam.pitch_px / (2 * np.pi)
+    fine = {g.orientation for g in captures.graycode_sets() if g.stripe_px <= MAX_CODE_STRIPE_PX}
+    if any(o not in out and o in fine for o in ("vertical", "horizontal")):
+        for orient, coord in graycode_coordinates(captures).items():
+            if orient not in out and orient in fine:
+                out[orient] = coord
+                from_code.append(orient)
     missing = [o for o in ("vertical", "horizontal") if o not in out]
     if missing:
         raise InputError(
             f"pose {captures.name or '?'}: no absolute {' or '.join(missing)} phase; capture "
             "vertical and horizontal fringes whose coarsest pitch spans the projector (or a "
-            "centerline frame per orientation)"
+            f"centerline frame per orientation), or a Gray code of stripes of at most "
+            f"{MAX_CODE_STRIPE_PX:g} projector px"
         )
-    return out["vertical"], out["horizontal"]
+    return out["vertical"], out["horizontal"], from_code
+
+
+def graycode_coordinates(captures: Captures) -> dict[str, F64]:
+    """Projector coordinate of every camera pixel from the Gray code alone, per orientation.
+
+    Used when a pose (or a scan) has no fringes of an orientation, e.g. OpenCV's
+    ``GrayCodePattern`` at the projector's resolution (one projector pixel per stripe,
+    kamino410's procam-calibration) or SLStudio's Gray-code scans (two columns per stripe).
+    The coordinate is the centre of the decoded stripe,
+    :func:`hdrfringe.graycode.stripe_centre` (``index`` itself for one-pixel stripes): its
+    quantisation (``s / sqrt(12)`` RMS for stripes of ``s`` px) is averaged out by the local
+    homographies of :func:`map_to_projector`.
+
+    Bits are decided as in :func:`hdrfringe.process.decode_captures` (docs/graycode.md): from
+    pattern/inverse pairs when the code has them, else against ``(white + black) / 2`` of the
+    uniform frames at the highest level and at 0; a pixel needs every bit at least
+    ``5 (2^B - 1) / 255`` DN from its reference (OpenCV's default) and, with a white and a black
+    frame, ``white - black`` at least twice that. Stripes whose centre falls outside the
+    projector (a code of more cells than the projector has, e.g. 10 bits for 768 rows) are
+    invalid, as in OpenCV's decoder.
+
+    Parameters
+    ----------
+    captures : Captures
+        Frames with a Gray code of at least one orientation.
+
+    Returns
+    -------
+    dict of str to ndarray (H, W)
+        ``"vertical"`` (projector column) and/or ``"horizontal"`` (row), projector pixels with
+        centres at integers; NaN where the code does not decode. Empty without a Gray code.
+
+    Raises
+    ------
+    InputError
+        A code without inverses and without a white and a black frame to threshold against.
+
+    Examples
+    --------
+    >>> from hdrfringe.captures import ProjectorInfo
+    >>> from hdrfringe.frames import UniformFrame, opencv_graycode_frames
+    >>> from hdrfringe.graycode import code_bit
+    >>> xx, yy = np.meshgrid(np.arange(8), np.arange(3))
+    >>> frames = opencv_graycode_frames(8, 3)
+    >>> imgs = [255 * (code_bit(xx if f.orientation == "vertical" else yy, f.bit, 1.0)
+    ...                ^ f.inverse) for f in frames]
+    >>> caps = Captures(frames, np.stack(imgs).astype(np.uint8), 8,
+    ...                 projector=ProjectorInfo(8, 3))
+    >>> c = graycode_coordinates(caps)
+    >>> c["vertical"][0].tolist(), c["horizontal"][:, 0].tolist()
+    ([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0], [0.0, 1.0, 2.0])
+    """
+    fs = full_scale(captures.camera_bit_depth)
+    min_contrast = 5.0 * fs / 255.0
+    out: dict[str, F64] = {}
+    codes = captures.graycode_sets()
+    if not codes:
+        return out
+    images = captures.images
+    uniforms = captures.uniforms()
+    threshold = contrast = None
+    lit = [(f.level, img) for f, img in uniforms if f.level > 0]
+    dark = [img for f, img in uniforms if f.level == 0]
+    if lit and dark:
+        white = max(lit, key=lambda li: li[0])[1].astype(np.float64)
+        black = dark[0].astype(np.float64)
+        threshold, contrast = (white + black) / 2, white - black
+    extents: dict[str, int | None] = {"vertical": None, "horizontal": None}
+    if captures.projector is not None:
+        extents = {"vertical": captures.projector.width, "horizontal": captures.projector.height}
+    for code in codes:
+        pattern = images[list(code.frame_indices)].astype(np.float64)
+        if code.inverse_indices is not None:
+            dec = decode_graycode(
+                pattern,
+                inverses=images[list(code.inverse_indices)].astype(np.float64),
+                contrast=contrast,
+                code=code.code,
+                min_contrast=min_contrast,
+                full_scale=fs,
+            )
+        elif threshold is not None:
+            dec = decode_graycode(
+                pattern,
+                threshold=threshold,
+                contrast=contrast,
+                code=code.code,
+                min_contrast=min_contrast,
+                full_scale=fs,
+            )
+        else:
+            raise InputError(
+                f"{captures.name or 'captures'}: the {code.orientation} Gray code has no inverse "
+                "images and there is no white and black frame to decide its bits against; "
+                "capture a white and a black frame"
+            )
+        coord = stripe_centre(dec.index, code.stripe_px)
+        extent = extents[code.orientation]
+        if extent is not None:
+            coord[coord > extent - 0.5] = np.nan
+        out[code.orientation] = coord
+    return out
 
 
 def map_to_projector(
@@ -545,6 +677,7 @@ def observe_pose(
     *,
     name: str | None = None,
     half_window: int = 12,
+    min_valid_fraction: float | None = None,
 ) -> BoardPose:
     """Detect the board in one pose and map its points into the projector.
 
@@ -558,6 +691,13 @@ def observe_pose(
         For reports (default the captures' name).
     half_window : int
         Local homography window half side (:func:`map_to_projector`).
+    min_valid_fraction : float, optional
+        Least fraction of a window's pixels with projector coordinates
+        (:func:`map_to_projector`). Default :data:`MIN_VALID_FRACTION` (0.5) for coordinates
+        from fringes and :data:`GRAYCODE_MIN_VALID_FRACTION` (0.2) when an orientation comes
+        from a Gray code alone: a code of one projector pixel per stripe leaves every stripe
+        edge undecided (bits below the contrast rule), about half of the board's pixels
+        (kamino410's procam-calibration: 34-55 %; their own rule asks 64 of 17 x 17 pixels).
 
     Returns
     -------
@@ -579,14 +719,19 @@ def observe_pose(
     pts = detect_board(board_image(captures), board, captures.camera_bit_depth)
     if pts is None:
         return BoardPose(label, None, None, None, [f"board {board} not found"])
-    u, v = projector_coordinates(captures)
-    mapped, residual = map_to_projector(pts, u, v, half_window=half_window)
+    u, v, from_code = _coordinates(captures)
+    if min_valid_fraction is None:
+        min_valid_fraction = GRAYCODE_MIN_VALID_FRACTION if from_code else MIN_VALID_FRACTION
+    mapped, residual = map_to_projector(
+        pts, u, v, half_window=half_window, min_valid_fraction=min_valid_fraction
+    )
     pose = BoardPose(label, pts, mapped, residual)
     n_bad = int((~pose.mapped).sum())
     if n_bad:
         pose.notes.append(
-            f"{n_bad} of {pts.shape[0]} points not mapped into the projector (too few valid "
-            "phase pixels or a poor local homography)"
+            f"{n_bad} of {pts.shape[0]} points not mapped into the projector (under "
+            f"{min_valid_fraction:.0%} of the window with projector coordinates, or a poor "
+            "local homography)"
         )
     if not pose.usable:
         pose.notes.append("fewer than half the points mapped: pose left out")
@@ -661,6 +806,12 @@ class StereoCalibrationResult:
         The board.
     settings : dict
         How it was computed (flags, window), for the report.
+    uncertainty : dict
+        Standard errors estimated from the data: ``camera_std_px`` and ``projector_std_px``
+        (``fx, fy, cx, cy`` of the separate calibrations, OpenCV's
+        ``stdDeviationsIntrinsics``: the residual variance times the inverse normal matrix),
+        ``rotation_std_deg``, ``translation_std`` and ``baseline_std`` (board units) of the
+        camera -> projector motion from its per-pose scatter.
 
     Examples
     --------
@@ -671,6 +822,7 @@ class StereoCalibrationResult:
     poses: list[PoseReport]
     board: BoardSpec
     settings: dict[str, Any]
+    uncertainty: dict[str, Any] = field(default_factory=dict)
 
     @property
     def flagged(self) -> list[str]:
@@ -691,6 +843,7 @@ class StereoCalibrationResult:
             "reprojection_rms_px": dict(self.calibration.reprojection_px or {}),
             "poses": [p.to_dict() for p in self.poses],
             "flagged_poses": self.flagged,
+            "uncertainty": dict(self.uncertainty),
             "settings": dict(self.settings),
         }
 
@@ -822,10 +975,10 @@ def calibrate_stereo(
     csize = (int(camera_size[0]), int(camera_size[1]))
     psize = (int(projector_size[0]), int(projector_size[1]))
     try:
-        rms_c, k_c, d_c, rv_c, tv_c, *_ = cv2.calibrateCameraExtended(
+        rms_c, k_c, d_c, rv_c, tv_c, sd_c, *_ = cv2.calibrateCameraExtended(
             obj_c, img_c, csize, np.eye(3), np.zeros(5), flags=flags, criteria=_CRITERIA
         )
-        rms_p, k_p, d_p, rv_p, tv_p, *_ = cv2.calibrateCameraExtended(
+        rms_p, k_p, d_p, rv_p, tv_p, sd_p, *_ = cv2.calibrateCameraExtended(
             obj_p, img_p, psize, np.eye(3), np.zeros(5), flags=flags, criteria=_CRITERIA
         )
         sflags = flags | (cv2.CALIB_USE_INTRINSIC_GUESS if refine_intrinsics else 0)
@@ -885,6 +1038,11 @@ def calibrate_stereo(
         reprojection_px={"camera": float(rms_c), "projector": float(rms_p), "stereo": rms_s},
         source=source or f"hdrfringe calibrate-stereo, {len(usable)} poses of {board}",
     )
+    uncertainty = {
+        "camera_std_px": _intrinsic_std(sd_c),
+        "projector_std_px": _intrinsic_std(sd_p),
+        **_motion_spread(rv_c, tv_c, rv_p, tv_p),
+    }
     settings = {
         "distortion": distortion,
         "refine_intrinsics": bool(refine_intrinsics),
@@ -892,4 +1050,45 @@ def calibrate_stereo(
         "poses_given": len(poses),
         "flag_rule": f"stereo RMS > max({FLAG_FACTOR:g} x median, {FLAG_FLOOR_PX:g} px)",
     }
-    return StereoCalibrationResult(calib, reports, board, settings)
+    return StereoCalibrationResult(calib, reports, board, settings, uncertainty)
+
+
+def _intrinsic_std(sd: Any) -> dict[str, float]:
+    """OpenCV's standard deviations of ``fx, fy, cx, cy`` (from the reprojection residuals)."""
+    v = np.asarray(sd, dtype=np.float64).ravel()
+    return {k: float(v[i]) for i, k in enumerate(("fx", "fy", "cx", "cy"))}
+
+
+def _motion_spread(
+    rv_c: Sequence[Any], tv_c: Sequence[Any], rv_p: Sequence[Any], tv_p: Sequence[Any]
+) -> dict[str, float]:
+    """Standard errors of the camera -> projector motion from its per-pose estimates.
+
+    Each pose's board pose in the camera (``R_c, t_c``) and in the projector (``R_p, t_p``),
+    from the separate calibrations, gives one estimate ``R_i = R_p R_c^T``,
+    ``t_i = t_p - R_i t_c``; their scatter over the ``n`` poses divided by ``sqrt(n)`` is the
+    standard error of the mean motion: ``rotation_std_deg`` (the RMS angle between each
+    ``R_i`` and their mean rotation, with ``n - 1`` degrees of freedom), ``translation_std``
+    per axis and ``baseline_std`` (``|t_i|``), board units; sample standard deviations
+    (``ddof = 1``) over ``sqrt(n)``.
+    """
+    rots, trans = [], []
+    for r_c, t_c, r_p, t_p in zip(rv_c, tv_c, rv_p, tv_p, strict=True):
+        rc, rp = (
+            cv2.Rodrigues(np.asarray(r_c, np.float64))[0],
+            cv2.Rodrigues(np.asarray(r_p, np.float64))[0],
+        )
+        ri = rp @ rc.T
+        rots.append(ri)
+        trans.append(np.asarray(t_p, np.float64).ravel() - ri @ np.asarray(t_c, np.float64).ravel())
+    n = len(rots)
+    t = np.array(trans)
+    u, _, vt = np.linalg.svd(np.sum(rots, axis=0))
+    mean_r = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+    angles = [float(np.linalg.norm(cv2.Rodrigues(r @ mean_r.T)[0])) for r in rots]
+    root = math.sqrt(n)
+    return {
+        "rotation_std_deg": math.degrees(math.sqrt(sum(a * a for a in angles) / (n - 1))) / root,
+        "translation_std": (t.std(axis=0, ddof=1) / root).tolist(),
+        "baseline_std": float(np.linalg.norm(t, axis=1).std(ddof=1) / root),
+    }

@@ -116,6 +116,14 @@ def calibrate_stereo(
     ] = 1.0,
     seed: Annotated[int, typer.Option(help="With --rig sim: noise seed.")] = 0,
     window: Annotated[int, typer.Option(help="Local homography window half side, camera px.")] = 12,
+    min_valid: Annotated[
+        float | None,
+        typer.Option(
+            help="Least fraction of a window's pixels with projector coordinates (default 0.5 "
+            "for fringes, 0.2 for a Gray code alone).",
+            show_default=False,
+        ),
+    ] = None,
     distortion: Annotated[
         str, typer.Option(help="Lens distortion terms: standard (k1 k2 p1 p2), radial, none, full.")
     ] = "standard",
@@ -158,6 +166,8 @@ def calibrate_stereo(
         raise InputError(f"--distortion {distortion!r}: use {', '.join(DISTORTION_MODELS)}")
     if not 1 <= window <= 100:
         raise InputError(f"--window {window}: give a half window of 1..100 camera pixels")
+    if min_valid is not None and not 0 < min_valid <= 1:
+        raise InputError(f"--min-valid {min_valid}: give a fraction in (0, 1], e.g. 0.2")
     if rig is not None and rig != "sim":
         raise InputError(f"--rig {rig!r}: only the virtual rig 'sim' can be driven here")
     inputs: list[Path | None] = [*(poses or []), from_path, save_poses]
@@ -232,7 +242,7 @@ def calibrate_stereo(
         raise InputError("pose folders must record one projector size (manifest 'projector' entry)")
     h, w = captures[0].image_shape
     observed = [
-        observe_pose(c, spec, name=n, half_window=window)
+        observe_pose(c, spec, name=n, half_window=window, min_valid_fraction=min_valid)
         for c, n in zip(captures, names, strict=True)
     ]
     if not any(p.camera_points is not None for p in observed):

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors
+from hdrfringe.errors import InputError
 
 __all__ = ["import_"]
 
@@ -32,15 +33,33 @@ def import_(
             help="Camera bit depth, for a pattern manifest only (a TOML description gives it)."
         ),
     ] = None,
+    crop_offset: Annotated[
+        str | None,
+        typer.Option(
+            help="X0,Y0: the images are crops of the camera frame (camera.frame_size of the "
+            "description) starting at this pixel; they are written as the full frame."
+        ),
+    ] = None,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Import camera images as a capture folder (images copied; converted only when needed)."""
     from hdrfringe.io.importer import import_captures
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
 
+    offset = None
+    if crop_offset is not None:
+        try:
+            x0, y0 = (int(v) for v in crop_offset.split(","))
+        except ValueError:
+            raise InputError(
+                f"--crop-offset {crop_offset!r}: give X0,Y0 in camera pixels, e.g. 199,157"
+            ) from None
+        offset = (x0, y0)
     check_output_against_inputs(output, [images, description])
     check_output_dir(output, force)
-    report = import_captures(images, description, output, bit_depth=bit_depth, force=force)
+    report = import_captures(
+        images, description, output, bit_depth=bit_depth, crop_offset=offset, force=force
+    )
     frames = report.manifest["frames"]
     kinds: dict[str, int] = {}
     for f in frames:
@@ -53,7 +72,16 @@ def import_(
     if report.ignored:
         shown = ", ".join(report.ignored[:5]) + (", ..." if len(report.ignored) > 5 else "")
         console.print(f"{len(report.ignored)} files not used by the description: {shown}")
-    console.print(
-        f"wrote {output} (capture format version {report.manifest['version']}); next: "
-        f"hdrfringe phase {output} -o OUT"
-    )
+    version = report.manifest["version"]
+    if "fringe" in kinds:
+        console.print(
+            f"wrote {output} (capture format version {version}); next: "
+            f"hdrfringe phase {output} -o OUT"
+        )
+    else:  # no phase to decode: a Gray-code board pose (docs/stereo_calibration.md)
+        console.print(
+            f"wrote {output} (capture format version {version}); no fringe frames, so no "
+            f"phase: as a board pose, next: hdrfringe calibrate-stereo {output} POSE2 POSE3 ... "
+            "--board PATTERN:COLSxROWS:SPACING_MM -o STEREO.h5",
+            highlight=False,
+        )

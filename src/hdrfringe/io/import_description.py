@@ -44,7 +44,7 @@ TEMPLATE_FIELDS = {
 MAX_DESCRIPTION_BYTES = 1 << 20
 
 _TOP_KEYS = ("note", "camera", "projector", "fringe", "uniform", "graycode")
-_CAMERA_KEYS = ("bit_depth", "float_scale")
+_CAMERA_KEYS = ("bit_depth", "float_scale", "frame_size", "crop_offset")
 _PROJECTOR_KEYS = ("width", "height", "bit_depth", "gamma_precompensation")
 _SOURCE_KEYS = ("files", "regex", "stack", "key", "axes", "stack_frames", "first_index")
 _FRINGE_KEYS = (
@@ -366,6 +366,12 @@ class Description:
         The description's path, for messages.
     notes : list of str
         The description's ``note``, if any.
+    frame_size : tuple of int or None
+        ``(width, height)`` of the camera's full frame when the images are crops of it
+        (``camera.frame_size``); None: the images are the frame.
+    crop_offset : tuple of int or None
+        ``(x0, y0)``: where the images start in that frame (``camera.crop_offset``, or the
+        importer's ``crop_offset`` argument, which wins).
 
     Examples
     --------
@@ -381,6 +387,8 @@ class Description:
     groups: list[FrameGroup]
     source: str
     notes: list[str] = field(default_factory=list)
+    frame_size: tuple[int, int] | None = None
+    crop_offset: tuple[int, int] | None = None
 
 
 def read_description(path: str | Path) -> Description:
@@ -459,6 +467,17 @@ def parse_description(table: Mapping[str, Any], source: str) -> Description:
     float_scale = None
     if "float_scale" in camera:
         float_scale = _num(camera["float_scale"], f"{source} camera", "float_scale", positive=True)
+    frame_size = crop_offset = None
+    if "frame_size" in camera:
+        frame_size = _pair(camera["frame_size"], f"{source} camera", "frame_size", 1)
+    if "crop_offset" in camera:
+        crop_offset = _pair(camera["crop_offset"], f"{source} camera", "crop_offset", 0)
+        if frame_size is None:
+            raise _fail(
+                f"{source} camera",
+                "crop_offset without frame_size",
+                "give frame_size = [WIDTH, HEIGHT], the full frame the crops come from",
+            )
     projector_in = table.get("projector", {})
     if not isinstance(projector_in, dict):
         raise _fail(source, "'projector' must be a table", "write it as a TOML table")
@@ -497,7 +516,17 @@ def parse_description(table: Mapping[str, Any], source: str) -> Description:
             source, f"{total} frames, more than {MAX_PROGRAM_FRAMES}", "import in several parts"
         )
     notes = [str(table["note"])] if "note" in table else []
-    return Description(bit_depth, float_scale, projector, groups, source, notes)
+    return Description(
+        bit_depth, float_scale, projector, groups, source, notes, frame_size, crop_offset
+    )
+
+
+def _pair(value: Any, where: str, key: str, lo: int) -> tuple[int, int]:
+    """Two whole numbers ``[a, b]``, each ``>= lo``."""
+    if not isinstance(value, list) or len(value) != 2:
+        raise _fail(where, f"'{key}' must be two whole numbers [x, y]", f"write {key} = [x, y]")
+    a, b = (_int(v, where, key, lo, 1 << 20) for v in value)
+    return a, b
 
 
 def _source(t: Mapping[str, Any], kind: str, where: str, names: Mapping[str, str]) -> Any:

@@ -12,6 +12,7 @@ before the folder is moved into place, so a bad import writes nothing.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -465,6 +466,30 @@ class _Writer:
         self.converted = 0
         self.used: set[str] = set()
         self._stacks: dict[tuple[str, str | None, str], NDArray[Any]] = {}
+        self.frame_size = description.frame_size
+        self.crop_offset = description.crop_offset
+
+    def _paste(self, counts: NDArray[Any], label: str) -> NDArray[Any]:
+        """A crop placed at ``crop_offset`` into a zero full frame (``frame_size``)."""
+        if self.frame_size is None:
+            return counts
+        w, h = self.frame_size
+        if counts.shape[:2] == (h, w) and self.crop_offset in (None, (0, 0)):
+            return counts
+        if self.crop_offset is None:
+            raise InputError(
+                f"{label}: image is {counts.shape[1]}x{counts.shape[0]}, not the camera frame "
+                f"{w}x{h}; give --crop-offset X0,Y0 (where the crop starts in the frame)"
+            )
+        x0, y0 = self.crop_offset
+        if x0 + counts.shape[1] > w or y0 + counts.shape[0] > h:
+            raise InputError(
+                f"{label}: a {counts.shape[1]}x{counts.shape[0]} crop at ({x0}, {y0}) does not "
+                f"fit in the camera frame {w}x{h}; fix the crop offset or camera.frame_size"
+            )
+        out = np.zeros((h, w, *counts.shape[2:]), dtype=counts.dtype)
+        out[y0 : y0 + counts.shape[0], x0 : x0 + counts.shape[1]] = counts
+        return out
 
     def _size(self, shape: tuple[int, ...], label: str) -> None:
         hw = (int(shape[0]), int(shape[1]))
@@ -515,6 +540,7 @@ class _Writer:
             counts = to_counts(
                 np.asarray(stack[src.index]), self.bit_depth, self.float_scale, label
             )
+            counts = self._paste(counts, label)
             self._size(counts.shape, label)
             stem = src.rel.rsplit(".", 1)[0]
             if src.key is not None:
@@ -541,6 +567,13 @@ class _Writer:
                             "camera.bit_depth in the description",
                         )
                     ) from None
+                if self.frame_size is not None:
+                    pasted = self._paste(np.asarray(self._decode(path, label)), label)
+                    if pasted.shape != header.shape:  # a crop: written as the full frame
+                        self._size(pasted.shape, label)
+                        name = self._claim(src.rel.rsplit(".", 1)[0] + ".png", label)
+                        self._write_png(name, pasted)
+                        return name
                 self._size(header.shape, label)
                 name = self._claim(src.rel, label)
                 target = self.stage / name
@@ -558,7 +591,7 @@ class _Writer:
                 f"{label}: not an image hdrfringe reads (use PNG, TIFF, BMP, JPEG, PNM, or a "
                 ".npy/.npz 'stack'); fix the template"
             )
-        counts = to_counts(data, self.bit_depth, self.float_scale, label)
+        counts = self._paste(to_counts(data, self.bit_depth, self.float_scale, label), label)
         self._size(counts.shape, label)
         name = self._claim(src.rel.rsplit(".", 1)[0] + ".png", label)
         self._write_png(name, counts)
@@ -642,6 +675,7 @@ def import_captures(
     output: str | Path,
     *,
     bit_depth: int | None = None,
+    crop_offset: tuple[int, int] | None = None,
     force: bool = False,
 ) -> ImportReport:
     """Build a capture folder from a folder of camera images and a description.
@@ -658,6 +692,10 @@ def import_captures(
         The capture folder to write.
     bit_depth : int, optional
         Camera bit depth, for a pattern manifest only (a TOML description gives it).
+    crop_offset : tuple of int, optional
+        ``(x0, y0)``: the images are crops of the camera frame ``camera.frame_size`` of the
+        description starting at this pixel; each is written as the full frame, zero outside the
+        crop, so that pixel coordinates are the frame's (overrides ``camera.crop_offset``).
     force : bool
         Replace an existing non-empty output folder.
 
@@ -712,6 +750,16 @@ def import_captures(
                 "description's camera table"
             )
         desc = read_description(desc_path)
+        if crop_offset is not None:
+            if desc.frame_size is None:
+                raise InputError(
+                    f"{desc_path}: a crop offset needs the camera's full frame; add "
+                    "frame_size = [WIDTH, HEIGHT] to the description's camera table"
+                )
+            x0, y0 = (int(v) for v in crop_offset)
+            if x0 < 0 or y0 < 0:
+                raise InputError(f"crop offset ({x0}, {y0}) must be >= 0")
+            desc = dataclasses.replace(desc, crop_offset=(x0, y0))
         entries, sources, side = [], [], []
         for group in desc.groups:
             sources.extend(_match_group(group, files, root))
@@ -762,6 +810,9 @@ def import_captures(
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(path, target)
         manifest["import"] = {"description": desc_path.name, "images": root.name}
+        if desc.frame_size is not None:
+            manifest["import"]["frame_size"] = list(desc.frame_size)
+            manifest["import"]["crop_offset"] = list(desc.crop_offset or (0, 0))
         mpath = tmp / "manifest.json"
         mpath.write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
         try:

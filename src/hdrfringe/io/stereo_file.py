@@ -331,7 +331,9 @@ def calibration_kind(path: str | Path) -> str:
 # --------------------------------------------------------------------------------------------
 #: Key names read from an OpenCV FileStorage file (first present wins), by quantity.
 #: ``cam_K``... : Moreno & Taubin's procam calibration (``calibration.yml``); ``cam_int``... :
-#: kamino410's procam-calibration (``calibration_result.xml``); ``K1``, ``D1``...: OpenCV's
+#: kamino410's procam-calibration (``calibration_result.xml``); ``Kc``, ``kc``, ``Kp``, ``kp``,
+#: ``Rp``, ``Tp``, ``frameWidth``, ``screenResX``...: SLStudio's ``calibration.xml``;
+#: ``K1``, ``D1``...: OpenCV's
 #: stereoCalibrate names; ``camera_matrix``, ``distortion_coefficients``: OpenCV's samples.
 FILESTORAGE_KEYS: dict[str, tuple[str, ...]] = {
     "camera_matrix": ("cam_K", "cam_int", "camera_matrix", "cameraMatrix", "K1", "M1", "Kc"),
@@ -343,6 +345,7 @@ FILESTORAGE_KEYS: dict[str, tuple[str, ...]] = {
         "distortion_coefficients",
         "D1",
         "dist_c",
+        "kc",
     ),
     "projector_matrix": ("proj_K", "proj_int", "projector_matrix", "K2", "M2", "Kp"),
     "projector_distortion": (
@@ -352,16 +355,17 @@ FILESTORAGE_KEYS: dict[str, tuple[str, ...]] = {
         "projector_distortion",
         "D2",
         "dist_p",
+        "kp",
     ),
-    "rotation": ("R", "rotation", "roration"),
-    "translation": ("T", "translation"),
+    "rotation": ("R", "rotation", "roration", "Rp"),
+    "translation": ("T", "translation", "Tp"),
     "camera_size": ("camera_size", "cam_size", "image_size"),
     "camera_shape": ("img_shape",),
-    "camera_width": ("image_width", "cam_width", "camera_width"),
-    "camera_height": ("image_height", "cam_height", "camera_height"),
+    "camera_width": ("image_width", "cam_width", "camera_width", "frameWidth"),
+    "camera_height": ("image_height", "cam_height", "camera_height", "frameHeight"),
     "projector_size": ("projector_size", "proj_size"),
-    "projector_width": ("proj_width", "projector_width"),
-    "projector_height": ("proj_height", "projector_height"),
+    "projector_width": ("proj_width", "projector_width", "screenResX"),
+    "projector_height": ("proj_height", "projector_height", "screenResY"),
     "translation_unit": ("translation_unit", "unit", "units"),
     "error_camera": ("cam_error",),
     "error_projector": ("proj_error",),
