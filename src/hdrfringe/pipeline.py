@@ -35,6 +35,7 @@ from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.frames import Frame
+from hdrfringe.harmonics import harmonics_mode
 from hdrfringe.patterns import FringeSpec, same_fringes
 from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
@@ -620,6 +621,10 @@ class MeasurementMetrics:
         <hdrfringe.uncertainty.Uncertainty.summary>`: the noise model and its source, sigma_I
         used, median predicted std), or ``{"predicted": False, "reason": ...}``; None when not
         asked for (docs/uncertainty.md).
+    harmonics : dict or None
+        With harmonic compensation: ``mode`` and per set its estimated coefficients, RMS
+        correction and whether it was applied (:attr:`FolderPhase.harmonics
+        <hdrfringe.process.FolderPhase>`, docs/harmonics.md); None when off.
 
     References
     ----------
@@ -656,6 +661,7 @@ class MeasurementMetrics:
     regions: Mapping[str, Any] | None = None
     decoder: Mapping[str, Any] | None = None
     uncertainty: Mapping[str, Any] | None = None
+    harmonics: Mapping[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """``metrics.json``: the fields that apply, in a fixed order, JSON-safe.
@@ -708,6 +714,8 @@ class MeasurementMetrics:
             d["stereo"] = dict(self.stereo)
         if self.uncertainty is not None:
             d["uncertainty"] = dict(self.uncertainty)
+        if self.harmonics is not None:
+            d["harmonics"] = dict(self.harmonics)
         d["skipped"] = list(self.skipped)
         d["notes"] = list(self.notes)
         return _json_safe(d)
@@ -897,20 +905,16 @@ def _measure_captures(
     stereo_directions: str = "auto",
     min_shifts: int | None = None,
     given_phases: Mapping[str, F64] | None = None,
+    harmonics: str | int = "off",
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
     calibration, height and its errors (or the triangulated points). Returns the metrics
     fields."""
-    if min_shifts is None:
-        decoded = decode_captures(
-            caps, reject_saturated=reject_saturated, given_phases=given_phases
-        )
-    else:
-        decoded = decode_captures(
-            caps, saturated="exclude", min_shifts=min_shifts, given_phases=given_phases
-        )
+    decoded = _decode_for_measurement(caps, reject_saturated, min_shifts, given_phases, harmonics)
     fam = decoded.primary
     fields: dict[str, Any] = {}
+    if decoded.harmonics is not None:
+        fields["harmonics"] = decoded.harmonics
     if min_shifts is not None:
         fields["decoder"] = _decoder_summary(decoded, min_shifts)
     sat = np.zeros(caps.image_shape, bool)
@@ -959,6 +963,26 @@ def _measure_captures(
     errors.pop("valid_fraction", None)
     fields.update(errors)
     return decoded, height, fields, None
+
+
+def _decode_for_measurement(
+    caps: Captures,
+    reject_saturated: bool,
+    min_shifts: int | None,
+    given_phases: Mapping[str, F64] | None,
+    harmonics: str | int,
+) -> FolderPhase:
+    """:func:`decode_captures` as a measurement asks for it: saturation-tolerant with
+    ``min_shifts``; ``harmonics`` only when not ``off`` (the decode is otherwise the same call
+    as before harmonic compensation existed)."""
+    extra: dict[str, Any] = {} if harmonics == "off" else {"harmonics": harmonics}
+    if min_shifts is None:
+        return decode_captures(
+            caps, reject_saturated=reject_saturated, given_phases=given_phases, **extra
+        )
+    return decode_captures(
+        caps, saturated="exclude", min_shifts=min_shifts, given_phases=given_phases, **extra
+    )
 
 
 def _decoder_summary(decoded: FolderPhase, min_shifts: int) -> dict[str, Any]:
@@ -1033,6 +1057,7 @@ def measure(
     stereo_directions: str = "auto",
     uncertainty: bool = True,
     noise: NoiseModel | float | None = None,
+    harmonics: str | int = "off",
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -1087,6 +1112,10 @@ def measure(
         The camera noise for the prediction (a float: one sigma in DN). Default: the capture
         manifest's, else estimated from the sets with 4 or more shifts; when neither exists
         nothing is predicted and ``metrics.uncertainty`` says why.
+    harmonics : {"off", "auto"} or int
+        Fringe-harmonic compensation of the decoded phases
+        (:func:`hdrfringe.process.decode_captures`, docs/harmonics.md); ``metrics.harmonics``
+        records the estimates. Not with a saturation-tolerant strategy.
 
     Returns
     -------
@@ -1122,6 +1151,7 @@ def measure(
             f"stereo_directions {stereo_directions!r} is unknown; give one of "
             f"{', '.join(_STEREO_DIRECTIONS)}"
         )
+    harmonics_mode(harmonics)  # a bad value is refused before anything is captured
     sources = dict(param_sources or {})
     description: RigDescription | None = None
     p: Any = None
@@ -1190,6 +1220,7 @@ def measure(
         stereo_directions,
         min_shifts=min(tolerant) if tolerant else None,
         given_phases=strategy_absolute_phases(results),
+        harmonics=harmonics,
     )
     dpa = None
     if method == "dpa":

@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors
+from hdrfringe.cli._harmonics import HarmonicsOpt, check_harmonics, print_harmonics
 
 __all__ = ["phase"]
 
@@ -70,6 +71,7 @@ def phase(
             "TIFFs are float32 either way; docs/phase.md).",
         ),
     ] = "float64",
+    harmonics: HarmonicsOpt = "off",
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe._validation import SATURATED_MODES, describe_saturated
@@ -100,6 +102,7 @@ def phase(
         raise InputError("--map-dtype float32 applies to --saturated flag; drop one of them")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
+    check_harmonics(harmonics, saturated)
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
@@ -118,6 +121,7 @@ def phase(
             min_modulation=min_modulation,
             reject_saturated=not keep_saturated,
             map_dtype=map_dtype,
+            harmonics=harmonics,
         )
     else:
         decoded = decode_captures(
@@ -148,6 +152,7 @@ def phase(
             f"set {s['label']}: valid {100 * s['valid_fraction']:.1f} %, "
             f"saturated {describe_saturated(n_saturated, n_pixels)}"
         )
+    print_harmonics(summary.get("harmonics"))
     for fam in summary["families"]:
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""
         console.print(f"{fam['orientation']}: unwrapped by {fam['unwrapping']}{extra}")
