@@ -94,7 +94,7 @@ MIN_EQUATIONS_PER_COEFFICIENT = 200
 #: Tiles per image side of the jackknife.
 TILES = 4
 #: A window whose wrapped difference to its centre exceeds this (rad) is not smooth: skipped.
-LOCAL_JUMP_RAD = np.pi / 2
+LOCAL_JUMP_RAD = 0.9 * np.pi
 
 
 def harmonics_mode(value: str | int) -> tuple[str, int]:

@@ -23,15 +23,17 @@ HarmonicsOpt = Annotated[
 ]
 
 
-def check_harmonics(value: str, saturated: str = "flag") -> None:
-    """Refuse a bad ``--harmonics`` value, or one given with ``--saturated exclude``.
+def check_harmonics(value: str, conflict: str | None = None) -> None:
+    """Refuse a bad ``--harmonics`` value, or one given with a saturation-tolerant decode.
 
     Parameters
     ----------
     value : str
         The option's value.
-    saturated : str
-        ``phase``'s ``--saturated`` mode (``measure``: ``flag``).
+    conflict : str, optional
+        The option that asks for the saturation-tolerant decoder (``--saturated exclude``,
+        ``--method tolerant``), when given: harmonic compensation models every shift in each
+        pixel's phase.
 
     Raises
     ------
@@ -45,10 +47,10 @@ def check_harmonics(value: str, saturated: str = "flag") -> None:
         mode = harmonics_mode(value)[0]
     except InputError as exc:
         raise InputError(f"--{exc}") from None
-    if mode != "off" and saturated != "flag":
+    if mode != "off" and conflict is not None:
         raise InputError(
-            "--harmonics needs every shift in each pixel's phase; it does not apply to "
-            "--saturated exclude (drop one of them)"
+            f"--harmonics needs every shift in each pixel's phase; it does not apply to "
+            f"{conflict} (drop one of them)"
         )
 
 

@@ -155,7 +155,7 @@ def measure(
         raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
-    check_harmonics(harmonics, "exclude" if method == "tolerant" else "flag")
+    check_harmonics(harmonics, "--method tolerant" if method == "tolerant" else None)
     if live and method is None:
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)

@@ -102,7 +102,7 @@ def phase(
         raise InputError("--map-dtype float32 applies to --saturated flag; drop one of them")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
-    check_harmonics(harmonics, saturated)
+    check_harmonics(harmonics, "--saturated exclude" if saturated == "exclude" else None)
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
