@@ -173,7 +173,7 @@ def _systematic(phase: np.ndarray, truth: np.ndarray, bins: int = 48) -> float:
 @pytest.mark.parametrize("steps", [3, 4])
 def test_inert_on_the_virtual_rigs_sinusoidal_fringes(steps: int) -> None:
     """Continuous 16-bit projector, gamma pre-compensated: pure sinusoids. Coefficients within
-    4 standard errors of 0 (measured: within 1.6), auto leaves the phase bit for bit, a forced
+    4 standard errors of 0 (measured: within 1.7), auto leaves the phase bit for bit, a forced
     correction moves it by less than 5e-4 rad (measured 1-2e-4). The default 8-bit pixelated
     rig's pattern rounding leaves 0.0005 rad RMS (below the 1e-3 floor): auto leaves it too."""
     *_, res, _ = _rig_set(steps, gamma_precompensation=2.812, continuous=True)
@@ -189,7 +189,7 @@ def test_inert_on_the_virtual_rigs_sinusoidal_fringes(steps: int) -> None:
     fs = FringeSet("s", FringeSpec("sinusoidal", steps, PITCH), tuple(range(steps)))
     out, summary = compensate_sets([fs], {"s": res8}, "auto")
     assert summary["sets"]["s"]["applied"] is False
-    assert summary["sets"]["s"]["rms_rad"] < FLOOR_RAD
+    assert 1e-4 < summary["sets"]["s"]["rms_rad"] < FLOOR_RAD  # measured 0.00045, 0.0005
     assert out["s"] is res8  # not replaced: the same arrays
 
 

@@ -10,7 +10,6 @@ from typing import Annotated
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors
-from hdrfringe.cli._harmonics import HarmonicsOpt, check_harmonics, print_harmonics
 
 __all__ = ["phase"]
 
@@ -71,10 +70,19 @@ def phase(
             "TIFFs are float32 either way; docs/phase.md).",
         ),
     ] = "float64",
-    harmonics: HarmonicsOpt = "off",
+    harmonics: Annotated[
+        str,
+        typer.Option(
+            help="Fringe-harmonic (projector nonlinearity) compensation: off (default); auto: "
+            "estimate each sinusoidal set's harmonic phase error from its own wrapped phase "
+            "and remove it where it is significant; a number K (1..8): remove K orders "
+            "whatever their size (docs/harmonics.md).",
+        ),
+    ] = "off",
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe._validation import SATURATED_MODES, describe_saturated
+    from hdrfringe.cli._harmonics import check_harmonics, print_harmonics
     from hdrfringe.errors import CaptureFormatError, InputError
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.results import (
