@@ -255,6 +255,32 @@ def test_a_triangular_set_is_left_as_decoded() -> None:
     assert summary["sets"]["t"] == {"applied": False, "reason": not_applicable(spec)}
 
 
+def test_pixels_with_a_saturated_shift_do_not_enter_the_estimate() -> None:
+    """With --keep-saturated the clipped pixels stay valid; their error (here a 0.2 rad
+    3rd-order one over a third of the image) is clipping's, not the projector's, and must not
+    be removed from the others: the estimate uses the unclipped pixels only (an estimate from
+    every valid pixel finds 0.06 rad, which a forced correction would subtract everywhere)."""
+    from hdrfringe.captures import FringeSet
+    from hdrfringe.phase import PhaseResult
+
+    rng = np.random.default_rng(5)
+    theta = _surface((300, 400))
+    clipped = np.zeros(theta.shape, bool)
+    clipped[:, :130] = True
+    phi = np.mod(theta + rng.normal(0, 0.02, theta.shape), TWO_PI)
+    phi[clipped] = np.mod(phi[clipped] + 0.2 * np.sin(3 * theta[clipped]), TWO_PI)
+    ones = np.ones(theta.shape)
+    res = PhaseResult(phi, ones, ones, ones, clipped.astype(np.uint8), np.ones(theta.shape, bool))
+    fs = FringeSet("s", FringeSpec("sinusoidal", 3, 22.0), (0, 1, 2))
+    out, summary = compensate_sets([fs], {"s": res}, "auto")
+    assert summary["sets"]["s"]["applied"] is False and out["s"] is res
+    out, summary = compensate_sets([fs], {"s": res}, 2)  # forced: applied, but ~0
+    change = _wrap(out["s"].wrapped_phase - phi)[~clipped]
+    assert summary["sets"]["s"]["applied"] and np.abs(change).max() < 0.005
+    everything = estimate_harmonic_error(phi, 3, mask=res.valid)
+    assert everything.sin[0] > 0.04  # measured 0.061: what a forced correction would remove
+
+
 def test_significance_needs_both_the_standard_errors_and_the_floor() -> None:
     e = HarmonicError(3, (3,), (0.01,), (0.0,), (1e-3,), (1e-3,), 5, 0.02, 15.0)
     assert json.loads(json.dumps(e.summary()))["significant"] is True  # 10 SE, 0.007 rad RMS
