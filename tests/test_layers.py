@@ -39,6 +39,7 @@ LAYERS: dict[str, int] = {
     "_native": CORE,
     "unwrap": CORE,
     "graycode": CORE,
+    "harmonics": CORE,
     "calibration": CORE,
     "reconstruct": CORE,
     "stereo": CORE,

@@ -36,6 +36,7 @@ from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.frames import Frame
 from hdrfringe.geometric_order import check_depth_range, family_geometric_order
+from hdrfringe.harmonics import harmonics_mode
 from hdrfringe.patterns import FringeSpec, same_fringes
 from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
@@ -621,6 +622,10 @@ class MeasurementMetrics:
         <hdrfringe.uncertainty.Uncertainty.summary>`: the noise model and its source, sigma_I
         used, median predicted std), or ``{"predicted": False, "reason": ...}``; None when not
         asked for (docs/uncertainty.md).
+    harmonics : dict or None
+        With harmonic compensation: ``mode`` and per set its estimated coefficients, RMS
+        correction and whether it was applied (:attr:`FolderPhase.harmonics
+        <hdrfringe.process.FolderPhase>`, docs/harmonics.md); None when off.
 
     References
     ----------
@@ -657,6 +662,7 @@ class MeasurementMetrics:
     regions: Mapping[str, Any] | None = None
     decoder: Mapping[str, Any] | None = None
     uncertainty: Mapping[str, Any] | None = None
+    harmonics: Mapping[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """``metrics.json``: the fields that apply, in a fixed order, JSON-safe.
@@ -709,6 +715,8 @@ class MeasurementMetrics:
             d["stereo"] = dict(self.stereo)
         if self.uncertainty is not None:
             d["uncertainty"] = dict(self.uncertainty)
+        if self.harmonics is not None:
+            d["harmonics"] = dict(self.harmonics)
         d["skipped"] = list(self.skipped)
         d["notes"] = list(self.notes)
         return _json_safe(d)
@@ -943,20 +951,16 @@ def _measure_captures(
     min_shifts: int | None = None,
     given_phases: Mapping[str, F64] | None = None,
     depth_range_mm: tuple[float, float] | None = None,
+    harmonics: str | int = "off",
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
     calibration, height and its errors (or the triangulated points). Returns the metrics
     fields."""
-    if min_shifts is None:
-        decoded = decode_captures(
-            caps, reject_saturated=reject_saturated, given_phases=given_phases
-        )
-    else:
-        decoded = decode_captures(
-            caps, saturated="exclude", min_shifts=min_shifts, given_phases=given_phases
-        )
+    decoded = _decode_for_measurement(caps, reject_saturated, min_shifts, given_phases, harmonics)
     fam = decoded.primary
     fields: dict[str, Any] = {}
+    if decoded.harmonics is not None:
+        fields["harmonics"] = decoded.harmonics
     if min_shifts is not None:
         fields["decoder"] = _decoder_summary(decoded, min_shifts)
     sat = np.zeros(caps.image_shape, bool)
@@ -1010,6 +1014,26 @@ def _measure_captures(
     errors.pop("valid_fraction", None)
     fields.update(errors)
     return decoded, height, fields, None
+
+
+def _decode_for_measurement(
+    caps: Captures,
+    reject_saturated: bool,
+    min_shifts: int | None,
+    given_phases: Mapping[str, F64] | None,
+    harmonics: str | int,
+) -> FolderPhase:
+    """:func:`decode_captures` as a measurement asks for it: saturation-tolerant with
+    ``min_shifts``; ``harmonics`` only when not ``off`` (the decode is otherwise the same call
+    as before harmonic compensation existed)."""
+    extra: dict[str, Any] = {} if harmonics == "off" else {"harmonics": harmonics}
+    if min_shifts is None:
+        return decode_captures(
+            caps, reject_saturated=reject_saturated, given_phases=given_phases, **extra
+        )
+    return decode_captures(
+        caps, saturated="exclude", min_shifts=min_shifts, given_phases=given_phases, **extra
+    )
 
 
 def _decoder_summary(decoded: FolderPhase, min_shifts: int) -> dict[str, Any]:
@@ -1085,6 +1109,7 @@ def measure(
     uncertainty: bool = True,
     noise: NoiseModel | float | None = None,
     depth_range_mm: tuple[float, float] | None = None,
+    harmonics: str | int = "off",
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -1146,6 +1171,10 @@ def measure(
         and this range (:func:`hdrfringe.geometric_order.family_geometric_order`; pixels where
         the range admits no order or several are invalid); ``metrics.stereo.fringe_order``
         records how each direction was ordered. A single pitch then suffices.
+    harmonics : {"off", "auto"} or int
+        Fringe-harmonic compensation of the decoded phases
+        (:func:`hdrfringe.process.decode_captures`, docs/harmonics.md); ``metrics.harmonics``
+        records the estimates. Not with a saturation-tolerant strategy.
 
     Returns
     -------
@@ -1188,6 +1217,7 @@ def measure(
                 "a depth range fixes the fringe order with a stereo calibration; give one "
                 "(measure -c STEREO.h5) or drop the depth range (--depth-range)"
             )
+    harmonics_mode(harmonics)  # a bad value is refused before anything is captured
     sources = dict(param_sources or {})
     description: RigDescription | None = None
     p: Any = None
@@ -1257,6 +1287,7 @@ def measure(
         min_shifts=min(tolerant) if tolerant else None,
         given_phases=strategy_absolute_phases(results),
         depth_range_mm=depth_range_mm,
+        harmonics=harmonics,
     )
     dpa = None
     if method == "dpa":

@@ -46,6 +46,7 @@ from hdrfringe._validation import SATURATED_MODES, check_min_modulation, full_sc
 from hdrfringe.captures import Captures, FringeSet, GrayCodeSet
 from hdrfringe.errors import InputError
 from hdrfringe.graycode import GrayCodeDecode, absolute_phase_graycode, decode_graycode
+from hdrfringe.harmonics import compensate_sets, harmonics_mode
 from hdrfringe.phase import PhaseResult, decode_set
 from hdrfringe.saturation_tolerant import decode_set_tolerant
 from hdrfringe.unwrap import (
@@ -172,6 +173,10 @@ class FolderPhase:
     inverted_sets : dict of str to str
         With ``saturated="exclude"``: set label -> label of its inverted set, decoded with
         it (the inverted sets are not in :attr:`sets`).
+    harmonics : dict or None
+        With harmonic compensation (``decode_captures(harmonics=...)`` not ``off``): ``mode``
+        and per set label its estimate and whether it was ``applied``
+        (:func:`hdrfringe.harmonics.compensate_sets`); None without.
 
     Attributes
     ----------
@@ -200,6 +205,7 @@ class FolderPhase:
     notes: list[str] = field(default_factory=list)
     saturated: str = "flag"
     inverted_sets: dict[str, str] = field(default_factory=dict)
+    harmonics: dict[str, Any] | None = None
 
     @property
     def primary(self) -> FamilyResult | None:
@@ -271,6 +277,7 @@ def decode_captures(
     min_shifts: int = 3,
     given_phases: Mapping[str, NDArray[np.float64]] | None = None,
     map_dtype: str = "float64",
+    harmonics: str | int = "off",
 ) -> FolderPhase:
     """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
@@ -302,6 +309,13 @@ def decode_captures(
         :func:`hdrfringe.phase.decode_set`: computed in float64, float32 rounds the stored
         maps, halving their memory). The unwrapped and absolute phases are float64 either way,
         computed from the stored wrapped phases.
+    harmonics : {"off", "auto"} or int
+        Fringe-harmonic compensation (docs/harmonics.md, :mod:`hdrfringe.harmonics`): ``off``
+        (default) decodes as always; ``auto`` estimates each sinusoidal set's harmonic phase
+        error from its own wrapped phase and removes it where it is significant; a number K
+        removes K orders whatever their size. It acts on the wrapped phases before any
+        unwrapping; :attr:`FolderPhase.harmonics` records what was estimated and applied.
+        Only with ``saturated="flag"``.
 
     Returns
     -------
@@ -344,6 +358,11 @@ def decode_captures(
             f"map_dtype {map_dtype} applies to saturated='flag'; leave map_dtype at float64 "
             "with saturated='exclude'"
         )
+    if harmonics_mode(harmonics)[0] != "off" and saturated != "flag":
+        raise InputError(
+            "harmonic compensation needs every shift in each pixel's phase; it does not apply "
+            "to saturated='exclude' (drop one of them)"
+        )
     if saturated == "exclude":
         out = _decode_excluding(captures, min_modulation, min_shifts)
         results = out.set_results
@@ -359,6 +378,8 @@ def decode_captures(
                 dtype=np.dtype(map_dtype),
             )
         out = FolderPhase(set_results=results, sets=list(captures.sets))
+    _compensate_harmonics(out, harmonics)
+    results = out.set_results  # the families unwrap the compensated phases
     if not captures.sets:
         out.notes.append("no fringe sets: nothing to decode")
         return out
@@ -473,6 +494,14 @@ def decode_captures(
             )
         )
     return out
+
+
+def _compensate_harmonics(out: FolderPhase, harmonics: str | int) -> None:
+    """Replace the sets' wrapped phases by their harmonic-compensated ones (not with ``off``:
+    the decode stays bit for bit what it was) and record the estimates."""
+    if harmonics_mode(harmonics)[0] == "off":
+        return
+    out.set_results, out.harmonics = compensate_sets(out.sets, out.set_results, harmonics)
 
 
 # --- saturated="exclude": the saturation-tolerant decoder (docs/tolerant.md) -----------------

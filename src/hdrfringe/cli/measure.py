@@ -9,6 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors, progress_bar
+from hdrfringe.cli._harmonics import HarmonicsOpt, check_harmonics, print_harmonics
 from hdrfringe.cli._measure_options import (
     CalibrationOpt,
     ForceOpt,
@@ -144,6 +145,7 @@ def measure(
     ] = True,
     uncertainty: UncertaintyOpt = True,
     noise_sigma: NoiseSigmaOpt = None,
+    harmonics: HarmonicsOpt = "off",
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -172,6 +174,7 @@ def measure(
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     zrange = _depth_range(depth_range, calibration)
+    check_harmonics(harmonics, "--method tolerant" if method == "tolerant" else None)
     if live and method is None:
         method = "conventional"
     params, sources = strategy_params(ctx, method, strategy_options)
@@ -211,6 +214,8 @@ def measure(
         "depth_range_mm": zrange,
         "reject_saturated": not keep_saturated,
     }
+    if harmonics != "off":
+        kwargs["harmonics"] = harmonics
     if noise_sigma is not None:
         from hdrfringe.uncertainty import NoiseModel
 
@@ -339,6 +344,7 @@ def print_summary(result: Any, output: Path) -> None:
         if "triangulation_residual_mm" in st:
             line += f", ray-ray residual median {st['triangulation_residual_mm']['median']:.3f} mm"
         console.print(line)
+    print_harmonics(m.harmonics)
     if m.uncertainty is not None:
         from hdrfringe.uncertainty import describe_uncertainty
 

@@ -70,9 +70,19 @@ def phase(
             "TIFFs are float32 either way; docs/phase.md).",
         ),
     ] = "float64",
+    harmonics: Annotated[
+        str,
+        typer.Option(
+            help="Fringe-harmonic (projector nonlinearity) compensation: off (default); auto: "
+            "estimate each sinusoidal set's harmonic phase error from its own wrapped phase "
+            "and remove it where it is significant; a number K (1..8): remove K orders "
+            "whatever their size (docs/harmonics.md).",
+        ),
+    ] = "off",
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe._validation import SATURATED_MODES, describe_saturated
+    from hdrfringe.cli._harmonics import check_harmonics, print_harmonics
     from hdrfringe.errors import CaptureFormatError, InputError
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.results import (
@@ -100,6 +110,7 @@ def phase(
         raise InputError("--map-dtype float32 applies to --saturated flag; drop one of them")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
+    check_harmonics(harmonics, "--saturated exclude" if saturated == "exclude" else None)
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
     captures = read_capture_folder(folder)
@@ -118,6 +129,7 @@ def phase(
             min_modulation=min_modulation,
             reject_saturated=not keep_saturated,
             map_dtype=map_dtype,
+            harmonics=harmonics,
         )
     else:
         decoded = decode_captures(
@@ -148,6 +160,7 @@ def phase(
             f"set {s['label']}: valid {100 * s['valid_fraction']:.1f} %, "
             f"saturated {describe_saturated(n_saturated, n_pixels)}"
         )
+    print_harmonics(summary.get("harmonics"))
     for fam in summary["families"]:
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""
         console.print(f"{fam['orientation']}: unwrapped by {fam['unwrapping']}{extra}")

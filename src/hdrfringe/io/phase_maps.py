@@ -170,6 +170,8 @@ def write_phase_maps(
         ``inverted_set`` (the label of the inverted set decoded with it, if any); every set
         also gets ``shifts_used.tiff`` (float32, the images each pixel's fit used) and its
         preview.
+        Decoded with harmonic compensation (docs/harmonics.md): ``harmonics``, the mode and
+        per set its estimate and whether it was applied.
 
     References
     ----------
@@ -290,6 +292,8 @@ def write_phase_maps(
     }
     if uncertainty is not None:
         summary["uncertainty"] = uncertainty.summary()
+    if decoded.harmonics is not None:  # absent when off: today's summary, byte for byte
+        summary["harmonics"] = decoded.harmonics
     summary["files"] = sorted(files)
     (out / "phase_summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     return summary
