@@ -40,7 +40,15 @@ from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.replay import ReplayRig
-from hdrfringe.stereo import StereoCalibration, StereoMaps, projector_coordinate, triangulate_maps
+from hdrfringe.stereo import (
+    DirectionCheck,
+    StereoCalibration,
+    StereoMaps,
+    check_directions,
+    coordinate_noise_px,
+    projector_coordinate,
+    triangulate_maps,
+)
 from hdrfringe.strategies import StrategyResult, get_strategy, make_params
 from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
 from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, Uncertainty, predict_uncertainty
@@ -889,6 +897,44 @@ def _triangulate(
     return dataclasses.replace(maps, quality=quality)
 
 
+def _triangulate_auto(
+    caps: Captures,
+    decoded: FolderPhase,
+    calibration: StereoCalibration,
+    noise: NoiseModel | float | None,
+) -> tuple[StereoMaps, DirectionCheck | None]:
+    """``stereo_directions="auto"``: with both projector coordinates, the ones that agree
+    (:func:`hdrfringe.stereo.check_directions`) with the phase noise predicted
+    (docs/uncertainty.md), else measured from the maps' roughness; the check (None with one
+    coordinate)."""
+    maps = _triangulate(caps, decoded, calibration, "auto")
+    if maps.directions != ("u", "v"):
+        return maps, None
+    coords: dict[str, tuple[F64, str]] = {}
+    for fam in decoded.families:
+        key = "u" if fam.orientation == "vertical" else "v"
+        if key not in coords and fam.absolute_phase is not None:
+            coords[key] = (projector_coordinate(fam.absolute_phase, fam.pitch_px), fam.orientation)
+    try:
+        given = noise if isinstance(noise, NoiseModel) or noise is None else NoiseModel(noise)
+        unc = predict_uncertainty(caps, decoded, noise=given, finest_only=True)
+    except NoiseUnknownError as exc:
+        sigma = {k: coordinate_noise_px(c) for k, (c, _) in coords.items()}
+        source = f"measured from the maps' pixel-to-pixel roughness ({exc})"
+    else:
+        pitch = {fam.orientation: fam.pitch_px for fam in decoded.families}
+        sigma = {
+            k: unc.family_phase_std[o] * (pitch[o] / (2 * np.pi)) for k, (_, o) in coords.items()
+        }
+        source = f"predicted (docs/uncertainty.md), noise {unc.noise.source}"
+    check = check_directions(
+        calibration, coords["u"][0], coords["v"][0], sigma["u"], sigma["v"], sigma_source=source
+    )
+    if check.directions != maps.directions:
+        maps = _triangulate(caps, decoded, calibration, check.directions[0])
+    return maps, check
+
+
 def _measure_captures(
     caps: Captures,
     calibration: Calibration | StereoCalibration | None,
@@ -897,6 +943,7 @@ def _measure_captures(
     stereo_directions: str = "auto",
     min_shifts: int | None = None,
     given_phases: Mapping[str, F64] | None = None,
+    noise: NoiseModel | float | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
     calibration, height and its errors (or the triangulated points). Returns the metrics
@@ -926,12 +973,18 @@ def _measure_captures(
         info = caps.projector
         projector = None if info is None else (int(info.width), int(info.height))
         _check_stereo_fits(calibration, caps.image_shape, calibration_source, projector)
-        maps = _triangulate(caps, decoded, calibration, stereo_directions)
+        check = None
+        if stereo_directions == "auto":
+            maps, check = _triangulate_auto(caps, decoded, calibration, noise)
+        else:
+            maps = _triangulate(caps, decoded, calibration, stereo_directions)
         fields["model"] = "stereo"
         fields["border_px"] = 0
         fields["valid_fraction"] = float(maps.valid.mean())
         fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat))
         fields["stereo"] = maps.summary()
+        if check is not None:
+            fields["stereo"]["direction_check"] = check.to_dict()
         return decoded, maps.height_mm, fields, maps
     phi, spec = _absolute_phase(caps, decoded)
     check_compatible(
@@ -1190,6 +1243,7 @@ def measure(
         stereo_directions,
         min_shifts=min(tolerant) if tolerant else None,
         given_phases=strategy_absolute_phases(results),
+        noise=noise,
     )
     dpa = None
     if method == "dpa":

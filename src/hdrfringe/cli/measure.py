@@ -297,6 +297,7 @@ def print_summary(result: Any, output: Path) -> None:
         if "triangulation_residual_mm" in st:
             line += f", ray-ray residual median {st['triangulation_residual_mm']['median']:.3f} mm"
         console.print(line)
+        _print_direction_check(st.get("direction_check"))
     if m.uncertainty is not None:
         from hdrfringe.uncertainty import describe_uncertainty
 
@@ -306,3 +307,14 @@ def print_summary(result: Any, output: Path) -> None:
     for note in m.notes:
         console.print(f"note: {note}")
     console.print(f"wrote {output}")
+
+
+def _print_direction_check(check: dict[str, Any] | None) -> None:
+    """The one line of ``--stereo-directions auto``: which directions and why; a warning when
+    the calibration is suspect."""
+    if check is None:
+        return
+    if check["verdict"] == "suspect":
+        console.print(f"warning: {check['reason']}", soft_wrap=True)
+    else:
+        console.print(f"stereo directions auto: {check['reason']}", soft_wrap=True)
