@@ -34,7 +34,7 @@ from hdrfringe.calibration import Calibration, CalibrationMismatchError, check_c
 from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import Frame
+from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
 from hdrfringe.patterns import FringeSpec, same_fringes
 from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
@@ -279,6 +279,7 @@ def composite_captures(
     *,
     centerline: Frame | None = None,
     description: RigDescription | None = None,
+    extra_frames: Sequence[Frame] = (),
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
     """Run a strategy for every set in ``specs`` on ``rig`` and assemble the composites.
 
@@ -297,12 +298,16 @@ def composite_captures(
         Captured once, after the sets.
     description : RigDescription, optional
         What the captures carry about the rig; default :func:`describe_rig`.
+    extra_frames : sequence of Frame
+        Captured once, after the centerline, as they are (a replayed folder's Gray code, its
+        other centerlines and uniform frames).
 
     Returns
     -------
     captures : Captures
         Each set labelled at its highest MIGL (a strategy that captured an inverted set,
-        ``details["inverted_images"]``, adds it after its set), then the centerline; with the
+        ``details["inverted_images"]``, adds it after its set), then the centerline and the
+        extra frames; with the
         scene, camera description, ground truth and name the rig offers (:func:`describe_rig`).
     results : tuple of StrategyResult
         One per spec.
@@ -347,6 +352,9 @@ def composite_captures(
     if centerline is not None:
         frames.append(centerline)
         images.append(rig.capture([centerline]))
+    if extra_frames:
+        frames += list(extra_frames)
+        images.append(rig.capture(list(extra_frames)))
     dtype = np.result_type(*[i.dtype for i in images])
     stack = np.concatenate([i.astype(dtype, copy=False) for i in images])
     out = Captures(
@@ -1039,17 +1047,14 @@ def _replay(
     centerline: Frame | None,
     calibration_source: str | None,
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
-    """A strategy on a :class:`ReplayRig` over a MIGL sweep: the primary family's pitches at
-    the top MIGL (or ``specs``), with its first centerline of that orientation."""
+    """A strategy on a :class:`ReplayRig` over a MIGL sweep: every family's pitches at the top
+    MIGL (or ``specs``), then the folder's other frames (:func:`_replay_frames`)."""
     if not captures.sets:
         raise CaptureFormatError(f"{captures.name}: no fringe sets to run a strategy on")
-    family = group_families(captures.sets)[0]
+    families = group_families(captures.sets)
     if specs is None:
-        specs = [s.spec for s in family]
-    if centerline is None:
-        orientation = family[0].spec.orientation
-        lines = [f for f, _ in captures.centerlines() if f.orientation == orientation]
-        centerline = lines[0] if lines else None
+        specs = [s.spec for fam in families for s in fam]
+    extra = _replay_frames(captures, {s.orientation for s in specs}, centerline is None)
     if calibration is not None:  # refused before the strategy runs
         finest = min(specs, key=lambda s: s.pitch_px)
         _check_fits(
@@ -1062,7 +1067,22 @@ def _replay(
     rig = ReplayRig(captures)
     if method == "uniform" and params.migl is None and params.candidates is None:
         params = dataclasses.replace(params, candidates=rig.available_migls())
-    return composite_captures(rig, specs, method, params, centerline=centerline)
+    return composite_captures(rig, specs, method, params, centerline=centerline, extra_frames=extra)
+
+
+def _replay_frames(captures: Captures, orientations: set[str], centerlines: bool) -> list[Frame]:
+    """The frames a replay takes from the folder as they are, besides the strategy's sets:
+    every Gray code frame and uniform frame, and (``centerlines``) the first centerline of
+    each replayed orientation."""
+    keep: set[int] = {i for g in captures.graycode_sets() for i in g.frame_indices}
+    keep |= {i for i, f in enumerate(captures.frames) if isinstance(f, UniformFrame)}
+    if centerlines:
+        seen: set[str] = set()
+        for i, f in enumerate(captures.frames):
+            if isinstance(f, CenterlineFrame) and f.orientation in orientations - seen:
+                seen.add(f.orientation)
+                keep.add(i)
+    return [captures.frames[i] for i in sorted(keep)]
 
 
 def _correction_label(params: Any, sources: Mapping[str, str]) -> str:
@@ -1086,6 +1106,8 @@ def measure(
     stereo_directions: str = "auto",
     uncertainty: bool = True,
     noise: NoiseModel | float | None = None,
+    saturated: str = "flag",
+    min_shifts: int = 3,
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -1140,6 +1162,13 @@ def measure(
         The camera noise for the prediction (a float: one sigma in DN). Default: the capture
         manifest's, else estimated from the sets with 4 or more shifts; when neither exists
         nothing is predicted and ``metrics.uncertainty`` says why.
+    saturated : {"flag", "exclude"}
+        As ``phase --saturated``: ``"flag"`` marks a pixel with a saturated shift (invalid
+        when ``reject_saturated``); ``"exclude"`` fits its phase from the unsaturated shifts,
+        at least ``min_shifts`` of them (the saturation-tolerant decoder; a ``tolerant``
+        strategy asks for it by itself).
+    min_shifts : int
+        With ``saturated="exclude"``: the least unsaturated shifts per pixel.
 
     Returns
     -------
@@ -1170,6 +1199,7 @@ def measure(
     >>> res.metrics.strategy.method, res.metrics.strategy.values[:2]
     ('lpa', (255.0, 235.0))
     """
+    _check_saturated(saturated, reject_saturated)
     if stereo_directions not in _STEREO_DIRECTIONS:
         raise InputError(
             f"stereo_directions {stereo_directions!r} is unknown; give one of "
@@ -1233,15 +1263,13 @@ def measure(
             f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
             "folder with hdrfringe.io.captures.read_capture_folder"
         )
-    # A strategy that leaves saturation to the decoder (tolerant) asks for it in its details.
-    tolerant = [r.details["min_shifts"] for r in results if r.details.get("decoder") == "tolerant"]
     decoded, height, fields, stereo = _measure_captures(
         caps,
         calibration,
         reject_saturated,
         calibration_source,
         stereo_directions,
-        min_shifts=min(tolerant) if tolerant else None,
+        min_shifts=_decoder_min_shifts(results, saturated, min_shifts),
         given_phases=strategy_absolute_phases(results),
         noise=noise,
     )
@@ -1272,6 +1300,33 @@ def measure(
         **fields,
     )
     return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa, stereo, unc)
+
+
+def _check_saturated(saturated: str, reject_saturated: bool) -> None:
+    """``measure``'s saturation arguments, refused as ``phase`` refuses its options."""
+    from hdrfringe._validation import SATURATED_MODES
+
+    if saturated not in SATURATED_MODES:
+        raise InputError(
+            f"saturated {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
+        )
+    if saturated == "exclude" and not reject_saturated:
+        raise InputError(
+            "reject_saturated=False keeps the biased phase of saturated pixels, "
+            'saturated="exclude" leaves their saturated shifts out; give one of them'
+        )
+
+
+def _decoder_min_shifts(
+    results: Sequence[StrategyResult], saturated: str, min_shifts: int
+) -> int | None:
+    """The least unsaturated shifts of the saturation-tolerant decoder, or None (flagging):
+    ``saturated="exclude"``'s, else what a strategy that leaves saturation to the decoder
+    (tolerant) asks for in its details."""
+    if saturated == "exclude":
+        return int(min_shifts)
+    tolerant = [r.details["min_shifts"] for r in results if r.details.get("decoder") == "tolerant"]
+    return min(tolerant) if tolerant else None
 
 
 def _predict_uncertainty(

@@ -39,8 +39,14 @@ from hdrfringe.cli._options import (
     LiveStepsOpt,
     check_source,
 )
+from hdrfringe.cli._saturation_options import (
+    KeepSaturatedOpt,
+    SaturatedOpt,
+    decoder_min_shifts,
+)
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.cli.capture import (
+    CAPTURE_LOG,
     HwCameraOpt,
     HwDiscardOpt,
     HwExposureOpt,
@@ -51,10 +57,11 @@ from hdrfringe.cli.capture import (
     HwRigConfigOpt,
     HwSettleOpt,
     HwSyncOpt,
+    strategy_record,
 )
 from hdrfringe.errors import InputError
 
-__all__ = ["CAPTURES", "HARDWARE_OPTIONS", "measure", "print_summary"]
+__all__ = ["CAPTURES", "HARDWARE_OPTIONS", "logged_strategy", "measure", "print_summary"]
 
 #: The capture folder ``measure --rig hardware`` writes inside OUT.
 CAPTURES = "captures"
@@ -126,6 +133,8 @@ def measure(
     ] = True,
     uncertainty: UncertaintyOpt = True,
     noise_sigma: NoiseSigmaOpt = None,
+    keep_saturated: KeepSaturatedOpt = False,
+    saturated: SaturatedOpt = "flag",
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -153,9 +162,19 @@ def measure(
         raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
+    min_shifts = decoder_min_shifts(method, saturated, keep_saturated, strategy_options)
     if live and method is None:
         method = "conventional"
-    params, sources = strategy_params(ctx, method, strategy_options)
+    recorded = None
+    if folder is not None and not live:
+        given_method = method
+        method, recorded = logged_strategy(folder, method)
+        if recorded is not None and given_method is None:
+            console.print(
+                f"{folder}: captured with --method {method} ({CAPTURE_LOG}), replayed",
+                soft_wrap=True,
+            )
+    params, sources = strategy_params(ctx, method, strategy_options, recorded)
     inputs = [folder, calibration, *sources.values()]
     hardware: Any = None
     if rig == "hardware":
@@ -189,6 +208,9 @@ def measure(
         "calibration_source": None if calibration is None else str(calibration),
         "stereo_directions": stereo_directions,
         "uncertainty": uncertainty,
+        "reject_saturated": not keep_saturated,
+        "saturated": saturated,
+        "min_shifts": min_shifts,
     }
     if noise_sigma is not None:
         from hdrfringe.uncertainty import NoiseModel
@@ -198,9 +220,11 @@ def measure(
         assert method is not None
         hw_rig, hw_config = hardware
         fringes = (pattern, steps, pitch, imin, migl, centerline)
+        record = strategy_record(ctx, strategy_options)
         _measure_hardware(
-            hw_rig, hw_config, cal, output, force, method, fringes, kwargs, previews=previews
-        )
+            hw_rig, hw_config, cal, output, force, method, fringes, kwargs, previews=previews,
+            record=record,
+        )  # fmt: skip
         return
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
@@ -231,6 +255,7 @@ def _measure_hardware(
     fringes: tuple[Any, ...],
     kwargs: dict[str, Any],
     previews: bool = True,
+    record: dict[str, Any] | None = None,
 ) -> None:
     """``measure --rig hardware``: the strategy live as ``capture`` runs it, then the composite
     measured; OUT holds the measurement and the capture folder (staged together)."""
@@ -247,7 +272,7 @@ def _measure_hardware(
         result = pipeline.measure(
             recorder, cal, specs=specs, centerline=line, label=label, **kwargs
         )
-    caps, state, log = live_record(recorder, rig, config, method, CAPTURES)
+    caps, state, log = live_record(recorder, rig, config, method, CAPTURES, entries=record)
 
     def captures(tmp: Path) -> None:
         write_capture_output(tmp / CAPTURES, caps, state, log)
@@ -318,3 +343,48 @@ def _print_direction_check(check: dict[str, Any] | None) -> None:
         console.print(f"warning: {check['reason']}", soft_wrap=True)
     else:
         console.print(f"stereo directions auto: {check['reason']}", soft_wrap=True)
+
+
+def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[str, Any] | None]:
+    """The strategy a folder written by ``capture`` was captured with (its ``capture_log.json``).
+
+    Parameters
+    ----------
+    folder : Path
+        The capture folder measured.
+    method : str or None
+        ``--method`` as given.
+
+    Returns
+    -------
+    method : str or None
+        The logged method (``method`` when the folder has no log or the log none).
+    recorded : dict or None
+        The logged strategy options by option name (``strategy_options``), None without a log.
+
+    Raises
+    ------
+    InputError
+        A ``--method`` other than the logged one, or an unreadable log.
+    """
+    import json
+
+    path = Path(folder) / CAPTURE_LOG
+    if not path.is_file():
+        return method, None
+    try:
+        log = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{path}: not a readable capture log ({exc}); fix or remove it") from None
+    logged = log.get("method") if isinstance(log, dict) else None
+    if not isinstance(logged, str):
+        return method, None
+    if method is not None and method != logged:
+        raise InputError(
+            f"{folder} was captured with --method {logged} ({CAPTURE_LOG}), not {method}; "
+            f"drop --method or give --method {logged}"
+        )
+    options = log.get("strategy_options") or {}
+    if not isinstance(options, dict):
+        raise InputError(f"{path}: strategy_options is not a mapping; fix or remove it")
+    return logged, options

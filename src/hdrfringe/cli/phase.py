@@ -10,6 +10,12 @@ from typing import Annotated
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors
+from hdrfringe.cli._saturation_options import (
+    KeepSaturatedOpt,
+    MinShiftsOpt,
+    SaturatedOpt,
+    check_saturation_options,
+)
 
 __all__ = ["phase"]
 
@@ -22,21 +28,9 @@ def phase(
     min_modulation: Annotated[
         float | None, typer.Option(help="Minimum intensity modulation I' in DN for a valid pixel.")
     ] = None,
-    keep_saturated: Annotated[
-        bool, typer.Option(help="Keep the (biased) phase of pixels with saturated shifts.")
-    ] = False,
-    saturated: Annotated[
-        str,
-        typer.Option(
-            help="flag: a pixel with a saturated shift is flagged (invalid unless "
-            "--keep-saturated); exclude: its saturated shifts are left out and the phase is "
-            "fitted from the others (at least --min-shifts; an inverted set in the folder "
-            "joins its set), and shifts_used maps are written.",
-        ),
-    ] = "flag",
-    min_shifts: Annotated[
-        int, typer.Option(help="With --saturated exclude: least unsaturated shifts per pixel.")
-    ] = 3,
+    keep_saturated: KeepSaturatedOpt = False,
+    saturated: SaturatedOpt = "flag",
+    min_shifts: MinShiftsOpt = 3,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
     previews: Annotated[
         bool,
@@ -72,7 +66,7 @@ def phase(
     ] = "float64",
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
-    from hdrfringe._validation import SATURATED_MODES, describe_saturated
+    from hdrfringe._validation import describe_saturated
     from hdrfringe.errors import CaptureFormatError, InputError
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.results import (
@@ -81,17 +75,7 @@ def phase(
         staged_output_dir,
     )
 
-    if saturated not in SATURATED_MODES:
-        raise InputError(
-            f"--saturated {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
-        )
-    if saturated == "exclude" and keep_saturated:
-        raise InputError(
-            "--keep-saturated keeps the biased phase of saturated pixels, --saturated exclude "
-            "leaves their saturated shifts out; give one of them"
-        )
-    if saturated == "flag" and min_shifts != 3:
-        raise InputError("--min-shifts applies to --saturated exclude; add it or drop --min-shifts")
+    check_saturation_options(keep_saturated, saturated, min_shifts)
     if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
         raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
     if map_dtype not in ("float64", "float32"):
