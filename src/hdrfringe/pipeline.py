@@ -1150,7 +1150,10 @@ def measure(
         metrics record it).
     stereo_directions : {"auto", "u", "v"}
         With a stereo calibration: ``"auto"`` triangulates with every orientation that has an
-        absolute phase (ray against ray when both do); ``"u"`` (vertical fringes) or ``"v"``
+        absolute phase (ray against ray when both do), unless the two disagree far beyond the
+        phase noise (:func:`hdrfringe.stereo.check_directions`): then with the one that
+        explains the disagreement, or with both and the calibration named as suspect
+        (``metrics.stereo.direction_check``); ``"u"`` (vertical fringes) or ``"v"``
         (horizontal fringes) uses that projector coordinate alone, against the projector's
         column or row surface: the direction that carries the depth when the other one's
         convention is unknown (docs/stereo.md, kimthyung). Ignored without a stereo

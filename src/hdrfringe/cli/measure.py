@@ -39,11 +39,6 @@ from hdrfringe.cli._options import (
     LiveStepsOpt,
     check_source,
 )
-from hdrfringe.cli._saturation_options import (
-    KeepSaturatedOpt,
-    SaturatedOpt,
-    decoder_min_shifts,
-)
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.cli.capture import (
     CAPTURE_LOG,
@@ -59,6 +54,7 @@ from hdrfringe.cli.capture import (
     HwSyncOpt,
     strategy_record,
 )
+from hdrfringe.cli.phase import KeepSaturatedOpt, SaturatedOpt, decoder_min_shifts
 from hdrfringe.errors import InputError
 
 __all__ = ["CAPTURES", "HARDWARE_OPTIONS", "logged_strategy", "measure", "print_summary"]
@@ -119,8 +115,10 @@ def measure(
         typer.Option(
             "--stereo-directions",
             help="With a stereo calibration: auto (every fringe orientation with an absolute "
-            "phase; ray against ray with both), u (vertical fringes only) or v (horizontal "
-            "fringes only), e.g. the direction that carries the depth (docs/stereo.md).",
+            "phase, ray against ray with both, unless the two disagree far beyond the phase "
+            "noise: then the consistent one, printed with why), u (vertical fringes only) or v "
+            "(horizontal fringes only), e.g. the direction that carries the depth "
+            "(docs/stereo.md).",
         ),
     ] = "auto",
     previews: Annotated[
@@ -146,8 +144,9 @@ def measure(
     asks for. The composite images are then measured; OUT also gets the MIGL index map and pie
     chart, and for DPA the estimated-versus-actual CDF (dpa_cdf.png, thesis Fig. 6.3). With
     --rig hardware OUT also holds the capture folder (OUT/captures, with capture_log.json),
-    which `measure OUT/captures --method M` replays to the same result; Ctrl-C writes nothing
-    (exit 130): use `capture` to keep the sets of an interrupted run.
+    which `measure OUT/captures` replays to the same result (a folder written by `capture`
+    is replayed with the method and strategy options its capture_log.json records); Ctrl-C
+    writes nothing (exit 130): use `capture` to keep the sets of an interrupted run.
     """
     import json
 
