@@ -923,6 +923,7 @@ def _triangulate_auto(
         key = "u" if fam.orientation == "vertical" else "v"
         if key not in coords and fam.absolute_phase is not None:
             coords[key] = (projector_coordinate(fam.absolute_phase, fam.pitch_px), fam.orientation)
+    sigma: dict[str, F64 | float]
     try:
         given = noise if isinstance(noise, NoiseModel) or noise is None else NoiseModel(noise)
         unc = predict_uncertainty(caps, decoded, noise=given, finest_only=True)

@@ -1366,6 +1366,7 @@ def check_directions(
         f"rays miss by {miss_px:.3g} projector px, {miss_ratio:.3g}x the phase noise; u-only vs "
         "v-only " + (f"{apart_ratio:.3g}x" if enough else "not compared")
     )
+    kept: tuple[str, ...]
     if not far:
         verdict, kept = "consistent", ("u", "v")
         reason = f"u+v ({said})"
