@@ -45,8 +45,9 @@ def sweep():  # type: ignore[no-untyped-def]
 
 def test_replay_keeps_every_family_and_the_gray_code(sweep) -> None:  # type: ignore[no-untyped-def]
     """``--method tolerant`` on the sweep replays both orientations and takes the Gray code
-    along: both families are absolute by the Gray code and match the rig's projector columns
-    and rows. Before, the vertical family alone was replayed, without its Gray code."""
+    along (patterns and inverses): both families are absolute by the Gray code and match the
+    rig's projector columns and rows. Before, the vertical family alone was replayed, without
+    its Gray code."""
     from hdrfringe.pipeline import measure
 
     rig, caps = sweep
@@ -59,6 +60,7 @@ def test_replay_keeps_every_family_and_the_gray_code(sweep) -> None:  # type: ig
     for orient, coord in (("vertical", truth.u), ("horizontal", truth.v)):
         fam = fams[orient]
         assert fam.absolute_method is not None and "Gray code" in fam.absolute_method
+        assert "pattern/inverse pairs" in fam.method  # the inverses replayed too
         x = fam.absolute_phase * fam.pitch_px / (2 * np.pi)
         ok = np.isfinite(x) & truth.valid
         assert ok.mean() > 0.5

@@ -34,7 +34,7 @@ from hdrfringe.calibration import Calibration, CalibrationMismatchError, check_c
 from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
+from hdrfringe.frames import CenterlineFrame, Frame, GrayCodeFrame, UniformFrame
 from hdrfringe.patterns import FringeSpec, same_fringes
 from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
@@ -1075,8 +1075,9 @@ def _replay_frames(captures: Captures, orientations: set[str], centerlines: bool
     """The frames a replay takes from the folder as they are, besides the strategy's sets:
     every Gray code frame and uniform frame, and (``centerlines``) the first centerline of
     each replayed orientation."""
-    keep: set[int] = {i for g in captures.graycode_sets() for i in g.frame_indices}
-    keep |= {i for i, f in enumerate(captures.frames) if isinstance(f, UniformFrame)}
+    keep = {
+        i for i, f in enumerate(captures.frames) if isinstance(f, GrayCodeFrame | UniformFrame)
+    }  # the Gray code's patterns and inverses, white and black
     if centerlines:
         seen: set[str] = set()
         for i, f in enumerate(captures.frames):

@@ -1116,7 +1116,7 @@ class DirectionCheck(NamedTuple):
     verdict : str
         ``"consistent"`` (u+v kept), ``"u dropped"``, ``"v dropped"``, ``"suspect"`` (far
         above the noise and neither direction explains it alone: u+v kept, the calibration
-        named as suspect) or ``"unchecked"`` (too few pixels).
+        named as suspect) or ``"unchecked"`` (too few pixels, or no pair of rays to compare).
     n_pixels : int
         Pixels checked.
     sigma_px : dict
@@ -1367,7 +1367,10 @@ def check_directions(
         "v-only " + (f"{apart_ratio:.3g}x" if enough else "not compared")
     )
     kept: tuple[str, ...]
-    if not far:
+    if not np.isfinite(miss_ratio):
+        verdict, kept = "unchecked", ("u", "v")
+        reason = "u+v (no pixel's rays could be compared)"
+    elif not far:
         verdict, kept = "consistent", ("u", "v")
         reason = f"u+v ({said})"
     else:
