@@ -307,8 +307,8 @@ def composite_captures(
     captures : Captures
         Each set labelled at its highest MIGL (a strategy that captured an inverted set,
         ``details["inverted_images"]``, adds it after its set), then the centerline and the
-        extra frames; with the
-        scene, camera description, ground truth and name the rig offers (:func:`describe_rig`).
+        extra frames; with the scene, camera description, ground truth and name the rig offers
+        (:func:`describe_rig`).
     results : tuple of StrategyResult
         One per spec.
 

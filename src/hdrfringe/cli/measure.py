@@ -161,18 +161,15 @@ def measure(
         raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
-    min_shifts = decoder_min_shifts(method, saturated, keep_saturated, strategy_options)
     if live and method is None:
         method = "conventional"
-    recorded = None
+    recorded, replayed = None, ""
     if folder is not None and not live:
         given_method = method
         method, recorded = logged_strategy(folder, method)
         if recorded is not None and given_method is None:
-            console.print(
-                f"{folder}: captured with --method {method} ({CAPTURE_LOG}), replayed",
-                soft_wrap=True,
-            )
+            replayed = f"{folder}: captured with --method {method} ({CAPTURE_LOG}), replayed"
+    min_shifts = decoder_min_shifts(method, saturated, keep_saturated, strategy_options)
     params, sources = strategy_params(ctx, method, strategy_options, recorded)
     inputs = [folder, calibration, *sources.values()]
     hardware: Any = None
@@ -187,6 +184,8 @@ def measure(
         inputs += [rig_config, hardware[1].gamma_file]
     check_output_against_inputs(output, inputs)
     output = check_output_dir(output, force)
+    if replayed:
+        console.print(replayed, soft_wrap=True)
     # imported once the options are known good: a refused command does not pay for the
     # pipeline's imports (the decoders, unwrapping, calibration, HDF5, the writers)
     from hdrfringe import pipeline
