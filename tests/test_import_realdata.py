@@ -39,12 +39,15 @@ def wrapped_diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def import_and_phase(name: str, images: Path, tmp_path: Path) -> tuple[dict, Path, Path]:
-    """``hdrfringe import`` (one call, the kept description), then ``hdrfringe phase``."""
+    """``hdrfringe import`` (one call, the kept description), then the ``next:`` command it
+    printed, which must be ``hdrfringe phase`` (tests/test_next_hints.py)."""
+    from tests.test_next_hints import run_hint
+
     caps, out = tmp_path / "caps", tmp_path / "phase"
     res = run_cli("import", str(images), "-d", str(EXAMPLES / f"{name}.toml"), "-o", str(caps))
     assert res.returncode == 0, res.stderr
-    res = run_cli("phase", str(caps), "-o", str(out), timeout=600)
-    assert res.returncode == 0, res.stderr
+    command, res = run_hint(res.stdout, out)
+    assert command == "phase" and res.returncode == 0, res.stderr
     return json.loads((out / "phase_summary.json").read_text()), caps, out
 
 
@@ -162,6 +165,10 @@ def test_kamino410_gamma(tmp_path: Path) -> None:
         "import", str(root), "-d", str(EXAMPLES / "kamino410_gamma.toml"), "-o", str(caps)
     )
     assert res.returncode == 0, res.stderr
+    from tests.test_next_hints import run_hint
+
+    command, ran = run_hint(res.stdout, tmp_path / "gamma")  # not phase: it refuses the sets
+    assert command == "gamma" and ran.returncode == 0, ran.stderr
     frames = []
     sets = ((0, "vertical", 0.75), (3, "vertical", 1.25), (6, "horizontal", 0.75))
     for base, o, gamma in (*sets, (9, "horizontal", 1.25)):

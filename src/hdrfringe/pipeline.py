@@ -34,7 +34,7 @@ from hdrfringe.calibration import Calibration, CalibrationMismatchError, check_c
 from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import Frame
+from hdrfringe.frames import CenterlineFrame, Frame, GrayCodeFrame, UniformFrame
 from hdrfringe.geometric_order import check_depth_range, family_geometric_order
 from hdrfringe.harmonics import harmonics_mode
 from hdrfringe.patterns import FringeSpec, same_fringes
@@ -42,7 +42,15 @@ from hdrfringe.process import FolderPhase, decode_captures, group_families
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.replay import ReplayRig
-from hdrfringe.stereo import StereoCalibration, StereoMaps, projector_coordinate, triangulate_maps
+from hdrfringe.stereo import (
+    DirectionCheck,
+    StereoCalibration,
+    StereoMaps,
+    check_directions,
+    coordinate_noise_px,
+    projector_coordinate,
+    triangulate_maps,
+)
 from hdrfringe.strategies import StrategyResult, get_strategy, make_params
 from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
 from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, Uncertainty, predict_uncertainty
@@ -273,6 +281,7 @@ def composite_captures(
     *,
     centerline: Frame | None = None,
     description: RigDescription | None = None,
+    extra_frames: Sequence[Frame] = (),
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
     """Run a strategy for every set in ``specs`` on ``rig`` and assemble the composites.
 
@@ -291,13 +300,17 @@ def composite_captures(
         Captured once, after the sets.
     description : RigDescription, optional
         What the captures carry about the rig; default :func:`describe_rig`.
+    extra_frames : sequence of Frame
+        Captured once, after the centerline, as they are (a replayed folder's Gray code, its
+        other centerlines and uniform frames).
 
     Returns
     -------
     captures : Captures
         Each set labelled at its highest MIGL (a strategy that captured an inverted set,
-        ``details["inverted_images"]``, adds it after its set), then the centerline; with the
-        scene, camera description, ground truth and name the rig offers (:func:`describe_rig`).
+        ``details["inverted_images"]``, adds it after its set), then the centerline and the
+        extra frames; with the scene, camera description, ground truth and name the rig offers
+        (:func:`describe_rig`).
     results : tuple of StrategyResult
         One per spec.
 
@@ -341,6 +354,9 @@ def composite_captures(
     if centerline is not None:
         frames.append(centerline)
         images.append(rig.capture([centerline]))
+    if extra_frames:
+        frames += list(extra_frames)
+        images.append(rig.capture(list(extra_frames)))
     dtype = np.result_type(*[i.dtype for i in images])
     stack = np.concatenate([i.astype(dtype, copy=False) for i in images])
     out = Captures(
@@ -942,6 +958,45 @@ def _geometric_orders(
     return dataclasses.replace(decoded, families=families, notes=notes), block
 
 
+def _triangulate_auto(
+    caps: Captures,
+    decoded: FolderPhase,
+    calibration: StereoCalibration,
+    noise: NoiseModel | float | None,
+) -> tuple[StereoMaps, DirectionCheck | None]:
+    """``stereo_directions="auto"``: with both projector coordinates, the ones that agree
+    (:func:`hdrfringe.stereo.check_directions`) with the phase noise predicted
+    (docs/uncertainty.md), else measured from the maps' roughness; the check (None with one
+    coordinate)."""
+    maps = _triangulate(caps, decoded, calibration, "auto")
+    if maps.directions != ("u", "v"):
+        return maps, None
+    coords: dict[str, tuple[F64, str]] = {}
+    for fam in decoded.families:
+        key = "u" if fam.orientation == "vertical" else "v"
+        if key not in coords and fam.absolute_phase is not None:
+            coords[key] = (projector_coordinate(fam.absolute_phase, fam.pitch_px), fam.orientation)
+    sigma: dict[str, F64 | float]
+    try:
+        given = noise if isinstance(noise, NoiseModel) or noise is None else NoiseModel(noise)
+        unc = predict_uncertainty(caps, decoded, noise=given, finest_only=True)
+    except NoiseUnknownError as exc:
+        sigma = {k: coordinate_noise_px(c) for k, (c, _) in coords.items()}
+        source = f"measured from the maps' pixel-to-pixel roughness ({exc})"
+    else:
+        pitch = {fam.orientation: fam.pitch_px for fam in decoded.families}
+        sigma = {
+            k: unc.family_phase_std[o] * (pitch[o] / (2 * np.pi)) for k, (_, o) in coords.items()
+        }
+        source = f"predicted (docs/uncertainty.md), noise {unc.noise.source}"
+    check = check_directions(
+        calibration, coords["u"][0], coords["v"][0], sigma["u"], sigma["v"], sigma_source=source
+    )
+    if check.directions != maps.directions:
+        maps = _triangulate(caps, decoded, calibration, check.directions[0])
+    return maps, check
+
+
 def _measure_captures(
     caps: Captures,
     calibration: Calibration | StereoCalibration | None,
@@ -952,6 +1007,7 @@ def _measure_captures(
     given_phases: Mapping[str, F64] | None = None,
     depth_range_mm: tuple[float, float] | None = None,
     harmonics: str | int = "off",
+    noise: NoiseModel | float | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
     calibration, height and its errors (or the triangulated points). Returns the metrics
@@ -979,7 +1035,11 @@ def _measure_captures(
         decoded, orders = _geometric_orders(
             caps, decoded, calibration, depth_range_mm, stereo_directions
         )
-        maps = _triangulate(caps, decoded, calibration, stereo_directions)
+        check = None
+        if stereo_directions == "auto":
+            maps, check = _triangulate_auto(caps, decoded, calibration, noise)
+        else:
+            maps = _triangulate(caps, decoded, calibration, stereo_directions)
         fields["model"] = "stereo"
         fields["border_px"] = 0
         fields["valid_fraction"] = float(maps.valid.mean())
@@ -987,6 +1047,8 @@ def _measure_captures(
         fields["stereo"] = maps.summary()
         if orders:
             fields["stereo"]["fringe_order"] = orders
+        if check is not None:
+            fields["stereo"]["direction_check"] = check.to_dict()
         return decoded, maps.height_mm, fields, maps
     phi, spec = _absolute_phase(caps, decoded)
     check_compatible(
@@ -1061,17 +1123,14 @@ def _replay(
     centerline: Frame | None,
     calibration_source: str | None,
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
-    """A strategy on a :class:`ReplayRig` over a MIGL sweep: the primary family's pitches at
-    the top MIGL (or ``specs``), with its first centerline of that orientation."""
+    """A strategy on a :class:`ReplayRig` over a MIGL sweep: every family's pitches at the top
+    MIGL (or ``specs``), then the folder's other frames (:func:`_replay_frames`)."""
     if not captures.sets:
         raise CaptureFormatError(f"{captures.name}: no fringe sets to run a strategy on")
-    family = group_families(captures.sets)[0]
+    families = group_families(captures.sets)
     if specs is None:
-        specs = [s.spec for s in family]
-    if centerline is None:
-        orientation = family[0].spec.orientation
-        lines = [f for f, _ in captures.centerlines() if f.orientation == orientation]
-        centerline = lines[0] if lines else None
+        specs = [s.spec for fam in families for s in fam]
+    extra = _replay_frames(captures, {s.orientation for s in specs}, centerline is None)
     if calibration is not None:  # refused before the strategy runs
         finest = min(specs, key=lambda s: s.pitch_px)
         _check_fits(
@@ -1084,7 +1143,23 @@ def _replay(
     rig = ReplayRig(captures)
     if method == "uniform" and params.migl is None and params.candidates is None:
         params = dataclasses.replace(params, candidates=rig.available_migls())
-    return composite_captures(rig, specs, method, params, centerline=centerline)
+    return composite_captures(rig, specs, method, params, centerline=centerline, extra_frames=extra)
+
+
+def _replay_frames(captures: Captures, orientations: set[str], centerlines: bool) -> list[Frame]:
+    """The frames a replay takes from the folder as they are, besides the strategy's sets:
+    every Gray code frame and uniform frame, and (``centerlines``) the first centerline of
+    each replayed orientation."""
+    keep = {
+        i for i, f in enumerate(captures.frames) if isinstance(f, GrayCodeFrame | UniformFrame)
+    }  # the Gray code's patterns and inverses, white and black
+    if centerlines:
+        seen: set[str] = set()
+        for i, f in enumerate(captures.frames):
+            if isinstance(f, CenterlineFrame) and f.orientation in orientations - seen:
+                seen.add(f.orientation)
+                keep.add(i)
+    return [captures.frames[i] for i in sorted(keep)]
 
 
 def _correction_label(params: Any, sources: Mapping[str, str]) -> str:
@@ -1110,6 +1185,8 @@ def measure(
     noise: NoiseModel | float | None = None,
     depth_range_mm: tuple[float, float] | None = None,
     harmonics: str | int = "off",
+    saturated: str = "flag",
+    min_shifts: int = 3,
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -1152,7 +1229,10 @@ def measure(
         metrics record it).
     stereo_directions : {"auto", "u", "v"}
         With a stereo calibration: ``"auto"`` triangulates with every orientation that has an
-        absolute phase (ray against ray when both do); ``"u"`` (vertical fringes) or ``"v"``
+        absolute phase (ray against ray when both do), unless the two disagree far beyond the
+        phase noise (:func:`hdrfringe.stereo.check_directions`): then with the one that
+        explains the disagreement, or with both and the calibration named as suspect
+        (``metrics.stereo.direction_check``); ``"u"`` (vertical fringes) or ``"v"``
         (horizontal fringes) uses that projector coordinate alone, against the projector's
         column or row surface: the direction that carries the depth when the other one's
         convention is unknown (docs/stereo.md, kimthyung). Ignored without a stereo
@@ -1175,6 +1255,13 @@ def measure(
         Fringe-harmonic compensation of the decoded phases
         (:func:`hdrfringe.process.decode_captures`, docs/harmonics.md); ``metrics.harmonics``
         records the estimates. Not with a saturation-tolerant strategy.
+    saturated : {"flag", "exclude"}
+        As ``phase --saturated``: ``"flag"`` marks a pixel with a saturated shift (invalid
+        when ``reject_saturated``); ``"exclude"`` fits its phase from the unsaturated shifts,
+        at least ``min_shifts`` of them (the saturation-tolerant decoder; a ``tolerant``
+        strategy asks for it by itself).
+    min_shifts : int
+        With ``saturated="exclude"``: the least unsaturated shifts per pixel.
 
     Returns
     -------
@@ -1205,6 +1292,7 @@ def measure(
     >>> res.metrics.strategy.method, res.metrics.strategy.values[:2]
     ('lpa', (255.0, 235.0))
     """
+    _check_saturated(saturated, reject_saturated)
     if stereo_directions not in _STEREO_DIRECTIONS:
         raise InputError(
             f"stereo_directions {stereo_directions!r} is unknown; give one of "
@@ -1276,18 +1364,17 @@ def measure(
             f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
             "folder with hdrfringe.io.captures.read_capture_folder"
         )
-    # A strategy that leaves saturation to the decoder (tolerant) asks for it in its details.
-    tolerant = [r.details["min_shifts"] for r in results if r.details.get("decoder") == "tolerant"]
     decoded, height, fields, stereo = _measure_captures(
         caps,
         calibration,
         reject_saturated,
         calibration_source,
         stereo_directions,
-        min_shifts=min(tolerant) if tolerant else None,
+        min_shifts=_decoder_min_shifts(results, saturated, min_shifts),
         given_phases=strategy_absolute_phases(results),
         depth_range_mm=depth_range_mm,
         harmonics=harmonics,
+        noise=noise,
     )
     dpa = None
     if method == "dpa":
@@ -1316,6 +1403,33 @@ def measure(
         **fields,
     )
     return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa, stereo, unc)
+
+
+def _check_saturated(saturated: str, reject_saturated: bool) -> None:
+    """``measure``'s saturation arguments, refused as ``phase`` refuses its options."""
+    from hdrfringe._validation import SATURATED_MODES
+
+    if saturated not in SATURATED_MODES:
+        raise InputError(
+            f"saturated {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
+        )
+    if saturated == "exclude" and not reject_saturated:
+        raise InputError(
+            "reject_saturated=False keeps the biased phase of saturated pixels, "
+            'saturated="exclude" leaves their saturated shifts out; give one of them'
+        )
+
+
+def _decoder_min_shifts(
+    results: Sequence[StrategyResult], saturated: str, min_shifts: int
+) -> int | None:
+    """The least unsaturated shifts of the saturation-tolerant decoder, or None (flagging):
+    ``saturated="exclude"``'s, else what a strategy that leaves saturation to the decoder
+    (tolerant) asks for in its details."""
+    if saturated == "exclude":
+        return int(min_shifts)
+    tolerant = [r.details["min_shifts"] for r in results if r.details.get("decoder") == "tolerant"]
+    return min(tolerant) if tolerant else None
 
 
 def _predict_uncertainty(

@@ -32,13 +32,20 @@ from numpy.typing import ArrayLike, NDArray
 from hdrfringe.errors import InputError
 
 __all__ = [
+    "DIRECTION_BLAME_RATIO",
+    "DIRECTION_CHECK_FACTOR",
+    "DIRECTION_SIGMA_FLOOR_PX",
     "DISTORTION_LENGTHS",
+    "DirectionCheck",
     "LensModel",
     "PlaneFit",
     "SphereFit",
     "StereoCalibration",
     "StereoMaps",
     "Triangulation",
+    "check_directions",
+    "coordinate_noise_px",
+    "fit_dominant_plane",
     "fit_plane",
     "fit_sphere",
     "projector_coordinate",
@@ -669,7 +676,13 @@ class PlaneFit(NamedTuple):
         return float(np.sqrt(np.mean(self.residuals[self.inliers] ** 2)))
 
 
-def fit_plane(xyz: ArrayLike, *, robust: bool = False, max_rounds: int = 10) -> PlaneFit:
+def fit_plane(
+    xyz: ArrayLike,
+    *,
+    robust: bool = False,
+    max_rounds: int = 10,
+    initial: ArrayLike | None = None,
+) -> PlaneFit:
     """Least-squares plane through points (orthogonal distances).
 
     Parameters
@@ -683,6 +696,9 @@ def fit_plane(xyz: ArrayLike, *, robust: bool = False, max_rounds: int = 10) -> 
         plane of the majority, e.g. the background around an object.
     max_rounds : int
         Refits at most, with ``robust``.
+    initial : array_like of bool, shape (...), optional
+        The points of the first fit (default: every finite point), e.g. the inliers of a
+        RANSAC hypothesis (:func:`fit_dominant_plane`); the robust refits start from there.
 
     Returns
     -------
@@ -711,6 +727,16 @@ def fit_plane(xyz: ArrayLike, *, robust: bool = False, max_rounds: int = 10) -> 
         raise InputError(f"max_rounds must be an integer >= 1, got {max_rounds}")
     pts, valid = _finite_points(xyz, "plane fit", 3)
     use = np.ones(pts.shape[0], dtype=bool)
+    if initial is not None:
+        start = np.asarray(initial, dtype=bool)
+        if start.shape != valid.shape:
+            raise InputError(
+                f"plane fit: initial mask of shape {start.shape} for points of shape "
+                f"{valid.shape}; give one flag per point"
+            )
+        use = start[valid]
+        if int(use.sum()) < 3:
+            raise InputError("plane fit: fewer than 3 finite points in the initial set")
     for _ in range(int(max_rounds) if robust else 1):
         centroid = pts[use].mean(axis=0)
         _, sing, vt = np.linalg.svd(pts[use] - centroid, full_matrices=False)
@@ -734,6 +760,93 @@ def fit_plane(xyz: ArrayLike, *, robust: bool = False, max_rounds: int = 10) -> 
     inliers = np.zeros(valid.shape, dtype=bool)
     inliers[valid] = use
     return PlaneFit(normal + 0.0, offset + 0.0, residuals, inliers)
+
+
+#: :func:`fit_dominant_plane`: random plane hypotheses, points scoring them, the quantile scored.
+RANSAC_HYPOTHESES = 500
+RANSAC_SAMPLE = 5000
+RANSAC_QUANTILE = 0.3
+
+
+def fit_dominant_plane(
+    xyz: ArrayLike,
+    *,
+    quantile: float = RANSAC_QUANTILE,
+    hypotheses: int = RANSAC_HYPOTHESES,
+    sample: int = RANSAC_SAMPLE,
+    seed: int = 0,
+) -> PlaneFit:
+    """The dominant plane of a point cloud: RANSAC, then the robust least-squares refits.
+
+    Parameters
+    ----------
+    xyz : array_like, shape (..., 3)
+        Points, mm; non-finite rows are ignored.
+    quantile : float
+        A hypothesis scores the ``quantile`` of its points' absolute distances (least
+        quantile of distances, LMedS at 0.5): the dominant plane must hold at least this
+        fraction of the finite points.
+    hypotheses : int
+        Planes through three random points tried.
+    sample : int
+        Points (a fixed random subset) that score the hypotheses.
+    seed : int
+        Seed of the random choices (the result is deterministic).
+
+    Returns
+    -------
+    PlaneFit
+        :func:`fit_plane` with ``robust=True``, started from the points of the best hypothesis
+        within its score (the closest ``quantile`` of them); ``inliers`` is the final set.
+
+    Notes
+    -----
+    A least-squares plane, even refitted on the points within 3 MADs of it, starts from every
+    point: when an object fills much of the view, the first plane runs through the object's
+    bulk, tilted, and the MAD band around it keeps everything. Scoring random 3-point planes
+    by a low quantile of the distances (Rousseeuw 1984, least median of squares; Fischler and
+    Bolles 1981, RANSAC) needs no distance threshold: only a plane that carries a
+    ``quantile`` of the points close to it scores low. The refits then grow the seed set to
+    the plane's 3-MAD band. Every hypothesis is scored at once (a ``hypotheses x sample``
+    distance matrix).
+
+    Examples
+    --------
+    A plane at 800 mm, a third of its points under a hemisphere of radius 70 mm:
+
+    >>> rng = np.random.default_rng(0)
+    >>> xy = rng.uniform(-100, 100, (4000, 2))
+    >>> z = 800 - np.sqrt(np.clip(70**2 - (xy**2).sum(axis=1), 0, None))
+    >>> fit = fit_dominant_plane(np.c_[xy, z])
+    >>> np.round(fit.normal, 9).tolist(), round(fit.offset, 9), round(fit.rms_mm, 9)
+    ([0.0, 0.0, -1.0], -800.0, 0.0)
+    """
+    q = float(quantile)
+    if not 0 < q <= 1:
+        raise InputError(f"quantile must be in (0, 1], got {quantile}")
+    for name, value in (("hypotheses", hypotheses), ("sample", sample)):
+        if int(value) != value or value < 1:
+            raise InputError(f"{name} must be an integer >= 1, got {value}")
+    pts, valid = _finite_points(xyz, "plane fit", 3)
+    rng = np.random.default_rng(seed)
+    centre = pts.mean(axis=0)
+    local = pts - centre  # conditioning
+    scoring = local[rng.choice(len(local), min(int(sample), len(local)), replace=False)]
+    tri = local[rng.integers(0, len(local), (int(hypotheses), 3))]
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    norm = np.linalg.norm(normals, axis=1)
+    ok = norm > 1e-9 * max(float(np.abs(local).max()), 1e-300) ** 2
+    if not ok.any():
+        raise InputError("plane fit: the points are collinear; no plane is defined")
+    normals, tri = normals[ok] / norm[ok, None], tri[ok]
+    offsets = np.einsum("ij,ij->i", normals, tri[:, 0])
+    dist = np.abs(scoring @ normals.T - offsets)  # (sample, hypotheses)
+    score = np.quantile(dist, q, axis=0)
+    best = int(np.argmin(score))
+    seed_set = np.abs(local @ normals[best] - offsets[best]) <= score[best]
+    initial = np.zeros(valid.shape, dtype=bool)
+    initial[valid] = seed_set
+    return fit_plane(xyz, robust=True, initial=initial)
 
 
 class SphereFit(NamedTuple):
@@ -836,8 +949,8 @@ class StereoMaps:
         Camera-ray to projector-ray distance where both projector coordinates were decoded;
         None when only one was.
     plane : PlaneFit or None
-        The reference plane: :func:`fit_plane` with ``robust=True`` over the valid points;
-        None with fewer than 3 valid points or collinear ones.
+        The reference plane: :func:`fit_dominant_plane` of the valid points; None with fewer
+        than 3 valid points or collinear ones.
     directions : tuple of str
         The projector coordinates used: ``("u",)``, ``("v",)`` or ``("u", "v")``.
     quality : ndarray, shape (H, W), or None
@@ -897,7 +1010,8 @@ class StereoMaps:
         if self.plane is not None:
             heights = self.plane.residuals[valid]
             out["reference_plane"] = {
-                "fit": "total least squares, robust (3 x 1.4826 MAD refits)",
+                "fit": f"dominant plane: RANSAC (least {RANSAC_QUANTILE:g}-quantile of "
+                "distances), then total least squares with 3 x 1.4826 MAD refits",
                 "normal": self.plane.normal.tolist(),
                 "offset_mm": self.plane.offset,
                 "inlier_fraction": float(self.plane.inliers[valid].mean()),
@@ -984,8 +1098,319 @@ def triangulate_maps(
     plane = None
     if valid.sum() >= 3:
         try:
-            plane = fit_plane(tri.xyz, robust=True)
+            plane = fit_dominant_plane(tri.xyz)
         except InputError:  # collinear points: no reference plane
             plane = None
     residual = tri.residual_mm if len(given) == 2 else None
     return StereoMaps(tri.xyz, residual, plane, tuple(given))
+
+
+# --- which projector coordinates to trust ------------------------------------------------------
+
+#: :func:`check_directions`: "far above" the phase noise: the median normalised miss (about 1
+#: for noise alone) beyond this many times.
+DIRECTION_CHECK_FACTOR = 10.0
+#: :func:`check_directions`: one direction is blamed when explaining the miss by the other
+#: would need at least this many times the error (each in units of its predicted std).
+DIRECTION_BLAME_RATIO = 3.0
+#: :func:`check_directions`: pixels checked at most (a regular subsample of the image).
+DIRECTION_CHECK_POINTS = 20000
+#: :func:`check_directions`: the least std of a projector coordinate, px (ten times the
+#: one-direction triangulation's tolerance): noise-free synthetic fringes predict ~1e-10 px.
+DIRECTION_SIGMA_FLOOR_PX = 1e-3
+#: Median of |z| for a standard normal z: a median of normalised errors over this is about 1.
+_MEDIAN_ABS_NORMAL = 0.6744897501960817
+
+
+class DirectionCheck(NamedTuple):
+    """Whether the two projector coordinates agree with each other (:func:`check_directions`).
+
+    Parameters
+    ----------
+    directions : tuple of str
+        The projector coordinates to triangulate with: ``("u", "v")``, ``("u",)`` or
+        ``("v",)``.
+    verdict : str
+        ``"consistent"`` (u+v kept), ``"u dropped"``, ``"v dropped"``, ``"suspect"`` (far
+        above the noise and neither direction explains it alone: u+v kept, the calibration
+        named as suspect) or ``"unchecked"`` (too few pixels, or no pair of rays to compare).
+    n_pixels : int
+        Pixels checked.
+    sigma_px : dict
+        Median std of ``u`` and ``v`` the check used, projector px (the phase noise and the
+        calibration's reprojection error in quadrature, at least
+        :data:`DIRECTION_SIGMA_FLOOR_PX`).
+    sigma_source : str
+        Where the phase noise came from.
+    miss_px : float
+        Median distance, projector px, of the decoded ``(u, v)`` from the camera pixel's
+        epipolar line (what the ray-ray residual is in the projector image).
+    miss_ratio : float
+        ``median(|miss| / predicted std of the miss) / 0.6745``: about 1 when the noise
+        explains the miss.
+    disagreement_mm : float
+        Median distance between the ``u``-only and the ``v``-only point of a pixel, mm (NaN
+        when too few pixels have both).
+    disagreement_ratio : float
+        The same normalised by the std the phase noise predicts for it (about 1 for noise).
+    error_needed_px : dict
+        Median error of ``u`` alone, or of ``v`` alone, that would put the decoded point on
+        the epipolar line, projector px.
+    error_needed_sigma : dict
+        The same in units of that coordinate's std.
+    reason : str
+        One line: which directions and why.
+
+    Examples
+    --------
+    >>> c = DirectionCheck(("u", "v"), "unchecked", 0, {}, "", *([float("nan")] * 4), {}, {},
+    ...                    "too few pixels")
+    >>> c.to_dict()["verdict"]
+    'unchecked'
+    """
+
+    directions: tuple[str, ...]
+    verdict: str
+    n_pixels: int
+    sigma_px: dict[str, float]
+    sigma_source: str
+    miss_px: float
+    miss_ratio: float
+    disagreement_mm: float
+    disagreement_ratio: float
+    error_needed_px: dict[str, float]
+    error_needed_sigma: dict[str, float]
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly fields (``metrics.json``'s ``stereo.direction_check``).
+
+        Returns
+        -------
+        dict
+            Every field, ``directions`` joined by ``+``; NaN as None.
+        """
+
+        def num(x: float) -> float | None:
+            return float(x) if np.isfinite(x) else None
+
+        out = self._asdict()
+        out["directions"] = "+".join(self.directions)
+        for key in ("miss_px", "miss_ratio", "disagreement_mm", "disagreement_ratio"):
+            out[key] = num(out[key])
+        for key in ("sigma_px", "error_needed_px", "error_needed_sigma"):
+            out[key] = {k: num(v) for k, v in out[key].items()}
+        out["thresholds"] = {"factor": DIRECTION_CHECK_FACTOR, "blame_ratio": DIRECTION_BLAME_RATIO}
+        return out
+
+
+def coordinate_noise_px(coordinate: ArrayLike) -> float:
+    """Random noise of a projector-coordinate map estimated from its pixel-to-pixel roughness.
+
+    Parameters
+    ----------
+    coordinate : array_like, shape (H, W)
+        Projector column or row map, px; NaN where invalid.
+
+    Returns
+    -------
+    float
+        ``1.4826 * MAD(d2) / sqrt(6)`` of the second differences ``d2`` along the image axis
+        where it is smaller (for white noise of std ``s``, ``var(d2) = 6 s^2``; a smooth
+        surface adds little); NaN without three valid pixels in a line. Systematic errors that
+        vary from pixel to pixel (a fringe-harmonic ripple) count as noise.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> ramp = np.add.outer(np.arange(200.0), 0.5 * np.arange(300.0))
+    >>> round(coordinate_noise_px(ramp + rng.normal(0, 0.1, ramp.shape)), 2)
+    0.1
+    """
+    c = np.asarray(coordinate, dtype=np.float64)
+    if c.ndim != 2:
+        raise InputError(f"coordinate map must be 2-D, got shape {c.shape}")
+    best = np.nan
+    for axis in (0, 1):
+        if c.shape[axis] < 3:
+            continue
+        d2 = np.diff(c, 2, axis=axis)
+        d2 = d2[np.isfinite(d2)]
+        if d2.size:
+            s = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
+            best = s if not np.isfinite(best) else min(best, s)
+    return float(best)
+
+
+def _median(values: F64) -> float:
+    v = values[np.isfinite(values)]
+    return float(np.median(v)) if v.size else float("nan")
+
+
+def check_directions(
+    calibration: StereoCalibration,
+    u_proj: ArrayLike,
+    v_proj: ArrayLike,
+    sigma_u: ArrayLike,
+    sigma_v: ArrayLike,
+    *,
+    sigma_source: str = "given",
+    max_points: int = DIRECTION_CHECK_POINTS,
+) -> DirectionCheck:
+    """Do the projector column and row of each pixel agree, within the phase noise?
+
+    Parameters
+    ----------
+    calibration : StereoCalibration
+        The projector-camera calibration (camera size = the maps' size).
+    u_proj, v_proj : array_like, shape (H, W)
+        Projector column and row maps (:func:`projector_coordinate`), NaN where invalid.
+    sigma_u, sigma_v : array_like, broadcast to (H, W)
+        Their predicted std, projector px (e.g. the phase std of
+        :func:`hdrfringe.uncertainty.predict_uncertainty` times ``pitch / (2 pi)``).
+    sigma_source : str
+        Where the std came from (recorded).
+    max_points : int
+        Pixels checked at most: a regular subsample of the valid ones.
+
+    Returns
+    -------
+    DirectionCheck
+
+    Notes
+    -----
+    For each checked pixel (every ``s``-th row and column):
+
+    * *the miss*: the camera ray at the ray-ray point's depth (+-2 %) projected into the
+      projector gives the pixel's epipolar line; the decoded ``(u, v)`` lies a signed distance
+      ``m`` (px) from it, along the line's unit normal ``(n_u, n_v)``. The noise predicts
+      ``std(m) = hypot(s_u n_u, s_v n_v)``, with ``s_u, s_v`` the coordinates' std and the
+      calibration's reprojection error (``reprojection_px``: ``stereo``, else ``projector``)
+      in quadrature. ``miss_ratio`` is the median of ``|m| / std(m)`` over 0.6745.
+    * *the disagreement*: the ``u``-only and the ``v``-only points (:func:`triangulate`); their
+      distance against ``hypot(S_u s_u, S_v s_v)``, ``S`` the distance a point moves for one
+      px of its coordinate (triangulated again at ``+1`` px).
+
+    When either ratio exceeds :data:`DIRECTION_CHECK_FACTOR`, the directions are not
+    consistent. One pixel's miss is one number: an error of ``m / n_u`` px in ``u`` or of
+    ``m / n_v`` px in ``v`` explains it, not both, and which one cannot be told from that pixel
+    (the two points' disagreement carries the same information). The check blames the
+    direction that explains the miss with the smaller error, in units of its std, when the
+    other would need :data:`DIRECTION_BLAME_RATIO` times more: that is the coordinate whose
+    lines run nearly along the epipolar lines, the one that carries little depth; the other
+    one is kept. When neither is clearly smaller, ``u+v`` is kept and the verdict is
+    ``"suspect"``.
+
+    Examples
+    --------
+    A flat wall 600 mm in front of a distortion-free pair with a vertical baseline; the rows
+    carry the depth. Columns 20 px off: the miss is the columns' and they are dropped.
+
+    >>> cam = LensModel([[400, 0, 31.5], [0, 400, 23.5], [0, 0, 1]], [], (64, 48))
+    >>> proj = LensModel([[800, 0, 50], [0, 800, 40], [0, 0, 1]], [], (100, 80))
+    >>> calib = StereoCalibration(cam, proj, np.eye(3), [0.0, -100.0, 0])
+    >>> rows, cols = np.mgrid[0:48, 0:64].astype(float)
+    >>> pts = np.dstack([(cols - 31.5) / 400 * 600, (rows - 23.5) / 400 * 600,
+    ...                  np.full(rows.shape, 600.0)])
+    >>> u, v = proj.project(pts + calib.translation_mm)
+    >>> check_directions(calib, u, v, 0.05, 0.05).directions
+    ('u', 'v')
+    >>> bad = check_directions(calib, u + 20, v, 0.05, 0.05)
+    >>> bad.directions, bad.verdict
+    (('v',), 'u dropped')
+    """
+    if not isinstance(calibration, StereoCalibration):
+        raise InputError("check_directions: calibration must be a StereoCalibration")
+    u = np.asarray(u_proj, dtype=np.float64)
+    v = np.asarray(v_proj, dtype=np.float64)
+    if u.ndim != 2 or u.shape != v.shape:
+        raise InputError(
+            f"check_directions: u_proj {u.shape} and v_proj {v.shape}; give two maps of one "
+            "2-D shape"
+        )
+    su = np.broadcast_to(np.asarray(sigma_u, dtype=np.float64), u.shape)
+    sv = np.broadcast_to(np.asarray(sigma_v, dtype=np.float64), u.shape)
+    rep = dict(calibration.reprojection_px or {})
+    rep_px = float(rep.get("stereo", rep.get("projector", 0.0)))
+    ok = np.isfinite(u) & np.isfinite(v) & (su > 0) & (sv > 0)
+    step = max(1, int(np.ceil(np.sqrt(ok.sum() / max(int(max_points), 1)))))
+    rows, cols = np.mgrid[0 : u.shape[0] : step, 0 : u.shape[1] : step]
+    pick = ok[rows, cols]
+    r, c = rows[pick].astype(np.float64), cols[pick].astype(np.float64)
+    uu, vv = u[rows, cols][pick], v[rows, cols][pick]
+    s_u = np.maximum(np.hypot(su[rows, cols][pick], rep_px), DIRECTION_SIGMA_FLOOR_PX)
+    s_v = np.maximum(np.hypot(sv[rows, cols][pick], rep_px), DIRECTION_SIGMA_FLOOR_PX)
+    sigma = {"u": _median(s_u), "v": _median(s_v)}
+    nan = float("nan")
+    if r.size < 10:
+        return DirectionCheck(
+            ("u", "v"), "unchecked", int(r.size), sigma, sigma_source, nan, nan, nan, nan, {},
+            {}, f"u+v: only {r.size} pixels with both coordinates, nothing checked",
+        )  # fmt: skip
+    both = triangulate(calibration, c, r, u_proj=uu, v_proj=vv).xyz
+    xc, yc = calibration.camera.undistort(c, r)
+    ray = np.stack([xc, yc, np.ones_like(xc)], axis=-1)
+    depth = np.einsum("ij,ij->i", both, ray) / np.einsum("ij,ij->i", ray, ray)
+    ua, va = calibration.projector.project(
+        _to_projector(calibration, ray * (0.98 * depth)[:, None])
+    )
+    ub, vb = calibration.projector.project(
+        _to_projector(calibration, ray * (1.02 * depth)[:, None])
+    )
+    eu, ev = ub - ua, vb - va
+    length = np.hypot(eu, ev)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nu, nv = -ev / length, eu / length
+        miss = (uu - ua) * nu + (vv - va) * nv
+        miss_sigma = np.hypot(s_u * nu, s_v * nv)
+        z_miss = np.abs(miss) / miss_sigma
+        need = {"u": np.abs(miss / nu), "v": np.abs(miss / nv)}
+    xu = triangulate(calibration, c, r, u_proj=uu).xyz
+    xv = triangulate(calibration, c, r, v_proj=vv).xyz
+    sens_u = np.linalg.norm(triangulate(calibration, c, r, u_proj=uu + 1).xyz - xu, axis=1)
+    sens_v = np.linalg.norm(triangulate(calibration, c, r, v_proj=vv + 1).xyz - xv, axis=1)
+    apart = np.linalg.norm(xu - xv, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z_apart = apart / np.hypot(sens_u * s_u, sens_v * s_v)
+    enough = int(np.isfinite(z_apart).sum()) >= 10
+    miss_ratio = _median(z_miss) / _MEDIAN_ABS_NORMAL
+    apart_ratio = _median(z_apart) / _MEDIAN_ABS_NORMAL if enough else nan
+    need_px = {k: _median(a) for k, a in need.items()}
+    need_sigma = {"u": _median(need["u"] / s_u), "v": _median(need["v"] / s_v)}
+    miss_px = _median(np.abs(miss))
+    far = miss_ratio > DIRECTION_CHECK_FACTOR or (enough and apart_ratio > DIRECTION_CHECK_FACTOR)
+    said = (
+        f"rays miss by {miss_px:.3g} projector px, {miss_ratio:.3g}x the phase noise; u-only vs "
+        "v-only " + (f"{apart_ratio:.3g}x" if enough else "not compared")
+    )
+    kept: tuple[str, ...]
+    if not np.isfinite(miss_ratio):
+        verdict, kept = "unchecked", ("u", "v")
+        reason = "u+v (no pixel's rays could be compared)"
+    elif not far:
+        verdict, kept = "consistent", ("u", "v")
+        reason = f"u+v ({said})"
+    else:
+        cost_u, cost_v = need_sigma["u"], need_sigma["v"]
+        if cost_v >= DIRECTION_BLAME_RATIO * cost_u:
+            verdict, kept = "u dropped", ("v",)
+            reason = (
+                f"v ({said}; a u error of {cost_u:.3g} std explains it, a v error would need "
+                f"{cost_v:.3g}: u dropped)"
+            )
+        elif cost_u >= DIRECTION_BLAME_RATIO * cost_v:
+            verdict, kept = "v dropped", ("u",)
+            reason = (
+                f"u ({said}; a v error of {cost_v:.3g} std explains it, a u error would need "
+                f"{cost_u:.3g}: v dropped)"
+            )
+        else:
+            verdict, kept = "suspect", ("u", "v")
+            reason = (
+                f"the stereo calibration is suspect: {said}; a u error of {cost_u:.3g} std or a v "
+                f"error of {cost_v:.3g} explains it, neither clearly; triangulated with u+v"
+            )
+    return DirectionCheck(
+        kept, verdict, int(r.size), sigma, sigma_source, miss_px, miss_ratio,
+        _median(apart), apart_ratio, need_px, need_sigma, reason,
+    )  # fmt: skip

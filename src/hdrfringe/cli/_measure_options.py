@@ -14,7 +14,11 @@ import typer
 
 from hdrfringe.cli._app import parse_floats
 from hdrfringe.cli._options import LIVE_PANEL, given_options
-from hdrfringe.cli._strategy_options import method_help, strategy_file_readers
+from hdrfringe.cli._strategy_options import (
+    method_help,
+    strategy_file_readers,
+    strategy_option_type,
+)
 from hdrfringe.errors import InputError
 
 __all__ = [
@@ -38,6 +42,7 @@ __all__ = [
     "TrainStepsOpt",
     "TruthOpt",
     "UncertaintyOpt",
+    "given_strategy_options",
     "live_fringes",
     "strategy_params",
 ]
@@ -124,8 +129,35 @@ MarginOpt = Annotated[
 TrainForceOpt = Annotated[bool, typer.Option(help="Replace an existing file.")]
 
 
+def given_strategy_options(ctx: typer.Context, options: dict[str, Any]) -> dict[str, Any]:
+    """The strategy options given on the command line (not left at their default), by option
+    name (``"--step"``), as :func:`hdrfringe.strategies.params_from_options` takes them.
+
+    Parameters
+    ----------
+    ctx : typer.Context
+        The command's context.
+    options : dict
+        The command's strategy options by Python name (``**strategy_options``).
+
+    Returns
+    -------
+    dict
+    """
+    from hdrfringe.strategies import cli_options
+
+    return {
+        o.option: options[o.dest]
+        for o in cli_options()
+        if o.dest in options and given_options(ctx, (o.dest,))
+    }
+
+
 def strategy_params(
-    ctx: typer.Context, method: str | None, options: dict[str, Any]
+    ctx: typer.Context,
+    method: str | None,
+    options: dict[str, Any],
+    recorded: dict[str, Any] | None = None,
 ) -> tuple[Any, dict[str, str]]:
     """The strategy's ``Params`` from the strategy options given, and the files they named.
 
@@ -142,6 +174,10 @@ def strategy_params(
         The strategy; None: no strategy (its exclusive options are refused).
     options : dict
         The command's strategy options by Python name (``**strategy_options``).
+    recorded : dict, optional
+        Options by option name recorded with the captures (``capture_log.json``'s
+        ``strategy_options``): used where the command line gives none (a file option's path
+        as a Path).
 
     Returns
     -------
@@ -159,11 +195,7 @@ def strategy_params(
     from hdrfringe.strategies.base import _article
 
     readers = strategy_file_readers()
-    given = {  # the strategy options on the command line (this command's: built at import)
-        o.option: options[o.dest]
-        for o in cli_options()
-        if o.dest in options and given_options(ctx, (o.dest,))
-    }
+    given = given_strategy_options(ctx, options)  # this command's (built at import)
     for o in cli_options():  # refused before any value is read or checked
         if o.option in given and method not in o.fields:
             titles = o.titles()  # the wording of the library's refusal of exclusive options
@@ -172,6 +204,10 @@ def strategy_params(
                 f"--method {' or '.join(o.fields)} or leave it out (got "
                 f"{'no --method' if method is None else method})"
             )
+    if recorded:
+        files = {o.option for o in cli_options() if strategy_option_type(o)[1]}
+        logged = {k: Path(v) if k in files and v is not None else v for k, v in recorded.items()}
+        given = {**logged, **given}
     params = params_from_options(
         method, given, readers={t: read for t, (read, _) in readers.items()}
     )

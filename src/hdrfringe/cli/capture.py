@@ -82,6 +82,7 @@ __all__ = [
     "hardware_rig",
     "live_record",
     "resolve_rig_config",
+    "strategy_record",
     "write_capture_output",
 ]
 
@@ -316,6 +317,32 @@ def live_record(
     return caps, state, log
 
 
+def strategy_record(ctx: typer.Context, strategy_options: dict[str, Any]) -> dict[str, Any]:
+    """The capture record's ``strategy_options``: the strategy options given on the command
+    line by option name (a file as its absolute path), which ``measure FOLDER`` replays with.
+
+    Parameters
+    ----------
+    ctx : typer.Context
+        The command's context.
+    strategy_options : dict
+        The command's strategy options by Python name.
+
+    Returns
+    -------
+    dict
+        ``{"strategy_options": {option: value}}``.
+    """
+    from hdrfringe.cli._measure_options import given_strategy_options
+
+    given = given_strategy_options(ctx, strategy_options)
+    return {
+        "strategy_options": {
+            k: str(v.resolve()) if isinstance(v, Path) else v for k, v in given.items()
+        }
+    }
+
+
 def write_capture_output(
     folder: Path, captures: Any, state: dict[str, Any], log: dict[str, Any]
 ) -> None:
@@ -402,7 +429,10 @@ def capture(
             if not recorder.calls:
                 raise
             stopped = "interrupted (Ctrl-C)"
-    caps, state, log = live_record(recorder, rig, config, method, output.name, stopped)
+    caps, state, log = live_record(
+        recorder, rig, config, method, output.name, stopped,
+        entries=strategy_record(ctx, strategy_options),
+    )  # fmt: skip
     with staged_output_dir(checked, force=force) as tmp:
         write_capture_output(tmp, caps, state, log)
     sets = len(caps.sets)

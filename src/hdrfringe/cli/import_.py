@@ -10,7 +10,7 @@ import typer
 from hdrfringe.cli._app import app, console, handle_errors
 from hdrfringe.errors import InputError
 
-__all__ = ["import_"]
+__all__ = ["import_", "next_step"]
 
 
 @app.command("import")
@@ -72,16 +72,47 @@ def import_(
     if report.ignored:
         shown = ", ".join(report.ignored[:5]) + (", ..." if len(report.ignored) > 5 else "")
         console.print(f"{len(report.ignored)} files not used by the description: {shown}")
-    version = report.manifest["version"]
-    if "fringe" in kinds:
+    hint = next_step(output)
+    console.print(
+        f"wrote {output} (capture format version {report.manifest['version']})"
+        + (f"; next: {hint}" if hint else ""),
+        soft_wrap=True,
+    )
+    if hint is None and "fringe" not in kinds:  # a Gray-code board pose (no phase to decode)
         console.print(
-            f"wrote {output} (capture format version {version}); next: "
-            f"hdrfringe phase {output} -o OUT"
+            "no fringe frames, so no phase: as a board pose it is one of the poses "
+            "`hdrfringe calibrate-stereo` reads (docs/stereo_calibration.md)",
+            soft_wrap=True,
         )
-    else:  # no phase to decode: a Gray-code board pose (docs/stereo_calibration.md)
-        console.print(
-            f"wrote {output} (capture format version {version}); no fringe frames, so no "
-            f"phase: as a board pose, next: hdrfringe calibrate-stereo {output} POSE2 POSE3 ... "
-            "--board PATTERN:COLSxROWS:SPACING_MM -o STEREO.h5",
-            highlight=False,
-        )
+
+
+def next_step(folder: Path) -> str | None:
+    """The command that makes sense next on a capture folder, as ``import`` suggests it.
+
+    ``hdrfringe phase FOLDER -o OUT`` when its fringe sets decode as families (no two sets of
+    one family at one pitch), else ``hdrfringe gamma FOLDER -o OUT`` when the folder is a gamma
+    capture (uniform grays, or fringe sets pre-distorted with several exponents, e.g. the
+    kamino410 gamma sheet), else None (nothing to suggest).
+
+    Parameters
+    ----------
+    folder : Path
+        A capture folder.
+
+    Returns
+    -------
+    str or None
+    """
+    from hdrfringe.gamma import select_gamma_sets, uniform_gray_means
+    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.process import group_families
+
+    caps = read_capture_folder(folder)
+    families = group_families(caps.sets)
+    if caps.sets and all(len({s.spec.pitch_px for s in f}) == len(f) for f in families):
+        return f"hdrfringe phase {folder} -o OUT"
+    gamma0 = caps.projector.gamma_precompensation if caps.projector else 1.0
+    chosen = select_gamma_sets([(s.spec, s.gamma_precompensation or gamma0) for s in caps.sets])
+    if chosen.fittable or uniform_gray_means(caps) is not None:
+        return f"hdrfringe gamma {folder} -o OUT"
+    return None

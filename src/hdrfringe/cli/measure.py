@@ -42,6 +42,7 @@ from hdrfringe.cli._options import (
 )
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.cli.capture import (
+    CAPTURE_LOG,
     HwCameraOpt,
     HwDiscardOpt,
     HwExposureOpt,
@@ -52,10 +53,12 @@ from hdrfringe.cli.capture import (
     HwRigConfigOpt,
     HwSettleOpt,
     HwSyncOpt,
+    strategy_record,
 )
+from hdrfringe.cli.phase import KeepSaturatedOpt, SaturatedOpt, decoder_min_shifts
 from hdrfringe.errors import InputError
 
-__all__ = ["CAPTURES", "HARDWARE_OPTIONS", "measure", "print_summary"]
+__all__ = ["CAPTURES", "HARDWARE_OPTIONS", "logged_strategy", "measure", "print_summary"]
 
 #: The capture folder ``measure --rig hardware`` writes inside OUT.
 CAPTURES = "captures"
@@ -113,8 +116,10 @@ def measure(
         typer.Option(
             "--stereo-directions",
             help="With a stereo calibration: auto (every fringe orientation with an absolute "
-            "phase; ray against ray with both), u (vertical fringes only) or v (horizontal "
-            "fringes only), e.g. the direction that carries the depth (docs/stereo.md).",
+            "phase, ray against ray with both, unless the two disagree far beyond the phase "
+            "noise: then the consistent one, printed with why), u (vertical fringes only) or v "
+            "(horizontal fringes only), e.g. the direction that carries the depth "
+            "(docs/stereo.md).",
         ),
     ] = "auto",
     depth_range: Annotated[
@@ -127,14 +132,6 @@ def measure(
             "and this range; pixels the range leaves ambiguous are invalid (docs/stereo.md).",
         ),
     ] = None,
-    keep_saturated: Annotated[
-        bool,
-        typer.Option(
-            "--keep-saturated",
-            help="Keep the (biased) phase of pixels with saturated shifts, as phase "
-            "--keep-saturated does (default: they are invalid).",
-        ),
-    ] = False,
     previews: Annotated[
         bool,
         typer.Option(
@@ -146,6 +143,8 @@ def measure(
     uncertainty: UncertaintyOpt = True,
     noise_sigma: NoiseSigmaOpt = None,
     harmonics: HarmonicsOpt = "off",
+    keep_saturated: KeepSaturatedOpt = False,
+    saturated: SaturatedOpt = "flag",
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
@@ -157,8 +156,9 @@ def measure(
     asks for. The composite images are then measured; OUT also gets the MIGL index map and pie
     chart, and for DPA the estimated-versus-actual CDF (dpa_cdf.png, thesis Fig. 6.3). With
     --rig hardware OUT also holds the capture folder (OUT/captures, with capture_log.json),
-    which `measure OUT/captures --method M` replays to the same result; Ctrl-C writes nothing
-    (exit 130): use `capture` to keep the sets of an interrupted run.
+    which `measure OUT/captures` replays to the same result (a folder written by `capture`
+    is replayed with the method and strategy options its capture_log.json records); Ctrl-C
+    writes nothing (exit 130): use `capture` to keep the sets of an interrupted run.
     """
     import json
 
@@ -177,7 +177,14 @@ def measure(
     check_harmonics(harmonics, "--method tolerant" if method == "tolerant" else None)
     if live and method is None:
         method = "conventional"
-    params, sources = strategy_params(ctx, method, strategy_options)
+    recorded, replayed = None, ""
+    if folder is not None and not live:
+        given_method = method
+        method, recorded = logged_strategy(folder, method)
+        if recorded is not None and given_method is None:
+            replayed = f"{folder}: captured with --method {method} ({CAPTURE_LOG}), replayed"
+    min_shifts = decoder_min_shifts(method, saturated, keep_saturated, strategy_options)
+    params, sources = strategy_params(ctx, method, strategy_options, recorded)
     inputs = [folder, calibration, *sources.values()]
     hardware: Any = None
     if rig == "hardware":
@@ -191,6 +198,8 @@ def measure(
         inputs += [rig_config, hardware[1].gamma_file]
     check_output_against_inputs(output, inputs)
     output = check_output_dir(output, force)
+    if replayed:
+        console.print(replayed, soft_wrap=True)
     # imported once the options are known good: a refused command does not pay for the
     # pipeline's imports (the decoders, unwrapping, calibration, HDF5, the writers)
     from hdrfringe import pipeline
@@ -213,6 +222,8 @@ def measure(
         "uncertainty": uncertainty,
         "depth_range_mm": zrange,
         "reject_saturated": not keep_saturated,
+        "saturated": saturated,
+        "min_shifts": min_shifts,
     }
     if harmonics != "off":
         kwargs["harmonics"] = harmonics
@@ -224,9 +235,11 @@ def measure(
         assert method is not None
         hw_rig, hw_config = hardware
         fringes = (pattern, steps, pitch, imin, migl, centerline)
+        record = strategy_record(ctx, strategy_options)
         _measure_hardware(
-            hw_rig, hw_config, cal, output, force, method, fringes, kwargs, previews=previews
-        )
+            hw_rig, hw_config, cal, output, force, method, fringes, kwargs, previews=previews,
+            record=record,
+        )  # fmt: skip
         return
     if live:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
@@ -278,6 +291,7 @@ def _measure_hardware(
     fringes: tuple[Any, ...],
     kwargs: dict[str, Any],
     previews: bool = True,
+    record: dict[str, Any] | None = None,
 ) -> None:
     """``measure --rig hardware``: the strategy live as ``capture`` runs it, then the composite
     measured; OUT holds the measurement and the capture folder (staged together)."""
@@ -294,7 +308,7 @@ def _measure_hardware(
         result = pipeline.measure(
             recorder, cal, specs=specs, centerline=line, label=label, **kwargs
         )
-    caps, state, log = live_record(recorder, rig, config, method, CAPTURES)
+    caps, state, log = live_record(recorder, rig, config, method, CAPTURES, entries=record)
 
     def captures(tmp: Path) -> None:
         write_capture_output(tmp / CAPTURES, caps, state, log)
@@ -344,6 +358,7 @@ def print_summary(result: Any, output: Path) -> None:
         if "triangulation_residual_mm" in st:
             line += f", ray-ray residual median {st['triangulation_residual_mm']['median']:.3f} mm"
         console.print(line)
+        _print_direction_check(st.get("direction_check"))
     print_harmonics(m.harmonics)
     if m.uncertainty is not None:
         from hdrfringe.uncertainty import describe_uncertainty
@@ -354,3 +369,59 @@ def print_summary(result: Any, output: Path) -> None:
     for note in m.notes:
         console.print(f"note: {note}")
     console.print(f"wrote {output}")
+
+
+def _print_direction_check(check: dict[str, Any] | None) -> None:
+    """The one line of ``--stereo-directions auto``: which directions and why; a warning when
+    the calibration is suspect."""
+    if check is None:
+        return
+    if check["verdict"] == "suspect":
+        console.print(f"warning: {check['reason']}", soft_wrap=True)
+    else:
+        console.print(f"stereo directions auto: {check['reason']}", soft_wrap=True)
+
+
+def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[str, Any] | None]:
+    """The strategy a folder written by ``capture`` was captured with (its ``capture_log.json``).
+
+    Parameters
+    ----------
+    folder : Path
+        The capture folder measured.
+    method : str or None
+        ``--method`` as given.
+
+    Returns
+    -------
+    method : str or None
+        The logged method (``method`` when the folder has no log or the log none).
+    recorded : dict or None
+        The logged strategy options by option name (``strategy_options``), None without a log.
+
+    Raises
+    ------
+    InputError
+        A ``--method`` other than the logged one, or an unreadable log.
+    """
+    import json
+
+    path = Path(folder) / CAPTURE_LOG
+    if not path.is_file():
+        return method, None
+    try:
+        log = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{path}: not a readable capture log ({exc}); fix or remove it") from None
+    logged = log.get("method") if isinstance(log, dict) else None
+    if not isinstance(logged, str):
+        return method, None
+    if method is not None and method != logged:
+        raise InputError(
+            f"{folder} was captured with --method {logged} ({CAPTURE_LOG}), not {method}; "
+            f"drop --method or give --method {logged}"
+        )
+    options = log.get("strategy_options") or {}
+    if not isinstance(options, dict):
+        raise InputError(f"{path}: strategy_options is not a mapping; fix or remove it")
+    return logged, options

@@ -1,0 +1,107 @@
+"""Every ``next:`` hint a command prints is a command that runs (issue 24): ``import`` suggests
+``phase`` for fringe sets that decode as families and ``gamma`` for a gamma capture (the
+kamino410 gamma sheet's sets differ only in their pre-distortion, which ``phase`` refuses).
+
+The hints of the real data imports run in tests/test_import_realdata.py (each import's printed
+hint replaces the ``phase`` call); here, synthetic and simulated folders.
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import numpy as np
+
+from tests.conftest import run_cli
+
+
+def run_hint(stdout: str, out: Path):  # type: ignore[no-untyped-def]
+    """The ``next:`` command printed in ``stdout`` run with OUT replaced by ``out``."""
+    found = re.findall(r"next: (hdrfringe .*)$", stdout, flags=re.MULTILINE)
+    assert len(found) == 1, stdout
+    args = [str(out) if a == "OUT" else a for a in shlex.split(found[0])]
+    assert args[0] == "hdrfringe"
+    return args[1], run_cli(*args[1:], timeout=600)
+
+
+def test_import_of_fringes_suggests_phase_and_it_runs(tmp_path: Path) -> None:
+    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.rig.scenes import white_plate
+    from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+
+    rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48))
+    frames = [f for p in (64.0, 8.0) for f in FringeSpec("sinusoidal", 4, p).frames()]
+    caps = rig.capture_folder(frames)
+    cam = tmp_path / "cam"
+    cam.mkdir()
+    import cv2
+
+    for i, img in enumerate(caps.images):
+        cv2.imwrite(str(cam / f"i{i}.png"), img)
+    desc = tmp_path / "d.toml"
+    desc.write_text(
+        "[camera]\nbit_depth = 8\n"
+        '[[fringe]]\nfiles = ["i0.png", "i1.png", "i2.png", "i3.png"]\npitch = 64\nsteps = 4\n'
+        '[[fringe]]\nfiles = ["i4.png", "i5.png", "i6.png", "i7.png"]\npitch = 8\nsteps = 4\n'
+    )
+    res = run_cli("import", str(cam), "-d", str(desc), "-o", str(tmp_path / "caps"))
+    assert res.returncode == 0, res.stderr
+    command, ran = run_hint(res.stdout, tmp_path / "phase")
+    assert command == "phase" and ran.returncode == 0, ran.stderr
+    assert (tmp_path / "phase" / "phase_summary.json").is_file()
+
+
+def test_gamma_capture_suggests_gamma_and_it_runs(tmp_path: Path) -> None:
+    """Uniform grays only (a projector response g^2.2 seen by an 8-bit camera): no fringes
+    for ``phase``; the hint is ``gamma`` and it fits."""
+    import cv2
+
+    levels = np.arange(0, 256, 32)
+    cam = tmp_path / "cam"
+    cam.mkdir()
+    for k, g in enumerate(levels):
+        dn = 10 + 200 * (g / 255) ** 2.2
+        cv2.imwrite(str(cam / f"g{k}.png"), np.full((24, 32), round(dn), np.uint8))
+    desc = tmp_path / "d.toml"
+    desc.write_text(
+        "[camera]\nbit_depth = 8\n"
+        + "".join(f'[[uniform]]\nfiles = "g{k}.png"\nlevel = {g}\n' for k, g in enumerate(levels))
+    )
+    res = run_cli("import", str(cam), "-d", str(desc), "-o", str(tmp_path / "caps"))
+    assert res.returncode == 0, res.stderr
+    command, ran = run_hint(res.stdout, tmp_path / "gamma")
+    assert command == "gamma" and ran.returncode == 0, ran.stderr
+    assert (tmp_path / "gamma" / "gamma.json").is_file()
+
+
+def test_simulated_folder_gets_a_hint_that_runs(tmp_path: Path) -> None:
+    """``next_step`` of a folder written by ``simulate`` (a MIGL sweep: one set per MIGL) is a
+    ``phase`` command that runs."""
+    from hdrfringe.cli.import_ import next_step
+
+    folder = tmp_path / "sweep"
+    res = run_cli(
+        "simulate", "white_plate", "-o", str(folder), "--pitch", "8", "--steps", "3",
+        "--migl-sweep", "255:205:50",
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    hint = next_step(folder)
+    assert hint == f"hdrfringe phase {folder} -o OUT"
+    _, ran = run_hint(f"next: {hint}", tmp_path / "phase")
+    assert ran.returncode == 0, ran.stderr
+
+
+def test_no_hint_for_a_folder_with_nothing_to_decode(tmp_path: Path) -> None:
+    """A single uniform frame: neither phase nor gamma can use it; no hint is printed."""
+    import cv2
+
+    cam = tmp_path / "cam"
+    cam.mkdir()
+    cv2.imwrite(str(cam / "w.png"), np.full((24, 32), 200, np.uint8))
+    desc = tmp_path / "d.toml"
+    desc.write_text('[camera]\nbit_depth = 8\n[[uniform]]\nfiles = "w.png"\nlevel = 255\n')
+    res = run_cli("import", str(cam), "-d", str(desc), "-o", str(tmp_path / "caps"))
+    assert res.returncode == 0, res.stderr
+    assert "next:" not in res.stdout and "wrote" in res.stdout
