@@ -34,9 +34,11 @@ from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.graycode import CODES, MAX_BITS, bits_needed, code_bit
 from hdrfringe.patterns import (
     ORIENTATIONS,
+    FringeFrame,
     FringeSpec,
     Orientation,
-    fringe_gray,
+    _LineFrameMethods,
+    _num,
     fringe_profile,
     precompensate_gamma,
 )
@@ -58,151 +60,6 @@ __all__ = [
     "render_frame",
     "sample_bilinear",
 ]
-
-
-class _LineFrameMethods:
-    """What the line frames share: they vary along one projector axis, so a full image is one
-    rendered line broadcast along the other axis (the separable fast path)."""
-
-    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def _check_levels(self, bit_depth: int) -> None:
-        """Refuse gray levels the projector cannot show (none to check by default)."""
-
-    def gray_at(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
-        """Linear gray level at continuous projector coordinates (column ``u``, row ``v``).
-
-        Parameters
-        ----------
-        u, v : array_like
-            Projector column and row, broadcast together.
-
-        Returns
-        -------
-        ndarray of float64
-        """
-        return _line_gray_at(self, u, v)
-
-    def render(
-        self, width: int, height: int, gamma_hat: float = 1.0, bit_depth: int = 8
-    ) -> NDArray[np.integer]:
-        """Projector input image, shape (height, width); see :func:`render_frame`.
-
-        Parameters
-        ----------
-        width, height : int
-            Projector resolution.
-        gamma_hat : float
-            Gamma pre-compensation exponent (1.0: none).
-        bit_depth : int
-            Projector input bit depth.
-
-        Returns
-        -------
-        ndarray of uint8 or uint16
-        """
-        self._check_levels(bit_depth)
-        return _render_line(self, width, height, gamma_hat, bit_depth)
-
-
-@dataclass(frozen=True)
-class FringeFrame(_LineFrameMethods):
-    """Shift ``shift`` of the fringe set ``spec`` (a line frame).
-
-    Parameters
-    ----------
-    spec : FringeSpec
-        Pattern, steps, pitch, orientation, imin and MIGL of the set, and for sinusoidal sets
-        its shift angles and phase offset (version 3 of the capture format).
-    shift : int
-        Shift index i in 0..N-1 (its angle is ``spec.shifts[i]``).
-
-    References
-    ----------
-    Pattern convention: docs/capture_format.md; thesis Eq. 2.1 (sinusoidal), Eq. 2.5 (triangular).
-
-    Examples
-    --------
-    >>> frame = FringeFrame(FringeSpec(steps=4, pitch_px=8.0, imin=0.0, migl=200.0), 0)
-    >>> frame.gray([0.0, 4.0]).tolist()
-    [200.0, 0.0]
-    >>> sine = FringeSpec(steps=3, pitch_px=8.0, imin=0.0, migl=200.0, phase_offset_deg=-90)
-    >>> FringeFrame(sine, 0).gray([0.0, 2.0]).round(6).tolist()
-    [100.0, 200.0]
-    >>> FringeFrame(sine, 0).manifest_entry("a.png")["phase_offset_deg"]
-    -90
-    """
-
-    spec: FringeSpec
-    shift: int
-
-    kind: str = field(default="fringe", init=False)
-
-    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
-        """Linear gray level at projector coordinates along the fringe axis.
-
-        Parameters
-        ----------
-        coord : array_like
-            Projector column (vertical fringes) or row (horizontal); pixel centres at integers.
-
-        Returns
-        -------
-        ndarray of float64
-        """
-        return fringe_gray(coord, self.spec, self.shift)
-
-    def _check_levels(self, bit_depth: int) -> None:
-        full = full_scale(bit_depth, "projector bit depth")
-        if self.spec.migl > full:
-            raise InputError(
-                f"migl {self.spec.migl:g} exceeds the projector's maximum {full} at "
-                f"{bit_depth} bits"
-            )
-
-    def manifest_entry(self, file: str) -> dict[str, Any]:
-        """The frame's capture-manifest entry (docs/capture_format.md).
-
-        Parameters
-        ----------
-        file : str
-            Image file name the entry refers to.
-
-        Returns
-        -------
-        dict
-        """
-        s = self.spec
-        entry: dict[str, Any] = {
-            "file": file,
-            "kind": "fringe",
-            "pattern": s.pattern,
-            "steps": int(s.steps),
-            "shift": int(self.shift),
-            "pitch": float(s.pitch_px),
-            "orientation": s.orientation,
-            "imin": _num(s.imin),
-            "migl": _num(s.migl),
-        }
-        # version 3 (docs/capture_format.md): only where the set needs them, so a standard set's
-        # entry stays the version-1 entry byte for byte
-        if not s.gray_levels_given:
-            del entry["imin"], entry["migl"]
-        if s.shifts_deg is not None:
-            entry["shift_deg"] = _num(s.shifts_deg[self.shift])
-        if s.phase_offset_deg != 0.0:
-            entry["phase_offset_deg"] = _num(s.phase_offset_deg)
-        return entry
-
-    def default_name(self) -> str:
-        """A file-name-safe stem, e.g. ``s3_p6_v_i40_g255_0``.
-
-        Returns
-        -------
-        str
-        """
-        return f"{self.spec.label()}_{self.shift}"
 
 
 @dataclass(frozen=True)
@@ -249,6 +106,9 @@ class CenterlineFrame(_LineFrameMethods):
             )
         if self.width_px < 1:
             raise InputError(f"centerline width must be >= 1 projector pixel, got {self.width_px}")
+
+    def _axis(self) -> Orientation:
+        return self.orientation
 
     def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
         """Linear gray level at projector coordinates across the line (pixel-exact box).
@@ -321,6 +181,9 @@ class UniformFrame(_LineFrameMethods):
     level: float
 
     kind: str = field(default="uniform", init=False)
+
+    def _axis(self) -> Orientation:
+        return "vertical"
 
     def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
         """The level at every projector coordinate.
@@ -766,12 +629,8 @@ def frame_axis(frame: Frame) -> Orientation:
     >>> frame_axis(CenterlineFrame(10.0, "horizontal"))
     'horizontal'
     """
-    if isinstance(frame, UniformFrame):
-        return "vertical"
-    if isinstance(frame, FringeFrame):
-        return frame.spec.orientation
-    if isinstance(frame, CenterlineFrame | GrayCodeFrame):
-        return frame.orientation
+    if isinstance(frame, _LineFrameMethods):
+        return frame._axis()
     raise InputError(
         f"a {type(frame).__name__} varies along both projector axes; it has no single axis "
         "(use its render or gray_at)"
@@ -974,25 +833,6 @@ def _spec_from_entry(entry: dict[str, Any]) -> FringeSpec:
     )
 
 
-def _line_gray_at(frame: Any, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
-    uu, vv = np.broadcast_arrays(np.asarray(u, np.float64), np.asarray(v, np.float64))
-    return frame.gray(uu if frame_axis(frame) == "vertical" else vv)
-
-
-def _render_line(
-    frame: Any, width: int, height: int, gamma_hat: float, bit_depth: int
-) -> NDArray[np.integer]:
-    """The separable path: one line along the frame's axis, broadcast to the full image."""
-    if width < 1 or height < 1:
-        raise InputError(f"projector resolution must be positive, got {width}x{height}")
-    axis = frame_axis(frame)
-    n = width if axis == "vertical" else height
-    line = precompensate_gamma(frame.gray(np.arange(n)), gamma_hat, bit_depth)
-    if axis == "vertical":
-        return np.ascontiguousarray(np.broadcast_to(line[None, :], (height, width)))
-    return np.ascontiguousarray(np.broadcast_to(line[:, None], (height, width)))
-
-
 def _as_projector_array(data: ArrayLike, what: str) -> NDArray[np.float32]:
     """A read-only float32 copy of a 2-D array of non-negative finite gray levels."""
     a = np.asarray(data)
@@ -1036,12 +876,6 @@ def _digest(data: NDArray[np.float32]) -> str:
     h = hashlib.sha256(f"{data.shape[0]}x{data.shape[1]}|".encode())
     h.update(np.ascontiguousarray(data, dtype="<f4").tobytes())
     return h.hexdigest()
-
-
-def _num(v: float) -> float | int:
-    """JSON-friendly number: an int when integral."""
-    f = float(v)
-    return int(f) if f.is_integer() else f
 
 
 @dataclass(frozen=True)
@@ -1123,6 +957,9 @@ class GrayCodeFrame(_LineFrameMethods):
         object.__setattr__(self, "stripe_px", s)
         object.__setattr__(self, "inverse", bool(self.inverse))
         object.__setattr__(self, "migl", float(self.migl))
+
+    def _axis(self) -> Orientation:
+        return self.orientation
 
     def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
         """Linear gray level at projector coordinates across the stripes.

@@ -17,15 +17,17 @@ A sinusoidal set may declare other shift angles and a phase offset (capture form
 ``cos(2*pi*x/p + phase_offset + delta_i)`` with ``delta_i = radians(shifts_deg[i])``, and
 decoding still returns ``2*pi*x/p`` (the offset removed).
 
-What the projector shows, frame by frame, is in :mod:`hdrfringe.frames`.
+A set's frames (:meth:`FringeSpec.frames`) are :class:`FringeFrame` objects, defined here so that
+this module needs nothing from :mod:`hdrfringe.frames`; the other frames, and everything about
+rendering and manifests, are in :mod:`hdrfringe.frames`, which re-exports :class:`FringeFrame`.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Literal
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,13 +35,11 @@ from numpy.typing import ArrayLike, NDArray
 from hdrfringe._validation import check_bit_depth, full_scale
 from hdrfringe.errors import InputError
 
-if TYPE_CHECKING:
-    from hdrfringe.frames import FringeFrame
-
 __all__ = [
     "MAX_ANGLE_DEG",
     "ORIENTATIONS",
     "PATTERNS",
+    "FringeFrame",
     "FringeSpec",
     "Orientation",
     "PatternKind",
@@ -278,8 +278,6 @@ class FringeSpec:
 
     def frames(self) -> list[FringeFrame]:
         """The N frames of this set, shift 0 first."""
-        from hdrfringe.frames import FringeFrame
-
         return [FringeFrame(self, i) for i in range(self.steps)]
 
     def label(self) -> str:
@@ -433,3 +431,184 @@ def _wrap180(deg: float) -> float:
 
 def _fmt_degrees(values: list[float] | tuple[float, ...]) -> str:
     return "(" + ", ".join(f"{v:g}" for v in values) + ")"
+
+
+# --- the fringe frame (here, not in frames.py, so FringeSpec.frames() needs no import of
+# frames.py: frames.py builds on this module, never the other way; issue 29) ------------
+
+
+class _LineFrameMethods:
+    """What the line frames share: they vary along one projector axis, so a full image is one
+    rendered line broadcast along the other axis (the separable fast path)."""
+
+    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _axis(self) -> Orientation:  # pragma: no cover - abstract
+        """The projector axis the frame varies along (:func:`hdrfringe.frames.frame_axis`)."""
+        raise NotImplementedError
+
+    def _check_levels(self, bit_depth: int) -> None:
+        """Refuse gray levels the projector cannot show (none to check by default)."""
+
+    def gray_at(self, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+        """Linear gray level at continuous projector coordinates (column ``u``, row ``v``).
+
+        Parameters
+        ----------
+        u, v : array_like
+            Projector column and row, broadcast together.
+
+        Returns
+        -------
+        ndarray of float64
+        """
+        return _line_gray_at(self, u, v)
+
+    def render(
+        self, width: int, height: int, gamma_hat: float = 1.0, bit_depth: int = 8
+    ) -> NDArray[np.integer]:
+        """Projector input image, shape (height, width); see :func:`render_frame`.
+
+        Parameters
+        ----------
+        width, height : int
+            Projector resolution.
+        gamma_hat : float
+            Gamma pre-compensation exponent (1.0: none).
+        bit_depth : int
+            Projector input bit depth.
+
+        Returns
+        -------
+        ndarray of uint8 or uint16
+        """
+        self._check_levels(bit_depth)
+        return _render_line(self, width, height, gamma_hat, bit_depth)
+
+
+@dataclass(frozen=True)
+class FringeFrame(_LineFrameMethods):
+    """Shift ``shift`` of the fringe set ``spec`` (a line frame).
+
+    Parameters
+    ----------
+    spec : FringeSpec
+        Pattern, steps, pitch, orientation, imin and MIGL of the set, and for sinusoidal sets
+        its shift angles and phase offset (version 3 of the capture format).
+    shift : int
+        Shift index i in 0..N-1 (its angle is ``spec.shifts[i]``).
+
+    References
+    ----------
+    Pattern convention: docs/capture_format.md; thesis Eq. 2.1 (sinusoidal), Eq. 2.5 (triangular).
+
+    Examples
+    --------
+    >>> frame = FringeFrame(FringeSpec(steps=4, pitch_px=8.0, imin=0.0, migl=200.0), 0)
+    >>> frame.gray([0.0, 4.0]).tolist()
+    [200.0, 0.0]
+    >>> sine = FringeSpec(steps=3, pitch_px=8.0, imin=0.0, migl=200.0, phase_offset_deg=-90)
+    >>> FringeFrame(sine, 0).gray([0.0, 2.0]).round(6).tolist()
+    [100.0, 200.0]
+    >>> FringeFrame(sine, 0).manifest_entry("a.png")["phase_offset_deg"]
+    -90
+    """
+
+    spec: FringeSpec
+    shift: int
+
+    kind: str = field(default="fringe", init=False)
+
+    def gray(self, coord: ArrayLike) -> NDArray[np.float64]:
+        """Linear gray level at projector coordinates along the fringe axis.
+
+        Parameters
+        ----------
+        coord : array_like
+            Projector column (vertical fringes) or row (horizontal); pixel centres at integers.
+
+        Returns
+        -------
+        ndarray of float64
+        """
+        return fringe_gray(coord, self.spec, self.shift)
+
+    def _axis(self) -> Orientation:
+        return self.spec.orientation
+
+    def _check_levels(self, bit_depth: int) -> None:
+        full = full_scale(bit_depth, "projector bit depth")
+        if self.spec.migl > full:
+            raise InputError(
+                f"migl {self.spec.migl:g} exceeds the projector's maximum {full} at "
+                f"{bit_depth} bits"
+            )
+
+    def manifest_entry(self, file: str) -> dict[str, Any]:
+        """The frame's capture-manifest entry (docs/capture_format.md).
+
+        Parameters
+        ----------
+        file : str
+            Image file name the entry refers to.
+
+        Returns
+        -------
+        dict
+        """
+        s = self.spec
+        entry: dict[str, Any] = {
+            "file": file,
+            "kind": "fringe",
+            "pattern": s.pattern,
+            "steps": int(s.steps),
+            "shift": int(self.shift),
+            "pitch": float(s.pitch_px),
+            "orientation": s.orientation,
+            "imin": _num(s.imin),
+            "migl": _num(s.migl),
+        }
+        # version 3 (docs/capture_format.md): only where the set needs them, so a standard set's
+        # entry stays the version-1 entry byte for byte
+        if not s.gray_levels_given:
+            del entry["imin"], entry["migl"]
+        if s.shifts_deg is not None:
+            entry["shift_deg"] = _num(s.shifts_deg[self.shift])
+        if s.phase_offset_deg != 0.0:
+            entry["phase_offset_deg"] = _num(s.phase_offset_deg)
+        return entry
+
+    def default_name(self) -> str:
+        """A file-name-safe stem, e.g. ``s3_p6_v_i40_g255_0``.
+
+        Returns
+        -------
+        str
+        """
+        return f"{self.spec.label()}_{self.shift}"
+
+
+def _line_gray_at(frame: Any, u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+    uu, vv = np.broadcast_arrays(np.asarray(u, np.float64), np.asarray(v, np.float64))
+    return frame.gray(uu if frame._axis() == "vertical" else vv)
+
+
+def _render_line(
+    frame: Any, width: int, height: int, gamma_hat: float, bit_depth: int
+) -> NDArray[np.integer]:
+    """The separable path: one line along the frame's axis, broadcast to the full image."""
+    if width < 1 or height < 1:
+        raise InputError(f"projector resolution must be positive, got {width}x{height}")
+    axis = frame._axis()
+    n = width if axis == "vertical" else height
+    line = precompensate_gamma(frame.gray(np.arange(n)), gamma_hat, bit_depth)
+    if axis == "vertical":
+        return np.ascontiguousarray(np.broadcast_to(line[None, :], (height, width)))
+    return np.ascontiguousarray(np.broadcast_to(line[:, None], (height, width)))
+
+
+def _num(v: float) -> float | int:
+    """JSON-friendly number: an int when integral."""
+    f = float(v)
+    return int(f) if f.is_integer() else f
