@@ -18,6 +18,7 @@ import pytest
 
 from hdrfringe.captures import CameraSettings
 from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.hardware.backends import open_camera
 from hdrfringe.hardware.camera import (
     MONO_FORMATS,
     Camera,
@@ -26,7 +27,6 @@ from hdrfringe.hardware.camera import (
     GrabTimeoutError,
     MissingPackageError,
     PixelFormatError,
-    open_camera,
 )
 from hdrfringe.hardware.genicam import GenICamCamera, bundled_producer
 from hdrfringe.hardware.opencv_camera import OpenCVCamera

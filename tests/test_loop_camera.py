@@ -20,7 +20,8 @@ import pytest
 from hdrfringe.captures import CameraSettings
 from hdrfringe.errors import InputError
 from hdrfringe.frames import FringeFrame, ImageFrame, PixelwiseFringeFrame, UniformFrame
-from hdrfringe.hardware.camera import Camera, PixelFormatError, open_camera
+from hdrfringe.hardware.backends import open_camera
+from hdrfringe.hardware.camera import Camera, PixelFormatError
 from hdrfringe.hardware.loop_camera import LoopCamera
 from hdrfringe.hardware.projector import ScreenProjector, render_for_projector
 from hdrfringe.patterns import FringeSpec

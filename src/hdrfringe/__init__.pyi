@@ -27,8 +27,8 @@ from .geometric_order import geometric_order as geometric_order
 from .geometric_order import unambiguous_depth_mm as unambiguous_depth_mm
 from .graycode import absolute_phase_graycode as absolute_phase_graycode
 from .graycode import decode_graycode as decode_graycode
+from .hardware.backends import open_camera as open_camera
 from .hardware.camera import CameraBase as CameraBase
-from .hardware.camera import open_camera as open_camera
 from .hardware.config import CameraConfig as CameraConfig
 from .hardware.config import ProjectorConfig as ProjectorConfig
 from .hardware.config import RigConfig as RigConfig

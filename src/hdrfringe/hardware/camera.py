@@ -1,4 +1,4 @@
-"""The camera protocol every camera back end follows, its errors, and ``open_camera``.
+"""The camera protocol every camera back end follows, and its errors.
 
 A camera here is a monochrome machine-vision or UVC camera seen through one small protocol
 (:class:`Camera`): open and close it (or use it as a context manager), set exposure, gain,
@@ -17,8 +17,9 @@ stay optional: ``pip install hdrfringe[hardware]``):
 - ``genicam:CTI_PATH[:SERIAL]``: any GenICam camera through a GenTL producer and harvesters
   (:class:`hdrfringe.hardware.genicam.GenICamCamera`).
 
-:func:`open_camera` parses such a specification; docs/hardware.md describes the back ends and
-what is tested.
+:func:`hdrfringe.hardware.backends.open_camera` parses such a specification (it lives in its own
+module because it imports the back ends, which import this one); docs/hardware.md describes the
+back ends and what is tested.
 """
 
 from __future__ import annotations
@@ -46,7 +47,6 @@ __all__ = [
     "MissingPackageError",
     "PixelFormatError",
     "import_optional",
-    "open_camera",
 ]
 
 #: The pixel formats hdrfringe reads (GenICam SFNC names) and their bit depth B (thesis 7.4:
@@ -460,65 +460,3 @@ class CameraBase:
 def _check_positive(what: str, value: float, camera: str) -> None:
     if not (math.isfinite(value) and value > 0):
         raise InputError(f"camera {camera}: {what} must be a positive number, got {value}")
-
-
-def open_camera(spec: str) -> CameraBase:
-    """Create (not yet open) the camera a specification names.
-
-    Parameters
-    ----------
-    spec : str
-        ``pylon:SERIAL`` or ``pylon:emu`` (Basler, pypylon; ``emu``: the first of pylon's
-        emulated cameras), ``opencv:INDEX`` or ``opencv:PATH`` (OpenCV VideoCapture: a device
-        index, a device path such as ``/dev/video0``, or a video file),
-        ``genicam:CTI_PATH`` or ``genicam:CTI_PATH:SERIAL`` (harvesters with that GenTL
-        producer; without a serial, its first device), ``loop:SCENE[?key=value&...]`` (the
-        projector's X screen seen through the virtual rig,
-        :class:`hdrfringe.hardware.loop_camera.LoopCamera`).
-
-    Returns
-    -------
-    CameraBase
-        The camera; open it with ``with`` or :meth:`~CameraBase.open`.
-
-    Raises
-    ------
-    InputError
-        When the specification has no known back end.
-
-    Examples
-    --------
-    >>> with open_camera("pylon:emu") as cam:
-    ...     cam.set_pixel_format("Mono12")
-    ...     cam.grab(timeout_s=2.0).dtype, cam.bit_depth
-    (dtype('uint16'), 12)
-    >>> open_camera("usb3:1")
-    Traceback (most recent call last):
-    ...
-    hdrfringe.errors.InputError: camera 'usb3:1': unknown back end 'usb3'; use pylon:SERIAL, ...
-    """
-    kind, sep, rest = spec.partition(":")
-    if kind == "pylon" and rest:
-        from hdrfringe.hardware.pylon import PylonCamera
-
-        return PylonCamera(rest)
-    if kind == "opencv" and rest:
-        from hdrfringe.hardware.opencv_camera import OpenCVCamera
-
-        return OpenCVCamera(rest)
-    if kind == "genicam" and rest:
-        from hdrfringe.hardware.genicam import GenICamCamera
-
-        cti, serial = rest, None
-        head, _, tail = rest.rpartition(":")
-        if head and tail and not tail.lower().endswith(".cti") and "/" not in tail:
-            cti, serial = head, tail
-        return GenICamCamera(cti, serial)
-    if kind == "loop":  # the projector's X screen through the virtual rig (docs/hardware.md)
-        from hdrfringe.hardware.loop_camera import LoopCamera
-
-        return LoopCamera(spec)
-    forms = "pylon:SERIAL, pylon:emu, opencv:0, opencv:/dev/videoN or genicam:CTI_PATH[:SERIAL]"
-    if not sep or not rest:
-        raise InputError(f"camera {spec!r}: no back end and device given; use {forms}")
-    raise InputError(f"camera {spec!r}: unknown back end {kind!r}; use {forms}")

@@ -25,7 +25,8 @@ from numpy.typing import ArrayLike
 
 from hdrfringe.captures import CameraSettings
 from hdrfringe.errors import InputError
-from hdrfringe.hardware.camera import Camera, CameraBase, open_camera
+from hdrfringe.hardware.backends import open_camera
+from hdrfringe.hardware.camera import Camera, CameraBase
 from hdrfringe.hardware.projector import Projector
 from hdrfringe.hardware.rig import HardwareRig, SyncSettings, open_projector
 from hdrfringe.limits import MAX_PROJECTOR_PIXELS
@@ -180,7 +181,7 @@ class CameraConfig:
     ----------
     spec : str, optional
         ``pylon:SERIAL|emu``, ``opencv:N``, ``genicam:CTI[:SERIAL]`` or ``loop:SCENE[?...]``
-        (:func:`~hdrfringe.hardware.camera.open_camera`).
+        (:func:`~hdrfringe.hardware.backends.open_camera`).
     exposure_ms : float, optional
         Exposure time in ms; None: the camera's.
     gain_db : float, optional

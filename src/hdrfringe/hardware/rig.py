@@ -339,7 +339,7 @@ class HardwareRig(RigBase):
     >>> import tempfile
     >>> from pathlib import Path
     >>> from hdrfringe.frames import UniformFrame
-    >>> from hdrfringe.hardware.camera import open_camera
+    >>> from hdrfringe.hardware.backends import open_camera
     >>> from hdrfringe.hardware.projector import FolderProjector
     >>> play = FolderProjector(Path(tempfile.mkdtemp()) / "play", 64, 48)
     >>> sync = SyncSettings(settle_s=0.0, verify=False)
@@ -568,7 +568,7 @@ class HardwareRig(RigBase):
         --------
         >>> import tempfile
         >>> from pathlib import Path
-        >>> from hdrfringe.hardware.camera import open_camera
+        >>> from hdrfringe.hardware.backends import open_camera
         >>> from hdrfringe.hardware.projector import FolderProjector
         >>> play = FolderProjector(Path(tempfile.mkdtemp()) / "play", 64, 48)
         >>> sync = SyncSettings(settle_s=0.0, view_check=False)  # the emulation sees no projector
@@ -1045,7 +1045,7 @@ def check_rig(
     On a rig, see docs/hardware.md ("capture and rig check"; ``tests/test_hardware_rig.py``
     runs it on the loop rig). Arguments are checked before any device is opened:
 
-    >>> from hdrfringe.hardware.camera import open_camera
+    >>> from hdrfringe.hardware.backends import open_camera
     >>> check_rig(open_projector("screen:0@:99"), open_camera("pylon:emu"), changes=1)
     Traceback (most recent call last):
     ...
