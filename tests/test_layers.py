@@ -8,6 +8,11 @@ also runs its parent packages' ``__init__``, so those count as imported too. A m
 modules of its own layer or of an inner one; anything else, and any module not placed in a
 layer, fails the test. ``hdrfringe/__init__.py`` (the public API, which re-exports from every
 layer) is exempt, and so is importing it (``from hdrfringe import __version__``).
+
+The same walk gives the module import graph, checked for circles (issue 29): no strongly connected
+component of more than one module, lazy imports included; and no module outside the research
+package (``hdrfringe/reproduce/``) imports it, except the CLI commands listed in
+:data:`RESEARCH_IMPORTERS`.
 """
 
 from __future__ import annotations
@@ -15,7 +20,10 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy.sparse import coo_array
+from scipy.sparse.csgraph import connected_components
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "hdrfringe"
 ROOT = "hdrfringe"
@@ -110,7 +118,7 @@ def _with_parents(module: str) -> list[str]:
 
 
 def imports_of(
-    source: str, module: str, is_package: bool, known: set[str]
+    source: str, module: str, is_package: bool, known: set[str], with_parents: bool = True
 ) -> list[tuple[str, int]]:
     """(imported module, line) for every import of a package module that ``source`` makes.
 
@@ -125,11 +133,14 @@ def imports_of(
     known : set of str
         Dotted names of the package's modules (to tell ``from x import submodule`` from
         ``from x import attribute``).
+    with_parents : bool
+        Also list the parent packages of each imported module (their ``__init__`` runs too).
 
     Returns
     -------
     list of (str, int)
-        Imported modules (parents included, the root package left out), with line numbers;
+        Imported modules (parents included unless ``with_parents`` is False, the root package
+        left out), with line numbers;
         a name that is no module of the package is returned as ``?<name>``.
     """
     here = module.split(".") if module else []
@@ -142,7 +153,7 @@ def imports_of(
         if target not in known:
             found.append((f"?{target}", line))
             return
-        found.extend((t, line) for t in _with_parents(target))
+        found.extend((t, line) for t in (_with_parents(target) if with_parents else [target]))
 
     def absolute(dotted: str) -> str | None:
         """``hdrfringe.x.y`` -> ``x.y``; ``hdrfringe`` -> ``""``; other packages -> None."""
@@ -226,6 +237,88 @@ def _package_sources() -> dict[str, tuple[str, bool]]:
         name: (path.read_text(encoding="utf-8"), path.name == "__init__.py")
         for name, path in package_modules().items()
     }
+
+
+# --- import circles and the research package (issue 29) ---------------------------------------
+
+#: Import circles tolerated for now (the modules of one strongly connected component -> why, and
+#: the step of issue 29 that removes it). Keep it empty: a new circle fails the test, and so does
+#: a circle listed here that no longer occurs, so the list cannot go stale.
+KNOWN_CYCLES: dict[frozenset[str], str] = {}
+
+#: The research package, and the modules outside it that may import it (module -> why). Issue 29
+#: moves ``reproduce`` into its own installable package that joins the ``hdrfringe`` command
+#: through an entry point; then the product imports none of it and this map is empty. A module
+#: listed here that no longer imports it fails the test.
+RESEARCH = "reproduce"
+RESEARCH_IMPORTERS: dict[str, str] = {
+    "cli.reproduce": "the `reproduce` command runs the research sweeps",
+    "cli.compare": "the `compare` command runs reproduce.compare (issue 29: a product command)",
+    "cli.simulate": "parses --resolution with reproduce.compare.parse_resolution",
+}
+
+
+def _is_within(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def import_graph(sources: dict[str, tuple[str, bool]]) -> dict[str, set[str]]:
+    """Module -> the package modules it imports, at the top level or inside a function.
+
+    An import names one module (``from hdrfringe.x import y`` names ``x.y`` when that is a
+    module, else ``x``) and also runs that module's parent packages, which count as imported too,
+    except the importer's own parents: they are already being initialised when it runs (a
+    submodule needs no edge to its package for ``rig/__init__`` to import it without a circle).
+    An explicit import of an own parent (``from hdrfringe.rig import Rig`` in ``rig.replay``)
+    counts. The root package (``hdrfringe/__init__.py``, the lazy public API) is left out, as
+    are names that are no module of the package (reported by :func:`violations`).
+    """
+    known = set(sources)
+    graph: dict[str, set[str]] = {m: set() for m in known if m}
+    for module, (source, is_package) in sources.items():
+        if not module:
+            continue
+        for target, _ in imports_of(source, module, is_package, known, with_parents=False):
+            if target.startswith("?"):
+                continue
+            graph[module].add(target)
+            graph[module].update(p for p in _with_parents(target)[1:] if not _is_within(module, p))
+        graph[module].discard(module)
+    return graph
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[frozenset[str]]:
+    """The strongly connected components of ``graph`` with more than one module, sorted."""
+    names = sorted(set(graph) | {t for targets in graph.values() for t in targets})
+    index = {name: i for i, name in enumerate(names)}
+    edges = np.array(
+        [(index[m], index[t]) for m, targets in graph.items() for t in targets], dtype=np.intp
+    ).reshape(-1, 2)
+    adjacency = coo_array(
+        (np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(len(names), len(names))
+    )
+    _, labels = connected_components(adjacency, directed=True, connection="strong")
+    components = [
+        frozenset(names[i] for i in np.flatnonzero(labels == label)) for label in set(labels)
+    ]
+    return sorted((c for c in components if len(c) > 1), key=sorted)
+
+
+def research_importers(sources: dict[str, tuple[str, bool]]) -> dict[str, list[int]]:
+    """Modules outside the research package that import it -> the lines that do."""
+    known = set(sources)
+    out: dict[str, list[int]] = {}
+    for module, (source, is_package) in sorted(sources.items()):
+        if not module or _is_within(module, RESEARCH):
+            continue
+        lines = [
+            line
+            for target, line in imports_of(source, module, is_package, known)
+            if _is_within(target.lstrip("?"), RESEARCH)
+        ]
+        if lines:
+            out[module] = sorted(set(lines))
+    return out
 
 
 # --- the package ------------------------------------------------------------------------------
@@ -328,3 +421,149 @@ def test_checker_reports_unknown_modules_and_unplaced_ones() -> None:
     assert unplaced({"", "phase", "rig.replay", "newthing", "reproduce.x"}) == ["newthing"]
     assert layer_of("gamma.fits") == CORE and layer_of("strategies.lpa") == ACQUISITION
     assert layer_of("saturation") == CORE
+
+
+# --- import circles and the research package: the package -------------------------------------
+
+
+def test_no_import_cycles() -> None:
+    cycles = import_cycles(import_graph(_package_sources()))
+    new = [c for c in cycles if c not in KNOWN_CYCLES]
+    assert not new, "import circles (strongly connected components; break each):\n" + "\n".join(
+        "  " + " <-> ".join(f"hdrfringe.{m}" for m in sorted(c)) for c in new
+    )
+    stale = [sorted(c) for c in KNOWN_CYCLES if c not in cycles]
+    assert not stale, f"KNOWN_CYCLES no longer occur, remove them: {stale}"
+
+
+def test_the_import_graph_is_found() -> None:
+    """Guards against a vacuous pass: the graph has the edges the circles were made of, one way."""
+    graph = import_graph(_package_sources())
+    assert "patterns" in graph["frames"] and "frames" not in graph["patterns"]
+    assert {"hardware.pylon", "hardware.genicam", "hardware.opencv_camera"} <= graph[
+        "hardware.backends"
+    ]
+    assert "hardware.camera" in graph["hardware.pylon"]
+    assert not {"hardware.pylon", "hardware.backends"} & graph["hardware.camera"]
+    assert "rig.replay" in graph["rig"]  # a package importing its submodules (lazily) ...
+    assert "rig" not in graph["rig.replay"]  # ... which need no edge back to it
+    assert sum(len(t) for t in graph.values()) > 500
+
+
+def test_only_the_listed_modules_import_the_research_package() -> None:
+    found = research_importers(_package_sources())
+    unexpected = {m: lines for m, lines in found.items() if m not in RESEARCH_IMPORTERS}
+    assert not unexpected, "the product imports the research package (hdrfringe.reproduce):\n" + (
+        "\n".join(f"  hdrfringe.{m} (lines {lines})" for m, lines in unexpected.items())
+    )
+    stale = sorted(set(RESEARCH_IMPORTERS) - set(found))
+    assert not stale, f"RESEARCH_IMPORTERS no longer import it, remove them: {stale}"
+
+
+# --- the circle check on synthetic modules ------------------------------------------------------
+
+
+def _graph(modules: dict[str, str]) -> dict[str, set[str]]:
+    """The import graph of a small package: names ending in ``/`` are packages."""
+    sources = {"": ("", True)}
+    for name, source in modules.items():
+        sources[name.rstrip("/")] = (source, name.endswith("/"))
+    return import_graph(sources)
+
+
+@pytest.mark.parametrize(
+    ("modules", "expected"),
+    [
+        # the patterns <-> frames circle this issue removed: a lazy import inside a method
+        (
+            {
+                "patterns": "def frames():\n    from hdrfringe.frames import FringeFrame\n",
+                "frames": "from hdrfringe.patterns import FringeSpec\n",
+            },
+            [{"frames", "patterns"}],
+        ),
+        # the camera circle: a factory importing back ends that import it (relative imports)
+        (
+            {
+                "hw/": "",
+                "hw.camera": "def open_camera():\n    from .pylon import PylonCamera\n",
+                "hw.pylon": "from .camera import CameraBase\n",
+                "hw.genicam": "from . import camera\n",
+            },
+            [{"hw.camera", "hw.pylon"}],
+        ),
+        # three modules, `import a.b as c`, importlib with a literal name
+        (
+            {
+                "a/": "",
+                "a.b": "import hdrfringe.c as c\n",
+                "c": "import importlib\nimportlib.import_module('hdrfringe.d')\n",
+                "d": "if TYPE_CHECKING:\n    from hdrfringe.a import b\n",
+            },
+            [{"a.b", "c", "d"}],
+        ),
+        # an explicit import of the own package from a submodule the package imports
+        (
+            {
+                "rig/": "from hdrfringe.rig.replay import R\n",
+                "rig.replay": "from hdrfringe.rig import B\n",
+            },
+            [{"rig", "rig.replay"}],
+        ),
+        # importing io.captures runs io/__init__, which imports the importer back
+        (
+            {
+                "io/": "from hdrfringe.rig import x\n",
+                "io.captures": "",
+                "rig": "import hdrfringe.io.captures\n",
+            },
+            [{"io", "rig"}],
+        ),
+        # two separate circles are both reported
+        (
+            {
+                "a": "import hdrfringe.b\n",
+                "b": "import hdrfringe.a\n",
+                "c": "from hdrfringe import d\n",
+                "d": "from hdrfringe import c\n",
+            },
+            [{"a", "b"}, {"c", "d"}],
+        ),
+    ],
+)
+def test_cycle_check_finds_circles(modules: dict[str, str], expected: list[set[str]]) -> None:
+    assert import_cycles(_graph(modules)) == [frozenset(c) for c in expected]
+
+
+@pytest.mark.parametrize(
+    "modules",
+    [
+        # a package importing its submodules, which import siblings (the own package is running)
+        {
+            "rig/": "from hdrfringe.rig.base import Rig\nfrom .replay import R\n",
+            "rig.base": "",
+            "rig.replay": "from hdrfringe.rig.base import Rig\nfrom . import base\n",
+        },
+        # one way, lazily or not; importing the root package is exempt
+        {
+            "frames": "from hdrfringe.patterns import FringeSpec\n",
+            "patterns": "from hdrfringe import __version__\nimport hdrfringe\n",
+        },
+        # a module importing itself is no circle; unknown names are left to `violations`
+        {"a": "def f():\n    import hdrfringe.a\nfrom hdrfringe.nosuch import x\n"},
+    ],
+)
+def test_cycle_check_accepts_one_way_imports(modules: dict[str, str]) -> None:
+    assert import_cycles(_graph(modules)) == []
+
+
+def test_research_check_finds_importers() -> None:
+    sources = {
+        "": ("", True),
+        "reproduce": ("from .runner import x\n", True),
+        "reproduce.runner": ("from hdrfringe.phase import y\n", False),
+        "phase": ("def f():\n    from hdrfringe.reproduce.runner import x\n", False),
+        "cli": ("from hdrfringe import reproduce\n", False),
+        "io": ("from . import phase\n", True),
+    }
+    assert research_importers(sources) == {"cli": [1], "phase": [2]}
