@@ -119,6 +119,26 @@ def test_capture_refuses_pylons_emulation_which_does_not_see_the_projector(
     assert "does not see the projector" in one_error_line(r)
 
 
+def test_measure_hardware_has_the_same_view_check_and_opt_out(tmp_path: Path) -> None:
+    """``measure --rig hardware`` on the emulation: refused in one line naming
+    --no-view-check, nothing written; with --no-view-check it measures (as capture does);
+    the option is a hardware option (refused on a folder)."""
+    out = tmp_path / "m"
+    hw = ["measure", "--rig", "hardware", "--camera", "pylon:emu", *CAPTURE, "--no-previews"]
+    r = cli(*hw, "--projector", f"folder:{tmp_path / 'shown'}@64x48", "-o", str(out))
+    line = one_error_line(r)
+    assert "camera pylon:emu does not see the projector" in line and "--no-view-check" in line
+    assert not out.exists()
+    r = cli(*hw, "--projector", f"folder:{tmp_path / 'shown2'}@64x48", "--no-view-check",
+            "-o", str(out))  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    log = json.loads((out / "captures" / "capture_log.json").read_text())
+    assert log["view_change"] is None and log["rig"]["sync"]["view_check"] is False
+    r = cli("measure", str(out / "captures"), "--no-view-check", "-o", str(tmp_path / "f"))
+    assert "--view-check only applies to --rig hardware" in one_error_line(r)
+    assert not (tmp_path / "f").exists()
+
+
 def test_capture_on_the_loop_camera_passes_the_view_check(xdisplay: str, tmp_path: Path) -> None:
     out = tmp_path / "caps"
     camera = f"loop:checkerboard?display={xdisplay}&latency=1&{LOOP}"
