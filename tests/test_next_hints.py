@@ -107,7 +107,6 @@ def test_no_hint_for_a_folder_with_nothing_to_decode(tmp_path: Path) -> None:
     assert "next:" not in res.stdout and "wrote" in res.stdout
 
 
-
 def _same_pitch_folder(tmp_path: Path) -> Path:
     """Two vertical 4-step sets of one pitch (64 px, the same images), the second
     pre-distorted with exponent 2 (``gamma_precompensation``), imported."""
