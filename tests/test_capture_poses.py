@@ -21,7 +21,7 @@ import pytest
 from typer.testing import CliRunner
 
 from hdrfringe.hardware.rig import HardwareRig, SyncSettings
-from tests.conftest import run_cli, xvfb_display
+from tests.conftest import xvfb_display
 from tests.test_hardware_rig import OPEN_GRABS, FakeCamera, FakeProjector, InterruptingCamera
 
 # The Xvfb tests share one group: one worker runs them (make test: --dist loadgroup).
@@ -76,7 +76,8 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
         "[sync]\nsettle_s = 0.5\nmax_grabs = 3\n"
     )
     args = ["--rig-config", str(config), "--settle", "0", "--poses", "3", "--steps", "3"]
-    r = invoke([*args, "-o", str(out)], stdin="\n\n\n")
+    board = ["--board", "checkerboard:9x6:25"]
+    r = invoke([*args, *board, "-o", str(out)], stdin="\n\n\n")
     assert r.exit_code == 0, r.output
     assert r.output.count("place the board, then press Enter") == 3
     summary = json.loads((out / "capture_poses.json").read_text())
@@ -98,12 +99,13 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
             assert record["camera"] == camera and record["sync"]["settle_s"] == 0.0
         assert manifest["capture"]["pose"] == log["pose"] == int(name[-2:])
 
-    stereo = tmp_path / "stereo.h5"
-    folders = [str(out / n) for n in summary["poses"]]
-    r2 = run_cli("calibrate-stereo", *folders, "--board", "checkerboard:9x6:25", "--window",
-                 "6", "-o", str(stereo))  # fmt: skip
-    assert r2.returncode == 0, r2.stderr
-    report = json.loads((tmp_path / "stereo_report.json").read_text())
+    # the closing hint (--board given) is the calibrate-stereo command, and it runs as printed
+    from tests.test_next_hints import run_hint
+
+    assert summary["board"] == "checkerboard:9x6:25"
+    command, r2 = run_hint(r.output, tmp_path / "unused")
+    assert command == "calibrate-stereo" and r2.returncode == 0, r2.stderr
+    report = json.loads((out / "stereo_report.json").read_text())
     assert report["settings"]["poses_used"] == 3
     truth = calibration_rig(
         default_board_poses(1)[0], camera_size=CAMERA_SIZE, projector_size=(WIDTH, HEIGHT)
@@ -148,11 +150,17 @@ def test_q_finishes_after_the_complete_poses(
     text = " ".join(r.output.split())
     assert "2 complete poses (pose_01 .. pose_02), finished with q" in text
     assert "calibrate-stereo needs at least 3 poses" in text
+    # no --board: no next: hint (it could not run as printed), the instruction instead
+    assert "next:" not in text
+    assert f"to calibrate: hdrfringe calibrate-stereo {out}/pose_* --board PATTERN:" in text
     summary = json.loads((out / "capture_poses.json").read_text())
     assert summary["complete"] is False and summary["stopped"] == "finished with q"
     assert sorted(p.name for p in out.iterdir()) == ["capture_poses.json", "pose_01", "pose_02"]
     caps = read_capture_folder(out / "pose_02")
     assert len(caps.frames) == 17 and caps.frames[-1].kind == "uniform"
+    # with --board but too few poses for calibrate-stereo: still no next: hint
+    r = invoke([*FAKE, "--board", "circles:4x11:20", "-o", str(tmp_path / "b")], stdin="\nq\n")
+    assert r.exit_code == 0 and "next:" not in r.output and "to calibrate" not in r.output
     # q at the first prompt: nothing written
     r = invoke([*FAKE, "-o", str(tmp_path / "none")], stdin="q\n")
     assert r.exit_code == 2 and "before the first pose; nothing written" in r.stderr
@@ -206,6 +214,7 @@ def test_an_error_mid_run_keeps_the_complete_poses(
         (["--interval", "-1"], "--interval -1.0: give a number of seconds >= 0"),
         (["--pitch", "a,b"], "--pitch: cannot read"),
         (["--camera", "usb3:1"], "unknown back end 'usb3'"),
+        (["--board", "checkerboard:9x6"], "board 'checkerboard:9x6': give PATTERN:COLSxROWS"),
     ],
 )
 def test_capture_poses_refuses_bad_input_in_one_line(

@@ -209,6 +209,13 @@ def test_measure_with_a_depth_range_triangulates_a_single_pitch(scene) -> None: 
     assert order["depth_range_mm"] == list(RANGE) and order["pitch_px"] == PITCH
     assert res.decoded.primary is not None
     assert res.decoded.primary.absolute_method.startswith("geometric")
+    # the notes agree: the decoder's "no absolute phase" note (it is there after decoding
+    # alone) gives way to the geometric one
+    from hdrfringe.process import decode_captures, no_absolute_phase_note
+
+    assert no_absolute_phase_note("vertical") in decode_captures(scene["captures"]).notes
+    assert no_absolute_phase_note("vertical") not in res.notes
+    assert sum("absolute phase from the stereo calibration" in n for n in res.notes) == 1
     assert res.stereo is not None
     err = np.linalg.norm(res.stereo.xyz - scene["xyz"], axis=-1)
     assert np.nanmedian(err) < 0.3 and np.isfinite(err).mean() > 0.99
@@ -240,6 +247,7 @@ def test_cli_measure_depth_range_with_a_calibrate_stereo_calibration(scene, tmp_
     assert res.returncode == 0, res.stderr
     printed = " ".join(res.stdout.split())  # the console wraps long lines
     assert "absolute phase from the stereo calibration and the depth range 570..605" in printed
+    assert "so no absolute phase" not in printed  # no note contradicts it
     u = tifffile.imread(out / "absolute_phase.tiff").astype(np.float64) * PITCH / TWO_PI
     assert np.isfinite(u).mean() > 0.99 and not np.any(_wrong(u, scene["u"]))
     xyz = tifffile.imread(out / "xyz.tiff").astype(np.float64)

@@ -155,9 +155,9 @@ def test_kamino410_gamma(tmp_path: Path) -> None:
     """-120/0/+120 degrees: the hand-written manifest numbers them 2, 0, 1 (docs/import.md).
 
     ``hdrfringe phase`` refuses this folder, imported or hand-written alike: two sets of one
-    orientation and pitch that differ only in their gamma pre-compensation are not a family
-    (``pitches must be strictly decreasing``); the set is for ``hdrfringe gamma``. So the
-    round trip compares the folders read back and every set decoded.
+    orientation and pitch that differ only in their gamma pre-compensation are not a pitch
+    ladder; one line says it is a gamma capture and names ``hdrfringe gamma`` (exit 2,
+    nothing written). So the round trip compares the folders read back and every set decoded.
     """
     root = realdata_path("kamino410", "gamma_correction_subset")
     caps = tmp_path / "caps"
@@ -169,6 +169,12 @@ def test_kamino410_gamma(tmp_path: Path) -> None:
 
     command, ran = run_hint(res.stdout, tmp_path / "gamma")  # not phase: it refuses the sets
     assert command == "gamma" and ran.returncode == 0, ran.stderr
+    refused = run_cli("phase", str(caps), "-o", str(tmp_path / "phase"))
+    lines = [ln for ln in refused.stderr.splitlines() if ln.strip()]
+    assert refused.returncode == 2 and len(lines) == 1, refused.stderr
+    assert "pre-distorted with exponents 0.75, 1.25: a gamma capture" in lines[0]
+    assert f"`hdrfringe gamma {caps} -o OUT`" in lines[0] and "strictly" not in lines[0]
+    assert not (tmp_path / "phase").exists()
     frames = []
     sets = ((0, "vertical", 0.75), (3, "vertical", 1.25), (6, "horizontal", 0.75))
     for base, o, gamma in (*sets, (9, "horizontal", 1.25)):

@@ -105,3 +105,61 @@ def test_no_hint_for_a_folder_with_nothing_to_decode(tmp_path: Path) -> None:
     res = run_cli("import", str(cam), "-d", str(desc), "-o", str(tmp_path / "caps"))
     assert res.returncode == 0, res.stderr
     assert "next:" not in res.stdout and "wrote" in res.stdout
+
+
+def _same_pitch_folder(tmp_path: Path) -> Path:
+    """Two vertical 4-step sets of one pitch (64 px, the same images), the second
+    pre-distorted with exponent 2 (``gamma_precompensation``), imported."""
+    import cv2
+
+    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.rig.scenes import white_plate
+    from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+
+    rig = SimulatedRig(white_plate(), camera=CameraModel(width=64, height=48))
+    caps = rig.capture_folder(FringeSpec("sinusoidal", 4, 64.0).frames())
+    cam = tmp_path / "cam"
+    cam.mkdir()
+    for i, img in enumerate([*caps.images, *caps.images]):
+        cv2.imwrite(str(cam / f"i{i}.png"), img)
+    desc = tmp_path / "d.toml"
+    desc.write_text(
+        "[camera]\nbit_depth = 8\n"
+        '[[fringe]]\nfiles = ["i0.png", "i1.png", "i2.png", "i3.png"]\npitch = 64\nsteps = 4\n'
+        '[[fringe]]\nfiles = ["i4.png", "i5.png", "i6.png", "i7.png"]\npitch = 64\nsteps = 4\n'
+        "gamma_precompensation = 2.0\n"
+    )
+    out = tmp_path / "caps"
+    res = run_cli("import", str(cam), "-d", str(desc), "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+def test_phase_on_sets_of_one_pitch_says_what_the_folder_is(tmp_path: Path) -> None:
+    """Two sets of one pitch are no pitch ladder: ``phase`` refuses in one line, exit 2,
+    nothing written, and says what the folder is: pre-distorted with two exponents, a gamma
+    capture (``hdrfringe gamma``); the same two sets told apart by a label only (no exponents),
+    the sets to keep one of. Not the unwrapper's "pitches must be strictly decreasing"."""
+    import json
+    import shutil
+
+    gamma = _same_pitch_folder(tmp_path)
+    res = run_cli("phase", str(gamma), "-o", str(tmp_path / "p1"))
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.returncode == 2 and len(lines) == 1, res.stderr
+    assert "strictly decreasing" not in lines[0]
+    assert "all have pitch 64 px, pre-distorted with exponents 1, 2: a gamma capture" in lines[0]
+    assert f"`hdrfringe gamma {gamma} -o OUT`" in lines[0]
+    assert not (tmp_path / "p1").exists()
+    labelled = tmp_path / "labelled"
+    shutil.copytree(gamma, labelled)
+    manifest = json.loads((labelled / "manifest.json").read_text())
+    for k, frame in enumerate(manifest["frames"]):
+        frame.pop("gamma_precompensation", None)
+        frame["set"] = "ab"[k // 4]
+    (labelled / "manifest.json").write_text(json.dumps(manifest))
+    res = run_cli("phase", str(labelled), "-o", str(tmp_path / "p2"))
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert res.returncode == 2 and len(lines) == 1, res.stderr
+    assert "sets a, b all have pitch 64 px, so they do not form a pitch ladder" in lines[0]
+    assert "gamma" not in lines[0] and not (tmp_path / "p2").exists()

@@ -119,6 +119,26 @@ def test_capture_refuses_pylons_emulation_which_does_not_see_the_projector(
     assert "does not see the projector" in one_error_line(r)
 
 
+def test_measure_hardware_has_the_same_view_check_and_opt_out(tmp_path: Path) -> None:
+    """``measure --rig hardware`` on the emulation: refused in one line naming
+    --no-view-check, nothing written; with --no-view-check it measures (as capture does);
+    the option is a hardware option (refused on a folder)."""
+    out = tmp_path / "m"
+    hw = ["measure", "--rig", "hardware", "--camera", "pylon:emu", *CAPTURE, "--no-previews"]
+    r = cli(*hw, "--projector", f"folder:{tmp_path / 'shown'}@64x48", "-o", str(out))
+    line = one_error_line(r)
+    assert "camera pylon:emu does not see the projector" in line and "--no-view-check" in line
+    assert not out.exists()
+    r = cli(*hw, "--projector", f"folder:{tmp_path / 'shown2'}@64x48", "--no-view-check",
+            "-o", str(out))  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    log = json.loads((out / "captures" / "capture_log.json").read_text())
+    assert log["view_change"] is None and log["rig"]["sync"]["view_check"] is False
+    r = cli("measure", str(out / "captures"), "--no-view-check", "-o", str(tmp_path / "f"))
+    assert "--view-check only applies to --rig hardware" in one_error_line(r)
+    assert not (tmp_path / "f").exists()
+
+
 def test_capture_on_the_loop_camera_passes_the_view_check(xdisplay: str, tmp_path: Path) -> None:
     out = tmp_path / "caps"
     camera = f"loop:checkerboard?display={xdisplay}&latency=1&{LOOP}"
@@ -164,6 +184,39 @@ def test_a_camera_whose_image_moves_by_itself_is_refused(discard: int) -> None:
     assert len(images) == len(rig.log) == 4 and rig.view_ratio is None
 
 
+def test_rig_check_refuses_pylons_emulation_which_does_not_see_the_projector(
+    tmp_path: Path,
+) -> None:
+    """``rig check`` ran no view check and reported the emulation's latency as 0 (its moving
+    pattern changes at every grab); now one line, exit 2, no report written; the same
+    opt-out as capture (--no-view-check) gives the old report, view_change null."""
+    report = tmp_path / "check.json"
+    base = ["rig", "check", "--camera", "pylon:emu", "--changes", "2", "--max-latency", "2"]
+    r = cli(*base, "--projector", f"folder:{tmp_path / 'shown'}@64x48", "-o", str(report))
+    line = one_error_line(r)
+    assert "camera pylon:emu does not see the projector" in line and "--no-view-check" in line
+    assert not report.exists()
+    r = cli(*base, "--projector", f"folder:{tmp_path / 'shown2'}@64x48", "--no-view-check")
+    assert r.returncode == 0, r.stderr
+    got = json.loads(r.stdout)
+    assert got["latencies"] == [0, 0] and got["view_change"] is None
+    assert got["rig"]["sync"]["view_check"] is False
+
+
+def test_check_rig_runs_the_view_check_of_the_rig() -> None:
+    """The drifting ramp (blind to the projector) fools the latency timing (its drift since
+    the reference passes for the change: a report, not an error) but not the view check; a
+    fake that sees the projector passes it."""
+    with pytest.raises(SyncError, match="camera drifting does not see the projector"):
+        check_rig(FakeProjector(), DriftingCamera(), changes=2, max_latency=3)
+    blind = check_rig(FakeProjector(), DriftingCamera(), changes=2, max_latency=3,
+                      view_check=False)  # fmt: skip
+    assert blind.latency <= 3 and blind.view_change is None
+    projector = FakeProjector()
+    seen = check_rig(projector, FakeCamera(projector, latency=1), changes=2, max_latency=3)
+    assert seen.view_change is not None and seen.view_change > 1000 and seen.latency == 1
+
+
 def test_a_camera_that_sees_the_projector_passes_with_its_latency() -> None:
     projector = FakeProjector()
     camera = FakeCamera(projector, latency=2)
@@ -197,6 +250,7 @@ def test_rig_check_on_the_loop_camera_recommends_no_settle_for_a_latency_in_grab
     assert r.returncode == 0, r.stderr
     got = json.loads(r.stdout)
     assert got["latencies"] == [2, 2, 2]
+    assert got["view_change"] > 100  # the view check ran and the loop camera passed it
     # waiting as long as the latency took did not shorten it: it counts grabs
     assert got["latency_after_settle"] == 2 and got["latency_unit"] == "grabs"
     assert got["latency_s"] >= 3 * 0.5 * got["grab_period_s"]  # three grabs took that long

@@ -38,7 +38,12 @@ from hdrfringe.frames import CenterlineFrame, Frame, GrayCodeFrame, UniformFrame
 from hdrfringe.geometric_order import check_depth_range, family_geometric_order
 from hdrfringe.harmonics import harmonics_mode
 from hdrfringe.patterns import FringeSpec, same_fringes
-from hdrfringe.process import FolderPhase, decode_captures, group_families
+from hdrfringe.process import (
+    FolderPhase,
+    decode_captures,
+    group_families,
+    no_absolute_phase_note,
+)
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.replay import ReplayRig
@@ -948,6 +953,8 @@ def _geometric_orders(
             continue
         fam, order = family_geometric_order(decoded, fam, calibration, depth_range_mm)
         families.append(fam)
+        # the family has its absolute phase now: the decoder's note that it has none goes
+        notes = [n for n in notes if n != no_absolute_phase_note(fam.orientation)]
         block[key] = info = order.summary()
         notes.append(
             f"{fam.orientation} fringes: absolute phase from the stereo calibration and the depth "

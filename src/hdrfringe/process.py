@@ -44,7 +44,7 @@ from numpy.typing import NDArray
 
 from hdrfringe._validation import SATURATED_MODES, check_min_modulation, full_scale
 from hdrfringe.captures import Captures, FringeSet, GrayCodeSet
-from hdrfringe.errors import InputError
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.graycode import GrayCodeDecode, absolute_phase_graycode, decode_graycode
 from hdrfringe.harmonics import compensate_sets, harmonics_mode
 from hdrfringe.phase import PhaseResult, decode_set
@@ -57,7 +57,14 @@ from hdrfringe.unwrap import (
     unwrap_temporal,
 )
 
-__all__ = ["SATURATED_MODES", "FamilyResult", "FolderPhase", "decode_captures", "group_families"]
+__all__ = [
+    "SATURATED_MODES",
+    "FamilyResult",
+    "FolderPhase",
+    "decode_captures",
+    "group_families",
+    "no_absolute_phase_note",
+]
 
 
 @dataclass
@@ -268,6 +275,62 @@ def group_families(sets: Sequence[FringeSet]) -> list[list[FringeSet]]:
     return out
 
 
+def no_absolute_phase_note(orientation: str) -> str:
+    """The note :func:`decode_captures` adds for a family it cannot make absolute.
+
+    Parameters
+    ----------
+    orientation : str
+        ``"vertical"`` or ``"horizontal"``.
+
+    Returns
+    -------
+    str
+        The note; a later step that gives the family its absolute phase (the geometric fringe
+        order of ``measure --depth-range``) replaces it.
+
+    Examples
+    --------
+    >>> no_absolute_phase_note("vertical")
+    'vertical fringes: no vertical centerline frame, so no absolute phase'
+    """
+    return f"{orientation} fringes: no {orientation} centerline frame, so no absolute phase"
+
+
+def _check_pitch_ladders(captures: Captures, families: Sequence[Sequence[FringeSet]]) -> None:
+    """Refuse a family with two sets at one pitch: its sets do not form a pitch ladder
+    (coarse to fine) that temporal unwrapping could follow.
+
+    Sets of one pitch pre-distorted with several exponents are a gamma capture (e.g. the
+    kamino410 gamma sheet): the message says so and names ``hdrfringe gamma``; otherwise it
+    names the sets to keep one of.
+    """
+    gamma0 = captures.projector.gamma_precompensation if captures.projector else 1.0
+    for fam in families:
+        by_pitch: dict[float, list[FringeSet]] = {}
+        for s in fam:
+            by_pitch.setdefault(s.spec.pitch_px, []).append(s)
+        same = [group for group in by_pitch.values() if len(group) > 1]
+        if not same:
+            continue
+        group = same[0]
+        orient, pitch = group[0].spec.orientation, group[0].spec.pitch_px
+        labels = ", ".join(s.label for s in group)
+        exponents = sorted({s.gamma_precompensation or gamma0 for s in group})
+        if len(exponents) > 1:
+            raise CaptureFormatError(
+                f"{captures.name}: the {orient} fringe sets {labels} all have pitch {pitch:g} px, "
+                f"pre-distorted with exponents {', '.join(f'{g:g}' for g in exponents)}: a gamma "
+                f"capture, not a pitch ladder; fit the projector's gamma with `hdrfringe gamma "
+                f"{captures.name} -o OUT`, or keep one set per pitch for phase"
+            )
+        raise CaptureFormatError(
+            f"{captures.name}: the {orient} fringe sets {labels} all have pitch {pitch:g} px, so "
+            "they do not form a pitch ladder (one set per pitch, coarse to fine); keep one of "
+            "them (remove the others' frames from manifest.json)"
+        )
+
+
 def decode_captures(
     captures: Captures,
     *,
@@ -384,7 +447,9 @@ def decode_captures(
         out.notes.append("no fringe sets: nothing to decode")
         return out
     codes = {g.orientation: g for g in captures.graycode_sets()}
-    for fam in group_families(out.sets):
+    families = group_families(out.sets)
+    _check_pitch_ladders(captures, families)
+    for fam in families:
         orient = fam[0].spec.orientation
         coarse = fam[0]
         extent = None
@@ -463,9 +528,7 @@ def decode_captures(
                 )
                 abs_method = f"centerline at {frame.position:g} px (Eq. 2.12-2.13)"
             else:
-                out.notes.append(
-                    f"{orient} fringes: no {orient} centerline frame, so no absolute phase"
-                )
+                out.notes.append(no_absolute_phase_note(orient))
         regions = None
         if unwrapping == "spatial":
             regions = phase_regions(

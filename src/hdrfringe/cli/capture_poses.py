@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -146,6 +147,13 @@ def capture_poses(
     gain_db: GainOpt = None,
     pixel_format: PixelFormatOpt = None,
     view_check: ViewCheckOpt = True,
+    board: Annotated[
+        str | None,
+        typer.Option(
+            help="The board, PATTERN:COLSxROWS:SPACING_MM as calibrate-stereo takes it (e.g. "
+            "checkerboard:9x6:25): the command printed at the end then runs as printed."
+        ),
+    ] = None,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Capture the board poses of a stereo calibration live, one capture folder per pose.
@@ -158,7 +166,8 @@ def capture_poses(
     holding complete poses only. Ctrl-C or an error mid-run keeps the complete poses, drops
     the one being captured, and exits with code 2 (before the first pose: nothing written).
     The rig comes from --rig-config FILE and/or the options (an option given overrides the
-    file), as for capture.
+    file), as for capture. With --board the last line is `next: hdrfringe calibrate-stereo
+    ...`, a command that runs as printed; without it, how to calibrate with your board.
     """
     from hdrfringe.hardware.rig import Recorder
     from hdrfringe.io.results import (
@@ -167,7 +176,7 @@ def capture_poses(
         staged_output_dir,
     )
     from hdrfringe.rig.board_poses import MAX_BOARD_POSES, board_program
-    from hdrfringe.stereo_calibration import MIN_POSES
+    from hdrfringe.stereo_calibration import MIN_POSES, BoardSpec
 
     if output is None:
         raise InputError("no output folder: give -o/--output POSES")
@@ -176,6 +185,7 @@ def capture_poses(
     if interval is not None and not (math.isfinite(interval) and interval >= 0):
         raise InputError(f"--interval {interval}: give a number of seconds >= 0")
     pitches = None if pitch is None else parse_floats(pitch, "--pitch")
+    spec = None if board is None else BoardSpec.parse(board)
     rig, config = _poses_rig(
         ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
         discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
@@ -240,6 +250,8 @@ def capture_poses(
         # the last pose's record without its pose, for the whole run
         summary = {k: v for k, v in state.items() if k not in ("pose", "complete")}
         summary.update({"poses": names, "complete": len(names) == poses})
+        if spec is not None:
+            summary["board"] = _board_text(spec)
         if stopped is not None:
             summary["stopped"] = stopped
         (tmp / POSES_LOG).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
@@ -258,7 +270,22 @@ def capture_poses(
             f"warning: calibrate-stereo needs at least {MIN_POSES} poses; capture more",
             highlight=False,
         )
-    console.print(
-        f"hdrfringe calibrate-stereo {output}/pose_* --board PATTERN:COLSxROWS:MM -o STEREO.h5",
-        highlight=False,
-    )
+    if spec is None:
+        console.print(
+            f"to calibrate: hdrfringe calibrate-stereo {output}/pose_* --board "
+            "PATTERN:COLSxROWS:SPACING_MM -o STEREO.h5, with your board's pattern, inner "
+            "corners and spacing (capture-poses --board prints the command)",
+            highlight=False,
+            soft_wrap=True,
+        )
+    elif len(names) >= MIN_POSES:
+        command = [
+            "hdrfringe", "calibrate-stereo", *(str(output / n) for n in names),
+            "--board", _board_text(spec), "-o", str(output / "stereo.h5"),
+        ]  # fmt: skip
+        console.print(f"next: {shlex.join(command)}", highlight=False, soft_wrap=True)
+
+
+def _board_text(spec: Any) -> str:
+    """A :class:`~hdrfringe.stereo_calibration.BoardSpec` as ``--board`` takes it."""
+    return f"{spec.pattern}:{spec.cols}x{spec.rows}:{spec.spacing_mm:g}"

@@ -53,6 +53,7 @@ from hdrfringe.cli.capture import (
     HwRigConfigOpt,
     HwSettleOpt,
     HwSyncOpt,
+    HwViewCheckOpt,
     strategy_record,
 )
 from hdrfringe.cli.phase import KeepSaturatedOpt, SaturatedOpt, decoder_min_shifts
@@ -74,6 +75,7 @@ HARDWARE_OPTIONS = (
     "exposure_ms",
     "gain_db",
     "pixel_format",
+    "view_check",
 )
 
 
@@ -110,6 +112,7 @@ def measure(
     exposure_ms: HwExposureOpt = None,
     gain_db: HwGainOpt = None,
     pixel_format: HwPixelFormatOpt = None,
+    view_check: HwViewCheckOpt = True,
     force: ForceOpt = False,
     stereo_directions: Annotated[
         str,
@@ -193,7 +196,7 @@ def measure(
         hardware = hardware_rig(
             ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
             discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
-            gain_db=gain_db, pixel_format=pixel_format,
+            gain_db=gain_db, pixel_format=pixel_format, view_check=view_check,
         )  # fmt: skip
         inputs += [rig_config, hardware[1].gamma_file]
     check_output_against_inputs(output, inputs)

@@ -18,6 +18,7 @@ from hdrfringe.cli.capture import (
     PixelFormatOpt,
     ProjectorOpt,
     RigConfigOpt,
+    ViewCheckOpt,
     resolve_rig_config,
 )
 from hdrfringe.errors import InputError
@@ -46,6 +47,7 @@ def check(
     exposure_ms: ExposureOpt = None,
     gain_db: GainOpt = None,
     pixel_format: PixelFormatOpt = None,
+    view_check: ViewCheckOpt = True,
     changes: Annotated[int, typer.Option(help="Display changes timed.")] = 6,
     max_latency: Annotated[int, typer.Option(help="Grabs after a change before giving up.")] = 10,
     output: Annotated[
@@ -74,7 +76,9 @@ def check(
     (standard deviation of repeated grabs of a static gray frame). The rig comes from --rig-config
     and/or the options (an option given overrides the file); --write-config writes it back
     with sync.settle_s and sync.discard set to the recommended values and camera.read_noise_dn
-    to the noise (capture records it for the predicted std).
+    to the noise (capture records it for the predicted std). First the view check of capture:
+    a camera whose image does not follow the projector (white, black, white) is refused in one
+    line (--no-view-check, or sync.view_check = false, skips it).
     """
     from hdrfringe.hardware.rig import check_rig
     from hdrfringe.io.results import check_output_against_inputs, check_output_file
@@ -82,7 +86,7 @@ def check(
 
     config = resolve_rig_config(
         ctx, rig_config, projector=projector, camera=camera, exposure_ms=exposure_ms,
-        gain_db=gain_db, pixel_format=pixel_format,
+        gain_db=gain_db, pixel_format=pixel_format, view_check=view_check,
     )  # fmt: skip
     if config.projector.spec is None or config.camera.spec is None:
         raise InputError(
@@ -103,6 +107,7 @@ def check(
         pixel_format=config.camera.pixel_format,
         changes=changes,
         max_latency=max_latency,
+        view_check=config.sync.view_check,
     )
     report = {
         "projector": config.projector.spec,

@@ -527,20 +527,11 @@ class HardwareRig(RigBase):
         dark, _ = self._settled()
         self.projector_device.show(white)
         second, _ = self._settled()
-        noise = max(self.noise_var, noise_variance(first, second, bits))
-        ratio = min(change_ratio(w, dark, noise, bits) for w in (first, second))
+        ratio = _view_change(first, dark, second, self.noise_var, bits)
         self.view_ratio = ratio
         self._history = [_Shown(white, second, self._applied)]
         if ratio <= self.sync.threshold:
-            name = getattr(self.camera, "name", None) or "the camera"
-            raise SyncError(
-                f"camera {name} does not see the projector: its image did not follow the "
-                f"projector from white to black and back (change {ratio:.2g}x the noise and "
-                f"drift, needs {self.sync.threshold:g}x); point the camera at the projected "
-                "area and check its exposure and aperture, or give --no-view-check "
-                "(sync.view_check = false) for a rig whose camera is not meant to see the "
-                "projector (docs/hardware.md)"
-            )
+            raise _not_seen(self.camera, ratio, self.sync.threshold)
 
     def _rebaseline(self) -> None:
         """After a change of exposure or gain: a new image of the frame on screen, and older
@@ -897,6 +888,9 @@ class RigCheck:
         Camera bit depth B.
     image_shape : tuple of int
         Camera (height, width).
+    view_change : float or None
+        The view check's ratio (how far above the noise and drift the image followed the
+        projector); None when it was not run.
 
     Examples
     --------
@@ -918,6 +912,7 @@ class RigCheck:
     noise_std_mean: float
     bit_depth: int
     image_shape: tuple[int, int]
+    view_change: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON report (fields plus ``clips`` and the recommended sync options).
@@ -985,6 +980,29 @@ def recommend_sync(latency: int, latency_s: float, after_settle: int) -> tuple[f
     return settle, after_settle, "seconds" if after_settle == 0 else "mixed"
 
 
+def _view_change(
+    first: NDArray[Any], dark: NDArray[Any], second: NDArray[Any], noise_var: float, bits: int
+) -> float:
+    """The view check's ratio (:meth:`HardwareRig._view_check`): the smaller change of the
+    two white images against the black one, over the larger of the camera noise and half the
+    mean squared difference of the two whites."""
+    noise = max(noise_var, noise_variance(first, second, bits))
+    return min(change_ratio(w, dark, noise, bits) for w in (first, second))
+
+
+def _not_seen(camera: Camera, ratio: float, threshold: float) -> SyncError:
+    """The view check's one-line refusal."""
+    name = getattr(camera, "name", None) or "the camera"
+    return SyncError(
+        f"camera {name} does not see the projector: its image did not follow the "
+        f"projector from white to black and back (change {ratio:.2g}x the noise and "
+        f"drift, needs {threshold:g}x); point the camera at the projected "
+        "area and check its exposure and aperture, or give --no-view-check "
+        "(sync.view_check = false) for a rig whose camera is not meant to see the "
+        "projector (docs/hardware.md)"
+    )
+
+
 def check_rig(
     projector: Projector,
     camera: Camera,
@@ -996,6 +1014,7 @@ def check_rig(
     noise_grabs: int = 8,
     threshold: float = 4.0,
     grab_timeout_s: float = 2.0,
+    view_check: bool = True,
 ) -> RigCheck:
     """Measure a rig's display-to-capture latency, white clipping and camera noise.
 
@@ -1030,6 +1049,11 @@ def check_rig(
         Change ratio that counts as "the change is visible".
     grab_timeout_s : float
         Timeout of each grab.
+    view_check : bool
+        First check that the camera sees the projector, as the rig does when it opens
+        (``HardwareRig`` view check: white, black, white again, both changes clearly above
+        the noise and the drift between the whites); a camera whose image changes by itself
+        (pylon's emulation) would otherwise show latency 0.
 
     Returns
     -------
@@ -1038,7 +1062,8 @@ def check_rig(
     Raises
     ------
     SyncError
-        No change seen within ``max_latency`` grabs (the camera does not see the projector).
+        No change seen within ``max_latency`` grabs, or (``view_check``) the image does not
+        follow the projector: the camera does not see the projector.
 
     Examples
     --------
@@ -1083,6 +1108,13 @@ def check_rig(
         white, var_white = settled(255)
         reference, var_black = settled(0)
         variance = max(var_white, var_black)
+        view = None
+        if view_check:
+            second, _ = settled(255)
+            view = _view_change(white, reference, second, variance, bits)
+            if view <= threshold:
+                raise _not_seen(camera, view, threshold)
+            reference, _ = settled(0)  # black on screen again: the first change is to white
         level = 255
 
         def timed_change(wait_s: float) -> tuple[int, float]:
@@ -1137,4 +1169,5 @@ def check_rig(
             float(np.mean(std)),
             bits,
             (int(gray.shape[0]), int(gray.shape[1])),
+            view,
         )
