@@ -170,6 +170,38 @@ def white_plate_series(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+@pytest.fixture(scope="session")
+def kimthyung_stereo(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The kimthyung sphere imported (docs/examples/import/kimthyung_sphere.toml) and its stereo
+    calibration converted (``import`` -> ``calibrate-stereo --from``), once per worker. The
+    modules that use it share the xdist group ``sphere-realdata``, so it is made once."""
+    root = realdata_path("kimthyung_sphere")
+    tmp = tmp_path_factory.mktemp("kimthyung")
+    caps, cal = tmp / "caps", tmp / "s.h5"
+    description = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
+    res = run_cli("import", str(root), "-d", str(description / "kimthyung_sphere.toml"), "-o",
+                  str(caps))  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    res = run_cli(
+        "calibrate-stereo", "--from", str(root / "CalibrationDataDistortion"), "-o", str(cal)
+    )
+    assert res.returncode == 0, res.stderr
+    return {"root": root, "caps": caps, "cal": cal, "tmp": tmp}
+
+
+@pytest.fixture(scope="session")
+def kimthyung_rows(kimthyung_stereo: dict) -> dict:
+    """``measure --stereo-directions v`` of the kimthyung sphere (the rows carry its depth),
+    once: the measurement the sphere, harmonics and direction-check tests compare with."""
+    out = kimthyung_stereo["tmp"] / "rows"
+    res = run_cli(
+        "measure", str(kimthyung_stereo["caps"]), "-c", str(kimthyung_stereo["cal"]),
+        "--stereo-directions", "v", "-o", str(out), timeout=600,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    return {**kimthyung_stereo, "out": out, "stdout": res.stdout}
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Mark the tests that use the quick reproduction (``quick_run``) ``quick_reproduction``:
     ``make test`` runs them in its narrowed numeric run only, so that the 90 s sweep runs once."""

@@ -33,7 +33,8 @@ import pytest
 from tests.conftest import realdata_path, run_cli
 from tests.test_sphere_realdata import sphere_fit
 
-pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("harmonics-realdata")]
+# the kimthyung measurements are shared with the sphere tests (conftest): one worker
+pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("sphere-realdata")]
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "docs" / "examples" / "import"
@@ -45,27 +46,20 @@ def _measured(what: str, value: object) -> None:
 
 
 @pytest.fixture(scope="module")
-def kimthyung(tmp_path_factory: pytest.TempPathFactory) -> dict:
-    """import -> calibrate-stereo --from -> measure --stereo-directions v, without and with
-    ``--harmonics auto``."""
-    root = realdata_path("kimthyung_sphere")
-    tmp = tmp_path_factory.mktemp("harmonics_sphere")
-    caps, cal = tmp / "caps", tmp / "s.h5"
-    desc = EXAMPLES / "kimthyung_sphere.toml"
-    res = run_cli("import", str(root), "-d", str(desc), "-o", str(caps))
+def kimthyung(kimthyung_rows: dict) -> dict:
+    """import -> calibrate-stereo --from -> measure --stereo-directions v, without (the shared
+    measurement of conftest) and with ``--harmonics auto``."""
+    tmp = kimthyung_rows["tmp"]
+    res = run_cli(
+        "measure", str(kimthyung_rows["caps"]), "-c", str(kimthyung_rows["cal"]),
+        "--stereo-directions", "v", "--harmonics", "auto", "--no-previews", "-o",
+        str(tmp / "harmonics_auto"), timeout=600,
+    )  # fmt: skip
     assert res.returncode == 0, res.stderr
-    folder = root / "CalibrationDataDistortion"
-    res = run_cli("calibrate-stereo", "--from", str(folder), "-o", str(cal))
-    assert res.returncode == 0, res.stderr
-    out = {}
-    for mode in ("off", "auto"):
-        res = run_cli(
-            "measure", str(caps), "-c", str(cal), "--stereo-directions", "v", "--harmonics",
-            mode, "--no-previews", "-o", str(tmp / mode), timeout=600,
-        )  # fmt: skip
-        assert res.returncode == 0, res.stderr
-        out[mode] = {"dir": tmp / mode, "stdout": res.stdout}
-    return out
+    return {
+        "off": {"dir": kimthyung_rows["out"], "stdout": kimthyung_rows["stdout"]},
+        "auto": {"dir": tmp / "harmonics_auto", "stdout": res.stdout},
+    }
 
 
 def _xyz(run: dict) -> np.ndarray:

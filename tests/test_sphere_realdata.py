@@ -30,8 +30,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import realdata_path, run_cli
-
 # one worker computes the module fixtures (the measured sphere, the decoded board) once
 pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("sphere-realdata")]
 
@@ -81,24 +79,10 @@ def sphere_fit(xyz: np.ndarray, plane):
     return fit_sphere(pts[keep]), int(region.sum()), int(keep.sum())
 
 
-@pytest.fixture(scope="session")  # kept across modules: xdist may interleave other modules
-def measured(tmp_path_factory: pytest.TempPathFactory) -> dict:
-    """import -> calibrate-stereo --from -> measure --stereo-directions v, once."""
-    root = realdata_path("kimthyung_sphere")
-    tmp = tmp_path_factory.mktemp("sphere")
-    caps, cal, out = tmp / "caps", tmp / "s.h5", tmp / "out"
-    res = run_cli("import", str(root), "-d", str(DESCRIPTION), "-o", str(caps))
-    assert res.returncode == 0, res.stderr
-    res = run_cli(
-        "calibrate-stereo", "--from", str(root / "CalibrationDataDistortion"), "-o", str(cal)
-    )
-    assert res.returncode == 0, res.stderr
-    res = run_cli(
-        "measure", str(caps), "-c", str(cal), "--stereo-directions", "v", "-o", str(out),
-        timeout=600,
-    )  # fmt: skip
-    assert res.returncode == 0, res.stderr
-    return {"root": root, "caps": caps, "cal": cal, "out": out, "stdout": res.stdout}
+@pytest.fixture(scope="session")
+def measured(kimthyung_rows: dict) -> dict:
+    """import -> calibrate-stereo --from -> measure --stereo-directions v, once (conftest)."""
+    return kimthyung_rows
 
 
 def test_description_declares_the_shipped_patterns() -> None:

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import realdata_path, run_cli
-from tests.test_sphere_realdata import DESCRIPTION, PITCH, sphere_fit, wall_plane
+from tests.conftest import run_cli
+from tests.test_sphere_realdata import PITCH, sphere_fit, wall_plane
 
 pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("sphere-realdata")]
 
@@ -29,21 +29,16 @@ def _measured(what: str, value: object) -> None:
 
 
 @pytest.fixture(scope="module")
-def auto(tmp_path_factory: pytest.TempPathFactory) -> dict:
-    """import -> calibrate-stereo --from -> measure -c (no --stereo-directions), once."""
+def auto(kimthyung_stereo: dict) -> dict:
+    """import -> calibrate-stereo --from (shared, conftest) -> measure -c (no
+    --stereo-directions), once."""
     import tifffile
 
-    root = realdata_path("kimthyung_sphere")
-    tmp = tmp_path_factory.mktemp("sphere_auto")
-    caps, cal, out = tmp / "caps", tmp / "s.h5", tmp / "out"
-    res = run_cli("import", str(root), "-d", str(DESCRIPTION), "-o", str(caps))
-    assert res.returncode == 0, res.stderr
-    folder = root / "CalibrationDataDistortion"
-    res = run_cli("calibrate-stereo", "--from", str(folder), "-o", str(cal))
-    assert res.returncode == 0, res.stderr
+    cal, out = kimthyung_stereo["cal"], kimthyung_stereo["tmp"] / "auto"
     res = run_cli(
-        "measure", str(caps), "-c", str(cal), "--no-previews", "-o", str(out), timeout=600
-    )
+        "measure", str(kimthyung_stereo["caps"]), "-c", str(cal), "--no-previews", "-o",
+        str(out), timeout=600,
+    )  # fmt: skip
     assert res.returncode == 0, res.stderr
     xyz = tifffile.imread(out / "xyz.tiff").astype(np.float64)
     metrics = json.loads((out / "metrics.json").read_text())
