@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hdrfringe.captures import Captures, ProjectorInfo
-from hdrfringe.errors import InputError
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import read_map_tiff
 from hdrfringe.patterns import FringeSpec, fringe_gray
@@ -446,13 +446,14 @@ def test_phase_cli_refuses_contradicting_options(
 def test_decode_captures_pairs_inverted_sets_only_when_excluding(
     board_folders: dict[str, Path],
 ) -> None:
-    """saturated="flag" (the default) keeps both sets as sets (as before: a folder with an
-    inverted set is two sets of one pitch); "exclude" decodes the set with its inverse."""
+    """saturated="flag" (the default) keeps both sets as sets, which are then two sets of one
+    pitch: refused in one line naming --saturated exclude; "exclude" decodes the set with its
+    inverse."""
     from hdrfringe.io.captures import read_capture_folder
 
     caps = read_capture_folder(board_folders["inverted"])
     labels = [s.label for s in caps.sets]
-    with pytest.raises(InputError, match="strictly decreasing"):
+    with pytest.raises(CaptureFormatError, match=r"its inverse .* --saturated exclude"):
         decode_captures(caps)
     ex = decode_captures(caps, saturated="exclude")
     assert [s.label for s in ex.sets] == labels[:1] and ex.inverted_sets == {labels[0]: labels[1]}

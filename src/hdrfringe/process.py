@@ -317,6 +317,16 @@ def _check_pitch_ladders(captures: Captures, families: Sequence[Sequence[FringeS
         orient, pitch = group[0].spec.orientation, group[0].spec.pitch_px
         labels = ", ".join(s.label for s in group)
         exponents = sorted({s.gamma_precompensation or gamma0 for s in group})
+        offsets = {round((s.spec.phase_offset_deg % 360.0), 6) for s in group}
+        if len(group) == 2 and len(offsets) == 2 and len(exponents) == 1:
+            a, b = sorted(offsets)
+            if abs((b - a) - 180.0) < 1e-6:
+                raise CaptureFormatError(
+                    f"{captures.name}: the {orient} fringe sets {labels} have pitch {pitch:g} px "
+                    "and are a set and its inverse (180 degrees apart), not a pitch ladder; "
+                    "decode them as a pair with --saturated exclude (phase or measure), or keep "
+                    "one of them"
+                )
         if len(exponents) > 1:
             raise CaptureFormatError(
                 f"{captures.name}: the {orient} fringe sets {labels} all have pitch {pitch:g} px, "
