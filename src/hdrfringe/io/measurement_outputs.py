@@ -20,7 +20,12 @@ from numpy.typing import NDArray
 
 from hdrfringe.io.phase_maps import write_phase_maps
 from hdrfringe.io.point_cloud import write_ply
-from hdrfringe.io.results import staged_output_dir, write_map_tiff, write_preview_png
+from hdrfringe.io.results import (
+    MAP_COMPRESSION,
+    staged_output_dir,
+    write_map_tiff,
+    write_preview_png,
+)
 from hdrfringe.pipeline import NO_GEOMETRY, height_points
 from hdrfringe.reconstruct import CameraGeometry
 
@@ -184,7 +189,11 @@ def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) 
 
     xyz = np.asarray(maps.xyz, dtype=np.float32)
     tifffile.imwrite(
-        out / "xyz.tiff", xyz, photometric="minisblack", planarconfig="contig", compression="zlib"
+        out / "xyz.tiff",
+        xyz,
+        photometric="minisblack",
+        planarconfig="contig",
+        compression=MAP_COMPRESSION,
     )
     write_map_tiff(out / "depth.tiff", maps.depth_mm)
     write_map_tiff(out / "height.tiff", maps.height_mm)

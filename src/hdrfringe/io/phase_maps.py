@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hdrfringe.io.results import write_map_tiff, write_preview_png
+from hdrfringe.io.results import MAP_COMPRESSION, write_map_tiff, write_preview_png
 from hdrfringe.phase import PhaseResult
 from hdrfringe.process import FamilyResult, FolderPhase
 from hdrfringe.saturation_tolerant import TolerantPhaseResult
@@ -89,7 +89,7 @@ def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
     pitch 8 (temporal or one-period unwrapping gives the absolute phase itself)."""
     import tifffile
 
-    tifffile.imwrite(path, np.asarray(data, dtype=np.float64), compression="zlib")
+    tifffile.imwrite(path, np.asarray(data, dtype=np.float64), compression=MAP_COMPRESSION)
 
 
 def _write_regions(out: Path, fam: FamilyResult, name: str, previews: bool = True) -> list[str]:

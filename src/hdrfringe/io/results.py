@@ -145,6 +145,13 @@ class CheckedOutput(_PathBase):
         return out
 
 
+
+#: Compression of the float maps written as TIFF: none. Float phase and quality maps are mostly
+#: noise in their low bits, so zlib saves little on them and multiplies the write time: issue 30
+#: found most of `phase`'s time at 12 Mpx spent compressing. Readers accept either.
+MAP_COMPRESSION: str | None = None
+
+
 def _resolved(path: str | Path) -> Path:
     return Path(os.path.realpath(os.path.abspath(path)))
 
@@ -788,7 +795,7 @@ def write_map_tiff(path: str | Path, data: ArrayLike) -> None:
     arr = np.asarray(data)
     if arr.dtype.kind == "f" or arr.dtype == bool:
         arr = arr.astype(np.float32)
-    tifffile.imwrite(path, arr, compression="zlib")
+    tifffile.imwrite(path, arr, compression=MAP_COMPRESSION)
 
 
 def read_map_tiff(path: str | Path) -> np.ndarray:
