@@ -256,8 +256,10 @@ def test_bad_truth_maps_are_one_line_errors_naming_the_file(capture_folder: Path
     m["maps"] = {"truth_height_mm": "truth.tiff"}
     _write_manifest(capture_folder, m)
     path = capture_folder / "truth.tiff"
-    # intact header, corrupt deflate data (zlib.error inside the decoder)
-    write_map_tiff(path, np.linspace(0, 1, 48 * 64, dtype=np.float32).reshape(48, 64))
+    # intact header, corrupt deflate data (zlib.error inside the decoder): a map another tool
+    # wrote compressed (hdrfringe's own maps are uncompressed, io.results.MAP_COMPRESSION)
+    data = np.linspace(0, 1, 48 * 64, dtype=np.float32).reshape(48, 64)
+    tifffile.imwrite(path, data, compression="zlib")
     with tifffile.TiffFile(path) as tif:
         start = tif.pages.first.dataoffsets[0]
     raw = bytearray(path.read_bytes())

@@ -110,3 +110,21 @@ def test_reference_plane_is_the_wall(auto: dict) -> None:
 
     h = read_map_tiff(height)
     assert np.nanpercentile(np.abs(h), 50) < 5  # the wall near 0 (before: a -108..+100 ramp)
+
+
+def test_reference_plane_with_the_rows_named(kimthyung_rows: dict) -> None:
+    """The same with ``--stereo-directions v`` given (issue 24's wording; the shared rows
+    measurement of conftest): reference plane within 2 degrees of the wall, printed RMS
+    within 10 % of 3.40 mm."""
+    import tifffile
+
+    out = Path(kimthyung_rows["out"])
+    xyz = tifffile.imread(out / "xyz.tiff").astype(np.float64)
+    ref = json.loads((out / "metrics.json").read_text())["stereo"]["reference_plane"]
+    wall, _ = wall_plane(xyz)
+    angle = float(np.degrees(np.arccos(min(1.0, abs(np.dot(ref["normal"], wall.normal))))))
+    printed = re.search(r"reference plane RMS ([0-9.]+) mm", kimthyung_rows["stdout"])
+    assert printed is not None
+    _measured("reference plane (v)", f"{angle:.2f} deg from the wall, RMS {printed.group(1)} mm")
+    assert angle < 2.0
+    assert float(printed.group(1)) == pytest.approx(3.40, rel=0.10)
