@@ -44,7 +44,7 @@ demo: $(STAMP)
 
 test: $(STAMP) system-packages
 	$(VENV)/bin/ruff check src tests benchmarks
-	$(VENV)/bin/pytest -n 3 --dist loadgroup -q -m "not quick_reproduction" \
+	$(VENV)/bin/pytest -n 2 --dist loadgroup -q -m "not quick_reproduction" \
 		$(foreach t,$(NARROW_ONLY),--ignore=$(t))
 	$(MAKE) --no-print-directory test-narrow
 
@@ -55,18 +55,20 @@ test: $(STAMP) system-packages
 # uncertainty model, every docstring example, and the reproduction. The reproduction's tests
 # (marker quick_reproduction: they share one 90 s quick sweep) run here only, not in `test`'s
 # first run: their reference was made with the full dispatch, so comparing across CPUs is the
-# stronger check, and one sweep keeps `make test` within its 10 minutes. So do the strategy and
+# stronger check, and one sweep keeps `make test` within its 10 minutes; they come first, so that
+# one worker starts the 90 s sweep while the other takes the rest. So do the strategy and
 # stereo-calibration modules (NARROW_ONLY, 50 s of the first run): pure numpy on simulated
 # captures, their decoding covered on the full dispatch and the native kernels by every other
 # module. The real-data tests (marker realdata) run in the first run only: they are integration
 # tests of the same numerics on large images.
 NARROW_ONLY := tests/test_strategies.py tests/test_stereo_calibration.py
-NARROW_TESTS := src/hdrfringe tests/test_phase.py tests/test_phase_blocks.py \
+NARROW_TESTS := tests/test_quick_grid_identity.py tests/test_reproduce.py \
+	tests/test_reproduce_adaptive.py tests/test_reproduce_broken.py tests/test_error_budget.py \
+	src/hdrfringe tests/test_phase.py tests/test_phase_blocks.py \
 	tests/test_unwrap.py tests/test_unwrap_paths.py tests/test_graycode.py \
 	tests/test_calibration.py tests/test_stereo.py tests/test_stereo_calibration.py \
 	tests/test_strategies.py tests/test_tolerant.py tests/test_uncertainty.py \
-	tests/test_equations.py tests/test_quick_grid_identity.py tests/test_reproduce.py \
-	tests/test_reproduce_adaptive.py tests/test_reproduce_broken.py tests/test_error_budget.py
+	tests/test_equations.py
 
 test-narrow: $(STAMP)
 	env $$($(VENV)/bin/python tests/narrow_cpu.py) $(VENV)/bin/pytest -n 2 --dist loadgroup -q \
