@@ -204,10 +204,14 @@ def kimthyung_rows(kimthyung_stereo: dict) -> dict:
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Mark the tests that use the quick reproduction (``quick_run``) ``quick_reproduction``:
-    ``make test`` runs them in its narrowed numeric run only, so that the 90 s sweep runs once."""
+    ``make test`` runs them in its narrowed numeric run only, so that the 90 s sweep runs once;
+    and put them in the xdist group ``dask-cluster`` (one worker, one sweep): a test that used
+    the fixture without the group made the other worker run a second sweep."""
     for item in items:
         if "quick_run" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.quick_reproduction)
+            if item.get_closest_marker("xdist_group") is None:
+                item.add_marker(pytest.mark.xdist_group("dask-cluster"))
 
 
 @pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave

@@ -105,7 +105,6 @@ def test_saturation_onset_is_the_highest_clear_migl() -> None:
     }
 
 
-@pytest.mark.xdist_group("dask-cluster")
 def test_an_onset_that_never_clears_is_said_in_words() -> None:
     """A light level at which some pixel saturates at every MIGL swept (NaN onset: the
     gamma 2.2 preset at 900 lx) reads as such in the report, not "MIGL nan"."""
@@ -113,6 +112,7 @@ def test_an_onset_that_never_clears_is_said_in_words() -> None:
     assert _onset_words(120.0) == "no pixel saturated at or below MIGL 120"
 
 
+@pytest.mark.xdist_group("dask-cluster")
 def test_ch4_stores_decompose_the_rmse(quick_run) -> None:
     ds = open_results(quick_run / "ch4.zarr")
     rmse, bias, std = (ds[v].values for v in ("rmse_mm", "mean_error_mm", "std_mm"))
