@@ -55,7 +55,7 @@ test: $(STAMP) system-packages
 # uncertainty model, every docstring example, and the reproduction. The reproduction's tests
 # (marker quick_reproduction: they share one 90 s quick sweep) run here only, not in `test`'s
 # first run: their reference was made with the full dispatch, so comparing across CPUs is the
-# stronger check, and one sweep keeps `make test` within its 10 minutes; they come first, so that
+# stronger check, and one sweep keeps `make test` short; they come first, so that
 # one worker starts the 90 s sweep while the other takes the rest. So do the strategy and
 # stereo-calibration modules (NARROW_ONLY, 50 s of the first run): pure numpy on simulated
 # captures, their decoding covered on the full dispatch and the native kernels by every other
