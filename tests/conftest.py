@@ -212,6 +212,23 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.quick_reproduction)
             if item.get_closest_marker("xdist_group") is None:
                 item.add_marker(pytest.mark.xdist_group("dask-cluster"))
+        elif item.get_closest_marker("xdist_group") is None and _uses_module_fixture(item):
+            # one worker per module: a module-scoped fixture (a simulated measurement, a
+            # decoded real capture) is built once, not once on each worker (test_tradeoff's
+            # took 14.5 s on both)
+            item.add_marker(pytest.mark.xdist_group(f"module:{item.nodeid.split('::')[0]}"))
+
+
+def _uses_module_fixture(item: pytest.Item) -> bool:
+    """Whether ``item`` uses a fixture of module, class or package scope."""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return False
+    return any(
+        d.scope in ("module", "class", "package")
+        for defs in info.name2fixturedefs.values()
+        for d in defs
+    )
 
 
 @pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave
