@@ -816,8 +816,8 @@ class MeasurementCalibration(Protocol):  # numpydoc ignore=PR01
     (True, 'heights', True)
     """
 
-    kind: str
-    output: str
+    kind: ClassVar[str]
+    output: ClassVar[str]
 
     def check_fits(
         self,
