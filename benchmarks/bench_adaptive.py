@@ -112,7 +112,7 @@ def phase_error(rig: SimulatedRig, method: str, params: dict[str, Any]) -> dict[
         "rmse_rad": float(np.sqrt(np.mean(e**2))),
         "coverage": float(ok.sum() / rig.truth().valid.sum()),
         "seconds": round(seconds, 2),
-        "details": results[-1].details,
+        "details": {**results[-1].details, "absolute_phase": results[-1].absolute_phase},
     }
 
 

@@ -329,7 +329,7 @@ def test_the_boost_set_feeds_the_board_edges_and_stays_off_the_plate(
     def std_of(**kw: Any) -> float:
         rig = board_rig()
         res = adaptive_sets(rig, SPECS, **kw)[-1]
-        return phase_error(rig, res.details["absolute_phase"], SPECS[-1].pitch_px)[0]
+        return phase_error(rig, res.absolute_phase, SPECS[-1].pitch_px)[0]
 
     without = std_of(boost=False)
     monkeypatch.setattr(adaptive_module, "BOOST_RADIUS_FRACTION", 1.0)
@@ -348,7 +348,7 @@ def specular() -> dict[str, Any]:
         rig = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
         res = adaptive_sets(rig, SPECS, **kw)
         truth = rig.truth()
-        err = res[-1].details["absolute_phase"] - TWO_PI * truth.u / SPECS[-1].pitch_px
+        err = res[-1].absolute_phase - TWO_PI * truth.u / SPECS[-1].pitch_px
         out[name] = (rig, res, err, truth.valid & np.isfinite(err))
     return out
 
@@ -369,7 +369,7 @@ def test_a_highlight_that_holds_the_mapping_low_gets_a_bright_ladder(
     assert ok.sum() >= 0.98 * truth.valid.sum()
     assert np.mean(np.abs(err[ok]) > np.pi) < 1e-3
     lost = truth.valid & ~ok
-    assert np.all(fine.never_unsaturated[lost] | ~np.isfinite(d["absolute_phase"][lost]))
+    assert np.all(fine.never_unsaturated[lost] | ~np.isfinite(fine.absolute_phase[lost]))
     # why not full coverage: noise-free, part of the highlight clips under the projector's
     # imin alone (no MIGL helps; a shorter exposure would), more under the fringe at imin + 20
     at_imin = rig.expected_signal([UniformFrame(SPECS[-1].imin)])[0] >= 255
@@ -423,7 +423,7 @@ def test_a_rig_that_cannot_shorten_its_exposure_skips_the_topup(
     d = fine.details
     assert d["images_per_step"]["topup"] == 0 and d["topup"]["exposures_ms"] == []
     assert d["topup"]["skipped"].startswith("the rig cannot capture at 0.625 ms")
-    np.testing.assert_array_equal(d["absolute_phase"], res0[-1].details["absolute_phase"])
+    np.testing.assert_array_equal(fine.absolute_phase, res0[-1].absolute_phase)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -434,7 +434,7 @@ def test_a_rig_that_cannot_shorten_its_exposure_skips_the_topup(
 def variant(**kw: Any) -> tuple[Any, float]:
     rig = board_rig()
     fine = adaptive_sets(rig, SPECS, iterations=0, **kw)[-1]
-    _, cov = phase_error(rig, fine.details["absolute_phase"], SPECS[-1].pitch_px)
+    _, cov = phase_error(rig, fine.absolute_phase, SPECS[-1].pitch_px)
     return fine, cov
 
 
@@ -506,7 +506,7 @@ def test_nothing_saturated_gives_the_conventional_result(
     assert res.details["exposure_ms"] == (10.0 if auto_exposure else None)
     assert np.all(res.details["projector_migl_map"] == 255.0)
     assert res.details["refit_passes"] == 0 and res.details["check_passes"] == 0
-    std_a, cov_a = phase_error(r, res.details["absolute_phase"], fine.pitch_px)
+    std_a, cov_a = phase_error(r, res.absolute_phase, fine.pitch_px)
     truth = r.truth()
     e = decode_set(conv.images, fine, 8).wrapped_phase - TWO_PI * truth.u / fine.pitch_px
     e = np.angle(np.exp(1j * e))
@@ -596,7 +596,7 @@ def epipolar_specular() -> dict[str, Any]:
     rig = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
     res = adaptive_sets(rig, SPECS, epipolar=True, full_mapping=True)
     truth = rig.truth()
-    err = res[-1].details["absolute_phase"] - TWO_PI * truth.u / fine.pitch_px
+    err = res[-1].absolute_phase - TWO_PI * truth.u / fine.pitch_px
     rig_l = SimulatedRig(specular_part(), camera=CameraModel(*CAM))
     ref = lpa(rig_l, fine, step=1.0)
     wrapped = decode_set(ref.images, fine, 8).wrapped_phase - TWO_PI * truth.u / fine.pitch_px
@@ -646,7 +646,7 @@ def test_full_mapping_orders_the_glints_the_adapted_set_decodes() -> None:
     res = adaptive_sets(rig, SPECS, epipolar=True, full_mapping=True)
     d = res[-1].details
     truth = rig.truth()
-    err = d["absolute_phase"] - TWO_PI * truth.u / SPECS[-1].pitch_px
+    err = res[-1].absolute_phase - TWO_PI * truth.u / SPECS[-1].pitch_px
     ok = truth.valid & np.isfinite(err)
     assert d["full_mapping"]["kept"] and 0.002 < d["full_mapping"]["clipped_fraction"] < 0.01
     assert d["images_per_step"]["topup"] == 0 and d["topup"]["ordered_from_neighbours"] > 50
@@ -667,7 +667,7 @@ def test_full_mapping_falls_back_where_the_scene_is_bright_all_over(
         rig = make()
         res = adaptive_sets(rig, SPECS, epipolar=True, full_mapping=True)
         d = res[-1].details
-        std, cov = phase_error(rig, d["absolute_phase"], SPECS[-1].pitch_px)
+        std, cov = phase_error(rig, res[-1].absolute_phase, SPECS[-1].pitch_px)
         images = sum(r.images_captured for r in res)
         print(f"\n{name} epipolar + full mapping: {images} images, std {std:.4f} (LPA "
               f"{scene['std_lpa']:.4f}), {d['full_mapping']}")  # fmt: skip

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from hdrfringe._validation import unsaturated_mask
+from hdrfringe.cli._strategy_options import cli_options, params_from_options
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import composite_captures
@@ -33,10 +34,8 @@ from hdrfringe.strategies import (
     CapturedSet,
     StrategyResult,
     available_strategies,
-    cli_options,
     get_strategy,
     make_params,
-    params_from_options,
     register,
     unregister,
 )

@@ -3,6 +3,7 @@
 # type checkers read it. Every name below must be importable (tests/test_api.py).
 
 from .calibration import Calibration as Calibration
+from .calibration import MeasurementCalibration as MeasurementCalibration
 from .captures import CameraSettings as CameraSettings
 from .captures import Captures as Captures
 from .captures import FringeSet as FringeSet
@@ -50,6 +51,7 @@ from .io.measurement_outputs import write_measurement as write_measurement
 from .io.rig_config import load_rig_config as load_rig_config
 from .io.rig_config import write_rig_config as write_rig_config
 from .io.stereo_file import convert_calibration as convert_calibration
+from .io.stereo_file import load_any_calibration as load_any_calibration
 from .io.stereo_file import load_stereo_calibration as load_stereo_calibration
 from .io.stereo_file import save_stereo_calibration as save_stereo_calibration
 from .patterns import FringeSpec as FringeSpec

@@ -14,6 +14,8 @@ what is wrong and how to fix it.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,6 +32,7 @@ __all__ = [
     "describe_saturated",
     "full_scale",
     "is_saturated",
+    "json_safe",
     "saturation_count",
     "unsaturated_mask",
 ]
@@ -386,3 +389,30 @@ def describe_saturated(count: int, total: int) -> str:
             pct, precision=2, unique=False, fractional=False, trim="-"
         )
     return f"{count} px ({share} %)"
+
+
+def json_safe(value: Any) -> Any:
+    """``value`` with non-finite floats as None and tuples as lists (valid JSON).
+
+    Parameters
+    ----------
+    value : object
+        Nested mappings, lists, tuples and scalars.
+
+    Returns
+    -------
+    object
+        The same structure: mappings as dicts, tuples as lists, NaN and inf as None.
+
+    Examples
+    --------
+    >>> json_safe({"a": (1.0, float("nan")), "b": float("inf")})
+    {'a': [1.0, None], 'b': None}
+    """
+    if isinstance(value, Mapping):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

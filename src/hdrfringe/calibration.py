@@ -29,7 +29,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from os import PathLike
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -37,12 +37,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.patterns import FringeSpec
+from hdrfringe.reconstruct import CameraGeometry
 
 __all__ = [
     "MODELS",
+    "NO_GEOMETRY",
     "N_COEFFICIENTS",
     "Calibration",
     "CalibrationMismatchError",
+    "MeasurementCalibration",
     "ResidualStats",
     "calibrate",
     "check_calibration",
@@ -56,6 +59,12 @@ __all__ = [
     "phase_difference",
     "residual_rms",
 ]
+
+#: The note of a measurement whose calibration records no camera geometry (``metrics.notes``).
+NO_GEOMETRY = (
+    "the calibration records no camera geometry (focal_px, standoff_mm): points.ply has "
+    "x and y in pixels"
+)
 
 #: Calibration models by name.
 MODELS: tuple[str, ...] = ("linear", "rational", "poly2", "poly3")
@@ -779,6 +788,109 @@ def _check_provenance(value: Any, where: str = "provenance") -> None:
             )
 
 
+# --------------------------------------------------------------------------------------------
+# the interface a measurement uses
+# --------------------------------------------------------------------------------------------
+# A protocol has no constructor: numpydoc reads the (*args, **kwargs) of typing.Protocol as one.
+@runtime_checkable
+class MeasurementCalibration(Protocol):  # numpydoc ignore=PR01
+    """What a measurement asks of a calibration, whichever kind it is.
+
+    :class:`Calibration` (phase to height, Eq. 2.10-2.11) and
+    :class:`~hdrfringe.stereo.StereoCalibration` (projector-camera, triangulation) both follow
+    it; :func:`hdrfringe.io.stereo_file.load_any_calibration` reads either from its file and
+    :func:`hdrfringe.pipeline.measure` takes either without asking which one it is.
+
+    Attributes
+    ----------
+    kind : str
+        The file's kind: ``"phase-to-height"`` or ``"stereo"``.
+    output : str
+        What a measurement makes of the absolute phase with it: ``"heights"`` (a height map
+        above the reference plane) or ``"points"`` (triangulated 3D points).
+
+    Examples
+    --------
+    >>> cal = Calibration("linear", np.ones((2, 3)), None, np.zeros((2, 3)), np.array([2.0]))
+    >>> isinstance(cal, MeasurementCalibration), cal.output, cal.height_model() is cal
+    (True, 'heights', True)
+    """
+
+    kind: ClassVar[str]
+    output: ClassVar[str]
+
+    def check_fits(
+        self,
+        spec: FringeSpec,
+        image_shape: tuple[int, int],
+        camera_bit_depth: int,
+        *,
+        source: str | None = None,
+        projector_size: tuple[int, int] | None = None,
+    ) -> None:
+        """Refuse a measurement the calibration does not fit (:class:`CalibrationMismatchError`).
+
+        Parameters
+        ----------
+        spec : FringeSpec
+            The measurement's finest set.
+        image_shape : (int, int)
+            Camera image (height, width).
+        camera_bit_depth : int
+            Camera bit depth.
+        source : str, optional
+            Where the calibration came from, for the message.
+        projector_size : (int, int), optional
+            The projector (width, height) the captures record, when they record one.
+        """
+        ...
+
+    def camera_geometry(self) -> CameraGeometry | None:
+        """The camera's pinhole geometry a height map is placed with (None: pixels).
+
+        Returns
+        -------
+        CameraGeometry or None
+        """
+        ...
+
+    def notes(self) -> tuple[str, ...]:
+        """What a measurement's outputs with it need said (``metrics.notes``).
+
+        Returns
+        -------
+        tuple of str
+        """
+        ...
+
+    def height_model(self) -> Calibration | None:
+        """The phase-to-height model a predicted height std goes through; None: not modelled.
+
+        Returns
+        -------
+        Calibration or None
+        """
+        ...
+
+    def uncertainty_notes(self) -> tuple[str, ...]:
+        """What a predicted uncertainty with it lacks (``metrics.uncertainty.notes``).
+
+        Returns
+        -------
+        tuple of str
+        """
+        ...
+
+    def projector_geometry(self) -> Any:
+        """The projector-camera geometry it offers a strategy (a StereoCalibration), or None.
+
+        Returns
+        -------
+        StereoCalibration or None
+        """
+        ...
+
+
 @dataclass(frozen=True, eq=False)
 class Calibration:
     """A per-pixel phase-to-height calibration and everything needed to reuse it safely.
@@ -986,6 +1098,89 @@ class Calibration:
         """
         stats = self.residual_summary(filtered)
         return ", ".join(f"{s.model}: {s.median_mm:.3g} mm" for s in stats.values())
+
+    #: The file's kind (:class:`MeasurementCalibration`).
+    kind: ClassVar[str] = "phase-to-height"
+    #: What a measurement makes of the phase with it: a height map (Eq. 2.10-2.11).
+    output: ClassVar[str] = "heights"
+
+    def check_fits(
+        self,
+        spec: FringeSpec,
+        image_shape: tuple[int, int],
+        camera_bit_depth: int,
+        *,
+        source: str | None = None,
+        projector_size: tuple[int, int] | None = None,
+    ) -> None:
+        """:func:`check_compatible` (the projector's size does not matter to it).
+
+        Parameters
+        ----------
+        spec : FringeSpec
+            The measurement's finest set.
+        image_shape : (int, int)
+            Camera image (height, width).
+        camera_bit_depth : int
+            Camera bit depth.
+        source : str, optional
+            Where the calibration came from, for the message.
+        projector_size : (int, int), optional
+            Unused.
+        """
+        check_compatible(self, spec, image_shape, camera_bit_depth, source=source)
+
+    def camera_geometry(self) -> CameraGeometry | None:
+        """Camera geometry recorded with the calibration (its reference-plane captures).
+
+        Returns
+        -------
+        CameraGeometry or None
+            None when the reference-plane captures recorded no ``focal_px`` and
+            ``standoff_mm``.
+
+        References
+        ----------
+        Thesis Sec. 2.1 (the camera perpendicular to the reference plane).
+        """
+        entry = self.provenance.get("camera_geometry")
+        return CameraGeometry.from_manifest(entry) if isinstance(entry, dict) else None
+
+    def notes(self) -> tuple[str, ...]:
+        """:data:`NO_GEOMETRY` when no camera geometry is recorded (points in pixels).
+
+        Returns
+        -------
+        tuple of str
+        """
+        return (NO_GEOMETRY,) if self.camera_geometry() is None else ()
+
+    def height_model(self) -> Calibration:
+        """The calibration itself: the height std goes through its model.
+
+        Returns
+        -------
+        Calibration
+        """
+        return self
+
+    def uncertainty_notes(self) -> tuple[str, ...]:
+        """Nothing: phase and height std are both predicted.
+
+        Returns
+        -------
+        tuple of str
+        """
+        return ()
+
+    def projector_geometry(self) -> None:
+        """None: a phase-to-height calibration knows no projector-camera geometry.
+
+        Returns
+        -------
+        None
+        """
+        return None
 
 
 def _image_shape(cal: Calibration) -> tuple[int, int]:

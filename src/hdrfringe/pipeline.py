@@ -6,7 +6,9 @@
   calibration (:mod:`hdrfringe.stereo`) -> :class:`MeasurementResult`: the captures measured,
   the decoded phase, the height map, the points (:meth:`MeasurementResult.points`), the typed
   :class:`MeasurementMetrics` (error against the truth the captures or the rig know) and, with a
-  strategy, its results and, for DPA, the CDF analysis of thesis Fig. 6.3.
+  strategy, its results and what its metrics hook adds (DPA: the CDF analysis of thesis
+  Fig. 6.3). The calibration is any :class:`~hdrfringe.calibration.MeasurementCalibration`
+  and the strategy any registered one: nothing here asks which one it is.
 * :func:`calibrate`: flat-plate captures at known ``scene.depth_mm`` -> :class:`Calibration`
   (Eq. 2.10, 2.15 and the non-linear models, Sec. 4.1 filtering) with provenance.
 * :func:`composite_captures`: a strategy run per fringe set on a rig, as captures.
@@ -21,16 +23,16 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.calibration import Calibration, CalibrationMismatchError, check_compatible
+from hdrfringe._validation import json_safe
+from hdrfringe.calibration import NO_GEOMETRY, Calibration, MeasurementCalibration
 from hdrfringe.calibration import calibrate as fit_calibration
 from hdrfringe.captures import Captures
 from hdrfringe.errors import CaptureFormatError, InputError
@@ -47,6 +49,7 @@ from hdrfringe.process import (
 from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.replay import ReplayRig
+from hdrfringe.saturation_tolerant import DECODER_NAME
 from hdrfringe.stereo import (
     DirectionCheck,
     StereoCalibration,
@@ -56,12 +59,23 @@ from hdrfringe.stereo import (
     projector_coordinate,
     triangulate_maps,
 )
-from hdrfringe.strategies import StrategyResult, get_strategy, make_params
-from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics, dpa_cdfs
+from hdrfringe.strategies import (
+    DEFAULT_STRATEGY,
+    MetricsContext,
+    RunContext,
+    StrategyResult,
+    get_strategy,
+    make_params,
+    prepare_params,
+    run_strategy,
+    strategy_metrics,
+)
 from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, Uncertainty, predict_uncertainty
 
+if TYPE_CHECKING:  # the types of two strategy blocks of the metrics; their hook fills them
+    from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics
+
 __all__ = [
-    "ADAPTIVE_METRICS",
     "NO_CALIBRATION",
     "NO_GEOMETRY",
     "MeasurementMetrics",
@@ -69,7 +83,6 @@ __all__ = [
     "RigDescription",
     "SceneRig",
     "StrategySummary",
-    "adaptive_summary",
     "calibrate",
     "calibration_geometry",
     "composite_captures",
@@ -83,11 +96,6 @@ __all__ = [
 
 #: The stage a measurement without a calibration skips (``metrics.skipped``).
 NO_CALIBRATION = "height (no --calibration given)"
-#: The note of a measurement whose calibration records no camera geometry (``metrics.notes``).
-NO_GEOMETRY = (
-    "the calibration records no camera geometry (focal_px, standoff_mm): points.ply has "
-    "x and y in pixels"
-)
 
 F64 = NDArray[np.float64]
 
@@ -97,17 +105,19 @@ F64 = NDArray[np.float64]
 # ---------------------------------------------------------------------------------------------
 
 
-def calibration_geometry(cal: Calibration) -> CameraGeometry | None:
+def calibration_geometry(cal: MeasurementCalibration) -> CameraGeometry | None:
     """Camera geometry recorded with a calibration (from its reference-plane captures).
 
     Parameters
     ----------
-    cal : Calibration
+    cal : MeasurementCalibration
+        Either kind (:meth:`~hdrfringe.calibration.Calibration.camera_geometry`).
 
     Returns
     -------
     CameraGeometry or None
-        None when the reference-plane captures recorded no ``focal_px`` and ``standoff_mm``.
+        None when the reference-plane captures recorded no ``focal_px`` and ``standoff_mm``
+        (and always for a stereo calibration: its points are triangulated).
 
     References
     ----------
@@ -119,8 +129,7 @@ def calibration_geometry(cal: Calibration) -> CameraGeometry | None:
     >>> calibration_geometry(cal) is None
     True
     """
-    entry = cal.provenance.get("camera_geometry")
-    return CameraGeometry.from_manifest(entry) if isinstance(entry, dict) else None
+    return cal.camera_geometry()
 
 
 def height_points(
@@ -312,8 +321,8 @@ def composite_captures(
     Returns
     -------
     captures : Captures
-        Each set labelled at its highest MIGL (a strategy that captured an inverted set,
-        ``details["inverted_images"]``, adds it after its set), then the centerline and the
+        Each set labelled at its highest MIGL (a strategy's ``extra_sets``, e.g. an inverted
+        set, follow its set), then the centerline and the
         extra frames; with the scene, camera description, ground truth and name the rig offers
         (:func:`describe_rig`).
     results : tuple of StrategyResult
@@ -338,24 +347,13 @@ def composite_captures(
     desc = describe_rig(rig) if description is None else description
     frames: list[Frame] = []
     images = []
-    results: list[StrategyResult]
-    # A strategy that plans all sets of a measurement together (one mapping for every pitch,
-    # the adaptive projection) offers run_sets(rig, specs, params): one result per spec.
-    run_sets = getattr(strategy, "run_sets", None)
-    if callable(run_sets):
-        results = list(run_sets(rig, list(specs), p))
-        if len(results) != len(specs):
-            raise InputError(
-                f"strategy {method!r} returned {len(results)} results for {len(specs)} sets"
-            )
-    else:
-        results = [strategy.run(rig, spec, p) for spec in specs]
+    results = run_strategy(strategy, rig, specs, p)
     for spec, res in zip(specs, results, strict=True):
         frames += spec.frames()
         images.append(res.images)
-        if res.details.get("inverted_images") is not None:  # tolerant: the inverted set
-            frames += res.details["inverted_spec"].frames()
-            images.append(res.details["inverted_images"])
+        for extra in res.extra_sets:
+            frames += extra.spec.frames()
+            images.append(extra.images)
     if centerline is not None:
         frames.append(centerline)
         images.append(rig.capture([centerline]))
@@ -382,7 +380,8 @@ def strategy_absolute_phases(results: Sequence[StrategyResult]) -> dict[str, F64
 
     A strategy that measures where each camera pixel looks on the projector (the adaptive
     projection's mapping) unwraps its finest set with those fringe orders and leaves the
-    result in ``details["absolute_phase"]``; :func:`hdrfringe.process.decode_captures` takes
+    result in :attr:`StrategyResult.absolute_phase
+    <hdrfringe.strategies.StrategyResult>`; :func:`hdrfringe.process.decode_captures` takes
     them as ``given_phases``.
 
     Parameters
@@ -404,75 +403,16 @@ def strategy_absolute_phases(results: Sequence[StrategyResult]) -> dict[str, F64
     out: dict[str, F64] = {}
     finest: dict[str, float] = {}
     for r in results:
-        phase = r.details.get("absolute_phase")
+        phase = r.absolute_phase
         o = r.spec.orientation
         if phase is not None and r.spec.pitch_px < finest.get(o, np.inf):
             out[o], finest[o] = np.asarray(phase, np.float64), r.spec.pitch_px
     return out
 
 
-#: The entries of an adapted set's ``details`` that ``metrics.json`` records.
-ADAPTIVE_METRICS = (
-    "margin",
-    "mapping_pitches",
-    "mapping_migls",
-    "erosion_radius_px",
-    "blur_sigma_px",
-    "refit_passes",
-    "check_passes",
-    "mapping_saturated",
-    "mapping_bright_migl",
-    "boost_passes",
-    "exposure_ms",
-    "topup",
-    "epipolar",
-    "full_mapping",
-    "images_per_step",
-    "sets_per_step",
-    "seconds_per_step",
-)
-
-
-def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
-    """What ``metrics.json`` records of the adaptive projection, per adapted orientation.
-
-    Parameters
-    ----------
-    results : sequence of StrategyResult
-        One per set of the measurement.
-
-    Returns
-    -------
-    dict
-        Orientation -> the :data:`ADAPTIVE_METRICS` entries of its adapted set (the mapping
-        is counted with the first adapted set); empty for the other strategies.
-
-    Examples
-    --------
-    >>> adaptive_summary([])
-    {}
-    """
-    return {
-        r.spec.orientation: {k: _json_safe(r.details[k]) for k in ADAPTIVE_METRICS}
-        for r in results
-        if r.method == "adaptive" and "images_per_step" in r.details
-    }
-
-
 # ---------------------------------------------------------------------------------------------
 # metrics and result
 # ---------------------------------------------------------------------------------------------
-
-
-def _json_safe(value: Any) -> Any:
-    """``value`` with non-finite floats as None and tuples as lists (valid JSON)."""
-    if isinstance(value, Mapping):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 @dataclass(frozen=True)
@@ -532,10 +472,10 @@ class StrategySummary:
             "images_captured": self.images_captured,
         }
         if self.index_quantity == "migl":
-            out["migls"] = _json_safe(self.values)
+            out["migls"] = json_safe(self.values)
         else:
             out["index_quantity"] = self.index_quantity
-            out[f"{self.index_quantity.removesuffix('_ms')}s_ms"] = _json_safe(self.values)
+            out[f"{self.index_quantity.removesuffix('_ms')}s_ms"] = json_safe(self.values)
         out["never_unsaturated_fraction"] = self.never_unsaturated_fraction
         return out
 
@@ -580,6 +520,12 @@ def strategy_summary(results: Sequence[StrategyResult]) -> StrategySummary:
     )
 
 
+def _strategy_blocks(cls: type) -> tuple[str, ...]:
+    """The fields of ``cls`` a strategy's metrics hook may fill (``strategy_block`` metadata),
+    in order."""
+    return tuple(f.name for f in dataclasses.fields(cls) if f.metadata.get("strategy_block"))
+
+
 @dataclass(frozen=True)
 class MeasurementMetrics:
     """Every figure of a measurement (``metrics.json``, docs/measurement.md).
@@ -618,11 +564,12 @@ class MeasurementMetrics:
     strategy : StrategySummary or None
         What the strategy captured.
     dpa : DPAMetrics or None
-        DPA's CDFs against the actual ones (thesis Fig. 6.3).
+        DPA's CDFs against the actual ones (thesis Fig. 6.3; its metrics hook,
+        :meth:`DPA.metrics <hdrfringe.strategies.dpa.DPA.metrics>`).
     adaptive : dict or None
         The adaptive projection's steps per adapted orientation: images, sets and seconds
         per step, the mapping's pitches and MIGLs, the erosion radius and fitted blur
-        (:func:`adaptive_summary`).
+        (:func:`hdrfringe.strategies.adaptive.adaptive_summary`).
     stereo : dict or None
         With a stereo calibration: points, depth range, reference plane and triangulation
         residual (:meth:`hdrfringe.stereo.StereoMaps.summary`).
@@ -675,8 +622,9 @@ class MeasurementMetrics:
     n_pixels: int | None = None
     live_rig: Mapping[str, Any] | None = None
     strategy: StrategySummary | None = None
-    dpa: DPAMetrics | None = None
-    adaptive: Mapping[str, Any] | None = None
+    # the blocks a strategy's metrics hook fills (StrategyMetrics.metrics), by field name
+    dpa: DPAMetrics | None = field(default=None, metadata={"strategy_block": True})
+    adaptive: Mapping[str, Any] | None = field(default=None, metadata={"strategy_block": True})
     stereo: Mapping[str, Any] | None = None
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
@@ -724,10 +672,10 @@ class MeasurementMetrics:
             d["live_rig"] = self.live_rig
         if self.strategy is not None:
             d.update(self.strategy.to_dict())
-        if self.dpa is not None:
-            d["dpa"] = self.dpa.to_dict()
-        if self.adaptive is not None:
-            d["adaptive"] = dict(self.adaptive)
+        for name in _strategy_blocks(MeasurementMetrics):
+            block = getattr(self, name)
+            if block is not None:
+                d[name] = block.to_dict() if hasattr(block, "to_dict") else dict(block)
         if self.regions is not None:
             d["regions"] = dict(self.regions)
         if self.decoder is not None:
@@ -740,7 +688,7 @@ class MeasurementMetrics:
             d["harmonics"] = dict(self.harmonics)
         d["skipped"] = list(self.skipped)
         d["notes"] = list(self.notes)
-        return _json_safe(d)
+        return json_safe(d)
 
 
 @dataclass(frozen=True, eq=False)
@@ -757,12 +705,15 @@ class MeasurementResult:
         Height in mm (NaN = invalid); None without a calibration. With a stereo calibration:
         the height over the fitted reference plane (:attr:`StereoMaps.height_mm
         <hdrfringe.stereo.StereoMaps.height_mm>`).
-    calibration : Calibration, StereoCalibration or None
+    calibration : MeasurementCalibration or None
+        :class:`~hdrfringe.calibration.Calibration` or
+        :class:`~hdrfringe.stereo.StereoCalibration`.
     metrics : MeasurementMetrics
     strategy_results : tuple of StrategyResult
         One per pitch with a strategy, coarsest first; empty without.
     dpa : tuple of DPACDFs or None
-        DPA's CDFs (thesis Fig. 6.3), one per pitch; None for another method.
+        DPA's CDFs (thesis Fig. 6.3), one per pitch (its metrics hook); None for another
+        method.
     stereo : StereoMaps or None
         The triangulated points, with a stereo calibration.
     uncertainty : Uncertainty or None
@@ -786,10 +737,10 @@ class MeasurementResult:
     captures: Captures
     decoded: FolderPhase
     height_mm: NDArray[np.float64] | None
-    calibration: Calibration | StereoCalibration | None
+    calibration: MeasurementCalibration | None
     metrics: MeasurementMetrics
     strategy_results: tuple[StrategyResult, ...] = ()
-    dpa: tuple[DPACDFs, ...] | None = None
+    dpa: tuple[DPACDFs, ...] | None = field(default=None, metadata={"strategy_block": True})
     stereo: StereoMaps | None = None
     uncertainty: Uncertainty | None = None
 
@@ -806,9 +757,7 @@ class MeasurementResult:
     @property
     def geometry(self) -> CameraGeometry | None:
         """The calibration's camera geometry (:func:`calibration_geometry`), if any."""
-        if not isinstance(self.calibration, Calibration):
-            return None
-        return calibration_geometry(self.calibration)
+        return None if self.calibration is None else calibration_geometry(self.calibration)
 
     def points(self) -> tuple[F64, F64, F64]:
         """x, y, z maps of the height (:func:`height_points` with the calibration's geometry).
@@ -850,43 +799,6 @@ def _absolute_phase(captures: Captures, decoded: FolderPhase) -> tuple[F64, Frin
             "centerline frame or a set whose pitch spans the projector (one period)"
         )
     return fam.absolute_phase, fam.sets[-1].spec
-
-
-def _check_fits(
-    calibration: Calibration | StereoCalibration,
-    spec: FringeSpec,
-    image_shape: tuple[int, int],
-    bit_depth: int,
-    source: str | None,
-) -> None:
-    """:func:`~hdrfringe.calibration.check_compatible`, or the stereo calibration's sizes."""
-    if isinstance(calibration, StereoCalibration):
-        _check_stereo_fits(calibration, image_shape, source, None)
-    else:
-        check_compatible(calibration, spec, image_shape, bit_depth, source=source)
-
-
-def _check_stereo_fits(
-    calibration: StereoCalibration,
-    image_shape: tuple[int, int],
-    source: str | None,
-    projector: tuple[int, int] | None,
-) -> None:
-    """The camera image (and projector) size of the measurement are the calibration's."""
-    problems = []
-    cam = (image_shape[1], image_shape[0])
-    if calibration.camera.size != cam:
-        problems.append(f"camera image {cam[0]}x{cam[1]} vs calibrated {calibration.camera.size}")
-    if projector is not None and calibration.projector.size != projector:
-        problems.append(
-            f"projector {projector[0]}x{projector[1]} vs calibrated {calibration.projector.size}"
-        )
-    if problems:
-        where = f"{source}: " if source else ""
-        raise CalibrationMismatchError(
-            f"{where}stereo calibration does not fit this measurement: {'; '.join(problems)} "
-            "(W x H); use the calibration of this camera and projector"
-        )
 
 
 #: ``stereo_directions`` of :func:`measure`: the projector coordinates triangulation may use.
@@ -1006,7 +918,7 @@ def _triangulate_auto(
 
 def _measure_captures(
     caps: Captures,
-    calibration: Calibration | StereoCalibration | None,
+    calibration: MeasurementCalibration | None,
     reject_saturated: bool,
     calibration_source: str | None,
     stereo_directions: str = "auto",
@@ -1017,8 +929,8 @@ def _measure_captures(
     noise: NoiseModel | float | None = None,
 ) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
     """Decode (``min_shifts`` given: saturation-tolerant, ``saturated="exclude"``); with a
-    calibration, height and its errors (or the triangulated points). Returns the metrics
-    fields."""
+    calibration, what it makes of the phase (:data:`_OUTPUTS`: height and its errors, or the
+    triangulated points). Returns the metrics fields."""
     decoded = _decode_for_measurement(caps, reject_saturated, min_shifts, given_phases, harmonics)
     fam = decoded.primary
     fields: dict[str, Any] = {}
@@ -1035,31 +947,80 @@ def _measure_captures(
         fields["regions"] = fam.regions_summary()
     if calibration is None:
         return decoded, None, fields, None
-    if isinstance(calibration, StereoCalibration):
-        info = caps.projector
-        projector = None if info is None else (int(info.width), int(info.height))
-        _check_stereo_fits(calibration, caps.image_shape, calibration_source, projector)
-        decoded, orders = _geometric_orders(
-            caps, decoded, calibration, depth_range_mm, stereo_directions
+    stage = _OUTPUTS.get(calibration.output)
+    if stage is None:
+        raise InputError(
+            f"calibration output {calibration.output!r} is unknown; a calibration makes "
+            f"{' or '.join(_OUTPUTS)} of the phase"
         )
-        check = None
-        if stereo_directions == "auto":
-            maps, check = _triangulate_auto(caps, decoded, calibration, noise)
-        else:
-            maps = _triangulate(caps, decoded, calibration, stereo_directions)
-        fields["model"] = "stereo"
-        fields["border_px"] = 0
-        fields["valid_fraction"] = float(maps.valid.mean())
-        fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat))
-        fields["stereo"] = maps.summary()
-        if orders:
-            fields["stereo"]["fringe_order"] = orders
-        if check is not None:
-            fields["stereo"]["direction_check"] = check.to_dict()
-        return decoded, maps.height_mm, fields, maps
+    options = _StageOptions(calibration_source, stereo_directions, depth_range_mm, noise)
+    return stage(caps, decoded, calibration, sat, fields, options)
+
+
+@dataclass(frozen=True)
+class _StageOptions:
+    """The options of :func:`measure` the reconstruction stages read."""
+
+    calibration_source: str | None
+    stereo_directions: str
+    depth_range_mm: tuple[float, float] | None
+    noise: NoiseModel | float | None
+
+
+def _points_stage(
+    caps: Captures,
+    decoded: FolderPhase,
+    calibration: StereoCalibration,
+    sat: NDArray[np.bool_],
+    fields: dict[str, Any],
+    options: _StageOptions,
+) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
+    """Triangulated points (docs/stereo.md): the fringe orders from the depth range where the
+    phase has none, the directions checked, the ``stereo`` block."""
+    info = caps.projector
+    projector = None if info is None else (int(info.width), int(info.height))
+    finest = None if decoded.primary is None else decoded.primary.sets[-1].spec
+    calibration.check_fits(
+        finest,
+        caps.image_shape,
+        caps.camera_bit_depth,
+        source=options.calibration_source,
+        projector_size=projector,
+    )
+    directions = options.stereo_directions
+    decoded, orders = _geometric_orders(
+        caps, decoded, calibration, options.depth_range_mm, directions
+    )
+    check = None
+    if directions == "auto":
+        maps, check = _triangulate_auto(caps, decoded, calibration, options.noise)
+    else:
+        maps = _triangulate(caps, decoded, calibration, directions)
+    fields["model"] = "stereo"
+    fields["border_px"] = 0
+    fields["valid_fraction"] = float(maps.valid.mean())
+    fields["saturated_fraction_measurement_pixels"] = float(np.mean(sat))
+    fields["stereo"] = maps.summary()
+    if orders:
+        fields["stereo"]["fringe_order"] = orders
+    if check is not None:
+        fields["stereo"]["direction_check"] = check.to_dict()
+    return decoded, maps.height_mm, fields, maps
+
+
+def _heights_stage(
+    caps: Captures,
+    decoded: FolderPhase,
+    calibration: Calibration,
+    sat: NDArray[np.bool_],
+    fields: dict[str, Any],
+    options: _StageOptions,
+) -> tuple[FolderPhase, F64 | None, dict[str, Any], StereoMaps | None]:
+    """The height map (Eq. 2.10-2.11) over the measurement pixels and its errors against the
+    truth the captures know."""
     phi, spec = _absolute_phase(caps, decoded)
-    check_compatible(
-        calibration, spec, caps.image_shape, caps.camera_bit_depth, source=calibration_source
+    calibration.check_fits(
+        spec, caps.image_shape, caps.camera_bit_depth, source=options.calibration_source
     )
     height = calibration.height(phi)
     inside = calibration.measurement_mask()
@@ -1083,6 +1044,14 @@ def _measure_captures(
     errors.pop("valid_fraction", None)
     fields.update(errors)
     return decoded, height, fields, None
+
+
+#: What a calibration makes of the phase (:attr:`MeasurementCalibration.output
+#: <hdrfringe.calibration.MeasurementCalibration>`) -> the stage that does it.
+_OUTPUTS: dict[str, Callable[..., tuple[FolderPhase, F64 | None, dict[str, Any], Any]]] = {
+    "heights": _heights_stage,
+    "points": _points_stage,
+}
 
 
 def _decode_for_measurement(
@@ -1109,7 +1078,7 @@ def _decoder_summary(decoded: FolderPhase, min_shifts: int) -> dict[str, Any]:
     """``metrics.decoder`` of a saturation-tolerant measurement (its finest set's histogram)."""
     fam = decoded.primary
     out: dict[str, Any] = {
-        "name": "tolerant",
+        "name": DECODER_NAME,
         "min_shifts": min_shifts,
         "inverted": bool(decoded.inverted_sets),
     }
@@ -1123,7 +1092,7 @@ def _decoder_summary(decoded: FolderPhase, min_shifts: int) -> dict[str, Any]:
 
 def _replay(
     captures: Captures,
-    calibration: Calibration | StereoCalibration | None,
+    calibration: MeasurementCalibration | None,
     method: str,
     params: Any,
     specs: Sequence[FringeSpec] | None,
@@ -1140,16 +1109,12 @@ def _replay(
     extra = _replay_frames(captures, {s.orientation for s in specs}, centerline is None)
     if calibration is not None:  # refused before the strategy runs
         finest = min(specs, key=lambda s: s.pitch_px)
-        _check_fits(
-            calibration,
-            finest,
-            captures.image_shape,
-            captures.camera_bit_depth,
-            calibration_source,
+        calibration.check_fits(
+            finest, captures.image_shape, captures.camera_bit_depth, source=calibration_source
         )
     rig = ReplayRig(captures)
-    if method == "uniform" and params.migl is None and params.candidates is None:
-        params = dataclasses.replace(params, candidates=rig.available_migls())
+    context = RunContext(available_migls=rig.available_migls())
+    params = prepare_params(get_strategy(method), params, context)
     return composite_captures(rig, specs, method, params, centerline=centerline, extra_frames=extra)
 
 
@@ -1169,15 +1134,9 @@ def _replay_frames(captures: Captures, orientations: set[str], centerlines: bool
     return [captures.frames[i] for i in sorted(keep)]
 
 
-def _correction_label(params: Any, sources: Mapping[str, str]) -> str:
-    if "correction" in sources:
-        return str(sources["correction"])
-    return "none (identity)" if params.correction is None else "given (not from a file)"
-
-
 def measure(
     source: Captures | Rig,
-    calibration: Calibration | StereoCalibration | None = None,
+    calibration: MeasurementCalibration | None = None,
     *,
     method: str | None = None,
     params: Any = None,
@@ -1213,10 +1172,13 @@ def measure(
     ----------
     source : Captures or Rig
         What to measure.
-    calibration : Calibration or StereoCalibration, optional
-        Without it the phase is decoded and the height skipped. A stereo calibration
-        triangulates every valid pixel from the absolute phase of the vertical and/or
-        horizontal fringes (:func:`hdrfringe.stereo.triangulate_maps`, docs/stereo.md).
+    calibration : MeasurementCalibration, optional
+        Without it the phase is decoded and the height skipped. A
+        :class:`~hdrfringe.calibration.Calibration` gives heights; a
+        :class:`~hdrfringe.stereo.StereoCalibration` triangulates every valid pixel from the
+        absolute phase of the vertical and/or horizontal fringes
+        (:func:`hdrfringe.stereo.triangulate_maps`, docs/stereo.md) and offers the strategy
+        its projector-camera geometry (the adaptive projection's epipolar mapping).
     method : str, optional
         A registered strategy (:func:`hdrfringe.strategies.available_strategies`).
     params : Params or mapping, optional
@@ -1232,8 +1194,8 @@ def measure(
     calibration_source : str, optional
         Where the calibration came from, for a mismatch message.
     param_sources : mapping, optional
-        Where parameters read from files came from, by field name (DPA's ``correction``: the
-        metrics record it).
+        Where parameters read from files came from, by field name (the strategy's metrics
+        hook records them, e.g. DPA's ``correction``).
     stereo_directions : {"auto", "u", "v"}
         With a stereo calibration: ``"auto"`` triangulates with every orientation that has an
         absolute phase (ray against ray when both do), unless the two disagree far beyond the
@@ -1307,7 +1269,7 @@ def measure(
         )
     if depth_range_mm is not None:
         depth_range_mm = check_depth_range(depth_range_mm)
-        if not isinstance(calibration, StereoCalibration):
+        if calibration is None or calibration.output != "points":
             raise InputError(
                 "a depth range fixes the fringe order with a stereo calibration; give one "
                 "(measure -c STEREO.h5) or drop the depth range (--depth-range)"
@@ -1338,7 +1300,7 @@ def measure(
                 source, calibration, method, p, specs, centerline, calibration_source
             )
     elif isinstance(source, Rig):
-        method = "conventional" if method is None else method
+        method = DEFAULT_STRATEGY if method is None else method
         p = _strategy_params(method, params)
         if not specs:
             raise InputError(
@@ -1346,22 +1308,14 @@ def measure(
             )
         if calibration is not None:  # refused before anything is captured
             finest = min(specs, key=lambda s: s.pitch_px)
-            _check_fits(
-                calibration,
-                finest,
-                source.image_shape,
-                source.camera_bit_depth,
-                calibration_source,
+            calibration.check_fits(
+                finest, source.image_shape, source.camera_bit_depth, source=calibration_source
             )
-        # The epipolar adaptive mapping takes the projector row from a projector-camera
-        # calibration: the one measured with (measure --calibration STEREO.h5) when the
-        # strategy was given none (docs/adaptive.md).
-        if (
-            isinstance(calibration, StereoCalibration)
-            and getattr(p, "epipolar", False)
-            and getattr(p, "stereo_calibration", False) is None
-        ):
-            p = dataclasses.replace(p, stereo_calibration=calibration)
+        # what the measurement offers the strategy: the projector-camera geometry of its
+        # calibration (the adaptive projection's epipolar mapping takes the projector row
+        # from it when given none, docs/adaptive.md)
+        geometry = None if calibration is None else calibration.projector_geometry()
+        p = prepare_params(get_strategy(method), p, RunContext(projector_geometry=geometry))
         description = describe_rig(source)
         caps, results = composite_captures(
             source, specs, method, p, centerline=centerline, description=description
@@ -1383,24 +1337,17 @@ def measure(
         harmonics=harmonics,
         noise=noise,
     )
-    dpa = None
-    if method == "dpa":
-        dpa = tuple(dpa_cdfs(r, replay) for r in results)
-        fields["dpa"] = DPAMetrics.of(
-            dpa,
-            threshold=p.threshold,
-            correction=_correction_label(p, sources),
-            bound_pending=p.bound_pending,
-        )
-    summary = adaptive_summary(results)
-    if summary:
-        fields["adaptive"] = summary
+    extra: Mapping[str, Any] = {}
+    if method is not None:
+        hooked = strategy_metrics(get_strategy(method), results, MetricsContext(p, replay, sources))
+        fields.update(_checked_blocks(method, hooked.metrics, MeasurementMetrics))
+        extra = _checked_blocks(method, hooked.result, MeasurementResult)
     unc = None
     if uncertainty:
         unc, fields["uncertainty"] = _predict_uncertainty(caps, decoded, calibration, noise)
     notes = list(decoded.notes)
-    if isinstance(calibration, Calibration) and calibration_geometry(calibration) is None:
-        notes.append(NO_GEOMETRY)
+    if calibration is not None:
+        notes += calibration.notes()
     metrics = MeasurementMetrics(
         source=caps.name if label is None else label,
         live_rig=None if description is None else description.parameters,
@@ -1409,7 +1356,29 @@ def measure(
         notes=tuple(notes),
         **fields,
     )
-    return MeasurementResult(caps, decoded, height, calibration, metrics, results, dpa, stereo, unc)
+    return MeasurementResult(
+        caps,
+        decoded,
+        height,
+        calibration,
+        metrics,
+        results,
+        stereo=stereo,
+        uncertainty=unc,
+        **extra,
+    )
+
+
+def _checked_blocks(method: str, blocks: Mapping[str, Any], cls: type) -> dict[str, Any]:
+    """A strategy's metrics-hook blocks, refused unless each is a strategy block of ``cls``."""
+    allowed = _strategy_blocks(cls)
+    for name in blocks:
+        if name not in allowed:
+            raise InputError(
+                f"strategy {method!r}: its metrics hook gives {name!r}, not a block of "
+                f"{cls.__name__} ({', '.join(allowed)})"
+            )
+    return dict(blocks)
 
 
 def _check_saturated(saturated: str, reject_saturated: bool) -> None:
@@ -1432,22 +1401,22 @@ def _decoder_min_shifts(
 ) -> int | None:
     """The least unsaturated shifts of the saturation-tolerant decoder, or None (flagging):
     ``saturated="exclude"``'s, else what a strategy that leaves saturation to the decoder
-    (tolerant) asks for in its details."""
+    asks for (:attr:`StrategyResult.decoder <hdrfringe.strategies.StrategyResult>`)."""
     if saturated == "exclude":
         return int(min_shifts)
-    tolerant = [r.details["min_shifts"] for r in results if r.details.get("decoder") == "tolerant"]
-    return min(tolerant) if tolerant else None
+    asked = [r.decoder.min_shifts for r in results if r.decoder is not None]
+    return min(asked) if asked else None
 
 
 def _predict_uncertainty(
     caps: Captures,
     decoded: FolderPhase,
-    calibration: Calibration | StereoCalibration | None,
+    calibration: MeasurementCalibration | None,
     noise: NoiseModel | float | None,
 ) -> tuple[Uncertainty | None, dict[str, Any]]:
     """The uncertainty of a measurement and its ``metrics.json`` block; when no noise is given
     and none can be estimated (every set has 3 shifts), None and the reason."""
-    cal = calibration if isinstance(calibration, Calibration) else None
+    cal = None if calibration is None else calibration.height_model()
     if noise is not None:  # a given noise is checked, never excused
         noise = noise if isinstance(noise, NoiseModel) else NoiseModel(noise, source="given")
     try:
@@ -1455,8 +1424,8 @@ def _predict_uncertainty(
     except NoiseUnknownError as exc:
         return None, {"predicted": False, "reason": str(exc)}
     summary = unc.summary()
-    if isinstance(calibration, StereoCalibration):
-        summary["notes"].append("no height std: triangulation's is not modelled")
+    if calibration is not None:
+        summary["notes"] += calibration.uncertainty_notes()
     return unc, summary
 
 

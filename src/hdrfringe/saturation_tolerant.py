@@ -48,6 +48,7 @@ from hdrfringe.phase import (
 )
 
 __all__ = [
+    "DECODER_NAME",
     "MAX_TOLERANT_IMAGES",
     "TolerantPhaseResult",
     "decode_set_tolerant",
@@ -55,6 +56,9 @@ __all__ = [
     "tolerant_noise_gain",
     "tolerant_phase",
 ]
+
+#: The decoder's name in a measurement's metrics (``metrics.decoder.name``).
+DECODER_NAME = "tolerant"
 
 F64 = NDArray[np.float64]
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import cv2
 import numpy as np
@@ -31,11 +31,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe.errors import InputError
 
+if TYPE_CHECKING:
+    from hdrfringe.calibration import Calibration
+    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.reconstruct import CameraGeometry
+
 __all__ = [
     "DIRECTION_BLAME_RATIO",
     "DIRECTION_CHECK_FACTOR",
     "DIRECTION_SIGMA_FLOOR_PX",
     "DISTORTION_LENGTHS",
+    "HEIGHT_STD_NOTE",
     "DirectionCheck",
     "LensModel",
     "PlaneFit",
@@ -54,6 +60,9 @@ __all__ = [
 ]
 
 F64 = NDArray[np.float64]
+
+#: What a predicted uncertainty with a stereo calibration lacks (``metrics.uncertainty.notes``).
+HEIGHT_STD_NOTE = "no height std: triangulation's is not modelled"
 
 #: Accepted lengths of an OpenCV distortion vector: none, (k1, k2, p1, p2), + k3, + k4..k6.
 DISTORTION_LENGTHS = (0, 4, 5, 8)
@@ -371,6 +380,114 @@ class StereoCalibration:
             "reprojection_px": dict(self.reprojection_px or {}),
             "source": self.source,
         }
+
+    #: The file's kind (:class:`~hdrfringe.calibration.MeasurementCalibration`).
+    kind: ClassVar[str] = "stereo"
+    #: What a measurement makes of the phase with it: triangulated points.
+    output: ClassVar[str] = "points"
+
+    def check_fits(
+        self,
+        spec: FringeSpec | None,
+        image_shape: tuple[int, int],
+        camera_bit_depth: int,
+        *,
+        source: str | None = None,
+        projector_size: tuple[int, int] | None = None,
+    ) -> None:
+        """The camera image (and the projector, when known) are the calibrated sizes.
+
+        Parameters
+        ----------
+        spec : FringeSpec or None
+            Unused: any fringes triangulate.
+        image_shape : (int, int)
+            Camera image (height, width).
+        camera_bit_depth : int
+            Unused.
+        source : str, optional
+            Where the calibration came from, for the message.
+        projector_size : (int, int), optional
+            The projector (width, height) the captures record.
+
+        Raises
+        ------
+        CalibrationMismatchError
+            One line listing the sizes that differ (W x H).
+
+        Examples
+        --------
+        >>> cam = LensModel([[1000, 0, 320], [0, 1000, 240], [0, 0, 1]], [], (640, 480))
+        >>> proj = LensModel([[1500, 0, 456], [0, 1500, 570], [0, 0, 1]], [], (912, 1140))
+        >>> calib = StereoCalibration(cam, proj, np.eye(3), [-200.0, 0.0, 0.0])
+        >>> calib.check_fits(None, (480, 640), 8)
+        >>> calib.check_fits(None, (480, 600), 8)  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        hdrfringe.calibration.CalibrationMismatchError: stereo calibration does not fit ...
+        """
+        from hdrfringe.calibration import CalibrationMismatchError
+
+        problems = []
+        cam = (image_shape[1], image_shape[0])
+        if self.camera.size != cam:
+            problems.append(f"camera image {cam[0]}x{cam[1]} vs calibrated {self.camera.size}")
+        if projector_size is not None and self.projector.size != projector_size:
+            problems.append(
+                f"projector {projector_size[0]}x{projector_size[1]} vs calibrated "
+                f"{self.projector.size}"
+            )
+        if problems:
+            where = f"{source}: " if source else ""
+            raise CalibrationMismatchError(
+                f"{where}stereo calibration does not fit this measurement: "
+                f"{'; '.join(problems)} (W x H); use the calibration of this camera and projector"
+            )
+
+    def camera_geometry(self) -> CameraGeometry | None:
+        """None: the points are triangulated, not placed from a height map.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
+    def notes(self) -> tuple[str, ...]:
+        """Nothing: the points are in mm in the camera frame.
+
+        Returns
+        -------
+        tuple of str
+        """
+        return ()
+
+    def height_model(self) -> Calibration | None:
+        """None: the height std through triangulation is not modelled.
+
+        Returns
+        -------
+        None
+        """
+        return None
+
+    def uncertainty_notes(self) -> tuple[str, ...]:
+        """:data:`HEIGHT_STD_NOTE`: only the phase std is predicted.
+
+        Returns
+        -------
+        tuple of str
+        """
+        return (HEIGHT_STD_NOTE,)
+
+    def projector_geometry(self) -> StereoCalibration:
+        """The calibration itself: the projector-camera geometry (e.g. for epipolar rows).
+
+        Returns
+        -------
+        StereoCalibration
+        """
+        return self
 
 
 # --- triangulation ----------------------------------------------------------------------------

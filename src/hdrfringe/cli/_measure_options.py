@@ -15,7 +15,10 @@ import typer
 from hdrfringe.cli._app import parse_floats
 from hdrfringe.cli._options import LIVE_PANEL, given_options
 from hdrfringe.cli._strategy_options import (
+    article,
+    cli_options,
     method_help,
+    params_from_options,
     strategy_file_readers,
     strategy_option_type,
 )
@@ -131,7 +134,8 @@ TrainForceOpt = Annotated[bool, typer.Option(help="Replace an existing file.")]
 
 def given_strategy_options(ctx: typer.Context, options: dict[str, Any]) -> dict[str, Any]:
     """The strategy options given on the command line (not left at their default), by option
-    name (``"--step"``), as :func:`hdrfringe.strategies.params_from_options` takes them.
+    name (``"--step"``), as :func:`hdrfringe.cli._strategy_options.params_from_options` takes
+    them.
 
     Parameters
     ----------
@@ -144,8 +148,6 @@ def given_strategy_options(ctx: typer.Context, options: dict[str, Any]) -> dict[
     -------
     dict
     """
-    from hdrfringe.strategies import cli_options
-
     return {
         o.option: options[o.dest]
         for o in cli_options()
@@ -182,7 +184,7 @@ def strategy_params(
     Returns
     -------
     params : Params or None
-        :func:`hdrfringe.strategies.params_from_options`.
+        :func:`hdrfringe.cli._strategy_options.params_from_options`.
 
     Raises
     ------
@@ -191,16 +193,13 @@ def strategy_params(
     sources : dict
         Field name -> the file given for it (e.g. ``{"correction": "corr.json"}``).
     """
-    from hdrfringe.strategies import cli_options, params_from_options
-    from hdrfringe.strategies.base import _article
-
     readers = strategy_file_readers()
     given = given_strategy_options(ctx, options)  # this command's (built at import)
     for o in cli_options():  # refused before any value is read or checked
         if o.option in given and method not in o.fields:
             titles = o.titles()  # the wording of the library's refusal of exclusive options
             raise InputError(
-                f"{o.option} is {_article(titles[0])} {' or '.join(titles)} option; use it with "
+                f"{o.option} is {article(titles[0])} {' or '.join(titles)} option; use it with "
                 f"--method {' or '.join(o.fields)} or leave it out (got "
                 f"{'no --method' if method is None else method})"
             )

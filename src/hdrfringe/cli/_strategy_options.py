@@ -1,17 +1,41 @@
-"""``measure``'s strategy options, generated from the strategy registry."""
+"""``measure``'s strategy options, generated from the strategy registry.
+
+Strategies declare their parameters (``Params`` dataclass fields with ``metadata={"help": ...,
+"cli": "--option", "exclusive": ...}``, :mod:`hdrfringe.strategies.base`); this module makes
+the command-line options of them (:func:`cli_options`, :func:`with_strategy_options`) and turns
+the options given back into a ``Params`` object (:func:`params_from_options`).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import dataclasses
+import types
+import typing
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Union
 
 import typer
 
 from hdrfringe.cli._app import F
 from hdrfringe.errors import InputError
 
-__all__ = ["method_help", "strategy_file_readers", "strategy_option_type", "with_strategy_options"]
+__all__ = [
+    "StrategyOption",
+    "article",
+    "cli_options",
+    "method_help",
+    "params_from_options",
+    "strategy_file_readers",
+    "strategy_option_type",
+    "with_strategy_options",
+]
+
+
+def _type_name(hint: Any) -> str:
+    """A type as messages name it (``float``, ``CorrectionPolynomial | None``)."""
+    return getattr(hint, "__name__", None) or str(hint).replace("typing.", "")
 
 
 def method_help() -> str:
@@ -81,7 +105,7 @@ def strategy_option_type(opt: Any) -> tuple[Any, str]:
 def with_strategy_options(func: F) -> F:
     """Give a command one option per strategy parameter on the command line, after --method.
 
-    The options come from the registry (:func:`hdrfringe.strategies.cli_options`) when this
+    The options come from the registry (:func:`cli_options`) when this
     module is imported: a strategy registered before that has its options here. The command
     receives them in ``**strategy_options`` by Python name (``bound_pending``).
 
@@ -102,8 +126,6 @@ def with_strategy_options(func: F) -> F:
     True
     """
     import inspect
-
-    from hdrfringe.strategies import cli_options
 
     sig = inspect.signature(func, eval_str=True)
     own = [p for p in sig.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
@@ -128,3 +150,214 @@ def with_strategy_options(func: F) -> F:
         )
     func.__signature__ = sig.replace(parameters=[*own[:at], *extra, *own[at:]])  # type: ignore[attr-defined]
     return func
+
+
+@dataclass(frozen=True)
+class StrategyOption:
+    """One command-line option of the strategies (:func:`cli_options`).
+
+    Parameters
+    ----------
+    option : str
+        The option, e.g. ``"--step"``.
+    dest : str
+        Its Python name, e.g. ``"bound_pending"``.
+    hint : type
+        The parameter's type (from the ``Params`` field).
+    default : object
+        The field's default.
+    help : str
+        Help text, prefixed with the titles of the strategies it belongs to.
+    fields : dict
+        Strategy name -> field name, for every strategy that takes the option.
+    exclusive : bool
+        Given with another method, the option is an error (else it is ignored there).
+
+    Examples
+    --------
+    >>> [o.option for o in cli_options() if "lpa" in o.fields]
+    ['--step']
+    """
+
+    option: str
+    dest: str
+    hint: Any
+    default: Any
+    help: str
+    fields: dict[str, str]
+    exclusive: bool
+
+    def titles(self) -> list[str]:
+        """Titles of the strategies that take the option, in registry order.
+
+        Returns
+        -------
+        list of str
+
+        Examples
+        --------
+        >>> [o.titles() for o in cli_options() if o.option == "--step"]
+        [['LPA']]
+        """
+        from hdrfringe.strategies import get_strategy
+
+        return [get_strategy(name).title for name in self.fields]
+
+
+def cli_options() -> list[StrategyOption]:
+    """The command-line options of every registered strategy, in registry and field order.
+
+    Two strategies may share an option (same name, type and default); it then sets the
+    field of whichever strategy runs.
+
+    Returns
+    -------
+    list of StrategyOption
+        One per option name.
+
+    Raises
+    ------
+    InputError
+        When two strategies use one option name with different types or defaults.
+
+    Examples
+    --------
+    >>> [o.option for o in cli_options()][:3]
+    ['--uniform-migl', '--tolerance', '--step']
+    """
+    from hdrfringe.strategies import available_strategies, get_strategy
+    from hdrfringe.strategies.base import field_default
+
+    out: dict[str, StrategyOption] = {}
+    helps: dict[str, str] = {}
+    for name in available_strategies():
+        strategy = get_strategy(name)
+        hints = typing.get_type_hints(strategy.Params)
+        for f in dataclasses.fields(strategy.Params):
+            opt = f.metadata.get("cli")
+            if opt is None:
+                continue
+            default = field_default(f)
+            exclusive = bool(f.metadata.get("exclusive", False))
+            if opt in out:
+                prev = out[opt]
+                if prev.hint != hints[f.name] or prev.default != default:
+                    raise InputError(
+                        f"strategy {name!r}: option {opt} is already {'/'.join(prev.titles())}'s "
+                        f"with type {_type_name(prev.hint)} and default {prev.default!r}; "
+                        "use the same type and default or another option name"
+                    )
+                fields = {**prev.fields, name: f.name}
+                exclusive = prev.exclusive or exclusive
+            else:
+                fields = {name: f.name}
+                helps[opt] = f.metadata["help"]
+            out[opt] = StrategyOption(
+                option=opt,
+                dest=opt[2:].replace("-", "_"),
+                hint=hints[f.name],
+                default=default,
+                help="",
+                fields=fields,
+                exclusive=exclusive,
+            )
+    return [
+        dataclasses.replace(o, help=f"{', '.join(o.titles())}: {helps[o.option]}")
+        for o in out.values()
+    ]
+
+
+def article(title: str) -> str:
+    """``a`` or ``an`` before ``title`` (acronyms are read letter by letter).
+
+    Parameters
+    ----------
+    title : str
+        A strategy's title.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> article("LPA"), article("DPA"), article("Tolerant")
+    ('an', 'a', 'a')
+    """
+    first = title[:1]
+    if title.isupper():  # an acronym, read letter by letter: an LPA, a DPA
+        return "an" if first in "AEFHILMNORSX" else "a"
+    return "an" if first.lower() in "aeiou" else "a"
+
+
+def params_from_options(
+    name: str | None,
+    options: Mapping[str, Any],
+    *,
+    readers: Mapping[type, Callable[[Any], Any]] | None = None,
+) -> Any:
+    """The ``Params`` of strategy ``name`` from command-line options, checked.
+
+    Options of another strategy are ignored (one command line can serve several methods),
+    except the ``exclusive`` ones, which are refused when set away from their default.
+
+    Parameters
+    ----------
+    name : str or None
+        The strategy chosen; None: no strategy (exclusive options are then refused).
+    options : mapping
+        Option (``"--step"``) -> value, for the options the user gave.
+    readers : mapping, optional
+        Parameter type -> function turning the option's value into it (the CLI passes the
+        file readers here, e.g. ``{CorrectionPolynomial: CorrectionPolynomial.load}``:
+        strategies read no files).
+
+    Returns
+    -------
+    Params or None
+        The strategy's ``Params``; None when ``name`` is None.
+
+    Raises
+    ------
+    InputError
+        An unknown strategy or option, an exclusive option of another method (e.g.
+        ``--bound-pending is a DPA option; use it with --method dpa (got lpa)``), a bad value.
+
+    Examples
+    --------
+    >>> params_from_options("lpa", {"--step": 15.0, "--threshold": 0.2})
+    LPAParams(step=15.0, min_migl=None)
+    """
+    from hdrfringe.strategies import get_strategy, make_params
+
+    if name is not None:
+        get_strategy(name)
+    known = {o.option: o for o in cli_options()}
+    values: dict[str, Any] = {}
+    for opt, value in options.items():
+        spec = known.get(opt)
+        if spec is None:
+            raise InputError(
+                f"unknown strategy option {opt}; the strategies take {', '.join(known) or 'none'}"
+            )
+        if name not in spec.fields:
+            if spec.exclusive and value != spec.default:
+                titles, names = spec.titles(), list(spec.fields)
+                raise InputError(
+                    f"{opt} is {article(titles[0])} {' or '.join(titles)} option; use it with "
+                    f"--method {' or '.join(names)} (got {name})"
+                )
+            continue
+        if value is not None:
+            for typ, read in (readers or {}).items():
+                if _conforms_base(spec.hint, typ):
+                    value = read(value)
+                    break
+        values[spec.fields[name]] = value
+    return None if name is None else make_params(name, **values)
+
+
+def _conforms_base(hint: Any, typ: type) -> bool:
+    """Whether ``typ`` is the parameter type ``hint`` (None aside)."""
+    args = typing.get_args(hint) if typing.get_origin(hint) in (Union, types.UnionType) else ()
+    return hint is typ or typ in args

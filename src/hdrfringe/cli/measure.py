@@ -206,16 +206,11 @@ def measure(
     # imported once the options are known good: a refused command does not pay for the
     # pipeline's imports (the decoders, unwrapping, calibration, HDF5, the writers)
     from hdrfringe import pipeline
-    from hdrfringe.io.calibration_file import load_calibration
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.measurement_outputs import write_measurement
-    from hdrfringe.io.stereo_file import calibration_kind, load_stereo_calibration
+    from hdrfringe.io.stereo_file import load_any_calibration
 
-    cal: Any = None
-    if calibration is not None and calibration_kind(calibration) == "stereo":
-        cal = load_stereo_calibration(calibration)  # triangulation (docs/stereo.md)
-    elif calibration is not None:
-        cal = load_calibration(calibration)
+    cal = None if calibration is None else load_any_calibration(calibration)
     kwargs: dict[str, Any] = {
         "method": method,
         "params": params,

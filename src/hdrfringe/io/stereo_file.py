@@ -20,6 +20,9 @@ As with the phase-to-height files, MATLAB's ``h5read`` returns the 3x3 matrices 
 Converters (:func:`convert_calibration`) read OpenCV FileStorage YAML/XML/JSON files, the numpy
 ``.npz`` layout of thomriiii's ``calibration_dec2025`` and the plain-text matrices of
 kimthyung's ``CalibrationData*`` folders; ``docs/stereo.md`` documents every key and mapping.
+
+:func:`load_any_calibration` reads a calibration file of either kind, knowing which from the
+file: what a measurement takes (:class:`~hdrfringe.calibration.MeasurementCalibration`).
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe.calibration import MeasurementCalibration
 from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.io.calibration_file import (
     FORMAT_NAME,
@@ -39,6 +43,7 @@ from hdrfringe.io.calibration_file import (
     _deferred_sigint,
     _set_str,
     _write_tree,
+    load_calibration,
 )
 from hdrfringe.stereo import DISTORTION_LENGTHS, LensModel, StereoCalibration
 
@@ -48,6 +53,7 @@ __all__ = [
     "KIND",
     "calibration_kind",
     "convert_calibration",
+    "load_any_calibration",
     "load_stereo_calibration",
     "save_stereo_calibration",
 ]
@@ -324,6 +330,53 @@ def calibration_kind(path: str | Path) -> str:
     except (OSError, KeyError, TypeError, ValueError, UnicodeDecodeError):
         return "phase-to-height"
     return KIND if kind == KIND else "phase-to-height"
+
+
+def load_any_calibration(path: str | Path) -> MeasurementCalibration:
+    """The calibration in a file, of whichever kind the file holds.
+
+    A stereo calibration file (``kind = "stereo"``, :func:`calibration_kind`) is read by
+    :func:`load_stereo_calibration`; anything else by
+    :func:`hdrfringe.io.calibration_file.load_calibration`, whose messages then say what is
+    wrong with a missing or damaged file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A calibration file written by ``calibrate``, ``calibrate-stereo`` or
+        :func:`convert_calibration`.
+
+    Returns
+    -------
+    MeasurementCalibration
+        A :class:`~hdrfringe.calibration.Calibration` or a
+        :class:`~hdrfringe.stereo.StereoCalibration`.
+
+    Raises
+    ------
+    CalibrationFileError
+        Missing file, not HDF5, damaged contents (the one-line message of the kind's loader).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> cam = LensModel([[1000, 0, 320], [0, 1000, 240], [0, 0, 1]], [], (640, 480))
+    >>> proj = LensModel([[1500, 0, 456], [0, 1500, 570], [0, 0, 1]], [], (912, 1140))
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = save_stereo_calibration(
+    ...         Path(tmp) / "s.h5", StereoCalibration(cam, proj, np.eye(3), [-200.0, 0, 0]))
+    ...     cal = load_any_calibration(path)
+    >>> cal.kind, cal.output
+    ('stereo', 'points')
+    >>> try:
+    ...     load_any_calibration("no/such/file.h5")
+    ... except CalibrationFileError as err:
+    ...     print(err)
+    no/such/file.h5: calibration file not found; check the path or calibrate first
+    """
+    if calibration_kind(path) == KIND:
+        return load_stereo_calibration(path)
+    return load_calibration(path)
 
 
 # --------------------------------------------------------------------------------------------

@@ -29,8 +29,8 @@ Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
    coarser pitches: the measurement's coarser sets are the mapping's own captures), and the
    bias of the map's steps under the blur is subtracted
    (:func:`~hdrfringe.saturation.adaptive_map.map_phase_bias`, the blur fitted against the
-   mapping). The result is ``details["absolute_phase"]``, which
-   :func:`hdrfringe.pipeline.measure` uses for the family's absolute phase.
+   mapping). The result's ``absolute_phase`` is what :func:`hdrfringe.pipeline.measure` uses
+   for the family's absolute phase.
 
 With ``epipolar`` the mapping is the vertical ladder only, each pixel's projector row from the
 projector-camera calibration (:func:`~hdrfringe.saturation.adaptive_map.epipolar_rows`); with
@@ -42,6 +42,7 @@ constraint, and the full-MIGL mapping").
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from collections.abc import Sequence
@@ -51,7 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import saturation_count
+from hdrfringe._validation import json_safe, saturation_count
 from hdrfringe.captures import CameraSettings
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.frames import PixelwiseFringeFrame
@@ -78,6 +79,9 @@ from hdrfringe.stereo import StereoCalibration
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
+    MetricsContext,
+    RunContext,
+    StrategyMetrics,
     StrategyResult,
     check_fringe_spec,
     default_min_migl,
@@ -86,7 +90,15 @@ from hdrfringe.strategies.base import (
 from hdrfringe.strategies.exposure import choose_exposure
 from hdrfringe.unwrap import unwrap_spatial, unwrap_temporal
 
-__all__ = ["Adaptive", "AdaptiveParams", "adaptive", "adaptive_sets", "mapping_pitches"]
+__all__ = [
+    "ADAPTIVE_METRICS",
+    "Adaptive",
+    "AdaptiveParams",
+    "adaptive",
+    "adaptive_sets",
+    "adaptive_summary",
+    "mapping_pitches",
+]
 
 #: Largest pitch ratio between consecutive mapping sets.
 MAPPING_RATIO = 16.0
@@ -630,7 +642,7 @@ def adaptive_sets(
         last pass, ``camera_migl``: the camera-side levels), the images, sets and seconds per
         step (``images_per_step``, ``sets_per_step``, ``seconds_per_step``; the mapping is
         counted once, with the first adapted set), the blur fitted (``blur_sigma_px``) and
-        the set's absolute phase (``absolute_phase``).
+        ``absolute_phase``: the set's absolute phase, unwrapped with the mapping's orders.
 
     Raises
     ------
@@ -1045,7 +1057,6 @@ def adaptive_sets(
                 "boost_passes": boosts,
                 "topup": topup_info,
                 "clipped_per_capture": clipped,
-                "absolute_phase": absolute,
                 "images_per_step": {
                     "exposure": len(chosen) * steps,
                     "mapping": n_map * steps,
@@ -1082,6 +1093,7 @@ def adaptive_sets(
                 if full_mapping
                 else None,
             },
+            absolute_phase=absolute,
         )
     out = tuple(r for r in results if r is not None)
     assert len(out) == len(specs)  # every spec is a mapping set or an adapted set
@@ -1110,7 +1122,7 @@ def adaptive(
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
     The mapping ladder (one period down to within 16x of ``spec``'s pitch, both orientations)
-    is captured for it; ``details["absolute_phase"]`` is the set unwrapped with its orders.
+    is captured for it; the result's ``absolute_phase`` is the set unwrapped with its orders.
 
     Parameters
     ----------
@@ -1316,6 +1328,54 @@ class AdaptiveParams:
     )
 
 
+#: The entries of an adapted set's ``details`` that ``metrics.json`` records.
+ADAPTIVE_METRICS = (
+    "margin",
+    "mapping_pitches",
+    "mapping_migls",
+    "erosion_radius_px",
+    "blur_sigma_px",
+    "refit_passes",
+    "check_passes",
+    "mapping_saturated",
+    "mapping_bright_migl",
+    "boost_passes",
+    "exposure_ms",
+    "topup",
+    "epipolar",
+    "full_mapping",
+    "images_per_step",
+    "sets_per_step",
+    "seconds_per_step",
+)
+
+
+def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
+    """What ``metrics.json`` records of the adaptive projection, per adapted orientation.
+
+    Parameters
+    ----------
+    results : sequence of StrategyResult
+        One per set of the measurement.
+
+    Returns
+    -------
+    dict
+        Orientation -> the :data:`ADAPTIVE_METRICS` entries of its adapted set (the mapping
+        is counted with the first adapted set); empty for the other strategies.
+
+    Examples
+    --------
+    >>> adaptive_summary([])
+    {}
+    """
+    return {
+        r.spec.orientation: {k: json_safe(r.details[k]) for k in ADAPTIVE_METRICS}
+        for r in results
+        if r.method == "adaptive" and "images_per_step" in r.details
+    }
+
+
 @register
 class Adaptive(FunctionStrategy):
     """The registry's ``adaptive``: :func:`adaptive_sets` over all sets of a measurement.
@@ -1393,3 +1453,52 @@ class Adaptive(FunctionStrategy):
         """
         label = f"Adaptive {100 * params.margin:g} %"
         return label + " + exposure" if params.auto_exposure else label
+
+    def prepare(self, params: AdaptiveParams, context: RunContext) -> AdaptiveParams:
+        """The epipolar mapping takes the projector-camera calibration the measurement was
+        given (``measure --calibration STEREO.h5``) when the parameters name none.
+
+        Parameters
+        ----------
+        params : AdaptiveParams
+            The parameters.
+        context : RunContext
+            What the measurement offers (``projector_geometry``).
+
+        Returns
+        -------
+        AdaptiveParams
+
+        Examples
+        --------
+        >>> Adaptive().prepare(AdaptiveParams(epipolar=True), RunContext()).stereo_calibration
+        """
+        if not params.epipolar or params.stereo_calibration is not None:
+            return params
+        if context.projector_geometry is None:
+            return params
+        return dataclasses.replace(params, stereo_calibration=context.projector_geometry)
+
+    def metrics(
+        self, results: Sequence[StrategyResult], context: MetricsContext
+    ) -> StrategyMetrics:
+        """The ``adaptive`` block: :func:`adaptive_summary` (none without an adapted set).
+
+        Parameters
+        ----------
+        results : sequence of StrategyResult
+            One per set of the measurement.
+        context : MetricsContext
+            Unused: the results carry what the block records.
+
+        Returns
+        -------
+        StrategyMetrics
+
+        Examples
+        --------
+        >>> Adaptive().metrics([], MetricsContext(AdaptiveParams()))
+        StrategyMetrics(metrics={}, result={})
+        """
+        summary = adaptive_summary(results)
+        return StrategyMetrics(metrics={"adaptive": summary} if summary else {})

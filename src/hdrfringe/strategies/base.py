@@ -9,18 +9,26 @@ composite the phase stage decodes (thesis Ch. 4-6). Each one is an object with
   and ``field(metadata={"help": ..., "cli": "--option"})`` (``cli`` absent: not on the command
   line),
 * ``run(rig, spec, params) -> StrategyResult`` and ``describe(params) -> str`` (a short label
-  for tables and figures, e.g. ``"LPA S=5"``).
+  for tables and figures, e.g. ``"LPA S=5"``),
+* optionally (:class:`FunctionStrategy` has the defaults, as xarray's ``BackendEntrypoint``
+  has): ``run_sets(rig, specs, params)`` (all sets of a measurement at once),
+  ``prepare(params, context)`` (its parameters completed from what the measurement offers,
+  :class:`RunContext`) and ``metrics(results, context)`` (its own ``metrics.json`` block,
+  :class:`StrategyMetrics`); the measurement calls them through :func:`run_strategy`,
+  :func:`prepare_params` and :func:`strategy_metrics`, and so names no strategy.
 
 :func:`register` adds one to the registry (it also works as a class decorator);
 :func:`get_strategy` and :func:`available_strategies` read it. Importing
 :mod:`hdrfringe.strategies` registers the built-in ones. Front ends never list the methods
-themselves: ``measure --method`` and its per-method options come from :func:`cli_options`, and
-:func:`params_from_options` turns the options given into a ``Params`` object.
+themselves: the command-line options are generated from the ``Params`` fields by
+:mod:`hdrfringe.cli._strategy_options`.
 
 :class:`StrategyResult` says what varied between the sets captured: one :class:`CapturedSet`
 per set (its MIGL, exposure or per-pixel MIGL map) and a per-pixel ``index_map`` of the
 ``index_quantity`` each pixel's composite intensities come from (Fig. 5.2c's MIGL index image
-is the ``"migl"`` case).
+is the ``"migl"`` case); its typed fields tell the measurement what else to do with it: sets
+to add to the captures (:class:`ExtraSet`), an absolute phase the strategy unwrapped itself,
+and the decoder it needs (:class:`DecoderSettings`).
 """
 
 from __future__ import annotations
@@ -30,9 +38,9 @@ import numbers
 import re
 import types
 import typing
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, Union, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, Union, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,25 +50,39 @@ from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 
+if TYPE_CHECKING:
+    from hdrfringe.captures import Captures
+    from hdrfringe.stereo import StereoCalibration
+
 __all__ = [
+    "DEFAULT_STRATEGY",
     "CapturedSet",
+    "DecoderSettings",
+    "ExtraSet",
     "FunctionStrategy",
+    "MetricsContext",
+    "RunContext",
     "Strategy",
-    "StrategyOption",
+    "StrategyMetrics",
     "StrategyResult",
     "available_strategies",
     "capture_set",
     "check_fringe_spec",
-    "cli_options",
     "default_min_migl",
+    "field_default",
     "get_strategy",
     "make_params",
     "merge_into_composite",
     "param_values",
-    "params_from_options",
+    "prepare_params",
     "register",
+    "run_strategy",
+    "strategy_metrics",
     "unregister",
 ]
+
+#: The strategy a measurement on a rig runs when none is named: one set at the highest MIGL.
+DEFAULT_STRATEGY = "conventional"
 
 #: What a result's ``index_map`` can hold: the quantity that varies between the captured sets.
 INDEX_QUANTITIES = ("migl", "exposure_ms")
@@ -99,6 +121,47 @@ class CapturedSet:
     migl_map: NDArray | None = field(default=None, compare=False)
 
 
+@dataclass(frozen=True)
+class ExtraSet:
+    """A set a strategy captured besides its composite, that the measurement decodes with it.
+
+    Parameters
+    ----------
+    spec : FringeSpec
+        The set as projected (e.g. the tolerant strategy's inverted set, phase offset 180 deg).
+    images : ndarray (N, H, W)
+        Its camera images, shift 0 first.
+
+    Examples
+    --------
+    >>> extra = ExtraSet(FringeSpec("sinusoidal", 4, 8.0), np.zeros((4, 2, 3), np.uint8))
+    >>> extra.images.shape
+    (4, 2, 3)
+    """
+
+    spec: FringeSpec
+    images: NDArray = field(compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class DecoderSettings:
+    """The decoder a strategy's composite needs (instead of the standard one).
+
+    Parameters
+    ----------
+    min_shifts : int
+        The saturation-tolerant decoder (``saturated="exclude"``): each pixel's phase from its
+        unsaturated shifts, at least ``min_shifts`` of them.
+
+    Examples
+    --------
+    >>> DecoderSettings(min_shifts=3)
+    DecoderSettings(min_shifts=3)
+    """
+
+    min_shifts: int
+
+
 @dataclass
 class StrategyResult:
     """What a strategy returns: the composite and a record of what it captured.
@@ -123,7 +186,15 @@ class StrategyResult:
     index_quantity : str
         What ``index_map`` holds: ``"migl"`` or ``"exposure_ms"``.
     details : dict
-        Strategy-specific information (e.g. the uniform strategy's saturated fractions).
+        Strategy-specific information (e.g. the uniform strategy's saturated fractions), for
+        the strategy's own metrics hook and for reports; the measurement reads none of it.
+    extra_sets : tuple of ExtraSet
+        Sets to add to the captures after this one's (the tolerant strategy's inverted set).
+    absolute_phase : ndarray (H, W) or None
+        The set's absolute phase when the strategy unwrapped it itself (the adaptive
+        projection, from its camera-to-projector mapping); the decoder takes it as given.
+    decoder : DecoderSettings or None
+        The decoder the composite needs; None: the standard one.
 
     Notes
     -----
@@ -151,6 +222,9 @@ class StrategyResult:
     method: str
     index_quantity: str = "migl"
     details: dict[str, Any] = field(default_factory=dict)
+    extra_sets: tuple[ExtraSet, ...] = ()
+    absolute_phase: NDArray[np.float64] | None = None
+    decoder: DecoderSettings | None = None
 
     def __post_init__(self) -> None:
         """Refuse records that do not fit together (counts per set, maps per pixel)."""
@@ -301,13 +375,85 @@ class Strategy(Protocol):  # numpydoc ignore=PR01
         ...
 
 
+@dataclass(frozen=True)
+class RunContext:
+    """What a measurement offers a strategy before it runs (its ``prepare`` hook).
+
+    Parameters
+    ----------
+    available_migls : sequence of float or None
+        The MIGLs the rig can show, when it replays a MIGL sweep; None: any MIGL.
+    projector_geometry : StereoCalibration or None
+        The projector-camera calibration the measurement was given
+        (:meth:`MeasurementCalibration.projector_geometry
+        <hdrfringe.calibration.MeasurementCalibration.projector_geometry>`); None: none.
+
+    Examples
+    --------
+    >>> RunContext().available_migls is None
+    True
+    """
+
+    available_migls: Sequence[float] | None = None
+    projector_geometry: StereoCalibration | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True)
+class MetricsContext:
+    """What a strategy's ``metrics`` hook gets besides its results.
+
+    Parameters
+    ----------
+    params : Params
+        The parameters it ran with.
+    replay : Captures or None
+        The MIGL sweep it was replayed on; None on a live rig.
+    param_sources : mapping
+        Where parameters read from files came from, by field name.
+
+    Examples
+    --------
+    >>> MetricsContext(params=None).replay is None
+    True
+    """
+
+    params: Any
+    replay: Captures | None = field(default=None, repr=False)
+    param_sources: Mapping[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class StrategyMetrics:
+    """What a strategy's ``metrics`` hook adds to a measurement.
+
+    Parameters
+    ----------
+    metrics : mapping
+        Blocks of the measurement's metrics by field name (e.g. ``{"dpa": DPAMetrics}``,
+        ``{"adaptive": {...}}``): :class:`~hdrfringe.pipeline.MeasurementMetrics` fields marked
+        as strategy blocks.
+    result : mapping
+        Fields of the :class:`~hdrfringe.pipeline.MeasurementResult` by name (e.g. DPA's CDFs,
+        ``{"dpa": (DPACDFs, ...)}``).
+
+    Examples
+    --------
+    >>> StrategyMetrics().metrics
+    {}
+    """
+
+    metrics: Mapping[str, Any] = field(default_factory=dict)
+    result: Mapping[str, Any] = field(default_factory=dict)
+
+
 class FunctionStrategy:
     """Base of a strategy whose work is one function, ``function(rig, spec, **params)``.
 
     A subclass sets ``name``, ``title``, ``help``, ``Params`` (a frozen dataclass whose fields
     are the function's keyword arguments) and ``function``; :meth:`run` passes the parameters'
     fields as keywords, and :meth:`describe` gives the name unless the subclass labels runs
-    itself. The built-in strategies are written this way.
+    itself; :meth:`prepare` and :meth:`metrics` are the optional hooks, doing nothing until a
+    subclass overrides them. The built-in strategies are written this way.
 
     Examples
     --------
@@ -353,6 +499,40 @@ class FunctionStrategy:
         str
         """
         return self.name
+
+    def prepare(self, params: Any, context: RunContext) -> Any:
+        """The parameters completed from what the measurement offers (here: unchanged).
+
+        Parameters
+        ----------
+        params : Params
+            The strategy's parameters.
+        context : RunContext
+            What the measurement offers (a replay's MIGLs, a projector-camera calibration).
+
+        Returns
+        -------
+        Params
+        """
+        return params
+
+    def metrics(
+        self, results: Sequence[StrategyResult], context: MetricsContext
+    ) -> StrategyMetrics:
+        """The strategy's own blocks of a measurement's metrics (here: none).
+
+        Parameters
+        ----------
+        results : sequence of StrategyResult
+            One per set of the measurement, coarsest first.
+        context : MetricsContext
+            The parameters, the replayed sweep, the parameters' files.
+
+        Returns
+        -------
+        StrategyMetrics
+        """
+        return StrategyMetrics()
 
 
 _REGISTRY: dict[str, Strategy] = {}
@@ -446,12 +626,8 @@ def register(strategy: Any) -> Any:
         raise InputError(
             f"strategy {obj.name!r} is already registered; choose another name or unregister it"
         )
+    _check_option_names(obj)  # a clash with another strategy's option is refused here
     _REGISTRY[obj.name] = obj
-    try:
-        cli_options()  # a clash with another strategy's option is refused here, not in the CLI
-    except InputError:
-        del _REGISTRY[obj.name]
-        raise
     return strategy
 
 
@@ -525,6 +701,115 @@ def available_strategies() -> tuple[str, ...]:
     ('conventional', 'uniform', 'lpa', 'dpa')
     """
     return tuple(_REGISTRY)
+
+
+def run_strategy(
+    strategy: Strategy, rig: Rig, specs: Sequence[FringeSpec], params: Any
+) -> list[StrategyResult]:
+    """A strategy's results for every set of a measurement: its ``run_sets`` when it plans all
+    sets together (one mapping for every pitch, the adaptive projection), else ``run`` per set.
+
+    Parameters
+    ----------
+    strategy : Strategy
+        A registered strategy.
+    rig : Rig
+        The rig it drives.
+    specs : sequence of FringeSpec
+        The sets at their highest MIGL, coarsest first.
+    params : Params
+        Its parameters.
+
+    Returns
+    -------
+    list of StrategyResult
+        One per spec.
+
+    Raises
+    ------
+    InputError
+        When ``run_sets`` returns another number of results.
+
+    Examples
+    --------
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=32, height=24))
+    >>> lpa = get_strategy("lpa")
+    >>> [r.method for r in run_strategy(lpa, rig, [FringeSpec("sinusoidal", 4, 8.0)],
+    ...                                 make_params("lpa"))]
+    ['lpa']
+    """
+    run_sets = getattr(strategy, "run_sets", None)
+    if not callable(run_sets):
+        return [strategy.run(rig, spec, params) for spec in specs]
+    results = list(run_sets(rig, list(specs), params))
+    if len(results) != len(specs):
+        raise InputError(
+            f"strategy {strategy.name!r} returned {len(results)} results for {len(specs)} sets"
+        )
+    return results
+
+
+def prepare_params(strategy: Strategy, params: Any, context: RunContext) -> Any:
+    """A strategy's parameters completed by its ``prepare`` hook (unchanged without one).
+
+    Parameters
+    ----------
+    strategy : Strategy
+        A registered strategy.
+    params : Params
+        Its parameters.
+    context : RunContext
+        What the measurement offers.
+
+    Returns
+    -------
+    Params
+
+    Examples
+    --------
+    >>> prepare_params(get_strategy("uniform"), make_params("uniform"),
+    ...                RunContext(available_migls=[200.0, 255.0])).candidates
+    [200.0, 255.0]
+    """
+    prepare = getattr(strategy, "prepare", None)
+    return params if prepare is None else prepare(params, context)
+
+
+def strategy_metrics(
+    strategy: Strategy, results: Sequence[StrategyResult], context: MetricsContext
+) -> StrategyMetrics:
+    """A strategy's blocks of a measurement's metrics from its ``metrics`` hook (none without).
+
+    Parameters
+    ----------
+    strategy : Strategy
+        A registered strategy.
+    results : sequence of StrategyResult
+        Its results, one per set of the measurement.
+    context : MetricsContext
+        The parameters, the replayed sweep, the parameters' files.
+
+    Returns
+    -------
+    StrategyMetrics
+
+    Examples
+    --------
+    >>> strategy_metrics(get_strategy("lpa"), [], MetricsContext(make_params("lpa")))
+    StrategyMetrics(metrics={}, result={})
+    """
+    hook = getattr(strategy, "metrics", None)
+    if hook is None:
+        return StrategyMetrics()
+    out = hook(results, context)
+    if not isinstance(out, StrategyMetrics):
+        raise InputError(
+            f"strategy {strategy.name!r}: metrics() returned {type(out).__name__}, not a "
+            "StrategyMetrics"
+        )
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -619,200 +904,54 @@ def param_values(params: Any) -> dict[str, Any]:
     return {f.name: getattr(params, f.name) for f in dataclasses.fields(params)}
 
 
-@dataclass(frozen=True)
-class StrategyOption:
-    """One command-line option of the strategies (:func:`cli_options`).
+def field_default(f: dataclasses.Field[Any]) -> Any:
+    """A ``Params`` field's default value (from its default factory if it has one).
 
     Parameters
     ----------
-    option : str
-        The option, e.g. ``"--step"``.
-    dest : str
-        Its Python name, e.g. ``"bound_pending"``.
-    hint : type
-        The parameter's type (from the ``Params`` field).
-    default : object
-        The field's default.
-    help : str
-        Help text, prefixed with the titles of the strategies it belongs to.
-    fields : dict
-        Strategy name -> field name, for every strategy that takes the option.
-    exclusive : bool
-        Given with another method, the option is an error (else it is ignored there).
-
-    Examples
-    --------
-    >>> [o.option for o in cli_options() if "lpa" in o.fields]
-    ['--step']
-    """
-
-    option: str
-    dest: str
-    hint: Any
-    default: Any
-    help: str
-    fields: dict[str, str]
-    exclusive: bool
-
-    def titles(self) -> list[str]:
-        """Titles of the strategies that take the option, in registry order.
-
-        Returns
-        -------
-        list of str
-
-        Examples
-        --------
-        >>> [o.titles() for o in cli_options() if o.option == "--step"]
-        [['LPA']]
-        """
-        return [_REGISTRY[name].title for name in self.fields]
-
-
-def cli_options() -> list[StrategyOption]:
-    """The command-line options of every registered strategy, in registry and field order.
-
-    Two strategies may share an option (same name, type and default); it then sets the
-    field of whichever strategy runs.
+    f : dataclasses.Field
+        A field of a strategy's ``Params``.
 
     Returns
     -------
-    list of StrategyOption
-        One per option name.
-
-    Raises
-    ------
-    InputError
-        When two strategies use one option name with different types or defaults.
+    object
 
     Examples
     --------
-    >>> [o.option for o in cli_options()][:3]
-    ['--uniform-migl', '--tolerance', '--step']
+    >>> from hdrfringe.strategies.lpa import LPAParams
+    >>> [field_default(f) for f in dataclasses.fields(LPAParams)]
+    [5.0, None]
     """
-    out: dict[str, StrategyOption] = {}
-    helps: dict[str, str] = {}
-    for name, strategy in _REGISTRY.items():
-        hints = typing.get_type_hints(strategy.Params)
-        for f in dataclasses.fields(strategy.Params):
-            opt = f.metadata.get("cli")
-            if opt is None:
-                continue
-            default = _field_default(f)
-            exclusive = bool(f.metadata.get("exclusive", False))
-            if opt in out:
-                prev = out[opt]
-                if prev.hint != hints[f.name] or prev.default != default:
-                    raise InputError(
-                        f"strategy {name!r}: option {opt} is already {'/'.join(prev.titles())}'s "
-                        f"with type {_type_name(prev.hint)} and default {prev.default!r}; "
-                        "use the same type and default or another option name"
-                    )
-                fields = {**prev.fields, name: f.name}
-                exclusive = prev.exclusive or exclusive
-            else:
-                fields = {name: f.name}
-                helps[opt] = f.metadata["help"]
-            out[opt] = StrategyOption(
-                option=opt,
-                dest=opt[2:].replace("-", "_"),
-                hint=hints[f.name],
-                default=default,
-                help="",
-                fields=fields,
-                exclusive=exclusive,
-            )
-    return [
-        dataclasses.replace(o, help=f"{', '.join(o.titles())}: {helps[o.option]}")
-        for o in out.values()
-    ]
-
-
-def _field_default(f: dataclasses.Field[Any]) -> Any:
-    """A dataclass field's default value (from its default factory if it has one)."""
     if f.default is not dataclasses.MISSING:
         return f.default
     factory: Callable[[], Any] = f.default_factory  # type: ignore[assignment]
     return factory()
 
 
-def _article(title: str) -> str:
-    """``a`` or ``an`` before ``title`` (acronyms are read letter by letter)."""
-    first = title[:1]
-    if title.isupper():  # an acronym, read letter by letter: an LPA, a DPA
-        return "an" if first in "AEFHILMNORSX" else "a"
-    return "an" if first.lower() in "aeiou" else "a"
-
-
-def params_from_options(
-    name: str | None,
-    options: Mapping[str, Any],
-    *,
-    readers: Mapping[type, Callable[[Any], Any]] | None = None,
-) -> Any:
-    """The ``Params`` of strategy ``name`` from command-line options, checked.
-
-    Options of another strategy are ignored (one command line can serve several methods),
-    except the ``exclusive`` ones, which are refused when set away from their default.
-
-    Parameters
-    ----------
-    name : str or None
-        The strategy chosen; None: no strategy (exclusive options are then refused).
-    options : mapping
-        Option (``"--step"``) -> value, for the options the user gave.
-    readers : mapping, optional
-        Parameter type -> function turning the option's value into it (the CLI passes the
-        file readers here, e.g. ``{CorrectionPolynomial: CorrectionPolynomial.load}``:
-        strategies read no files).
-
-    Returns
-    -------
-    Params or None
-        The strategy's ``Params``; None when ``name`` is None.
-
-    Raises
-    ------
-    InputError
-        An unknown strategy or option, an exclusive option of another method (e.g.
-        ``--bound-pending is a DPA option; use it with --method dpa (got lpa)``), a bad value.
-
-    Examples
-    --------
-    >>> params_from_options("lpa", {"--step": 15.0, "--threshold": 0.2})
-    LPAParams(step=15.0, min_migl=None)
-    """
-    if name is not None:
-        get_strategy(name)
-    known = {o.option: o for o in cli_options()}
-    values: dict[str, Any] = {}
-    for opt, value in options.items():
-        spec = known.get(opt)
-        if spec is None:
-            raise InputError(
-                f"unknown strategy option {opt}; the strategies take {', '.join(known) or 'none'}"
-            )
-        if name not in spec.fields:
-            if spec.exclusive and value != spec.default:
-                titles, names = spec.titles(), list(spec.fields)
-                raise InputError(
-                    f"{opt} is {_article(titles[0])} {' or '.join(titles)} option; use it with "
-                    f"--method {' or '.join(names)} (got {name})"
-                )
+def _check_option_names(strategy: Strategy) -> None:
+    """Refuse a strategy whose ``cli`` option name another registered strategy declares with
+    another type or default (the front ends then could not give both one option)."""
+    hints = typing.get_type_hints(strategy.Params)
+    for f in dataclasses.fields(strategy.Params):
+        opt = f.metadata.get("cli")
+        if opt is None:
             continue
-        if value is not None:
-            for typ, read in (readers or {}).items():
-                if _conforms_base(spec.hint, typ):
-                    value = read(value)
-                    break
-        values[spec.fields[name]] = value
-    return None if name is None else make_params(name, **values)
-
-
-def _conforms_base(hint: Any, typ: type) -> bool:
-    """Whether ``typ`` is the parameter type ``hint`` (None aside)."""
-    args = typing.get_args(hint) if typing.get_origin(hint) in (Union, types.UnionType) else ()
-    return hint is typ or typ in args
+        owners = []
+        for other in _REGISTRY.values():
+            if other is strategy:
+                continue
+            other_hints = typing.get_type_hints(other.Params)
+            for g in dataclasses.fields(other.Params):
+                if g.metadata.get("cli") == opt:
+                    owners.append((other, other_hints[g.name], field_default(g)))
+        if owners and any((h, d) != (hints[f.name], field_default(f)) for _, h, d in owners):
+            _, hint, default = owners[0]
+            titles = "/".join(o.title for o, _, _ in owners)
+            raise InputError(
+                f"strategy {strategy.name!r}: option {opt} is already {titles}'s "
+                f"with type {_type_name(hint)} and default {default!r}; "
+                "use the same type and default or another option name"
+            )
 
 
 # ---------------------------------------------------------------------------------------------

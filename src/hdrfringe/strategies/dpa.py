@@ -11,6 +11,7 @@ LPA (Eq. 5.1) and the CDF gets both of its updates.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +36,8 @@ from hdrfringe.saturation.estimate import (
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
+    MetricsContext,
+    StrategyMetrics,
     StrategyResult,
     default_min_migl,
     merge_into_composite,
@@ -359,3 +362,47 @@ class DPA(FunctionStrategy):
         """
         bound = " + bound" if params.bound_pending else ""
         return f"DPA {100 * params.threshold:g} %{bound}"
+
+    def metrics(
+        self, results: Sequence[StrategyResult], context: MetricsContext
+    ) -> StrategyMetrics:
+        """The ``dpa`` block (thesis Fig. 6.3): the estimated and actual CDFs per pitch.
+
+        On a replayed sweep that holds the set at every integer MIGL down to DPA's lowest
+        capture, the exact actual CDF comes from LPA with step 1 on it
+        (:func:`~hdrfringe.strategies.dpa_analysis.dpa_cdfs`): DPA captured only some of
+        those MIGLs, so its own sets give the CDF quantised to them (``actual``), not that.
+
+        Parameters
+        ----------
+        results : sequence of StrategyResult
+            One per pitch, coarsest first.
+        context : MetricsContext
+            The parameters, the replayed sweep (None on a live rig) and where the correction
+            was read from (``param_sources["correction"]``).
+
+        Returns
+        -------
+        StrategyMetrics
+            ``metrics["dpa"]``: :class:`~hdrfringe.strategies.dpa_analysis.DPAMetrics`;
+            ``result["dpa"]``: one :class:`~hdrfringe.strategies.dpa_analysis.DPACDFs` per
+            pitch.
+
+        Examples
+        --------
+        >>> out = DPA().metrics([], MetricsContext(DPAParams()))
+        >>> out.metrics["dpa"].correction, out.result["dpa"]
+        ('none (identity)', ())
+        """
+        from hdrfringe.strategies.dpa_analysis import DPAMetrics, dpa_cdfs
+
+        p = context.params
+        cdfs = tuple(dpa_cdfs(r, context.replay) for r in results)
+        if "correction" in context.param_sources:
+            correction = str(context.param_sources["correction"])
+        else:
+            correction = "none (identity)" if p.correction is None else "given (not from a file)"
+        block = DPAMetrics.of(
+            cdfs, threshold=p.threshold, correction=correction, bound_pending=p.bound_pending
+        )
+        return StrategyMetrics(metrics={"dpa": block}, result={"dpa": cdfs})

@@ -2,10 +2,11 @@
 that did not clip (:mod:`hdrfringe.saturation_tolerant`).
 
 No MIGL is lowered: the strategy captures the set at its MIGL and leaves the saturation to the
-decoder. The result carries ``details["decoder"] = "tolerant"``; :func:`hdrfringe.pipeline.measure`
-then decodes the composite with :func:`hdrfringe.saturation_tolerant.decode_set_tolerant`
-(through :func:`hdrfringe.process.decode_captures`, ``saturated="exclude"``) instead of
-invalidating every pixel with a saturated shift.
+decoder. The result carries ``decoder`` (:class:`~hdrfringe.strategies.base.DecoderSettings`):
+:func:`hdrfringe.pipeline.measure` then decodes the composite with
+:func:`hdrfringe.saturation_tolerant.decode_set_tolerant` (through
+:func:`hdrfringe.process.decode_captures`, ``saturated="exclude"``) instead of invalidating
+every pixel with a saturated shift.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.saturation_tolerant import inverted_spec
 from hdrfringe.strategies.base import (
     CapturedSet,
+    DecoderSettings,
+    ExtraSet,
     FunctionStrategy,
     StrategyResult,
     capture_set,
@@ -62,9 +65,9 @@ def tolerant(
     Returns
     -------
     StrategyResult
-        ``images``: the set; ``captured``: one or two sets at ``migl``; ``details``:
-        ``decoder`` ("tolerant"), ``min_shifts``, ``inverted`` (whether the inverted set was
-        captured) and, when it was, ``inverted_spec`` and ``inverted_images``.
+        ``images``: the set; ``captured``: one or two sets at ``migl``; ``decoder``: the
+        saturation-tolerant one with ``min_shifts``; ``details["inverted"]``: whether the
+        inverted set was captured and, when it was, ``extra_sets``: that set.
 
     Raises
     ------
@@ -80,8 +83,8 @@ def tolerant(
     >>> from hdrfringe.rig.factory import virtual_rig
     >>> rig = virtual_rig("checkerboard", resolution=(64, 48))
     >>> res = tolerant(rig, FringeSpec("sinusoidal", 4, 8.0), inverted=True)
-    >>> res.sets_captured, res.details["decoder"], res.details["inverted_images"].shape
-    (2, 'tolerant', (4, 48, 64))
+    >>> res.sets_captured, res.decoder.min_shifts, res.extra_sets[0].images.shape
+    (2, 3, (4, 48, 64))
     """
     check_fringe_spec(spec, rig)
     if spec.pattern != "sinusoidal":
@@ -110,7 +113,8 @@ def tolerant(
     captured = [CapturedSet(migl=top)]
     newly = [int(unsat.sum())]
     never = ~unsat
-    details: dict = {"decoder": "tolerant", "min_shifts": int(min_shifts), "inverted": False}
+    details: dict = {"inverted": False}
+    extra: tuple[ExtraSet, ...] = ()
     if inverted and never.any():
         inv_spec = inverted_spec(set_spec)
         try:
@@ -127,7 +131,8 @@ def tolerant(
         captured.append(CapturedSet(migl=top))
         newly.append(int((never & inv_unsat).sum()))
         never = never & ~inv_unsat
-        details.update(inverted=True, inverted_spec=inv_spec, inverted_images=inv)
+        details.update(inverted=True)
+        extra = (ExtraSet(inv_spec, inv),)
     return StrategyResult(
         images=imgs,
         spec=spec,
@@ -137,6 +142,8 @@ def tolerant(
         never_unsaturated=never,
         method="tolerant",
         details=details,
+        extra_sets=extra,
+        decoder=DecoderSettings(min_shifts=int(min_shifts)),
     )
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -14,6 +15,7 @@ from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
+    RunContext,
     StrategyResult,
     capture_set,
     check_fringe_spec,
@@ -226,3 +228,32 @@ class Uniform(FunctionStrategy):
         'uniform MIGL 180'
         """
         return "uniform auto" if params.migl is None else f"uniform MIGL {params.migl:g}"
+
+    def prepare(self, params: UniformParams, context: RunContext) -> UniformParams:
+        """On a replayed MIGL sweep, the automatic search chooses among the sweep's MIGLs.
+
+        Parameters
+        ----------
+        params : UniformParams
+            The parameters.
+        context : RunContext
+            What the measurement offers (``available_migls`` on a replay).
+
+        Returns
+        -------
+        UniformParams
+            ``candidates`` set to the sweep's MIGLs when neither a MIGL nor candidates were
+            given; else ``params``.
+
+        Examples
+        --------
+        >>> Uniform().prepare(UniformParams(), RunContext(available_migls=[180.0])).candidates
+        [180.0]
+        >>> Uniform().prepare(UniformParams(migl=200.0), RunContext([180.0])).candidates is None
+        True
+        """
+        if context.available_migls is None or params.migl is not None:
+            return params
+        if params.candidates is not None:
+            return params
+        return dataclasses.replace(params, candidates=context.available_migls)
