@@ -33,9 +33,9 @@ def calibrate(
     """Per-pixel phase-to-height calibration from a plate at known depths (Sec. 2.5, 4.1)."""
     from hdrfringe.calibration import MODELS
     from hdrfringe.errors import OutputExistsError
-    from hdrfringe.io.calibrate_folders import calibrate_folders, expand_capture_dirs
     from hdrfringe.io.calibration_file import save_calibration
     from hdrfringe.io.results import check_output_against_inputs, check_output_file
+    from hdrfringe.tasks.calibrate import calibrate_folders, expand_capture_dirs
 
     if model not in MODELS:
         raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")

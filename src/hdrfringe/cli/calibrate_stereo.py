@@ -150,12 +150,12 @@ def calibrate_stereo(
     against its true geometry.
     """
     from hdrfringe.io.results import check_output_against_inputs
-    from hdrfringe.io.stereo_calibration_outputs import (
+    from hdrfringe.stereo_calibration import DISTORTION_MODELS, MIN_POSES
+    from hdrfringe.tasks.calibrate_stereo import (
         check_calibration_outputs,
         read_pose_folders,
         write_calibration_and_report,
     )
-    from hdrfringe.stereo_calibration import DISTORTION_MODELS, MIN_POSES
 
     sources = [bool(poses), from_path is not None, rig is not None]
     if sum(sources) != 1:
@@ -224,7 +224,7 @@ def calibrate_stereo(
         with progress_bar() as prog:
             task = prog.add_task("simulating board poses", total=len(boards))
             if save_poses is not None:
-                from hdrfringe.io.stereo_calibration_outputs import write_board_pose_folders
+                from hdrfringe.tasks.calibrate_stereo import write_board_pose_folders
 
                 folders = write_board_pose_folders(save_poses, boards, force=force, **options)
                 captures = read_pose_folders(folders)

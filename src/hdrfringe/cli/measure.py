@@ -208,8 +208,8 @@ def measure(
     from hdrfringe import pipeline
     from hdrfringe.io.calibration_file import load_calibration
     from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.io.measurement_outputs import write_measurement
     from hdrfringe.io.stereo_file import calibration_kind, load_stereo_calibration
+    from hdrfringe.tasks.measure import write_measurement
 
     cal: Any = None
     if calibration is not None and calibration_kind(calibration) == "stereo":
@@ -301,7 +301,7 @@ def _measure_hardware(
     from hdrfringe import pipeline
     from hdrfringe.cli.capture import announce_live, live_record, write_capture_output
     from hdrfringe.hardware.rig import Recorder
-    from hdrfringe.io.measurement_outputs import write_measurement
+    from hdrfringe.tasks.measure import write_measurement
 
     recorder = Recorder(rig)
     with rig:  # Ctrl-C: the rig closes, nothing is written (handle_errors: exit 130)

@@ -25,9 +25,9 @@ def modify(
 ) -> None:
     """Add light and noise to existing captures with clipping at 2^B - 1 (thesis Eq. 4.1)."""
     from hdrfringe._validation import describe_saturated
-    from hdrfringe.io.modify_folder import modify_capture_folder
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
     from hdrfringe.rig.acquire import IntensityModification
+    from hdrfringe.tasks.modify import modify_capture_folder
 
     check_output_against_inputs(output, [folder])
     check_output_dir(output, force)

@@ -21,8 +21,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from hdrfringe._validation import is_saturated
+from hdrfringe.captures import Captures
 from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame
 from hdrfringe.io.captures import write_capture_folder
@@ -31,7 +33,13 @@ from hdrfringe.limits import MAX_SERIES_FOLDERS, check_count
 from hdrfringe.rig.acquire import IntensityModification, simulated_captures
 from hdrfringe.rig.simulated import SimulatedRig
 
-__all__ = ["SimulationWritten", "series_depths", "series_folder_name", "write_simulation"]
+__all__ = [
+    "SimulationWritten",
+    "series_depths",
+    "series_folder_name",
+    "simulate_to_folder",
+    "write_simulation",
+]
 
 
 def series_depths(depths: Sequence[float], *, reference: bool = True) -> list[float]:
@@ -221,3 +229,71 @@ def write_simulation(
             sat = is_saturated(captures.images, captures.camera_bit_depth).any(axis=0)
             fractions.append(float(np.mean(sat)))
     return SimulationWritten(out, tuple(folders), len(frames), tuple(fractions))
+
+
+def simulate_to_folder(
+    path: str | Path,
+    rig: SimulatedRig,
+    frames: Sequence[Frame],
+    *,
+    names: Sequence[str] | None = None,
+    force: bool = False,
+    provenance: bool = True,
+) -> NDArray[np.integer]:
+    """Capture ``frames`` with a virtual rig and write them as a capture folder.
+
+    The manifest's ``scene`` is the scene's :meth:`~hdrfringe.rig.scenes.Scene.to_manifest`
+    (``depth_mm`` for flat plates); with ``provenance`` an optional top-level ``simulator``
+    entry records every rig parameter (:meth:`SimulatedRig.to_manifest`).
+
+    Parameters
+    ----------
+    path : str or Path
+        Target folder (see :func:`write_capture_folder`).
+    rig : SimulatedRig
+        The virtual rig (:mod:`hdrfringe.rig.simulated`).
+    frames : sequence of Frame
+        What to project, in order.
+    names : sequence of str, optional
+        File stems (default from the frames).
+    force : bool
+        Replace an existing non-empty folder.
+    provenance : bool
+        Record the rig parameters in the manifest's ``simulator`` field.
+
+    Returns
+    -------
+    ndarray
+        The captured images.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(12.0), camera=CameraModel(width=32, height=24))
+    >>> out = Path(tempfile.mkdtemp()) / "caps"
+    >>> simulate_to_folder(out, rig, FringeSpec(steps=3).frames()).shape
+    (3, 24, 32)
+    >>> from hdrfringe.io.captures import read_capture_folder
+    >>> read_capture_folder(out).scene["depth_mm"]
+    12.0
+    """
+    frames = list(frames)
+    images = rig.capture(frames)
+    captures = Captures(
+        frames,
+        images,
+        rig.camera_bit_depth,
+        projector=rig.projector,
+        scene=rig.scene.to_manifest(),
+    )
+    write_capture_folder(
+        path,
+        captures,
+        names=names,
+        extra={"simulator": rig.to_manifest()} if provenance else None,
+        force=force,
+    )
+    return images

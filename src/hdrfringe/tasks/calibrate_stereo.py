@@ -7,7 +7,7 @@
   (``STEREO_report.json`` for ``STEREO.h5``); both targets are checked before anything is
   written, and a failure of the second write removes the first (no partial output).
 - :func:`write_board_pose_folders`: simulated pose folders of the virtual rig, staged (all or
-  nothing) by :func:`hdrfringe.io.simulation.write_simulation`.
+  nothing) by :func:`hdrfringe.tasks.simulate.write_simulation`.
 
 Examples
 --------
@@ -264,7 +264,7 @@ def write_board_pose_folders(
     >>> names, files
     (['pose_00'], 27)
     """
-    from hdrfringe.io.simulation import write_simulation
+    from hdrfringe.tasks.simulate import write_simulation
 
     rigs = [calibration_rig(b, **rig_options) for b in boards]
     names = [f"pose_{k:02d}" for k in range(len(rigs))]

@@ -58,7 +58,7 @@ class ModifiedFolder:
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.io.captures import simulate_to_folder
+    >>> from hdrfringe.tasks.simulate import simulate_to_folder
     >>> from hdrfringe.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
@@ -116,7 +116,7 @@ def modify_capture_folder(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.io.captures import simulate_to_folder
+    >>> from hdrfringe.tasks.simulate import simulate_to_folder
     >>> from hdrfringe.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig

@@ -1,0 +1,2 @@
+"""Per-command workflows: paths and options in, a folder written and a report out;
+no printing, no typer."""
