@@ -209,8 +209,8 @@ class Stop(HdrFringeError):
 
 @pytest.fixture
 def built(monkeypatch: pytest.MonkeyPatch) -> list[tuple]:
-    """Every call of cli.capture.hardware_options (positional, as the commands make it)."""
-    from hdrfringe.cli import capture
+    """Every call of tasks.capture.hardware_options (positional, as the commands make it)."""
+    from hdrfringe.tasks import capture
 
     calls: list[tuple] = []
 
@@ -372,7 +372,7 @@ def _fake_rig(screen: _Screen, interrupt_at: int) -> Any:
 def test_measure_hardware_writes_all_or_nothing(
     interrupt_at: int, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from hdrfringe.cli import capture
+    from hdrfringe.tasks import capture
 
     monkeypatch.setattr(capture, "hardware_options", lambda *a: _fake_rig(_Screen(), interrupt_at))
     out = tmp_path / "out"
