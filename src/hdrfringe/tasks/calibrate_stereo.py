@@ -1,4 +1,7 @@
-"""Files of ``hdrfringe calibrate-stereo``: pose folders in, the calibration and its report out.
+"""``hdrfringe calibrate-stereo``: pose folders in, the calibration and its report out.
+
+- :func:`calibrate_stereo`: the command's work (board poses, a conversion, or the virtual
+  rig's poses; the outputs checked first).
 
 - :func:`read_pose_folders`: one capture folder per board pose (docs/capture_format.md), read
   with :func:`hdrfringe.io.captures.read_capture_folder`.
@@ -22,6 +25,7 @@ import json
 import os
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,8 +35,11 @@ from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.rig.board_poses import board_program, calibration_rig
 from hdrfringe.rig.scenes import CalibrationBoard
 from hdrfringe.stereo import StereoCalibration
+from hdrfringe.tasks._progress import Progress, quiet
 
 __all__ = [
+    "StereoCalibrated",
+    "calibrate_stereo",
     "check_calibration_outputs",
     "read_pose_folders",
     "report_path",
@@ -271,3 +278,213 @@ def write_board_pose_folders(
     frames = board_program(rigs[0].projector)
     done = write_simulation(path, rigs, frames, folder_names=names, force=force, progress=progress)
     return [done.path / n for n in names]
+
+
+def _truth_errors(calib: Any, truth: Any) -> dict[str, float]:
+    import numpy as np
+
+    out: dict[str, float] = {}
+    for name in ("camera", "projector"):
+        k, kt = getattr(calib, name).matrix, getattr(truth, name).matrix
+        out[f"{name}_focal_error_percent"] = float(
+            100 * np.abs(k[[0, 1], [0, 1]] / kt[[0, 1], [0, 1]] - 1).max()
+        )
+        out[f"{name}_principal_point_error_px"] = float(np.abs(k[:2, 2] - kt[:2, 2]).max())
+    out["baseline_error_percent"] = float(100 * abs(calib.baseline_mm / truth.baseline_mm - 1))
+    return out
+
+
+@dataclass(frozen=True)
+class StereoCalibrated:
+    """What ``calibrate-stereo`` wrote.
+
+    Parameters
+    ----------
+    calibration_file, report_file : Path
+        The files written.
+    calibration : StereoCalibration
+        The calibration.
+    result : StereoCalibrationResult or None
+        The calibration from board poses (per-pose errors, flagged poses); None for a
+        conversion.
+    errors_vs_truth : dict or None
+        The virtual rig's errors against its true geometry (``rig="sim"`` only).
+    converted_from : Path or None
+        The file converted (a conversion only).
+    """
+
+    calibration_file: Path
+    report_file: Path
+    calibration: StereoCalibration
+    result: Any = None
+    errors_vs_truth: dict[str, float] | None = None
+    converted_from: Path | None = None
+
+
+def calibrate_stereo(
+    output: Path,
+    poses: Sequence[Path] = (),
+    *,
+    board: str | None = None,
+    from_path: Path | None = None,
+    rig: str | None = None,
+    pose_count: int = 10,
+    save_poses: Path | None = None,
+    noise: float = 1.0,
+    seed: int = 0,
+    window: int = 12,
+    min_valid: float | None = None,
+    distortion: str = "standard",
+    fix_intrinsics: bool = False,
+    camera_size: tuple[int, int] | None = None,
+    projector_size: tuple[int, int] | None = None,
+    force: bool = False,
+    progress: Progress = quiet,
+) -> StereoCalibrated:
+    """Calibrate the projector and camera from board poses, or convert another calibration.
+
+    Exactly one source: ``poses`` (capture folders, one per board pose), ``from_path`` (a
+    conversion) or ``rig="sim"`` (the virtual calibration rig, its errors against the true
+    geometry reported). Both outputs (the calibration and ``<stem>_report.json``) are checked
+    before any work and written all or nothing.
+
+    Parameters
+    ----------
+    output : Path
+        The calibration file (``.h5``).
+    poses : sequence of Path
+        Pose folders.
+    board : str, optional
+        ``PATTERN:COLSxROWS:SPACING_MM`` (required unless converting).
+    from_path : Path, optional
+        A calibration to convert (OpenCV YAML/XML, ``.npz``, a data set's folder, ``.h5``).
+    rig : str, optional
+        ``"sim"``: calibrate on the virtual rig.
+    pose_count : int
+        Board poses of the virtual rig.
+    save_poses : Path, optional
+        Also write the virtual rig's pose folders here.
+    noise : float
+        Virtual camera read noise sigma (8-bit gray levels).
+    seed : int
+        Noise seed.
+    window : int
+        Local homography window half side, camera px.
+    min_valid : float, optional
+        Least fraction of a window's pixels with projector coordinates.
+    distortion : str
+        Lens distortion terms (:data:`~hdrfringe.stereo_calibration.DISTORTION_MODELS`).
+    fix_intrinsics : bool
+        Keep the separate intrinsics in the stereo step.
+    camera_size, projector_size : tuple of int, optional
+        ``(width, height)`` for a converted file that records none.
+    force : bool
+        Replace existing files.
+    progress : callable
+        The virtual rig's poses, as one stage.
+
+    Returns
+    -------
+    StereoCalibrated
+    """
+    from hdrfringe.io.results import check_output_against_inputs
+    from hdrfringe.stereo_calibration import DISTORTION_MODELS, MIN_POSES
+
+    poses = list(poses)
+    sources = [bool(poses), from_path is not None, rig is not None]
+    if sum(sources) != 1:
+        raise InputError(
+            "give exactly one source: POSE folders, --from PATH (conversion) or --rig sim"
+        )
+    if distortion not in DISTORTION_MODELS:
+        raise InputError(f"--distortion {distortion!r}: use {', '.join(DISTORTION_MODELS)}")
+    if not 1 <= window <= 100:
+        raise InputError(f"--window {window}: give a half window of 1..100 camera pixels")
+    if min_valid is not None and not 0 < min_valid <= 1:
+        raise InputError(f"--min-valid {min_valid}: give a fraction in (0, 1], e.g. 0.2")
+    if rig is not None and rig != "sim":
+        raise InputError(f"--rig {rig!r}: only the virtual rig 'sim' can be driven here")
+    inputs: list[Path | None] = [*poses, from_path, save_poses]
+    check_output_against_inputs(output, inputs)
+    check_calibration_outputs(output, force)
+
+    if from_path is not None:
+        from hdrfringe.io.stereo_file import convert_calibration
+
+        calib = convert_calibration(
+            from_path, camera_size=camera_size, projector_size=projector_size
+        )
+        converted = {"converted_from": str(from_path), "calibration": calib.to_dict()}
+        out, rep = write_calibration_and_report(output, calib, converted, force=force)
+        return StereoCalibrated(out, rep, calib, converted_from=from_path)
+
+    if board is None:
+        raise InputError("--board is required: e.g. --board checkerboard:9x6:25")
+    from hdrfringe.stereo_calibration import BoardSpec, observe_pose
+    from hdrfringe.stereo_calibration import calibrate_stereo as fit_stereo
+
+    spec = BoardSpec.parse(board)
+    truth = None
+    if poses:
+        if len(poses) < MIN_POSES:
+            raise InputError(
+                f"{len(poses)} pose folder(s) given; stereo calibration needs at least "
+                f"{MIN_POSES} (10 or more recommended)"
+            )
+        captures = read_pose_folders(poses)
+        names = [str(p) for p in poses]
+    else:
+        from hdrfringe.rig.board_poses import capture_board_poses, default_board_poses
+
+        if pose_count < MIN_POSES:
+            raise InputError(f"--poses {pose_count}: give at least {MIN_POSES}")
+        boards = default_board_poses(
+            pose_count,
+            pattern=spec.pattern,
+            cols=spec.cols,
+            rows=spec.rows,
+            spacing_mm=spec.spacing_mm,
+        )
+        options: dict[str, Any] = {"noise": noise, "seed": seed}
+        truth = calibration_rig(boards[0], **options).stereo_calibration()
+        with progress("simulating board poses", len(boards)) as advance:
+            if save_poses is not None:
+                folders = write_board_pose_folders(save_poses, boards, force=force, **options)
+                captures = read_pose_folders(folders)
+                names = [str(f) for f in folders]
+            else:
+                captures = capture_board_poses(boards, progress=advance, **options)
+                names = [f"pose_{k:02d}" for k in range(len(boards))]
+    sizes = {c.image_shape for c in captures}
+    if len(sizes) > 1:
+        raise InputError(f"pose folders have different image sizes {sorted(sizes)}; use one camera")
+    projectors = {(c.projector.width, c.projector.height) for c in captures if c.projector}
+    if len(projectors) != 1:
+        raise InputError("pose folders must record one projector size (manifest 'projector' entry)")
+    h, w = captures[0].image_shape
+    observed = [
+        observe_pose(c, spec, name=n, half_window=window, min_valid_fraction=min_valid)
+        for c, n in zip(captures, names, strict=True)
+    ]
+    if not any(p.camera_points is not None for p in observed):
+        raise InputError(
+            f"board {spec} not found in any of the {len(observed)} poses; check --board "
+            "(COLSxROWS counts inner corners for a checkerboard) and the white frames"
+        )
+    result = fit_stereo(
+        observed,
+        spec,
+        (w, h),
+        projectors.pop(),
+        distortion=distortion,
+        refine_intrinsics=not fix_intrinsics,
+        source=f"hdrfringe calibrate-stereo {spec}",
+    )
+    report: dict[str, Any] = result.to_dict()
+    errors = None
+    if truth is not None:
+        errors = _truth_errors(result.calibration, truth)
+        report["virtual_rig_truth"] = truth.to_dict()
+        report["errors_vs_truth"] = errors
+    out, rep = write_calibration_and_report(output, result.calibration, report, force=force)
+    return StereoCalibrated(out, rep, result.calibration, result, errors)

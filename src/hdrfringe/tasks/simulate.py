@@ -32,11 +32,14 @@ from hdrfringe.io.results import staged_output_dir
 from hdrfringe.limits import MAX_SERIES_FOLDERS, check_count
 from hdrfringe.rig.acquire import IntensityModification, simulated_captures
 from hdrfringe.rig.simulated import SimulatedRig
+from hdrfringe.tasks._progress import Progress, quiet
 
 __all__ = [
+    "SimulateReport",
     "SimulationWritten",
     "series_depths",
     "series_folder_name",
+    "simulate",
     "simulate_to_folder",
     "write_simulation",
 ]
@@ -297,3 +300,113 @@ def simulate_to_folder(
         force=force,
     )
     return images
+
+
+@dataclass(frozen=True)
+class SimulateReport:
+    """What ``simulate`` wrote.
+
+    Parameters
+    ----------
+    output : Path
+        The capture folder, or the folder of a series.
+    folders : int
+        Capture folders written (1 without a series).
+    images : int
+        Images per folder.
+    n_pixels : int
+        Pixels per image.
+    saturated : int
+        Pixels saturated in at least one image (of the folder with the most).
+    """
+
+    output: Path
+    folders: int
+    images: int
+    n_pixels: int
+    saturated: int
+
+
+def simulate(
+    output: Path,
+    scene: str,
+    *,
+    depths: Sequence[float | None] = (None,),
+    series: bool = False,
+    rig_options: dict[str, Any] | None = None,
+    seed: int = 0,
+    modification: IntensityModification | None = None,
+    pattern: str = "sinusoidal",
+    steps: int = 4,
+    pitches: Sequence[float] = (8.0,),
+    orientations: Sequence[str] = ("vertical",),
+    imin: float = 40.0,
+    migls: Sequence[float] = (255.0,),
+    centerline: bool = True,
+    grays: Sequence[float] = (),
+    ideal: bool = False,
+    force: bool = False,
+    progress: Progress = quiet,
+) -> SimulateReport:
+    """Capture fringe sets of a scene on the virtual rig and write a capture folder (or one
+    per depth: a calibration series).
+
+    The output is checked (new or empty, or ``force``) before any rig is built, and written
+    all or nothing (:func:`write_simulation`).
+
+    Parameters
+    ----------
+    output : Path
+        The capture folder, or the series' folder.
+    scene : str
+        The scene (:func:`hdrfringe.rig.factory.virtual_rig`).
+    depths : sequence of float or None
+        One rig per depth (None: the scene's own).
+    series : bool
+        Name the folders by depth (:func:`series_folder_name`) inside ``output``.
+    rig_options : dict, optional
+        Keyword arguments of :func:`~hdrfringe.rig.factory.virtual_rig` (``ideal`` among them).
+    seed : int
+        Noise seed.
+    modification : IntensityModification, optional
+        Eq. 4.1 applied to the captures.
+    pattern, steps, pitches, orientations, imin, migls, centerline, grays
+        The program (:func:`hdrfringe.programs.fringe_program`).
+    ideal : bool
+        An ideal rig: the program's levels at 8 bit.
+    force : bool
+        Replace an existing output folder.
+    progress : callable
+        The captures, one unit per frame and rig.
+
+    Returns
+    -------
+    SimulateReport
+    """
+    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.programs import fringe_program
+    from hdrfringe.rig.factory import virtual_rig
+
+    output = check_output_dir(output, force)
+    rigs = [virtual_rig(scene, depth_mm=d, seed=seed, **(rig_options or {})) for d in depths]
+    frames = fringe_program(
+        pattern,
+        steps,
+        list(pitches),
+        list(orientations),
+        imin,
+        list(migls),
+        projector=rigs[0].projector,
+        centerline=centerline,
+        grays=grays,
+        level_bits=8 if ideal else None,
+    )
+    names = [series_folder_name(scene, d or 0.0) for d in depths] if series else None
+    with progress(f"simulating {scene}", len(frames) * len(rigs)) as advance:
+        done = write_simulation(
+            output, rigs, frames, folder_names=names, modification=modification, force=force,
+            progress=advance,
+        )  # fmt: skip
+    n_pixels = rigs[0].image_shape[0] * rigs[0].image_shape[1]
+    saturated = round(done.max_saturated_fraction * n_pixels)  # the fraction is count / n
+    return SimulateReport(output, len(rigs), len(frames), n_pixels, saturated)
