@@ -101,7 +101,6 @@ def simulate(
     from hdrfringe._validation import describe_saturated
     from hdrfringe.limits import MAX_SERIES_FOLDERS
     from hdrfringe.reproduce.compare import parse_resolution
-    from hdrfringe.rig.acquire import IntensityModification
     from hdrfringe.tasks import simulate as task
 
     size = parse_resolution(resolution)
@@ -115,7 +114,7 @@ def simulate(
     rig_options |= {"resolution": size}
     done = task.simulate(
         output, scene, depths=depths, series=series is not None, rig_options=rig_options,
-        seed=seed, modification=IntensityModification(add_lux, add_dn, add_noise, seed),
+        seed=seed, add_lux=add_lux, add_dn=add_dn, add_noise=add_noise,
         pattern=pattern, steps=steps, pitches=parse_floats(pitch, "--pitch"),
         orientations=orients, imin=imin, migls=parse_range(migl_sweep or migl, "--migl"),
         centerline=centerline, grays=parse_floats(gray, "--gray") if gray else (), ideal=ideal,

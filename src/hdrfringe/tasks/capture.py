@@ -340,7 +340,7 @@ class LiveFringes:
         >>> from hdrfringe.captures import ProjectorInfo
         >>> specs, line = LiveFringes("sinusoidal", 4, [8, 64, 8], 40, 255, True).build(
         ...     ProjectorInfo(1024, 768, 8))
-        >>> [s.pitch for s in specs], line.position
+        >>> [s.pitch_px for s in specs], line.position
         ([64, 8], 512)
         """
         from hdrfringe._validation import full_scale

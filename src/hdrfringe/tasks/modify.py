@@ -34,7 +34,7 @@ from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capt
 from hdrfringe.io.results import check_output_dir
 from hdrfringe.rig.acquire import IntensityModification
 
-__all__ = ["ModifiedFolder", "modify_capture_folder"]
+__all__ = ["ModifiedFolder", "modify", "modify_capture_folder"]
 
 #: Top-level manifest fields the captures write themselves (the rest is carried over as is).
 _CONTRACT_FIELDS = ("format", "version", "camera", "projector", "scene", "frames", "maps")
@@ -144,3 +144,41 @@ def modify_capture_folder(
     return ModifiedFolder(
         Path(output), len(names), float(np.mean(sat)), int(np.count_nonzero(sat)), int(sat.size)
     )
+
+
+def modify(
+    folder: str | Path,
+    output: str | Path,
+    *,
+    add_lux: float = 0.0,
+    add_dn: float = 0.0,
+    noise: float = 0.0,
+    seed: int = 0,
+    force: bool = False,
+) -> ModifiedFolder:
+    """``hdrfringe modify``: add light and noise to a capture folder's images (thesis Eq. 4.1).
+
+    The output is checked (not the input, new or empty, or ``force``) before the folder is
+    read.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The capture folder.
+    output : str or Path
+        The modified capture folder.
+    add_lux, add_dn, noise, seed
+        The modification (:class:`~hdrfringe.rig.acquire.IntensityModification`).
+    force : bool
+        Replace an existing output folder.
+
+    Returns
+    -------
+    ModifiedFolder
+    """
+    from hdrfringe.io.results import check_output_against_inputs
+
+    check_output_against_inputs(output, [folder])
+    check_output_dir(output, force)
+    modification = IntensityModification(add_lux, add_dn, noise, seed)
+    return modify_capture_folder(folder, output, modification, force=force)

@@ -335,7 +335,9 @@ def simulate(
     series: bool = False,
     rig_options: dict[str, Any] | None = None,
     seed: int = 0,
-    modification: IntensityModification | None = None,
+    add_lux: float = 0.0,
+    add_dn: float = 0.0,
+    add_noise: float = 0.0,
     pattern: str = "sinusoidal",
     steps: int = 4,
     pitches: Sequence[float] = (8.0,),
@@ -368,8 +370,9 @@ def simulate(
         Keyword arguments of :func:`~hdrfringe.rig.factory.virtual_rig` (``ideal`` among them).
     seed : int
         Noise seed.
-    modification : IntensityModification, optional
-        Eq. 4.1 applied to the captures.
+    add_lux, add_dn, add_noise : float
+        Eq. 4.1 applied to the captures (:class:`~hdrfringe.rig.acquire.IntensityModification`
+        with ``seed``).
     pattern, steps, pitches, orientations, imin, migls, centerline, grays
         The program (:func:`hdrfringe.programs.fringe_program`).
     ideal : bool
@@ -401,6 +404,7 @@ def simulate(
         grays=grays,
         level_bits=8 if ideal else None,
     )
+    modification = IntensityModification(add_lux, add_dn, add_noise, seed)
     names = [series_folder_name(scene, d or 0.0) for d in depths] if series else None
     with progress(f"simulating {scene}", len(frames) * len(rigs)) as advance:
         done = write_simulation(
