@@ -147,6 +147,13 @@ def calibrate(
     -------
     Calibration
         What was written.
+
+    Examples
+    --------
+    >>> calibrate(["plates"], Path("cal.h5"), model="cubic")
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: unknown model 'cubic'; use one of linear, rational, poly2, poly3
     """
     from hdrfringe.calibration import MODELS
     from hdrfringe.errors import InputError, OutputExistsError

@@ -311,6 +311,12 @@ class StereoCalibrated:
         The virtual rig's errors against its true geometry (``rig="sim"`` only).
     converted_from : Path or None
         The file converted (a conversion only).
+
+    Examples
+    --------
+    >>> import dataclasses
+    >>> [f.name for f in dataclasses.fields(StereoCalibrated)][:3]
+    ['calibration_file', 'report_file', 'calibration']
     """
 
     calibration_file: Path
@@ -386,6 +392,13 @@ def calibrate_stereo(
     Returns
     -------
     StereoCalibrated
+
+    Examples
+    --------
+    >>> calibrate_stereo(Path("stereo.h5"))
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: give exactly one source: POSE folders, --from PATH ...
     """
     from hdrfringe.io.results import check_output_against_inputs
     from hdrfringe.stereo_calibration import DISTORTION_MODELS, MIN_POSES

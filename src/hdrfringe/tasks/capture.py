@@ -85,6 +85,12 @@ def resolve_rig_config(
     -------
     RigConfig
         The resolved configuration (with the file's path and SHA-256 when one was read).
+
+    Examples
+    --------
+    >>> config = resolve_rig_config(None, {"projector"}, projector="screen:1", settle=0.2)
+    >>> config.projector.spec, config.sync.settle_s
+    ('screen:1', 0.2)
     """
     from hdrfringe.hardware.config import RigConfig
     from hdrfringe.io.rig_config import load_rig_config
@@ -114,8 +120,39 @@ def hardware_options(
 ) -> Any:
     """The (not yet open) :class:`~hdrfringe.hardware.rig.HardwareRig` the options describe.
 
-    ``config`` (a :class:`~hdrfringe.hardware.config.RigConfig`) supplies what the options do
-    not: the projector size check, the trigger line, sync fields without an option.
+    Parameters
+    ----------
+    projector, camera : str or None
+        The device specs (both required).
+    sync : str
+        ``software`` or ``hardware``.
+    settle : float
+        Seconds to wait after a frame is shown.
+    discard : int
+        Grabs dropped after a frame is shown.
+    max_grabs : int
+        Grabs tried per frame before a sync error.
+    gamma : float or None
+        The projector's gamma pre-compensation.
+    exposure_ms, gain_db : float or None
+        Camera settings (None: the camera's own).
+    pixel_format : str or None
+        Camera pixel format.
+    config : RigConfig, optional
+        Supplies what the options do not: the projector size check, the trigger line, sync
+        fields without an option.
+
+    Returns
+    -------
+    HardwareRig
+        Not yet open.
+
+    Examples
+    --------
+    >>> hardware_options(None, "pylon:emu", "software", 0.1, 0, 5, None, None, None, None)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: give both --projector SPEC and --camera SPEC, or a ...ardware.md)
     """
     from hdrfringe.hardware.config import RigConfig
 
@@ -160,6 +197,13 @@ def hardware_rig(
         Not yet open.
     config : RigConfig
         The resolved configuration (record it: :func:`live_record`).
+
+    Examples
+    --------
+    >>> hardware_rig(None, camera="pylon:emu")
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: give both --projector SPEC and --camera SPEC, or a ...
     """
     config = resolve_rig_config(config_path, given, **options)
     rig = hardware_options(
@@ -171,7 +215,30 @@ def hardware_rig(
 
 
 def announce_line(method: str, rig: Any, config: Any) -> str:
-    """The line a live hardware command says once the rig is open."""
+    """The line a live hardware command says once the rig is open.
+
+    Parameters
+    ----------
+    method : str
+        The strategy run.
+    rig : HardwareRig
+        The open rig (its projector and image sizes).
+    config : RigConfig
+        The resolved configuration (its name and device specs).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as NS
+    >>> rig = NS(projector=NS(width=1024, height=768), image_shape=(494, 648),
+    ...          camera_bit_depth=8)
+    >>> config = NS(name="bench", projector=NS(spec="screen:1"), camera=NS(spec="pylon:emu"))
+    >>> announce_line("lpa", rig, config)
+    'lpa live (bench): projector screen:1 (1024x768), camera pylon:emu (648x494, 8 bit)'
+    """
     name = f" ({config.name})" if config.name else ""
     return (
         f"{method} live{name}: projector {config.projector.spec} ({rig.projector.width}x"
@@ -224,6 +291,18 @@ def live_record(
     log : dict
         ``state`` plus the noise variance, the view check's change ratio (``view_change``,
         None when it was off) and the per-frame timing.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as NS
+    >>> recorder = NS(captures=lambda name, camera: f"{name}: {camera}")
+    >>> rig = NS(log=[], noise_var=0.5)
+    >>> sync = NS(mode="software", settle_s=0.1, discard=0, max_grabs=5)
+    >>> config = NS(camera=NS(spec="pylon:emu", read_noise_dn=None), projector=NS(spec="screen:1"),
+    ...             sync=sync, to_record=lambda: {"name": "bench"})
+    >>> caps, state, log = live_record(recorder, rig, config, "lpa", "caps")
+    >>> caps, state["method"], state["complete"], log["noise_variance"]
+    ("caps: {'spec': 'pylon:emu'}", 'lpa', True, 0.5)
     """
     camera: dict[str, Any] = {"spec": config.camera.spec}
     if config.camera.read_noise_dn is not None:  # rig check's, for the predicted std
@@ -287,8 +366,31 @@ def strategy_record(given: Mapping[str, Any]) -> dict[str, Any]:
 def write_capture_output(
     folder: Path, captures: Any, state: dict[str, Any], log: dict[str, Any]
 ) -> None:
-    """Write a live run's capture folder and its ``capture_log.json`` into ``folder``
-    (inside a staged output: a new or empty folder)."""
+    """Write a live run's capture folder and its ``capture_log.json`` into ``folder``.
+
+    Parameters
+    ----------
+    folder : Path
+        Inside a staged output: a new or empty folder.
+    captures : Captures
+        What the run captured (:func:`live_record`).
+    state : dict
+        The manifest's ``capture`` entry.
+    log : dict
+        The timing log.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import numpy as np
+    >>> from hdrfringe.captures import Captures
+    >>> from hdrfringe.frames import UniformFrame
+    >>> caps = Captures([UniformFrame(255.0)], np.zeros((1, 4, 6)), 8)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> write_capture_output(folder, caps, {"complete": True}, {"frames": []})
+    >>> sorted(p.name for p in folder.iterdir())
+    ['capture_log.json', 'gray_255.png', 'manifest.json']
+    """
     from hdrfringe.io.captures import write_capture_folder
 
     write_capture_folder(folder, captures, extra={"capture": state}, force=True)
@@ -313,6 +415,11 @@ class LiveFringes:
         Lowest and highest input gray level.
     centerline : bool
         Whether to capture a centerline.
+
+    Examples
+    --------
+    >>> LiveFringes("sinusoidal", 4, [8, 1024, 64], 40.0, 255.0, True).pitches
+    [8, 1024, 64]
     """
 
     pattern: str
@@ -373,6 +480,11 @@ class CaptureReport:
         Complete sets written.
     rejected : int
         Stale grabs the synchronisation rejected.
+
+    Examples
+    --------
+    >>> CaptureReport(Path("caps"), images=53, sets=13, rejected=0).sets
+    13
     """
 
     output: Path
@@ -430,6 +542,14 @@ def capture(
     Returns
     -------
     CaptureReport
+
+    Examples
+    --------
+    >>> fringes = LiveFringes("sinusoidal", 4, [1024, 64, 8], 40.0, 255.0, True)
+    >>> capture(Path("caps"), None, {"camera": "pylon:emu"}, fringes, given={"camera"})
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: give both --projector SPEC and --camera SPEC, or a ...
     """
     from hdrfringe import pipeline
     from hdrfringe.hardware.rig import Recorder

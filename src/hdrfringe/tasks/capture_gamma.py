@@ -156,6 +156,11 @@ class GammaCaptureReport:
         pre-compensation in use and on the rig configuration's gamma.
     warning : str or None
         Why the folder gives no fit (then ``lines`` is empty).
+
+    Examples
+    --------
+    >>> GammaCaptureReport(Path("gamma"), 22, ["uniform grays: gamma = 2.81"]).warning is None
+    True
     """
 
     output: Path
@@ -219,6 +224,13 @@ def capture_gamma(
     Returns
     -------
     GammaCaptureReport
+
+    Examples
+    --------
+    >>> capture_gamma(Path("gamma"), None, {}, levels=[0.0, 255.0], gray_text="0,255")
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: --gray 0,255: 2 distinct levels; the fit needs at least ...
     """
     from hdrfringe.captures import ProjectorInfo
     from hdrfringe.gamma import (

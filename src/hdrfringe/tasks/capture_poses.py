@@ -86,6 +86,11 @@ class PosesReport:
         Why the run ended before the last pose (finished with q).
     board : str or None
         The board as ``--board`` takes it, when given.
+
+    Examples
+    --------
+    >>> PosesReport(Path("poses"), ["pose_01", "pose_02"], "finished with q", None).names[-1]
+    'pose_02'
     """
 
     output: Path
@@ -146,6 +151,13 @@ def capture_poses(
     Returns
     -------
     PosesReport
+
+    Examples
+    --------
+    >>> capture_poses(Path("poses"), None, {}, wait=lambda number, total: True, poses=0)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: --poses 0: give 1..100 (10 or more recommended)
     """
     from hdrfringe.hardware.rig import Recorder
     from hdrfringe.io.results import (

@@ -38,6 +38,17 @@ def gamma(
     ------
     HdrFringeError
         Nothing in the folder to fit (after the lines are said).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.tasks.simulate import simulate
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate(tmp / "caps", "white_plate", rig_options={"resolution": (64, 48)},
+    ...              pitches=[128.0], grays=list(range(0, 256, 32)))
+    >>> report = gamma(tmp / "caps", tmp / "fits")
+    >>> round(report.uniform_fit.gamma, 1), (tmp / "fits").is_dir()
+    (2.8, True)
     """
     from hdrfringe.gamma import gamma_report
     from hdrfringe.io.captures import read_capture_folder

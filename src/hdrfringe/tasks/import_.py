@@ -21,6 +21,11 @@ class Imported:
         The importer's report (manifest, images copied and converted, files not used).
     hint : str or None
         The command that makes sense next (:func:`next_step`).
+
+    Examples
+    --------
+    >>> Imported(Path("caps"), None, "hdrfringe phase caps -o OUT").hint
+    'hdrfringe phase caps -o OUT'
     """
 
     output: Path
@@ -59,6 +64,13 @@ def import_folder(
     Returns
     -------
     Imported
+
+    Examples
+    --------
+    >>> import_folder(Path("images"), Path("images/description.toml"), Path("images"))
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: ...
     """
     from hdrfringe.io.importer import import_captures
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
@@ -87,6 +99,15 @@ def next_step(folder: Path) -> str | None:
     Returns
     -------
     str or None
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.tasks.simulate import simulate
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate(tmp / "caps", "white_plate", rig_options={"resolution": (64, 48)})
+    >>> next_step(tmp / "caps") == f"hdrfringe phase {tmp / 'caps'} -o OUT"
+    True
     """
     from hdrfringe.gamma import select_gamma_sets, uniform_gray_means
     from hdrfringe.io.captures import read_capture_folder

@@ -529,6 +529,15 @@ def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[
     ------
     InputError
         A ``--method`` other than the logged one, or an unreadable log.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> log = '{"method": "lpa", "strategy_options": {"--step": 9}}'
+    >>> _ = (folder / CAPTURE_LOG).write_text(log)
+    >>> logged_strategy(folder, None)
+    ('lpa', {'--step': 9})
     """
     path = Path(folder) / CAPTURE_LOG
     if not path.is_file():
@@ -570,6 +579,15 @@ def replayed_strategy(
     recorded : dict or None
     note : str
         Empty unless the folder's logged method is replayed without ``--method``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / CAPTURE_LOG).write_text('{"method": "lpa"}')
+    >>> method, recorded, note = replayed_strategy(folder, None)
+    >>> method, recorded, note.endswith("captured with --method lpa (capture_log.json), replayed")
+    ('lpa', {}, True)
     """
     if folder is None:
         return method, None, ""
@@ -592,6 +610,11 @@ def load_measure_calibration(path: Path | None) -> Any:
     Returns
     -------
     Calibration, StereoCalibration or None
+
+    Examples
+    --------
+    >>> load_measure_calibration(None) is None
+    True
     """
     from hdrfringe.io.calibration_file import load_calibration
     from hdrfringe.io.stereo_file import calibration_kind, load_stereo_calibration
@@ -635,6 +658,13 @@ class MeasureOptions:
         The camera noise in DN (else estimated).
     previews : bool
         PNG previews beside the maps.
+
+    Examples
+    --------
+    >>> options = MeasureOptions(method="lpa", saturated="exclude", min_shifts=4)
+    >>> kwargs = options.pipeline_kwargs(None)
+    >>> kwargs["method"], kwargs["reject_saturated"], kwargs["min_shifts"]
+    ('lpa', True, 4)
     """
 
     method: str | None = None
@@ -698,6 +728,11 @@ class MeasureReport:
         Images captured live on a hardware rig (None otherwise).
     rejected : int or None
         Stale grabs rejected on a hardware rig.
+
+    Examples
+    --------
+    >>> MeasureReport(Path("out"), None).captured is None
+    True
     """
 
     output: Path
@@ -764,10 +799,21 @@ def measure(
     Returns
     -------
     MeasureReport
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.tasks.simulate import simulate
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate(tmp / "caps", "white_plate", rig_options={"resolution": (64, 48)},
+    ...              pitches=[1024.0, 64.0, 8.0])
+    >>> report = measure(tmp / "out", MeasureOptions(previews=False), folder=tmp / "caps")
+    >>> (tmp / "out" / "metrics.json").is_file(), report.captured
+    (True, None)
     """
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
 
-    inputs: list[Path | None] = [folder, calibration, *options.sources.values()]
+    inputs: list[Path | str | None] = [folder, calibration, *options.sources.values()]
     rig: Any = None
     if hardware is not None:
         rig, config = hardware_rig(rig_config, given, **hardware)

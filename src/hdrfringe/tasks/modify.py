@@ -175,6 +175,15 @@ def modify(
     Returns
     -------
     ModifiedFolder
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.tasks.simulate import simulate
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate(tmp / "caps", "white_plate", rig_options={"resolution": (32, 24)})
+    >>> modify(tmp / "caps", tmp / "bright", add_dn=300.0).saturated_pixels
+    768
     """
     from hdrfringe.io.results import check_output_against_inputs
 

@@ -21,6 +21,11 @@ class PatternsWritten:
         The pattern folder.
     images : int
         Pattern images written (besides ``manifest.json``).
+
+    Examples
+    --------
+    >>> PatternsWritten(Path("patterns"), 4).images
+    4
     """
 
     output: Path
@@ -68,6 +73,13 @@ def patterns(
     Returns
     -------
     PatternsWritten
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "patterns"
+    >>> patterns(out, pitches=[8.0], width=64, height=48).images
+    4
     """
     from hdrfringe.captures import ProjectorInfo
     from hdrfringe.io.pattern_folder import write_pattern_folder

@@ -34,6 +34,11 @@ class PhaseOptions:
         ``float64`` or ``float32``.
     harmonics : str
         ``off``, ``auto`` or a number of orders.
+
+    Examples
+    --------
+    >>> PhaseOptions(saturated="exclude", min_shifts=4).min_shifts
+    4
     """
 
     min_modulation: float | None = None
@@ -59,6 +64,11 @@ class PhaseReport:
         ``phase_summary.json`` (sets, families, uncertainty, notes, files).
     n_pixels : int
         Pixels per image.
+
+    Examples
+    --------
+    >>> PhaseReport(Path("out"), {"files": []}, 3072).n_pixels
+    3072
     """
 
     output: Path
@@ -91,6 +101,19 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
     ------
     CaptureFormatError
         A folder without fringe sets.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.tasks.simulate import simulate
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate(tmp / "caps", "white_plate", rig_options={"resolution": (64, 48)},
+    ...              pitches=[1024.0, 64.0, 8.0])
+    >>> report = phase(tmp / "caps", tmp / "out", PhaseOptions(previews=False))
+    >>> [s["label"] for s in report.summary["sets"]][:1]
+    ['s4_p1024_v_i40_g255']
+    >>> "unwrapped_phase.tiff" in report.summary["files"]
+    True
     """
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.io.captures import read_capture_folder

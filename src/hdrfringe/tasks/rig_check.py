@@ -35,6 +35,11 @@ class RigCheckReport:
         The report file written.
     config : Path or None
         The rig configuration written.
+
+    Examples
+    --------
+    >>> RigCheckReport('{"latency": 2}', None, None).output is None
+    True
     """
 
     text: str
@@ -81,6 +86,13 @@ def check_rig_folder(
     Returns
     -------
     RigCheckReport
+
+    Examples
+    --------
+    >>> check_rig_folder(None, {"camera": "pylon:emu"}, given={"camera"})
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: give both --projector SPEC and --camera SPEC, or a ...
     """
     from hdrfringe.hardware.rig import check_rig
     from hdrfringe.io.results import check_output_against_inputs, check_output_file

@@ -318,6 +318,11 @@ class SimulateReport:
         Pixels per image.
     saturated : int
         Pixels saturated in at least one image (of the folder with the most).
+
+    Examples
+    --------
+    >>> SimulateReport(Path("caps"), 1, 13, 3072, 0).images
+    13
     """
 
     output: Path
@@ -385,6 +390,15 @@ def simulate(
     Returns
     -------
     SimulateReport
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "caps"
+    >>> report = simulate(out, "white_plate", rig_options={"resolution": (64, 48)},
+    ...                   pitches=[1024.0, 64.0, 8.0])
+    >>> report.folders, report.images, report.n_pixels
+    (1, 13, 3072)
     """
     from hdrfringe.io.results import check_output_dir
     from hdrfringe.programs import fringe_program

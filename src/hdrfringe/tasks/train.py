@@ -27,6 +27,11 @@ class TrainReport:
         The training set's label.
     sets_captured : int
         Sets of the LPA step-1 sweep.
+
+    Examples
+    --------
+    >>> TrainReport(Path("corr.json"), None, "s4 p20", 196).sets_captured
+    196
     """
 
     output: Path
@@ -82,6 +87,13 @@ def train_correction(
     Returns
     -------
     TrainReport
+
+    Examples
+    --------
+    >>> train_correction(Path("corr.json"), truth="exact-ish")
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: unknown truth 'exact-ish'; use one of ...
     """
     from hdrfringe.io.results import (
         check_output_against_inputs,
