@@ -266,6 +266,27 @@ def test_options_given_override_the_file_and_defaults_do_not(
     assert not (tmp_path / "out").exists()
 
 
+def test_the_merge_takes_the_options_given_from_python(tmp_path: Path) -> None:
+    """tasks.capture.resolve_rig_config needs no typer.Context: a Python caller names the
+    options it sets. The same values as the command line's: an option not named loses to the
+    file (even away from its default), one named wins (even at its default), and a key the
+    file leaves out takes the option's value either way. A merge that ignored ``given`` (the
+    options always, or the file always) fails one of the two calls."""
+    from hdrfringe.tasks.capture import resolve_rig_config
+
+    cfg = write(tmp_path, CFG)
+    options = {"settle": 0.3, "discard": 0, "camera": "pylon:other", "gain_db": 6.0}
+    config = resolve_rig_config(cfg, set(), **options)
+    assert (config.sync.settle_s, config.sync.discard, config.camera.spec) == (
+        0.05, 2, "pylon:emu",
+    )  # fmt: skip
+    assert config.camera.gain_db == 6.0 and config.source == str(cfg)  # the file has none
+    config = resolve_rig_config(cfg, {"settle", "discard"}, **options)
+    assert (config.sync.settle_s, config.sync.discard, config.camera.spec) == (
+        0.3, 0, "pylon:emu",
+    )  # fmt: skip
+
+
 def test_without_a_file_the_options_and_their_defaults_apply(built: list[tuple]) -> None:
     r = invoke("capture", "--projector", "screen:0", "--camera", "pylon:emu", "-o", "never")
     assert r.exit_code == 2 and "recorded" in r.stderr
