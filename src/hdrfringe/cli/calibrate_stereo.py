@@ -15,8 +15,10 @@ from hdrfringe.errors import InputError
 __all__ = ["calibrate_stereo"]
 
 
-def _size(text: str | None, what: str) -> tuple[int, int] | None:
-    if text is None:
+def _size(text: str | None, what: str, from_path: Path | None) -> tuple[int, int] | None:
+    """``--camera-size``/``--projector-size`` as (width, height); read with --from only (a
+    calibration from poses takes the sizes from the folders)."""
+    if text is None or from_path is None:
         return None
     try:
         w, h = (int(v) for v in text.lower().split("x"))
@@ -142,8 +144,8 @@ def calibrate_stereo(
         output, poses or [], board=board, from_path=from_path, rig=rig, pose_count=pose_count,
         save_poses=save_poses, noise=noise, seed=seed, window=window, min_valid=min_valid,
         distortion=distortion, fix_intrinsics=fix_intrinsics,
-        camera_size=_size(camera_size, "--camera-size"),
-        projector_size=_size(projector_size, "--projector-size"), force=force,
+        camera_size=_size(camera_size, "--camera-size", from_path),
+        projector_size=_size(projector_size, "--projector-size", from_path), force=force,
         progress=progress_stage,
     )  # fmt: skip
     out, rep = done.calibration_file, done.report_file

@@ -25,16 +25,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe.errors import InputError
-from hdrfringe.io.phase_maps import write_phase_maps
-from hdrfringe.io.point_cloud import write_ply
 from hdrfringe.io.results import (
     MAP_COMPRESSION,
     staged_output_dir,
     write_map_tiff,
     write_preview_png,
 )
-from hdrfringe.pipeline import NO_GEOMETRY, height_points
-from hdrfringe.reconstruct import CameraGeometry
 from hdrfringe.tasks._progress import Progress, Say, quiet, silent
 from hdrfringe.tasks.capture import (
     CAPTURE_LOG,
@@ -47,6 +43,7 @@ from hdrfringe.tasks.capture import (
 
 if TYPE_CHECKING:
     from hdrfringe.pipeline import MeasurementResult
+    from hdrfringe.reconstruct import CameraGeometry
     from hdrfringe.stereo import StereoMaps
     from hdrfringe.strategies.base import StrategyResult
 
@@ -133,6 +130,9 @@ def write_height_outputs(
     write_map_tiff(out / "height.tiff", height_mm)
     if previews:
         write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
+    from hdrfringe.io.point_cloud import write_ply
+    from hdrfringe.pipeline import NO_GEOMETRY, height_points
+
     write_ply(out / "points.ply", *height_points(height_mm, geometry))
     return [NO_GEOMETRY] if geometry is None else []
 
@@ -226,6 +226,8 @@ def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) 
             out / "height.png", maps.height_mm, title="height over the reference plane",
             cmap="viridis", label="mm",
         )  # fmt: skip
+    from hdrfringe.io.point_cloud import write_ply
+
     write_ply(
         out / "points.ply", maps.xyz[..., 0], maps.xyz[..., 1], maps.xyz[..., 2],
         intensity=maps.quality,
@@ -442,6 +444,8 @@ def write_measurement(
     >>> "metrics.json" in files, written == res.metrics.to_dict()
     (True, True)
     """
+    from hdrfringe.io.phase_maps import write_phase_maps
+
     unc = result.uncertainty
     with staged_output_dir(out, force=force) as tmp:
         if phase_maps:
