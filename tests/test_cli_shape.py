@@ -1,4 +1,5 @@
-"""Thin commands (issue 29): no CLI command body over :data:`MAX_BODY_LINES` code lines.
+"""Thin commands (issue 29): no CLI command body over :data:`MAX_BODY_LINES` code lines, and
+tasks that print nothing and import no front-end library (typer, click, rich).
 
 Every module of ``src/hdrfringe/cli`` is parsed with :mod:`ast` (nothing is imported); a command
 is a function decorated with ``<app>.command(...)``. Its body's code lines are counted: the
@@ -123,3 +124,47 @@ def test_the_limit_rejects_a_long_body() -> None:
     """A 41-line body fails the rule the package is held to; 40 passes."""
     assert command_bodies(_command(_DOC + "    y = 1\n" * 41))["x"] > MAX_BODY_LINES
     assert command_bodies(_command(_DOC + "    y = 1\n" * 40))["x"] <= MAX_BODY_LINES
+
+
+# --- tasks print nothing and know no command line ---------------------------------------------
+
+TASKS = CLI.parent / "tasks"
+#: What a task may not use: the front end's libraries, and printing (a task says things
+#: through the callbacks the front end gives it: hdrfringe.tasks._progress).
+FRONT_END_LIBRARIES = ("typer", "click", "rich")
+
+
+def front_end_uses(source: str) -> list[str]:
+    """The front-end libraries a module imports and the ``print`` calls it makes."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        names: list[str] = []
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            names = [node.module or ""]
+        found += [f"import {n}" for n in names if n.split(".")[0] in FRONT_END_LIBRARIES]
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+            if node.func.id == "print":
+                found.append(f"print (line {node.lineno})")
+    return found
+
+
+def test_tasks_print_nothing_and_import_no_front_end() -> None:
+    modules = sorted(TASKS.glob("*.py"))
+    assert len(modules) >= 15  # guards against a vacuous pass
+    bad = {p.name: u for p in modules if (u := front_end_uses(p.read_text(encoding="utf-8")))}
+    assert not bad, f"tasks using the front end: {bad}"
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [
+        ("import typer\n", ["import typer"]),
+        ("from rich.console import Console\n", ["import rich.console"]),
+        ("def f():\n    import click\n    print('x')\n", ["import click", "print (line 3)"]),
+        ("from . import _progress\nimport numpy\nsay('x')\n", []),
+    ],
+)
+def test_front_end_check(source: str, expected: list[str]) -> None:
+    assert front_end_uses(source) == expected
