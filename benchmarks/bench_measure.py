@@ -38,8 +38,8 @@ from pathlib import Path
 from bench_cold_start import _run, compiled_package
 from hdrfringe import pipeline
 from hdrfringe.io.captures import read_capture_folder
-from hdrfringe.io.measurement_outputs import write_measurement
 from hdrfringe.io.results import check_output_dir
+from hdrfringe.tasks.measure import write_measurement
 
 HAS_NO_PREVIEWS = "previews" in inspect.signature(write_measurement).parameters
 

@@ -30,11 +30,11 @@ from hdrfringe.calibration import Calibration
 from hdrfringe.captures import Captures
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.io.measurement_outputs import write_measurement
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate, measure
 from hdrfringe.rig.scenes import plate, white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+from hdrfringe.tasks.measure import write_measurement
 
 
 def main() -> None:

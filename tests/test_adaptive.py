@@ -544,7 +544,7 @@ def test_the_pie_of_a_per_pixel_map_bins_down_never_above_the_top_migl(
 ) -> None:
     """A per-pixel index map (> 256 distinct values) is shown in bins of 10 labelled by their
     lower edge: 255 falls in the 250 slice (rounding made a "260" slice, above any MIGL)."""
-    import hdrfringe.io.measurement_outputs as mo
+    import hdrfringe.tasks.measure as mo
     from hdrfringe.strategies.base import CapturedSet, StrategyResult
 
     index = np.linspace(60.0, 255.0, 400, dtype=np.float32).reshape(20, 20)

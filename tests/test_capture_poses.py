@@ -49,9 +49,10 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
     from hdrfringe.cli import capture_poses
     from hdrfringe.hardware.loop_camera import LoopCamera
     from hdrfringe.rig.board_poses import calibration_rig, default_board_poses
+    from hdrfringe.tasks import capture_poses as task
 
     cameras: list[LoopCamera] = []
-    make_rig, wait = capture_poses._poses_rig, capture_poses._wait_for_pose
+    make_rig, wait = task._poses_rig, capture_poses._wait_for_pose
 
     def keep_camera(*args: Any, **kwargs: Any) -> tuple[HardwareRig, Any]:
         rig, config = make_rig(*args, **kwargs)
@@ -63,7 +64,7 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
         cameras[0].set_pose(number - 1)  # pose k is default_board_poses' k-1
         return go
 
-    monkeypatch.setattr(capture_poses, "_poses_rig", keep_camera)
+    monkeypatch.setattr(task, "_poses_rig", keep_camera)
     monkeypatch.setattr(capture_poses, "_wait_for_pose", user_moves_the_board)
     out = tmp_path / "poses"
     size = f"{CAMERA_SIZE[0]}x{CAMERA_SIZE[1]}"
@@ -119,13 +120,13 @@ def test_calibrate_stereo_reads_the_poses_captured_on_the_loop_rig(
 def fake_rig(camera: type[FakeCamera] = FakeCamera, **kwargs: Any) -> Any:
     """A ``_poses_rig`` on the fake projector and camera (the configuration resolved as the
     command's own, the devices fake)."""
-    from hdrfringe.cli.capture import resolve_rig_config
+    from hdrfringe.tasks.capture import resolve_rig_config
 
-    def build(ctx: Any, rig_config: Path | None, **options: Any) -> tuple[HardwareRig, Any]:
+    def build(rig_config: Path | None, given: Any, **options: Any) -> tuple[HardwareRig, Any]:
         projector = FakeProjector()
         sync = SyncSettings(settle_s=0.0)
         rig = HardwareRig(projector, camera(projector, **kwargs), sync, sleep=lambda s: None)
-        return rig, resolve_rig_config(ctx, rig_config, **options)
+        return rig, resolve_rig_config(rig_config, given, **options)
 
     return build
 
@@ -140,8 +141,8 @@ OPEN, PER_POSE = OPEN_GRABS, 7 + 17
 def test_q_finishes_after_the_complete_poses(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from hdrfringe.cli import capture_poses
     from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.tasks import capture_poses
 
     monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig())
     out = tmp_path / "poses"
@@ -170,7 +171,7 @@ def test_q_finishes_after_the_complete_poses(
 def test_ctrl_c_keeps_the_complete_poses_and_says_so(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from hdrfringe.cli import capture_poses
+    from hdrfringe.tasks import capture_poses
 
     at = OPEN + 2 * PER_POSE + 10  # mid pose 3
     monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig(InterruptingCamera, at=at))
@@ -192,7 +193,7 @@ def test_ctrl_c_keeps_the_complete_poses_and_says_so(
 def test_an_error_mid_run_keeps_the_complete_poses(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from hdrfringe.cli import capture_poses
+    from hdrfringe.tasks import capture_poses
 
     # latency 0 for the rig's mid-gray, white, black and white and pose 1, then 9 stale grabs:
     # a sync error in pose 2

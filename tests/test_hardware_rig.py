@@ -554,7 +554,8 @@ def run_capture(
     """`capture --method lpa` in-process on the fake rig, interrupted at grab ``at``."""
     from typer.testing import CliRunner
 
-    from hdrfringe.cli import app, capture
+    from hdrfringe.cli import app
+    from hdrfringe.tasks import capture
 
     def fake_rig(*args: object) -> HardwareRig:
         projector = FakeProjector()

@@ -1,4 +1,4 @@
-"""One-way layers (issue 10): core <- acquisition <- I/O <- front ends; imports point inward only.
+"""One-way layers (issues 10, 29): core <- acquisition <- I/O <- tasks <- front ends; inward only.
 
 Every module of ``src/hdrfringe`` is parsed with :mod:`ast` (nothing is imported) and every
 import it makes is collected: top-level, inside functions and ``if TYPE_CHECKING:`` blocks,
@@ -28,8 +28,14 @@ from scipy.sparse.csgraph import connected_components
 SRC = Path(__file__).resolve().parents[1] / "src" / "hdrfringe"
 ROOT = "hdrfringe"
 
-CORE, ACQUISITION, IO, FRONT_END = 0, 1, 2, 3
-LAYER_NAMES = {CORE: "core", ACQUISITION: "acquisition", IO: "io", FRONT_END: "front end"}
+CORE, ACQUISITION, IO, TASKS, FRONT_END = 0, 1, 2, 3, 4
+LAYER_NAMES = {
+    CORE: "core",
+    ACQUISITION: "acquisition",
+    IO: "io",
+    TASKS: "tasks",
+    FRONT_END: "front end",
+}
 
 #: Module (dotted, without ``hdrfringe.``) -> layer. ``pkg.*`` covers everything under ``pkg``;
 #: an exact entry wins over a pattern.
@@ -74,7 +80,10 @@ LAYERS: dict[str, int] = {
     # 2 I/O: files in and out
     "io": IO,
     "io.*": IO,
-    # 3 front ends
+    # 3 tasks: one workflow per command (paths and options in, a folder and a report out)
+    "tasks": TASKS,
+    "tasks.*": TASKS,
+    # 4 front ends
     "cli": FRONT_END,
     "cli.*": FRONT_END,
     "demo": FRONT_END,
@@ -82,9 +91,23 @@ LAYERS: dict[str, int] = {
     "reproduce.*": FRONT_END,
 }
 
+#: Imports a layer's own rank allows but the design forbids (issue 29): importer prefix ->
+#: imported prefixes. I/O is file formats only: it runs no measurement (pipeline) and drives no
+#: rig; the workflows that do are tasks. A command declares options, calls its task and prints
+#: the report: the CLI reads, writes and drives nothing itself.
+FORBIDDEN: dict[str, tuple[str, ...]] = {
+    "io": ("pipeline", "rig", "tasks"),
+    "cli": ("pipeline", "io", "rig", "hardware"),
+}
+
 #: (importer, imported) pairs tolerated for now, each with the reason and the step removing it.
 #: Keep it empty: a pair listed here that no longer occurs fails the test, so it cannot go stale.
-ALLOWED_EXCEPTIONS: dict[tuple[str, str], str] = {}
+ALLOWED_EXCEPTIONS: dict[tuple[str, str], str] = {
+    **{
+        ("cli.compare", m): "compare's workflow moves to tasks/compare.py (issue 29, research29)"
+        for m in ("io", "io.results", "rig", "rig.factory")
+    },
+}
 
 
 def module_name(path: Path, src: Path = SRC) -> str:
@@ -224,7 +247,17 @@ def violations(
             if theirs is not None and theirs > own:
                 why = f"{LAYER_NAMES[own]} imports {LAYER_NAMES[theirs]}"
                 out.append((module, target, line, why))
+            elif _forbidden(module, target):
+                out.append((module, target, line, f"{module.split('.')[0]} never imports it"))
     return sorted(set(out))
+
+
+def _forbidden(module: str, target: str) -> bool:
+    """Whether :data:`FORBIDDEN` rules out ``module`` importing ``target``."""
+    return any(
+        _is_within(module, importer) and any(_is_within(target, t) for t in targets)
+        for importer, targets in FORBIDDEN.items()
+    )
 
 
 def unplaced(modules: set[str], layers: dict[str, int] = LAYERS) -> list[str]:
@@ -356,8 +389,9 @@ def test_the_package_is_found() -> None:
 
 # --- the checker on synthetic modules ----------------------------------------------------------
 
-#: A small package: core ``phase``, acquisition ``rig`` (package) with ``rig.replay``, I/O ``io``
-#: with ``io.captures``, front end ``cli``.
+#: A small package: core ``phase``, acquisition ``rig`` (package) with ``rig.replay`` and
+#: ``pipeline``, I/O ``io`` with ``io.captures``, ``tasks`` with ``tasks.measure``, front end
+#: ``cli``.
 _PACKAGE = {"": ("", True), "io": ("", True), "rig": ("", True), "cli": ("", False)}
 _OK = "import numpy as np\nfrom hdrfringe.errors import InputError\n"
 
@@ -369,6 +403,9 @@ def _check(module: str, source: str, is_package: bool = False) -> list[tuple[str
         "phase": (_OK, False),
         "io.captures": (_OK, False),
         "rig.replay": (_OK, False),
+        "pipeline": (_OK, False),
+        "tasks": ("", True),
+        "tasks.measure": (_OK, False),
     }
     sources[module] = (source, is_package)
     return violations(sources)
@@ -392,6 +429,16 @@ def _check(module: str, source: str, is_package: bool = False) -> list[tuple[str
             ["rig"],
         ),
         ("phase", "import importlib\nimportlib.import_module('hdrfringe.cli')\n", ["cli"]),
+        # io is file formats only (issue 29): no rig, no pipeline, no task, though rank allows
+        ("io.captures", "from hdrfringe.rig.replay import y\n", ["rig.replay", "rig"]),
+        ("io.captures", "def f():\n    import hdrfringe.pipeline\n", ["pipeline"]),
+        ("io.captures", "from hdrfringe.tasks import measure\n", ["tasks.measure", "tasks"]),
+        ("rig.replay", "from hdrfringe.tasks.measure import run\n", ["tasks.measure", "tasks"]),
+        ("tasks.measure", "from hdrfringe.cli import x\n", ["cli"]),
+        # a command calls its task: no io, pipeline or rig of its own
+        ("cli", "import hdrfringe.io.captures\nfrom hdrfringe import phase, rig\n",
+         ["io.captures", "io", "rig"]),
+        ("cli", "def f():\n    from hdrfringe.pipeline import measure\n", ["pipeline"]),
     ],
 )
 def test_checker_rejects_outward_imports(module: str, source: str, expected: list[str]) -> None:
@@ -402,9 +449,11 @@ def test_checker_rejects_outward_imports(module: str, source: str, expected: lis
 @pytest.mark.parametrize(
     ("module", "source"),
     [
-        ("io.captures", "from hdrfringe.phase import x\nfrom hdrfringe.rig.replay import y\n"),
+        ("io.captures", "from hdrfringe.phase import x\nfrom hdrfringe.errors import y\n"),
+        ("tasks.measure", "from hdrfringe.rig.replay import y\nfrom hdrfringe.io import x\n"),
+        ("cli", "from hdrfringe.tasks.measure import run\n"),
         ("rig.replay", "from hdrfringe.phase import x\nfrom . import replay\n"),
-        ("cli", "import hdrfringe.io.captures\nfrom hdrfringe import phase, rig\n"),
+        ("cli", "import hdrfringe.tasks.measure\nfrom hdrfringe import phase, errors\n"),
         ("phase", "from hdrfringe import __version__\nimport hdrfringe\n"),  # the root is exempt
         ("phase", "from hdrfringe.errors import InputError\nimport os.path\n"),
     ],

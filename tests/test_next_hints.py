@@ -79,7 +79,7 @@ def test_gamma_capture_suggests_gamma_and_it_runs(tmp_path: Path) -> None:
 def test_simulated_folder_gets_a_hint_that_runs(tmp_path: Path) -> None:
     """``next_step`` of a folder written by ``simulate`` (a MIGL sweep: one set per MIGL) is a
     ``phase`` command that runs."""
-    from hdrfringe.cli.import_ import next_step
+    from hdrfringe.tasks.import_ import next_step
 
     folder = tmp_path / "sweep"
     res = run_cli(

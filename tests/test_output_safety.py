@@ -199,7 +199,7 @@ _RACE_DRIVER = textwrap.dedent(
     import os, random, sys, time
     from pathlib import Path
     import hdrfringe.io.results as results
-    import hdrfringe.io.measurement_outputs, hdrfringe.io.phase_maps
+    import hdrfringe.tasks.measure, hdrfringe.io.phase_maps
     from hdrfringe.cli import app
     import matplotlib.pyplot, tifffile  # loaded once, before the forks
 
@@ -221,7 +221,7 @@ _RACE_DRIVER = textwrap.dedent(
     def small_preview(path, data, **kwargs):  # the staging logic is under test, not matplotlib
         Path(path).write_bytes(b"preview")
 
-    for module in (sys.modules["hdrfringe.io.measurement_outputs"],
+    for module in (sys.modules["hdrfringe.tasks.measure"],
                    sys.modules["hdrfringe.io.phase_maps"]):
         if hasattr(module, "write_preview_png"):
             module.write_preview_png = small_preview
@@ -464,7 +464,7 @@ _SLOW_SAVE = textwrap.dedent(
     # terminal's default, under which Ctrl-C raises KeyboardInterrupt
     signal.signal(signal.SIGINT, signal.default_int_handler)
     import numpy as np
-    import hdrfringe.io.calibrate_folders as cf
+    import hdrfringe.tasks.calibrate as cf
     import hdrfringe.io.calibration_file as calfile
     from hdrfringe.calibration import Calibration
     from hdrfringe.cli import app

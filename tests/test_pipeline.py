@@ -20,7 +20,6 @@ from hdrfringe.calibration import (
 from hdrfringe.captures import Captures
 from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.frames import CenterlineFrame, Frame
-from hdrfringe.io.measurement_outputs import write_measurement, write_strategy_outputs
 from hdrfringe.io.results import read_map_tiff
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import MeasurementMetrics, calibrate, measure, strategy_summary
@@ -28,6 +27,7 @@ from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, mask, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.strategies import CapturedSet, StrategyResult
 from hdrfringe.strategies.lpa import lpa
+from hdrfringe.tasks.measure import write_measurement, write_strategy_outputs
 
 DEPTHS = np.array(THESIS_CALIBRATION_DEPTHS_MM)
 #: Thesis Table 4.3, white plate, 0 lx, MIGL 255, pitch 6: mean RMSE over the 25 depths (mm).
@@ -126,8 +126,8 @@ def test_mask_height_matches_truth_and_ply_opens(tmp_path) -> None:
     """
     import trimesh
 
-    from hdrfringe.io.measurement_outputs import write_height_outputs
     from hdrfringe.pipeline import calibration_geometry
+    from hdrfringe.tasks.measure import write_height_outputs
 
     spec = FringeSpec("sinusoidal", 4, 8.0)
     cal = calibrate(series(spec, noise=True, seed=3), model="rational")

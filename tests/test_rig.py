@@ -87,7 +87,8 @@ def test_rig_implements_protocol():
 
 
 def test_simulate_to_folder_round_trip(tmp_path):
-    from hdrfringe.io.captures import read_capture_folder, read_manifest, simulate_to_folder
+    from hdrfringe.io.captures import read_capture_folder, read_manifest
+    from hdrfringe.tasks.simulate import simulate_to_folder
 
     rig = SimulatedRig(white_plate(12.0), camera=small_camera(bit_depth=12), seed=2)
     frames = [*FringeSpec(steps=4, pitch_px=8).frames(), CenterlineFrame(512.0)]

@@ -209,8 +209,8 @@ class Stop(HdrFringeError):
 
 @pytest.fixture
 def built(monkeypatch: pytest.MonkeyPatch) -> list[tuple]:
-    """Every call of cli.capture.hardware_options (positional, as the commands make it)."""
-    from hdrfringe.cli import capture
+    """Every call of tasks.capture.hardware_options (positional, as the commands make it)."""
+    from hdrfringe.tasks import capture
 
     calls: list[tuple] = []
 
@@ -264,6 +264,27 @@ def test_options_given_override_the_file_and_defaults_do_not(
     _, camera, _, settle, discard, _, gamma, exposure, *_ = built[-1]
     assert (camera, settle, discard, gamma, exposure) == ("pylon:other", 0.1, 0, 2.812, 20.0)
     assert not (tmp_path / "out").exists()
+
+
+def test_the_merge_takes_the_options_given_from_python(tmp_path: Path) -> None:
+    """tasks.capture.resolve_rig_config needs no typer.Context: a Python caller names the
+    options it sets. The same values as the command line's: an option not named loses to the
+    file (even away from its default), one named wins (even at its default), and a key the
+    file leaves out takes the option's value either way. A merge that ignored ``given`` (the
+    options always, or the file always) fails one of the two calls."""
+    from hdrfringe.tasks.capture import resolve_rig_config
+
+    cfg = write(tmp_path, CFG)
+    options = {"settle": 0.3, "discard": 0, "camera": "pylon:other", "gain_db": 6.0}
+    config = resolve_rig_config(cfg, set(), **options)
+    assert (config.sync.settle_s, config.sync.discard, config.camera.spec) == (
+        0.05, 2, "pylon:emu",
+    )  # fmt: skip
+    assert config.camera.gain_db == 6.0 and config.source == str(cfg)  # the file has none
+    config = resolve_rig_config(cfg, {"settle", "discard"}, **options)
+    assert (config.sync.settle_s, config.sync.discard, config.camera.spec) == (
+        0.3, 0, "pylon:emu",
+    )  # fmt: skip
 
 
 def test_without_a_file_the_options_and_their_defaults_apply(built: list[tuple]) -> None:
@@ -372,7 +393,7 @@ def _fake_rig(screen: _Screen, interrupt_at: int) -> Any:
 def test_measure_hardware_writes_all_or_nothing(
     interrupt_at: int, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from hdrfringe.cli import capture
+    from hdrfringe.tasks import capture
 
     monkeypatch.setattr(capture, "hardware_options", lambda *a: _fake_rig(_Screen(), interrupt_at))
     out = tmp_path / "out"

@@ -10,11 +10,12 @@ import pytest
 import tifffile
 
 from hdrfringe.frames import CenterlineFrame, PixelwiseFringeFrame
-from hdrfringe.io.captures import read_manifest, simulate_to_folder, write_capture_folder
+from hdrfringe.io.captures import read_manifest, write_capture_folder
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.phase import decode_set
 from hdrfringe.rig.scenes import mask, white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+from hdrfringe.tasks.simulate import simulate_to_folder
 from tests.conftest import run_cli
 
 TWO_PI = 2 * np.pi

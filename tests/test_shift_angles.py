@@ -542,9 +542,9 @@ def test_a_version_3_folder_through_hdrfringe_phase(tmp_path: Path) -> None:
     import tifffile
 
     from hdrfringe.frames import CenterlineFrame
-    from hdrfringe.io.captures import simulate_to_folder
     from hdrfringe.rig.scenes import white_plate
     from hdrfringe.rig.simulated import SimulatedRig
+    from hdrfringe.tasks.simulate import simulate_to_folder
     from tests.conftest import run_cli
 
     rig = SimulatedRig.ideal(white_plate(12.0))

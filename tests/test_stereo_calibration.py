@@ -12,7 +12,6 @@ import json
 import numpy as np
 import pytest
 
-from hdrfringe.io.stereo_calibration_outputs import report_path
 from hdrfringe.io.stereo_file import load_stereo_calibration
 from hdrfringe.rig.board_poses import (
     CALIBRATION_GEOMETRY,
@@ -33,6 +32,7 @@ from hdrfringe.stereo_calibration import (
     observe_pose,
     projector_coordinates,
 )
+from hdrfringe.tasks.calibrate_stereo import report_path
 from tests.conftest import run_cli
 
 SPEC = BoardSpec.parse("checkerboard:9x6:25")

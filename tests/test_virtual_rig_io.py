@@ -13,8 +13,6 @@ from hdrfringe.captures import Captures, ProjectorInfo
 from hdrfringe.errors import CaptureFormatError, InputError, OutputExistsError
 from hdrfringe.frames import CenterlineFrame, UniformFrame
 from hdrfringe.io.captures import read_capture_folder, write_capture_folder
-from hdrfringe.io.modify_folder import modify_capture_folder
-from hdrfringe.io.simulation import series_depths, series_folder_name, write_simulation
 from hdrfringe.limits import MAX_SERIES_FOLDERS
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig import Rig, SimulatedRig, virtual_rig
@@ -22,6 +20,8 @@ from hdrfringe.rig.acquire import IntensityModification, simulated_captures
 from hdrfringe.rig.modify import modify_captures
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import Lighting
+from hdrfringe.tasks.modify import modify_capture_folder
+from hdrfringe.tasks.simulate import series_depths, series_folder_name, write_simulation
 
 # --- virtual_rig ----------------------------------------------------------------------------------
 

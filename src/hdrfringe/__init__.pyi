@@ -47,7 +47,6 @@ from .io.calibration_file import save_calibration as save_calibration
 from .io.captures import read_capture_folder as read_capture_folder
 from .io.captures import write_capture_folder as write_capture_folder
 from .io.importer import import_captures as import_captures
-from .io.measurement_outputs import write_measurement as write_measurement
 from .io.rig_config import load_rig_config as load_rig_config
 from .io.rig_config import write_rig_config as write_rig_config
 from .io.stereo_file import convert_calibration as convert_calibration
@@ -112,6 +111,7 @@ from .strategies.exposure import run_at_exposure as run_at_exposure
 from .strategies.lpa import lpa as lpa
 from .strategies.multiexposure import multiexposure as multiexposure
 from .strategies.uniform import uniform as uniform
+from .tasks.measure import write_measurement as write_measurement
 from .uncertainty import NoiseModel as NoiseModel
 from .uncertainty import Uncertainty as Uncertainty
 from .uncertainty import estimate_noise as estimate_noise

@@ -25,7 +25,7 @@
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
    table of RMSE per scene and model; per study scene and method the files of ``hdrfringe
    measure --method`` but the phase maps
-   (:func:`hdrfringe.io.measurement_outputs.write_measurement`: height, PLY, the MIGL index
+   (:func:`hdrfringe.tasks.measure.write_measurement`: height, PLY, the MIGL index
    map and pie chart, for DPA its CDF figure, Fig. 6.3, and ``metrics.json`` with
    ``sets_captured``, ``images_captured``, ``migls``, plus the study's ``params`` and
    ``rmse_mm_saturated_kept``); a figure comparing the methods and a table of RMSE, valid
@@ -48,7 +48,6 @@ from hdrfringe.calibration import Calibration
 from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.io.measurement_outputs import write_measurement
 from hdrfringe.io.results import check_output_dir, staged_output_dir
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import (
@@ -62,6 +61,7 @@ from hdrfringe.rig.scenes import (
 )
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
 from hdrfringe.strategies import get_strategy, make_params
+from hdrfringe.tasks.measure import write_measurement
 
 __all__ = [
     "DPA_THRESHOLD",

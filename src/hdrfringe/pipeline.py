@@ -15,7 +15,7 @@
 * :func:`tradeoff_search`: the uniform trade-off search of thesis Sec. 4.2.
 
 Nothing here reads or writes files: :mod:`hdrfringe.io.captures` reads capture folders,
-:func:`hdrfringe.io.measurement_outputs.write_measurement` writes a result folder
+:func:`hdrfringe.tasks.measure.write_measurement` writes a result folder
 (docs/measurement.md).
 """
 

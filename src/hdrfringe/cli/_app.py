@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib
 import math
@@ -32,6 +33,7 @@ __all__ = [
     "parse_floats",
     "parse_range",
     "progress_bar",
+    "progress_stage",
 ]
 
 #: Every command (in ``--help`` order) and the module that declares it. A command's module,
@@ -299,6 +301,28 @@ def progress_bar() -> Any:
         transient=True,
         disable=not sys.stderr.isatty(),
     )
+
+
+@contextlib.contextmanager
+def progress_stage(label: str, total: int | None = None) -> Iterator[Callable[[], Any]]:
+    """A task's long stage shown as a :func:`progress_bar` (the front end's side of
+    :data:`hdrfringe.tasks._progress.Progress`).
+
+    Parameters
+    ----------
+    label : str
+        The bar's description.
+    total : int or None
+        Units of work (None: unknown).
+
+    Yields
+    ------
+    callable
+        ``advance()``: one unit done.
+    """
+    with progress_bar() as prog:
+        task = prog.add_task(label, total=total)
+        yield lambda: prog.advance(task)
 
 
 def parse_floats(text: str, what: str) -> list[float]:

@@ -1,8 +1,8 @@
 """Options of ``measure`` and ``train-correction``, and the inputs they build for the library.
 
 The option types are declared here so the command modules stay a short list of parameters;
-:func:`strategy_params` turns measure's strategy options into the strategy's ``Params``,
-:func:`live_fringes` its fringe options into the sets the live rig captures.
+:func:`strategy_params` turns measure's strategy options into the strategy's ``Params``
+(the live rig's fringe sets: :class:`hdrfringe.tasks.capture.LiveFringes`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from typing import Annotated, Any
 
 import typer
 
-from hdrfringe.cli._app import parse_floats
 from hdrfringe.cli._options import LIVE_PANEL, given_options
 from hdrfringe.cli._strategy_options import (
     article,
@@ -46,7 +45,6 @@ __all__ = [
     "TruthOpt",
     "UncertaintyOpt",
     "given_strategy_options",
-    "live_fringes",
     "strategy_params",
 ]
 
@@ -217,40 +215,3 @@ def strategy_params(
     }
     return params, sources
 
-
-def live_fringes(
-    projector: Any,
-    pattern: str,
-    steps: int,
-    pitch: str,
-    imin: float,
-    migl: float,
-    centerline: bool,
-) -> tuple[list[Any], Any]:
-    """The vertical sets (one per pitch, coarsest first) and the centerline of the live rig.
-
-    Parameters
-    ----------
-    projector : ProjectorInfo
-        The rig's projector (the centerline sits at its middle column, at full white).
-    pattern, steps, imin, migl
-        The fringe options.
-    pitch : str
-        ``--pitch``: comma-separated pitches.
-    centerline : bool
-        Whether to capture a centerline.
-
-    Returns
-    -------
-    specs : list of FringeSpec
-    line : CenterlineFrame or None
-    """
-    from hdrfringe._validation import full_scale
-    from hdrfringe.frames import CenterlineFrame
-    from hdrfringe.patterns import FringeSpec
-
-    pitches = sorted(set(parse_floats(pitch, "--pitch")), reverse=True)
-    specs = [FringeSpec(pattern, steps, p, "vertical", imin, migl) for p in pitches]  # type: ignore[arg-type]
-    full = full_scale(projector.bit_depth)
-    line = CenterlineFrame(projector.width // 2, "vertical", full) if centerline else None
-    return specs, line

@@ -59,6 +59,7 @@ __all__ = [
     "StepsOpt",
     "SyncOpt",
     "check_source",
+    "given_names",
     "given_options",
     "option_pair",
     "parse_orientations",
@@ -187,6 +188,12 @@ def given_options(ctx: typer.Context, names: tuple[str, ...]) -> list[str]:
         if src is not None and src.name not in ("DEFAULT", "DEFAULT_MAP"):
             out.append("--" + name.replace("_", "-"))
     return out
+
+
+def given_names(ctx: typer.Context, names: tuple[str, ...]) -> set[str]:
+    """The options among ``names`` (Python names) given on the command line, by Python name:
+    what :func:`hdrfringe.tasks.capture.resolve_rig_config` lets override the file."""
+    return {name for name in names if given_options(ctx, (name,))}
 
 
 def check_source(

@@ -7,8 +7,7 @@ from typing import Annotated
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, progress_bar
-from hdrfringe.errors import InputError
+from hdrfringe.cli._app import app, console, handle_errors, progress_stage
 
 __all__ = ["calibrate"]
 
@@ -31,31 +30,10 @@ def calibrate(
     force: Annotated[bool, typer.Option(help="Replace an existing calibration file.")] = False,
 ) -> None:
     """Per-pixel phase-to-height calibration from a plate at known depths (Sec. 2.5, 4.1)."""
-    from hdrfringe.calibration import MODELS
-    from hdrfringe.errors import OutputExistsError
-    from hdrfringe.io.calibrate_folders import calibrate_folders, expand_capture_dirs
-    from hdrfringe.io.calibration_file import save_calibration
-    from hdrfringe.io.results import check_output_against_inputs, check_output_file
+    from hdrfringe.tasks.calibrate import calibrate as task
 
-    if model not in MODELS:
-        raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
-    check_output_against_inputs(output, folders)
-    if output.is_dir():
-        raise OutputExistsError(f"{output}: is a folder; give a file path for the calibration")
-    if output.exists() and not force:
-        raise OutputExistsError(f"{output}: exists; pass --force to replace it")
-    output = check_output_file(output, force)  # what is there now: replaced only if unchanged
-    n = len(expand_capture_dirs(folders))
-    with progress_bar() as prog:
-        task = prog.add_task("decoding plate positions", total=n)
-        cal = calibrate_folders(
-            folders,
-            model=model,
-            window_px=window,
-            border_px=border,
-            progress=lambda: prog.advance(task),
-        )
-    save_calibration(output, cal, force=force)
+    cal = task(folders, output, model=model, window=window, border=border, force=force,
+               progress=progress_stage)  # fmt: skip
     console.print(
         f"calibrated {len(cal.depths_mm)} positions ({cal.depths_mm.min():g}..."
         f"{cal.depths_mm.max():g} mm) + reference with {cal.spec.label() if cal.spec else '?'}"

@@ -1,5 +1,6 @@
 """``hdrfringe calibrate-stereo``: projector-camera calibration from board poses, or a
-conversion of another tool's calibration (docs/stereo_calibration.md)."""
+conversion of another tool's calibration (docs/stereo_calibration.md); the work is
+:func:`hdrfringe.tasks.calibrate_stereo.calibrate_stereo`."""
 
 from __future__ import annotations
 
@@ -8,14 +9,16 @@ from typing import Annotated, Any
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, progress_bar
+from hdrfringe.cli._app import app, console, handle_errors, progress_stage
 from hdrfringe.errors import InputError
 
 __all__ = ["calibrate_stereo"]
 
 
-def _size(text: str | None, what: str) -> tuple[int, int] | None:
-    if text is None:
+def _size(text: str | None, what: str, from_path: Path | None) -> tuple[int, int] | None:
+    """``--camera-size``/``--projector-size`` as (width, height); read with --from only (a
+    calibration from poses takes the sizes from the folders)."""
+    if text is None or from_path is None:
         return None
     try:
         w, h = (int(v) for v in text.lower().split("x"))
@@ -56,20 +59,6 @@ def _print_report(result: Any) -> None:
             f"[yellow]warning:[/] flagged poses {', '.join(result.flagged)} "
             f"({result.settings['flag_rule']}); consider leaving them out"
         )
-
-
-def _truth_errors(calib: Any, truth: Any) -> dict[str, float]:
-    import numpy as np
-
-    out: dict[str, float] = {}
-    for name in ("camera", "projector"):
-        k, kt = getattr(calib, name).matrix, getattr(truth, name).matrix
-        out[f"{name}_focal_error_percent"] = float(
-            100 * np.abs(k[[0, 1], [0, 1]] / kt[[0, 1], [0, 1]] - 1).max()
-        )
-        out[f"{name}_principal_point_error_px"] = float(np.abs(k[:2, 2] - kt[:2, 2]).max())
-    out["baseline_error_percent"] = float(100 * abs(calib.baseline_mm / truth.baseline_mm - 1))
-    return out
 
 
 @app.command("calibrate-stereo")
@@ -149,127 +138,28 @@ def calibrate_stereo(
     tool's calibration instead; --rig sim calibrates the virtual rig and reports the errors
     against its true geometry.
     """
-    from hdrfringe.io.results import check_output_against_inputs
-    from hdrfringe.io.stereo_calibration_outputs import (
-        check_calibration_outputs,
-        read_pose_folders,
-        write_calibration_and_report,
-    )
-    from hdrfringe.stereo_calibration import DISTORTION_MODELS, MIN_POSES
+    from hdrfringe.tasks.calibrate_stereo import calibrate_stereo as task
 
-    sources = [bool(poses), from_path is not None, rig is not None]
-    if sum(sources) != 1:
-        raise InputError(
-            "give exactly one source: POSE folders, --from PATH (conversion) or --rig sim"
-        )
-    if distortion not in DISTORTION_MODELS:
-        raise InputError(f"--distortion {distortion!r}: use {', '.join(DISTORTION_MODELS)}")
-    if not 1 <= window <= 100:
-        raise InputError(f"--window {window}: give a half window of 1..100 camera pixels")
-    if min_valid is not None and not 0 < min_valid <= 1:
-        raise InputError(f"--min-valid {min_valid}: give a fraction in (0, 1], e.g. 0.2")
-    if rig is not None and rig != "sim":
-        raise InputError(f"--rig {rig!r}: only the virtual rig 'sim' can be driven here")
-    inputs: list[Path | None] = [*(poses or []), from_path, save_poses]
-    check_output_against_inputs(output, inputs)
-    check_calibration_outputs(output, force)
-
-    if from_path is not None:
-        from hdrfringe.io.stereo_file import convert_calibration
-
-        calib = convert_calibration(
-            from_path,
-            camera_size=_size(camera_size, "--camera-size"),
-            projector_size=_size(projector_size, "--projector-size"),
-        )
-        converted = {"converted_from": str(from_path), "calibration": calib.to_dict()}
-        out, rep = write_calibration_and_report(output, calib, converted, force=force)
+    done = task(
+        output, poses or [], board=board, from_path=from_path, rig=rig, pose_count=pose_count,
+        save_poses=save_poses, noise=noise, seed=seed, window=window, min_valid=min_valid,
+        distortion=distortion, fix_intrinsics=fix_intrinsics,
+        camera_size=_size(camera_size, "--camera-size", from_path),
+        projector_size=_size(projector_size, "--projector-size", from_path), force=force,
+        progress=progress_stage,
+    )  # fmt: skip
+    out, rep = done.calibration_file, done.report_file
+    if done.converted_from is not None:
         console.print(
-            f"converted {from_path}: baseline {calib.baseline_mm:.2f} mm; wrote {out} and {rep}"
+            f"converted {done.converted_from}: baseline {done.calibration.baseline_mm:.2f} mm; "
+            f"wrote {out} and {rep}"
         )
         return
-
-    if board is None:
-        raise InputError("--board is required: e.g. --board checkerboard:9x6:25")
-    from hdrfringe.stereo_calibration import BoardSpec, calibrate_stereo, observe_pose
-
-    spec = BoardSpec.parse(board)
-    truth = None
-    if poses:
-        if len(poses) < MIN_POSES:
-            raise InputError(
-                f"{len(poses)} pose folder(s) given; stereo calibration needs at least "
-                f"{MIN_POSES} (10 or more recommended)"
-            )
-        captures = read_pose_folders(poses)
-        names = [str(p) for p in poses]
-    else:
-        from hdrfringe.rig.board_poses import (
-            calibration_rig,
-            capture_board_poses,
-            default_board_poses,
-        )
-
-        if pose_count < MIN_POSES:
-            raise InputError(f"--poses {pose_count}: give at least {MIN_POSES}")
-        boards = default_board_poses(
-            pose_count,
-            pattern=spec.pattern,
-            cols=spec.cols,
-            rows=spec.rows,
-            spacing_mm=spec.spacing_mm,
-        )
-        options: dict[str, Any] = {"noise": noise, "seed": seed}
-        truth = calibration_rig(boards[0], **options).stereo_calibration()
-        with progress_bar() as prog:
-            task = prog.add_task("simulating board poses", total=len(boards))
-            if save_poses is not None:
-                from hdrfringe.io.stereo_calibration_outputs import write_board_pose_folders
-
-                folders = write_board_pose_folders(save_poses, boards, force=force, **options)
-                captures = read_pose_folders(folders)
-                names = [str(f) for f in folders]
-            else:
-                captures = capture_board_poses(
-                    boards, progress=lambda: prog.advance(task), **options
-                )
-                names = [f"pose_{k:02d}" for k in range(len(boards))]
-    sizes = {c.image_shape for c in captures}
-    if len(sizes) > 1:
-        raise InputError(f"pose folders have different image sizes {sorted(sizes)}; use one camera")
-    projectors = {(c.projector.width, c.projector.height) for c in captures if c.projector}
-    if len(projectors) != 1:
-        raise InputError("pose folders must record one projector size (manifest 'projector' entry)")
-    h, w = captures[0].image_shape
-    observed = [
-        observe_pose(c, spec, name=n, half_window=window, min_valid_fraction=min_valid)
-        for c, n in zip(captures, names, strict=True)
-    ]
-    if not any(p.camera_points is not None for p in observed):
-        raise InputError(
-            f"board {spec} not found in any of the {len(observed)} poses; check --board "
-            "(COLSxROWS counts inner corners for a checkerboard) and the white frames"
-        )
-    result = calibrate_stereo(
-        observed,
-        spec,
-        (w, h),
-        projectors.pop(),
-        distortion=distortion,
-        refine_intrinsics=not fix_intrinsics,
-        source=f"hdrfringe calibrate-stereo {spec}",
-    )
-    report: dict[str, Any] = result.to_dict()
-    if truth is not None:
-        report["virtual_rig_truth"] = truth.to_dict()
-        report["errors_vs_truth"] = _truth_errors(result.calibration, truth)
-    _print_report(result)
-    if truth is not None:
-        errs = report["errors_vs_truth"]
+    _print_report(done.result)
+    if done.errors_vs_truth is not None:
         console.print(
             "against the virtual rig's true geometry: "
-            + ", ".join(f"{k} {v:.3g}" for k, v in errs.items()),
+            + ", ".join(f"{k} {v:.3g}" for k, v in done.errors_vs_truth.items()),
             highlight=False,
         )
-    out, rep = write_calibration_and_report(output, result.calibration, report, force=force)
     console.print(f"wrote {out} and {rep}")

@@ -5,8 +5,9 @@ uniform grays (the same builder as ``simulate --gray``, :func:`hdrfringe.program
 and one wide sinusoidal set shown at each of several pre-distortion exponents (kamino410's
 design, docs/gamma.md "From fringes"). docs/hardware.md ("capture-gamma") describes it.
 
-The rig comes from ``--rig-config`` and the hardware options as for ``capture``
-(:func:`hdrfringe.cli.capture.hardware_rig`), with one exception: the grays are always sent
+The work is :func:`hdrfringe.tasks.capture_gamma.capture_gamma`. The rig comes from
+``--rig-config`` and the hardware options as for ``capture``
+(:func:`hdrfringe.tasks.capture.hardware_rig`), with one exception: the grays are always sent
 with the command's own ``--gamma`` (default 1, the projector's raw response), never with the
 configuration's gamma, so that the capture is taken with a known pre-compensation whatever
 the file says; the configuration's gamma is recorded and judged against the fit.
@@ -14,14 +15,13 @@ the file says; the configuration's gamma is recorded and judged against the fit.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors, parse_floats, parse_range
-from hdrfringe.cli._options import StepsOpt
+from hdrfringe.cli._options import StepsOpt, given_names
 from hdrfringe.cli.capture import (
     CameraOpt,
     DiscardOpt,
@@ -34,126 +34,10 @@ from hdrfringe.cli.capture import (
     SettleOpt,
     SyncOpt,
     ViewCheckOpt,
-    hardware_rig,
-    live_record,
-    write_capture_output,
 )
-from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.errors import InputError
 
-__all__ = [
-    "WRONG_PRECOMPENSATION_PERCENT",
-    "capture_gamma",
-    "precompensation_verdict",
-    "spread_order",
-]
-
-#: The pre-compensation in use is reported as wrong when it leaves a residual nonlinearity this
-#: many percent of the captured range above what the fitted gamma leaves (about a 3 % error
-#: in gamma; camera noise moves the fit's own figure by far less).
-WRONG_PRECOMPENSATION_PERCENT = 1.0
-
-
-def precompensation_verdict(
-    fit: Any, gamma_hat: float, source: str | None = None
-) -> tuple[bool, str]:
-    """Whether a pre-compensation exponent suits the projector a gamma fit describes.
-
-    The residual nonlinearity (max deviation from a straight line, % of the captured range,
-    :func:`hdrfringe.gamma.predicted_nonlinearity`) that pre-compensating with ``gamma_hat``
-    leaves is compared with what the fitted gamma leaves; more than
-    :data:`WRONG_PRECOMPENSATION_PERCENT` above it is wrong.
-
-    Parameters
-    ----------
-    fit : GammaFit
-        A uniform-gray or fringe-shape fit of the projector.
-    gamma_hat : float
-        The pre-compensation exponent judged.
-    source : str, optional
-        The rig configuration file it comes from (its ``gamma``); None: the ``--gamma`` in use.
-
-    Returns
-    -------
-    wrong : bool
-    line : str
-        One line saying so, with the exponent to use when it is wrong.
-
-    References
-    ----------
-    Thesis Sec. 2.6, Eq. 2.16-2.17; docs/gamma.md ("Residual nonlinearity").
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from hdrfringe.gamma import fit_gamma_uniform
-    >>> g = np.arange(0, 256, 16.0)
-    >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
-    >>> precompensation_verdict(fit, 2.2)[0], precompensation_verdict(fit, 1.8)[0]
-    (False, True)
-    >>> precompensation_verdict(fit, 1.8, source="rig.toml")[1].split("; ")[-1]
-    'set gamma = 2.200 in rig.toml'
-    """
-    from hdrfringe.gamma import predicted_nonlinearity
-
-    best, _ = predicted_nonlinearity(fit, fit.gamma)
-    used, _ = predicted_nonlinearity(fit, gamma_hat)
-    if source is None:
-        what = f"the pre-compensation in use (--gamma {gamma_hat:g})"
-        fix = f"pre-compensate with --gamma {fit.gamma:.3f}"
-    else:
-        what = f"the rig configuration's gamma {gamma_hat:g} ({source})"
-        fix = f"set gamma = {fit.gamma:.3f} in {source}"
-    if used > best + WRONG_PRECOMPENSATION_PERCENT:
-        return True, (
-            f"warning: {what} is wrong for this projector: it leaves {used:.2f} % "
-            f"nonlinearity, the fitted gamma {fit.gamma:.3f} leaves {best:.2f} %; {fix}"
-        )
-    return False, (
-        f"{what} suits this projector: it leaves {used:.2f} % nonlinearity (the fitted gamma "
-        f"{fit.gamma:.3f}: {best:.2f} %)"
-    )
-
-
-def spread_order(levels: list[float]) -> list[float]:
-    """The gray levels in an order in which each differs widely from the two before it.
-
-    Software synchronisation accepts an image only when it differs from the images of the
-    last two different frames by clearly more than noise (docs/hardware.md
-    "Synchronisation"). Neighbouring dark grays give nearly the same image (the projector's
-    gamma crushes them: 0 and 15 differ by a fraction of a gray level at gamma 2.8), so they
-    are never shown one after the other: the sorted levels are dealt into three runs (dark,
-    middle, bright) and taken one from each in turn.
-
-    Parameters
-    ----------
-    levels : list of float
-        Gray levels, any order.
-
-    Returns
-    -------
-    list of float
-        The same levels, reordered.
-
-    Examples
-    --------
-    >>> spread_order([0.0, 15.0, 30.0, 45.0, 60.0, 75.0])
-    [0.0, 30.0, 60.0, 15.0, 45.0, 75.0]
-    """
-    ordered = sorted(levels)
-    k = math.ceil(len(ordered) / 3)
-    return [ordered[i] for i in sorted(range(len(ordered)), key=lambda i: (i % k, i // k))]
-
-
-def _gamma_rig(ctx: typer.Context, rig_config: Path | None, gamma: float, **options: Any) -> Any:
-    """The (not yet open) hardware rig and its resolved configuration: the one place this
-    command builds it (:func:`~hdrfringe.cli.capture.hardware_rig`, from ``--rig-config`` and
-    the hardware ``options``). The rig pre-compensates with ``gamma`` (the command's
-    ``--gamma``), not with the configuration's gamma, which stays in the configuration (it is
-    recorded and judged)."""
-    rig, config = hardware_rig(ctx, rig_config, **options)
-    rig.gamma_hat = gamma
-    return rig, config
-
+__all__ = ["capture_gamma"]
 
 @app.command("capture-gamma")
 @handle_errors
@@ -209,115 +93,28 @@ def capture_gamma(
     complete groups (the grays, each fringe set) and marks the folder incomplete (exit 2;
     before the first group: nothing written, exit 130). Any other error writes nothing.
     """
-    from hdrfringe.captures import ProjectorInfo
-    from hdrfringe.gamma import (
-        MIN_FRINGE_PITCH_PX,
-        MIN_UNIFORM_LEVELS,
-        gamma_report,
-        select_gamma_sets,
-    )
-    from hdrfringe.hardware.rig import Recorder
-    from hdrfringe.io.results import (
-        check_output_against_inputs,
-        check_output_dir,
-        staged_output_dir,
-    )
-    from hdrfringe.patterns import FringeSpec
-    from hdrfringe.programs import fringe_program
+    from hdrfringe.tasks.capture_gamma import capture_gamma as task
 
     if output is None:
         raise InputError("no output folder: give -o/--output CAPTURES")
     if not (grays or fringes):
         raise InputError("nothing to project: leave --grays or --fringes on")
-    levels = parse_range(gray, "--gray") if grays else []
-    if grays and len(set(levels)) < MIN_UNIFORM_LEVELS:
-        raise InputError(
-            f"--gray {gray}: {len(set(levels))} distinct levels; the fit needs at least "
-            f"{MIN_UNIFORM_LEVELS} (e.g. 0:255:15)"
-        )
-    exponents = parse_floats(fringe_gamma, "--fringe-gamma") if fringes else []
-    if any(e <= 0 for e in exponents) or not (math.isfinite(gamma) and gamma > 0):
-        raise InputError("--gamma and --fringe-gamma exponents must be positive numbers")
-    if fringes:
-        if fringe_pitch < MIN_FRINGE_PITCH_PX:
-            raise InputError(
-                f"--fringe-pitch {fringe_pitch:g}: narrower than {MIN_FRINGE_PITCH_PX:g} px, "
-                "which `hdrfringe gamma` leaves out (projector pixels and blur reshape narrow "
-                f"fringes); give >= {MIN_FRINGE_PITCH_PX:g}"
-            )
-        design = FringeSpec("sinusoidal", steps, fringe_pitch, imin=0.0, migl=255.0)
-        if not select_gamma_sets([(design, e) for e in dict.fromkeys(exponents)]).fittable:
-            raise InputError(
-                f"--fringe-gamma {fringe_gamma} with --steps {steps}: a shape fit needs two "
-                "different exponents or >= 4 steps"
-            )
-    rig, config = _gamma_rig(
-        ctx, rig_config, gamma, projector=projector, camera=camera, sync=sync, settle=settle,
-        discard=discard, max_grabs=max_grabs, exposure_ms=exposure_ms, gain_db=gain_db,
-        pixel_format=pixel_format, view_check=view_check,
+    hardware = {
+        "projector": projector, "camera": camera, "sync": sync, "settle": settle,
+        "discard": discard, "max_grabs": max_grabs, "exposure_ms": exposure_ms,
+        "gain_db": gain_db, "pixel_format": pixel_format, "view_check": view_check,
+    }  # fmt: skip
+    report = task(
+        output, rig_config, hardware, given=given_names(ctx, tuple(hardware)),
+        levels=parse_range(gray, "--gray") if grays else [], gray_text=gray, gamma=gamma,
+        exponents=parse_floats(fringe_gamma, "--fringe-gamma") if fringes else [],
+        exponents_text=fringe_gamma, fringe_pitch=fringe_pitch, steps=steps, force=force,
+        say=console.print,
     )  # fmt: skip
-    check_output_against_inputs(output, [rig_config, config.gamma_file])
-    checked = check_output_dir(output, force)
-    recorder = Recorder(rig)
-    stopped: str | None = None
-    with rig:
-        width, height = rig.projector.width, rig.projector.height
-        full = float(2**rig.projector.bit_depth - 1)
-        frames = fringe_program(
-            "sinusoidal", steps, [fringe_pitch], ("vertical",) if fringes else (), 0.0, [full],
-            projector=ProjectorInfo(width, height, rig.projector.bit_depth, gamma),
-            centerline=False, grays=spread_order(levels),
-        )  # fmt: skip
-        uniform = [f for f in frames if f.kind == "uniform"]
-        fringe_set = [f for f in frames if f.kind != "uniform"]
-        name = f" ({config.name})" if config.name else ""
-        console.print(
-            f"gamma program live{name}: projector {config.projector.spec} ({width}x{height}), "
-            f"camera {config.camera.spec}; "
-            f"{len(uniform)} grays at --gamma {gamma:g}, {len(exponents)} fringe sets "
-            f"(pre-distorted with {', '.join(f'{e:g}' for e in exponents) or 'none'})"
-        )
-        try:
-            if uniform:
-                recorder.capture(uniform)
-            for exponent in exponents:
-                rig.gamma_hat = exponent
-                recorder.capture(fringe_set)
-        except KeyboardInterrupt:
-            if not recorder.calls:
-                raise
-            stopped = "interrupted (Ctrl-C)"
-        finally:
-            rig.gamma_hat = gamma
-    program = {
-        "program": "gamma",
-        "gray_levels": levels,
-        "gray_gamma_precompensation": gamma,
-        "fringe_gamma_precompensation": exponents,
-    }
-    caps, state, log = live_record(
-        recorder, rig, config, None, output.name, stopped, entries=program
-    )
-    with staged_output_dir(checked, force=force) as tmp:
-        write_capture_output(tmp, caps, state, log)
-    if stopped is not None:
-        raise HdrFringeError(
-            f"capture-gamma {stopped} after {len(recorder.calls)} complete groups; {output} "
-            'holds those only (manifest "capture": {"complete": false}); capture again for the '
-            "whole program"
-        )
-    console.print(f"captured {len(caps.frames)} images; wrote {output}")
-    try:
-        report = gamma_report(caps, source=str(output))
-    except HdrFringeError as err:  # the folder is written; say why it does not fit
-        console.print(f"warning: {' '.join(str(err).split())}", highlight=False)
+    console.print(f"captured {report.images} images; wrote {output}")
+    if report.warning is not None:
+        console.print(f"warning: {report.warning}", highlight=False)
         return
     for line in report.lines:
         console.print(line, highlight=False)
-    fit = report.uniform_fit or report.fringe_fit
-    if fit is not None:
-        console.print(precompensation_verdict(fit, gamma)[1], highlight=False)
-        if config.gamma is not None and config.gamma != gamma:  # the file's, not sent
-            source = config.source or "the rig configuration"
-            console.print(precompensation_verdict(fit, config.gamma, source)[1], highlight=False)
     console.print(f"hdrfringe gamma {output} -o OUT writes the fits and plots", highlight=False)

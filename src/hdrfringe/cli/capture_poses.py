@@ -6,12 +6,12 @@ program waits that long: an automated rig); the rig then projects the program th
 vertical and horizontal fringe sets decodable to absolute phase, then a white frame) and each
 complete pose is written as a capture folder ``OUT/pose_01``, ``OUT/pose_02``, ...
 docs/hardware.md ("capture-poses") describes it. The rig comes from ``--rig-config`` and the
-hardware options exactly as for ``capture`` (:func:`hdrfringe.cli.capture.hardware_rig`).
+hardware options exactly as for ``capture`` (:func:`hdrfringe.tasks.capture.hardware_rig`); the work
+is :func:`hdrfringe.tasks.capture_poses.capture_poses`.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import shlex
 import sys
@@ -22,7 +22,7 @@ from typing import Annotated, Any
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors, parse_floats
-from hdrfringe.cli._options import GammaOpt, StepsOpt
+from hdrfringe.cli._options import GammaOpt, StepsOpt, given_names
 from hdrfringe.cli.capture import (
     CameraOpt,
     DiscardOpt,
@@ -35,62 +35,10 @@ from hdrfringe.cli.capture import (
     SettleOpt,
     SyncOpt,
     ViewCheckOpt,
-    hardware_rig,
-    live_record,
-    write_capture_output,
 )
-from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.errors import InputError
 
-__all__ = ["POSES_LOG", "board_pitches", "capture_poses"]
-
-#: The summary ``capture-poses`` writes in OUT beside the pose folders.
-POSES_LOG = "capture_poses.json"
-
-
-def board_pitches(width: int, height: int) -> tuple[float, ...]:
-    """The default fringe pitches of a board pose for a projector of this size.
-
-    :data:`~hdrfringe.rig.board_poses.BOARD_PITCHES_PX` (1024, 96, 16) when 1024 px spans the
-    projector; for a larger projector the two coarse pitches grow with it (one period over
-    the projector, then the same ratio to the middle pitch), so the coarsest still gives an
-    absolute phase and the ratios stay below 13 (temporal unwrapping).
-
-    Parameters
-    ----------
-    width, height : int
-        Projector size in pixels.
-
-    Returns
-    -------
-    tuple of float
-        Coarsest first.
-
-    References
-    ----------
-    Thesis Sec. 2.5 (temporal phase unwrapping).
-
-    Examples
-    --------
-    >>> board_pitches(800, 600)
-    (1024.0, 96.0, 16.0)
-    >>> board_pitches(1920, 1080)
-    (1920.0, 180.0, 16.0)
-    """
-    from hdrfringe.rig.board_poses import BOARD_PITCHES_PX
-
-    coarse, middle, fine = BOARD_PITCHES_PX
-    span = max(width, height)
-    if span <= coarse:
-        return BOARD_PITCHES_PX
-    return (float(span), float(round(span * middle / coarse)), fine)
-
-
-def _poses_rig(ctx: typer.Context, rig_config: Path | None, **options: Any) -> Any:
-    """The (not yet open) hardware rig and its resolved configuration: the one place this
-    command builds it (:func:`~hdrfringe.cli.capture.hardware_rig`, from ``--rig-config`` and
-    the hardware ``options``)."""
-    return hardware_rig(ctx, rig_config, **options)
-
+__all__ = ["capture_poses"]
 
 def _wait_for_pose(number: int, total: int, interval: float | None) -> bool:
     """Wait until pose ``number`` is in place; False when the user asks to finish.
@@ -169,99 +117,33 @@ def capture_poses(
     file), as for capture. With --board the last line is `next: hdrfringe calibrate-stereo
     ...`, a command that runs as printed; without it, how to calibrate with your board.
     """
-    from hdrfringe.hardware.rig import Recorder
-    from hdrfringe.io.results import (
-        check_output_against_inputs,
-        check_output_dir,
-        staged_output_dir,
-    )
-    from hdrfringe.rig.board_poses import MAX_BOARD_POSES, board_program
-    from hdrfringe.stereo_calibration import MIN_POSES, BoardSpec
+    from hdrfringe.tasks.capture_poses import capture_poses as task
 
     if output is None:
         raise InputError("no output folder: give -o/--output POSES")
-    if isinstance(poses, bool) or not 1 <= poses <= MAX_BOARD_POSES:
-        raise InputError(f"--poses {poses}: give 1..{MAX_BOARD_POSES} (10 or more recommended)")
     if interval is not None and not (math.isfinite(interval) and interval >= 0):
         raise InputError(f"--interval {interval}: give a number of seconds >= 0")
-    pitches = None if pitch is None else parse_floats(pitch, "--pitch")
-    spec = None if board is None else BoardSpec.parse(board)
-    rig, config = _poses_rig(
-        ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
-        discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
-        gain_db=gain_db, pixel_format=pixel_format, view_check=view_check,
+    hardware = {
+        "projector": projector, "camera": camera, "sync": sync, "settle": settle,
+        "discard": discard, "max_grabs": max_grabs, "gamma": gamma, "exposure_ms": exposure_ms,
+        "gain_db": gain_db, "pixel_format": pixel_format, "view_check": view_check,
+    }  # fmt: skip
+    report = task(
+        output, rig_config, hardware, given=given_names(ctx, tuple(hardware)), poses=poses,
+        wait=lambda number, total: _wait_for_pose(number, total, interval), steps=steps,
+        pitches=None if pitch is None else parse_floats(pitch, "--pitch"), imin=imin,
+        board=board, force=force, say=lambda line: console.print(line, highlight=False),
     )  # fmt: skip
-    check_output_against_inputs(output, [rig_config, config.gamma_file])
-    checked = check_output_dir(output, force)
-    names: list[str] = []
-    stopped: str | None = None
-    failure: HdrFringeError | None = None
-    with rig, staged_output_dir(checked, force=force) as tmp:
-        width, height = rig.projector.width, rig.projector.height
-        used = tuple(pitches) if pitches is not None else board_pitches(width, height)
-        # rig.projector: the open projector's size, 8 bit, the rig's gamma pre-compensation
-        program = board_program(rig.projector, steps=steps, pitches=used, imin=imin)
-        entries: dict[str, Any] = {"program": "board poses", "pitches": list(used), "steps": steps}
-        state: dict[str, Any] = {}
-        name = f" ({config.name})" if config.name else ""
-        console.print(
-            f"board poses live{name}: projector {config.projector.spec} ({width}x{height}), "
-            f"camera {config.camera.spec}; {len(program)} frames per pose (pitches "
-            f"{', '.join(f'{p:g}' for p in used)})",
-            highlight=False,
-        )
-        for number in range(1, poses + 1):
-            try:
-                if not _wait_for_pose(number, poses, interval):
-                    stopped = "finished with q"
-                    break
-                rig.rebaseline()  # the board moved: a new reference image of the screen
-                start = len(rig.log)
-                recorder = Recorder(rig)
-                recorder.capture(program)
-            except KeyboardInterrupt:
-                if not names:
-                    raise
-                stopped = "interrupted (Ctrl-C)"
-                break
-            except HdrFringeError as err:
-                if not names:
-                    raise
-                stopped = f"stopped by an error at pose {number}"
-                failure = err
-                break
-            folder = f"pose_{number:02d}"
-            caps, state, log = live_record(
-                recorder, rig, config, None, folder, entries={**entries, "pose": number},
-                start=start,
-            )  # fmt: skip
-            with staged_output_dir(tmp / folder) as pose_dir:
-                write_capture_output(pose_dir, caps, state, log)
-            names.append(folder)
-            rejected = sum(t.rejected for t in rig.log[start:])
-            console.print(
-                f"pose {number}: {len(caps.frames)} images, {rejected} stale grabs rejected",
-                highlight=False,
-            )
-        if not names:
-            raise HdrFringeError(
-                f"capture-poses {stopped or 'stopped'} before the first pose; nothing written"
-            )
-        # the last pose's record without its pose, for the whole run
-        summary = {k: v for k, v in state.items() if k not in ("pose", "complete")}
-        summary.update({"poses": names, "complete": len(names) == poses})
-        if spec is not None:
-            summary["board"] = _board_text(spec)
-        if stopped is not None:
-            summary["stopped"] = stopped
-        (tmp / POSES_LOG).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    _print_report(report)
+
+
+def _print_report(report: Any) -> None:
+    """What ``capture-poses`` prints once the poses are written: the folder, and the next
+    step (the calibrate-stereo command when --board was given)."""
+    from hdrfringe.stereo_calibration import MIN_POSES
+
+    output, names, stopped = report.output, report.names, report.stopped
     what = f"{len(names)} complete poses ({names[0]} .. {names[-1]})"
-    if failure is not None or stopped == "interrupted (Ctrl-C)":
-        why = stopped if failure is None else f"{stopped}: {' '.join(str(failure).split())}"
-        raise HdrFringeError(
-            f"capture-poses {why}; {output} holds the {what} captured before it, the pose "
-            "being captured was dropped"
-        )
     console.print(
         f"wrote {output}: {what}{'' if stopped is None else f', {stopped}'}", highlight=False
     )
@@ -270,7 +152,7 @@ def capture_poses(
             f"warning: calibrate-stereo needs at least {MIN_POSES} poses; capture more",
             highlight=False,
         )
-    if spec is None:
+    if report.board is None:
         console.print(
             f"to calibrate: hdrfringe calibrate-stereo {output}/pose_* --board "
             "PATTERN:COLSxROWS:SPACING_MM -o STEREO.h5, with your board's pattern, inner "
@@ -281,11 +163,6 @@ def capture_poses(
     elif len(names) >= MIN_POSES:
         command = [
             "hdrfringe", "calibrate-stereo", *(str(output / n) for n in names),
-            "--board", _board_text(spec), "-o", str(output / "stereo.h5"),
+            "--board", report.board, "-o", str(output / "stereo.h5"),
         ]  # fmt: skip
         console.print(f"next: {shlex.join(command)}", highlight=False, soft_wrap=True)
-
-
-def _board_text(spec: Any) -> str:
-    """A :class:`~hdrfringe.stereo_calibration.BoardSpec` as ``--board`` takes it."""
-    return f"{spec.pattern}:{spec.cols}x{spec.rows}:{spec.spacing_mm:g}"

@@ -34,18 +34,8 @@ def gamma(
     residual nonlinearity plot; a fit that is degenerate or leaves a large residual (over 2 %
     of its signal range) is reported with a warning line, also listed in gamma.json.
     """
-    from hdrfringe.gamma import gamma_report
-    from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.io.gamma_outputs import write_gamma_outputs
-    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
+    from hdrfringe.tasks.gamma import gamma as task
 
+    task(folder, output, force=force, say=console.print)
     if output is not None:
-        check_output_against_inputs(output, [folder])
-        output = check_output_dir(output, force)
-    report = gamma_report(read_capture_folder(folder), source=str(folder))
-    for line in report.lines:
-        console.print(line)
-    report.check_fitted()
-    if output is not None:
-        write_gamma_outputs(output, report, force=force)
         console.print(f"wrote {output}")

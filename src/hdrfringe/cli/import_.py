@@ -1,4 +1,5 @@
-"""``hdrfringe import``: camera images + a description of what was projected -> capture folder."""
+"""``hdrfringe import``: camera images + a description of what was projected -> capture folder
+(:func:`hdrfringe.tasks.import_.import_folder`)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import typer
 from hdrfringe.cli._app import app, console, handle_errors
 from hdrfringe.errors import InputError
 
-__all__ = ["import_", "next_step"]
+__all__ = ["import_"]
 
 
 @app.command("import")
@@ -43,8 +44,7 @@ def import_(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Import camera images as a capture folder (images copied; converted only when needed)."""
-    from hdrfringe.io.importer import import_captures
-    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
+    from hdrfringe.tasks.import_ import import_folder
 
     offset = None
     if crop_offset is not None:
@@ -55,11 +55,10 @@ def import_(
                 f"--crop-offset {crop_offset!r}: give X0,Y0 in camera pixels, e.g. 199,157"
             ) from None
         offset = (x0, y0)
-    check_output_against_inputs(output, [images, description])
-    check_output_dir(output, force)
-    report = import_captures(
+    done = import_folder(
         images, description, output, bit_depth=bit_depth, crop_offset=offset, force=force
     )
+    report, hint = done.report, done.hint
     frames = report.manifest["frames"]
     kinds: dict[str, int] = {}
     for f in frames:
@@ -72,7 +71,6 @@ def import_(
     if report.ignored:
         shown = ", ".join(report.ignored[:5]) + (", ..." if len(report.ignored) > 5 else "")
         console.print(f"{len(report.ignored)} files not used by the description: {shown}")
-    hint = next_step(output)
     console.print(
         f"wrote {output} (capture format version {report.manifest['version']})"
         + (f"; next: {hint}" if hint else ""),
@@ -84,35 +82,3 @@ def import_(
             "`hdrfringe calibrate-stereo` reads (docs/stereo_calibration.md)",
             soft_wrap=True,
         )
-
-
-def next_step(folder: Path) -> str | None:
-    """The command that makes sense next on a capture folder, as ``import`` suggests it.
-
-    ``hdrfringe phase FOLDER -o OUT`` when its fringe sets decode as families (no two sets of
-    one family at one pitch), else ``hdrfringe gamma FOLDER -o OUT`` when the folder is a gamma
-    capture (uniform grays, or fringe sets pre-distorted with several exponents, e.g. the
-    kamino410 gamma sheet), else None (nothing to suggest).
-
-    Parameters
-    ----------
-    folder : Path
-        A capture folder.
-
-    Returns
-    -------
-    str or None
-    """
-    from hdrfringe.gamma import select_gamma_sets, uniform_gray_means
-    from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.process import group_families
-
-    caps = read_capture_folder(folder)
-    families = group_families(caps.sets)
-    if caps.sets and all(len({s.spec.pitch_px for s in f}) == len(f) for f in families):
-        return f"hdrfringe phase {folder} -o OUT"
-    gamma0 = caps.projector.gamma_precompensation if caps.projector else 1.0
-    chosen = select_gamma_sets([(s.spec, s.gamma_precompensation or gamma0) for s in caps.sets])
-    if chosen.fittable or uniform_gray_means(caps) is not None:
-        return f"hdrfringe gamma {folder} -o OUT"
-    return None

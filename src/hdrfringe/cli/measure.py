@@ -1,4 +1,8 @@
-"""``hdrfringe measure``: height map, point cloud, phase maps and metrics."""
+"""``hdrfringe measure``: height map, point cloud, phase maps and metrics.
+
+The work is :func:`hdrfringe.tasks.measure.measure`; this module declares the options and
+prints the summary.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +12,7 @@ from typing import Annotated, Any
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, progress_bar
+from hdrfringe.cli._app import app, console, handle_errors, parse_floats, progress_stage
 from hdrfringe.cli._harmonics import HarmonicsOpt, check_harmonics, print_harmonics
 from hdrfringe.cli._measure_options import (
     CalibrationOpt,
@@ -21,7 +25,7 @@ from hdrfringe.cli._measure_options import (
     NoiseSigmaOpt,
     OutputOpt,
     UncertaintyOpt,
-    live_fringes,
+    given_strategy_options,
     strategy_params,
 )
 from hdrfringe.cli._options import (
@@ -39,10 +43,10 @@ from hdrfringe.cli._options import (
     LiveSeedOpt,
     LiveStepsOpt,
     check_source,
+    given_names,
 )
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.cli.capture import (
-    CAPTURE_LOG,
     HwCameraOpt,
     HwDiscardOpt,
     HwExposureOpt,
@@ -54,15 +58,11 @@ from hdrfringe.cli.capture import (
     HwSettleOpt,
     HwSyncOpt,
     HwViewCheckOpt,
-    strategy_record,
 )
 from hdrfringe.cli.phase import KeepSaturatedOpt, SaturatedOpt, decoder_min_shifts
 from hdrfringe.errors import InputError
 
-__all__ = ["CAPTURES", "HARDWARE_OPTIONS", "logged_strategy", "measure", "print_summary"]
-
-#: The capture folder ``measure --rig hardware`` writes inside OUT.
-CAPTURES = "captures"
+__all__ = ["HARDWARE_OPTIONS", "measure", "print_summary"]
 #: measure's options of the hardware rig only.
 HARDWARE_OPTIONS = (
     "rig_config",
@@ -163,99 +163,52 @@ def measure(
     is replayed with the method and strategy options its capture_log.json records); Ctrl-C
     writes nothing (exit 130): use `capture` to keep the sets of an interrupted run.
     """
-    import json
-
-    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
+    from hdrfringe.tasks import measure as task
 
     live = check_source(
         ctx, folder, rig, LIVE_OPTIONS, hardware_only=HARDWARE_OPTIONS, sim_only=SIM_OPTIONS
     )
     if output is None:
         raise InputError("no output folder: give -o/--output OUT")
-    if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
-        raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
-    if noise_sigma is not None and not uncertainty:
-        raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
+    task.check_noise_sigma(noise_sigma, uncertainty)
     zrange = _depth_range(depth_range, calibration)
     check_harmonics(harmonics, "--method tolerant" if method == "tolerant" else None)
     if live and method is None:
         method = "conventional"
-    recorded, replayed = None, ""
-    if folder is not None and not live:
-        given_method = method
-        method, recorded = logged_strategy(folder, method)
-        if recorded is not None and given_method is None:
-            replayed = f"{folder}: captured with --method {method} ({CAPTURE_LOG}), replayed"
+    method, recorded, replayed = task.replayed_strategy(None if live else folder, method)
     min_shifts = decoder_min_shifts(method, saturated, keep_saturated, strategy_options)
     params, sources = strategy_params(ctx, method, strategy_options, recorded)
-    inputs = [folder, calibration, *sources.values()]
-    hardware: Any = None
-    if rig == "hardware":
-        from hdrfringe.cli.capture import hardware_rig
+    options = task.MeasureOptions(
+        method, params, sources, given_strategy_options(ctx, strategy_options),
+        stereo_directions, uncertainty, zrange, keep_saturated, saturated, min_shifts,
+        harmonics, noise_sigma, previews,
+    )  # fmt: skip
+    hardware = {
+        "projector": projector, "camera": camera, "sync": sync, "settle": settle,
+        "discard": discard, "max_grabs": max_grabs, "gamma": gamma, "exposure_ms": exposure_ms,
+        "gain_db": gain_db, "pixel_format": pixel_format, "view_check": view_check,
+    }  # fmt: skip
+    sim = {
+        "scene": scene, "depth_mm": depth_mm, "ambient_lux": ambient_lux, "noise": noise,
+        "aperture": aperture, "gamma": gamma, "seed": seed,
+    }  # fmt: skip
+    report = task.measure(
+        output, options, folder=None if live else folder, calibration=calibration,
+        sim=sim if live and rig != "hardware" else None,
+        hardware=hardware if rig == "hardware" else None, rig_config=rig_config,
+        given=given_names(ctx, tuple(hardware)), replayed=replayed, force=force,
+        fringes=task.LiveFringes(pattern, steps, _pitches(live, pitch), imin, migl, centerline),
+        say=console.print, note=lambda line: console.print(line, soft_wrap=True),
+        progress=progress_stage,
+    )  # fmt: skip
+    if report.captured is not None:
+        console.print(f"captured {report.captured} images, {report.rejected} stale grabs rejected")
+    print_summary(report.result, report.output)
 
-        hardware = hardware_rig(
-            ctx, rig_config, projector=projector, camera=camera, sync=sync, settle=settle,
-            discard=discard, max_grabs=max_grabs, gamma=gamma, exposure_ms=exposure_ms,
-            gain_db=gain_db, pixel_format=pixel_format, view_check=view_check,
-        )  # fmt: skip
-        inputs += [rig_config, hardware[1].gamma_file]
-    check_output_against_inputs(output, inputs)
-    output = check_output_dir(output, force)
-    if replayed:
-        console.print(replayed, soft_wrap=True)
-    # imported once the options are known good: a refused command does not pay for the
-    # pipeline's imports (the decoders, unwrapping, calibration, HDF5, the writers)
-    from hdrfringe import pipeline
-    from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.io.measurement_outputs import write_measurement
-    from hdrfringe.io.stereo_file import load_any_calibration
 
-    cal = None if calibration is None else load_any_calibration(calibration)
-    kwargs: dict[str, Any] = {
-        "method": method,
-        "params": params,
-        "param_sources": sources,
-        "calibration_source": None if calibration is None else str(calibration),
-        "stereo_directions": stereo_directions,
-        "uncertainty": uncertainty,
-        "depth_range_mm": zrange,
-        "reject_saturated": not keep_saturated,
-        "saturated": saturated,
-        "min_shifts": min_shifts,
-    }
-    if harmonics != "off":
-        kwargs["harmonics"] = harmonics
-    if noise_sigma is not None:
-        from hdrfringe.uncertainty import NoiseModel
-
-        kwargs["noise"] = NoiseModel(noise_sigma, source="given (--noise-sigma)")
-    if hardware is not None:
-        assert method is not None
-        hw_rig, hw_config = hardware
-        fringes = (pattern, steps, pitch, imin, migl, centerline)
-        record = strategy_record(ctx, strategy_options)
-        _measure_hardware(
-            hw_rig, hw_config, cal, output, force, method, fringes, kwargs, previews=previews,
-            record=record,
-        )  # fmt: skip
-        return
-    if live:
-        from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
-
-        sim = virtual_rig(
-            scene, depth_mm=depth_mm, ambient_lux=ambient_lux, noise=noise, aperture=aperture,
-            gamma=gamma, seed=seed,
-        )  # fmt: skip
-        specs, line = live_fringes(sim.projector, pattern, steps, pitch, imin, migl, centerline)
-        label = f"live virtual rig: {json.dumps(sim.scene.to_manifest())}, {ambient_lux:g} lx"
-        with progress_bar() as prog:
-            prog.add_task(f"{method} on the virtual rig ({scene})", total=None)
-            result = pipeline.measure(sim, cal, specs=specs, centerline=line, label=label, **kwargs)
-    else:
-        assert folder is not None
-        result = pipeline.measure(read_capture_folder(folder), cal, label=str(folder), **kwargs)
-    write_measurement(result, output, force=force, previews=previews)
-    print_summary(result, output)
+def _pitches(live: bool, pitch: str) -> list[float]:
+    """``--pitch`` of a live rig, parsed (a folder's pitches are its own: not read)."""
+    return parse_floats(pitch, "--pitch") if live else []
 
 
 def _depth_range(text: str | None, calibration: Path | None) -> tuple[float, float] | None:
@@ -277,45 +230,6 @@ def _depth_range(text: str | None, calibration: Path | None) -> tuple[float, flo
             "--depth-range fixes the fringe order with a stereo calibration; give -c STEREO.h5"
         )
     return zmin, zmax
-
-
-def _measure_hardware(
-    rig: Any,
-    config: Any,
-    cal: Any,
-    output: Any,
-    force: bool,
-    method: str,
-    fringes: tuple[Any, ...],
-    kwargs: dict[str, Any],
-    previews: bool = True,
-    record: dict[str, Any] | None = None,
-) -> None:
-    """``measure --rig hardware``: the strategy live as ``capture`` runs it, then the composite
-    measured; OUT holds the measurement and the capture folder (staged together)."""
-    from hdrfringe import pipeline
-    from hdrfringe.cli.capture import announce_live, live_record, write_capture_output
-    from hdrfringe.hardware.rig import Recorder
-    from hdrfringe.io.measurement_outputs import write_measurement
-
-    recorder = Recorder(rig)
-    with rig:  # Ctrl-C: the rig closes, nothing is written (handle_errors: exit 130)
-        specs, line = live_fringes(rig.projector, *fringes)
-        announce_live(method, rig, config)
-        label = f"live hardware rig: projector {config.projector.spec}, camera {config.camera.spec}"
-        result = pipeline.measure(
-            recorder, cal, specs=specs, centerline=line, label=label, **kwargs
-        )
-    caps, state, log = live_record(recorder, rig, config, method, CAPTURES, entries=record)
-
-    def captures(tmp: Path) -> None:
-        write_capture_output(tmp / CAPTURES, caps, state, log)
-
-    write_measurement(result, output, force=force, extra_metrics={"capture": state},
-                      extra_files=captures, previews=previews)  # fmt: skip
-    rejected = sum(t.rejected for t in rig.log)
-    console.print(f"captured {len(caps.frames)} images, {rejected} stale grabs rejected")
-    print_summary(result, output)
 
 
 def print_summary(result: Any, output: Path) -> None:
@@ -378,48 +292,3 @@ def _print_direction_check(check: dict[str, Any] | None) -> None:
         console.print(f"warning: {check['reason']}", soft_wrap=True)
     else:
         console.print(f"stereo directions auto: {check['reason']}", soft_wrap=True)
-
-
-def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[str, Any] | None]:
-    """The strategy a folder written by ``capture`` was captured with (its ``capture_log.json``).
-
-    Parameters
-    ----------
-    folder : Path
-        The capture folder measured.
-    method : str or None
-        ``--method`` as given.
-
-    Returns
-    -------
-    method : str or None
-        The logged method (``method`` when the folder has no log or the log none).
-    recorded : dict or None
-        The logged strategy options by option name (``strategy_options``), None without a log.
-
-    Raises
-    ------
-    InputError
-        A ``--method`` other than the logged one, or an unreadable log.
-    """
-    import json
-
-    path = Path(folder) / CAPTURE_LOG
-    if not path.is_file():
-        return method, None
-    try:
-        log = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: not a readable capture log ({exc}); fix or remove it") from None
-    logged = log.get("method") if isinstance(log, dict) else None
-    if not isinstance(logged, str):
-        return method, None
-    if method is not None and method != logged:
-        raise InputError(
-            f"{folder} was captured with --method {logged} ({CAPTURE_LOG}), not {method}; "
-            f"drop --method or give --method {logged}"
-        )
-    options = log.get("strategy_options") or {}
-    if not isinstance(options, dict):
-        raise InputError(f"{path}: strategy_options is not a mapping; fix or remove it")
-    return logged, options

@@ -25,15 +25,10 @@ def modify(
 ) -> None:
     """Add light and noise to existing captures with clipping at 2^B - 1 (thesis Eq. 4.1)."""
     from hdrfringe._validation import describe_saturated
-    from hdrfringe.io.modify_folder import modify_capture_folder
-    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
-    from hdrfringe.rig.acquire import IntensityModification
+    from hdrfringe.tasks.modify import modify
 
-    check_output_against_inputs(output, [folder])
-    check_output_dir(output, force)
-
-    modification = IntensityModification(add_lux, add_dn, noise, seed)
-    done = modify_capture_folder(folder, output, modification, force=force)
+    done = modify(folder, output, add_lux=add_lux, add_dn=add_dn, noise=noise, seed=seed,
+                  force=force)  # fmt: skip
     console.print(
         f"wrote {done.n_images} modified captures to {output} "
         f"({describe_saturated(done.saturated_pixels, done.n_pixels)} saturated)"

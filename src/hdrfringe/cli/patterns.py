@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, parse_floats, progress_bar
+from hdrfringe.cli._app import app, console, handle_errors, parse_floats, progress_stage
 
 __all__ = ["patterns"]
 
@@ -38,27 +38,13 @@ def patterns(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Generate fringe patterns (and centerline/uniform images) for a projector."""
-    from hdrfringe.captures import ProjectorInfo
-    from hdrfringe.io.pattern_folder import write_pattern_folder
-    from hdrfringe.programs import check_projector_size, fringe_program
+    from hdrfringe.tasks.patterns import patterns as task
 
-    projector = check_projector_size(ProjectorInfo(width, height, bit_depth, gamma))
-    frames = fringe_program(  # every level checked against the projector before writing
-        pattern,
-        steps,
-        parse_floats(pitch, "--pitch"),
-        [orientation],
-        imin,
-        [migl],
-        projector=projector,
-        centerline=centerline,
+    done = task(
+        output, pattern=pattern, steps=steps, pitches=parse_floats(pitch, "--pitch"),
+        orientation=orientation, imin=imin, migl=migl, width=width, height=height,
+        bit_depth=bit_depth, gamma=gamma, centerline=centerline,
         centerline_position=centerline_position,
-        centerline_level=migl,
-        grays=parse_floats(gray, "--gray") if gray else (),
-    )
-    with progress_bar() as prog:
-        task = prog.add_task("writing patterns", total=len(frames))
-        write_pattern_folder(
-            output, frames, projector, force=force, progress=lambda: prog.advance(task)
-        )
-    console.print(f"wrote {len(frames)} pattern images and manifest.json to {output}")
+        grays=parse_floats(gray, "--gray") if gray else (), force=force, progress=progress_stage,
+    )  # fmt: skip
+    console.print(f"wrote {done.images} pattern images and manifest.json to {output}")

@@ -1,8 +1,11 @@
-"""``hdrfringe phase``: every fringe set of a capture folder to phase and quality maps."""
+"""``hdrfringe phase``: every fringe set of a capture folder to phase and quality maps.
+
+The work is :func:`hdrfringe.tasks.phase.phase`; this module declares the options (and the
+saturation options ``measure`` shares) and prints the summary.
+"""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated, Any
@@ -174,15 +177,9 @@ def phase(
     ] = "off",
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
-    from hdrfringe._validation import describe_saturated
-    from hdrfringe.cli._harmonics import check_harmonics, print_harmonics
-    from hdrfringe.errors import CaptureFormatError
-    from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.io.results import (
-        check_output_against_inputs,
-        check_output_dir,
-        staged_output_dir,
-    )
+    from hdrfringe.cli._harmonics import check_harmonics
+    from hdrfringe.tasks.phase import PhaseOptions
+    from hdrfringe.tasks.phase import phase as task
 
     check_saturation_options(keep_saturated, saturated, min_shifts)
     if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
@@ -194,49 +191,21 @@ def phase(
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     check_harmonics(harmonics, "--saturated exclude" if saturated == "exclude" else None)
-    check_output_against_inputs(output, [folder])
-    output = check_output_dir(output, force)
-    captures = read_capture_folder(folder)
-    if not captures.sets:
-        raise CaptureFormatError(
-            f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"
-        )
-    # imported once the inputs are known good: a refused folder or output does not pay for
-    # the decoder's and unwrapper's imports (scipy.ndimage, scikit-image)
-    from hdrfringe.io.phase_maps import write_phase_maps
-    from hdrfringe.process import decode_captures
+    options = PhaseOptions(
+        min_modulation, keep_saturated, saturated, min_shifts, previews, uncertainty,
+        noise_sigma, map_dtype, harmonics,
+    )  # fmt: skip
+    report = task(folder, output, options, force=force)
+    _print_summary(report.summary, report.n_pixels, uncertainty)
+    console.print(f"wrote {len(report.summary['files'])} files to {report.output}")
 
-    if saturated == "flag":
-        decoded = decode_captures(
-            captures,
-            min_modulation=min_modulation,
-            reject_saturated=not keep_saturated,
-            map_dtype=map_dtype,
-            harmonics=harmonics,
-        )
-    else:
-        decoded = decode_captures(
-            captures, min_modulation=min_modulation, saturated="exclude", min_shifts=min_shifts
-        )
-    unc, unc_block = None, None
-    if uncertainty:
-        from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, predict_uncertainty
 
-        noise = None
-        if noise_sigma is not None:
-            noise = NoiseModel(noise_sigma, source="given (--noise-sigma)")
-        try:
-            unc = predict_uncertainty(captures, decoded, noise=noise)
-        except NoiseUnknownError as exc:  # none given and none to estimate (every set N = 3)
-            unc_block = {"predicted": False, "reason": str(exc)}
-    with staged_output_dir(output, force=force) as tmp:
-        summary = write_phase_maps(tmp, decoded, str(folder), previews=previews, uncertainty=unc)
-        if unc_block is not None:  # not predicted: the reason, where the block would be
-            files = summary.pop("files")
-            summary |= {"uncertainty": unc_block, "files": files}
-            text = json.dumps(summary, indent=1) + "\n"
-            (Path(tmp) / "phase_summary.json").write_text(text, encoding="utf-8")
-    n_pixels = captures.image_shape[0] * captures.image_shape[1]
+def _print_summary(summary: dict[str, Any], n_pixels: int, uncertainty: bool) -> None:
+    """The lines ``phase`` prints: each set's valid and saturated pixels, how each family
+    was unwrapped, the harmonics, the predicted std and the notes."""
+    from hdrfringe._validation import describe_saturated
+    from hdrfringe.cli._harmonics import print_harmonics
+
     for s in summary["sets"]:
         n_saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
         console.print(
@@ -250,7 +219,6 @@ def phase(
     if uncertainty:
         from hdrfringe.uncertainty import describe_uncertainty
 
-        console.print(describe_uncertainty(summary.get("uncertainty", unc_block or {})))
+        console.print(describe_uncertainty(summary.get("uncertainty", {})))
     for note in summary["notes"]:
         console.print(f"note: {note}")
-    console.print(f"wrote {len(summary['files'])} files to {output}")

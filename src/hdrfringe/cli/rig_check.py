@@ -1,16 +1,17 @@
-"""``hdrfringe rig check``: latency, safe settle, white clipping and noise of a real rig."""
+"""``hdrfringe rig check``: latency, safe settle, white clipping and noise of a real rig.
+
+The work is :func:`hdrfringe.tasks.rig_check.check_rig_folder`.
+"""
 
 from __future__ import annotations
 
-import contextlib
-import json
-from collections.abc import Iterator
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
 from hdrfringe.cli._app import app, err_console, handle_errors
+from hdrfringe.cli._options import given_names
 from hdrfringe.cli.capture import (
     CameraOpt,
     ExposureOpt,
@@ -19,19 +20,9 @@ from hdrfringe.cli.capture import (
     ProjectorOpt,
     RigConfigOpt,
     ViewCheckOpt,
-    resolve_rig_config,
 )
-from hdrfringe.errors import InputError
 
 __all__ = ["check", "rig_app"]
-
-#: How the written configuration's comment says what the latency counts.
-_UNITS = {
-    "none": "no latency",
-    "grabs": "a latency in grabs, only discarding covers it",
-    "seconds": "a latency in time, the settle covers it",
-    "mixed": "a latency in time, then grabs",
-}
 
 rig_app = typer.Typer(help="Real projector-camera rigs (docs/hardware.md).", no_args_is_help=True)
 app.add_typer(rig_app, name="rig")
@@ -80,77 +71,16 @@ def check(
     a camera whose image does not follow the projector (white, black, white) is refused in one
     line (--no-view-check, or sync.view_check = false, skips it).
     """
-    from hdrfringe.hardware.rig import check_rig
-    from hdrfringe.io.results import check_output_against_inputs, check_output_file
-    from hdrfringe.io.rig_config import rig_config_toml
+    from hdrfringe.tasks.rig_check import check_rig_folder
 
-    config = resolve_rig_config(
-        ctx, rig_config, projector=projector, camera=camera, exposure_ms=exposure_ms,
-        gain_db=gain_db, pixel_format=pixel_format, view_check=view_check,
+    hardware = {
+        "projector": projector, "camera": camera, "exposure_ms": exposure_ms,
+        "gain_db": gain_db, "pixel_format": pixel_format, "view_check": view_check,
+    }  # fmt: skip
+    report = check_rig_folder(
+        rig_config, hardware, given=given_names(ctx, tuple(hardware)), changes=changes,
+        max_latency=max_latency, output=output, write_config=write_config, force=force,
     )  # fmt: skip
-    if config.projector.spec is None or config.camera.spec is None:
-        raise InputError(
-            "give both --projector SPEC and --camera SPEC, or a --rig-config file that names "
-            "them (docs/hardware.md)"
-        )
-    outputs = [p for p in (output, write_config) if p is not None]
-    for path in outputs:
-        check_output_against_inputs(path, [rig_config, config.gamma_file])
-    if len({p.resolve() for p in outputs}) < len(outputs):
-        raise InputError(f"-o and --write-config both name {output}; give two different files")
-    checked = None if output is None else check_output_file(output, force)
-    checked_config = None if write_config is None else check_output_file(write_config, force)
-    result = check_rig(
-        config.projector_device(),
-        config.camera_device(),
-        settings=config.camera.settings(),
-        pixel_format=config.camera.pixel_format,
-        changes=changes,
-        max_latency=max_latency,
-        view_check=config.sync.view_check,
-    )
-    report = {
-        "projector": config.projector.spec,
-        "camera": config.camera.spec,
-        **result.to_dict(),
-        "rig": config.to_record(),
-    }
-    text = json.dumps(report, indent=1) + "\n"
-    toml = None
-    if write_config is not None:
-        measured = {
-            "sync.settle_s": result.settle_s,
-            "sync.discard": result.discard,
-            "camera.read_noise_dn": round(result.noise_std, 4),
-        }
-        source = f", from {config.source}" if config.source else ""
-        header = (
-            f"Rig configuration written by hdrfringe rig check{source} (docs/hardware.md).\n"
-            f"sync.settle_s and sync.discard: measured (latency {result.latency} grabs or "
-            f"{result.latency_s:.4f} s, {result.latency_after_settle} grabs after waiting that "
-            f"long: {_UNITS[result.latency_unit]}; {result.grab_period_s:.4f} s per grab); "
-            "white saturated fraction "
-            f"{result.white_saturated_fraction:.4f}; camera.read_noise_dn: the noise std "
-            f"of repeated grabs of mid-gray, {result.noise_std:.3f} DN (capture records it)."
-        )
-        toml = rig_config_toml(config.replace(measured), header=header, base=write_config.parent)
-    with _staged(checked, force) as tmp_report, _staged(checked_config, force) as tmp_config:
-        if tmp_report is not None:
-            tmp_report.write_text(text, encoding="utf-8")
-        if tmp_config is not None and toml is not None:
-            tmp_config.write_text(toml, encoding="utf-8")
-    typer.echo(text, nl=False)
+    typer.echo(report.text, nl=False)
     if write_config is not None:  # stdout holds the JSON report only
         err_console.print(f"wrote {write_config}", highlight=False)
-
-
-@contextlib.contextmanager
-def _staged(checked: Any, force: bool) -> Iterator[Path | None]:
-    """:func:`~hdrfringe.io.results.staged_output_file` of a checked output, or None."""
-    from hdrfringe.io.results import staged_output_file
-
-    if checked is None:
-        yield None
-        return
-    with staged_output_file(checked, force=force) as tmp:
-        yield tmp

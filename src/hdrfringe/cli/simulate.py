@@ -1,15 +1,22 @@
-"""``hdrfringe simulate``: the virtual rig writes a capture folder."""
+"""``hdrfringe simulate``: the virtual rig writes a capture folder
+(:func:`hdrfringe.tasks.simulate.simulate`)."""
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, parse_floats, parse_range, progress_bar
+from hdrfringe.cli._app import (
+    app,
+    console,
+    handle_errors,
+    parse_floats,
+    parse_range,
+    progress_stage,
+)
 from hdrfringe.cli._options import (
     SCENES_HELP,
     AmbientOpt,
@@ -92,50 +99,30 @@ def simulate(
     of captures at that size can be made).
     """
     from hdrfringe._validation import describe_saturated
-    from hdrfringe.io.results import check_output_dir
-    from hdrfringe.io.simulation import series_depths, series_folder_name, write_simulation
     from hdrfringe.limits import MAX_SERIES_FOLDERS
-    from hdrfringe.programs import fringe_program
     from hdrfringe.reproduce.compare import parse_resolution
-    from hdrfringe.rig.acquire import IntensityModification
-    from hdrfringe.rig.factory import virtual_rig
+    from hdrfringe.tasks import simulate as task
 
     size = parse_resolution(resolution)
-    output = check_output_dir(output, force)
     orients = parse_orientations(orientation)
     depths: Sequence[float | None] = [depth_mm]
     if series is not None:
         series_mm = parse_range(series, "--series", MAX_SERIES_FOLDERS)
-        depths = series_depths(series_mm, reference=reference)
+        depths = task.series_depths(series_mm, reference=reference)
     rig_options = {"ambient_lux": ambient_lux, "noise": noise, "shot_noise": shot_noise}
     rig_options |= {"aperture": aperture, "gamma": gamma, "bit_depth": bit_depth, "ideal": ideal}
     rig_options |= {"resolution": size}
-    rigs = [virtual_rig(scene, depth_mm=d, seed=seed, **rig_options) for d in depths]
-    mod = IntensityModification(add_lux, add_dn, add_noise, seed)
-    frames = fringe_program(
-        pattern,
-        steps,
-        parse_floats(pitch, "--pitch"),
-        orients,
-        imin,
-        parse_range(migl_sweep or migl, "--migl"),
-        projector=rigs[0].projector,
-        centerline=centerline,
-        grays=parse_floats(gray, "--gray") if gray else (),
-        level_bits=8 if ideal else None,
-    )
-    names = None if series is None else [series_folder_name(scene, d or 0.0) for d in depths]
-    with progress_bar() as prog:
-        task = prog.add_task(f"simulating {scene}", total=len(frames) * len(rigs))
-        tick = functools.partial(prog.advance, task)
-        done = write_simulation(
-            output, rigs, frames, folder_names=names, modification=mod, force=force, progress=tick
-        )
-    what = f"{len(rigs)} capture folders" if series is not None else "a capture folder"
-    n_pixels = rigs[0].image_shape[0] * rigs[0].image_shape[1]
-    saturated = round(done.max_saturated_fraction * n_pixels)  # the fraction is count / n
+    done = task.simulate(
+        output, scene, depths=depths, series=series is not None, rig_options=rig_options,
+        seed=seed, add_lux=add_lux, add_dn=add_dn, add_noise=add_noise,
+        pattern=pattern, steps=steps, pitches=parse_floats(pitch, "--pitch"),
+        orientations=orients, imin=imin, migls=parse_range(migl_sweep or migl, "--migl"),
+        centerline=centerline, grays=parse_floats(gray, "--gray") if gray else (), ideal=ideal,
+        force=force, progress=progress_stage,
+    )  # fmt: skip
+    what = f"{done.folders} capture folders" if series is not None else "a capture folder"
     console.print(
-        f"wrote {what} of {scene} ({len(frames)} images each) to {output}; "
-        f"{describe_saturated(saturated, n_pixels)} saturated in at least one image"
+        f"wrote {what} of {scene} ({done.images} images each) to {done.output}; "
+        f"{describe_saturated(done.saturated, done.n_pixels)} saturated in at least one image"
         + (" (the folder with the most)" if series is not None else "")
     )

@@ -1,10 +1,11 @@
-"""``hdrfringe train-correction``: DPA's error-correction polynomial."""
+"""``hdrfringe train-correction``: DPA's error-correction polynomial
+(:func:`hdrfringe.tasks.train.train_correction`)."""
 
 from __future__ import annotations
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, progress_bar
+from hdrfringe.cli._app import app, console, handle_errors, progress_stage
 from hdrfringe.cli._measure_options import (
     MarginOpt,
     OrderOpt,
@@ -64,60 +65,30 @@ def train_correction(
     estimate's error. Live (--rig sim; white plate under 600 lx by default) or from a step-1
     MIGL sweep FOLDER. Use the file with measure --method dpa --correction FILE.
     """
-    from hdrfringe.saturation.estimate import (
-        TRUTH_MODELS,
-        check_correction_order,
-        training_data_from_rig,
-    )
-    from hdrfringe.strategies.dpa_training import (
-        THESIS_CORRECTION_RMSE,
-        training_data_from_folder,
-        training_spec,
-    )
+    from hdrfringe.strategies.dpa_training import THESIS_CORRECTION_RMSE
+    from hdrfringe.tasks.train import train_correction as task
 
     live_only = tuple(n for n in LIVE_OPTIONS if n not in ("pitch", "pattern", "centerline"))
     live = check_source(ctx, folder, rig, live_only)  # --pitch also picks a folder's set
     if output is None:
         raise InputError("no output file: give -o/--output FILE.json")
-    if truth not in TRUTH_MODELS:
-        raise InputError(f"unknown truth {truth!r}; use one of {', '.join(TRUTH_MODELS)}")
-    check_correction_order(order)  # before the (slow) training captures
-    from hdrfringe.io.results import (
-        check_output_against_inputs,
-        check_output_file,
-        staged_output_file,
-    )
-
-    check_output_against_inputs(output, [folder])
-    output = check_output_file(output, force)  # before the work; the write replaces only this
-    if live:
-        from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
-
-        sim = virtual_rig(
-            scene, depth_mm=depth_mm, ambient_lux=ambient_lux, noise=noise, aperture=aperture,
-            gamma=gamma, seed=seed,
-        )  # fmt: skip
-        spec = training_spec(steps=steps, pitch=pitch, imin=imin, migl=migl)
-        source = f"live virtual rig: {sim.scene.to_manifest()}, {ambient_lux:g} lx, seed {seed}"
-        with progress_bar() as prog:
-            prog.add_task("LPA step-1 sweep on the virtual rig", total=None)
-            data = training_data_from_rig(sim, spec, margin=margin)
-    else:
-        from hdrfringe.io.captures import read_capture_folder
-
-        assert folder is not None
-        source = str(folder)
-        data = training_data_from_folder(read_capture_folder(folder), pitch, margin=margin)
-    poly = data.train(order, truth=truth, metadata={"source": source})  # type: ignore[arg-type]
-    with staged_output_file(output, force=force) as tmp:  # atomic: complete or not at all
-        poly.save(tmp, force=True)  # (the temporary file exists already)
+    sim = {
+        "scene": scene, "depth_mm": depth_mm, "ambient_lux": ambient_lux, "noise": noise,
+        "aperture": aperture, "gamma": gamma, "seed": seed,
+    }  # fmt: skip
+    done = task(
+        output, folder=folder, sim=sim if live else None, steps=steps, pitch=pitch, imin=imin,
+        migl=migl, order=order, truth=truth, margin=margin, force=force,
+        progress=progress_stage,
+    )  # fmt: skip
+    poly = done.polynomial
     before, after = THESIS_CORRECTION_RMSE
     console.print(
-        f"trained on {poly.n_samples} saturated pixels of {data.spec.label()} "
-        f"({data.sets_captured} sets, truth {truth}, order {order})"
+        f"trained on {poly.n_samples} saturated pixels of {done.label} "
+        f"({done.sets_captured} sets, truth {truth}, order {order})"
     )
     console.print(
         f"estimate RMSE (Eq. 6.4): before correction {poly.rmse_before:.2f} DN (thesis "
         f"{before:g} gray levels), after {poly.rmse_after:.2f} DN (thesis {after:g})"
     )
-    console.print(f"wrote {output}")
+    console.print(f"wrote {done.output}")

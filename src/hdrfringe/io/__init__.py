@@ -10,11 +10,12 @@ One module per kind of file; import from the module, e.g.
 * :mod:`~hdrfringe.io.results`: result folders written atomically, float32 TIFF maps, PNG
   previews.
 * :mod:`~hdrfringe.io.phase_maps`: the phase stage's maps in a result folder.
-* :mod:`~hdrfringe.io.measurement_outputs`: a measurement's maps, point cloud and report.
 * :mod:`~hdrfringe.io.point_cloud`: PLY point clouds.
 * :mod:`~hdrfringe.io.plots`: the library's figures as PNG files.
 
-The package itself exports nothing, so importing it does not import the readers and writers
+File formats only: the workflows that read and write them for a command (a measurement's
+outputs, calibrating from folders, simulating) are :mod:`hdrfringe.tasks`. The package itself
+exports nothing, so importing it does not import the readers and writers
 (nor their third-party libraries).
 """
 

@@ -19,7 +19,7 @@ import posixpath
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,9 +45,6 @@ from hdrfringe.limits import (
 )
 from hdrfringe.patterns import ORIENTATIONS, PATTERNS
 
-if TYPE_CHECKING:
-    from hdrfringe.rig.simulated import SimulatedRig
-
 __all__ = [
     "FORMAT_NAME",
     "FORMAT_VERSION",
@@ -59,7 +56,6 @@ __all__ = [
     "load_side_file",
     "read_capture_folder",
     "read_manifest",
-    "simulate_to_folder",
     "write_capture_folder",
     "write_side_files",
 ]
@@ -1043,69 +1039,3 @@ def write_capture_folder(
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return Path(path)
 
-
-def simulate_to_folder(
-    path: str | Path,
-    rig: SimulatedRig,
-    frames: Sequence[Frame],
-    *,
-    names: Sequence[str] | None = None,
-    force: bool = False,
-    provenance: bool = True,
-) -> NDArray[np.integer]:
-    """Capture ``frames`` with a virtual rig and write them as a capture folder.
-
-    The manifest's ``scene`` is the scene's :meth:`~hdrfringe.rig.scenes.Scene.to_manifest`
-    (``depth_mm`` for flat plates); with ``provenance`` an optional top-level ``simulator``
-    entry records every rig parameter (:meth:`SimulatedRig.to_manifest`).
-
-    Parameters
-    ----------
-    path : str or Path
-        Target folder (see :func:`write_capture_folder`).
-    rig : SimulatedRig
-        The virtual rig (:mod:`hdrfringe.rig.simulated`).
-    frames : sequence of Frame
-        What to project, in order.
-    names : sequence of str, optional
-        File stems (default from the frames).
-    force : bool
-        Replace an existing non-empty folder.
-    provenance : bool
-        Record the rig parameters in the manifest's ``simulator`` field.
-
-    Returns
-    -------
-    ndarray
-        The captured images.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> from hdrfringe.patterns import FringeSpec
-    >>> from hdrfringe.rig.scenes import white_plate
-    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
-    >>> rig = SimulatedRig(white_plate(12.0), camera=CameraModel(width=32, height=24))
-    >>> out = Path(tempfile.mkdtemp()) / "caps"
-    >>> simulate_to_folder(out, rig, FringeSpec(steps=3).frames()).shape
-    (3, 24, 32)
-    >>> read_capture_folder(out).scene["depth_mm"]
-    12.0
-    """
-    frames = list(frames)
-    images = rig.capture(frames)
-    captures = Captures(
-        frames,
-        images,
-        rig.camera_bit_depth,
-        projector=rig.projector,
-        scene=rig.scene.to_manifest(),
-    )
-    write_capture_folder(
-        path,
-        captures,
-        names=names,
-        extra={"simulator": rig.to_manifest()} if provenance else None,
-        force=force,
-    )
-    return images

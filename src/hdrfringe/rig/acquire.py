@@ -8,7 +8,7 @@ light and noise added afterwards (thesis Eq. 4.1).
   modification, and keep what a capture folder records of the virtual rig: projector, scene,
   camera, and the scene's true height map.
 
-Writing the result as a folder is I/O (:mod:`hdrfringe.io.simulation`).
+Writing the result as a folder is I/O (:mod:`hdrfringe.tasks.simulate`).
 
 Examples
 --------

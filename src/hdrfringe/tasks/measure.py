@@ -1,4 +1,9 @@
-"""Outputs of a measurement: the one writer of a result folder, and its parts.
+"""``hdrfringe measure``: a measurement of a capture folder or a live rig, and its outputs.
+
+:func:`measure` is the command's work: the output checked, the calibration loaded
+(:func:`load_measure_calibration`), :func:`hdrfringe.pipeline.measure` on a capture folder, the
+live virtual rig or a hardware rig, and the result folder written. :func:`logged_strategy`
+reads the strategy a folder written by ``capture`` records.
 
 :func:`write_measurement` writes everything of a :class:`~hdrfringe.pipeline.MeasurementResult`
 into a folder, staged (:func:`hdrfringe.io.results.staged_output_dir`): the ``measure`` command
@@ -11,31 +16,47 @@ pie chart), DPA's CDF figure and ``metrics.json``. The figures are drawn by
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.io.phase_maps import write_phase_maps
-from hdrfringe.io.point_cloud import write_ply
+from hdrfringe.errors import InputError
 from hdrfringe.io.results import (
     MAP_COMPRESSION,
     staged_output_dir,
     write_map_tiff,
     write_preview_png,
 )
-from hdrfringe.pipeline import NO_GEOMETRY, height_points
-from hdrfringe.reconstruct import CameraGeometry
+from hdrfringe.tasks._progress import Progress, Say, quiet, silent
+from hdrfringe.tasks.capture import (
+    CAPTURE_LOG,
+    LiveFringes,
+    announce_line,
+    hardware_rig,
+    live_record,
+    write_capture_output,
+)
 
 if TYPE_CHECKING:
     from hdrfringe.pipeline import MeasurementResult
+    from hdrfringe.reconstruct import CameraGeometry
     from hdrfringe.stereo import StereoMaps
     from hdrfringe.strategies.base import StrategyResult
 
 __all__ = [
+    "CAPTURES",
     "PIE_SLICES",
+    "MeasureOptions",
+    "MeasureReport",
+    "check_noise_sigma",
+    "load_measure_calibration",
+    "logged_strategy",
+    "measure",
+    "replayed_strategy",
     "write_adaptive_outputs",
     "write_height_outputs",
     "write_measurement",
@@ -109,6 +130,9 @@ def write_height_outputs(
     write_map_tiff(out / "height.tiff", height_mm)
     if previews:
         write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
+    from hdrfringe.io.point_cloud import write_ply
+    from hdrfringe.pipeline import NO_GEOMETRY, height_points
+
     write_ply(out / "points.ply", *height_points(height_mm, geometry))
     return [NO_GEOMETRY] if geometry is None else []
 
@@ -202,6 +226,8 @@ def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) 
             out / "height.png", maps.height_mm, title="height over the reference plane",
             cmap="viridis", label="mm",
         )  # fmt: skip
+    from hdrfringe.io.point_cloud import write_ply
+
     write_ply(
         out / "points.ply", maps.xyz[..., 0], maps.xyz[..., 1], maps.xyz[..., 2],
         intensity=maps.quality,
@@ -418,6 +444,8 @@ def write_measurement(
     >>> "metrics.json" in files, written == res.metrics.to_dict()
     (True, True)
     """
+    from hdrfringe.io.phase_maps import write_phase_maps
+
     unc = result.uncertainty
     with staged_output_dir(out, force=force) as tmp:
         if phase_maps:
@@ -447,3 +475,417 @@ def write_measurement(
             extra_files(tmp)
         files = sorted(p.name for p in tmp.iterdir())
     return files
+
+
+# --- the command's work ------------------------------------------------------------------------
+
+#: The capture folder ``measure --rig hardware`` writes inside OUT.
+CAPTURES = "captures"
+
+
+def check_noise_sigma(noise_sigma: float | None, uncertainty: bool) -> None:
+    """Refuse a ``--noise-sigma`` that is no finite number >= 0, or given without the
+    predicted std.
+
+    Parameters
+    ----------
+    noise_sigma : float or None
+        The camera noise given, in DN.
+    uncertainty : bool
+        Whether the predicted std is computed.
+
+    Raises
+    ------
+    InputError
+        Either refusal.
+
+    Examples
+    --------
+    >>> check_noise_sigma(None, False), check_noise_sigma(1.5, True)
+    (None, None)
+    """
+    import math
+
+    if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
+        raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
+    if noise_sigma is not None and not uncertainty:
+        raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
+
+
+def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[str, Any] | None]:
+    """The strategy a folder written by ``capture`` was captured with (its ``capture_log.json``).
+
+    Parameters
+    ----------
+    folder : Path
+        The capture folder measured.
+    method : str or None
+        ``--method`` as given.
+
+    Returns
+    -------
+    method : str or None
+        The logged method (``method`` when the folder has no log or the log none).
+    recorded : dict or None
+        The logged strategy options by option name (``strategy_options``), None without a log.
+
+    Raises
+    ------
+    InputError
+        A ``--method`` other than the logged one, or an unreadable log.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> log = '{"method": "lpa", "strategy_options": {"--step": 9}}'
+    >>> _ = (folder / CAPTURE_LOG).write_text(log)
+    >>> logged_strategy(folder, None)
+    ('lpa', {'--step': 9})
+    """
+    path = Path(folder) / CAPTURE_LOG
+    if not path.is_file():
+        return method, None
+    try:
+        log = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{path}: not a readable capture log ({exc}); fix or remove it") from None
+    logged = log.get("method") if isinstance(log, dict) else None
+    if not isinstance(logged, str):
+        return method, None
+    if method is not None and method != logged:
+        raise InputError(
+            f"{folder} was captured with --method {logged} ({CAPTURE_LOG}), not {method}; "
+            f"drop --method or give --method {logged}"
+        )
+    options = log.get("strategy_options") or {}
+    if not isinstance(options, dict):
+        raise InputError(f"{path}: strategy_options is not a mapping; fix or remove it")
+    return logged, options
+
+
+def replayed_strategy(
+    folder: Path | None, method: str | None
+) -> tuple[str | None, dict[str, Any] | None, str]:
+    """:func:`logged_strategy` of a folder measured (none for a live rig), with the note that
+    says the logged method is replayed when ``--method`` was not given.
+
+    Parameters
+    ----------
+    folder : Path or None
+        The capture folder; None for a live rig.
+    method : str or None
+        ``--method`` as given.
+
+    Returns
+    -------
+    method : str or None
+    recorded : dict or None
+    note : str
+        Empty unless the folder's logged method is replayed without ``--method``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / CAPTURE_LOG).write_text('{"method": "lpa"}')
+    >>> method, recorded, note = replayed_strategy(folder, None)
+    >>> method, recorded, note.endswith("captured with --method lpa (capture_log.json), replayed")
+    ('lpa', {}, True)
+    """
+    if folder is None:
+        return method, None, ""
+    given = method
+    method, recorded = logged_strategy(folder, method)
+    replayed = recorded is not None and given is None
+    note = f"{folder}: captured with --method {method} ({CAPTURE_LOG}), replayed"
+    return method, recorded, note if replayed else ""
+
+
+def load_measure_calibration(path: Path | None) -> Any:
+    """The calibration a measurement uses: a stereo calibration (triangulation,
+    docs/stereo.md) or a phase-to-height one, by the file's kind; None without a file.
+
+    Parameters
+    ----------
+    path : Path or None
+        ``-c``.
+
+    Returns
+    -------
+    MeasurementCalibration or None
+        A :class:`~hdrfringe.calibration.Calibration` or a
+        :class:`~hdrfringe.stereo.StereoCalibration`.
+
+    Examples
+    --------
+    >>> load_measure_calibration(None) is None
+    True
+    """
+    from hdrfringe.io.stereo_file import load_any_calibration
+
+    return None if path is None else load_any_calibration(path)
+
+
+@dataclass(frozen=True)
+class MeasureOptions:
+    """How ``measure`` decodes and what it computes (:func:`hdrfringe.pipeline.measure`).
+
+    Parameters
+    ----------
+    method : str or None
+        The strategy (None: the folder's images as they are).
+    params : Params, optional
+        The strategy's parameters.
+    sources : mapping
+        Field -> the file a strategy option named (recorded; not to be overwritten).
+    strategy_options : mapping
+        The strategy options given, by option name (recorded with a hardware capture).
+    stereo_directions : str
+        ``auto``, ``u`` or ``v``.
+    uncertainty : bool
+        Predict the per-pixel std.
+    depth_range_mm : tuple of float, optional
+        ``(zmin, zmax)`` for fringe orders from a stereo calibration.
+    keep_saturated : bool
+        Keep saturated pixels.
+    saturated : str
+        ``flag`` or ``exclude``.
+    min_shifts : int
+        Least unsaturated shifts per pixel.
+    harmonics : str
+        ``off`` or a harmonics mode.
+    noise_sigma : float, optional
+        The camera noise in DN (else estimated).
+    previews : bool
+        PNG previews beside the maps.
+
+    Examples
+    --------
+    >>> options = MeasureOptions(method="lpa", saturated="exclude", min_shifts=4)
+    >>> kwargs = options.pipeline_kwargs(None)
+    >>> kwargs["method"], kwargs["reject_saturated"], kwargs["min_shifts"]
+    ('lpa', True, 4)
+    """
+
+    method: str | None = None
+    params: Any = None
+    sources: Mapping[str, str] = field(default_factory=dict)
+    strategy_options: Mapping[str, Any] = field(default_factory=dict)
+    stereo_directions: str = "auto"
+    uncertainty: bool = True
+    depth_range_mm: tuple[float, float] | None = None
+    keep_saturated: bool = False
+    saturated: str = "flag"
+    min_shifts: int = 3
+    harmonics: str = "off"
+    noise_sigma: float | None = None
+    previews: bool = True
+
+    def pipeline_kwargs(self, calibration: Path | None) -> dict[str, Any]:
+        """The keyword arguments of :func:`hdrfringe.pipeline.measure`.
+
+        Parameters
+        ----------
+        calibration : Path or None
+            The calibration file (recorded as the source).
+
+        Returns
+        -------
+        dict
+        """
+        kwargs: dict[str, Any] = {
+            "method": self.method,
+            "params": self.params,
+            "param_sources": dict(self.sources),
+            "calibration_source": None if calibration is None else str(calibration),
+            "stereo_directions": self.stereo_directions,
+            "uncertainty": self.uncertainty,
+            "depth_range_mm": self.depth_range_mm,
+            "reject_saturated": not self.keep_saturated,
+            "saturated": self.saturated,
+            "min_shifts": self.min_shifts,
+        }
+        if self.harmonics != "off":
+            kwargs["harmonics"] = self.harmonics
+        if self.noise_sigma is not None:
+            from hdrfringe.uncertainty import NoiseModel
+
+            kwargs["noise"] = NoiseModel(self.noise_sigma, source="given (--noise-sigma)")
+        return kwargs
+
+
+@dataclass(frozen=True)
+class MeasureReport:
+    """What ``measure`` wrote.
+
+    Parameters
+    ----------
+    output : Path
+        The result folder.
+    result : MeasurementResult
+        The measurement (its metrics are what the command prints).
+    captured : int or None
+        Images captured live on a hardware rig (None otherwise).
+    rejected : int or None
+        Stale grabs rejected on a hardware rig.
+
+    Examples
+    --------
+    >>> MeasureReport(Path("out"), None).captured is None
+    True
+    """
+
+    output: Path
+    result: Any
+    captured: int | None = None
+    rejected: int | None = None
+
+
+def measure(
+    output: Path,
+    options: MeasureOptions,
+    *,
+    folder: Path | None = None,
+    calibration: Path | None = None,
+    sim: Mapping[str, Any] | None = None,
+    hardware: Mapping[str, Any] | None = None,
+    rig_config: Path | None = None,
+    given: Collection[str] = (),
+    fringes: LiveFringes | None = None,
+    replayed: str = "",
+    force: bool = False,
+    say: Say = silent,
+    note: Say = silent,
+    progress: Progress = quiet,
+) -> MeasureReport:
+    """Measure a capture folder, the live virtual rig or a hardware rig; write the result.
+
+    The output is checked (not an input, new or empty, or ``force``) before any work. With a
+    hardware rig OUT also holds the capture folder (``OUT/captures``); Ctrl-C writes nothing.
+
+    Parameters
+    ----------
+    output : Path
+        The result folder.
+    options : MeasureOptions
+        Decoding and what is computed.
+    folder : Path, optional
+        A capture folder (replay).
+    calibration : Path, optional
+        A phase-to-height or stereo calibration file.
+    sim : mapping, optional
+        The live virtual rig: keyword arguments of :func:`hdrfringe.rig.factory.virtual_rig`
+        (``scene`` among them).
+    hardware : mapping, optional
+        A hardware rig: its options by Python name
+        (:data:`~hdrfringe.tasks.capture.RIG_OPTION_KEYS`).
+    rig_config : Path, optional
+        The hardware rig's configuration file.
+    given : collection of str
+        The hardware options given explicitly.
+    fringes : LiveFringes, optional
+        What a live rig projects.
+    replayed : str
+        A note said once the output is checked (:func:`replayed_strategy`).
+    force : bool
+        Replace an existing output folder.
+    say : callable
+        Called with the line saying a hardware rig is open.
+    note : callable
+        Called with ``replayed`` (a long line).
+    progress : callable
+        The live virtual rig's run, as one stage.
+
+    Returns
+    -------
+    MeasureReport
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.tasks.simulate import simulate
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate(tmp / "caps", "white_plate", rig_options={"resolution": (64, 48)},
+    ...              pitches=[1024.0, 64.0, 8.0])
+    >>> report = measure(tmp / "out", MeasureOptions(previews=False), folder=tmp / "caps")
+    >>> (tmp / "out" / "metrics.json").is_file(), report.captured
+    (True, None)
+    """
+    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
+
+    inputs: list[Path | str | None] = [folder, calibration, *options.sources.values()]
+    rig: Any = None
+    if hardware is not None:
+        rig, config = hardware_rig(rig_config, given, **hardware)
+        inputs += [rig_config, config.gamma_file]
+    check_output_against_inputs(output, inputs)
+    output = check_output_dir(output, force)
+    if replayed:
+        note(replayed)
+    # imported once the options are known good: a refused command does not pay for the
+    # pipeline's decoders, unwrapping, calibration and HDF5
+    from hdrfringe import pipeline
+    from hdrfringe.io.captures import read_capture_folder
+
+    cal = load_measure_calibration(calibration)
+    kwargs = options.pipeline_kwargs(calibration)
+    if rig is not None:
+        assert fringes is not None and options.method is not None
+        return _measure_hardware(rig, config, cal, output, force, options, fringes, kwargs, say)
+    if sim is not None:
+        from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
+
+        assert fringes is not None
+        live = virtual_rig(**sim)
+        specs, line = fringes.build(live.projector)
+        label = f"live virtual rig: {json.dumps(live.scene.to_manifest())}, "
+        label += f"{sim.get('ambient_lux', 0.0):g} lx"
+        with progress(f"{options.method} on the virtual rig ({sim['scene']})", None):
+            result = pipeline.measure(
+                live, cal, specs=specs, centerline=line, label=label, **kwargs
+            )
+    else:
+        assert folder is not None
+        result = pipeline.measure(read_capture_folder(folder), cal, label=str(folder), **kwargs)
+    write_measurement(result, output, force=force, previews=options.previews)
+    return MeasureReport(output, result)
+
+
+def _measure_hardware(
+    rig: Any,
+    config: Any,
+    cal: Any,
+    output: Path,
+    force: bool,
+    options: MeasureOptions,
+    fringes: LiveFringes,
+    kwargs: dict[str, Any],
+    say: Say,
+) -> MeasureReport:
+    """``measure --rig hardware``: the strategy live as ``capture`` runs it, then the composite
+    measured; OUT holds the measurement and the capture folder (staged together)."""
+    from hdrfringe import pipeline
+    from hdrfringe.hardware.rig import Recorder
+    from hdrfringe.tasks.capture import strategy_record
+
+    method = options.method
+    assert method is not None
+    recorder = Recorder(rig)
+    with rig:  # Ctrl-C: the rig closes, nothing is written (the CLI: exit 130)
+        specs, line = fringes.build(rig.projector)
+        say(announce_line(method, rig, config))
+        label = f"live hardware rig: projector {config.projector.spec}, camera {config.camera.spec}"
+        result = pipeline.measure(
+            recorder, cal, specs=specs, centerline=line, label=label, **kwargs
+        )
+    record = strategy_record(options.strategy_options)
+    caps, state, log = live_record(recorder, rig, config, method, CAPTURES, entries=record)
+
+    def captures(tmp: Path) -> None:
+        write_capture_output(tmp / CAPTURES, caps, state, log)
+
+    write_measurement(result, output, force=force, extra_metrics={"capture": state},
+                      extra_files=captures, previews=options.previews)  # fmt: skip
+    rejected = sum(t.rejected for t in rig.log)
+    return MeasureReport(output, result, captured=len(caps.frames), rejected=rejected)

@@ -21,8 +21,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from hdrfringe._validation import is_saturated
+from hdrfringe.captures import Captures
 from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame
 from hdrfringe.io.captures import write_capture_folder
@@ -30,8 +32,17 @@ from hdrfringe.io.results import staged_output_dir
 from hdrfringe.limits import MAX_SERIES_FOLDERS, check_count
 from hdrfringe.rig.acquire import IntensityModification, simulated_captures
 from hdrfringe.rig.simulated import SimulatedRig
+from hdrfringe.tasks._progress import Progress, quiet
 
-__all__ = ["SimulationWritten", "series_depths", "series_folder_name", "write_simulation"]
+__all__ = [
+    "SimulateReport",
+    "SimulationWritten",
+    "series_depths",
+    "series_folder_name",
+    "simulate",
+    "simulate_to_folder",
+    "write_simulation",
+]
 
 
 def series_depths(depths: Sequence[float], *, reference: bool = True) -> list[float]:
@@ -221,3 +232,199 @@ def write_simulation(
             sat = is_saturated(captures.images, captures.camera_bit_depth).any(axis=0)
             fractions.append(float(np.mean(sat)))
     return SimulationWritten(out, tuple(folders), len(frames), tuple(fractions))
+
+
+def simulate_to_folder(
+    path: str | Path,
+    rig: SimulatedRig,
+    frames: Sequence[Frame],
+    *,
+    names: Sequence[str] | None = None,
+    force: bool = False,
+    provenance: bool = True,
+) -> NDArray[np.integer]:
+    """Capture ``frames`` with a virtual rig and write them as a capture folder.
+
+    The manifest's ``scene`` is the scene's :meth:`~hdrfringe.rig.scenes.Scene.to_manifest`
+    (``depth_mm`` for flat plates); with ``provenance`` an optional top-level ``simulator``
+    entry records every rig parameter (:meth:`SimulatedRig.to_manifest`).
+
+    Parameters
+    ----------
+    path : str or Path
+        Target folder (see :func:`write_capture_folder`).
+    rig : SimulatedRig
+        The virtual rig (:mod:`hdrfringe.rig.simulated`).
+    frames : sequence of Frame
+        What to project, in order.
+    names : sequence of str, optional
+        File stems (default from the frames).
+    force : bool
+        Replace an existing non-empty folder.
+    provenance : bool
+        Record the rig parameters in the manifest's ``simulator`` field.
+
+    Returns
+    -------
+    ndarray
+        The captured images.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.rig.scenes import white_plate
+    >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
+    >>> rig = SimulatedRig(white_plate(12.0), camera=CameraModel(width=32, height=24))
+    >>> out = Path(tempfile.mkdtemp()) / "caps"
+    >>> simulate_to_folder(out, rig, FringeSpec(steps=3).frames()).shape
+    (3, 24, 32)
+    >>> from hdrfringe.io.captures import read_capture_folder
+    >>> read_capture_folder(out).scene["depth_mm"]
+    12.0
+    """
+    frames = list(frames)
+    images = rig.capture(frames)
+    captures = Captures(
+        frames,
+        images,
+        rig.camera_bit_depth,
+        projector=rig.projector,
+        scene=rig.scene.to_manifest(),
+    )
+    write_capture_folder(
+        path,
+        captures,
+        names=names,
+        extra={"simulator": rig.to_manifest()} if provenance else None,
+        force=force,
+    )
+    return images
+
+
+@dataclass(frozen=True)
+class SimulateReport:
+    """What ``simulate`` wrote.
+
+    Parameters
+    ----------
+    output : Path
+        The capture folder, or the folder of a series.
+    folders : int
+        Capture folders written (1 without a series).
+    images : int
+        Images per folder.
+    n_pixels : int
+        Pixels per image.
+    saturated : int
+        Pixels saturated in at least one image (of the folder with the most).
+
+    Examples
+    --------
+    >>> SimulateReport(Path("caps"), 1, 13, 3072, 0).images
+    13
+    """
+
+    output: Path
+    folders: int
+    images: int
+    n_pixels: int
+    saturated: int
+
+
+def simulate(
+    output: Path,
+    scene: str,
+    *,
+    depths: Sequence[float | None] = (None,),
+    series: bool = False,
+    rig_options: dict[str, Any] | None = None,
+    seed: int = 0,
+    add_lux: float = 0.0,
+    add_dn: float = 0.0,
+    add_noise: float = 0.0,
+    pattern: str = "sinusoidal",
+    steps: int = 4,
+    pitches: Sequence[float] = (8.0,),
+    orientations: Sequence[str] = ("vertical",),
+    imin: float = 40.0,
+    migls: Sequence[float] = (255.0,),
+    centerline: bool = True,
+    grays: Sequence[float] = (),
+    ideal: bool = False,
+    force: bool = False,
+    progress: Progress = quiet,
+) -> SimulateReport:
+    """Capture fringe sets of a scene on the virtual rig and write a capture folder (or one
+    per depth: a calibration series).
+
+    The output is checked (new or empty, or ``force``) before any rig is built, and written
+    all or nothing (:func:`write_simulation`).
+
+    Parameters
+    ----------
+    output : Path
+        The capture folder, or the series' folder.
+    scene : str
+        The scene (:func:`hdrfringe.rig.factory.virtual_rig`).
+    depths : sequence of float or None
+        One rig per depth (None: the scene's own).
+    series : bool
+        Name the folders by depth (:func:`series_folder_name`) inside ``output``.
+    rig_options : dict, optional
+        Keyword arguments of :func:`~hdrfringe.rig.factory.virtual_rig` (``ideal`` among them).
+    seed : int
+        Noise seed.
+    add_lux, add_dn, add_noise : float
+        Eq. 4.1 applied to the captures (:class:`~hdrfringe.rig.acquire.IntensityModification`
+        with ``seed``).
+    pattern, steps, pitches, orientations, imin, migls, centerline, grays
+        The program (:func:`hdrfringe.programs.fringe_program`).
+    ideal : bool
+        An ideal rig: the program's levels at 8 bit.
+    force : bool
+        Replace an existing output folder.
+    progress : callable
+        The captures, one unit per frame and rig.
+
+    Returns
+    -------
+    SimulateReport
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "caps"
+    >>> report = simulate(out, "white_plate", rig_options={"resolution": (64, 48)},
+    ...                   pitches=[1024.0, 64.0, 8.0])
+    >>> report.folders, report.images, report.n_pixels
+    (1, 13, 3072)
+    """
+    from hdrfringe.io.results import check_output_dir
+    from hdrfringe.programs import fringe_program
+    from hdrfringe.rig.factory import virtual_rig
+
+    output = check_output_dir(output, force)
+    rigs = [virtual_rig(scene, depth_mm=d, seed=seed, **(rig_options or {})) for d in depths]
+    frames = fringe_program(
+        pattern,
+        steps,
+        list(pitches),
+        list(orientations),
+        imin,
+        list(migls),
+        projector=rigs[0].projector,
+        centerline=centerline,
+        grays=grays,
+        level_bits=8 if ideal else None,
+    )
+    modification = IntensityModification(add_lux, add_dn, add_noise, seed)
+    names = [series_folder_name(scene, d or 0.0) for d in depths] if series else None
+    with progress(f"simulating {scene}", len(frames) * len(rigs)) as advance:
+        done = write_simulation(
+            output, rigs, frames, folder_names=names, modification=modification, force=force,
+            progress=advance,
+        )  # fmt: skip
+    n_pixels = rigs[0].image_shape[0] * rigs[0].image_shape[1]
+    saturated = round(done.max_saturated_fraction * n_pixels)  # the fraction is count / n
+    return SimulateReport(output, len(rigs), len(frames), n_pixels, saturated)

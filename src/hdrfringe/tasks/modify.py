@@ -34,7 +34,7 @@ from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capt
 from hdrfringe.io.results import check_output_dir
 from hdrfringe.rig.acquire import IntensityModification
 
-__all__ = ["ModifiedFolder", "modify_capture_folder"]
+__all__ = ["ModifiedFolder", "modify", "modify_capture_folder"]
 
 #: Top-level manifest fields the captures write themselves (the rest is carried over as is).
 _CONTRACT_FIELDS = ("format", "version", "camera", "projector", "scene", "frames", "maps")
@@ -58,7 +58,7 @@ class ModifiedFolder:
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.io.captures import simulate_to_folder
+    >>> from hdrfringe.tasks.simulate import simulate_to_folder
     >>> from hdrfringe.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
@@ -116,7 +116,7 @@ def modify_capture_folder(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.io.captures import simulate_to_folder
+    >>> from hdrfringe.tasks.simulate import simulate_to_folder
     >>> from hdrfringe.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
@@ -144,3 +144,50 @@ def modify_capture_folder(
     return ModifiedFolder(
         Path(output), len(names), float(np.mean(sat)), int(np.count_nonzero(sat)), int(sat.size)
     )
+
+
+def modify(
+    folder: str | Path,
+    output: str | Path,
+    *,
+    add_lux: float = 0.0,
+    add_dn: float = 0.0,
+    noise: float = 0.0,
+    seed: int = 0,
+    force: bool = False,
+) -> ModifiedFolder:
+    """``hdrfringe modify``: add light and noise to a capture folder's images (thesis Eq. 4.1).
+
+    The output is checked (not the input, new or empty, or ``force``) before the folder is
+    read.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The capture folder.
+    output : str or Path
+        The modified capture folder.
+    add_lux, add_dn, noise, seed
+        The modification (:class:`~hdrfringe.rig.acquire.IntensityModification`).
+    force : bool
+        Replace an existing output folder.
+
+    Returns
+    -------
+    ModifiedFolder
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.tasks.simulate import simulate
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> _ = simulate(tmp / "caps", "white_plate", rig_options={"resolution": (32, 24)})
+    >>> modify(tmp / "caps", tmp / "bright", add_dn=300.0).saturated_pixels
+    768
+    """
+    from hdrfringe.io.results import check_output_against_inputs
+
+    check_output_against_inputs(output, [folder])
+    check_output_dir(output, force)
+    modification = IntensityModification(add_lux, add_dn, noise, seed)
+    return modify_capture_folder(folder, output, modification, force=force)

@@ -1,5 +1,6 @@
-"""Calibration from capture folders on disk: the folders are read, then
-:func:`hdrfringe.pipeline.calibrate` fits.
+"""``hdrfringe calibrate``: calibration from capture folders on disk: the folders are read,
+then :func:`hdrfringe.pipeline.calibrate` fits; :func:`calibrate` checks the output first and
+writes the file.
 
 A folder without a ``manifest.json`` stands for the capture folders inside it
 (:func:`expand_capture_dirs`), so ``hdrfringe calibrate plates`` takes the folder ``hdrfringe
@@ -13,9 +14,10 @@ from pathlib import Path
 
 from hdrfringe.calibration import Calibration
 from hdrfringe.io.captures import read_capture_folder
-from hdrfringe.pipeline import calibrate
+from hdrfringe.pipeline import calibrate as fit_calibration
+from hdrfringe.tasks._progress import Progress, quiet
 
-__all__ = ["calibrate_folders", "expand_capture_dirs"]
+__all__ = ["calibrate", "calibrate_folders", "expand_capture_dirs"]
 
 
 def expand_capture_dirs(paths: Sequence[str | Path]) -> list[Path]:
@@ -104,6 +106,72 @@ def calibrate_folders(
     [10.0, 20.0]
     """
     folders = [read_capture_folder(p) for p in expand_capture_dirs(paths)]
-    return calibrate(
+    return fit_calibration(
         folders, model=model, window_px=window_px, border_px=border_px, progress=progress
     )
+
+
+def calibrate(
+    folders: Sequence[str | Path],
+    output: Path,
+    *,
+    model: str = "linear",
+    window: int = 21,
+    border: int = 10,
+    force: bool = False,
+    progress: Progress = quiet,
+) -> Calibration:
+    """Per-pixel phase-to-height calibration from a plate at known depths, written to a file.
+
+    The model and the output (not an input, not a folder, new or ``force``) are checked
+    before any folder is decoded.
+
+    Parameters
+    ----------
+    folders : sequence of path
+        Flat-plate capture folders (``scene.depth_mm``; one at 0), or a folder of them.
+    output : Path
+        The calibration file (``.h5``).
+    model : str
+        :data:`hdrfringe.calibration.MODELS`.
+    window : int
+        Median and mean filter window, px.
+    border : int
+        Unfiltered border excluded from the metrics, px.
+    force : bool
+        Replace an existing file.
+    progress : callable
+        The folders' decoding, one unit per folder.
+
+    Returns
+    -------
+    Calibration
+        What was written.
+
+    Examples
+    --------
+    >>> calibrate(["plates"], Path("cal.h5"), model="cubic")
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: unknown model 'cubic'; use one of linear, rational, poly2, poly3
+    """
+    from hdrfringe.calibration import MODELS
+    from hdrfringe.errors import InputError, OutputExistsError
+    from hdrfringe.io.calibration_file import save_calibration
+    from hdrfringe.io.results import check_output_against_inputs, check_output_file
+
+    if model not in MODELS:
+        raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+    check_output_against_inputs(output, folders)
+    if output.is_dir():
+        raise OutputExistsError(f"{output}: is a folder; give a file path for the calibration")
+    if output.exists() and not force:
+        raise OutputExistsError(f"{output}: exists; pass --force to replace it")
+    output = check_output_file(output, force)  # what is there now: replaced only if unchanged
+    n = len(expand_capture_dirs(folders))
+    with progress("decoding plate positions", n) as advance:
+        cal = calibrate_folders(
+            folders, model=model, window_px=window, border_px=border, progress=advance
+        )
+    save_calibration(output, cal, force=force)
+    return cal
