@@ -13,8 +13,8 @@ import pytest
 
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.reproduce import compare as cmp
 from hdrfringe.rig.factory import virtual_rig
+from hdrfringe_thesis import compare as cmp
 from tests.conftest import run_cli
 
 RESOLUTION = (160, 120)

@@ -96,9 +96,9 @@ def simulate(
     from hdrfringe.io.simulation import series_depths, series_folder_name, write_simulation
     from hdrfringe.limits import MAX_SERIES_FOLDERS
     from hdrfringe.programs import fringe_program
-    from hdrfringe.reproduce.compare import parse_resolution
     from hdrfringe.rig.acquire import IntensityModification
     from hdrfringe.rig.factory import virtual_rig
+    from hdrfringe.tasks.compare import parse_resolution
 
     size = parse_resolution(resolution)
     output = check_output_dir(output, force)
