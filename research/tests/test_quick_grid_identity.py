@@ -22,8 +22,8 @@ the checkerboard's uniform-MIGL errors by up to 5e3 times the tolerance.
 :func:`test_a_float64_sweep_fails_the_reference` shows the float64 sweep failing on one block
 recomputed both ways. To measure a run: ``reproduce all --quick -o DIR`` under the environment
 (``env $(python tests/narrow_cpu.py) ...`` for the narrowed one), then ``python
-research/tests/quick_grid_reference.py compare DIR`` prints each variable's largest change in units of its
-tolerance.
+research/tests/quick_grid_reference.py compare DIR`` prints each variable's largest change in
+units of its tolerance.
 
 Remake the reference only for a change that is meant to change reproduced numbers
 (``python research/tests/quick_grid_reference.py make DIR``).
