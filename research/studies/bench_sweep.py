@@ -1,7 +1,7 @@
 """Benchmark: Ch. 4 measurements per second, the sweep's fast path on 1 and 2 workers.
 
 Run ``.venv/bin/python research/studies/bench_sweep.py`` (``make bench-sweep``); ``--json PATH``
-also writes the results. See benchmarks/README.md.
+also writes the results. See research/studies/README.md.
 
 One measurement = one phase-shifted set of the white plate at 648x494 captured, decoded,
 turned into height with the pattern's calibration and compared with the true depth (a cell of
