@@ -23,7 +23,11 @@ def test_mypy_is_clean(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(RESEARCH)  # mypy reads `files` relative to the working folder
     # the product from its sources, as the research code sees it (editable or from a worktree)
     monkeypatch.setenv("MYPYPATH", str(Path(hdrfringe_thesis.__file__).parents[3] / "src"))
-    stdout, stderr, _status = api.run(["--config-file", str(RESEARCH / "pyproject.toml")])
+    # the product's cache (tests/test_static.py, the same xdist group: run one after the other):
+    # numpy's and the product's analysis are reused, about 13 s less on a cold start
+    cache = RESEARCH.parent / ".mypy_cache"
+    config = str(RESEARCH / "pyproject.toml")
+    stdout, stderr, _status = api.run(["--config-file", config, "--cache-dir", str(cache)])
     errors = [line for line in stdout.splitlines() if re.match(r"^[^:]+\.py:\d+: error:", line)]
     assert not stderr.strip(), stderr
     assert not errors, "mypy errors:\n" + "\n".join(errors)
