@@ -43,8 +43,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import saturation_count
 from hdrfringe.calibration import measurement_mask
+from hdrfringe.phase import saturation_count
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.saturation.estimate import (
     CorrectionPolynomial,

@@ -36,12 +36,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import saturation_count
 from hdrfringe.calibration import Calibration, measurement_mask
 from hdrfringe.captures import CameraSettings, ProjectorInfo
 from hdrfringe.errors import InputError
 from hdrfringe.frames import Frame, FringeFrame
 from hdrfringe.patterns import FringeSpec
+from hdrfringe.phase import saturation_count
 from hdrfringe.rig.base import RigBase
 from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, Scene, checkerboard, white_plate
