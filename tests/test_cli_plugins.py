@@ -87,3 +87,25 @@ def test_reproduce_without_the_research_package_says_how_to_install_it(
     assert " reproduce " in res.stdout and "not installed" in res.stdout
     res = run_cli_in_process("reproduces")
     assert res.returncode == 2 and "No such command" in res.stderr  # only known plug-ins
+
+
+def test_a_broken_plugin_is_one_line_and_leaves_the_help_working(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An entry point whose module is gone (a package removed by hand, half an install): the
+    listing still works and running it says so in one line, no traceback."""
+    info = tmp_path / "r29_gone-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: r29-gone\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[hdrfringe.commands]\ngone = r29_gone_module:run\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    _app.plugin_commands.cache_clear()
+    try:
+        res = run_cli_in_process("--help")
+        assert res.returncode == 0 and " gone " in res.stdout, res.stderr
+        res = run_cli_in_process("gone", "--x")
+        lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+        assert res.returncode == 2 and len(lines) == 1, res.stderr
+        assert "`hdrfringe gone` cannot be loaded" in lines[0] and "r29_gone_module" in lines[0]
+    finally:
+        _app.plugin_commands.cache_clear()

@@ -105,20 +105,25 @@ def _command_names() -> list[str]:
     return [*COMMAND_MODULES, *sorted(extra - set(COMMAND_MODULES))]
 
 
-def _not_installed(name: str) -> Any:
-    """The stand-in for plug-in command ``name`` when its package is missing: whatever it is
-    given, it says in one line where the command comes from (exit code 2)."""
+def _not_installed(name: str, reason: str | None = None) -> Any:
+    """The stand-in for plug-in command ``name`` when its package is missing (or, with
+    ``reason``, cannot be imported): whatever it is given, it says so in one line (exit code
+    2); ``--help`` lists it."""
+    where = PLUGIN_INSTALL.get(name, "its package")
+    message = (
+        f"`hdrfringe {name}` is not installed: it comes with {where}"
+        if reason is None
+        else f"`hdrfringe {name}` cannot be loaded ({reason}); reinstall {where}"
+    )
 
     @handle_errors
     def run() -> None:
-        raise InputError(
-            f"`hdrfringe {name}` is not installed: it comes with {PLUGIN_INSTALL[name]}"
-        )
+        raise InputError(message)
 
     return typer.core.TyperCommand(
         name=name,
         callback=run,
-        help=PLUGIN_LISTED[name],
+        help=PLUGIN_LISTED.get(name) if reason is None else f"Cannot be loaded: {reason}.",
         add_help_option=False,
         context_settings={"ignore_unknown_options": True, "allow_extra_args": True},
     )
@@ -181,7 +186,9 @@ def _listed_command(name: str) -> Any:
     try:
         spec = importlib.util.find_spec(module)
     except ImportError:  # a parent package missing
-        return None
+        spec = None
+    if spec is None and function is not None:  # a plug-in whose module is gone
+        return _not_installed(name, f"no module {module}")
     if spec is None or spec.origin is None:
         return None
     try:
@@ -301,7 +308,10 @@ class LazyGroup(typer.core.TyperGroup):
             from typer.models import CommandInfo
 
             module, _, function = plugin_commands()[name].partition(":")
-            callback = getattr(importlib.import_module(module), function)
+            try:
+                callback = getattr(importlib.import_module(module), function)
+            except (ImportError, AttributeError) as exc:  # a broken install: one line, exit 2
+                return _not_installed(name, f"{type(exc).__name__}: {exc}")
             info = CommandInfo(name=name, callback=handle_errors(callback))
             return typer.main.get_command_from_info(info, **opts)
         importlib.import_module(f"hdrfringe.cli.{COMMAND_MODULES[name]}")
