@@ -17,11 +17,13 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 NATIVE_SRC := $(wildcard src/hdrfringe/_native/*.c)
 
 # The editable install compiles the native kernels in place (setup.py); a changed C file
-# reinstalls.
-$(STAMP): pyproject.toml setup.py $(NATIVE_SRC)
+# reinstalls. Then the research package (research/: `hdrfringe reproduce`, dask, xarray, zarr),
+# which the product does not need; its command joins `hdrfringe` through an entry point.
+$(STAMP): pyproject.toml setup.py $(NATIVE_SRC) research/pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --upgrade pip "setuptools>=77"
 	$(VENV)/bin/pip install --quiet -e ".[dev]"
+	$(VENV)/bin/pip install --quiet -e research
 	touch $(STAMP)
 
 system-packages:
@@ -42,10 +44,13 @@ native: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/hdrfringe demo -o $(OUT) --force
 
+# Both test trees: the product's (pyproject's testpaths) and the research package's.
+TEST_PATHS := tests src/hdrfringe README.md research/tests research/src
+
 test: $(STAMP) system-packages
-	$(VENV)/bin/ruff check src tests benchmarks
+	$(VENV)/bin/ruff check src tests benchmarks research
 	$(VENV)/bin/pytest -n 2 --dist loadgroup -q -m "not quick_reproduction" \
-		$(foreach t,$(NARROW_ONLY),--ignore=$(t))
+		$(foreach t,$(NARROW_ONLY),--ignore=$(t)) $(TEST_PATHS)
 	$(MAKE) --no-print-directory test-narrow
 
 # The numeric tests again as if on another CPU (tests/narrow_cpu.py): numpy's SIMD dispatch
@@ -60,10 +65,12 @@ test: $(STAMP) system-packages
 # stereo-calibration modules (NARROW_ONLY, 50 s of the first run): pure numpy on simulated
 # captures, their decoding covered on the full dispatch and the native kernels by every other
 # module. The real-data tests (marker realdata) run in the first run only: they are integration
-# tests of the same numerics on large images.
+# tests of the same numerics on large images. The reproduction's tests and docstrings are the
+# research package's (research/tests, research/src).
 NARROW_ONLY := tests/test_strategies.py tests/test_stereo_calibration.py
-NARROW_TESTS := tests/test_quick_grid_identity.py tests/test_reproduce.py \
-	tests/test_reproduce_adaptive.py tests/test_reproduce_broken.py tests/test_error_budget.py \
+NARROW_TESTS := research/tests/test_quick_grid_identity.py research/tests/test_reproduce.py \
+	research/tests/test_reproduce_adaptive.py research/tests/test_reproduce_broken.py \
+	research/tests/test_error_budget.py research/src/hdrfringe_thesis \
 	src/hdrfringe tests/test_phase.py tests/test_phase_blocks.py \
 	tests/test_unwrap.py tests/test_unwrap_paths.py tests/test_graycode.py \
 	tests/test_calibration.py tests/test_stereo.py tests/test_stereo_calibration.py \
@@ -75,13 +82,14 @@ test-narrow: $(STAMP)
 		-p no:cacheprovider -m "not realdata" $(NARROW_TESTS)
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check src tests benchmarks
+	$(VENV)/bin/ruff check src tests benchmarks research
 
 bench: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_phase.py
 
+# The sweep engine's timing, with the research package that has it.
 bench-sweep: $(STAMP)
-	$(VENV)/bin/python benchmarks/bench_sweep.py
+	$(VENV)/bin/python research/studies/bench_sweep.py
 
 bench-cold: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_cold_start.py

@@ -37,10 +37,10 @@ import numpy as np
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import composite_captures, strategy_absolute_phases
 from hdrfringe.process import decode_captures
-from hdrfringe.reproduce.compare import SCENES as COMPARE_SCENES
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.strategies.adaptive import adaptive_sets
+from hdrfringe.tasks.compare import SCENES as COMPARE_SCENES
 
 PITCHES = (1024.0, 64.0, 8.0)
 STRATEGIES: tuple[tuple[str, str, dict[str, Any]], ...] = (
@@ -216,7 +216,7 @@ def topup_study(
     fresh rig (seed 0): images, coverage, std and std in order (|error| <= pi), and the std
     over the pixels where the row and LPA S=1 are both valid and in order, beside LPA's there.
     ``rows`` (the first must be LPA S=1) and ``scene`` (a name of
-    :data:`hdrfringe.reproduce.compare.SCENES`; ``--epipolar``) change what is run.
+    :data:`hdrfringe.tasks.compare.SCENES`; ``--epipolar``) change what is run.
     """
     from hdrfringe.rig.factory import virtual_rig
 

@@ -1,7 +1,7 @@
 """Benchmark: every saturation strategy side by side on the virtual rig, full size.
 
 Run ``.venv/bin/python benchmarks/bench_compare.py`` (the rig's 648 x 494 camera, the four
-scenes, every method of :data:`hdrfringe.reproduce.compare.METHODS`; ``--resolution 160x120``
+scenes, every method of :data:`hdrfringe.tasks.compare.METHODS`; ``--resolution 160x120``
 for a quick look, ``--scenes specular_part --methods lpa-1,adaptive`` to limit it (the
 methods still run in the table's order on one rig per scene), ``-o DIR`` to also keep the
 table, JSON and plot as ``hdrfringe compare`` writes them). It prints the markdown table of
@@ -15,7 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from hdrfringe.reproduce.compare import (
+from hdrfringe.tasks.compare import (
     compare,
     compare_markdown,
     fringe_specs,

@@ -203,19 +203,16 @@ def kimthyung_rows(kimthyung_stereo: dict) -> dict:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Mark the tests that use the quick reproduction (``quick_run``) ``quick_reproduction``:
-    ``make test`` runs them in its narrowed numeric run only, so that the 90 s sweep runs once;
-    and put them in the xdist group ``dask-cluster`` (one worker, one sweep): a test that used
-    the fixture without the group made the other worker run a second sweep."""
+    """Run a module whose tests share a module- or class-scoped fixture (a simulated
+    measurement, a decoded real capture) on one xdist worker, so that the fixture is built once,
+    not once on each worker (test_tradeoff's took 14.5 s on both). Tests that choose their group
+    keep it; the quick reproduction's tests are grouped by research/tests/conftest.py."""
     for item in items:
+        if item.get_closest_marker("xdist_group") is not None:
+            continue
         if "quick_run" in getattr(item, "fixturenames", ()):
-            item.add_marker(pytest.mark.quick_reproduction)
-            if item.get_closest_marker("xdist_group") is None:
-                item.add_marker(pytest.mark.xdist_group("dask-cluster"))
-        elif item.get_closest_marker("xdist_group") is None and _uses_module_fixture(item):
-            # one worker per module: a module-scoped fixture (a simulated measurement, a
-            # decoded real capture) is built once, not once on each worker (test_tradeoff's
-            # took 14.5 s on both)
+            continue
+        if _uses_module_fixture(item):
             item.add_marker(pytest.mark.xdist_group(f"module:{item.nodeid.split('::')[0]}"))
 
 
@@ -229,18 +226,6 @@ def _uses_module_fixture(item: pytest.Item) -> bool:
         for defs in info.name2fixturedefs.values()
         for d in defs
     )
-
-
-@pytest.fixture(scope="session")  # once per xdist worker, even if modules interleave
-def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """``hdrfringe reproduce all --quick`` (Ch. 4, 5 and 6 on the reduced grid), run once.
-
-    Tests using it start a dask cluster: mark them ``xdist_group("dask-cluster")``.
-    """
-    out = tmp_path_factory.mktemp("repro") / "all"
-    res = run_cli("reproduce", "all", "--quick", "-o", str(out), "--workers", "2", timeout=600)
-    assert res.returncode == 0, res.stderr
-    return out
 
 
 _NO_TCP = ("-nolisten", "tcp")

@@ -175,7 +175,6 @@ def _tree(folder: Path) -> dict[str, bytes]:
         (["patterns", "--width", "1000000", "--height", "1000000"], "limit of 67108864"),
         (["patterns", "--steps", "100000"], "more than the limit of 1000"),
         (["modify", "{src}", "--seed", "-1", "--noise", "1"], "seed must be a non-negative"),
-        (["reproduce", "ch4", "--workers", "0"], "--workers (n_workers) must be at least 1"),
     ],
 )
 def test_limits_and_bad_numbers_are_one_line_errors(

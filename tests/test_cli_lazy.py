@@ -39,9 +39,15 @@ def test_the_table_names_every_command_and_its_module() -> None:
 
 
 def test_every_command_resolves_through_the_group() -> None:
+    """The product's commands in table order, then the plug-ins (tests/test_cli_plugins.py):
+    ``reproduce`` whether or not the research package is installed."""
+    from hdrfringe.cli._app import PLUGIN_INSTALL, plugin_commands
+
     group = typer.main.get_command(app)
-    assert list(group.commands) == list(COMMAND_MODULES)  # type: ignore[attr-defined]
-    for name in COMMAND_MODULES:
+    names = list(group.commands)  # type: ignore[attr-defined]
+    assert names[: len(COMMAND_MODULES)] == list(COMMAND_MODULES)
+    assert names[len(COMMAND_MODULES) :] == sorted(set(PLUGIN_INSTALL) | set(plugin_commands()))
+    for name in names:
         assert group.commands[name].name == name  # type: ignore[attr-defined]
 
 
@@ -109,7 +115,7 @@ def test_help_lists_every_command_as_if_loaded_without_importing_them() -> None:
     lazy, loaded_help, loaded = ast.literal_eval(probe.stdout)
     assert loaded == ["hdrfringe.cli._app"]  # --help imported no command module
     assert lazy == loaded_help
-    assert all(f" {name} " in lazy for name in COMMAND_MODULES)
+    assert all(f" {name} " in lazy for name in [*COMMAND_MODULES, "reproduce"])
 
 
 def _unset_is_none(command: object, attr: str) -> object:
@@ -123,7 +129,7 @@ def test_the_listing_entries_match_the_commands() -> None:
     from hdrfringe.cli._app import _listed_command
 
     group = typer.main.get_command(app)
-    for name in COMMAND_MODULES:
+    for name in list(group.commands):  # type: ignore[attr-defined]  # plug-ins too
         listed, real = _listed_command(name), group.commands[name]  # type: ignore[attr-defined]
         assert listed is not None, name  # every command is in the plain form the listing reads
         for attr in ("name", "help", "short_help", "hidden", "deprecated", "rich_help_panel"):

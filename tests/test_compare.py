@@ -13,8 +13,8 @@ import pytest
 
 from hdrfringe.errors import InputError
 from hdrfringe.patterns import FringeSpec
-from hdrfringe.reproduce import compare as cmp
 from hdrfringe.rig.factory import virtual_rig
+from hdrfringe.tasks import compare as cmp
 from tests.conftest import run_cli
 
 RESOLUTION = (160, 120)
@@ -55,7 +55,9 @@ def test_cli_writes_table_json_and_plot(run: Path) -> None:
     md = (run / "compare.md").read_text()
     for scene in SCENES:
         assert f"### {scene}" in md
-    assert "| LPA S=15 | " in md and "Table 5.2 (pitch 8)" in md  # the thesis beside ours
+    assert "| LPA S=15 | " in md
+    # the thesis beside ours when the research package gives its numbers (an entry point)
+    assert ("Table 5.2 (pitch 8)" in md) == ("lpa-15" in cmp.thesis_references())
     assert "height error in mm" in md  # the units said
     png = (run / "compare.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
@@ -133,6 +135,29 @@ def test_a_strategy_not_registered_is_a_row_not_available(monkeypatch: pytest.Mo
     assert rows[0].available and not rows[1].available and rows[1].images is None
     assert "not registered" in rows[1].note
     assert "| future | not available |" in cmp.compare_markdown(rows)
+
+
+def test_thesis_numbers_come_from_the_reference_entry_points(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A row carries the numbers an installed package gives for its method and thesis scene
+    (the research package: research/tests/test_compare_references.py), none without one."""
+    given = cmp.ThesisRow("Table X", 7, None, 0.5, 0.6)
+    monkeypatch.setattr(cmp, "thesis_references", lambda: {"conventional": {"plate": given}})
+    rows = cmp.compare(
+        ["white_plate_600lx", "glossy"], ["conventional", "lpa-1"], resolution=(32, 24), pitch=16
+    )
+    assert [(r.scene, r.method, r.thesis) for r in rows] == [
+        ("white_plate_600lx", "conventional", given),  # our 600 lx plate is the thesis's plate
+        ("white_plate_600lx", "lpa-1", None),
+        ("glossy", "conventional", None),  # a scene the thesis did not measure
+        ("glossy", "lpa-1", None),
+    ]
+    assert "Table X" in cmp.compare_markdown(rows)
+    monkeypatch.setattr(cmp, "thesis_references", dict)  # no package installed
+    assert "Table" not in cmp.compare_markdown(
+        cmp.compare(["white_plate_600lx"], ["conventional"], resolution=(32, 24), pitch=16)
+    ).split("|---")[-1]
 
 
 def test_library_refuses_unknown_names() -> None:

@@ -1,4 +1,5 @@
-"""Damaged or hostile inputs (issue 11): calibrations, the Dask scheduler address, small cases.
+"""Damaged or hostile inputs (issue 11): calibrations, small cases (the Dask scheduler address:
+research/tests/test_reproduce_errors.py).
 
 Each case failed on the code before issue 11 (exit 0 with wrong numbers, a traceback or a
 hang); each now gives a one-line error, exit 2, and writes nothing.
@@ -6,14 +7,8 @@ hang); each now gives a one-line error, exit 2, and writes nothing.
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import json
 import shutil
-import socket
-import threading
-import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +21,6 @@ from hdrfringe.io.calibration_file import (
     load_calibration,
     save_calibration,
 )
-from hdrfringe.reproduce.engine import SCHEDULER_TIMEOUT_S, check_scheduler
 from hdrfringe.unwrap import centerline_phase
 from tests.conftest import run_cli, run_cli_in_process
 
@@ -178,87 +172,6 @@ def test_cli_calibrate_with_depth_1e300_refused(plates: Path, tmp_path: Path) ->
     res = run_cli_in_process("calibrate", str(series), "-o", str(out))
     _one_line_failure(res, "1e+300 mm")
     assert not out.exists() and not list(tmp_path.glob(".cal.h5*"))
-
-
-# --------------------------------------------------------------------------------------------
-# reproduce --scheduler: the address must answer as a Dask scheduler, before anything is written
-# --------------------------------------------------------------------------------------------
-@contextlib.contextmanager
-def _tcp_server(reply: bytes | None) -> Iterator[str]:
-    """A local TCP service in a thread: sends ``reply`` to every client (None: stays silent)."""
-    server = socket.create_server(("127.0.0.1", 0))
-    server.settimeout(0.2)
-    stop = threading.Event()
-    conns: list[socket.socket] = []
-
-    def serve() -> None:
-        while not stop.is_set():
-            try:
-                conn, _ = server.accept()
-            except TimeoutError:
-                continue
-            conns.append(conn)
-            if reply is not None:
-                conn.sendall(reply)
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
-    try:
-        yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
-    finally:
-        stop.set()
-        thread.join()
-        for conn in conns:
-            conn.close()
-        server.close()
-
-
-HTTP_REPLY = b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\nConnection: keep-alive\r\n\r\n"
-
-
-@pytest.mark.parametrize(
-    ("reply", "needle"), [(HTTP_REPLY, "another protocol"), (None, "within 2 s")]
-)
-def test_check_scheduler_refuses_a_non_scheduler_within_the_timeout(
-    reply: bytes | None, needle: str
-) -> None:
-    """Before: an 87-line traceback ("Unable to allocate 3.07 EiB") or a hang past 120 s."""
-    with _tcp_server(reply) as address:
-        start = time.monotonic()
-        with pytest.raises(InputError, match="no Dask scheduler answered") as info:
-            check_scheduler(address, timeout=2)
-        assert time.monotonic() - start < 4
-    assert "\n" not in str(info.value) and needle in str(info.value)
-
-
-def test_check_scheduler_accepts_a_dask_scheduler_only() -> None:
-    from distributed import Scheduler, Worker
-
-    async def main() -> tuple[str, str]:
-        async with Scheduler(dashboard_address=None) as s, Worker(s.address) as w:
-            loop = asyncio.get_running_loop()
-            await loop.run_in_executor(None, check_scheduler, s.address, 5.0)
-            try:
-                await loop.run_in_executor(None, check_scheduler, w.address, 5.0)
-            except InputError as exc:
-                return s.address, str(exc)
-            return s.address, ""
-
-    _, worker_error = asyncio.run(main())
-    assert "the peer is Worker" in worker_error
-
-
-@pytest.mark.parametrize("reply", [HTTP_REPLY, None])
-def test_cli_reproduce_with_a_bad_scheduler_writes_nothing(
-    reply: bytes | None, tmp_path: Path
-) -> None:
-    out = tmp_path / "repro"
-    with _tcp_server(reply) as address:
-        start = time.monotonic()
-        res = run_cli("reproduce", "ch4", "--quick", "-o", str(out), "--scheduler", address)
-        assert time.monotonic() - start < SCHEDULER_TIMEOUT_S + 8
-    _one_line_failure(res, "no Dask scheduler answered", address)
-    assert not out.exists()
 
 
 # --------------------------------------------------------------------------------------------

@@ -456,17 +456,6 @@ CASES: list[tuple[str, list[str]] | tuple[str, list[str], str]] = [
     ("train-out-existing", ["train-correction", "--rig", "sim", "-o", "{r}/corr.json"]),
     ("train-out-inside-input", ["train-correction", "{r}/caps", "-o", "{r}/caps/k.json"]),
     ("train-truncated-manifest", ["train-correction", "{r}/trunc_json", "-o", "{r}/k.json"]),
-    # --- reproduce (argument errors only: no cluster is started) ------------------------
-    ("reproduce-unknown-chapter", ["reproduce", "ch9", "-o", "{o}"]),
-    ("reproduce-workers-0", ["reproduce", "ch4", "-o", "{o}", "--workers", "0"]),
-    ("reproduce-workers-negative", ["reproduce", "ch4", "-o", "{o}", "--workers", "-4"]),
-    ("reproduce-workers-400-digits", ["reproduce", "ch4", "-o", "{o}", "--workers", N400]),
-    ("reproduce-out-is-file", ["reproduce", "ch4", "-o", "{r}/notes.txt"]),
-    ("reproduce-bad-scheduler", ["reproduce", "ch4", "-o", "{o}", "--scheduler", "not an address"]),
-    (
-        "reproduce-scheduler-bad-port",
-        ["reproduce", "ch4", "-o", "{o}", "--scheduler", "tcp://127.0.0.1:99999"],
-    ),
     # --- demo ---------------------------------------------------------------------------
     ("demo-out-is-file", ["demo", "-o", "{r}/notes.txt"]),
     ("demo-out-existing", ["demo", "-o", "{r}/existing"]),
@@ -775,9 +764,10 @@ def test_suite_covers_every_command() -> None:
     commands = {case[1][0] for case in CASES}
     assert commands == {
         "patterns", "simulate", "modify", "gamma", "phase", "calibrate", "measure",
-        "train-correction", "reproduce", "demo", "import", "calibrate-stereo",
+        "train-correction", "demo", "import", "calibrate-stereo",
         "capture", "rig", "capture-gamma", "capture-poses",  # with a bad rig configuration
     }  # fmt: skip
+    # reproduce (the research package's command): research/tests/test_reproduce_errors.py
     assert len(CASES) >= 60 and len({case[0] for case in CASES}) == len(CASES)
     for command in ("import", "calibrate-stereo"):  # issue 12's commands: 8 or more each
         assert sum(case[1][0] == command for case in CASES) >= 8

@@ -10,9 +10,9 @@ layer, fails the test. ``hdrfringe/__init__.py`` (the public API, which re-expor
 layer) is exempt, and so is importing it (``from hdrfringe import __version__``).
 
 The same walk gives the module import graph, checked for circles (issue 29): no strongly connected
-component of more than one module, lazy imports included; and no module outside the research
-package (``hdrfringe/reproduce/``) imports it, except the CLI commands listed in
-:data:`RESEARCH_IMPORTERS`.
+component of more than one module, lazy imports included; and src never imports the research
+package (:data:`RESEARCH`, ``research/`` of the repository: it joins the product through entry
+points, never through an import).
 """
 
 from __future__ import annotations
@@ -87,8 +87,6 @@ LAYERS: dict[str, int] = {
     "cli": FRONT_END,
     "cli.*": FRONT_END,
     "demo": FRONT_END,
-    "reproduce": FRONT_END,
-    "reproduce.*": FRONT_END,
 }
 
 #: Imports a layer's own rank allows but the design forbids (issue 29): importer prefix ->
@@ -279,16 +277,11 @@ def _package_sources() -> dict[str, tuple[str, bool]]:
 #: a circle listed here that no longer occurs, so the list cannot go stale.
 KNOWN_CYCLES: dict[frozenset[str], str] = {}
 
-#: The research package, and the modules outside it that may import it (module -> why). Issue 29
-#: moves ``reproduce`` into its own installable package that joins the ``hdrfringe`` command
-#: through an entry point; then the product imports none of it and this map is empty. A module
-#: listed here that no longer imports it fails the test.
-RESEARCH = "reproduce"
-RESEARCH_IMPORTERS: dict[str, str] = {
-    "cli.reproduce": "the `reproduce` command runs the research sweeps",
-    "cli.compare": "the `compare` command runs reproduce.compare (issue 29: a product command)",
-    "cli.simulate": "parses --resolution with reproduce.compare.parse_resolution",
-}
+#: The research package (``research/src/hdrfringe_thesis``, distribution ``hdrfringe-thesis``).
+#: It joins the product through entry points (``hdrfringe.commands``: ``reproduce``;
+#: ``hdrfringe.compare_references``: the thesis's numbers in ``compare``); the product never
+#: imports it, so that ``pip install hdrfringe`` needs none of its dependencies.
+RESEARCH = "hdrfringe_thesis"
 
 
 def _is_within(module: str, package: str) -> bool:
@@ -338,19 +331,30 @@ def import_cycles(graph: dict[str, set[str]]) -> list[frozenset[str]]:
 
 
 def research_importers(sources: dict[str, tuple[str, bool]]) -> dict[str, list[int]]:
-    """Modules outside the research package that import it -> the lines that do."""
-    known = set(sources)
+    """Modules that import the research package :data:`RESEARCH` -> the lines that do: ``import
+    hdrfringe_thesis.x``, ``from hdrfringe_thesis(.x) import y`` and
+    ``importlib.import_module("hdrfringe_thesis.x")`` with a literal name, at any depth."""
     out: dict[str, list[int]] = {}
-    for module, (source, is_package) in sorted(sources.items()):
-        if not module or _is_within(module, RESEARCH):
-            continue
-        lines = [
-            line
-            for target, line in imports_of(source, module, is_package, known)
-            if _is_within(target.lstrip("?"), RESEARCH)
-        ]
+    for module, (source, _) in sorted(sources.items()):
+        lines = set()
+        for node in ast.walk(ast.parse(source)):
+            names: list[str] = []
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level:
+                names = [node.module or ""]
+            elif (
+                isinstance(node, ast.Call)
+                and getattr(node.func, "attr", getattr(node.func, "id", None)) == "import_module"
+                and node.args
+                and isinstance(node.args[0], ast.Constant)
+                and isinstance(node.args[0].value, str)
+            ):
+                names = [node.args[0].value]
+            if any(_is_within(name, RESEARCH) for name in names):
+                lines.add(node.lineno)
         if lines:
-            out[module] = sorted(set(lines))
+            out[module] = sorted(lines)
     return out
 
 
@@ -467,7 +471,7 @@ def test_checker_reports_unknown_modules_and_unplaced_ones() -> None:
     assert [(m, t, why) for m, t, _, why in found] == [
         ("phase", "nosuch", "imports no module of the package")
     ]
-    assert unplaced({"", "phase", "rig.replay", "newthing", "reproduce.x"}) == ["newthing"]
+    assert unplaced({"", "phase", "rig.replay", "newthing", "tasks.x"}) == ["newthing"]
     assert layer_of("gamma.fits") == CORE and layer_of("strategies.lpa") == ACQUISITION
     assert layer_of("saturation") == CORE
 
@@ -499,14 +503,11 @@ def test_the_import_graph_is_found() -> None:
     assert sum(len(t) for t in graph.values()) > 500
 
 
-def test_only_the_listed_modules_import_the_research_package() -> None:
+def test_src_never_imports_the_research_package() -> None:
     found = research_importers(_package_sources())
-    unexpected = {m: lines for m, lines in found.items() if m not in RESEARCH_IMPORTERS}
-    assert not unexpected, "the product imports the research package (hdrfringe.reproduce):\n" + (
-        "\n".join(f"  hdrfringe.{m} (lines {lines})" for m, lines in unexpected.items())
+    assert not found, "the product imports the research package (hdrfringe_thesis):\n" + (
+        "\n".join(f"  hdrfringe.{m} (lines {lines})" for m, lines in found.items())
     )
-    stale = sorted(set(RESEARCH_IMPORTERS) - set(found))
-    assert not stale, f"RESEARCH_IMPORTERS no longer import it, remove them: {stale}"
 
 
 # --- the circle check on synthetic modules ------------------------------------------------------
@@ -609,10 +610,10 @@ def test_cycle_check_accepts_one_way_imports(modules: dict[str, str]) -> None:
 def test_research_check_finds_importers() -> None:
     sources = {
         "": ("", True),
-        "reproduce": ("from .runner import x\n", True),
-        "reproduce.runner": ("from hdrfringe.phase import y\n", False),
-        "phase": ("def f():\n    from hdrfringe.reproduce.runner import x\n", False),
-        "cli": ("from hdrfringe import reproduce\n", False),
-        "io": ("from . import phase\n", True),
+        "runner": ("from .reproduce import x\nimport hdrfringe_thesisx\n", True),
+        "phase": ("def f():\n    from hdrfringe_thesis.runner import x\n", False),
+        "cli": ("import numpy, hdrfringe_thesis\n", False),
+        "io": ("import importlib\nimportlib.import_module('hdrfringe_thesis.cli')\n", True),
+        "demo": ("from hdrfringe import reproduce\n", False),
     }
-    assert research_importers(sources) == {"cli": [1], "phase": [2]}
+    assert research_importers(sources) == {"cli": [1], "io": [2], "phase": [2]}

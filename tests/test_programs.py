@@ -163,7 +163,6 @@ EXAMPLE_MODULES = [
     "hdrfringe.tasks.modify",
     "hdrfringe.gamma.report",
     "hdrfringe.io.gamma_outputs",
-    "hdrfringe.reproduce.runner",
 ]
 
 

@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 NUMPYDOC_CODES = ("GL08", "PR01", "PR02", "RT01", "EX01")
 
 #: Front ends: their public functions are commands and report builders, documented by --help.
-FRONT_ENDS = ("hdrfringe.cli", "hdrfringe.demo", "hdrfringe.reproduce")
+FRONT_ENDS = ("hdrfringe.cli", "hdrfringe.demo")
 
 
 def _module_of(path: str) -> str:

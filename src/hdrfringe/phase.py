@@ -233,7 +233,7 @@ def sinusoidal_phase(
         assert maps.modulation is not None and maps.mean is not None
         return maps.phase.reshape(shape), maps.modulation.reshape(shape), maps.mean.reshape(shape)
     # float32 (the reproduction's sweeps): unchanged, so that their reproduced numbers stay
-    # those of the reference (tests/test_quick_grid_identity.py).
+    # those of the reference (research/tests/test_quick_grid_identity.py).
     delta = TWO_PI * np.arange(n) / n
     flat = stack.reshape(n, -1).astype(dt, copy=False)
     s = np.sin(delta).astype(dt, copy=False) @ flat

@@ -6,10 +6,14 @@ no partial output is left behind (outputs are staged and moved into place when c
 
 A command's module is imported when the command runs (``cli._app.COMMAND_MODULES``), so that
 ``hdrfringe phase`` does not pay for the modules (and their imports) of the other commands.
+
+Another installed package adds commands through the entry-point group :data:`PLUGIN_GROUP`
+(``hdrfringe.commands``; the research package's ``reproduce``): the entry point names a typer
+command function, run under the same error handling; it prints with :data:`console`.
 """
 
 from __future__ import annotations
 
-from hdrfringe.cli._app import app
+from hdrfringe.cli._app import PLUGIN_GROUP, app, console
 
-__all__ = ["app"]
+__all__ = ["PLUGIN_GROUP", "app", "console"]

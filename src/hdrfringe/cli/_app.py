@@ -23,6 +23,8 @@ from hdrfringe.limits import MAX_PROGRAM_FRAMES, check_count
 
 __all__ = [
     "COMMAND_MODULES",
+    "PLUGIN_GROUP",
+    "PLUGIN_INSTALL",
     "F",
     "LazyGroup",
     "app",
@@ -32,6 +34,7 @@ __all__ = [
     "main",
     "parse_floats",
     "parse_range",
+    "plugin_commands",
     "progress_bar",
     "progress_stage",
 ]
@@ -54,16 +57,83 @@ COMMAND_MODULES: dict[str, str] = {
     "modify": "modify",
     "patterns": "patterns",
     "phase": "phase",
-    "reproduce": "reproduce",
     "simulate": "simulate",
     "train-correction": "train",
     "rig": "rig_check",
 }
 
 
+#: The entry-point group through which an installed package adds commands to ``hdrfringe``
+#: (as xarray's backends register): ``name = "module:function"``, the function a typer command
+#: (annotated parameters, its docstring the help) that runs under :func:`handle_errors`. The
+#: group is read only for the command listing and for a name that is no product command; the
+#: module is imported only when its command runs.
+PLUGIN_GROUP = "hdrfringe.commands"
+#: Commands another package provides -> where they come from and how to install it: without
+#: that package, running the command prints this in one line (exit code 2).
+PLUGIN_INSTALL: dict[str, str] = {
+    "reproduce": "the research package hdrfringe-thesis (the thesis's experiments); install it "
+    "from a clone of hdrfringe with `pip install -e research` (`make install` does)",
+}
+#: What ``--help`` lists for a command of :data:`PLUGIN_INSTALL` whose package is missing.
+PLUGIN_LISTED = {"reproduce": "The thesis's experiments (not installed: hdrfringe-thesis)."}
+
+
+@functools.cache
+def plugin_commands() -> dict[str, str]:
+    """The commands installed packages add (entry-point group :data:`PLUGIN_GROUP`): name ->
+    ``"module:function"``; a product command's name is not taken over.
+
+    Returns
+    -------
+    dict
+        In name order; empty when no such package is installed.
+
+    Examples
+    --------
+    >>> set(plugin_commands()) <= set(PLUGIN_INSTALL) | {"my-command"}
+    True
+    """
+    from importlib.metadata import entry_points
+
+    found = {ep.name: ep.value for ep in entry_points(group=PLUGIN_GROUP)}
+    return {name: found[name] for name in sorted(found) if name not in COMMAND_MODULES}
+
+
+def _command_names() -> list[str]:
+    """Every command name: the product's (:data:`COMMAND_MODULES`), then the installed plug-ins'
+    and those of :data:`PLUGIN_INSTALL` not installed, by name."""
+    extra = set(plugin_commands()) | set(PLUGIN_INSTALL)
+    return [*COMMAND_MODULES, *sorted(extra - set(COMMAND_MODULES))]
+
+
+def _not_installed(name: str, reason: str | None = None) -> Any:
+    """The stand-in for plug-in command ``name`` when its package is missing (or, with
+    ``reason``, cannot be imported): whatever it is given, it says so in one line (exit code
+    2); ``--help`` lists it."""
+    where = PLUGIN_INSTALL.get(name, "its package")
+    message = (
+        f"`hdrfringe {name}` is not installed: it comes with {where}"
+        if reason is None
+        else f"`hdrfringe {name}` cannot be loaded ({reason}); reinstall {where}"
+    )
+
+    @handle_errors
+    def run() -> None:
+        raise InputError(message)
+
+    return typer.core.TyperCommand(
+        name=name,
+        callback=run,
+        help=PLUGIN_LISTED.get(name) if reason is None else f"Cannot be loaded: {reason}.",
+        add_help_option=False,
+        context_settings={"ignore_unknown_options": True, "allow_extra_args": True},
+    )
+
+
 class _LazyCommands(MutableMapping[str, Any]):
     """The click commands of :class:`LazyGroup` by name: a command's module is imported on
-    first access; iteration lists every name of :data:`COMMAND_MODULES` without importing."""
+    first access; iteration lists every name (:func:`_command_names`) without importing."""
 
     def __init__(self, loaded: Mapping[str, Any], load: Callable[[str], Any]) -> None:
         self._loaded = dict(loaded)
@@ -71,7 +141,7 @@ class _LazyCommands(MutableMapping[str, Any]):
 
     def __getitem__(self, name: str) -> Any:
         if name not in self._loaded:
-            if name not in COMMAND_MODULES:
+            if name not in COMMAND_MODULES and name not in _command_names():
                 raise KeyError(name)
             self._loaded[name] = self._load(name)
         return self._loaded[name]
@@ -83,11 +153,13 @@ class _LazyCommands(MutableMapping[str, Any]):
         del self._loaded[name]
 
     def __iter__(self) -> Iterator[str]:
-        yield from COMMAND_MODULES
-        yield from (n for n in self._loaded if n not in COMMAND_MODULES)
+        names = _command_names()
+        yield from names
+        yield from (n for n in self._loaded if n not in names)
 
     def __len__(self) -> int:
-        return len(COMMAND_MODULES) + sum(n not in COMMAND_MODULES for n in self._loaded)
+        names = _command_names()
+        return len(names) + sum(n not in names for n in self._loaded)
 
     def is_loaded(self, name: str) -> bool:
         """Whether the command ``name`` has been built (its module imported)."""
@@ -100,13 +172,25 @@ def _listed_command(name: str) -> Any:
 
     Plain forms: a function decorated with ``@app.command()`` or ``@app.command("name")`` (no
     other argument), its docstring being the help; or ``app.add_typer(X, name="name")`` with
-    ``X = typer.Typer(help="...", no_args_is_help=...)``. Anything else (a help panel, hidden,
-    deprecated, a short help) returns None and the module is imported instead.
+    ``X = typer.Typer(help="...", no_args_is_help=...)``; for a plug-in (:func:`plugin_commands`)
+    the function its entry point names. Anything else (a help panel, hidden, deprecated, a short
+    help) returns None and the module is imported instead.
     """
     import ast
     import importlib.util
 
-    spec = importlib.util.find_spec(f"hdrfringe.cli.{COMMAND_MODULES[name]}")
+    if name in COMMAND_MODULES:
+        module, function = f"hdrfringe.cli.{COMMAND_MODULES[name]}", None
+    elif name in plugin_commands():
+        module, _, function = plugin_commands()[name].partition(":")
+    else:
+        return _not_installed(name) if name in PLUGIN_INSTALL else None
+    try:
+        spec = importlib.util.find_spec(module)
+    except ImportError:  # a parent package missing
+        spec = None
+    if spec is None and function is not None:  # a plug-in whose module is gone
+        return _not_installed(name, f"no module {module}")
     if spec is None or spec.origin is None:
         return None
     try:
@@ -116,6 +200,10 @@ def _listed_command(name: str) -> Any:
         return None
     typers: dict[str, str] = {}
     for node in tree.body:
+        if function is not None:
+            if isinstance(node, ast.FunctionDef) and node.name == function:
+                return typer.core.TyperCommand(name=name, help=ast.get_docstring(node))
+            continue
         if isinstance(node, ast.FunctionDef):
             for dec in node.decorator_list:
                 if not (
@@ -204,7 +292,7 @@ class LazyGroup(typer.core.TyperGroup):
         """The command ``cmd_name`` (its module imported), or while the help is formatted a
         listing entry read from the module's source when that gives the same entry."""
         commands = self.commands
-        if self._listing and isinstance(commands, _LazyCommands) and cmd_name in COMMAND_MODULES:
+        if self._listing and isinstance(commands, _LazyCommands) and cmd_name in _command_names():
             if not commands.is_loaded(cmd_name):
                 listed = _listed_command(cmd_name)
                 if listed is not None:
@@ -212,11 +300,23 @@ class LazyGroup(typer.core.TyperGroup):
         return commands.get(cmd_name)
 
     def _load(self, name: str) -> Any:
-        importlib.import_module(f"hdrfringe.cli.{COMMAND_MODULES[name]}")
         opts: dict[str, Any] = {
             "pretty_exceptions_short": app.pretty_exceptions_short,
             "rich_markup_mode": app.rich_markup_mode,
         }
+        if name not in COMMAND_MODULES:  # a plug-in (_LazyCommands checked the name)
+            if name not in plugin_commands():
+                return _not_installed(name)
+            from typer.models import CommandInfo
+
+            module, _, function = plugin_commands()[name].partition(":")
+            try:
+                callback = getattr(importlib.import_module(module), function)
+            except (ImportError, AttributeError) as exc:  # a broken install: one line, exit 2
+                return _not_installed(name, f"{type(exc).__name__}: {exc}")
+            info = CommandInfo(name=name, callback=handle_errors(callback))
+            return typer.main.get_command_from_info(info, **opts)
+        importlib.import_module(f"hdrfringe.cli.{COMMAND_MODULES[name]}")
         for info in app.registered_commands:
             assert info.callback is not None
             if (info.name or typer.main.get_command_name(info.callback.__name__)) == name:

@@ -49,7 +49,8 @@ def compare(
     coverage and phase error with the thesis's numbers beside ours, and a plot of error and
     coverage against images captured (docs/compare.md)."""
     from hdrfringe.io.results import check_output_dir
-    from hdrfringe.reproduce.compare import (
+    from hdrfringe.rig.factory import virtual_rig
+    from hdrfringe.tasks.compare import (
         METHODS,
         SCENES,
         fringe_specs,
@@ -57,8 +58,7 @@ def compare(
         parse_resolution,
         write_compare,
     )
-    from hdrfringe.reproduce.compare import compare as run
-    from hdrfringe.rig.factory import virtual_rig
+    from hdrfringe.tasks.compare import compare as run
 
     scene_names = parse_names(scenes, list(SCENES), "--scenes")
     method_names = parse_names(methods, [m.name for m in METHODS], "--methods")

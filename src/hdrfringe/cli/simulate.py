@@ -100,7 +100,7 @@ def simulate(
     """
     from hdrfringe._validation import describe_saturated
     from hdrfringe.limits import MAX_SERIES_FOLDERS
-    from hdrfringe.reproduce.compare import parse_resolution
+    from hdrfringe.tasks.compare import parse_resolution
     from hdrfringe.tasks import simulate as task
 
     size = parse_resolution(resolution)

@@ -50,6 +50,8 @@ __all__ = [
     "check_output_file",
     "check_writable",
     "current_umask",
+    "marked_pid",
+    "pid_alive",
     "read_map_tiff",
     "rename_noreplace",
     "sigterm_cleanup",
@@ -289,7 +291,23 @@ def check_writable(path: str | Path) -> None:
         ) from None
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` is running (one owned by another user counts as running).
+
+    Parameters
+    ----------
+    pid : int
+        Process ID, e.g. read from a staging folder's name by :func:`marked_pid`.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> pid_alive(os.getpid())
+    True
+    """
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -299,8 +317,34 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def _marked_pid(entry: Path, out: Path, infix: str) -> int | None:
-    """The PID in the name of ``.{out.name}{infix}{PID}-{random}``; None if not named so."""
+def marked_pid(entry: Path, out: Path, infix: str) -> int | None:
+    """The PID in the name of ``.{out.name}{infix}{PID}-{random}``; None if not named so.
+
+    How a run tells its own or a live run's hidden sibling of ``out`` (a staging folder,
+    :data:`STAGING_INFIX`; a store being created) from one a killed run left behind
+    (docs/safety.md).
+
+    Parameters
+    ----------
+    entry : Path
+        The sibling found beside ``out``.
+    out : Path
+        The output it belongs to.
+    infix : str
+        The marker after ``.{out.name}``, e.g. :data:`STAGING_INFIX`.
+
+    Returns
+    -------
+    int or None
+        The PID of the process that made ``entry``.
+
+    Examples
+    --------
+    >>> marked_pid(Path(".res.staging-4242-ab12"), Path("res"), STAGING_INFIX)
+    4242
+    >>> marked_pid(Path(".res.staging-x"), Path("res"), STAGING_INFIX) is None
+    True
+    """
     try:
         return int(entry.name[len(out.name) + 1 + len(infix) :].split("-")[0])
     except ValueError:
@@ -320,12 +364,12 @@ def _recover_leftovers(out: Path, path: str | Path) -> None:
     """
     with contextlib.suppress(OSError):
         staging = {
-            entry: _marked_pid(entry, out, STAGING_INFIX)
+            entry: marked_pid(entry, out, STAGING_INFIX)
             for entry in out.parent.glob(f".{out.name}{STAGING_INFIX}*")
         }
         for entry in sorted(out.parent.glob(f".{out.name}{OLD_INFIX}*")):
-            pid = _marked_pid(entry, out, OLD_INFIX)
-            if pid is None or pid == os.getpid() or _pid_alive(pid):
+            pid = marked_pid(entry, out, OLD_INFIX)
+            if pid is None or pid == os.getpid() or pid_alive(pid):
                 continue  # not named by this version, or its run is still replacing
             if not os.path.lexists(out):
                 try:
@@ -344,7 +388,7 @@ def _recover_leftovers(out: Path, path: str | Path) -> None:
         for entry, pid in staging.items():
             if pid is None or pid == os.getpid():
                 continue  # not named by this version: not ours to judge
-            if _pid_alive(pid):
+            if pid_alive(pid):
                 raise OutputExistsError(
                     f"{path}: another run (PID {pid}) is writing this output ({entry.name}); "
                     "wait for it, or remove that folder if the process is not hdrfringe"
@@ -459,8 +503,8 @@ def check_output_file(path: str | Path, force: bool) -> CheckedOutput:
     target = _resolved(out)
     with contextlib.suppress(OSError):
         for entry in target.parent.glob(f".{target.name}{STAGING_INFIX}*"):
-            pid = _marked_pid(entry, target, STAGING_INFIX)
-            if pid is not None and pid != os.getpid() and not _pid_alive(pid):
+            pid = marked_pid(entry, target, STAGING_INFIX)
+            if pid is not None and pid != os.getpid() and not pid_alive(pid):
                 entry.unlink()
     return CheckedOutput.record(path)
 

@@ -4,7 +4,7 @@ Thesis Eq. 3.3 gives the noise-free intensity a pixel receives; a camera then re
 noise, rounds it to an integer and clips it to its range ``[0, 2^B - 1]`` (saturation,
 thesis Ch. 3). :func:`sensor_readout` is that last step, the one implementation shared by
 the virtual rig (:meth:`hdrfringe.rig.simulated.SimulatedRig.capture`, float64) and the
-reproduction's sweeps (:mod:`hdrfringe.reproduce.ch4`, float32 with common random numbers).
+reproduction's sweeps (:mod:`hdrfringe_thesis.ch4`, float32 with common random numbers).
 
 It lives apart from :mod:`hdrfringe.rig.simulated` because it needs none of the rig's
 geometry or radiometry, only the sensor's noise parameters (:class:`SensorParameters`, which
