@@ -379,12 +379,12 @@ def sim_phase(method: str, seed: int) -> np.ndarray:
     """`measure --rig sim --scene checkerboard --seed S --method M` (in-process, at the loop
     camera's resolution): the absolute phase of the live virtual rig."""
     from hdrfringe import pipeline
-    from hdrfringe.cli._measure_options import live_fringes
     from hdrfringe.rig.factory import virtual_rig
     from hdrfringe.strategies import make_params
+    from hdrfringe.tasks.capture import LiveFringes
 
     sim = virtual_rig("checkerboard", seed=seed, resolution=LOOP_SIZE)
-    specs, line = live_fringes(sim.projector, "sinusoidal", 4, "1024", 40.0, 255.0, True)
+    specs, line = LiveFringes("sinusoidal", 4, [1024], 40.0, 255.0, True).build(sim.projector)
     params = make_params(method, **PARAMS[method])
     result = pipeline.measure(sim, None, method=method, params=params, specs=specs, centerline=line)
     assert result.decoded.primary is not None
@@ -432,10 +432,10 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: 
     shifted or at a uniform MIGL: the phase or the clipping would differ) or a stale frame
     accepted (the mapping, and so the map, would be wrong)."""
     from hdrfringe import pipeline
-    from hdrfringe.cli._measure_options import live_fringes
     from hdrfringe.io.results import read_map_tiff
     from hdrfringe.rig.factory import virtual_rig
     from hdrfringe.strategies import make_params
+    from hdrfringe.tasks.capture import LiveFringes
 
     out = tmp_path / "out"
     camera = f"loop:checkerboard?display={xdisplay}&latency=1&{LOOP_CAMERA}"
@@ -450,7 +450,9 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: 
 
     def sim(seed: int) -> tuple[np.ndarray, int]:
         rig = virtual_rig("checkerboard", seed=seed, resolution=LOOP_SIZE)
-        specs, line = live_fringes(rig.projector, "sinusoidal", 4, "1024,64,16", 40.0, 255.0, True)
+        specs, line = LiveFringes("sinusoidal", 4, [1024, 64, 16], 40.0, 255.0, True).build(
+            rig.projector
+        )
         res = pipeline.measure(rig, None, method="adaptive", params=make_params("adaptive"),
                                specs=specs, centerline=line)  # fmt: skip
         assert res.decoded.primary is not None and res.metrics.strategy is not None

@@ -163,8 +163,8 @@ def test_measure_hardware_height_error_is_the_virtual_rigs_within_noise(
     hardware_run: Path, calibration: Path
 ) -> None:
     from hdrfringe import pipeline
-    from hdrfringe.cli._measure_options import live_fringes
     from hdrfringe.rig.factory import virtual_rig
+    from hdrfringe.tasks.capture import LiveFringes
 
     cal = load_calibration(calibration)
     mask = cal.measurement_mask()
@@ -172,7 +172,9 @@ def test_measure_hardware_height_error_is_the_virtual_rigs_within_noise(
     for seed in (0, 1, 2):  # what measure --rig sim runs, at the loop camera's resolution
         sim = virtual_rig("white_plate", depth_mm=DEPTH_MM, ambient_lux=AMBIENT_LX, seed=seed,
                           resolution=SIZE)  # fmt: skip
-        specs, line = live_fringes(sim.projector, "sinusoidal", 4, "1024,64,8", 40.0, 255.0, False)
+        specs, line = LiveFringes("sinusoidal", 4, [1024, 64, 8], 40.0, 255.0, False).build(
+            sim.projector
+        )
         res = pipeline.measure(sim, cal, method="lpa", params={"step": 50.0}, specs=specs,
                                centerline=line)  # fmt: skip
         heights.append(res.height_mm)

@@ -100,8 +100,8 @@ def simulate(
     """
     from hdrfringe._validation import describe_saturated
     from hdrfringe.limits import MAX_SERIES_FOLDERS
-    from hdrfringe.tasks.compare import parse_resolution
     from hdrfringe.tasks import simulate as task
+    from hdrfringe.tasks.compare import parse_resolution
 
     size = parse_resolution(resolution)
     orients = parse_orientations(orientation)
