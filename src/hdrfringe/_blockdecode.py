@@ -164,7 +164,7 @@ class DecodeMaps:
         self, n_pixels: int, *, quality: bool, validity: bool, dtype: type = np.float64
     ) -> None:
         quality = quality or validity
-        self.dtype = np.dtype(dtype)
+        self.dtype: np.dtype[Any] = np.dtype(dtype)
         dt = self.dtype
         self.phase: NDArray = np.empty(n_pixels, dt)
         self.modulation: NDArray | None = np.empty(n_pixels, dt) if quality else None

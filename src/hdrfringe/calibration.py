@@ -1315,7 +1315,7 @@ def calibrate(
     _check_depths(depths)
     window = _check_window(window_px)
     border = _check_border(border_px)
-    if not measurement_mask(ref.shape, border).any():
+    if not measurement_mask((ref.shape[0], ref.shape[1]), border).any():
         raise InputError(
             f"a {ref.shape[0]}x{ref.shape[1]} image has no pixel inside a {border} pixel "
             "border; lower border_px"

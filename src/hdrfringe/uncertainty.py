@@ -940,7 +940,7 @@ def height_std(calibration: Calibration, absolute_phase: ArrayLike, phase_std: A
     """
     dphi = calibration.phase_difference(absolute_phase)
     slope = height_derivative(calibration.model_coefficients, dphi, calibration.model)
-    return np.abs(slope) * np.asarray(phase_std, dtype=np.float64)
+    return np.asarray(np.abs(slope) * np.asarray(phase_std, dtype=np.float64), dtype=np.float64)
 
 
 def _finite_median(values: ArrayLike) -> float | None:

@@ -604,8 +604,8 @@ class HardwareRig(RigBase):
             self._apply(resolved)
             self._rebaseline()
         width, height = self.projector.width, self.projector.height
-        dtype = np.uint8 if self.camera_bit_depth <= 8 else np.uint16
-        out = np.empty((len(frames), *self.image_shape), dtype)
+        dtype: type[np.unsignedinteger[Any]] = np.uint8 if self.camera_bit_depth <= 8 else np.uint16
+        out: NDArray[np.unsignedinteger[Any]] = np.empty((len(frames), *self.image_shape), dtype)
         for i, frame in enumerate(frames):
             image = render_for_projector(frame, width, height, self.gamma_hat, 8)
             out[i] = self._one(frame, image)
