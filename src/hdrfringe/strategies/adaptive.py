@@ -244,34 +244,19 @@ def _measure_mapping(
     index: dict[str, list[NDArray[np.float32]]] = {}
     absolute: dict[str, NDArray[np.float64]] = {}
     coords: dict[str, NDArray[np.float64]] = {}
-    gains: list[NDArray[np.float64]] = []
-    ambients: list[NDArray[np.float64]] = []
-    weights: list[NDArray[np.float64]] = []
+    response = _Response(imin)
     saturated = np.zeros(rig.image_shape, bool)
     decodes = np.ones(rig.image_shape, bool)  # valid in every set
     m_next = migl
-
-    def spec_at(orient: str, p: float, m: float) -> FringeSpec:
-        return FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
-
-    def add_response(dec: Any, m: float | NDArray, where: NDArray[np.bool_]) -> None:
-        mm = np.broadcast_to(np.asarray(m, np.float64), where.shape)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g = 2.0 * dec.modulation / (mm - imin)
-            c = dec.mean_intensity - g * (mm + imin) / 2.0
-        ok = where & dec.valid
-        gains.append(np.where(ok, g, np.nan))
-        ambients.append(np.where(ok, c, np.nan))
-        weights.append(np.where(ok, (mm - imin) ** 2, 0.0))  # the estimate's SNR squared
 
     # pass 1: the ladder at the low MIGL(s)
     for orient, ps in pitches.items():
         imgs: list[NDArray] = []
         ms: list[float] = []
         for k_, p in enumerate(ps):
-            m = migl if not gains and not imgs else m_next
-            spec = spec_at(orient, p, m)
-            if first_images is not None and not gains and not imgs:
+            m = migl if not response.gains and not imgs else m_next
+            spec = _spec_at(template, orient, p, m)
+            if first_images is not None and not response.gains and not imgs:
                 imgs.append(first_images)
             else:
                 imgs.append(_capture(rig, spec.frames(), settings))
@@ -283,21 +268,12 @@ def _measure_mapping(
                 # one orientation (epipolar): its second set, at the automatic MIGL, stands in
                 # for the other orientation's one-period set in the response (its pitch, 16x
                 # the finest, loses little modulation to the blur)
-                add_response(dec, m, np.ones(dec.valid.shape, bool))
+                response.add(dec, m, np.ones(dec.valid.shape, bool))
             if p == ps[0]:  # a one-period set: the response
                 g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
-                add_response(dec, m, np.ones(g.shape, bool))
-                if auto and len(gains) == 1:
-                    level = safe_migl(
-                        median_smooth(np.where(dec.valid, g, np.nan), MEDIAN_WINDOW),
-                        median_smooth(np.where(dec.valid, c, np.nan), MEDIAN_WINDOW),
-                        bits,
-                        margin=AUTO_MAPPING_MARGIN,
-                        imin=imin,
-                        projector_full=template.migl,
-                    )
-                    if np.isfinite(level).any():
-                        m_next = float(max(migl, np.floor(np.nanmin(level))))
+                response.add(dec, m, np.ones(g.shape, bool))
+                if auto and len(response.gains) == 1:
+                    m_next = _auto_mapping_migl(dec, g, c, bits, template, migl, m_next)
         images[orient] = imgs
         migls[orient] = ms
         index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
@@ -308,53 +284,130 @@ def _measure_mapping(
         take = saturation_count(t_imgs, bits) == 0
         images[o0][0] = np.where(take, t_imgs, images[o0][0])
         index[o0][0] = np.where(take, np.float32(t_migl), index[o0][0])
-        add_response(decode_set(t_imgs, spec_at(o0, pitches[o0][0], t_migl), bits), t_migl, take)
+        t_spec = _spec_at(template, o0, pitches[o0][0], t_migl)
+        response.add(decode_set(t_imgs, t_spec, bits), t_migl, take)
 
     # pass 2, only where the low ladder left much of the field dark: the full MIGL, merged
     bright: float | None = None
     dark = ~decodes & ~saturated
-    full = float(template.migl)
-    if auto and m_next < full and dark.mean() > BRIGHT_MIN_FRACTION:
-        bright = full
-        for orient, ps in pitches.items():
-            for k, p in enumerate(ps):
-                spec = spec_at(orient, p, bright)
-                imgs_b = _capture(rig, spec.frames(), settings)
-                take = saturation_count(imgs_b, bits) == 0
-                images[orient][k] = np.where(take, imgs_b, images[orient][k])
-                index[orient][k] = np.where(take, np.float32(bright), index[orient][k])
-                if k == 0:
-                    add_response(decode_set(imgs_b, spec, bits), bright, take)
+    if auto and m_next < float(template.migl) and dark.mean() > BRIGHT_MIN_FRACTION:
+        bright = float(template.migl)
+        _merge_full_migl_ladder(rig, template, pitches, images, index, response, settings)
 
     for orient, ps in pitches.items():
-        phases = []
-        for k, p in enumerate(ps):
-            # a merged set decodes as one: the phase does not depend on the MIGL
-            d = decode_set(images[orient][k], spec_at(orient, p, migls[orient][k]), bits)
-            phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
-        # the low-MIGL phases are noisy: smooth each level (median) before it predicts the
-        # next one's fringe order, so the orders hold where a plain unwrap would slip
-        current = median_smooth(phases[0], MEDIAN_WINDOW)
-        for k in range(1, len(ps)):
-            current = unwrap_temporal(
-                [current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True
-            )
-            current = median_smooth(current, MEDIAN_WINDOW)
-        absolute[orient] = current
+        sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
+        absolute[orient] = _unwrap_ladder(images[orient], sets, bits)
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
-    w = np.stack(weights)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # pixels valid in no set stay NaN
-        g_stack, c_stack = np.stack(gains), np.stack(ambients)
-        wsum = np.sum(np.where(np.isfinite(g_stack), w, 0.0), axis=0)
-        gain = np.nansum(g_stack * w, axis=0) / wsum
-        ambient = np.nansum(c_stack * w, axis=0) / wsum
-    # a low-MIGL set is a noisy response: the median keeps its edges
-    gain = median_smooth(gain, MEDIAN_WINDOW)
-    ambient = median_smooth(ambient, MEDIAN_WINDOW)
+    gain, ambient = response.combined()
     return _Mapping(
         pitches, images, migls, absolute, coords, gain, ambient, saturated, bright, index
     )
+
+
+def _spec_at(template: FringeSpec, orient: str, pitch: float, migl: float) -> FringeSpec:
+    """``template``'s set at another pitch, orientation and MIGL."""
+    return FringeSpec(template.pattern, template.steps, pitch, orient, template.imin, migl)  # type: ignore[arg-type]
+
+
+@dataclass
+class _Response:
+    """The response ``I = a g + c`` estimated from each set that gives one (internal)."""
+
+    imin: float
+    gains: list[NDArray[np.float64]] = field(default_factory=list)
+    ambients: list[NDArray[np.float64]] = field(default_factory=list)
+    weights: list[NDArray[np.float64]] = field(default_factory=list)
+
+    def add(self, dec: Any, m: float | NDArray, where: NDArray[np.bool_]) -> None:
+        """The response of a set decoded as ``dec``, projected at ``m``, at ``where``."""
+        imin = self.imin
+        mm = np.broadcast_to(np.asarray(m, np.float64), where.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = 2.0 * dec.modulation / (mm - imin)
+            c = dec.mean_intensity - g * (mm + imin) / 2.0
+        ok = where & dec.valid
+        self.gains.append(np.where(ok, g, np.nan))
+        self.ambients.append(np.where(ok, c, np.nan))
+        self.weights.append(np.where(ok, (mm - imin) ** 2, 0.0))  # the estimate's SNR squared
+
+    def combined(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Gain and ambient averaged per pixel with the weights (the estimates' SNR squared),
+        then median-smoothed (a low-MIGL set is a noisy response: the median keeps its
+        edges)."""
+        w = np.stack(self.weights)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # pixels valid in no set stay NaN
+            g_stack, c_stack = np.stack(self.gains), np.stack(self.ambients)
+            wsum = np.sum(np.where(np.isfinite(g_stack), w, 0.0), axis=0)
+            gain = np.nansum(g_stack * w, axis=0) / wsum
+            ambient = np.nansum(c_stack * w, axis=0) / wsum
+        return median_smooth(gain, MEDIAN_WINDOW), median_smooth(ambient, MEDIAN_WINDOW)
+
+
+def _auto_mapping_migl(
+    dec: Any,
+    g: NDArray[np.float64],
+    c: NDArray[np.float64],
+    bits: int,
+    template: FringeSpec,
+    migl: float,
+    current: float,
+) -> float:
+    """The MIGL of the next mapping sets: the highest the first set's response (``g``, ``c``)
+    says keeps every pixel :data:`AUTO_MAPPING_MARGIN` below clipping, never below ``migl``
+    (``current`` where no pixel gives one)."""
+    level = safe_migl(
+        median_smooth(np.where(dec.valid, g, np.nan), MEDIAN_WINDOW),
+        median_smooth(np.where(dec.valid, c, np.nan), MEDIAN_WINDOW),
+        bits,
+        margin=AUTO_MAPPING_MARGIN,
+        imin=template.imin,
+        projector_full=template.migl,
+    )
+    if np.isfinite(level).any():
+        return float(max(migl, np.floor(np.nanmin(level))))
+    return current
+
+
+def _merge_full_migl_ladder(
+    rig: Rig,
+    template: FringeSpec,
+    pitches: dict[str, list[float]],
+    images: dict[str, list[NDArray]],
+    index: dict[str, list[NDArray[np.float32]]],
+    response: _Response,
+    settings: CameraSettings | None,
+) -> None:
+    """The ladder captured again at the full MIGL and merged per pixel where it does not
+    clip (Eq. 5.1), in place; each one-period set's bright capture added to the response."""
+    bits = rig.camera_bit_depth
+    bright = float(template.migl)
+    for orient, ps in pitches.items():
+        for k, p in enumerate(ps):
+            spec = _spec_at(template, orient, p, bright)
+            imgs_b = _capture(rig, spec.frames(), settings)
+            take = saturation_count(imgs_b, bits) == 0
+            images[orient][k] = np.where(take, imgs_b, images[orient][k])
+            index[orient][k] = np.where(take, np.float32(bright), index[orient][k])
+            if k == 0:
+                response.add(decode_set(imgs_b, spec, bits), bright, take)
+
+
+def _unwrap_ladder(images: list[NDArray], sets: list[FringeSpec], bits: int) -> NDArray[np.float64]:
+    """One orientation's mapping ladder unwrapped temporally, coarsest set first; each level
+    median-smoothed: the low-MIGL phases are noisy, smoothing each level before it predicts
+    the next one's fringe order keeps the orders where a plain unwrap would slip."""
+    phases = []
+    for imgs, spec in zip(images, sets, strict=True):
+        # a merged set decodes as one: the phase does not depend on the MIGL
+        d = decode_set(imgs, spec, bits)
+        phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
+    ps = [s.pitch_px for s in sets]
+    current = median_smooth(phases[0], MEDIAN_WINDOW)
+    for k in range(1, len(ps)):
+        current = unwrap_temporal([current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True)
+        current = median_smooth(current, MEDIAN_WINDOW)
+    return current
 
 
 def _correct_map_bias(
