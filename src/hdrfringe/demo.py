@@ -472,107 +472,70 @@ def order_error_notes(study: dict[str, Any]) -> list[str]:
     return notes
 
 
-def run_demo(
-    output: Path, *, seed: int = 0, force: bool = False, console: Console | None = None
-) -> dict[str, Any]:
-    """Run the demo and write everything under ``output``; return the summary (summary.json)."""
-    from rich.progress import Progress
-
-    console = console or Console()
-    output = check_output_dir(output, force)
-    frames = demo_frames()
-    scenes: list[tuple[str, Scene, bool]] = [
+def _demo_scenes() -> list[tuple[str, Scene, bool]]:
+    """The demo's scenes: name, scene, whether it is measured under the black plate's
+    aperture."""
+    return [
         ("white_plate_10mm", white_plate(10.0), False),
         ("white_plate_25mm", white_plate(25.0), False),
         ("white_plate_40mm", white_plate(40.0), False),
         ("mask", mask(), False),
         ("checkerboard", checkerboard(), True),
     ]
-    summary: dict[str, Any] = {
-        "seed": seed,
-        "pattern": "sinusoidal 4-step, pitches "
-        + ", ".join(f"{p:g}" for p in PITCHES)
-        + " px, MIGL 255, 0 lx",
-        "scenes": {},
+
+
+def _measure_demo_scene(
+    tmp: Path,
+    output: Path,
+    name: str,
+    scene: Scene,
+    black: bool,
+    seed: int,
+    frames: list[Frame],
+    cal_set: dict[str, Calibration],
+) -> tuple[dict[str, Any], list[Panel]]:
+    """Capture one scene, write its capture folder and measurement under ``tmp / name``;
+    its summary entry and its overview panels (none for the scenes not shown)."""
+    rig = _rig(scene, seed + 1, black)
+    caps = rig.capture_folder(frames)
+    sdir = tmp / name
+    sdir.mkdir()
+    write_capture_folder(sdir / "captures", caps, extra={"simulator": rig.to_manifest()})
+    label = str(output / name / "captures")
+    results = {m: pipeline.measure(caps, c, label=label) for m, c in cal_set.items()}
+    best = results["rational"]
+    # a calibrated measurement of a scene with fringes always has both
+    assert best.height_mm is not None and best.decoded.primary is not None
+    height, primary = best.height_mm, best.decoded.primary
+    write_measurement(best, sdir / "measurement")
+    n_pixels = caps.image_shape[0] * caps.image_shape[1]  # saturated_fraction: of these
+    entry = {
+        "aperture": "black plate" if black else "white plate",
+        "saturated_fraction": best.metrics.saturated_fraction,
+        "saturated_pixels": round((best.metrics.saturated_fraction or 0.0) * n_pixels),
+        "n_pixels": n_pixels,
+        "valid_fraction": best.metrics.valid_fraction,
+        "rmse_mm": {m: r.metrics.rmse_mm for m, r in results.items()},
+        "bias_mm": {m: r.metrics.bias_mm for m, r in results.items()},
     }
     panels: list[Panel] = []
-    with (
-        staged_output_dir(output, force=force) as tmp,
-        Progress(console=console, transient=True, disable=not console.is_terminal) as prog,
-    ):
-        task = prog.add_task("calibrating (26 plate positions)", total=26)
-        cals = {"white": _calibrations(seed, False, lambda: prog.advance(task))}
-        for aperture, by_model in cals.items():
-            for model, cal in by_model.items():
-                save_calibration(tmp / f"calibration_{aperture}_plate_{model}.h5", cal)
-        summary["calibration_residual_mm"] = {
-            a: cals[a]["rational"].describe_residuals() for a in cals
-        }
-        task = prog.add_task("measuring scenes", total=len(scenes))
-        for name, scene, black in scenes:
-            rig = _rig(scene, seed + 1, black)
-            caps = rig.capture_folder(frames)
-            sdir = tmp / name
-            sdir.mkdir()
-            write_capture_folder(sdir / "captures", caps, extra={"simulator": rig.to_manifest()})
-            cal_set = cals["white"]
-            label = str(output / name / "captures")
-            results = {m: pipeline.measure(caps, c, label=label) for m, c in cal_set.items()}
-            best = results["rational"]
-            # a calibrated measurement of a scene with fringes always has both
-            assert best.height_mm is not None and best.decoded.primary is not None
-            height, primary = best.height_mm, best.decoded.primary
-            write_measurement(best, sdir / "measurement")
-            n_pixels = caps.image_shape[0] * caps.image_shape[1]  # saturated_fraction: of these
-            summary["scenes"][name] = {
-                "aperture": "black plate" if black else "white plate",
-                "saturated_fraction": best.metrics.saturated_fraction,
-                "saturated_pixels": round((best.metrics.saturated_fraction or 0.0) * n_pixels),
-                "n_pixels": n_pixels,
-                "valid_fraction": best.metrics.valid_fraction,
-                "rmse_mm": {m: r.metrics.rmse_mm for m, r in results.items()},
-                "bias_mm": {m: r.metrics.bias_mm for m, r in results.items()},
-            }
-            if name in ("white_plate_25mm", "mask", "checkerboard"):
-                err = height - rig.truth().height_mm
-                panels += [
-                    (f"{name}: height", height, "viridis", "mm"),
-                    (f"{name}: error (rational)", err, "coolwarm", "mm"),
-                    (
-                        f"{name}: saturated shifts",
-                        np.logical_or.reduce(
-                            [
-                                best.decoded.set_results[s.label].saturation_count > 0
-                                for s in primary.sets
-                            ]
-                        ).astype(float),
-                        "inferno",
-                        "",
-                    ),
-                ]
-            if name == "mask":
-                _figure_3d(tmp / "mask_3d.png", height, "mask, measured height")
-            prog.advance(task)
-        _overview(tmp / "overview.png", panels)
-        n_study = len(study_scenes()) * len(STUDY_RUNS)
-        task = prog.add_task(
-            f"saturation avoidance ({len(STUDY_RUNS)} runs x 2 scenes)", total=n_study
+    if name in ("white_plate_25mm", "mask", "checkerboard"):
+        err = height - rig.truth().height_mm
+        saturated = np.logical_or.reduce(
+            [best.decoded.set_results[s.label].saturation_count > 0 for s in primary.sets]
         )
-        study, maps = _saturation_study(
-            tmp, seed + 1, cals["white"]["rational"], lambda: prog.advance(task)
-        )
-        summary["saturation_study"] = {
-            "pattern": "sinusoidal 4-step, pitches "
-            + ", ".join(f"{p:g}" for p in PITCHES)
-            + " px, highest MIGL 255, imin 40; every strategy runs per pitch",
-            "calibration": "rational (white plate)",
-            "rmse": "rmse_mm: saturated pixels invalid (measure's default); "
-            "rmse_mm_saturated_kept: saturated pixels measured as they are (thesis Ch. 4)",
-            "scenes": study,
-        }
-        _study_figure(tmp / "saturation_study.png", maps)
-        (tmp / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+        panels += [
+            (f"{name}: height", height, "viridis", "mm"),
+            (f"{name}: error (rational)", err, "coolwarm", "mm"),
+            (f"{name}: saturated shifts", saturated.astype(float), "inferno", ""),
+        ]
+    if name == "mask":
+        _figure_3d(tmp / "mask_3d.png", height, "mask, measured height")
+    return entry, panels
 
+
+def _print_demo_summary(console: Console, summary: dict[str, Any], output: Path) -> None:
+    """The demo's tables and notes on the console."""
     table = Table(title="hdrfringe demo: virtual rig, 0 lx, MIGL 255, sinusoidal 4-step")
     for col in ("scene", "saturated", "valid", "RMSE linear", "RMSE rational"):
         table.add_column(col, no_wrap=True)
@@ -606,4 +569,64 @@ def run_demo(
     for a, text in summary["calibration_residual_mm"].items():
         console.print(f"calibration fit residual, {a} plate: {text}")
     console.print(f"maps, point clouds, plots and capture folders written to {output}/")
+
+
+def run_demo(
+    output: Path, *, seed: int = 0, force: bool = False, console: Console | None = None
+) -> dict[str, Any]:
+    """Run the demo and write everything under ``output``; return the summary (summary.json)."""
+    from rich.progress import Progress
+
+    console = console or Console()
+    output = check_output_dir(output, force)
+    frames = demo_frames()
+    scenes = _demo_scenes()
+    summary: dict[str, Any] = {
+        "seed": seed,
+        "pattern": "sinusoidal 4-step, pitches "
+        + ", ".join(f"{p:g}" for p in PITCHES)
+        + " px, MIGL 255, 0 lx",
+        "scenes": {},
+    }
+    panels: list[Panel] = []
+    with (
+        staged_output_dir(output, force=force) as tmp,
+        Progress(console=console, transient=True, disable=not console.is_terminal) as prog,
+    ):
+        task = prog.add_task("calibrating (26 plate positions)", total=26)
+        cals = {"white": _calibrations(seed, False, lambda: prog.advance(task))}
+        for aperture, by_model in cals.items():
+            for model, cal in by_model.items():
+                save_calibration(tmp / f"calibration_{aperture}_plate_{model}.h5", cal)
+        summary["calibration_residual_mm"] = {
+            a: cals[a]["rational"].describe_residuals() for a in cals
+        }
+        task = prog.add_task("measuring scenes", total=len(scenes))
+        for name, scene, black in scenes:
+            entry, shown = _measure_demo_scene(
+                tmp, output, name, scene, black, seed, frames, cals["white"]
+            )
+            summary["scenes"][name] = entry
+            panels += shown
+            prog.advance(task)
+        _overview(tmp / "overview.png", panels)
+        n_study = len(study_scenes()) * len(STUDY_RUNS)
+        task = prog.add_task(
+            f"saturation avoidance ({len(STUDY_RUNS)} runs x 2 scenes)", total=n_study
+        )
+        study, maps = _saturation_study(
+            tmp, seed + 1, cals["white"]["rational"], lambda: prog.advance(task)
+        )
+        summary["saturation_study"] = {
+            "pattern": "sinusoidal 4-step, pitches "
+            + ", ".join(f"{p:g}" for p in PITCHES)
+            + " px, highest MIGL 255, imin 40; every strategy runs per pitch",
+            "calibration": "rational (white plate)",
+            "rmse": "rmse_mm: saturated pixels invalid (measure's default); "
+            "rmse_mm_saturated_kept: saturated pixels measured as they are (thesis Ch. 4)",
+            "scenes": study,
+        }
+        _study_figure(tmp / "saturation_study.png", maps)
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    _print_demo_summary(console, summary, output)
     return summary

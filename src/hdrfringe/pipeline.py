@@ -1261,70 +1261,15 @@ def measure(
     >>> res.metrics.strategy.method, res.metrics.strategy.values[:2]
     ('lpa', (255.0, 235.0))
     """
-    _check_saturated(saturated, reject_saturated)
-    if stereo_directions not in _STEREO_DIRECTIONS:
-        raise InputError(
-            f"stereo_directions {stereo_directions!r} is unknown; give one of "
-            f"{', '.join(_STEREO_DIRECTIONS)}"
-        )
-    if depth_range_mm is not None:
-        depth_range_mm = check_depth_range(depth_range_mm)
-        if calibration is None or calibration.output != "points":
-            raise InputError(
-                "a depth range fixes the fringe order with a stereo calibration; give one "
-                "(measure -c STEREO.h5) or drop the depth range (--depth-range)"
-            )
-    harmonics_mode(harmonics)  # a bad value is refused before anything is captured
+    depth_range_mm = _check_measure_options(
+        calibration, stereo_directions, depth_range_mm, harmonics, saturated, reject_saturated
+    )
     sources = dict(param_sources or {})
-    description: RigDescription | None = None
-    p: Any = None
-    results: tuple[StrategyResult, ...] = ()
-    replay: Captures | None = None
-    if isinstance(source, Captures):
-        if method is None:
-            given = [
-                n
-                for n, v in (("params", params), ("specs", specs), ("centerline", centerline))
-                if v is not None
-            ]
-            if given or sources:
-                raise InputError(
-                    f"{', '.join(given or ['param_sources'])} given without a method; give "
-                    "method= to replay the captures with a strategy, or drop them"
-                )
-            caps = source
-        else:
-            p = _strategy_params(method, params)
-            replay = source
-            caps, results = _replay(
-                source, calibration, method, p, specs, centerline, calibration_source
-            )
-    elif isinstance(source, Rig):
-        method = DEFAULT_STRATEGY if method is None else method
-        p = _strategy_params(method, params)
-        if not specs:
-            raise InputError(
-                "measuring on a rig needs specs: the fringe sets to capture (e.g. one per pitch)"
-            )
-        if calibration is not None:  # refused before anything is captured
-            finest = min(specs, key=lambda s: s.pitch_px)
-            calibration.check_fits(
-                finest, source.image_shape, source.camera_bit_depth, source=calibration_source
-            )
-        # what the measurement offers the strategy: the projector-camera geometry of its
-        # calibration (the adaptive projection's epipolar mapping takes the projector row
-        # from it when given none, docs/adaptive.md)
-        geometry = None if calibration is None else calibration.projector_geometry()
-        p = prepare_params(get_strategy(method), p, RunContext(projector_geometry=geometry))
-        description = describe_rig(source)
-        caps, results = composite_captures(
-            source, specs, method, p, centerline=centerline, description=description
-        )
-    else:
-        raise InputError(
-            f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
-            "folder with hdrfringe.io.captures.read_capture_folder"
-        )
+    if isinstance(source, Rig) and method is None:
+        method = DEFAULT_STRATEGY
+    caps, results, p, replay, description = _acquire(
+        source, calibration, method, params, specs, centerline, calibration_source, sources
+    )
     decoded, height, fields, stereo = _measure_captures(
         caps,
         calibration,
@@ -1366,6 +1311,108 @@ def measure(
         stereo=stereo,
         uncertainty=unc,
         **extra,
+    )
+
+
+def _check_measure_options(
+    calibration: MeasurementCalibration | None,
+    stereo_directions: str,
+    depth_range_mm: tuple[float, float] | None,
+    harmonics: str | int,
+    saturated: str,
+    reject_saturated: bool,
+) -> tuple[float, float] | None:
+    """:func:`measure`'s options refused before anything is captured; the depth range checked."""
+    _check_saturated(saturated, reject_saturated)
+    if stereo_directions not in _STEREO_DIRECTIONS:
+        raise InputError(
+            f"stereo_directions {stereo_directions!r} is unknown; give one of "
+            f"{', '.join(_STEREO_DIRECTIONS)}"
+        )
+    if depth_range_mm is not None:
+        depth_range_mm = check_depth_range(depth_range_mm)
+        if calibration is None or calibration.output != "points":
+            raise InputError(
+                "a depth range fixes the fringe order with a stereo calibration; give one "
+                "(measure -c STEREO.h5) or drop the depth range (--depth-range)"
+            )
+    harmonics_mode(harmonics)  # a bad value is refused before anything is captured
+    return depth_range_mm
+
+
+def _run_live(
+    rig: Rig,
+    calibration: MeasurementCalibration | None,
+    method: str,
+    params: Any,
+    specs: Sequence[FringeSpec] | None,
+    centerline: Frame | None,
+    calibration_source: str | None,
+) -> tuple[Captures, tuple[StrategyResult, ...], Any, RigDescription]:
+    """The strategy run live on ``rig``: the composite captures, the strategy's results, its
+    parameters (prepared with what the measurement offers) and the rig's description."""
+    p = _strategy_params(method, params)
+    if not specs:
+        raise InputError(
+            "measuring on a rig needs specs: the fringe sets to capture (e.g. one per pitch)"
+        )
+    if calibration is not None:  # refused before anything is captured
+        finest = min(specs, key=lambda s: s.pitch_px)
+        calibration.check_fits(
+            finest, rig.image_shape, rig.camera_bit_depth, source=calibration_source
+        )
+    # what the measurement offers the strategy: the projector-camera geometry of its
+    # calibration (the adaptive projection's epipolar mapping takes the projector row
+    # from it when given none, docs/adaptive.md)
+    geometry = None if calibration is None else calibration.projector_geometry()
+    p = prepare_params(get_strategy(method), p, RunContext(projector_geometry=geometry))
+    description = describe_rig(rig)
+    caps, results = composite_captures(
+        rig, specs, method, p, centerline=centerline, description=description
+    )
+    return caps, results, p, description
+
+
+def _acquire(
+    source: Captures | Rig,
+    calibration: MeasurementCalibration | None,
+    method: str | None,
+    params: Any,
+    specs: Sequence[FringeSpec] | None,
+    centerline: Frame | None,
+    calibration_source: str | None,
+    sources: Mapping[str, str],
+) -> tuple[Captures, tuple[StrategyResult, ...], Any, Captures | None, RigDescription | None]:
+    """What :func:`measure` measures: the captures (as given, replayed by the strategy, or
+    captured live), the strategy's results and parameters, the replayed sweep and the rig's
+    description (None where there is none)."""
+    if isinstance(source, Captures):
+        if method is None:
+            given = [
+                n
+                for n, v in (("params", params), ("specs", specs), ("centerline", centerline))
+                if v is not None
+            ]
+            if given or sources:
+                raise InputError(
+                    f"{', '.join(given or ['param_sources'])} given without a method; give "
+                    "method= to replay the captures with a strategy, or drop them"
+                )
+            return source, (), None, None, None
+        p = _strategy_params(method, params)
+        caps, results = _replay(
+            source, calibration, method, p, specs, centerline, calibration_source
+        )
+        return caps, results, p, source, None
+    if isinstance(source, Rig):
+        method = DEFAULT_STRATEGY if method is None else method
+        caps, results, p, description = _run_live(
+            source, calibration, method, params, specs, centerline, calibration_source
+        )
+        return caps, results, p, None, description
+    raise InputError(
+        f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "
+        "folder with hdrfringe.io.captures.read_capture_folder"
     )
 
 

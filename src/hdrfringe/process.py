@@ -341,6 +341,189 @@ def _check_pitch_ladders(captures: Captures, families: Sequence[Sequence[FringeS
         )
 
 
+def _check_decode_options(
+    captures: Captures,
+    min_modulation: float | None,
+    saturated: str,
+    map_dtype: str,
+    harmonics: str | int,
+) -> None:
+    """InputError for options :func:`decode_captures` cannot combine or does not know."""
+    check_min_modulation(min_modulation, captures.camera_bit_depth)
+    if saturated not in SATURATED_MODES:
+        raise InputError(
+            f"saturated mode {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
+        )
+    if map_dtype not in ("float64", "float32"):
+        raise InputError(f"map_dtype {map_dtype!r} is unknown; give float64 or float32")
+    if map_dtype != "float64" and saturated != "flag":
+        raise InputError(
+            f"map_dtype {map_dtype} applies to saturated='flag'; leave map_dtype at float64 "
+            "with saturated='exclude'"
+        )
+    if harmonics_mode(harmonics)[0] != "off" and saturated != "flag":
+        raise InputError(
+            "harmonic compensation needs every shift in each pixel's phase; it does not apply "
+            "to saturated='exclude' (drop one of them)"
+        )
+
+
+def _decode_every_set(
+    captures: Captures,
+    min_modulation: float | None,
+    reject_saturated: bool,
+    saturated: str,
+    min_shifts: int,
+    map_dtype: str,
+) -> FolderPhase:
+    """Each set's wrapped phase (no family yet): the tolerant decoder with ``exclude``."""
+    if saturated == "exclude":
+        return _decode_excluding(captures, min_modulation, min_shifts)
+    results = {}
+    for s in captures.sets:
+        results[s.label] = decode_set(
+            captures.set_images(s),
+            s.spec,
+            captures.camera_bit_depth,
+            min_modulation=min_modulation,
+            reject_saturated=reject_saturated,
+            dtype=np.dtype(map_dtype),
+        )
+    return FolderPhase(set_results=results, sets=list(captures.sets))
+
+
+@dataclass
+class _Unwrapped:
+    """A family's phase unwrapped from its coarsest set down (internal to decode_captures)."""
+
+    phase: NDArray[np.float64]
+    method: str
+    unwrapping: str
+    #: the coarsest set spans the projector; the Gray code used (None: none); its valid pixels
+    spans: bool
+    code: GrayCodeSet | None
+    graycode_valid: NDArray[np.bool_] | None
+
+
+def _unwrap_family(
+    captures: Captures,
+    fam: Sequence[FringeSet],
+    results: Mapping[str, PhaseResult],
+    codes: Mapping[str, GrayCodeSet],
+    notes: list[str],
+) -> _Unwrapped:
+    """The coarsest set's fringe order (one period, Gray code or spatial), then temporal
+    unwrapping down the family's pitches."""
+    orient = fam[0].spec.orientation
+    coarse = fam[0]
+    extent = None
+    if captures.projector is not None:
+        extent = captures.projector.width if orient == "vertical" else captures.projector.height
+    spans = extent is not None and coarse.spec.pitch_px >= extent
+    coarse_phase = results[coarse.label].wrapped_phase
+    code = None if spans else codes.get(orient)
+    if code is not None and code.stripe_px > coarse.spec.pitch_px:
+        notes.append(
+            f"{orient} fringes: the Gray code's stripe ({code.stripe_px:g} px) is wider than "
+            f"the coarsest pitch ({coarse.spec.pitch_px:g} px), so it cannot fix the fringe "
+            "order; not used"
+        )
+        code = None
+    gc_valid = None
+    if spans:
+        base = np.asarray(coarse_phase, dtype=np.float64)  # float32 maps: float64 phases
+        method = "coarse set spans the projector with one period"
+        unwrapping = "one-period"
+    elif code is not None:
+        gdec, how = _decode_graycode(captures, code, results[coarse.label])
+        gc_phase = absolute_phase_graycode(
+            coarse_phase, gdec.index, stripe_px=code.stripe_px, pitch_px=coarse.spec.pitch_px
+        )
+        base = gc_phase.phase
+        gc_valid = gdec.valid
+        method = f"Gray code + phase ({gc_phase.method}; bits {how})"
+        unwrapping = "graycode"
+    else:
+        base = unwrap_spatial(coarse_phase)
+        method = "spatial"
+        unwrapping = "spatial"
+    if len(fam) > 1:
+        phases = [base] + [results[s.label].wrapped_phase for s in fam[1:]]
+        unwrapped = unwrap_temporal(
+            phases, [s.spec.pitch_px for s in fam], coarse_unwrapped=not spans
+        )
+        method = f"temporal {' -> '.join(f'{s.spec.pitch_px:g}' for s in fam)} px ({method} first)"
+    else:
+        unwrapped = base
+    return _Unwrapped(unwrapped, method, unwrapping, spans, code, gc_valid)
+
+
+def _absolute_of_family(
+    captures: Captures,
+    fam: Sequence[FringeSet],
+    results: Mapping[str, PhaseResult],
+    unw: _Unwrapped,
+    given: NDArray[np.float64] | None,
+    notes: list[str],
+) -> tuple[NDArray[np.float64] | None, str | None]:
+    """The family's absolute phase and how it was obtained (None, None: it cannot be).
+    A ``given`` phase replaces ``unw``'s phase, method and unwrapping."""
+    orient = fam[0].spec.orientation
+    coarse, finest = fam[0], fam[-1]
+    if given is not None:  # the caller's phase replaces the family's own unwrapping
+        phi = results[finest.label].wrapped_phase
+        ref = np.asarray(given, dtype=np.float64)
+        if ref.shape != phi.shape:
+            raise InputError(
+                f"given {orient} absolute phase has shape {ref.shape}, the images {phi.shape}; "
+                "give one absolute phase per camera pixel"
+            )
+        # the caller's phase, where the captured finest set decodes (its validity rules)
+        unw.phase = np.where(np.isfinite(phi), ref, np.nan)
+        unw.method = f"absolute phase given for the {finest.spec.pitch_px:g} px set"
+        unw.unwrapping = "given"
+        return unw.phase, unw.method
+    if unw.spans:
+        return unw.phase, "one-period coarse set"
+    if unw.code is not None:
+        return unw.phase, (
+            f"Gray code ({unw.code.bits} bits, stripe {unw.code.stripe_px:g} px) + phase of the "
+            f"{coarse.spec.pitch_px:g} px set"
+        )
+    lines = [(f, img) for f, img in captures.centerlines() if f.orientation == orient]
+    if lines:
+        frame, img = lines[0]
+        absolute = absolute_phase_from_centerline(
+            unw.phase, img, frame.position, finest.spec.pitch_px, orient
+        )
+        return absolute, f"centerline at {frame.position:g} px (Eq. 2.12-2.13)"
+    notes.append(no_absolute_phase_note(orient))
+    return None, None
+
+
+def _spatial_regions(
+    fam: Sequence[FringeSet],
+    results: Mapping[str, PhaseResult],
+    unw: _Unwrapped,
+    notes: list[str],
+) -> PhaseRegions | None:
+    """With spatial unwrapping, the regions whose relative fringe order is unknown (a note
+    where there are several)."""
+    if unw.unwrapping != "spatial":
+        return None
+    orient = fam[0].spec.orientation
+    regions = phase_regions([results[s.label].wrapped_phase for s in fam], np.isfinite(unw.phase))
+    if regions.islands:
+        sizes = ", ".join(str(v) for v in regions.sizes[: regions.significant])
+        notes.append(
+            f"{orient} fringes: the valid area falls into {regions.significant} separate "
+            f"regions ({sizes} pixels); spatial unwrapping cannot relate their fringe "
+            "orders, so their phases are not comparable (see the region map; a Gray "
+            "code or a one-period set gives every pixel its absolute order)"
+        )
+    return regions
+
+
 def decode_captures(
     captures: Captures,
     *,
@@ -419,38 +602,10 @@ def decode_captures(
     >>> decoded.primary.absolute_method
     'one-period coarse set'
     """
-    check_min_modulation(min_modulation, captures.camera_bit_depth)
-    if saturated not in SATURATED_MODES:
-        raise InputError(
-            f"saturated mode {saturated!r} is unknown; give one of {', '.join(SATURATED_MODES)}"
-        )
-    if map_dtype not in ("float64", "float32"):
-        raise InputError(f"map_dtype {map_dtype!r} is unknown; give float64 or float32")
-    if map_dtype != "float64" and saturated != "flag":
-        raise InputError(
-            f"map_dtype {map_dtype} applies to saturated='flag'; leave map_dtype at float64 "
-            "with saturated='exclude'"
-        )
-    if harmonics_mode(harmonics)[0] != "off" and saturated != "flag":
-        raise InputError(
-            "harmonic compensation needs every shift in each pixel's phase; it does not apply "
-            "to saturated='exclude' (drop one of them)"
-        )
-    if saturated == "exclude":
-        out = _decode_excluding(captures, min_modulation, min_shifts)
-        results = out.set_results
-    else:
-        results = {}
-        for s in captures.sets:
-            results[s.label] = decode_set(
-                captures.set_images(s),
-                s.spec,
-                captures.camera_bit_depth,
-                min_modulation=min_modulation,
-                reject_saturated=reject_saturated,
-                dtype=np.dtype(map_dtype),
-            )
-        out = FolderPhase(set_results=results, sets=list(captures.sets))
+    _check_decode_options(captures, min_modulation, saturated, map_dtype, harmonics)
+    out = _decode_every_set(
+        captures, min_modulation, reject_saturated, saturated, min_shifts, map_dtype
+    )
     _compensate_harmonics(out, harmonics)
     results = out.set_results  # the families unwrap the compensated phases
     if not captures.sets:
@@ -461,109 +616,21 @@ def decode_captures(
     _check_pitch_ladders(captures, families)
     for fam in families:
         orient = fam[0].spec.orientation
-        coarse = fam[0]
-        extent = None
-        if captures.projector is not None:
-            extent = captures.projector.width if orient == "vertical" else captures.projector.height
-        spans = extent is not None and coarse.spec.pitch_px >= extent
-        coarse_phase = results[coarse.label].wrapped_phase
-        code = None if spans else codes.get(orient)
-        if code is not None and code.stripe_px > coarse.spec.pitch_px:
-            out.notes.append(
-                f"{orient} fringes: the Gray code's stripe ({code.stripe_px:g} px) is wider than "
-                f"the coarsest pitch ({coarse.spec.pitch_px:g} px), so it cannot fix the fringe "
-                "order; not used"
-            )
-            code = None
-        gc_valid = None
-        if spans:
-            base = np.asarray(coarse_phase, dtype=np.float64)  # float32 maps: float64 phases
-            method = "coarse set spans the projector with one period"
-            unwrapping = "one-period"
-        elif code is not None:
-            gdec, how = _decode_graycode(captures, code, results[coarse.label])
-            gc_phase = absolute_phase_graycode(
-                coarse_phase, gdec.index, stripe_px=code.stripe_px, pitch_px=coarse.spec.pitch_px
-            )
-            base = gc_phase.phase
-            gc_valid = gdec.valid
-            method = f"Gray code + phase ({gc_phase.method}; bits {how})"
-            unwrapping = "graycode"
-        else:
-            base = unwrap_spatial(coarse_phase)
-            method = "spatial"
-            unwrapping = "spatial"
-        if len(fam) > 1:
-            phases = [base] + [results[s.label].wrapped_phase for s in fam[1:]]
-            unwrapped = unwrap_temporal(
-                phases, [s.spec.pitch_px for s in fam], coarse_unwrapped=not spans
-            )
-            method = (
-                f"temporal {' -> '.join(f'{s.spec.pitch_px:g}' for s in fam)} px ({method} first)"
-            )
-        else:
-            unwrapped = base
-        finest = fam[-1]
-        absolute = None
-        abs_method = None
+        unw = _unwrap_family(captures, fam, results, codes, out.notes)
         given = None if given_phases is None else given_phases.get(orient)
-        if given is not None:  # the caller's phase replaces the family's own unwrapping
-            phi = results[finest.label].wrapped_phase
-            ref = np.asarray(given, dtype=np.float64)
-            if ref.shape != phi.shape:
-                raise InputError(
-                    f"given {orient} absolute phase has shape {ref.shape}, the images {phi.shape}; "
-                    "give one absolute phase per camera pixel"
-                )
-            # the caller's phase, where the captured finest set decodes (its validity rules)
-            unwrapped = np.where(np.isfinite(phi), ref, np.nan)
-            absolute = unwrapped
-            method = abs_method = f"absolute phase given for the {finest.spec.pitch_px:g} px set"
-            unwrapping = "given"
-        elif spans:
-            absolute = unwrapped
-            abs_method = "one-period coarse set"
-        elif code is not None:
-            absolute = unwrapped
-            abs_method = (
-                f"Gray code ({code.bits} bits, stripe {code.stripe_px:g} px) + phase of the "
-                f"{coarse.spec.pitch_px:g} px set"
-            )
-        else:
-            lines = [(f, img) for f, img in captures.centerlines() if f.orientation == orient]
-            if lines:
-                frame, img = lines[0]
-                absolute = absolute_phase_from_centerline(
-                    unwrapped, img, frame.position, finest.spec.pitch_px, orient
-                )
-                abs_method = f"centerline at {frame.position:g} px (Eq. 2.12-2.13)"
-            else:
-                out.notes.append(no_absolute_phase_note(orient))
-        regions = None
-        if unwrapping == "spatial":
-            regions = phase_regions(
-                [results[s.label].wrapped_phase for s in fam], np.isfinite(unwrapped)
-            )
-            if regions.islands:
-                sizes = ", ".join(str(v) for v in regions.sizes[: regions.significant])
-                out.notes.append(
-                    f"{orient} fringes: the valid area falls into {regions.significant} separate "
-                    f"regions ({sizes} pixels); spatial unwrapping cannot relate their fringe "
-                    "orders, so their phases are not comparable (see the region map; a Gray "
-                    "code or a one-period set gives every pixel its absolute order)"
-                )
+        absolute, abs_method = _absolute_of_family(captures, fam, results, unw, given, out.notes)
         out.families.append(
             FamilyResult(
                 orient,
-                finest.spec.pitch_px,
+                fam[-1].spec.pitch_px,
                 fam,
-                unwrapped,
+                unw.phase,
                 absolute,
-                method,
+                unw.method,
                 abs_method,
-                unwrapping,
-                regions,
-                gc_valid,
+                unw.unwrapping,
+                _spatial_regions(fam, results, unw, out.notes),
+                unw.graycode_valid,
             )
         )
     return out

@@ -589,13 +589,8 @@ def _orientation_names(t: Mapping[str, Any], where: str) -> dict[str, str]:
     return names
 
 
-def _fringe_group(
-    t: Mapping[str, Any], index: int, where: str, projector: Mapping[str, Any]
-) -> FrameGroup:
-    _check_keys(t, _FRINGE_KEYS, where)
-    names = _orientation_names(t, where)
-    files = _source(t, "fringe", where, names)
-    key, axes, sel = _stack_fields(t, where)
+def _fringe_orientations(t: Mapping[str, Any], where: str) -> list[Any]:
+    """A fringe group's orientations: known ones, each once."""
     orients = _list(t.get("orientation", "vertical"))
     for o in orients:
         if o not in ORIENTATIONS:
@@ -604,6 +599,11 @@ def _fringe_group(
             raise _fail(where, f"unknown orientation {o!r}", hint)
     if len(set(orients)) != len(orients):
         raise _fail(where, "an orientation is listed twice", "list each once")
+    return orients
+
+
+def _fringe_pattern(t: Mapping[str, Any], where: str) -> tuple[Any, Any]:
+    """A fringe group's pattern and profile (cosine or sine)."""
     pattern = t.get("pattern", "sinusoidal")
     if pattern not in PATTERNS:
         raise _fail(where, f"unknown pattern {pattern!r}", f"use one of {', '.join(PATTERNS)}")
@@ -612,7 +612,13 @@ def _fringe_group(
         raise _fail(where, f"unknown profile {profile!r}", "use cosine or sine")
     if profile == "sine" and pattern != "sinusoidal":
         raise _fail(where, "profile 'sine' is for sinusoidal fringes", "use phase_offset_deg")
-    # the shifts: steps N, angles (default 360*k/N), sign, numbers in file names
+    return pattern, profile
+
+
+def _fringe_shifts(
+    t: Mapping[str, Any], where: str, pattern: str
+) -> tuple[int, list[float], int, list[int]]:
+    """The shifts: steps N, angles (default 360*k/N), sign, numbers in file names."""
     shifts = t.get("shifts_deg")
     steps = t.get("steps")
     if shifts is not None:
@@ -643,15 +649,23 @@ def _fringe_group(
         )
     if len(set(numbers)) != len(numbers):
         raise _fail(where, "step_numbers repeats a number", "give each step its own number")
-    offset = _num(t.get("phase_offset_deg", 0.0), where, "phase_offset_deg")
-    # periods across the projector, or pitch in projector px
+    return steps, shifts, sign, numbers
+
+
+def _fringe_levels(t: Mapping[str, Any], where: str) -> tuple[str, list[float]]:
+    """Periods across the projector, or pitch in projector px: the key and its values."""
     if ("periods" in t) == ("pitch" in t):
         raise _fail(where, "give exactly one of 'periods' and 'pitch'", "see docs/import.md")
     level_key = "periods" if "periods" in t else "pitch"
     levels = [_num(v, where, level_key, positive=True) for v in _list(t[level_key])]
     if len(set(levels)) != len(levels):
         raise _fail(where, f"a value of '{level_key}' is listed twice", "list each once")
-    # gray levels: both or neither (then not written: capture format version 3, "levels unknown")
+    return level_key, levels
+
+
+def _fringe_extra(t: Mapping[str, Any], where: str, projector: Mapping[str, Any]) -> dict[str, Any]:
+    """Gray levels (both or neither: then not written, capture format version 3, "levels
+    unknown"), gamma pre-compensation and exposure."""
     extra: dict[str, Any] = {}
     if ("imin" in t) != ("migl" in t):
         raise _fail(
@@ -673,13 +687,20 @@ def _fringe_group(
     for k in ("gamma_precompensation", "exposure_ms"):
         if k in t:
             extra[k] = _num(t[k], where, k, positive=True)
+    return extra
+
+
+def _check_fringe_template(
+    files: Template | list[str] | None,
+    where: str,
+    counts: Mapping[str, int],
+    level_key: str,
+) -> None:
+    """A file template names every field the group has several values of, and the level
+    key the group gives. ``counts``: orientation, level key, step -> number of values."""
     if isinstance(files, Template) and "index" not in files.fields:
         present = set(files.fields)
-        for fld, count in (
-            ("orientation", len(orients)),
-            (level_key, len(levels)),
-            ("step", steps),
-        ):
+        for fld, count in counts.items():
             if count > 1 and fld not in present:
                 raise _fail(
                     where,
@@ -695,20 +716,43 @@ def _fringe_group(
                 f"the template uses {{{other}}} but the group gives '{level_key}'",
                 f"write {{{level_key}}} in the template",
             )
+
+
+def _fringe_pitch(
+    level_key: str, value: float, orient: str, where: str, projector: Mapping[str, Any]
+) -> float:
+    """The pitch in projector px of a ``periods`` or ``pitch`` value."""
+    if level_key != "periods":
+        return value
+    extent_key = "width" if orient == "vertical" else "height"
+    if extent_key not in projector:
+        raise _fail(
+            where,
+            f"'periods' needs the projector {extent_key} ({orient} fringes)",
+            f"add {extent_key} to the projector table or give 'pitch'",
+        )
+    return projector[extent_key] / value
+
+
+def _fringe_group(
+    t: Mapping[str, Any], index: int, where: str, projector: Mapping[str, Any]
+) -> FrameGroup:
+    _check_keys(t, _FRINGE_KEYS, where)
+    names = _orientation_names(t, where)
+    files = _source(t, "fringe", where, names)
+    key, axes, sel = _stack_fields(t, where)
+    orients = _fringe_orientations(t, where)
+    pattern, profile = _fringe_pattern(t, where)
+    steps, shifts, sign, numbers = _fringe_shifts(t, where, pattern)
+    offset = _num(t.get("phase_offset_deg", 0.0), where, "phase_offset_deg")
+    level_key, levels = _fringe_levels(t, where)
+    extra = _fringe_extra(t, where, projector)
+    counts = {"orientation": len(orients), level_key: len(levels), "step": steps}
+    _check_fringe_template(files, where, counts, level_key)
     frames: list[dict[str, Any]] = []
     for o in orients:
         for value in levels:
-            if level_key == "periods":
-                extent_key = "width" if o == "vertical" else "height"
-                if extent_key not in projector:
-                    raise _fail(
-                        where,
-                        f"'periods' needs the projector {extent_key} ({o} fringes)",
-                        f"add {extent_key} to the projector table or give 'pitch'",
-                    )
-                pitch = projector[extent_key] / value
-            else:
-                pitch = value
+            pitch = _fringe_pitch(level_key, value, o, where, projector)
             for step in range(steps):
                 entry = {
                     "kind": "fringe",

@@ -244,34 +244,19 @@ def _measure_mapping(
     index: dict[str, list[NDArray[np.float32]]] = {}
     absolute: dict[str, NDArray[np.float64]] = {}
     coords: dict[str, NDArray[np.float64]] = {}
-    gains: list[NDArray[np.float64]] = []
-    ambients: list[NDArray[np.float64]] = []
-    weights: list[NDArray[np.float64]] = []
+    response = _Response(imin)
     saturated = np.zeros(rig.image_shape, bool)
     decodes = np.ones(rig.image_shape, bool)  # valid in every set
     m_next = migl
-
-    def spec_at(orient: str, p: float, m: float) -> FringeSpec:
-        return FringeSpec(template.pattern, template.steps, p, orient, imin, m)  # type: ignore[arg-type]
-
-    def add_response(dec: Any, m: float | NDArray, where: NDArray[np.bool_]) -> None:
-        mm = np.broadcast_to(np.asarray(m, np.float64), where.shape)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g = 2.0 * dec.modulation / (mm - imin)
-            c = dec.mean_intensity - g * (mm + imin) / 2.0
-        ok = where & dec.valid
-        gains.append(np.where(ok, g, np.nan))
-        ambients.append(np.where(ok, c, np.nan))
-        weights.append(np.where(ok, (mm - imin) ** 2, 0.0))  # the estimate's SNR squared
 
     # pass 1: the ladder at the low MIGL(s)
     for orient, ps in pitches.items():
         imgs: list[NDArray] = []
         ms: list[float] = []
         for k_, p in enumerate(ps):
-            m = migl if not gains and not imgs else m_next
-            spec = spec_at(orient, p, m)
-            if first_images is not None and not gains and not imgs:
+            m = migl if not response.gains and not imgs else m_next
+            spec = _spec_at(template, orient, p, m)
+            if first_images is not None and not response.gains and not imgs:
                 imgs.append(first_images)
             else:
                 imgs.append(_capture(rig, spec.frames(), settings))
@@ -283,21 +268,12 @@ def _measure_mapping(
                 # one orientation (epipolar): its second set, at the automatic MIGL, stands in
                 # for the other orientation's one-period set in the response (its pitch, 16x
                 # the finest, loses little modulation to the blur)
-                add_response(dec, m, np.ones(dec.valid.shape, bool))
+                response.add(dec, m, np.ones(dec.valid.shape, bool))
             if p == ps[0]:  # a one-period set: the response
                 g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
-                add_response(dec, m, np.ones(g.shape, bool))
-                if auto and len(gains) == 1:
-                    level = safe_migl(
-                        median_smooth(np.where(dec.valid, g, np.nan), MEDIAN_WINDOW),
-                        median_smooth(np.where(dec.valid, c, np.nan), MEDIAN_WINDOW),
-                        bits,
-                        margin=AUTO_MAPPING_MARGIN,
-                        imin=imin,
-                        projector_full=template.migl,
-                    )
-                    if np.isfinite(level).any():
-                        m_next = float(max(migl, np.floor(np.nanmin(level))))
+                response.add(dec, m, np.ones(g.shape, bool))
+                if auto and len(response.gains) == 1:
+                    m_next = _auto_mapping_migl(dec, g, c, bits, template, migl, m_next)
         images[orient] = imgs
         migls[orient] = ms
         index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
@@ -308,53 +284,130 @@ def _measure_mapping(
         take = saturation_count(t_imgs, bits) == 0
         images[o0][0] = np.where(take, t_imgs, images[o0][0])
         index[o0][0] = np.where(take, np.float32(t_migl), index[o0][0])
-        add_response(decode_set(t_imgs, spec_at(o0, pitches[o0][0], t_migl), bits), t_migl, take)
+        t_spec = _spec_at(template, o0, pitches[o0][0], t_migl)
+        response.add(decode_set(t_imgs, t_spec, bits), t_migl, take)
 
     # pass 2, only where the low ladder left much of the field dark: the full MIGL, merged
     bright: float | None = None
     dark = ~decodes & ~saturated
-    full = float(template.migl)
-    if auto and m_next < full and dark.mean() > BRIGHT_MIN_FRACTION:
-        bright = full
-        for orient, ps in pitches.items():
-            for k, p in enumerate(ps):
-                spec = spec_at(orient, p, bright)
-                imgs_b = _capture(rig, spec.frames(), settings)
-                take = saturation_count(imgs_b, bits) == 0
-                images[orient][k] = np.where(take, imgs_b, images[orient][k])
-                index[orient][k] = np.where(take, np.float32(bright), index[orient][k])
-                if k == 0:
-                    add_response(decode_set(imgs_b, spec, bits), bright, take)
+    if auto and m_next < float(template.migl) and dark.mean() > BRIGHT_MIN_FRACTION:
+        bright = float(template.migl)
+        _merge_full_migl_ladder(rig, template, pitches, images, index, response, settings)
 
     for orient, ps in pitches.items():
-        phases = []
-        for k, p in enumerate(ps):
-            # a merged set decodes as one: the phase does not depend on the MIGL
-            d = decode_set(images[orient][k], spec_at(orient, p, migls[orient][k]), bits)
-            phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
-        # the low-MIGL phases are noisy: smooth each level (median) before it predicts the
-        # next one's fringe order, so the orders hold where a plain unwrap would slip
-        current = median_smooth(phases[0], MEDIAN_WINDOW)
-        for k in range(1, len(ps)):
-            current = unwrap_temporal(
-                [current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True
-            )
-            current = median_smooth(current, MEDIAN_WINDOW)
-        absolute[orient] = current
+        sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
+        absolute[orient] = _unwrap_ladder(images[orient], sets, bits)
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
-    w = np.stack(weights)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # pixels valid in no set stay NaN
-        g_stack, c_stack = np.stack(gains), np.stack(ambients)
-        wsum = np.sum(np.where(np.isfinite(g_stack), w, 0.0), axis=0)
-        gain = np.nansum(g_stack * w, axis=0) / wsum
-        ambient = np.nansum(c_stack * w, axis=0) / wsum
-    # a low-MIGL set is a noisy response: the median keeps its edges
-    gain = median_smooth(gain, MEDIAN_WINDOW)
-    ambient = median_smooth(ambient, MEDIAN_WINDOW)
+    gain, ambient = response.combined()
     return _Mapping(
         pitches, images, migls, absolute, coords, gain, ambient, saturated, bright, index
     )
+
+
+def _spec_at(template: FringeSpec, orient: str, pitch: float, migl: float) -> FringeSpec:
+    """``template``'s set at another pitch, orientation and MIGL."""
+    return FringeSpec(template.pattern, template.steps, pitch, orient, template.imin, migl)  # type: ignore[arg-type]
+
+
+@dataclass
+class _Response:
+    """The response ``I = a g + c`` estimated from each set that gives one (internal)."""
+
+    imin: float
+    gains: list[NDArray[np.float64]] = field(default_factory=list)
+    ambients: list[NDArray[np.float64]] = field(default_factory=list)
+    weights: list[NDArray[np.float64]] = field(default_factory=list)
+
+    def add(self, dec: Any, m: float | NDArray, where: NDArray[np.bool_]) -> None:
+        """The response of a set decoded as ``dec``, projected at ``m``, at ``where``."""
+        imin = self.imin
+        mm = np.broadcast_to(np.asarray(m, np.float64), where.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = 2.0 * dec.modulation / (mm - imin)
+            c = dec.mean_intensity - g * (mm + imin) / 2.0
+        ok = where & dec.valid
+        self.gains.append(np.where(ok, g, np.nan))
+        self.ambients.append(np.where(ok, c, np.nan))
+        self.weights.append(np.where(ok, (mm - imin) ** 2, 0.0))  # the estimate's SNR squared
+
+    def combined(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Gain and ambient averaged per pixel with the weights (the estimates' SNR squared),
+        then median-smoothed (a low-MIGL set is a noisy response: the median keeps its
+        edges)."""
+        w = np.stack(self.weights)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # pixels valid in no set stay NaN
+            g_stack, c_stack = np.stack(self.gains), np.stack(self.ambients)
+            wsum = np.sum(np.where(np.isfinite(g_stack), w, 0.0), axis=0)
+            gain = np.nansum(g_stack * w, axis=0) / wsum
+            ambient = np.nansum(c_stack * w, axis=0) / wsum
+        return median_smooth(gain, MEDIAN_WINDOW), median_smooth(ambient, MEDIAN_WINDOW)
+
+
+def _auto_mapping_migl(
+    dec: Any,
+    g: NDArray[np.float64],
+    c: NDArray[np.float64],
+    bits: int,
+    template: FringeSpec,
+    migl: float,
+    current: float,
+) -> float:
+    """The MIGL of the next mapping sets: the highest the first set's response (``g``, ``c``)
+    says keeps every pixel :data:`AUTO_MAPPING_MARGIN` below clipping, never below ``migl``
+    (``current`` where no pixel gives one)."""
+    level = safe_migl(
+        median_smooth(np.where(dec.valid, g, np.nan), MEDIAN_WINDOW),
+        median_smooth(np.where(dec.valid, c, np.nan), MEDIAN_WINDOW),
+        bits,
+        margin=AUTO_MAPPING_MARGIN,
+        imin=template.imin,
+        projector_full=template.migl,
+    )
+    if np.isfinite(level).any():
+        return float(max(migl, np.floor(np.nanmin(level))))
+    return current
+
+
+def _merge_full_migl_ladder(
+    rig: Rig,
+    template: FringeSpec,
+    pitches: dict[str, list[float]],
+    images: dict[str, list[NDArray]],
+    index: dict[str, list[NDArray[np.float32]]],
+    response: _Response,
+    settings: CameraSettings | None,
+) -> None:
+    """The ladder captured again at the full MIGL and merged per pixel where it does not
+    clip (Eq. 5.1), in place; each one-period set's bright capture added to the response."""
+    bits = rig.camera_bit_depth
+    bright = float(template.migl)
+    for orient, ps in pitches.items():
+        for k, p in enumerate(ps):
+            spec = _spec_at(template, orient, p, bright)
+            imgs_b = _capture(rig, spec.frames(), settings)
+            take = saturation_count(imgs_b, bits) == 0
+            images[orient][k] = np.where(take, imgs_b, images[orient][k])
+            index[orient][k] = np.where(take, np.float32(bright), index[orient][k])
+            if k == 0:
+                response.add(decode_set(imgs_b, spec, bits), bright, take)
+
+
+def _unwrap_ladder(images: list[NDArray], sets: list[FringeSpec], bits: int) -> NDArray[np.float64]:
+    """One orientation's mapping ladder unwrapped temporally, coarsest set first; each level
+    median-smoothed: the low-MIGL phases are noisy, smoothing each level before it predicts
+    the next one's fringe order keeps the orders where a plain unwrap would slip."""
+    phases = []
+    for imgs, spec in zip(images, sets, strict=True):
+        # a merged set decodes as one: the phase does not depend on the MIGL
+        d = decode_set(imgs, spec, bits)
+        phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
+    ps = [s.pitch_px for s in sets]
+    current = median_smooth(phases[0], MEDIAN_WINDOW)
+    for k in range(1, len(ps)):
+        current = unwrap_temporal([current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True)
+        current = median_smooth(current, MEDIAN_WINDOW)
+    return current
 
 
 def _correct_map_bias(
@@ -548,6 +601,688 @@ def _epipolar_calibration(
     return calibration
 
 
+def _checked_inputs(
+    rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
+) -> tuple[list[FringeSpec], StereoCalibration | None, float]:
+    """The sets, the epipolar calibration and the mapping MIGL; InputError for what the
+    method cannot do."""
+    specs = _check_specs(rig, specs)
+    margin, exposure_ms = params.margin, params.exposure_ms
+    if not 0.0 <= float(margin) < 1.0:
+        raise InputError(f"adaptive margin must be a fraction in [0, 1), got {margin!r}")
+    iterations = params.iterations
+    if isinstance(iterations, bool) or int(iterations) != iterations or iterations < 0:
+        raise InputError(f"adaptive iterations must be a whole number >= 0, got {iterations!r}")
+    for name, value in (("blur_px", params.blur_px), ("smooth_px", params.smooth_px)):
+        if not float(value) >= 0:
+            raise InputError(f"adaptive {name} must be >= 0 projector pixels, got {value!r}")
+    if exposure_ms is not None and not float(exposure_ms) > 0:
+        raise InputError(f"adaptive exposure_ms must be > 0, got {exposure_ms!r}")
+    if params.auto_exposure and exposure_ms is not None:
+        raise InputError(
+            "adaptive: give a fixed exposure (--adaptive-exposure-ms) or the automatic one "
+            "(--adaptive-auto-exposure), not both"
+        )
+    calib = _epipolar_calibration(rig, specs, params.epipolar, params.stereo_calibration)
+    if params.full_mapping and params.mapping_migl is not None:
+        raise InputError(
+            "adaptive: --adaptive-full-mapping chooses the mapping MIGL itself; drop "
+            "--mapping-migl or --adaptive-full-mapping"
+        )
+    if params.full_mapping and not params.topup:
+        raise InputError(
+            "adaptive: --adaptive-full-mapping leaves the pixels that clip at the full MIGL to "
+            "the top-up; drop --no-adaptive-topup or --adaptive-full-mapping"
+        )
+    first = specs[0]
+    m0 = default_min_migl(first) if params.mapping_migl is None else float(params.mapping_migl)
+    if not first.imin < m0 <= first.migl:
+        raise InputError(
+            f"adaptive mapping_migl must be above imin {first.imin:g} and at most the MIGL "
+            f"{first.migl:g}, got {m0:g}"
+        )
+    return specs, calib, m0
+
+
+def _plan_ladders(
+    rig: Rig, specs: list[FringeSpec], calib: StereoCalibration | None
+) -> tuple[dict[str, int], dict[str, list[float]]]:
+    """Per orientation the index of the finest set (the adapted one) and the mapping ladder,
+    which includes the measurement's coarser pitches (those sets are the mapping's own
+    captures); the orientation the measurement does not unwrap first."""
+    proj = rig.projector
+    finest_any = min(s.pitch_px for s in specs)
+    finest: dict[str, int] = {}
+    pitches: dict[str, list[float]] = {}
+    for orient in ORIENTATIONS:
+        if calib is not None and not any(s.orientation == orient for s in specs):
+            continue  # the epipolar constraint gives this coordinate
+        extent = proj.width if orient == "vertical" else proj.height
+        own = sorted(
+            (i for i, s in enumerate(specs) if s.orientation == orient),
+            key=lambda i: -specs[i].pitch_px,
+        )
+        target = specs[own[-1]].pitch_px if own else finest_any
+        ladder = set(mapping_pitches(extent, target)) | {specs[i].pitch_px for i in own[:-1]}
+        pitches[orient] = sorted(ladder, reverse=True)
+        if own:
+            finest[orient] = own[-1]
+            if any(specs[i].pitch_px == target for i in own[:-1]):
+                raise InputError(f"adaptive: two {orient} sets of pitch {target:g} px")
+    # the first (darkest, noisiest) set in the orientation the measurement does not unwrap
+    pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o in finest)}
+    return finest, pitches
+
+
+@dataclass
+class _Run:
+    """One adaptive run's settled inputs: sets, parameters, exposure and ladders (internal)."""
+
+    rig: Rig
+    specs: list[FringeSpec]
+    params: AdaptiveParams
+    calib: StereoCalibration | None
+    #: the exposure of every capture (None: the rig's) and (exposure, MIGL) of each set the
+    #: automatic exposure captured
+    exposure_ms: float | None
+    chosen: list[tuple[float, float]]
+    finest: dict[str, int]
+    pitches: dict[str, list[float]]
+    seconds: dict[str, float]
+
+    @property
+    def first(self) -> FringeSpec:
+        return self.specs[0]
+
+    @property
+    def bits(self) -> int:
+        return self.rig.camera_bit_depth
+
+    @property
+    def settings(self) -> CameraSettings | None:
+        return (
+            None
+            if self.exposure_ms is None
+            else CameraSettings(exposure_ms=float(self.exposure_ms))
+        )
+
+
+def _choose_exposure_first(
+    rig: Rig, specs: list[FringeSpec], params: AdaptiveParams
+) -> tuple[float | None, list[tuple[float, float]], float]:
+    """Step 0: with ``auto_exposure`` the exposure chosen on the finest set at its highest
+    MIGL (thesis Sec. 7.3); the exposure, the sets the choice captured and its seconds."""
+    t0 = time.perf_counter()
+    exposure_ms = params.exposure_ms
+    chosen: list[tuple[float, float]] = []  # (exposure, MIGL) of each set the choice captured
+    if params.auto_exposure:
+        fine = min(specs, key=lambda s: s.pitch_px)
+        choice = choose_exposure(rig, fine, keep_if_unsaturated=True)
+        chosen = [(t, float(fine.migl)) for t, _ in choice.captures]
+        exposure_ms = choice.exposure_ms
+    return exposure_ms, chosen, time.perf_counter() - t0
+
+
+@dataclass
+class _MappingOutcome:
+    """Step 1's result: the mapping, the camera pixels' projector coordinates (internal)."""
+
+    mp: _Mapping
+    #: the MIGL of the first mapping set (the full MIGL when the full-MIGL mapping was kept)
+    m0: float
+    u: NDArray[np.float64]
+    v: NDArray[np.float64]
+    #: the full-MIGL first set that was not kept (counted), whether it was kept, what clipped
+    trial: list[float]
+    full_mapped: bool
+    full_clipped: float | None
+
+
+def _map_camera_to_projector(run: _Run, m0: float) -> _MappingOutcome:
+    """Step 1: the mapping (at a low MIGL, or at the full one where only a highlight clips in
+    its first set): response, coordinates, fringe orders."""
+    t0 = time.perf_counter()
+    first, pitches, settings = run.first, run.pitches, run.settings
+    trial: list[float] = []  # a full-MIGL first set that was not kept (counted)
+    trial_images: tuple[NDArray, float] | None = None
+    full_mapped = False
+    full_clipped: float | None = None
+    mp: _Mapping | None = None
+    if run.params.full_mapping:
+        o0 = next(iter(pitches))
+        spec0 = FringeSpec(first.pattern, first.steps, pitches[o0][0], o0, first.imin, first.migl)  # type: ignore[arg-type]
+        imgs0 = _capture(run.rig, spec0.frames(), settings)
+        full_clipped = float(np.mean(saturation_count(imgs0, run.bits) > 0))
+        if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
+            m0, full_mapped = float(first.migl), True
+            mp = _measure_mapping(
+                run.rig, first, pitches, m0, settings, auto=False, first_images=imgs0
+            )
+        else:
+            trial, trial_images = [float(first.migl)], (imgs0, float(first.migl))
+    if mp is None:
+        mp = _measure_mapping(
+            run.rig,
+            first,
+            pitches,
+            m0,
+            settings,
+            auto=run.params.mapping_migl is None,
+            trial=trial_images,
+        )
+    u = mp.coords["vertical"]
+    v = mp.coords["horizontal"] if run.calib is None else epipolar_rows(run.calib, u)
+    run.seconds["mapping"] = time.perf_counter() - t0
+    return _MappingOutcome(mp, m0, u, v, trial, full_mapped, full_clipped)
+
+
+@dataclass
+class _Projection:
+    """Step 2's result: the camera-side levels carried to the projector (internal).
+
+    What every adapted pass needs: the camera pixels' projector coordinates (``uf``, ``vf``:
+    the clipped pixels' borrowed from their neighbours), the erosion radius, and how a MIGL
+    map is built from camera-side levels and projected.
+    """
+
+    run: _Run
+    uf: NDArray[np.float64]
+    vf: NDArray[np.float64]
+    shape: tuple[int, int]
+    radius: float
+    ambient: NDArray[np.float64]
+    mapped: NDArray[np.bool_]
+    base_levels: NDArray[np.float64]
+    first_map: NDArray[np.float64] | None = None
+
+    @property
+    def imin(self) -> float:
+        return self.run.first.imin
+
+    @property
+    def full(self) -> float:
+        return float(self.run.first.migl)
+
+    def build(self, cam_levels: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The projector MIGL map of camera-side levels (eroded, smoothed from below)."""
+        return projector_migl_map(
+            cam_levels,
+            self.uf,
+            self.vf,
+            self.shape,
+            radius=self.radius,
+            sigma=float(self.run.params.smooth_px),
+            imin=self.imin,
+            projector_full=self.full,
+        )
+
+    def shoot(self, spec: FringeSpec, pmap: NDArray[np.float64]) -> NDArray:
+        """Capture ``spec`` projected with the per-pixel MIGL map ``pmap``."""
+        steps = self.run.first.steps
+        frames = [PixelwiseFringeFrame(spec, k, pmap.astype(np.float32)) for k in range(steps)]
+        return _capture(self.run.rig, frames, self.run.settings)
+
+    def sample(self, pmap: NDArray[np.float64]) -> NDArray[np.float64]:
+        """What each camera pixel receives of the map ``pmap``."""
+        return sample_map(pmap, self.uf, self.vf)
+
+
+def _plan_projector_map(run: _Run, mapping: _MappingOutcome) -> _Projection:
+    """Step 2: per camera pixel the highest safe MIGL, carried to the projector."""
+    t0 = time.perf_counter()
+    first, mp, u, v = run.first, mapping.mp, mapping.u, mapping.v
+    full_p = float(first.migl)
+    base_levels = safe_migl(
+        mp.gain,
+        mp.ambient,
+        run.bits,
+        margin=run.params.margin,
+        imin=first.imin,
+        projector_full=full_p,
+    )
+    # pixels clipped in the mapping: their response is unknown, start them half way down
+    base_levels[mp.saturated] = first.imin + (mapping.m0 - first.imin) / 2.0
+    mapped = np.isfinite(u) & np.isfinite(v)
+    if not mapped.any():
+        raise InputError(
+            "adaptive: no camera pixel decoded in the mapping sets; raise mapping_migl or the "
+            "exposure (the mapping needs a fringe above the minimum modulation)"
+        )
+    # clipped pixels sit where their neighbours map: borrow the neighbours' coordinates
+    uf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, u, np.nan)), u)
+    vf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, v, np.nan)), v)
+    proj = _Projection(
+        run,
+        uf,
+        vf,
+        (run.rig.projector.height, run.rig.projector.width),
+        footprint_px(u, v) + float(run.params.blur_px),
+        np.where(np.isfinite(mp.ambient), mp.ambient, 0.0),
+        mapped,
+        base_levels,
+    )
+    proj.first_map = proj.build(base_levels)
+    run.seconds["map"] = time.perf_counter() - t0
+    return proj
+
+
+def _mapping_set_results(run: _Run, mp: _Mapping) -> list[StrategyResult | None]:
+    """The results of the coarser sets, the mapping's own captures (None: an adapted set)."""
+    results: list[StrategyResult | None] = [None] * len(run.specs)
+    for i, spec in enumerate(run.specs):
+        if i in run.finest.values():
+            continue
+        k = run.pitches[spec.orientation].index(spec.pitch_px)
+        imgs, m_set = mp.images[spec.orientation][k], mp.migls[spec.orientation][k]
+        sat = saturation_count(imgs, run.bits) > 0
+        sets = [CapturedSet(migl=m_set, exposure_ms=run.exposure_ms)]
+        if mp.bright_migl is not None:
+            sets.append(CapturedSet(migl=mp.bright_migl, exposure_ms=run.exposure_ms))
+        results[i] = StrategyResult(
+            images=imgs,
+            spec=spec,
+            captured=sets,
+            index_map=mp.index[spec.orientation][k],
+            newly_unsaturated=[int((~sat).sum())] + [0] * (len(sets) - 1),
+            never_unsaturated=sat,
+            method="adaptive",
+            details={"mapping_set": True, "mapping_migl": m_set},
+        )
+    return results
+
+
+def _spare_mapping_migls(run: _Run, mp: _Mapping) -> list[float]:
+    """The MIGLs of the mapping sets no spec stands for (counted with the first adapted set)."""
+    return [
+        m
+        for o in ORIENTATIONS
+        if o in run.pitches
+        for k, p in enumerate(run.pitches[o])
+        if not any(s.orientation == o and s.pitch_px == p for s in run.specs)
+        for m in [mp.migls[o][k]] + ([] if mp.bright_migl is None else [mp.bright_migl])
+    ]
+
+
+@dataclass
+class _AdaptedSet:
+    """One orientation's adapted set while its passes run (internal).
+
+    ``composite``: the merged images; ``levels``: the camera-side levels; ``pmap``: the map of
+    the last refit or check pass; ``received``: what each pixel received of it; ``index``: the
+    MIGL each pixel's images were captured at; ``remaining``: pixels with a clipped shift;
+    ``used``: the maps projected and ``source``, per pixel, which one its images come from;
+    ``captured``, ``newly``, ``clipped``: per capture; ``passes`` and ``seconds`` per step.
+    """
+
+    spec: FringeSpec
+    composite: NDArray
+    levels: NDArray[np.float64]
+    pmap: NDArray[np.float64]
+    received: NDArray[np.float64]
+    index: NDArray[np.float32]
+    remaining: NDArray[np.bool_]
+    captured: list[CapturedSet]
+    newly: list[int]
+    clipped: list[int]
+    used: list[NDArray[np.float64]]
+    source: NDArray[np.intp]
+    passes: dict[str, int] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def _capture_adapted_set(proj: _Projection, spec: FringeSpec) -> _AdaptedSet:
+    """Step 3: the adapted set, projected with the first map."""
+    t0 = time.perf_counter()
+    assert proj.first_map is not None
+    pmap = proj.first_map
+    composite = proj.shoot(spec, pmap)
+    received = proj.sample(pmap)
+    remaining = saturation_count(composite, proj.run.bits) > 0
+    st = _AdaptedSet(
+        spec=spec,
+        composite=composite,
+        levels=proj.base_levels.copy(),
+        pmap=pmap,
+        received=received,
+        index=received.astype(np.float32),
+        remaining=remaining,
+        captured=[CapturedSet(migl=None, exposure_ms=proj.run.exposure_ms, migl_map=pmap)],
+        newly=[int((~remaining).sum())],
+        clipped=[int(remaining.sum())],  # pixels with a clipped shift, per capture
+        used=[pmap],
+        source=np.zeros(remaining.shape, np.intp),
+    )
+    st.seconds["adapted"] = time.perf_counter() - t0
+    return st
+
+
+def _refit_pass(proj: _Projection, st: _AdaptedSet, full_mapped: bool) -> None:
+    """The refit: the set's own offset and modulation give each pixel's level at this pitch;
+    one more set where that gains a gray level or more, kept where it does not clip."""
+    t0 = time.perf_counter()
+    run, spec, bits = proj.run, st.spec, proj.run.bits
+    margin, imin, full_p = run.params.margin, proj.imin, proj.full
+    st.passes["refit"] = 0
+    if run.params.refit and not full_mapped:
+        dec = decode_set(st.composite, spec, bits, reject_saturated=False)
+        got = np.where(np.isfinite(st.received), st.received, full_p)
+        up = refined_migl(
+            np.where(st.remaining, np.nan, dec.mean_intensity),
+            dec.modulation,
+            got,
+            proj.ambient,
+            bits,
+            margin=margin,
+            imin=imin,
+            projector_full=full_p,
+        )
+        up = median_smooth(up, MEDIAN_WINDOW)  # per-pixel noise would bias the erosion low
+        new_levels = np.where(np.isfinite(up), np.maximum(up, st.levels), st.levels)
+        new_levels, _ = lowered_where_clipped(
+            new_levels, st.composite, got, proj.ambient, bits, margin=margin, imin=imin
+        )
+        if np.nanmax(np.abs(new_levels - st.levels)) >= 1.0:
+            new_map = proj.build(new_levels)
+            imgs = proj.shoot(spec, new_map)
+            clip = saturation_count(imgs, bits) > 0
+            st.clipped.append(int(clip.sum()))
+            take = ~clip | st.remaining  # unclipped now, or clipped both times (the newer)
+            st.composite[:, take] = imgs[:, take]
+            st.used.append(new_map)
+            st.source[take] = len(st.used) - 1
+            got2 = proj.sample(new_map).astype(np.float32)
+            st.index[take] = got2[take]
+            st.newly.append(int((st.remaining & ~clip).sum()))
+            st.remaining &= clip
+            # where the refit clipped a pixel the first set kept, keep its first level
+            levels = np.where(clip & ~st.remaining, st.levels, new_levels)
+            st.levels = np.where(st.remaining, new_levels, levels)
+            st.pmap, st.received = new_map, got2.astype(np.float64)
+            st.captured.append(
+                CapturedSet(migl=None, exposure_ms=run.exposure_ms, migl_map=st.pmap)
+            )
+            st.passes["refit"] = 1
+    st.seconds["refit"] = time.perf_counter() - t0
+
+
+def _check_passes(proj: _Projection, st: _AdaptedSet, full_mapped: bool) -> None:
+    """The check passes: lower the level only where a shift still clipped, merge there
+    (Eq. 5.1), at most ``iterations``."""
+    t0 = time.perf_counter()
+    run, bits, full_p = proj.run, proj.run.bits, proj.full
+    passes = 0
+    while st.remaining.any() and passes < (0 if full_mapped else run.params.iterations):
+        got = np.where(np.isfinite(st.received), st.received, full_p)
+        lowered, _ = lowered_where_clipped(
+            st.levels,
+            st.composite,
+            got,
+            proj.ambient,
+            bits,
+            margin=run.params.margin,
+            imin=proj.imin,
+        )
+        st.levels = np.where(st.remaining, lowered, st.levels)
+        st.pmap = proj.build(st.levels)
+        imgs = proj.shoot(st.spec, st.pmap)
+        got2 = proj.sample(st.pmap).astype(np.float32)
+        unsat = saturation_count(imgs, bits) == 0
+        st.clipped.append(int((~unsat).sum()))
+        new = st.remaining & unsat
+        st.composite[:, st.remaining] = imgs[:, st.remaining]
+        st.index[st.remaining] = got2[st.remaining]
+        st.used.append(st.pmap)
+        st.source[st.remaining] = len(st.used) - 1
+        st.remaining &= ~new
+        st.received = np.where(new | st.remaining, got2, st.received)
+        st.captured.append(CapturedSet(migl=None, exposure_ms=run.exposure_ms, migl_map=st.pmap))
+        st.newly.append(int(new.sum()))
+        passes += 1
+    st.passes["check"] = passes
+    st.seconds["check"] = time.perf_counter() - t0
+
+
+def _boost_pass(proj: _Projection, st: _AdaptedSet, full_mapped: bool) -> None:
+    """The boost: the erosion lowers a dim pixel next to a bright one (a black square's edge)
+    far below its own level; one more set with those pixels' levels, merged where it gives a
+    larger unclipped modulation (LPA's rule: the best unsaturated set)."""
+    t0 = time.perf_counter()
+    run, spec, bits, imin = proj.run, st.spec, proj.run.bits, proj.imin
+    st.passes["boost"] = 0
+    if run.params.boost and not full_mapped:
+        short = (st.received - imin) < BOOST_RATIO * (st.levels - imin)
+        wanted = np.isfinite(st.received) & np.isfinite(st.levels) & short & ~st.remaining
+        if wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(st.received).sum():
+            bmap = boosted_map(
+                st.pmap,
+                np.where(wanted, st.levels, np.nan),
+                proj.uf,
+                proj.vf,
+                radius=BOOST_RADIUS_FRACTION * proj.radius,
+                projector_full=proj.full,
+            )
+            imgs = proj.shoot(spec, bmap)
+            clip = saturation_count(imgs, bits) > 0
+            st.clipped.append(int(clip.sum()))
+            had = decode_set(st.composite, spec, bits)
+            new_dec = decode_set(imgs, spec, bits)
+            # only the pixels it was built for (or a pixel still clipped): a neighbour
+            # whose footprint straddles the raised area reads a larger but biased fringe
+            gain = (
+                new_dec.valid
+                & (wanted | st.remaining)
+                & (~had.valid | (new_dec.modulation > had.modulation))
+            )
+            st.composite[:, gain] = imgs[:, gain]
+            st.used.append(bmap)
+            st.source[gain] = len(st.used) - 1
+            got_b = proj.sample(bmap).astype(np.float32)
+            st.index[gain] = got_b[gain]
+            st.newly.append(int((st.remaining & gain).sum()))
+            st.remaining &= ~gain
+            st.captured.append(CapturedSet(migl=None, exposure_ms=run.exposure_ms, migl_map=bmap))
+            st.passes["boost"] = 1
+    st.seconds["boost"] = time.perf_counter() - t0
+
+
+def _topup_pass(
+    proj: _Projection, st: _AdaptedSet, mp: _Mapping
+) -> tuple[NDArray[np.bool_] | None, dict[str, Any]]:
+    """The top-up: pixels that clip even at the lowest usable MIGL (or in the mapping, where
+    their response is unknown) only come under at a shorter exposure (docs/adaptive.md).
+    Returns the pixels it decoded (None: no top-up set) and what ``details["topup"]`` says."""
+    t0 = time.perf_counter()
+    run, spec, bits, full_p = proj.run, st.spec, proj.run.bits, proj.full
+    floor = float(default_min_migl(run.first))  # the lowest MIGL that carries a fringe
+    stuck = st.remaining & ((st.index <= floor + 0.5) | mp.saturated)
+    info: dict[str, Any] = {
+        "pixels": int(stuck.sum()),
+        "exposures_ms": [],
+        "taken": 0,
+        "ordered_from_neighbours": 0,
+        "skipped": None,
+    }
+    took = None
+    st.passes["topup"] = 0
+    worth = stuck.sum() >= max(1.0, TOPUP_MIN_FRACTION * float(proj.mapped.sum()))
+    if run.params.topup and worth:
+        exposure_ms = run.exposure_ms
+        reference = exposure_ms if exposure_ms is not None else run.rig.camera_settings.exposure_ms
+        sets_t, why = _capture_topup(run.rig, spec, st.remaining, reference)
+        info["skipped"] = why
+        full_map = np.full(proj.shape, full_p)
+        for t_set, imgs in sets_t:
+            st.clipped.append(int((saturation_count(imgs, bits) > 0).sum()))
+            had = decode_set(st.composite, spec, bits)
+            new_dec = decode_set(imgs, spec, bits)
+            gain = (
+                new_dec.valid & st.remaining & (~had.valid | (new_dec.modulation > had.modulation))
+            )
+            st.composite[:, gain] = imgs[:, gain]
+            if not any(m is full_map for m in st.used):
+                st.used.append(full_map)
+            st.source[gain] = len(st.used) - 1
+            st.index[gain] = np.float32(full_p)
+            st.newly.append(int(gain.sum()))
+            st.captured.append(CapturedSet(migl=full_p, exposure_ms=t_set))
+            info["exposures_ms"].append(t_set)
+        st.passes["topup"] = len(sets_t)
+        took = st.remaining & decode_set(st.composite, spec, bits).valid
+        info["taken"] = int(took.sum())
+        st.remaining &= ~took
+    elif stuck.any():
+        info["skipped"] = (
+            "turned off (topup=False)"
+            if not run.params.topup
+            else f"{int(stuck.sum())} pixels, below {100 * TOPUP_MIN_FRACTION:g} % of the "
+            "mapped ones"
+        )
+    st.seconds["topup"] = time.perf_counter() - t0
+    return took, info
+
+
+def _adapted_phase(
+    proj: _Projection,
+    st: _AdaptedSet,
+    mapping: _MappingOutcome,
+    took: NDArray[np.bool_] | None,
+    topup_info: dict[str, Any],
+) -> tuple[NDArray[np.float64], float | None]:
+    """Step 4: the adapted set's absolute phase, unwrapped with the mapping's fringe orders
+    (the top-up's pixels with their neighbours'), less the map's bias; and the blur fitted."""
+    run, spec, bits, mp = proj.run, st.spec, proj.run.bits, mapping.mp
+    # the mapping's fringe orders unwrap the adapted set: the order is the rounded
+    # difference between the mapping's phase scaled to this pitch and the wrapped phase
+    wrapped = decode_set(st.composite, spec, bits).wrapped_phase
+    orient = spec.orientation
+    predicted = mp.absolute[orient] * (run.pitches[orient][-1] / spec.pitch_px)
+    absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
+    # pixels clipped in the mapping have no orders: the top-up's, and with the full-MIGL
+    # mapping any that the adapted set decoded (a glint under the half-way level)
+    seeds = took if took is not None and st.passes["topup"] else np.zeros(mapping.u.shape, bool)
+    if mapping.full_mapped:
+        seeds = seeds | mp.saturated
+    if seeds.any():
+        t1 = time.perf_counter()
+        final = decode_set(st.composite, spec, bits)
+        absolute, filled = _orders_from_neighbours(absolute, wrapped, final.valid, seeds)
+        topup_info["ordered_from_neighbours"] = filled
+        st.seconds["topup"] += time.perf_counter() - t1
+    t0 = time.perf_counter()
+    blur = None
+    if run.params.bias_correction:
+        absolute, blur = _correct_map_bias(
+            absolute,
+            predicted,
+            st.used,
+            st.source,
+            proj.uf,
+            proj.vf,
+            spec,
+            proj.imin,
+            proj.radius,
+        )
+    st.seconds["bias"] = time.perf_counter() - t0
+    return absolute, blur
+
+
+def _adapted_details(
+    proj: _Projection,
+    st: _AdaptedSet,
+    mapping: _MappingOutcome,
+    topup_info: dict[str, Any],
+    blur: float | None,
+) -> dict[str, Any]:
+    """The adapted set's ``details``: the maps, the counts and seconds per step, the blur."""
+    run, mp, steps = proj.run, mapping.mp, proj.run.first.steps
+    n_map = sum(len(p) for p in run.pitches.values()) * (1 if mp.bright_migl is None else 2)
+    n_map += len(mapping.trial)
+    sets = {"exposure": len(run.chosen), "mapping": n_map, "adapted": 1}
+    sets |= {k: st.passes[k] for k in ("refit", "check", "boost", "topup")}
+    seconds = {k: run.seconds[k] for k in ("exposure", "mapping", "map")}
+    seconds |= {k: st.seconds[k] for k in ("adapted", "refit", "check", "boost", "topup", "bias")}
+    return {
+        "margin": float(run.params.margin),
+        "mapping_migls": {o: list(m) for o, m in mp.migls.items()},
+        "mapping_bright_migl": mp.bright_migl,
+        "mapping_pitches": {o: list(p) for o, p in run.pitches.items()},
+        "erosion_radius_px": float(proj.radius),
+        "projector_migl_map": st.pmap.astype(np.float32),
+        "camera_migl": st.levels.astype(np.float32),
+        "mapping_saturated": int(mp.saturated.sum()),
+        "refit_passes": st.passes["refit"],
+        "check_passes": st.passes["check"],
+        "boost_passes": st.passes["boost"],
+        "topup": topup_info,
+        "clipped_per_capture": st.clipped,
+        "images_per_step": {k: n * steps for k, n in sets.items()},
+        "sets_per_step": sets,
+        "seconds_per_step": {k: round(t, 4) for k, t in seconds.items()},
+        "blur_sigma_px": blur,
+        "exposure_ms": run.exposure_ms,
+        "epipolar": run.calib is not None,
+        "full_mapping": {"clipped_fraction": mapping.full_clipped, "kept": mapping.full_mapped}
+        if run.params.full_mapping
+        else None,
+    }
+
+
+def _adapt_orientation(
+    proj: _Projection, mapping: _MappingOutcome, i: int, counted_here: list[CapturedSet]
+) -> StrategyResult:
+    """Steps 3 and 4 for the finest set ``specs[i]`` of one orientation: the adapted set, its
+    refit, check, boost and top-up passes, its absolute phase. ``counted_here``: the sets
+    captured before it that it is charged with (the exposure choice, the spare mapping sets)."""
+    spec = proj.run.specs[i]
+    full_mapped = mapping.full_mapped
+    st = _capture_adapted_set(proj, spec)
+    _refit_pass(proj, st, full_mapped)
+    _check_passes(proj, st, full_mapped)
+    _boost_pass(proj, st, full_mapped)
+    took, topup_info = _topup_pass(proj, st, mapping.mp)
+    st.captured[:0] = counted_here
+    st.newly[:0] = [0] * len(counted_here)
+    absolute, blur = _adapted_phase(proj, st, mapping, took, topup_info)
+    return StrategyResult(
+        images=st.composite,
+        spec=spec,
+        captured=st.captured,
+        index_map=st.index,
+        newly_unsaturated=st.newly,
+        never_unsaturated=st.remaining,
+        method="adaptive",
+        details=_adapted_details(proj, st, mapping, topup_info, blur),
+        absolute_phase=absolute,
+    )
+
+
+def _run_adaptive(
+    rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
+) -> tuple[StrategyResult, ...]:
+    """:func:`adaptive_sets` with its parameters grouped: the steps in order."""
+    specs, calib, m0 = _checked_inputs(rig, specs, params)
+    exposure_ms, chosen, t_exposure = _choose_exposure_first(rig, specs, params)
+    finest, pitches = _plan_ladders(rig, specs, calib)
+    run = _Run(
+        rig, specs, params, calib, exposure_ms, chosen, finest, pitches, {"exposure": t_exposure}
+    )
+    mapping = _map_camera_to_projector(run, m0)
+    proj = _plan_projector_map(run, mapping)
+    results = _mapping_set_results(run, mapping.mp)
+    spare = _spare_mapping_migls(run, mapping.mp) + mapping.trial
+    owner = min(finest.values())
+    for i in finest.values():
+        counted: list[CapturedSet] = []
+        if i == owner:
+            counted = [CapturedSet(migl=m, exposure_ms=t) for t, m in chosen] + [
+                CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare
+            ]
+        results[i] = _adapt_orientation(proj, mapping, i, counted)
+    out = tuple(r for r in results if r is not None)
+    assert len(out) == len(specs)  # every spec is a mapping set or an adapted set
+    return out
+
+
 def adaptive_sets(
     rig: Rig,
     specs: Sequence[FringeSpec],
@@ -665,439 +1400,23 @@ def adaptive_sets(
     >>> [r.sets_captured for r in res], bool(res[-1].never_unsaturated.any())
     ([1, 1, 4], False)
     """
-    specs = _check_specs(rig, specs)
-    if not 0.0 <= float(margin) < 1.0:
-        raise InputError(f"adaptive margin must be a fraction in [0, 1), got {margin!r}")
-    if isinstance(iterations, bool) or int(iterations) != iterations or iterations < 0:
-        raise InputError(f"adaptive iterations must be a whole number >= 0, got {iterations!r}")
-    for name, value in (("blur_px", blur_px), ("smooth_px", smooth_px)):
-        if not float(value) >= 0:
-            raise InputError(f"adaptive {name} must be >= 0 projector pixels, got {value!r}")
-    if exposure_ms is not None and not float(exposure_ms) > 0:
-        raise InputError(f"adaptive exposure_ms must be > 0, got {exposure_ms!r}")
-    if auto_exposure and exposure_ms is not None:
-        raise InputError(
-            "adaptive: give a fixed exposure (--adaptive-exposure-ms) or the automatic one "
-            "(--adaptive-auto-exposure), not both"
-        )
-    calib = _epipolar_calibration(rig, specs, epipolar, stereo_calibration)
-    if full_mapping and mapping_migl is not None:
-        raise InputError(
-            "adaptive: --adaptive-full-mapping chooses the mapping MIGL itself; drop "
-            "--mapping-migl or --adaptive-full-mapping"
-        )
-    if full_mapping and not topup:
-        raise InputError(
-            "adaptive: --adaptive-full-mapping leaves the pixels that clip at the full MIGL to "
-            "the top-up; drop --no-adaptive-topup or --adaptive-full-mapping"
-        )
-    first = specs[0]
-    m0 = default_min_migl(first) if mapping_migl is None else float(mapping_migl)
-    if not first.imin < m0 <= first.migl:
-        raise InputError(
-            f"adaptive mapping_migl must be above imin {first.imin:g} and at most the MIGL "
-            f"{first.migl:g}, got {m0:g}"
-        )
-    # --- 0. the exposure, chosen on the finest set at its highest MIGL (thesis Sec. 7.3) ------
-    t0 = time.perf_counter()
-    chosen: list[tuple[float, float]] = []  # (exposure, MIGL) of each set the choice captured
-    if auto_exposure:
-        fine = min(specs, key=lambda s: s.pitch_px)
-        choice = choose_exposure(rig, fine, keep_if_unsaturated=True)
-        chosen = [(t, float(fine.migl)) for t, _ in choice.captures]
-        exposure_ms = choice.exposure_ms
-    t_exposure = time.perf_counter() - t0
-    settings = None if exposure_ms is None else CameraSettings(exposure_ms=float(exposure_ms))
-    proj = rig.projector
-    bits = rig.camera_bit_depth
-    steps = first.steps
-    finest_any = min(s.pitch_px for s in specs)
-
-    # --- plan: per orientation the mapping ladder, which includes the measurement's coarser
-    # pitches (those sets are the mapping's own captures); the finest set is adapted
-    finest: dict[str, int] = {}
-    pitches: dict[str, list[float]] = {}
-    for orient in ORIENTATIONS:
-        if calib is not None and not any(s.orientation == orient for s in specs):
-            continue  # the epipolar constraint gives this coordinate
-        extent = proj.width if orient == "vertical" else proj.height
-        own = sorted(
-            (i for i, s in enumerate(specs) if s.orientation == orient),
-            key=lambda i: -specs[i].pitch_px,
-        )
-        target = specs[own[-1]].pitch_px if own else finest_any
-        ladder = set(mapping_pitches(extent, target)) | {specs[i].pitch_px for i in own[:-1]}
-        pitches[orient] = sorted(ladder, reverse=True)
-        if own:
-            finest[orient] = own[-1]
-            if any(specs[i].pitch_px == target for i in own[:-1]):
-                raise InputError(f"adaptive: two {orient} sets of pitch {target:g} px")
-
-    # --- 1. mapping at a low MIGL: response, coordinates, fringe orders ----------------------
-    t0 = time.perf_counter()
-    # the first (darkest, noisiest) set in the orientation the measurement does not unwrap
-    pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o in finest)}
-    trial: list[float] = []  # a full-MIGL first set that was not kept (counted)
-    trial_images: tuple[NDArray, float] | None = None
-    full_mapped = False
-    full_clipped: float | None = None
-    if full_mapping:
-        o0 = next(iter(pitches))
-        spec0 = FringeSpec(first.pattern, first.steps, pitches[o0][0], o0, first.imin, first.migl)  # type: ignore[arg-type]
-        imgs0 = _capture(rig, spec0.frames(), settings)
-        full_clipped = float(np.mean(saturation_count(imgs0, bits) > 0))
-        if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
-            m0, full_mapped = float(first.migl), True
-            mp = _measure_mapping(rig, first, pitches, m0, settings, auto=False, first_images=imgs0)
-        else:
-            trial, trial_images = [float(first.migl)], (imgs0, float(first.migl))
-    if not full_mapped:
-        mp = _measure_mapping(
-            rig, first, pitches, m0, settings, auto=mapping_migl is None, trial=trial_images
-        )
-    u = mp.coords["vertical"]
-    v = mp.coords["horizontal"] if calib is None else epipolar_rows(calib, u)
-    t_map = time.perf_counter() - t0
-
-    # --- 2. the camera-side levels and the projector map -------------------------------------
-    t0 = time.perf_counter()
-    full_p = float(first.migl)
-    floor = float(default_min_migl(first))  # the lowest MIGL that carries a fringe
-    base_levels = safe_migl(
-        mp.gain, mp.ambient, bits, margin=margin, imin=first.imin, projector_full=full_p
+    params = AdaptiveParams(
+        margin=margin,
+        iterations=iterations,
+        refit=refit,
+        boost=boost,
+        bias_correction=bias_correction,
+        mapping_migl=mapping_migl,
+        blur_px=blur_px,
+        smooth_px=smooth_px,
+        exposure_ms=exposure_ms,
+        auto_exposure=auto_exposure,
+        topup=topup,
+        epipolar=epipolar,
+        stereo_calibration=stereo_calibration,
+        full_mapping=full_mapping,
     )
-    # pixels clipped in the mapping: their response is unknown, start them half way down
-    base_levels[mp.saturated] = first.imin + (m0 - first.imin) / 2.0
-    mapped = np.isfinite(u) & np.isfinite(v)
-    if not mapped.any():
-        raise InputError(
-            "adaptive: no camera pixel decoded in the mapping sets; raise mapping_migl or the "
-            "exposure (the mapping needs a fringe above the minimum modulation)"
-        )
-    # clipped pixels sit where their neighbours map: borrow the neighbours' coordinates
-    uf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, u, np.nan)), u)
-    vf = np.where(mp.saturated & ~mapped, fill_holes(np.where(mapped, v, np.nan)), v)
-    radius = footprint_px(u, v) + float(blur_px)
-    shape_cam = u.shape
-    shape = (proj.height, proj.width)
-    ambient = np.where(np.isfinite(mp.ambient), mp.ambient, 0.0)
-
-    def build(cam_levels: NDArray[np.float64]) -> NDArray[np.float64]:
-        return projector_migl_map(
-            cam_levels,
-            uf,
-            vf,
-            shape,
-            radius=radius,
-            sigma=float(smooth_px),
-            imin=first.imin,
-            projector_full=full_p,
-        )
-
-    first_map = build(base_levels)
-    t_build = time.perf_counter() - t0
-
-    # --- results of the coarser sets: the mapping's captures ---------------------------------
-    results: list[StrategyResult | None] = [None] * len(specs)
-    for i, spec in enumerate(specs):
-        if i in finest.values():
-            continue
-        k = pitches[spec.orientation].index(spec.pitch_px)
-        imgs, m_set = mp.images[spec.orientation][k], mp.migls[spec.orientation][k]
-        sat = saturation_count(imgs, bits) > 0
-        sets = [CapturedSet(migl=m_set, exposure_ms=exposure_ms)]
-        if mp.bright_migl is not None:
-            sets.append(CapturedSet(migl=mp.bright_migl, exposure_ms=exposure_ms))
-        results[i] = StrategyResult(
-            images=imgs,
-            spec=spec,
-            captured=sets,
-            index_map=mp.index[spec.orientation][k],
-            newly_unsaturated=[int((~sat).sum())] + [0] * (len(sets) - 1),
-            never_unsaturated=sat,
-            method="adaptive",
-            details={"mapping_set": True, "mapping_migl": m_set},
-        )
-    # the mapping sets no spec stands for are counted with the first adapted set
-    spare = [
-        m
-        for o in ORIENTATIONS
-        if o in pitches
-        for k, p in enumerate(pitches[o])
-        if not any(s.orientation == o and s.pitch_px == p for s in specs)
-        for m in [mp.migls[o][k]] + ([] if mp.bright_migl is None else [mp.bright_migl])
-    ]
-    spare += trial
-    owner = min(finest.values())
-
-    # --- 3. per orientation: the adapted set, the refit pass, the check passes ----------------
-    for orient, i in finest.items():
-        spec = specs[i]
-
-        def shoot(pmap: NDArray[np.float64], spec: FringeSpec = spec) -> NDArray:
-            frames = [PixelwiseFringeFrame(spec, k, pmap.astype(np.float32)) for k in range(steps)]
-            return _capture(rig, frames, settings)
-
-        t0 = time.perf_counter()
-        levels, pmap = base_levels.copy(), first_map
-        composite = shoot(pmap)
-        received = sample_map(pmap, uf, vf)
-        index = received.astype(np.float32)
-        remaining = saturation_count(composite, bits) > 0
-        captured = [CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=pmap)]
-        newly = [int((~remaining).sum())]
-        clipped = [int(remaining.sum())]  # pixels with a clipped shift, per capture
-        used = [pmap]  # the maps projected, and per pixel which one its images come from
-        source = np.zeros(remaining.shape, np.intp)
-        t_adapt = time.perf_counter() - t0
-
-        # refit: the set's own offset and modulation give each pixel's level at this pitch
-        t0 = time.perf_counter()
-        refits = 0
-        if refit and not full_mapped:
-            dec = decode_set(composite, spec, bits, reject_saturated=False)
-            got = np.where(np.isfinite(received), received, full_p)
-            up = refined_migl(
-                np.where(remaining, np.nan, dec.mean_intensity),
-                dec.modulation,
-                got,
-                ambient,
-                bits,
-                margin=margin,
-                imin=first.imin,
-                projector_full=full_p,
-            )
-            up = median_smooth(up, MEDIAN_WINDOW)  # per-pixel noise would bias the erosion low
-            new_levels = np.where(np.isfinite(up), np.maximum(up, levels), levels)
-            new_levels, _ = lowered_where_clipped(
-                new_levels, composite, got, ambient, bits, margin=margin, imin=first.imin
-            )
-            if np.nanmax(np.abs(new_levels - levels)) >= 1.0:
-                new_map = build(new_levels)
-                imgs = shoot(new_map)
-                clip = saturation_count(imgs, bits) > 0
-                clipped.append(int(clip.sum()))
-                take = ~clip | remaining  # unclipped now, or clipped both times (the newer)
-                composite[:, take] = imgs[:, take]
-                used.append(new_map)
-                source[take] = len(used) - 1
-                got2 = sample_map(new_map, uf, vf).astype(np.float32)
-                index[take] = got2[take]
-                newly.append(int((remaining & ~clip).sum()))
-                remaining &= clip
-                # where the refit clipped a pixel the first set kept, keep its first level
-                levels = np.where(clip & ~remaining, levels, new_levels)
-                levels = np.where(remaining, new_levels, levels)
-                pmap, received = new_map, got2.astype(np.float64)
-                captured.append(CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=pmap))
-                refits = 1
-        t_refit = time.perf_counter() - t0
-
-        # check passes: lower the level only where a shift still clipped, merge there (Eq. 5.1)
-        t0 = time.perf_counter()
-        passes = 0
-        while remaining.any() and passes < (0 if full_mapped else iterations):
-            got = np.where(np.isfinite(received), received, full_p)
-            lowered, _ = lowered_where_clipped(
-                levels, composite, got, ambient, bits, margin=margin, imin=first.imin
-            )
-            levels = np.where(remaining, lowered, levels)
-            pmap = build(levels)
-            imgs = shoot(pmap)
-            got2 = sample_map(pmap, uf, vf).astype(np.float32)
-            unsat = saturation_count(imgs, bits) == 0
-            clipped.append(int((~unsat).sum()))
-            new = remaining & unsat
-            composite[:, remaining] = imgs[:, remaining]
-            index[remaining] = got2[remaining]
-            used.append(pmap)
-            source[remaining] = len(used) - 1
-            remaining &= ~new
-            received = np.where(new | remaining, got2, received)
-            captured.append(CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=pmap))
-            newly.append(int(new.sum()))
-            passes += 1
-        t_check = time.perf_counter() - t0
-
-        # boost: the erosion lowers a dim pixel next to a bright one (a black square's edge)
-        # far below its own level; one more set with those pixels' levels, merged where it
-        # gives a larger unclipped modulation (LPA's rule: the best unsaturated set)
-        t0 = time.perf_counter()
-        boosts = 0
-        if boost and not full_mapped:
-            short = (received - first.imin) < BOOST_RATIO * (levels - first.imin)
-            wanted = np.isfinite(received) & np.isfinite(levels) & short & ~remaining
-            if wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(received).sum():
-                bmap = boosted_map(
-                    pmap,
-                    np.where(wanted, levels, np.nan),
-                    uf,
-                    vf,
-                    radius=BOOST_RADIUS_FRACTION * radius,
-                    projector_full=full_p,
-                )
-                imgs = shoot(bmap)
-                clip = saturation_count(imgs, bits) > 0
-                clipped.append(int(clip.sum()))
-                had = decode_set(composite, spec, bits)
-                new_dec = decode_set(imgs, spec, bits)
-                # only the pixels it was built for (or a pixel still clipped): a neighbour
-                # whose footprint straddles the raised area reads a larger but biased fringe
-                gain = (
-                    new_dec.valid
-                    & (wanted | remaining)
-                    & (~had.valid | (new_dec.modulation > had.modulation))
-                )
-                composite[:, gain] = imgs[:, gain]
-                used.append(bmap)
-                source[gain] = len(used) - 1
-                got_b = sample_map(bmap, uf, vf).astype(np.float32)
-                index[gain] = got_b[gain]
-                newly.append(int((remaining & gain).sum()))
-                remaining &= ~gain
-                captured.append(CapturedSet(migl=None, exposure_ms=exposure_ms, migl_map=bmap))
-                boosts = 1
-        t_boost = time.perf_counter() - t0
-
-        # top-up: pixels that clip even at the lowest usable MIGL (or in the mapping, where
-        # their response is unknown) only come under at a shorter exposure (docs/adaptive.md)
-        t0 = time.perf_counter()
-        stuck = remaining & ((index <= floor + 0.5) | mp.saturated)
-        topup_info: dict[str, Any] = {
-            "pixels": int(stuck.sum()),
-            "exposures_ms": [],
-            "taken": 0,
-            "ordered_from_neighbours": 0,
-            "skipped": None,
-        }
-        n_topup = 0
-        worth = stuck.sum() >= max(1.0, TOPUP_MIN_FRACTION * float(mapped.sum()))
-        if topup and worth:
-            reference = exposure_ms if exposure_ms is not None else rig.camera_settings.exposure_ms
-            sets_t, why = _capture_topup(rig, spec, remaining, reference)
-            topup_info["skipped"] = why
-            full_map = np.full(shape, full_p)
-            for t_set, imgs in sets_t:
-                clipped.append(int((saturation_count(imgs, bits) > 0).sum()))
-                had = decode_set(composite, spec, bits)
-                new_dec = decode_set(imgs, spec, bits)
-                gain = (
-                    new_dec.valid & remaining & (~had.valid | (new_dec.modulation > had.modulation))
-                )
-                composite[:, gain] = imgs[:, gain]
-                if not any(m is full_map for m in used):
-                    used.append(full_map)
-                source[gain] = len(used) - 1
-                index[gain] = np.float32(full_p)
-                newly.append(int(gain.sum()))
-                captured.append(CapturedSet(migl=full_p, exposure_ms=t_set))
-                topup_info["exposures_ms"].append(t_set)
-            n_topup = len(sets_t)
-            took = remaining & decode_set(composite, spec, bits).valid
-            topup_info["taken"] = int(took.sum())
-            remaining &= ~took
-        elif stuck.any():
-            topup_info["skipped"] = (
-                "turned off (topup=False)"
-                if not topup
-                else f"{int(stuck.sum())} pixels, below {100 * TOPUP_MIN_FRACTION:g} % of the "
-                "mapped ones"
-            )
-        t_topup = time.perf_counter() - t0
-
-        if i == owner:
-            captured[:0] = [CapturedSet(migl=m, exposure_ms=t) for t, m in chosen] + [
-                CapturedSet(migl=m, exposure_ms=exposure_ms) for m in spare
-            ]
-            newly[:0] = [0] * (len(chosen) + len(spare))
-        # the mapping's fringe orders unwrap the adapted set: the order is the rounded
-        # difference between the mapping's phase scaled to this pitch and the wrapped phase
-        wrapped = decode_set(composite, spec, bits).wrapped_phase
-        predicted = mp.absolute[orient] * (pitches[orient][-1] / spec.pitch_px)
-        absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
-        # pixels clipped in the mapping have no orders: the top-up's, and with the full-MIGL
-        # mapping any that the adapted set decoded (a glint under the half-way level)
-        seeds = took if n_topup else np.zeros(shape_cam, bool)
-        if full_mapped:
-            seeds = seeds | mp.saturated
-        if seeds.any():
-            t1 = time.perf_counter()
-            final = decode_set(composite, spec, bits)
-            absolute, filled = _orders_from_neighbours(absolute, wrapped, final.valid, seeds)
-            topup_info["ordered_from_neighbours"] = filled
-            t_topup += time.perf_counter() - t1
-        t0 = time.perf_counter()
-        blur = None
-        if bias_correction:
-            absolute, blur = _correct_map_bias(
-                absolute, predicted, used, source, uf, vf, spec, first.imin, radius
-            )
-        t_bias = time.perf_counter() - t0
-        n_map = sum(len(p) for p in pitches.values()) * (1 if mp.bright_migl is None else 2)
-        n_map += len(trial)
-        results[i] = StrategyResult(
-            images=composite,
-            spec=spec,
-            captured=captured,
-            index_map=index,
-            newly_unsaturated=newly,
-            never_unsaturated=remaining,
-            method="adaptive",
-            details={
-                "margin": float(margin),
-                "mapping_migls": {o: list(m) for o, m in mp.migls.items()},
-                "mapping_bright_migl": mp.bright_migl,
-                "mapping_pitches": {o: list(p) for o, p in pitches.items()},
-                "erosion_radius_px": float(radius),
-                "projector_migl_map": pmap.astype(np.float32),
-                "camera_migl": levels.astype(np.float32),
-                "mapping_saturated": int(mp.saturated.sum()),
-                "refit_passes": refits,
-                "check_passes": passes,
-                "boost_passes": boosts,
-                "topup": topup_info,
-                "clipped_per_capture": clipped,
-                "images_per_step": {
-                    "exposure": len(chosen) * steps,
-                    "mapping": n_map * steps,
-                    "adapted": steps,
-                    "refit": refits * steps,
-                    "check": passes * steps,
-                    "boost": boosts * steps,
-                    "topup": n_topup * steps,
-                },
-                "sets_per_step": {
-                    "exposure": len(chosen),
-                    "mapping": n_map,
-                    "adapted": 1,
-                    "refit": refits,
-                    "check": passes,
-                    "boost": boosts,
-                    "topup": n_topup,
-                },
-                "seconds_per_step": {
-                    "exposure": round(t_exposure, 4),
-                    "mapping": round(t_map, 4),
-                    "map": round(t_build, 4),
-                    "adapted": round(t_adapt, 4),
-                    "refit": round(t_refit, 4),
-                    "check": round(t_check, 4),
-                    "boost": round(t_boost, 4),
-                    "topup": round(t_topup, 4),
-                    "bias": round(t_bias, 4),
-                },
-                "blur_sigma_px": blur,
-                "exposure_ms": exposure_ms,
-                "epipolar": calib is not None,
-                "full_mapping": {"clipped_fraction": full_clipped, "kept": full_mapped}
-                if full_mapping
-                else None,
-            },
-            absolute_phase=absolute,
-        )
-    out = tuple(r for r in results if r is not None)
-    assert len(out) == len(specs)  # every spec is a mapping set or an adapted set
-    return out
+    return _run_adaptive(rig, specs, params)
 
 
 def adaptive(
@@ -1414,24 +1733,7 @@ class Adaptive(FunctionStrategy):
         tuple of StrategyResult
             One per spec.
         """
-        return adaptive_sets(
-            rig,
-            specs,
-            margin=params.margin,
-            iterations=params.iterations,
-            refit=params.refit,
-            boost=params.boost,
-            bias_correction=params.bias_correction,
-            mapping_migl=params.mapping_migl,
-            blur_px=params.blur_px,
-            smooth_px=params.smooth_px,
-            exposure_ms=params.exposure_ms,
-            auto_exposure=params.auto_exposure,
-            topup=params.topup,
-            epipolar=params.epipolar,
-            stereo_calibration=params.stereo_calibration,
-            full_mapping=params.full_mapping,
-        )
+        return _run_adaptive(rig, specs, params)
 
     def describe(self, params: AdaptiveParams) -> str:
         """Label of a run: ``"Adaptive <margin> %"`` (``" + exposure"`` with the automatic one).
