@@ -56,7 +56,8 @@ CASES: list[tuple[str, list[str], str | None]] = [
     ("reproduce-bad-scheduler",
      ["reproduce", "ch4", "-o", "{o}", "--scheduler", "not an address"], None),
     ("reproduce-scheduler-bad-port",
-     ["reproduce", "ch4", "-o", "{o}", "--scheduler", "tcp://127.0.0.1:99999"], None),
+     ["reproduce", "ch4", "-o", "{o}", "--scheduler", "tcp://127.0.0.1:99999"],
+     "Port out of range"),
 ]  # fmt: skip
 
 
