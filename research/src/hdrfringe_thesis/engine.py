@@ -775,7 +775,7 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
     Raises
     ------
     InputError
-        One line: the address has a port outside 0-65535, nothing answers, the peer stays
+        One line: the address has a port outside 1-65535, nothing answers, the peer stays
         silent, speaks another protocol (a web server, an SSH daemon), or is a Dask server
         other than a scheduler.
 
@@ -797,14 +797,15 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
     """
     import asyncio
     import concurrent.futures
-
     from urllib.parse import urlsplit
 
     hint = "check the address (e.g. tcp://host:8786) and that `dask scheduler` runs there"
-    try:  # a port outside 0-65535 is refused at once, not after the connection timeout
-        urlsplit(address if "://" in address else f"tcp://{address}").port
+    try:  # a port outside 1-65535 is refused at once, not after the connection timeout
+        port = urlsplit(address if "://" in address else f"tcp://{address}").port
     except ValueError as exc:
         raise InputError(f"{address!r} is not a scheduler address ({exc}); {hint}") from None
+    if port == 0:
+        raise InputError(f"{address!r} is not a scheduler address (port 0); {hint}")
 
     def probe() -> Any:
         return asyncio.run(asyncio.wait_for(_scheduler_identity(address), timeout))
