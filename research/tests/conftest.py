@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from tests.conftest import run_cli, run_cli_in_process
+from tests.conftest import run_cli, run_cli_in_process, run_cli_subprocess
 
-__all__ = ["run_cli", "run_cli_in_process"]
+__all__ = ["run_cli", "run_cli_in_process", "run_cli_subprocess"]
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
@@ -30,6 +30,10 @@ def quick_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     Tests using it start a dask cluster: mark them ``xdist_group("dask-cluster")``.
     """
     out = tmp_path_factory.mktemp("repro") / "all"
-    res = run_cli("reproduce", "all", "--quick", "-o", str(out), "--workers", "2", timeout=600)
+    # a process of its own: it starts a Dask cluster (worker processes), which the test
+    # process should not host
+    res = run_cli_subprocess(
+        "reproduce", "all", "--quick", "-o", str(out), "--workers", "2", timeout=600
+    )
     assert res.returncode == 0, res.stderr
     return out
