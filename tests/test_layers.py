@@ -100,12 +100,7 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
 
 #: (importer, imported) pairs tolerated for now, each with the reason and the step removing it.
 #: Keep it empty: a pair listed here that no longer occurs fails the test, so it cannot go stale.
-ALLOWED_EXCEPTIONS: dict[tuple[str, str], str] = {
-    **{
-        ("cli.compare", m): "compare's workflow moves to tasks/compare.py (issue 29, research29)"
-        for m in ("io", "io.results", "rig", "rig.factory")
-    },
-}
+ALLOWED_EXCEPTIONS: dict[tuple[str, str], str] = {}
 
 
 def module_name(path: Path, src: Path = SRC) -> str:

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from hdrfringe.cli._app import app, console, handle_errors, progress_bar
+from hdrfringe.cli._app import app, console, handle_errors, progress_stage
 
 __all__ = ["compare"]
 
@@ -48,44 +48,14 @@ def compare(
     plate, glossy dome and specular part; write a table (markdown + JSON) of images captured,
     coverage and phase error with the thesis's numbers beside ours, and a plot of error and
     coverage against images captured (docs/compare.md)."""
-    from hdrfringe.io.results import check_output_dir
-    from hdrfringe.rig.factory import virtual_rig
-    from hdrfringe.tasks.compare import (
-        METHODS,
-        SCENES,
-        fringe_specs,
-        parse_names,
-        parse_resolution,
-        write_compare,
-    )
-    from hdrfringe.tasks.compare import compare as run
+    from hdrfringe.tasks.compare import run_compare
 
-    scene_names = parse_names(scenes, list(SCENES), "--scenes")
-    method_names = parse_names(methods, [m.name for m in METHODS], "--methods")
-    size = parse_resolution(resolution)
-    specs = fringe_specs(pitch)
-    virtual_rig("white_plate", seed=seed, resolution=size)  # refuses a bad seed before work
-    output = check_output_dir(output, force)
-    with progress_bar() as prog:
-        task = prog.add_task("comparing", total=len(scene_names) * len(method_names))
-        rows = run(
-            scene_names,
-            method_names,
-            resolution=size,
-            pitch=pitch,
-            seed=seed,
-            progress=lambda label: prog.update(task, advance=1, description=label),
-        )
-    settings = {
-        "resolution": "648x494" if size is None else f"{size[0]}x{size[1]}",
-        "pitches_px": [s.pitch_px for s in specs],
-        "steps": specs[-1].steps,
-        "seed": seed,
-    }
-    write_compare(output, rows, settings, force=force)
-    missing = sorted({r.method for r in rows if not r.available})
+    report = run_compare(
+        output, scenes=scenes, methods=methods, resolution=resolution, pitch=pitch, seed=seed,
+        force=force, progress=progress_stage,
+    )  # fmt: skip
     console.print(
-        f"compared {len(method_names)} methods on {len(scene_names)} scenes: "
-        f"{output / 'compare.md'}, compare.json, compare.png"
-        + (f"; not available: {', '.join(missing)}" if missing else "")
+        f"compared {len(report.methods)} methods on {len(report.scenes)} scenes: "
+        f"{report.output / 'compare.md'}, compare.json, compare.png"
+        + (f"; not available: {', '.join(report.missing)}" if report.missing else "")
     )

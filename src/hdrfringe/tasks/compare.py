@@ -44,19 +44,21 @@ from typing import Any
 import numpy as np
 
 from hdrfringe.errors import InputError
-from hdrfringe.io.results import staged_output_dir
+from hdrfringe.io.results import check_output_dir, staged_output_dir
 from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import measure
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.simulated import SimulatedRig
 from hdrfringe.strategies import available_strategies
 from hdrfringe.strategies.exposure import FixedExposureRig, choose_exposure
+from hdrfringe.tasks._progress import Progress, quiet
 
 __all__ = [
     "COARSE_PITCHES",
     "METHODS",
     "REFERENCE_GROUP",
     "SCENES",
+    "CompareReport",
     "CompareRow",
     "Method",
     "ThesisRow",
@@ -66,6 +68,7 @@ __all__ = [
     "fringe_specs",
     "parse_names",
     "parse_resolution",
+    "run_compare",
     "thesis_references",
     "write_compare",
 ]
@@ -734,3 +737,106 @@ def write_compare(
         (tmp / "compare.json").write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
         compare_plot(rows, tmp / "compare.png")
     return output
+
+
+@dataclass(frozen=True)
+class CompareReport:
+    """What :func:`run_compare` did.
+
+    Parameters
+    ----------
+    output : Path
+        The folder written (compare.md, compare.json, compare.png).
+    rows : list of CompareRow
+        One row per (scene, method).
+    scenes, methods : list of str
+        The scenes and methods compared.
+    missing : list of str
+        Methods whose strategy is not registered (rows without numbers).
+
+    Examples
+    --------
+    >>> CompareReport(Path("out"), [], ["glossy"], ["lpa-1"], []).missing
+    []
+    """
+
+    output: Path
+    rows: list[CompareRow]
+    scenes: list[str]
+    methods: list[str]
+    missing: list[str]
+
+
+def run_compare(
+    output: Path,
+    *,
+    scenes: str | None = "all",
+    methods: str | None = "all",
+    resolution: str | None = "default",
+    pitch: float = 8.0,
+    seed: int = 0,
+    force: bool = False,
+    progress: Progress = quiet,
+) -> CompareReport:
+    """``hdrfringe compare``: check the options and the output, measure every method on every
+    scene of the virtual rig (:func:`compare`) and write the table, JSON and plot
+    (:func:`write_compare`).
+
+    Parameters
+    ----------
+    output : Path
+        Folder for compare.md, compare.json and compare.png.
+    scenes, methods : str or None
+        Comma-separated names of :data:`SCENES` and :data:`METHODS`, or ``all``.
+    resolution : str or None
+        Camera ``WIDTHxHEIGHT``, or ``default`` (the rig's 648 x 494).
+    pitch : float
+        Finest pitch in projector pixels (:func:`fringe_specs`).
+    seed : int
+        Noise seed of every scene's rig.
+    force : bool
+        Replace an existing output folder.
+    progress : Progress
+        The front end's progress (one unit per row).
+
+    Returns
+    -------
+    CompareReport
+
+    Raises
+    ------
+    InputError
+        An unknown scene or method, a bad resolution, pitch or seed, or an output that exists
+        without ``force``: before any measurement.
+
+    Examples
+    --------
+    >>> run_compare(Path("out"), scenes="moon")
+    Traceback (most recent call last):
+        ...
+    hdrfringe.errors.InputError: --scenes: unknown name 'moon'; use one of checkerboard, ...
+    """
+    scene_names = parse_names(scenes, list(SCENES), "--scenes")
+    method_names = parse_names(methods, [m.name for m in METHODS], "--methods")
+    size = parse_resolution(resolution)
+    specs = fringe_specs(pitch)
+    virtual_rig("white_plate", seed=seed, resolution=size)  # refuses a bad seed before work
+    output = check_output_dir(output, force)
+    with progress("comparing", len(scene_names) * len(method_names)) as advance:
+        rows = compare(
+            scene_names,
+            method_names,
+            resolution=size,
+            pitch=pitch,
+            seed=seed,
+            progress=lambda _label: advance(),
+        )
+    settings = {
+        "resolution": "648x494" if size is None else f"{size[0]}x{size[1]}",
+        "pitches_px": [s.pitch_px for s in specs],
+        "steps": specs[-1].steps,
+        "seed": seed,
+    }
+    write_compare(output, rows, settings, force=force)
+    missing = sorted({r.method for r in rows if not r.available})
+    return CompareReport(output, rows, scene_names, method_names, missing)
