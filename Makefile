@@ -14,7 +14,7 @@ X_PACKAGES := xvfb libgl1 libglx-mesa0 libgl1-mesa-dri libx11-6 libxext6 libxi6 
 	libxrandr2 libxrender1 libxxf86vm1
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-NATIVE_SRC := $(wildcard src/hdrfringe/_native/*.c)
+NATIVE_SRC := $(wildcard src/hdrfringe/core/_native/*.c)
 
 # The editable install compiles the native kernels in place (setup.py); a changed C file
 # reinstalls. Then the research package (research/: `hdrfringe reproduce`, dask, xarray, zarr),
@@ -36,7 +36,7 @@ system-packages:
 
 install: $(STAMP) system-packages
 
-# Rebuild the native kernels in place after editing src/hdrfringe/_native/*.c (a worktree run
+# Rebuild the native kernels in place after editing src/hdrfringe/core/_native/*.c (a worktree run
 # with PYTHONPATH=src uses them from there).
 native: $(STAMP)
 	$(VENV)/bin/python setup.py -q build_ext --inplace

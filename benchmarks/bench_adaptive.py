@@ -5,7 +5,7 @@ camera of the tests, ``--json PATH`` to keep the numbers). See docs/adaptive.md.
 
 For each scene every strategy measures the same three vertical sets (4-step, pitches 1024,
 64 and 8 px, the CLI's default) on a fresh virtual rig; the composite goes through the
-product's decoder and temporal unwrapping (:func:`hdrfringe.process.decode_captures`). The
+product's decoder and temporal unwrapping (:func:`hdrfringe.core.decode.decode_captures`). The
 phase error is the absolute phase of the 8 px set minus the known one, ``2 pi u / 8`` from
 the rig's ground truth, over the pixels the truth calls valid; the table gives the images
 captured, the error's mean (bias) and standard deviation, its RMSE and the coverage (valid
@@ -34,9 +34,9 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.patterns import FringeSpec
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.pipeline import composite_captures, strategy_absolute_phases
-from hdrfringe.process import decode_captures
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.strategies.adaptive import adaptive_sets

@@ -51,13 +51,13 @@ from pathlib import Path
 
 import numpy as np
 
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
+from hdrfringe.core.uncertainty import predict_uncertainty
 from hdrfringe.io.captures import read_capture_folder, write_capture_folder
 from hdrfringe.io.phase_maps import write_phase_maps
 from hdrfringe.io.results import check_output_dir, staged_output_dir
-from hdrfringe.patterns import FringeSpec, fringe_gray
-from hdrfringe.process import decode_captures
-from hdrfringe.uncertainty import predict_uncertainty
 
 HEIGHT, WIDTH = 494, 648
 

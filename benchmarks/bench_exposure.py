@@ -40,8 +40,8 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set, sinusoidal_phase
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set, sinusoidal_phase
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.simulated import SimulatedRig
 from hdrfringe.strategies import StrategyResult

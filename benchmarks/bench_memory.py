@@ -99,8 +99,8 @@ def fringes_decoder(imgs: np.ndarray) -> Callable[[], Any] | None:
 
 
 def case_call(name: str, imgs: np.ndarray) -> Callable[[], Any] | None:
-    from hdrfringe.patterns import FringeSpec
-    from hdrfringe.phase import decode_set, sinusoidal_phase, wrapped_phase
+    from hdrfringe.core.patterns import FringeSpec
+    from hdrfringe.core.phase import decode_set, sinusoidal_phase, wrapped_phase
 
     n = imgs.shape[0]
     spec = FringeSpec("sinusoidal", n, PITCH, "vertical", 40, 255)

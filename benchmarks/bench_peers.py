@@ -12,7 +12,7 @@ decodes three shifts only. Cases:
 
 - hdrfringe ``decode_set``: every map (phase, I', I'', psi, saturation count, validity, NaN
   where invalid), with its default threads and with ``HDRFRINGE_DECODE_THREADS=1``; with the
-  native kernel (hdrfringe/_native/decode.c, when built: the header line says whether it is)
+  native kernel (hdrfringe/core/_native/decode.c, when built: the header line says whether it is)
   and with the numpy path (``HDRFRINGE_NATIVE=0``);
 - plain numpy: the float64 loop of bench_phase.py (phase, I', I'', saturation count);
 - fringes: its numba decode kernel (``fringes.decoder_numba.decode``, what ``Fringes.decode``
@@ -48,8 +48,8 @@ from typing import Any
 import numpy as np
 
 import bench_phase as bp  # the same directory: on sys.path when run as a script
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set, sinusoidal_phase
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set, sinusoidal_phase
 
 TWO_PI = 2.0 * np.pi
 

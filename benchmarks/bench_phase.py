@@ -2,8 +2,8 @@
 
 Run ``.venv/bin/python benchmarks/bench_phase.py`` (or ``make bench``); ``--json PATH`` also
 writes the results as JSON, ``--quick`` uses fewer repeats; ``--blocks`` times only the fused
-kernel (hdrfringe._blockdecode) per block size on 1 and 2 threads, with the native kernel
-(hdrfringe/_native/decode.c) and with the numpy path (``HDRFRINGE_NATIVE=0``). See
+kernel (hdrfringe.core._blockdecode) per block size on 1 and 2 threads, with the native kernel
+(hdrfringe/core/_native/decode.c) and with the numpy path (``HDRFRINGE_NATIVE=0``). See
 benchmarks/README.md.
 
 What is timed (median of repeated runs, per call):
@@ -40,10 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe import _native
-from hdrfringe.patterns import FringeSpec, fringe_gray
-from hdrfringe.phase import decode_set, saturation_count, sinusoidal_phase
-from hdrfringe.unwrap import unwrap_temporal
+from hdrfringe.core import _native
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
+from hdrfringe.core.phase import decode_set, saturation_count, sinusoidal_phase
+from hdrfringe.core.unwrap import unwrap_temporal
 
 TWO_PI = 2.0 * np.pi
 HEIGHT, WIDTH = 494, 648
@@ -198,7 +198,7 @@ def check_agreement(imgs: np.ndarray, spec: FringeSpec, maps: list[np.ndarray]) 
     return out
 
 
-#: The native kernel's instruction-set variants (hdrfringe/_native/decode.c, ``isa``).
+#: The native kernel's instruction-set variants (hdrfringe/core/_native/decode.c, ``isa``).
 ISA_NAMES = ("SSE2", "AVX2", "AVX512F")
 
 BLOCK_SIZES = (2048, 4096, 8192, 16384, 32768, 65536, HEIGHT * WIDTH)
@@ -214,7 +214,7 @@ def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
     ``repeat`` rounds of CPU time (all threads) and wall time per call, plus the plain
     reference.
     """
-    from hdrfringe._blockdecode import decode_sinusoidal_blocks
+    from hdrfringe.core._blockdecode import decode_sinusoidal_blocks
 
     flat = imgs.reshape(imgs.shape[0], -1)
     cases: dict[str, Callable[[], Any]] = {"plain numpy reference": lambda: reference_phase(imgs)}
@@ -234,7 +234,7 @@ def block_sweep(imgs: np.ndarray, repeat: int) -> list[dict]:
                 cases[name] = call
     lib = _native.load("decode")
     if lib is not None:  # the kernel's instruction-set variants (same bits), default block
-        from hdrfringe import _blockdecode
+        from hdrfringe.core import _blockdecode
 
         for isa in range(int(lib.hf_decode_isa()) + 1):
 

@@ -8,13 +8,13 @@ by a camera that does not clip (same read noise and shot-noise gain, 16-bit cont
 number k of clipped shifts, over every aperture and draw, the phase error against the known
 phase ``2 pi u / p`` (its mean removed) gives three standard deviations:
 
-* ``tolerant``: :func:`hdrfringe.saturation_tolerant.tolerant_phase` on the clipped capture;
+* ``tolerant``: :func:`hdrfringe.core.saturation.tolerant.tolerant_phase` on the clipped capture;
 * ``all N``: Eq. 2.2 on the unclipped capture (the same pixels' noise floor with every shift);
 * ``same shifts``: the unclipped capture decoded from the shifts the clipped one kept (the
   noise floor of what survives).
 
 and the least-squares covariance's prediction for read noise alone
-(:func:`hdrfringe.saturation_tolerant.tolerant_noise_gain` of the kept rows over its value for
+(:func:`hdrfringe.core.saturation.tolerant.tolerant_noise_gain` of the kept rows over its value for
 all N, RMS over the pixels). docs/tolerant.md's table is this script's output
 (``--markdown``); tests/test_tolerant.py reproduces one of its rows.
 
@@ -31,11 +31,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import sinusoidal_phase
-from hdrfringe.rig.camera import sensor_readout
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import sinusoidal_phase
+from hdrfringe.core.saturation.tolerant import tolerant_noise_gain, tolerant_phase
 from hdrfringe.rig.factory import virtual_rig
-from hdrfringe.saturation_tolerant import tolerant_noise_gain, tolerant_phase
+from hdrfringe.rig.sensor import sensor_readout
 
 __all__ = ["APERTURES", "NS", "Row", "UnclippedCamera", "main", "markdown", "study"]
 

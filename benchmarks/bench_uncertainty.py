@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hdrfringe.calibration import Calibration
-from hdrfringe.captures import Captures
+from hdrfringe.core.calibration import Calibration
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate, measure
 from hdrfringe.rig.scenes import plate, white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig

@@ -10,7 +10,7 @@ vertical band cut by a valid bridge, round holes, and scattered specks (about 10
 a quarter of the field: 1.0 rad noise there, and 10 % of their pixels NaN (residues
 everywhere in them). On (c) and (d) ``unwrap_spatial`` tries the integration, finds loops
 that do not close, and calls the reliability-guided unwrapper in C
-(``hdrfringe/_native/unwrap.c``), or scikit-image when that is not built.
+(``hdrfringe/core/_native/unwrap.c``), or scikit-image when that is not built.
 
 Cases, timed interleaved (one round = one call of each, so a busy machine slows every case
 alike; the cases in a seeded random order each round: a call is slower after some calls
@@ -67,8 +67,8 @@ import numpy as np
 from scipy import ndimage
 from skimage.restoration import unwrap_phase
 
-from hdrfringe import unwrap as unwrap_module
-from hdrfringe.unwrap import unwrap_spatial
+from hdrfringe.core import unwrap as unwrap_module
+from hdrfringe.core.unwrap import unwrap_spatial
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: its tests
 from tests.test_unwrap_identity import _reference_unwrap_spatial, reseed_c_rand
@@ -124,7 +124,8 @@ def noisy_map(
 
 @contextlib.contextmanager
 def native(on: bool) -> Iterator[None]:
-    """``HDRFRINGE_NATIVE`` set for the duration (``hdrfringe._native.load`` reads it per call)."""
+    """``HDRFRINGE_NATIVE`` set for the duration (``hdrfringe.core._native.load`` reads it per
+    call)."""
     old = os.environ.get("HDRFRINGE_NATIVE")
     os.environ["HDRFRINGE_NATIVE"] = "1" if on else "0"
     try:
@@ -242,7 +243,7 @@ def check(wrapped: np.ndarray) -> tuple[str, str]:
 def step_times(wrapped: np.ndarray, repeats: int) -> dict[str, float]:
     """CPU ms (median) of each step ``unwrap_spatial`` takes on a map without invalid pixels,
     the steps copied from it: where the time goes."""
-    from hdrfringe.unwrap import TWO_PI, _component_medians, _orders_to_window, _path_orders
+    from hdrfringe.core.unwrap import TWO_PI, _component_medians, _orders_to_window, _path_orders
 
     runs: dict[str, list[float]] = {}
     for _ in range(repeats):

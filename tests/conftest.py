@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
-from hdrfringe.frames import CenterlineFrame
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.frames import CenterlineFrame
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.patterns import FringeSpec, fringe_gray
 
 REALDATA = Path(__file__).resolve().parents[2] / "shared" / "realdata"
 

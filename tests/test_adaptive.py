@@ -18,21 +18,10 @@ import pytest
 from scipy.ndimage import gaussian_filter1d
 
 import hdrfringe.strategies.adaptive as adaptive_module
-from hdrfringe.errors import InputError
-from hdrfringe.frames import UniformFrame
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
-from hdrfringe.pipeline import composite_captures, measure
-from hdrfringe.rig.factory import virtual_rig
-from hdrfringe.rig.scenes import (
-    BLACK_PLATE_REFLECTIVITY,
-    checkerboard,
-    plate,
-    specular_part,
-    white_plate,
-)
-from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
-from hdrfringe.saturation.adaptive_map import (
+from hdrfringe.core.frames import UniformFrame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
+from hdrfringe.core.saturation.adaptive_map import (
     boosted_map,
     epipolar_rows,
     erode_map,
@@ -49,7 +38,18 @@ from hdrfringe.saturation.adaptive_map import (
     scatter_min,
     smooth_below,
 )
-from hdrfringe.stereo import StereoCalibration
+from hdrfringe.core.stereo import StereoCalibration
+from hdrfringe.errors import InputError
+from hdrfringe.pipeline import composite_captures, measure
+from hdrfringe.rig.factory import virtual_rig
+from hdrfringe.rig.scenes import (
+    BLACK_PLATE_REFLECTIVITY,
+    checkerboard,
+    plate,
+    specular_part,
+    white_plate,
+)
+from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.strategies.adaptive import adaptive_sets, mapping_pitches
 from hdrfringe.strategies.conventional import conventional
 from hdrfringe.strategies.exposure import FixedExposureRig

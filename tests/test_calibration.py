@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from hdrfringe.calibration import (
+from hdrfringe.core.calibration import (
     MODELS,
     Calibration,
     CalibrationMismatchError,
@@ -24,6 +24,7 @@ from hdrfringe.calibration import (
     measurement_mask,
     residual_rms,
 )
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
 from hdrfringe.io import calibration_file
 from hdrfringe.io.calibration_file import (
@@ -31,7 +32,6 @@ from hdrfringe.io.calibration_file import (
     load_calibration,
     save_calibration,
 )
-from hdrfringe.patterns import FringeSpec
 
 DEPTHS = np.arange(2.0, 51.0, 2.0)  # thesis Sec. 4.1: 25 positions, 2..50 mm by 2 mm
 SHAPE = (40, 52)

@@ -45,10 +45,10 @@ import cv2
 import numpy as np
 import pytest
 
+from hdrfringe.core.stereo import StereoCalibration, triangulate
+from hdrfringe.core.stereo_calibration import graycode_coordinates
 from hdrfringe.io.captures import load_image, read_capture_folder
 from hdrfringe.io.stereo_file import convert_calibration, load_stereo_calibration
-from hdrfringe.stereo import StereoCalibration, triangulate
-from hdrfringe.stereo_calibration import graycode_coordinates
 from tests.conftest import realdata_path, run_cli_in_process
 
 pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("calibration-realdata")]

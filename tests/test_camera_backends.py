@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 import pytest
 
-from hdrfringe.captures import CameraSettings
+from hdrfringe.core.captures import CameraSettings
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.hardware.backends import open_camera
 from hdrfringe.hardware.camera import (

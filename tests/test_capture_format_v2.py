@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 import tifffile
 
-from hdrfringe.captures import CameraSettings, Captures, ProjectorInfo, group_fringe_sets
-from hdrfringe.errors import CaptureFormatError
-from hdrfringe.frames import (
+from hdrfringe.core.captures import CameraSettings, Captures, ProjectorInfo, group_fringe_sets
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.frames import (
     CenterlineFrame,
     FringeFrame,
     ImageFrame,
@@ -27,10 +27,10 @@ from hdrfringe.frames import (
     UniformFrame,
     render_frame,
 )
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.errors import CaptureFormatError
 from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
 from hdrfringe.io.pattern_folder import write_pattern_folder
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.process import decode_captures
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig
 from tests.conftest import run_cli

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo, group_fringe_sets
+from hdrfringe.core.captures import Captures, ProjectorInfo, group_fringe_sets
+from hdrfringe.core.frames import CenterlineFrame, UniformFrame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import CenterlineFrame, UniformFrame
 from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
-from hdrfringe.patterns import FringeSpec
 
 SPEC = FringeSpec("sinusoidal", 3, 8.0)
 SHAPE = (4, 6)
@@ -197,7 +197,7 @@ def test_version_2_manifest_round_trip_in_memory() -> None:
     """Gains and a pixelwise set go through to_manifest/from_manifest with a loader callback
     (no file): version 2, the map looked up by the entry's side-file path; without a loader the
     2-D frame is refused naming load_array; a version-1 manifest's gain_db is ignored."""
-    from hdrfringe.frames import PixelwiseFringeFrame
+    from hdrfringe.core.frames import PixelwiseFringeFrame
 
     proj = ProjectorInfo(8, 6, 8)
     migl = np.linspace(60, 250, 48).reshape(6, 8)
@@ -302,7 +302,7 @@ def _without_levels(tmp_path: Path, version: int = 3, drop=("imin", "migl"), bit
 
 
 def test_version_3_fringes_may_leave_out_both_gray_levels(tmp_path: Path) -> None:
-    from hdrfringe.phase import decode_set
+    from hdrfringe.core.phase import decode_set
 
     caps = read_capture_folder(_without_levels(tmp_path))
     spec = caps.sets[0].spec
@@ -335,7 +335,7 @@ def test_gray_levels_are_required_before_version_3_and_both_or_neither(
 
 
 def test_features_that_need_the_gray_levels_refuse_sets_without_them(tmp_path: Path) -> None:
-    from hdrfringe.gamma.fringes import fit_gamma_fringes
+    from hdrfringe.core.gamma.fringes import fit_gamma_fringes
     from hdrfringe.rig.replay import ReplayRig
 
     caps = read_capture_folder(_without_levels(tmp_path))

@@ -166,9 +166,9 @@ def test_phase_and_measure_import_no_scipy_or_matplotlib(
     (spatial unwrapping) needs scikit-image's unwrapper but still no scipy. Neither command
     imports pydantic: typer 0.29 coerces every option through a pydantic TypeAdapter, about
     0.1 s of CPU per start (benchmarks/README.md, cold start), hence the bound typer < 0.29."""
-    from hdrfringe.captures import Captures, ProjectorInfo
+    from hdrfringe.core.captures import Captures, ProjectorInfo
+    from hdrfringe.core.patterns import FringeSpec
     from hdrfringe.io.captures import write_capture_folder
-    from hdrfringe.patterns import FringeSpec
     from tests.conftest import synthetic_set
 
     specs = [FringeSpec("sinusoidal", 4, p, "vertical", 40, 255) for p in (1024.0, 64.0, 8.0)]

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.tasks import compare as cmp
 from tests.conftest import run_cli

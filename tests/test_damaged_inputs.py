@@ -14,14 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.calibration import Calibration, calibrate, check_calibration
+from hdrfringe.core.calibration import Calibration, calibrate, check_calibration
+from hdrfringe.core.unwrap import centerline_phase
 from hdrfringe.errors import InputError
 from hdrfringe.io.calibration_file import (
     CalibrationFileError,
     load_calibration,
     save_calibration,
 )
-from hdrfringe.unwrap import centerline_phase
 from tests.conftest import run_cli, run_cli_in_process
 
 
@@ -233,12 +233,12 @@ def test_centerline_failure_names_its_cause(
 # --------------------------------------------------------------------------------------------
 def test_absolute_phase_file_not_quantised_at_a_large_centerline_position(tmp_path: Path) -> None:
     """Before: absolute_phase.tiff was float32, ~4e-3 rad off at projector column 150000."""
-    from hdrfringe.captures import Captures, ProjectorInfo
-    from hdrfringe.frames import CenterlineFrame
+    from hdrfringe.core.captures import Captures, ProjectorInfo
+    from hdrfringe.core.decode import decode_captures
+    from hdrfringe.core.frames import CenterlineFrame
+    from hdrfringe.core.patterns import FringeSpec, fringe_gray
     from hdrfringe.io.phase_maps import write_phase_maps
     from hdrfringe.io.results import read_map_tiff
-    from hdrfringe.patterns import FringeSpec, fringe_gray
-    from hdrfringe.process import decode_captures
 
     pos, pitch = 150000.0, 8.0
     spec = FringeSpec("sinusoidal", 4, pitch, "vertical", 40.0, 250.0)
@@ -269,8 +269,8 @@ def test_absolute_phase_file_not_quantised_at_a_large_centerline_position(tmp_pa
 # degenerate gamma fits: a warning, and a refusal where the fit cannot be a gamma
 # --------------------------------------------------------------------------------------------
 def _uniform_captures(response, seed: int = 0):
-    from hdrfringe.captures import Captures
-    from hdrfringe.frames import UniformFrame
+    from hdrfringe.core.captures import Captures
+    from hdrfringe.core.frames import UniformFrame
 
     levels = [0, 64, 128, 192, 255]
     rng = np.random.default_rng(seed)
@@ -280,7 +280,7 @@ def _uniform_captures(response, seed: int = 0):
 
 
 def test_degenerate_gamma_fit_is_reported_with_a_warning() -> None:
-    from hdrfringe.gamma.report import gamma_report
+    from hdrfringe.core.gamma.report import gamma_report
 
     good = gamma_report(_uniform_captures(lambda g: 10 + 200 * (g / 255) ** 2.2), source="good")
     assert good.report["uniform"]["degenerate"] is False

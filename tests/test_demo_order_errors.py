@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdrfringe.calibration import Calibration
+from hdrfringe.core.calibration import Calibration
 from hdrfringe.demo import fringe_order_errors, order_error_notes
 
 

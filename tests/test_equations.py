@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.frames import FringeFrame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.frames import FringeFrame
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.modify import lux_to_dn, modify_captures, modify_intensity
 from hdrfringe.rig.scenes import white_plate
+from hdrfringe.rig.sensor import sensor_readout
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -98,10 +98,11 @@ def test_the_index_check_rejects_a_bad_index(tmp_path: Path) -> None:
     """What keeps the index honest: a removed function or a second function is reported."""
     bad = tmp_path / "equations.md"
     bad.write_text(
-        "| Eq. 2.2 | phase | `hdrfringe.phase.sinusoidal_phase_only` | |\n"
-        "| Eq. 2.8 | ratio | `hdrfringe.phase.triangular_2step`, `hdrfringe.phase.wrap_phase` | |\n"
+        "| Eq. 2.2 | phase | `hdrfringe.core.phase.sinusoidal_phase_only` | |\n"
+        "| Eq. 2.8 | ratio | `hdrfringe.core.phase.triangular_2step`, "
+        "`hdrfringe.core.phase.wrap_phase` | |\n"
         "| Eq. 3.7 | approx | — | |\n"
-        "| Eq. 3.6 | psi | `hdrfringe.phase.TWO_PI` | |\n",
+        "| Eq. 3.6 | psi | `hdrfringe.core.phase.TWO_PI` | |\n",
         encoding="utf-8",
     )
     problems = _index_problems(bad)

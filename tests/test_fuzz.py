@@ -26,11 +26,11 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
-from hdrfringe.frames import CenterlineFrame
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.frames import CenterlineFrame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.patterns import FringeSpec
 from tests.conftest import run_cli_in_process, synthetic_set
 from tests.test_damaged_inputs import _synthetic_cal
 

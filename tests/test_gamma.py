@@ -1,7 +1,8 @@
-"""Projector gamma (hdrfringe.gamma): uniform-gray and fringe fits, residual nonlinearity, plot.
+"""Projector gamma (hdrfringe.core.gamma): uniform-gray and fringe fits, residual nonlinearity,
+plot.
 
 Synthetic captures are generated here with the contract's pattern and pre-compensation formulas
-(hdrfringe.patterns), a known gamma, an offset, a reflectivity map, noise and 8-bit rounding;
+(hdrfringe.core.patterns), a known gamma, an offset, a reflectivity map, noise and 8-bit rounding;
 the virtual rig and the command line are exercised once each; the kamino410 real-data test
 skips when ../shared/realdata is absent.
 """
@@ -16,10 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
-from hdrfringe.errors import CaptureFormatError, InputError, OutputExistsError
-from hdrfringe.frames import UniformFrame
-from hdrfringe.gamma import (
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.frames import UniformFrame
+from hdrfringe.core.gamma import (
     MIN_FRINGE_PITCH_PX,
     MIN_UNIFORM_LEVELS,
     GammaFit,
@@ -32,9 +32,10 @@ from hdrfringe.gamma import (
     select_gamma_sets,
     uniform_gray_means,
 )
+from hdrfringe.core.patterns import FringeSpec, fringe_gray, precompensate_gamma
+from hdrfringe.errors import CaptureFormatError, InputError, OutputExistsError
 from hdrfringe.io.gamma_outputs import write_gamma_outputs
 from hdrfringe.io.plots import plot_gamma_mapping
-from hdrfringe.patterns import FringeSpec, fringe_gray, precompensate_gamma
 from tests.conftest import realdata_path, run_cli
 
 THESIS_GAMMA = 2.812
@@ -374,16 +375,16 @@ def test_plot_gamma_mapping(tmp_path: Path) -> None:
 
 
 def test_gamma_package_is_core_math() -> None:
-    """No module of hdrfringe.gamma (nor reconstruct) imports matplotlib, plyfile or the I/O
+    """No module of hdrfringe.core.gamma (nor reconstruct) imports matplotlib, plyfile or the I/O
     layer, not even inside a function: plots and file formats live in hdrfringe.io."""
     import ast
 
-    import hdrfringe.gamma
-    import hdrfringe.reconstruct
+    import hdrfringe.core.gamma
+    import hdrfringe.core.reconstruct
 
     files = [
-        *Path(hdrfringe.gamma.__file__).parent.glob("*.py"),
-        Path(hdrfringe.reconstruct.__file__),
+        *Path(hdrfringe.core.gamma.__file__).parent.glob("*.py"),
+        Path(hdrfringe.core.reconstruct.__file__),
     ]
     assert len(files) >= 8
     forbidden = ("matplotlib", "plyfile", "hdrfringe.io", "hdrfringe.cli")
@@ -513,7 +514,7 @@ def test_large_fit_residual_is_reported_with_a_warning() -> None:
     """A light switched on for one of the grays (+40 DN): gamma moves to 2.14 and the rms
     residual, 9.1 DN or 4.6 % of the 197 DN signal range, says the power law does not describe
     the captures. The same captures without the disturbance: 0.06 DN (0.03 %), no warning."""
-    from hdrfringe.gamma.report import LARGE_RESIDUAL_FRACTION
+    from hdrfringe.core.gamma.report import LARGE_RESIDUAL_FRACTION
 
     *_, grays = report_captures()
     n = len(LEVELS)

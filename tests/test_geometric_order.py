@@ -22,21 +22,21 @@ import numpy as np
 import pytest
 import tifffile
 
-from hdrfringe.captures import Captures
-from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.geometric_order import (
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.geometric_order import (
     DEFAULT_MARGIN,
     geometric_order,
     ray_coordinate_span,
     unambiguous_depth_mm,
 )
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.stereo import LensModel, StereoCalibration
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import measure
-from hdrfringe.process import decode_captures
 from hdrfringe.rig.board_poses import calibration_rig
 from hdrfringe.rig.scenes import mask, plate
-from hdrfringe.stereo import LensModel, StereoCalibration
 from tests.conftest import run_cli
 
 pytestmark = pytest.mark.xdist_group("geometric-order")
@@ -211,7 +211,7 @@ def test_measure_with_a_depth_range_triangulates_a_single_pitch(scene) -> None: 
     assert res.decoded.primary.absolute_method.startswith("geometric")
     # the notes agree: the decoder's "no absolute phase" note (it is there after decoding
     # alone) gives way to the geometric one
-    from hdrfringe.process import decode_captures, no_absolute_phase_note
+    from hdrfringe.core.decode import decode_captures, no_absolute_phase_note
 
     assert no_absolute_phase_note("vertical") in decode_captures(scene["captures"]).notes
     assert no_absolute_phase_note("vertical") not in res.notes

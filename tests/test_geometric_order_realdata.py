@@ -84,7 +84,7 @@ def test_thomriiii_flat_board_through_the_cli(run) -> None:  # type: ignore[no-u
     plane RMS over it, clipped squares included, is within 20 % of the hand-resolved 0.83 mm
     (measured 0.827 mm over 325109 pixels, 229436 of them clipped). The ambiguous pixels all
     lie outside it."""
-    from hdrfringe.stereo import fit_plane
+    from hdrfringe.core.stereo import fit_plane
 
     out = run["out"]
     xyz = tifffile.imread(out / "xyz.tiff").astype(np.float64)
@@ -139,7 +139,7 @@ def test_thomriiii_unambiguous_depth(run) -> None:  # type: ignore[no-untyped-de
     """How deep a range the F = 4 pitches allow at the image centre from 550 mm, with the
     default margins (docs/stereo.md): the columns (480 px) to 1065 mm, the rows (270 px) to
     any depth (the baseline is nearly along the rows: they hardly move with depth)."""
-    from hdrfringe.geometric_order import DEFAULT_MARGIN, unambiguous_depth_mm
+    from hdrfringe.core.geometric_order import DEFAULT_MARGIN, unambiguous_depth_mm
     from hdrfringe.io.stereo_file import load_stereo_calibration
 
     cal = load_stereo_calibration(run["calibration"])
@@ -158,7 +158,7 @@ def test_thomriiii_rows_need_the_margin(run) -> None:  # type: ignore[no-untyped
     10 px off the epipolar line (docs/stereo.md, "Fringe order of F = 4"): without the margin
     most pixels get no order (measured 11 % ordered), with the default eighth of a pitch
     (34 px) nearly all (99.7 %)."""
-    from hdrfringe.geometric_order import geometric_order
+    from hdrfringe.core.geometric_order import geometric_order
     from hdrfringe.io.stereo_file import load_stereo_calibration
 
     cal = load_stereo_calibration(run["calibration"])

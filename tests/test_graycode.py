@@ -8,15 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo, group_graycode_sets
-from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import (
+from hdrfringe.core.captures import Captures, ProjectorInfo, group_graycode_sets
+from hdrfringe.core.frames import (
     GrayCodeFrame,
     UniformFrame,
     frame_from_manifest,
     opencv_graycode_frames,
 )
-from hdrfringe.graycode import (
+from hdrfringe.core.graycode import (
     absolute_phase_graycode,
     binary_to_gray,
     bits_needed,
@@ -26,8 +25,9 @@ from hdrfringe.graycode import (
     graycode_patterns,
     stripe_centre,
 )
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io.captures import read_capture_folder, write_capture_folder
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import plate
 from hdrfringe.rig.simulated import SimulatedRig
 
@@ -346,7 +346,7 @@ def test_object1_graycode_gives_sponge_block_and_wall_their_own_orders(tmp_path:
     blue = x, green = y, red = 128 where decoded)."""
     import cv2
 
-    from hdrfringe.process import decode_captures
+    from hdrfringe.core.decode import decode_captures
     from tests.conftest import realdata_path
 
     root = realdata_path(*OBJECT1)
@@ -411,7 +411,7 @@ def test_object1_spatial_only_reports_islands(tmp_path: Path) -> None:
     _measured("object1 spatial regions (wall, sponge, block)", (int(wall), int(sponge), int(block)))
     # the spatial orders are wrong (compared with the Gray code decode of the full folder)
     unwrapped = tifffile.imread(tmp_path / "phase" / "unwrapped_phase.tiff") * (200 / 3) / TWO_PI
-    from hdrfringe.process import decode_captures
+    from hdrfringe.core.decode import decode_captures
 
     full = decode_captures(read_capture_folder(_object1_folder(root, tmp_path / "full")))
     x = full.primary.absolute_phase * full.primary.pitch_px / TWO_PI
@@ -438,7 +438,7 @@ def test_sphere_graycode_counts_10_periods_over_1140_rows(tmp_path: Path) -> Non
     stripe, 10 periods over the 1140 projector rows (8 over 912 columns)."""
     import shutil
 
-    from hdrfringe.process import decode_captures
+    from hdrfringe.core.decode import decode_captures
     from tests.conftest import realdata_path
 
     root = realdata_path(*SPHERE)

@@ -18,13 +18,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import CameraSettings
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.frames import Frame, UniformFrame, render_frame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame, UniformFrame, render_frame
 from hdrfringe.hardware.camera import CameraBase
 from hdrfringe.hardware.projector import _ProjectorBase
 from hdrfringe.hardware.rig import HardwareRig, SyncError, SyncSettings, change_ratio
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from tests.conftest import xvfb_display
 

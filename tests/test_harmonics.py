@@ -1,4 +1,4 @@
-"""Fringe-harmonic compensation (hdrfringe.harmonics, docs/harmonics.md).
+"""Fringe-harmonic compensation (hdrfringe.core.harmonics, docs/harmonics.md).
 
 References the code under test did not produce: closed-form phase errors of known amplitude
 (the inverse series of ``phi = theta + A sin(6 theta)``), and the virtual rig's ground truth
@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures
-from hdrfringe.errors import InputError
-from hdrfringe.harmonics import (
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.harmonics import (
     FLOOR_RAD,
     HarmonicError,
     compensate_sets,
@@ -26,9 +26,9 @@ from hdrfringe.harmonics import (
     harmonics_mode,
     not_applicable,
 )
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
-from hdrfringe.process import decode_captures
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
+from hdrfringe.errors import InputError
 from tests.conftest import run_cli
 
 TWO_PI = 2 * np.pi
@@ -187,7 +187,7 @@ def test_inert_on_the_virtual_rigs_sinusoidal_fringes(steps: int) -> None:
     print(f"N={steps} pure sinusoids: max |coef|/se {ratio:.2f}, forced change "
           f"{np.nanmax(np.abs(change)):.2e} rad")  # fmt: skip
     *_, res8, _ = _rig_set(steps, gamma_precompensation=2.812)
-    from hdrfringe.captures import FringeSet
+    from hdrfringe.core.captures import FringeSet
 
     fs = FringeSet("s", FringeSpec("sinusoidal", steps, PITCH), tuple(range(steps)))
     out, summary = compensate_sets([fs], {"s": res8}, "auto")
@@ -254,7 +254,7 @@ def test_decode_captures_applies_it_before_unwrapping() -> None:
 
 
 def test_a_triangular_set_is_left_as_decoded() -> None:
-    from hdrfringe.captures import FringeSet
+    from hdrfringe.core.captures import FringeSet
 
     spec = FringeSpec("triangular", 3, 16.0)
     res = decode_set(np.zeros((3, 8, 8), np.uint8) + np.arange(3)[:, None, None] * 50, spec, 8)
@@ -269,8 +269,8 @@ def test_pixels_with_a_saturated_shift_do_not_enter_the_estimate() -> None:
     3rd-order one over a third of the image) is clipping's, not the projector's, and must not
     be removed from the others: the estimate uses the unclipped pixels only (an estimate from
     every valid pixel finds 0.06 rad, which a forced correction would subtract everywhere)."""
-    from hdrfringe.captures import FringeSet
-    from hdrfringe.phase import PhaseResult
+    from hdrfringe.core.captures import FringeSet
+    from hdrfringe.core.phase import PhaseResult
 
     rng = np.random.default_rng(5)
     theta = _surface((300, 400))

@@ -12,7 +12,7 @@ once with ``--harmonics auto``::
 The references are geometric (a sphere and a flat wall), not produced by the compensation. The
 wall region is chosen here, once, on the uncompensated cloud (the far half of the points, within
 15 mm of their robust plane) and the same pixels are fitted in both clouds with
-:func:`hdrfringe.stereo.fit_plane` (``robust=True``); the sphere is
+:func:`hdrfringe.core.stereo.fit_plane` (``robust=True``); the sphere is
 :func:`tests.test_sphere_realdata.sphere_fit` (the largest region 20 mm in front of the wall,
 3-MAD refits).
 
@@ -72,7 +72,7 @@ def test_kimthyung_sphere_and_wall(kimthyung: dict) -> None:
     """Sphere fit RMS 1.02 -> 0.49 mm (at most 0.6), wall 3.40 -> 1.37 mm (at most half);
     the radius stays within 1 % (51.12 -> 51.32 mm). Both sets carry the near-square fringes'
     6th-order error (issue 24): the horizontal set's 6th-order sine is about -0.12 rad."""
-    from hdrfringe.stereo import fit_plane
+    from hdrfringe.core.stereo import fit_plane
 
     before, after = _xyz(kimthyung["off"]), _xyz(kimthyung["auto"])
     z = before[..., 2]
@@ -109,7 +109,7 @@ def test_kimthyung_sphere_and_wall(kimthyung: dict) -> None:
     assert "removed" in kimthyung["auto"]["stdout"]
     # one set of coefficients serves the image: the sphere alone (sharper fringes) has a
     # larger 6th-order error than the wall alone, so the sphere keeps part of its ripple
-    from hdrfringe.harmonics import estimate_harmonic_error
+    from hdrfringe.core.harmonics import estimate_harmonic_error
     from hdrfringe.io.results import read_map_tiff
 
     label = next(k for k in sets if "_h_" in k)
@@ -127,8 +127,8 @@ def test_kamino410_object1_pitches_agree_after_compensation(tmp_path: Path) -> N
     absolute phase) against the 66.67 px set's: robust spread (1.4826 MAD) 5.44 -> 0.93 px
     (columns) and 5.34 -> 1.14 px (rows) with ``auto``. The four sets' estimates agree (the
     projector's response, not the scene): 3rd-order sine -0.31..-0.33 rad, 6th -0.10."""
+    from hdrfringe.core.decode import decode_captures
     from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.process import decode_captures
 
     root = realdata_path("kamino410", "object1")
     caps_dir = tmp_path / "caps"

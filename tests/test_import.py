@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 import tifffile
 
+from hdrfringe.core.decode import decode_captures
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.import_description import compile_template, read_description
 from hdrfringe.io.importer import import_captures, natural_key, to_counts
-from hdrfringe.process import decode_captures
 from tests.conftest import run_cli, run_cli_in_process
 
 H, W = 24, 40
@@ -593,7 +593,7 @@ def gray_bit_image(bit: int, stripe: float, *, inverse: bool = False) -> np.ndar
 
 
 def test_graycode_groups_bit_template_and_opencv_pairs(tmp_path: Path) -> None:
-    from hdrfringe.frames import GrayCodeFrame, opencv_graycode_frames
+    from hdrfringe.core.frames import GrayCodeFrame, opencv_graycode_frames
 
     cam = tmp_path / "cam"
     for b in range(3):  # file names carry the bit's significance
@@ -675,10 +675,10 @@ def test_graycode_pairs_need_index(tmp_path: Path) -> None:
 
 def test_pattern_manifest_with_side_files(tmp_path: Path) -> None:
     """A version-2 pattern folder: its MIGL map is copied beside the camera images."""
-    from hdrfringe.captures import ProjectorInfo
-    from hdrfringe.frames import PixelwiseFringeFrame
+    from hdrfringe.core.captures import ProjectorInfo
+    from hdrfringe.core.frames import PixelwiseFringeFrame
+    from hdrfringe.core.patterns import FringeSpec
     from hdrfringe.io.pattern_folder import write_pattern_folder
-    from hdrfringe.patterns import FringeSpec
 
     spec = FringeSpec(steps=3, pitch_px=8.0)
     migl = np.full((12, 16), 200.0)

@@ -4,7 +4,7 @@ manifest (tests/test_realdata.py's specs and conventions, docs/realdata.md).
 
 The references are built here without the importer: a version-1 manifest written out by hand
 over copies of the images (as ``test_pyramid_cli_phase`` does), or the arrays read straight from
-the source files and decoded with :func:`hdrfringe.phase.decode_set` and the specs of
+the source files and decoded with :func:`hdrfringe.core.phase.decode_set` and the specs of
 tests/test_realdata.py. Where a description declares what a version-1 manifest cannot hold (a
 sine profile, shifted angles) the reference is the version-1 decode plus the documented constant
 (docs/realdata.md: the checkerboard's sine decodes to ``2*pi*F*x - pi/2``). Every test skips
@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import PhaseResult, decode_set, default_min_modulation, sinusoidal_phase
 from hdrfringe.io.captures import load_image, read_capture_folder
 from hdrfringe.io.results import read_map_tiff
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import PhaseResult, decode_set, default_min_modulation, sinusoidal_phase
-from hdrfringe.process import decode_captures
 from tests.conftest import realdata_path, run_cli
 
 pytestmark = pytest.mark.realdata
@@ -203,7 +203,7 @@ def test_kamino410_gamma(tmp_path: Path) -> None:
 
 def test_kamino410_object1(tmp_path: Path) -> None:
     """Fringe sets identical to a hand-written manifest; the Gray code is the OpenCV sequence."""
-    from hdrfringe.frames import opencv_graycode_frames
+    from hdrfringe.core.frames import opencv_graycode_frames
 
     root = realdata_path("kamino410", "object1")
     summary, caps, out = import_and_phase("kamino410_object1", root, tmp_path)

@@ -21,16 +21,16 @@ import pytest
 import tifffile
 
 import hdrfringe.io.captures as io_captures
-from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.io.captures import read_capture_folder, read_manifest
-from hdrfringe.io.results import read_map_tiff, write_map_tiff
-from hdrfringe.limits import (
+from hdrfringe.core.limits import (
     MAX_IMAGE_PIXELS,
     MAX_JSON_DEPTH,
     MAX_MANIFEST_BYTES,
     MAX_NUMBER_DIGITS,
     MAX_PROGRAM_FRAMES,
 )
+from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.io.captures import read_capture_folder, read_manifest
+from hdrfringe.io.results import read_map_tiff, write_map_tiff
 from tests.conftest import run_cli
 
 

@@ -28,73 +28,44 @@ from scipy.sparse.csgraph import connected_components
 SRC = Path(__file__).resolve().parents[1] / "src" / "hdrfringe"
 ROOT = "hdrfringe"
 
-CORE, ACQUISITION, IO, TASKS, FRONT_END = 0, 1, 2, 3, 4
+CORE, ACQUISITION, MEASUREMENT, TASKS, FRONT_END = 0, 1, 2, 3, 4
 LAYER_NAMES = {
     CORE: "core",
     ACQUISITION: "acquisition",
-    IO: "io",
+    MEASUREMENT: "pipeline and io",
     TASKS: "tasks",
     FRONT_END: "front end",
 }
 
-#: Module (dotted, without ``hdrfringe.``) -> layer. ``pkg.*`` covers everything under ``pkg``;
-#: an exact entry wins over a pattern.
+#: Top-level name below ``hdrfringe`` (a folder, or a module at the root) -> layer; everything
+#: under a folder is in its layer. A module may import its own layer and the inner ones.
 LAYERS: dict[str, int] = {
-    # 0 core: pure numpy, no I/O, no rigs
+    # 0 core: the equations on arrays and frozen dataclasses; no rig, no file, no plot
+    "core": CORE,
     "errors": CORE,
-    "_validation": CORE,
-    "patterns": CORE,
-    "frames": CORE,
-    "limits": CORE,
-    "programs": CORE,
-    "captures": CORE,
-    "phase": CORE,
-    "_blockdecode": CORE,
-    "_native": CORE,
-    "unwrap": CORE,
-    "graycode": CORE,
-    "harmonics": CORE,
-    "calibration": CORE,
-    "reconstruct": CORE,
-    "stereo": CORE,
-    "stereo_calibration": CORE,
-    "geometric_order": CORE,
-    "gamma": CORE,
-    "gamma.*": CORE,
-    "process": CORE,
-    # the package __init__ runs whenever a core module imports saturation.estimate: keep it core
-    "saturation": CORE,
-    "saturation.estimate": CORE,
-    "saturation.dpa_rules": CORE,
-    "saturation_tolerant": CORE,
-    "uncertainty": CORE,
-    "saturation.adaptive_map": CORE,
-    # 1 acquisition: rigs and the strategies that drive them
+    "_moved": CORE,  # old module paths of moved modules (imports by computed name only)
+    # 1 acquisition: rigs, devices and the strategies that drive them
     "rig": ACQUISITION,
-    "rig.*": ACQUISITION,
-    "strategies": ACQUISITION,
-    "strategies.*": ACQUISITION,
-    "pipeline": ACQUISITION,
     "hardware": ACQUISITION,
-    "hardware.*": ACQUISITION,
-    # 2 I/O: files in and out
-    "io": IO,
-    "io.*": IO,
-    # 3 tasks: one workflow per command (paths and options in, a folder and a report out)
+    "strategies": ACQUISITION,
+    # 2 the measurement (objects in, objects out) and the file formats; neither imports the other
+    "pipeline": MEASUREMENT,
+    "io": MEASUREMENT,
+    # 3 one workflow per command: paths and options in, a folder and a report out
     "tasks": TASKS,
-    "tasks.*": TASKS,
-    # 4 front ends
+    # 4 front ends: declare options, call a task, print its report
     "cli": FRONT_END,
-    "cli.*": FRONT_END,
     "demo": FRONT_END,
 }
 
 #: Imports a layer's own rank allows but the design forbids (issue 29): importer prefix ->
-#: imported prefixes. I/O is file formats only: it runs no measurement (pipeline) and drives no
-#: rig; the workflows that do are tasks. A command declares options, calls its task and prints
-#: the report: the CLI reads, writes and drives nothing itself.
+#: imported prefixes. I/O is file formats only: it runs no measurement and drives no rig; the
+#: pipeline reads and writes no file; a command declares options, calls its task and prints the
+#: report: the CLI reads, writes and drives nothing itself. (io reads and writes acquisition's
+#: dataclasses, e.g. a rig configuration, as it does core's.)
 FORBIDDEN: dict[str, tuple[str, ...]] = {
     "io": ("pipeline", "rig", "tasks"),
+    "pipeline": ("io",),
     "cli": ("pipeline", "io", "rig", "hardware"),
 }
 
@@ -117,15 +88,8 @@ def package_modules(src: Path = SRC) -> dict[str, Path]:
 
 
 def layer_of(module: str, layers: dict[str, int] = LAYERS) -> int | None:
-    """The layer of a module, or None when no entry places it."""
-    if module in layers:
-        return layers[module]
-    parts = module.split(".")
-    for n in range(len(parts), 0, -1):
-        pattern = ".".join(parts[:n]) + ".*"
-        if pattern in layers and n < len(parts):
-            return layers[pattern]
-    return None
+    """The layer of a module (by its first name below the package), or None when unplaced."""
+    return layers.get(module.split(".")[0])
 
 
 def _with_parents(module: str) -> list[str]:
@@ -380,10 +344,10 @@ def test_allowed_exceptions_are_still_needed() -> None:
 def test_the_package_is_found() -> None:
     """Guards against a vacuous pass: the walk sees the modules and their imports."""
     modules = package_modules()
-    assert {"captures", "io.captures", "rig.replay", "process", "cli"} <= set(modules)
+    assert {"core.captures", "io.captures", "rig.replay", "core.decode", "cli"} <= set(modules)
     src = modules["rig.replay"].read_text(encoding="utf-8")
     imported = {t for t, _ in imports_of(src, "rig.replay", False, set(modules))}
-    assert {"captures", "errors", "frames"} <= imported
+    assert {"core.captures", "errors", "core.frames"} <= imported
 
 
 # --- the checker on synthetic modules ----------------------------------------------------------
@@ -399,7 +363,8 @@ def _check(module: str, source: str, is_package: bool = False) -> list[tuple[str
     sources = {
         **_PACKAGE,
         "errors": (_OK, False),
-        "phase": (_OK, False),
+        "core": ("", True),
+        "core.phase": (_OK, False),
         "io.captures": (_OK, False),
         "rig.replay": (_OK, False),
         "pipeline": (_OK, False),
@@ -415,28 +380,40 @@ def _check(module: str, source: str, is_package: bool = False) -> list[tuple[str
     [
         # the rig <-> io cycle this issue removed, top level and inside a function
         ("rig.replay", "from hdrfringe.io.captures import CaptureFolder\n", ["io.captures", "io"]),
-        ("phase", "def f():\n    from hdrfringe.io.captures import x\n", ["io.captures", "io"]),
-        ("phase", "import hdrfringe.rig.replay\n", ["rig.replay", "rig"]),
-        ("phase", "from hdrfringe import cli\n", ["cli"]),
-        ("phase", "from hdrfringe.io import captures\n", ["io.captures", "io"]),
+        (
+            "core.phase",
+            "def f():\n    from hdrfringe.io.captures import x\n",
+            ["io.captures", "io"],
+        ),
+        ("core.phase", "import hdrfringe.rig.replay\n", ["rig.replay", "rig"]),
+        ("core.phase", "from hdrfringe import cli\n", ["cli"]),
+        ("core.phase", "from hdrfringe.io import captures\n", ["io.captures", "io"]),
         ("rig.replay", "from ..io import captures\n", ["io.captures", "io"]),
         ("rig.replay", "from ..io.captures import read\n", ["io.captures", "io"]),
         ("rig", "from .. import cli\n", ["cli"]),  # relative import in a package __init__
         (
-            "phase",
+            "core.phase",
             "import typing\nif typing.TYPE_CHECKING:\n    from hdrfringe.rig import Rig\n",
             ["rig"],
         ),
-        ("phase", "import importlib\nimportlib.import_module('hdrfringe.cli')\n", ["cli"]),
+        ("core.phase", "import importlib\nimportlib.import_module('hdrfringe.cli')\n", ["cli"]),
         # io is file formats only (issue 29): no rig, no pipeline, no task, though rank allows
         ("io.captures", "from hdrfringe.rig.replay import y\n", ["rig.replay", "rig"]),
         ("io.captures", "def f():\n    import hdrfringe.pipeline\n", ["pipeline"]),
         ("io.captures", "from hdrfringe.tasks import measure\n", ["tasks.measure", "tasks"]),
         ("rig.replay", "from hdrfringe.tasks.measure import run\n", ["tasks.measure", "tasks"]),
         ("tasks.measure", "from hdrfringe.cli import x\n", ["cli"]),
+        # the pipeline reads and writes no file: objects in, objects out
+        ("pipeline", "def f():\n    from hdrfringe.io.captures import x\n", ["io.captures", "io"]),
+        # the core drives no rig and runs no measurement, even lazily
+        ("core.phase", "def f():\n    import hdrfringe.pipeline\n", ["pipeline"]),
         # a command calls its task: no io, pipeline or rig of its own
-        ("cli", "import hdrfringe.io.captures\nfrom hdrfringe import phase, rig\n",
-         ["io.captures", "io", "rig"]),
+        (
+            "cli",
+            "import hdrfringe.io.captures\nfrom hdrfringe.core import phase\n"
+            "from hdrfringe import rig\n",
+            ["io.captures", "io", "rig"],
+        ),
         ("cli", "def f():\n    from hdrfringe.pipeline import measure\n", ["pipeline"]),
     ],
 )
@@ -448,13 +425,14 @@ def test_checker_rejects_outward_imports(module: str, source: str, expected: lis
 @pytest.mark.parametrize(
     ("module", "source"),
     [
-        ("io.captures", "from hdrfringe.phase import x\nfrom hdrfringe.errors import y\n"),
+        ("io.captures", "from hdrfringe.core.phase import x\nfrom hdrfringe.errors import y\n"),
         ("tasks.measure", "from hdrfringe.rig.replay import y\nfrom hdrfringe.io import x\n"),
         ("cli", "from hdrfringe.tasks.measure import run\n"),
-        ("rig.replay", "from hdrfringe.phase import x\nfrom . import replay\n"),
-        ("cli", "import hdrfringe.tasks.measure\nfrom hdrfringe import phase, errors\n"),
-        ("phase", "from hdrfringe import __version__\nimport hdrfringe\n"),  # the root is exempt
-        ("phase", "from hdrfringe.errors import InputError\nimport os.path\n"),
+        ("rig.replay", "from hdrfringe.core.phase import x\nfrom . import replay\n"),
+        ("cli", "import hdrfringe.tasks.measure\nfrom hdrfringe.core import phase, decode\n"),
+        # the root is exempt
+        ("core.phase", "from hdrfringe import __version__\nimport hdrfringe\n"),
+        ("core.phase", "from hdrfringe.errors import InputError\nimport os.path\n"),
     ],
 )
 def test_checker_accepts_inward_imports(module: str, source: str) -> None:
@@ -462,13 +440,14 @@ def test_checker_accepts_inward_imports(module: str, source: str) -> None:
 
 
 def test_checker_reports_unknown_modules_and_unplaced_ones() -> None:
-    found = _check("phase", "from hdrfringe.nosuch import x\n")
+    found = _check("core.phase", "from hdrfringe.nosuch import x\n")
     assert [(m, t, why) for m, t, _, why in found] == [
-        ("phase", "nosuch", "imports no module of the package")
+        ("core.phase", "nosuch", "imports no module of the package")
     ]
-    assert unplaced({"", "phase", "rig.replay", "newthing", "tasks.x"}) == ["newthing"]
-    assert layer_of("gamma.fits") == CORE and layer_of("strategies.lpa") == ACQUISITION
-    assert layer_of("saturation") == CORE
+    assert unplaced({"", "core.phase", "rig.replay", "newthing", "tasks.x"}) == ["newthing"]
+    assert layer_of("core.gamma.fits") == CORE and layer_of("strategies.lpa") == ACQUISITION
+    assert layer_of("core") == CORE and layer_of("io.x") == layer_of("pipeline") == MEASUREMENT
+    assert layer_of("phase") is None  # the root holds no core module any more
 
 
 # --- import circles and the research package: the package -------------------------------------
@@ -487,7 +466,8 @@ def test_no_import_cycles() -> None:
 def test_the_import_graph_is_found() -> None:
     """Guards against a vacuous pass: the graph has the edges the circles were made of, one way."""
     graph = import_graph(_package_sources())
-    assert "patterns" in graph["frames"] and "frames" not in graph["patterns"]
+    assert "core.patterns" in graph["core.frames"]
+    assert "core.frames" not in graph["core.patterns"]
     assert {"hardware.pylon", "hardware.genicam", "hardware.opencv_camera"} <= graph[
         "hardware.backends"
     ]

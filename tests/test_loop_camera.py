@@ -17,14 +17,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import CameraSettings
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.frames import FringeFrame, ImageFrame, PixelwiseFringeFrame, UniformFrame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.frames import FringeFrame, ImageFrame, PixelwiseFringeFrame, UniformFrame
 from hdrfringe.hardware.backends import open_camera
 from hdrfringe.hardware.camera import Camera, PixelFormatError
 from hdrfringe.hardware.loop_camera import LoopCamera
 from hdrfringe.hardware.projector import ScreenProjector, render_for_projector
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.simulated import SimulatedRig
 from tests.conftest import xvfb_display

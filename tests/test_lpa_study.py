@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures
-from hdrfringe.frames import Frame
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import Frame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
 from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, checkerboard
 from hdrfringe.rig.simulated import SimulatedRig

@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.io.calibration_file import load_calibration, save_calibration
 from hdrfringe.io.results import read_map_tiff
 from hdrfringe.io.rig_config import load_rig_config
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig

@@ -15,15 +15,15 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures
-from hdrfringe.frames import CenterlineFrame, Frame, UniformFrame
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import CenterlineFrame, Frame, UniformFrame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.saturation.estimate import CorrectionPolynomial, training_data_from_rig
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
-from hdrfringe.saturation.estimate import CorrectionPolynomial, training_data_from_rig
 from tests.conftest import run_cli, run_cli_in_process
 
 RULES = {"initial", "threshold", "lowest"}

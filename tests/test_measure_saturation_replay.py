@@ -23,8 +23,8 @@ def sweep():  # type: ignore[no-untyped-def]
     """A MIGL sweep (255, 205, 155) of vertical and horizontal 4-step sets (pitch 32 and 8),
     then OpenCV's Gray code (32 px cells) with white and black: the mask scene under 1200 lx,
     which saturates the top MIGL."""
-    from hdrfringe.frames import UniformFrame, opencv_graycode_frames
-    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.core.frames import UniformFrame, opencv_graycode_frames
+    from hdrfringe.core.patterns import FringeSpec
     from hdrfringe.rig.scenes import mask
     from hdrfringe.rig.simulated import CameraModel, Lighting, ProjectorModel, SimulatedRig
 
@@ -72,8 +72,8 @@ def test_measure_takes_the_saturation_options_of_phase(sweep, tmp_path: Path) ->
     """On the top MIGL alone (saturated): ``measure --saturated exclude --min-shifts 3`` and
     ``--keep-saturated`` give the absolute phase ``phase`` gives with the same options; the
     default flags the saturated pixels."""
-    from hdrfringe.captures import Captures
-    from hdrfringe.frames import FringeFrame
+    from hdrfringe.core.captures import Captures
+    from hdrfringe.core.frames import FringeFrame
     from hdrfringe.io.captures import write_capture_folder
 
     _, caps = sweep

@@ -17,11 +17,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.frames import Frame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set, sinusoidal_phase
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set, sinusoidal_phase
 from hdrfringe.rig.base import RigBase
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.scenes import checkerboard, plate
@@ -294,7 +294,7 @@ def test_auto_exposures_on_a_replayed_folder_are_refused_in_one_line() -> None:
     """A replayed folder cannot change the exposure: automatic exposures are refused before
     any capture with that reason, also when the folder records an exposure time (before, the
     message blamed a missing exposure time). A list of held exposures still replays."""
-    from hdrfringe.captures import Captures
+    from hdrfringe.core.captures import Captures
     from hdrfringe.rig.replay import ReplayRig
 
     spec = FringeSpec("sinusoidal", 4, 16.0)

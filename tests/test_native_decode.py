@@ -1,6 +1,6 @@
-"""The native decode kernel (hdrfringe/_native/decode.c) against the numpy block kernel.
+"""The native decode kernel (hdrfringe/core/_native/decode.c) against the numpy block kernel.
 
-Both paths of :func:`hdrfringe._blockdecode.decode_sinusoidal_blocks` must give the same maps
+Both paths of :func:`hdrfringe.core._blockdecode.decode_sinusoidal_blocks` must give the same maps
 bit for bit (phase, I', I'', psi, saturation count, validity, the sign of zero and the NaN
 pattern), for uint8/uint16/float32/float64 stacks, N = 3..9, saturated, dark, flat and NaN
 pixels, blocks that end mid-row, float32 maps, masks, and for every instruction-set variant
@@ -17,9 +17,9 @@ import os
 import numpy as np
 import pytest
 
-from hdrfringe import _blockdecode, _native
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
+from hdrfringe.core import _blockdecode, _native
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
 
 TWO_PI = 2.0 * np.pi
 MAPS = ("phase", "modulation", "mean", "data_modulation", "saturation_count", "valid")

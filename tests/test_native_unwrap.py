@@ -1,4 +1,4 @@
-"""The reliability-guided unwrapper in C (``hdrfringe/_native/unwrap.c``, issue 16).
+"""The reliability-guided unwrapper in C (``hdrfringe/core/_native/unwrap.c``, issue 16).
 
 ``unwrap_spatial`` calls it for the maps whose loops do not close (residues), where it called
 scikit-image before; scikit-image remains the fallback when the library is not built or
@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdrfringe import _native
-from hdrfringe import unwrap as unwrap_module
-from hdrfringe.unwrap import TWO_PI, _label4, unwrap_spatial
+from hdrfringe.core import _native
+from hdrfringe.core import unwrap as unwrap_module
+from hdrfringe.core.unwrap import TWO_PI, _label4, unwrap_spatial
 from tests.test_unwrap_identity import reseed_c_rand
 from tests.test_unwrap_paths import _maps, _ramp, _vortex
 

@@ -27,7 +27,7 @@ def run_hint(stdout: str, out: Path):  # type: ignore[no-untyped-def]
 
 
 def test_import_of_fringes_suggests_phase_and_it_runs(tmp_path: Path) -> None:
-    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.core.patterns import FringeSpec
     from hdrfringe.rig.scenes import white_plate
     from hdrfringe.rig.simulated import CameraModel, SimulatedRig
 
@@ -112,7 +112,7 @@ def _same_pitch_folder(tmp_path: Path) -> Path:
     pre-distorted with exponent 2 (``gamma_precompensation``), imported."""
     import cv2
 
-    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.core.patterns import FringeSpec
     from hdrfringe.rig.scenes import white_plate
     from hdrfringe.rig.simulated import CameraModel, SimulatedRig
 

@@ -12,12 +12,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hdrfringe.captures import CameraSettings
-from hdrfringe.frames import UniformFrame
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.frames import UniformFrame
+from hdrfringe.core.uncertainty import noise_from_manifest
 from hdrfringe.rig.acquire import IntensityModification, simulated_captures
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig
-from hdrfringe.uncertainty import noise_from_manifest
 
 REPEATS = 120
 LEVELS = (40, 255)  # projector gray levels: a dark and a bright flat field
@@ -120,10 +120,10 @@ def test_manifest_and_estimated_noise_agree_at_the_median_intensity(
     """A simulated folder (160 x 120, sets at 1024, 64 and 8 px): the noise model its manifest
     records and the one estimated from its N >= 4 residuals (the manifest's keys left out)
     give the same sigma_I at the median intensity of the finest set, within 10 %."""
-    from hdrfringe.patterns import FringeSpec
-    from hdrfringe.process import decode_captures
+    from hdrfringe.core.decode import decode_captures
+    from hdrfringe.core.patterns import FringeSpec
+    from hdrfringe.core.uncertainty import predict_uncertainty
     from hdrfringe.rig.factory import virtual_rig
-    from hdrfringe.uncertainty import predict_uncertainty
 
     rig = virtual_rig(scene, ambient_lux=lux, resolution=(160, 120))
     frames = [f for p in (1024.0, 64.0, 8.0) for f in FringeSpec("sinusoidal", steps, p).frames()]

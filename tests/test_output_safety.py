@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.frames import CenterlineFrame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.frames import CenterlineFrame
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import (
     SIGTERM_EXIT_CODE,
@@ -30,7 +31,6 @@ from hdrfringe.io.results import (
     staged_output_dir,
     staged_output_file,
 )
-from hdrfringe.patterns import FringeSpec
 from tests.conftest import synthetic_set
 
 CLI = [sys.executable, "-m", "hdrfringe.cli"]
@@ -466,7 +466,7 @@ _SLOW_SAVE = textwrap.dedent(
     import numpy as np
     import hdrfringe.tasks.calibrate as cf
     import hdrfringe.io.calibration_file as calfile
-    from hdrfringe.calibration import Calibration
+    from hdrfringe.core.calibration import Calibration
     from hdrfringe.cli import app
 
     cal = Calibration("linear", np.full((30, 30), 0.5), None, np.zeros((30, 30)),
@@ -520,7 +520,7 @@ def test_output_modes_follow_the_umask(
     assert stat.S_IMODE(out.stat().st_mode) == dir_mode
     for f in out.iterdir():
         assert stat.S_IMODE(f.stat().st_mode) == file_mode, f
-    from hdrfringe.calibration import Calibration
+    from hdrfringe.core.calibration import Calibration
     from hdrfringe.io.calibration_file import save_calibration
 
     cal = Calibration("linear", np.full((30, 30), 0.5), None, np.zeros((30, 30)), np.array([2.0]))

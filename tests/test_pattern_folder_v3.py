@@ -18,13 +18,13 @@ from pathlib import Path
 import imageio.v3 as iio
 import numpy as np
 
-from hdrfringe.captures import ProjectorInfo
-from hdrfringe.frames import UniformFrame, opencv_graycode_frames
+from hdrfringe.core.captures import ProjectorInfo
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.frames import UniformFrame, opencv_graycode_frames
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.importer import import_captures
 from hdrfringe.io.pattern_folder import write_pattern_folder
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.process import decode_captures
 
 W, H, PITCH, STRIPE = 64, 32, 16.0, 8.0
 TWO_PI = 2 * np.pi

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdrfringe.errors import InputError
-from hdrfringe.frames import (
+from hdrfringe.core.frames import (
     CenterlineFrame,
     FringeFrame,
     UniformFrame,
     frame_from_manifest,
     render_frame,
 )
-from hdrfringe.patterns import FringeSpec, fringe_gray, fringe_profile, precompensate_gamma
+from hdrfringe.core.patterns import FringeSpec, fringe_gray, fringe_profile, precompensate_gamma
+from hdrfringe.errors import InputError
 
 
 def test_profiles_peak_at_zero_period_one() -> None:

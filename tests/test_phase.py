@@ -7,9 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec, fringe_gray
-from hdrfringe.phase import (
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
+from hdrfringe.core.phase import (
     data_modulation,
     decode_set,
     saturation_count,
@@ -18,6 +17,7 @@ from hdrfringe.phase import (
     triangular_3step,
     wrapped_phase,
 )
+from hdrfringe.errors import InputError
 from tests.conftest import synthetic_set
 
 TWO_PI = 2 * np.pi
@@ -143,7 +143,7 @@ def test_decode_refuses_wrong_shift_count_and_overrange() -> None:
 
 def test_triangular_3step_order_statistics_match_sorting() -> None:
     """The min/max order statistics equal np.sort / argmax / argmin, ties included."""
-    from hdrfringe.phase import _tri3_region_table
+    from hdrfringe.core.phase import _tri3_region_table
 
     rng = np.random.default_rng(5)
     stack = rng.integers(0, 6, (3, 40, 50)).astype(np.float64)  # many ties

@@ -1,8 +1,8 @@
-"""The fused block decode (hdrfringe._blockdecode) against a plain numpy loop written here.
+"""The fused block decode (hdrfringe.core._blockdecode) against a plain numpy loop written here.
 
 The reference is the straightforward float64 loop (``S += I_k sin(delta_k)``, ``C += I_k
 cos(delta_k)``, ``np.mod(atan2(-S, C), 2*pi)``, ``(2/N) sqrt(S^2 + C^2)``, sum / N) and the
-validity rule of :func:`hdrfringe.phase.decode_set` spelled out; the kernel does the same
+validity rule of :func:`hdrfringe.core.phase.decode_set` spelled out; the kernel does the same
 arithmetic in the same order, so every map must be bit-identical, whatever the block size
 (edges: blocks that do not divide the image, 1-row and 1-pixel images), the thread count,
 the input dtype (uint8, uint16, float with NaN) and the mask.
@@ -16,9 +16,9 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from hdrfringe import _blockdecode
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set, sinusoidal_phase
+from hdrfringe.core import _blockdecode
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set, sinusoidal_phase
 
 TWO_PI = 2.0 * np.pi
 
@@ -265,8 +265,8 @@ def test_float32_maps_are_the_float64_maps_rounded(n, shape, dtype, block, monke
 def test_float32_for_the_general_path_and_bad_dtypes() -> None:
     """Least-squares and triangular sets (no block kernel) give the rounded float64 maps too;
     a dtype other than float32/float64 is an InputError."""
+    from hdrfringe.core.patterns import fringe_gray
     from hdrfringe.errors import InputError
-    from hdrfringe.patterns import fringe_gray
 
     x = np.arange(40.0)[None, :] + np.arange(6.0)[:, None]
     for spec in (
@@ -340,10 +340,10 @@ def test_phase_command_map_dtype_float32_writes_the_same_tiffs(capture_folder, t
 def test_decode_captures_map_dtype() -> None:
     """decode_captures(map_dtype="float32"): float32 set maps equal to the float64 ones
     rounded, the unwrapped phase float64 within 2.4e-7 rad; bad values refused."""
-    from hdrfringe.captures import Captures, ProjectorInfo
+    from hdrfringe.core.captures import Captures, ProjectorInfo
+    from hdrfringe.core.decode import decode_captures
+    from hdrfringe.core.patterns import fringe_gray
     from hdrfringe.errors import InputError
-    from hdrfringe.patterns import fringe_gray
-    from hdrfringe.process import decode_captures
 
     spec = FringeSpec("sinusoidal", 4, 1024.0)
     x = np.tile(np.arange(40.0) * 7.3, (6, 1))

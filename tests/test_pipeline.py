@@ -10,18 +10,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.calibration import (
+from hdrfringe.core.calibration import (
     Calibration,
     CalibrationMismatchError,
     filter_map,
     fit_linear_k,
     measurement_mask,
 )
-from hdrfringe.captures import Captures
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import CenterlineFrame, Frame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.frames import CenterlineFrame, Frame
 from hdrfringe.io.results import read_map_tiff
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import MeasurementMetrics, calibrate, measure, strategy_summary
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, mask, white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig

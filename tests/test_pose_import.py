@@ -1,6 +1,6 @@
 """Board poses from other rigs (issue 24): crops pasted back into the camera frame by
 ``hdrfringe import``, and projector coordinates from a Gray code alone
-(:func:`hdrfringe.stereo_calibration.graycode_coordinates`), on synthetic images whose truth is
+(:func:`hdrfringe.core.stereo_calibration.graycode_coordinates`), on synthetic images whose truth is
 known. The real sets: tests/test_calibration_realdata.py."""
 
 from __future__ import annotations
@@ -11,13 +11,13 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.frames import GrayCodeFrame, UniformFrame, opencv_graycode_frames
+from hdrfringe.core.graycode import code_bit
+from hdrfringe.core.stereo_calibration import graycode_coordinates, projector_coordinates
 from hdrfringe.errors import InputError
-from hdrfringe.frames import GrayCodeFrame, UniformFrame, opencv_graycode_frames
-from hdrfringe.graycode import code_bit
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.importer import import_captures
-from hdrfringe.stereo_calibration import graycode_coordinates, projector_coordinates
 from tests.conftest import run_cli_in_process
 
 CROP_TOML = """\
@@ -129,8 +129,8 @@ def test_graycode_poses_calibrate_the_virtual_rig() -> None:
     geometry. Targets: those of the fringe poses (docs/stereo_calibration.md) for focal
     lengths and baseline (0.2 %); the principal points 2 px instead of 1 px, as the quantised
     codes leave about twice the projector reprojection error of fringes."""
+    from hdrfringe.core.stereo_calibration import BoardSpec, calibrate_stereo, observe_pose
     from hdrfringe.rig.board_poses import calibration_rig, default_board_poses
-    from hdrfringe.stereo_calibration import BoardSpec, calibrate_stereo, observe_pose
 
     boards = default_board_poses(8)
     rig = calibration_rig(boards[0], noise=1.0)

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
-from hdrfringe.frames import CenterlineFrame, UniformFrame, opencv_graycode_frames
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.frames import CenterlineFrame, UniformFrame, opencv_graycode_frames
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.phase_maps import write_phase_maps
-from hdrfringe.patterns import FringeSpec, fringe_gray
-from hdrfringe.process import decode_captures
 from hdrfringe.rig.scenes import mask
 from hdrfringe.rig.simulated import SimulatedRig
 from hdrfringe.tasks.simulate import simulate_to_folder

@@ -32,7 +32,7 @@ sys.meta_path.insert(0, Refuse())
 import hdrfringe
 from hdrfringe.cli import app
 
-native = {{"hdrfringe._native." + n for n in {native!r}}}
+native = {{"hdrfringe.core._native." + n for n in {native!r}}}
 names = [i.name for i in pkgutil.walk_packages(hdrfringe.__path__, "hdrfringe.")]
 for name in names:
     if name not in native:

@@ -1,5 +1,5 @@
-"""Projector programs (hdrfringe.programs), resource limits (hdrfringe.limits), and the examples
-in the docstrings of the modules the thin command line calls."""
+"""Projector programs (hdrfringe.core.programs), resource limits (hdrfringe.core.limits), and the
+examples in the docstrings of the modules the thin command line calls."""
 
 from __future__ import annotations
 
@@ -9,17 +9,17 @@ import re
 
 import pytest
 
-from hdrfringe.captures import ProjectorInfo
-from hdrfringe.errors import InputError
-from hdrfringe.frames import CenterlineFrame, FringeFrame, UniformFrame
-from hdrfringe.limits import (
+from hdrfringe.core.captures import ProjectorInfo
+from hdrfringe.core.frames import CenterlineFrame, FringeFrame, UniformFrame
+from hdrfringe.core.limits import (
     MAX_PROGRAM_FRAMES,
     MAX_PROJECTOR_PIXELS,
     MAX_STEPS,
     check_count,
 )
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.programs import check_projector_size, fringe_program
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.programs import check_projector_size, fringe_program
+from hdrfringe.errors import InputError
 
 
 def _set(pattern: str, steps: int, pitch: float, o: str, imin: float, migl: float) -> list:
@@ -154,14 +154,14 @@ def test_check_count_returns_an_int_within_the_limit() -> None:
 # --- the examples in the docstrings -------------------------------------------------------------
 
 EXAMPLE_MODULES = [
-    "hdrfringe.limits",
-    "hdrfringe.programs",
+    "hdrfringe.core.limits",
+    "hdrfringe.core.programs",
     "hdrfringe.rig",
     "hdrfringe.rig.factory",
     "hdrfringe.rig.acquire",
     "hdrfringe.tasks.simulate",
     "hdrfringe.tasks.modify",
-    "hdrfringe.gamma.report",
+    "hdrfringe.core.gamma.report",
     "hdrfringe.io.gamma_outputs",
 ]
 

@@ -13,9 +13,8 @@ import numpy as np
 import pytest
 from scipy.ndimage import binary_erosion
 
-from hdrfringe.captures import CameraSettings
-from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import (
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.frames import (
     FringeFrame,
     ImageFrame,
     PixelwiseFringeFrame,
@@ -24,7 +23,8 @@ from hdrfringe.frames import (
     render_frame,
     sample_bilinear,
 )
-from hdrfringe.patterns import FringeSpec
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.rig.base import Rig, RigBase
 from hdrfringe.rig.scenes import mask, white_plate
 from hdrfringe.rig.simulated import (

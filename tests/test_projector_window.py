@@ -22,8 +22,9 @@ import numpy as np
 import pytest
 from PIL import Image, ImageGrab
 
+from hdrfringe.core.frames import FringeFrame, ImageFrame, PixelwiseFringeFrame, render_frame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.frames import FringeFrame, ImageFrame, PixelwiseFringeFrame, render_frame
 from hdrfringe.hardware.projector import (
     FolderProjector,
     Projector,
@@ -31,7 +32,6 @@ from hdrfringe.hardware.projector import (
     ScreenProjector,
     render_for_projector,
 )
-from hdrfringe.patterns import FringeSpec
 from tests.conftest import xvfb_display
 
 WIDTH, HEIGHT = 1920, 1080

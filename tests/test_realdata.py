@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import PhaseResult, decode_set, default_min_modulation, sinusoidal_phase
+from hdrfringe.core.unwrap import unwrap_spatial, unwrap_temporal, unwrap_temporal_levels
 from hdrfringe.io.captures import load_image
 from hdrfringe.io.results import read_map_tiff
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import PhaseResult, decode_set, default_min_modulation, sinusoidal_phase
-from hdrfringe.unwrap import unwrap_spatial, unwrap_temporal, unwrap_temporal_levels
 from tests.conftest import realdata_path, run_cli
 
 pytestmark = pytest.mark.realdata
@@ -512,7 +512,10 @@ def test_checkerboard_peak_bound_on_real_clipping(checker: dict) -> None:
     F = 32, the finest pitch). Where two shifts clip (no estimate), the bound still says more
     than full scale (median 263-269 DN).
     """
-    from hdrfringe.saturation.estimate import estimate_saturated_lsq, saturated_peak_lower_bound
+    from hdrfringe.core.saturation.estimate import (
+        estimate_saturated_lsq,
+        saturated_peak_lower_bound,
+    )
 
     for (o, f), imgs in checker.items():
         bound = saturated_peak_lower_bound(imgs, 8)

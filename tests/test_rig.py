@@ -12,10 +12,10 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.ndimage import binary_erosion
 
-from hdrfringe.captures import ProjectorInfo
+from hdrfringe.core.captures import ProjectorInfo
+from hdrfringe.core.frames import CenterlineFrame, UniformFrame, render_frame
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
 from hdrfringe.errors import InputError
-from hdrfringe.frames import CenterlineFrame, UniformFrame, render_frame
-from hdrfringe.patterns import FringeSpec, fringe_gray
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.modify import lux_to_dn, modify_captures
 from hdrfringe.rig.scenes import (
@@ -562,7 +562,7 @@ def test_periodic_basis_reproduces_the_expected_signal(pattern, steps, pitch, or
 def test_replay_rig_takes_settings_and_refuses_exposures_it_does_not_hold():
     """The replay returns the image captured at the asked exposure, and refuses an exposure
     (or a gain) the folder does not hold instead of returning another exposure's image."""
-    from hdrfringe.captures import CameraSettings, Captures
+    from hdrfringe.core.captures import CameraSettings, Captures
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.rig.replay import ReplayRig
 
@@ -593,7 +593,7 @@ def test_replay_rig_takes_settings_and_refuses_exposures_it_does_not_hold():
 def test_replay_rig_replays_recorded_gains():
     """With gains recorded per frame (format version 2) the replay returns the image taken at
     the asked gain, and names the held gains when asked for another."""
-    from hdrfringe.captures import CameraSettings, Captures
+    from hdrfringe.core.captures import CameraSettings, Captures
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.rig.replay import ReplayRig
 

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
 from hdrfringe.hardware.camera import CameraBase
 from hdrfringe.hardware.config import RigConfig
@@ -41,7 +42,6 @@ from hdrfringe.hardware.rig import (
     check_rig,
     recommend_sync,
 )
-from hdrfringe.patterns import FringeSpec
 from tests.conftest import xvfb_display
 from tests.test_hardware_rig import FakeCamera, FakeProjector
 

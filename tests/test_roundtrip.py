@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 import tifffile
 
-from hdrfringe.frames import CenterlineFrame, PixelwiseFringeFrame
+from hdrfringe.core.frames import CenterlineFrame, PixelwiseFringeFrame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
 from hdrfringe.io.captures import read_manifest, write_capture_folder
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
 from hdrfringe.rig.scenes import mask, white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig
 from hdrfringe.tasks.simulate import simulate_to_folder

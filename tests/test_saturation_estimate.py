@@ -8,10 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.rig.scenes import white_plate
-from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
-from hdrfringe.saturation.dpa_rules import (
+from hdrfringe.core.saturation.dpa_rules import (
     LOWEST_MIGL_TOLERANCE,
     SaturationCDF,
     index_image_cdf,
@@ -24,7 +21,7 @@ from hdrfringe.saturation.dpa_rules import (
     update_cdf_with_newly_unsaturated,
     update_dpa_state,
 )
-from hdrfringe.saturation.estimate import (
+from hdrfringe.core.saturation.estimate import (
     CorrectionPolynomial,
     estimate_saturated_eq62,
     estimate_saturated_lsq,
@@ -36,6 +33,9 @@ from hdrfringe.saturation.estimate import (
     true_peak_thesis,
     unsaturation_migl,
 )
+from hdrfringe.errors import InputError, OutputExistsError
+from hdrfringe.rig.scenes import white_plate
+from hdrfringe.rig.simulated import CameraModel, Lighting, RigGeometry, SimulatedRig
 
 FULL = 255
 
@@ -424,7 +424,7 @@ def test_dpa_state_round():
 
 def test_peak_and_trough_on_a_subset_equals_the_full_fits() -> None:
     """DPA fits only the pixels still pending: the values equal the whole-image functions."""
-    from hdrfringe.saturation.estimate import (
+    from hdrfringe.core.saturation.estimate import (
         estimate_saturated_lsq,
         peak_and_trough,
         sinusoid_trough,
@@ -449,7 +449,7 @@ def test_peak_and_trough_on_a_subset_equals_the_full_fits() -> None:
 def test_saturated_peak_lower_bound_never_exceeds_the_true_peak(n: int) -> None:
     """The bound holds for any offset, amplitude and phase, up to the rounding of the
     unsaturated samples (at most 1.5 DN); NaN where nothing or everything is saturated."""
-    from hdrfringe.saturation.estimate import saturated_peak_lower_bound
+    from hdrfringe.core.saturation.estimate import saturated_peak_lower_bound
 
     rng = np.random.default_rng(n)
     m = 20000

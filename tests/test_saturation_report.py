@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from hdrfringe._validation import describe_saturated
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.core._validation import describe_saturated
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.patterns import FringeSpec
 from tests.conftest import run_cli, synthetic_set
 
 SHAPE = (200, 240)  # 48 000 pixels: 7 clipped are 0.015 %, "0.0 %" to one decimal

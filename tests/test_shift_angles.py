@@ -14,12 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import FringeFrame, PixelwiseFringeFrame, frame_from_manifest
+from hdrfringe.core.patterns import FringeSpec, fringe_gray, same_fringes
+from hdrfringe.core.phase import decode_set, sinusoidal_phase, sinusoidal_phase_ls, wrapped_phase
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import FringeFrame, PixelwiseFringeFrame, frame_from_manifest
 from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
-from hdrfringe.patterns import FringeSpec, fringe_gray, same_fringes
-from hdrfringe.phase import decode_set, sinusoidal_phase, sinusoidal_phase_ls, wrapped_phase
 
 TWO_PI = 2 * np.pi
 DATA = Path(__file__).parent / "data"
@@ -502,7 +502,7 @@ def test_pattern_folders_of_such_sets_are_version_3(tmp_path: Path) -> None:
     manifest is version 3 (a version-1 manifest with shift_deg would be refused on reading)."""
     import imageio.v3 as iio
 
-    from hdrfringe.captures import ProjectorInfo
+    from hdrfringe.core.captures import ProjectorInfo
     from hdrfringe.io.pattern_folder import write_pattern_folder
 
     spec = FringeSpec("sinusoidal", 3, 16.0, imin=0, migl=255, shifts_deg=(-120, 0, 120))
@@ -518,7 +518,7 @@ def test_pattern_folders_of_such_sets_are_version_3(tmp_path: Path) -> None:
 def test_gamma_from_fringes_with_declared_phases() -> None:
     """The fringe gamma fit models each frame's pattern phase (shift plus offset): a -120/0/120
     set and a sine set, pre-distorted with 1/0.75 and 1/1.25, recover the rig's gamma."""
-    from hdrfringe.gamma.fringes import fit_gamma_fringes
+    from hdrfringe.core.gamma.fringes import fit_gamma_fringes
     from hdrfringe.rig.scenes import white_plate
     from hdrfringe.rig.simulated import SimulatedRig
 
@@ -541,7 +541,7 @@ def test_a_version_3_folder_through_hdrfringe_phase(tmp_path: Path) -> None:
     or temporal unwrapping from the coarse set would pick wrong fringe orders)."""
     import tifffile
 
-    from hdrfringe.frames import CenterlineFrame
+    from hdrfringe.core.frames import CenterlineFrame
     from hdrfringe.rig.scenes import white_plate
     from hdrfringe.rig.simulated import SimulatedRig
     from hdrfringe.tasks.simulate import simulate_to_folder

@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pytest
 
+from hdrfringe.core.frames import UniformFrame
 from hdrfringe.errors import InputError
-from hdrfringe.frames import UniformFrame
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.scenes import SpecularPart, make_scene, scene_from_manifest, specular_part
 from hdrfringe.rig.simulated import SimulatedRig

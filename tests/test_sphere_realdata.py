@@ -13,11 +13,11 @@ column convention in the shipped calibration is unresolved, so ``measure`` trian
 ``v`` alone.
 
 How the surfaces are selected (no pixel boxes): the wall is the robust plane
-(:func:`hdrfringe.stereo.fit_plane`, ``robust=True``) of the valid points farther than the
+(:func:`hdrfringe.core.stereo.fit_plane`, ``robust=True``) of the valid points farther than the
 median depth (the wall fills most of the far half of the scene); the sphere is the largest
 8-connected image region of points more than 20 mm in front of that plane (the sphere's
 radius is about 50 mm; the pedestal under it is mostly unlit and breaks off), fitted with
-:func:`hdrfringe.stereo.fit_sphere` and refitted on the points within 3 robust standard
+:func:`hdrfringe.core.stereo.fit_sphere` and refitted on the points within 3 robust standard
 deviations (1.4826 x MAD) of its residuals until that set stops changing (drops the specular
 spot and the silhouette edge). Skips when ``../shared/realdata`` is absent.
 """
@@ -45,7 +45,7 @@ def _measured(what: str, value: object) -> None:
 
 def wall_plane(xyz: np.ndarray):
     """Robust plane of the valid points beyond the median depth (the wall)."""
-    from hdrfringe.stereo import fit_plane
+    from hdrfringe.core.stereo import fit_plane
 
     z = xyz[..., 2]
     far = np.isfinite(z) & (z > np.nanmedian(z))
@@ -56,7 +56,7 @@ def sphere_fit(xyz: np.ndarray, plane):
     """The largest connected region 20 mm in front of the wall, fitted with 3-MAD refits."""
     import cv2
 
-    from hdrfringe.stereo import fit_sphere
+    from hdrfringe.core.stereo import fit_sphere
 
     ok = np.all(np.isfinite(xyz), axis=-1)
     height = np.full(xyz.shape[:2], -np.inf)
@@ -103,7 +103,7 @@ def test_phase_is_zero_on_the_gray_code_stripe_edges(measured: dict) -> None:
     code + phase gives the absolute projector row and column. Without the offsets (the README's
     formulas alone) the edges sit at phase pi (rows) and 1.04 rad (columns): half a period
     off, where the phase-guided fringe order is ambiguous."""
-    from hdrfringe.graycode import decode_graycode
+    from hdrfringe.core.graycode import decode_graycode
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.results import read_map_tiff
 
@@ -159,9 +159,9 @@ def test_broken_conventions_fail_the_tolerances(measured: dict) -> None:
     calibration's row unit taken as one pattern row instead of two, or the rows of the
     README's formula without the measured half-period offset (v + 57: the phase's own origin
     instead of the Gray code's); each gives a sphere outside the tolerances above."""
+    from hdrfringe.core.stereo import projector_coordinate, triangulate
     from hdrfringe.io.results import read_map_tiff
     from hdrfringe.io.stereo_file import convert_calibration, load_stereo_calibration
-    from hdrfringe.stereo import projector_coordinate, triangulate
 
     phase = read_map_tiff(measured["out"] / "absolute_phase_horizontal.tiff")[::2, ::2]
     v = projector_coordinate(phase, PITCH)

@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 import pytest
 
+from hdrfringe.core.stereo import LensModel, StereoCalibration
 from hdrfringe.errors import InputError
-from hdrfringe.stereo import LensModel, StereoCalibration
 
 CAM_K = np.array([[2400.0, 0.0, 1010.0], [0.0, 2390.0, 770.0], [0.0, 0.0, 1.0]])
 CAM_D = np.array([-0.25, 0.18, 0.0012, -0.0008, -0.05])
@@ -145,7 +145,7 @@ def _pixels(pts: np.ndarray):  # type: ignore[no-untyped-def]
 
 @pytest.mark.parametrize("which", ["u", "v", "both"])
 def test_triangulate_recovers_points_projected_by_opencv(which: str) -> None:
-    from hdrfringe.stereo import triangulate
+    from hdrfringe.core.stereo import triangulate
 
     pts = _scene_points(3000)
     uc, vc, up, vp = _pixels(pts)
@@ -167,7 +167,7 @@ def test_triangulate_recovers_points_projected_by_opencv(which: str) -> None:
 
 
 def test_triangulate_keeps_shape_and_marks_invalid_pixels() -> None:
-    from hdrfringe.stereo import triangulate
+    from hdrfringe.core.stereo import triangulate
 
     pts = _scene_points(12).reshape(3, 4, 3)
     uc, vc, up, vp = _pixels(pts.reshape(-1, 3))
@@ -187,7 +187,7 @@ def test_triangulate_keeps_shape_and_marks_invalid_pixels() -> None:
 
 def test_triangulate_ray_ray_residual_is_the_ray_distance() -> None:
     """A projector row moved by dv px: the rays miss by a distance computed by hand."""
-    from hdrfringe.stereo import triangulate
+    from hdrfringe.core.stereo import triangulate
 
     cam = LensModel([[1000, 0, 500], [0, 1000, 500], [0, 0, 1]], [], (1000, 1000))
     proj = LensModel([[1000, 0, 500], [0, 1000, 500], [0, 0, 1]], [], (1000, 1000))
@@ -204,7 +204,7 @@ def test_triangulate_ray_ray_residual_is_the_ray_distance() -> None:
 
 
 def test_triangulate_rejects_bad_arguments() -> None:
-    from hdrfringe.stereo import triangulate
+    from hdrfringe.core.stereo import triangulate
 
     calib = synthetic_calibration()
     with pytest.raises(InputError, match="u_proj and/or v_proj"):
@@ -219,7 +219,7 @@ def test_triangulate_rejects_bad_arguments() -> None:
 
 
 def test_fit_plane_recovers_a_tilted_plane_and_is_least_squares() -> None:
-    from hdrfringe.stereo import fit_plane
+    from hdrfringe.core.stereo import fit_plane
 
     rng = np.random.default_rng(4)
     normal = np.array([0.2, -0.1, -1.0])
@@ -244,7 +244,7 @@ def test_fit_plane_recovers_a_tilted_plane_and_is_least_squares() -> None:
 
 
 def test_fit_plane_robust_ignores_an_object_on_the_plane() -> None:
-    from hdrfringe.stereo import fit_plane
+    from hdrfringe.core.stereo import fit_plane
 
     rng = np.random.default_rng(5)
     xy = rng.uniform(-100, 100, (3000, 2))
@@ -259,7 +259,7 @@ def test_fit_plane_robust_ignores_an_object_on_the_plane() -> None:
 
 
 def test_fit_sphere_geometric_fit_of_a_noisy_cap() -> None:
-    from hdrfringe.stereo import fit_sphere
+    from hdrfringe.core.stereo import fit_sphere
 
     rng = np.random.default_rng(6)
     d = rng.normal(size=(5000, 3))
@@ -284,7 +284,7 @@ def test_fit_sphere_geometric_fit_of_a_noisy_cap() -> None:
 
 
 def test_fits_reject_degenerate_points() -> None:
-    from hdrfringe.stereo import fit_plane, fit_sphere
+    from hdrfringe.core.stereo import fit_plane, fit_sphere
 
     with pytest.raises(InputError, match="at least 3"):
         fit_plane(np.full((10, 3), np.nan))
@@ -338,8 +338,8 @@ def small_scene() -> tuple[np.ndarray, np.ndarray]:
 
 def small_captures(directions: str = "uv"):  # type: ignore[no-untyped-def]
     """16-bit captures of the scene: one-period and 10 px sets per decoded direction."""
-    from hdrfringe.captures import Captures, ProjectorInfo
-    from hdrfringe.patterns import FringeSpec, fringe_gray
+    from hdrfringe.core.captures import Captures, ProjectorInfo
+    from hdrfringe.core.patterns import FringeSpec, fringe_gray
 
     calib = small_calibration()
     pts, _ = small_scene()
@@ -383,7 +383,7 @@ def test_measure_triangulates_against_the_ray_cast_scene(directions: str) -> Non
 
 
 def test_measure_refuses_a_stereo_calibration_of_another_size() -> None:
-    from hdrfringe.calibration import CalibrationMismatchError
+    from hdrfringe.core.calibration import CalibrationMismatchError
     from hdrfringe.pipeline import measure
 
     calib = small_calibration()
@@ -436,7 +436,7 @@ def test_cli_measure_with_a_stereo_calibration_file(tmp_path) -> None:  # type: 
 
 
 def test_measure_without_an_absolute_phase_cannot_triangulate() -> None:
-    from hdrfringe.captures import Captures
+    from hdrfringe.core.captures import Captures
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.pipeline import measure
 

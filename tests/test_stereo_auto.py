@@ -14,7 +14,7 @@ import json
 import numpy as np
 import pytest
 
-from hdrfringe.stereo import LensModel, StereoCalibration
+from hdrfringe.core.stereo import LensModel, StereoCalibration
 
 
 def _shifted(calib: StereoCalibration, du: float, dv: float) -> StereoCalibration:
@@ -31,7 +31,7 @@ def _shifted(calib: StereoCalibration, du: float, dv: float) -> StereoCalibratio
 def virtual():  # type: ignore[no-untyped-def]
     """The virtual rig (mask scene, horizontal baseline) with vertical and horizontal fringes,
     a one-period set each (absolute phase), its true calibration and the ray-cast truth."""
-    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.core.patterns import FringeSpec
     from hdrfringe.rig.scenes import mask
     from hdrfringe.rig.simulated import CameraModel, ProjectorModel, SimulatedRig
 
@@ -96,7 +96,7 @@ def test_auto_drops_the_rows_of_a_biased_calibration(virtual) -> None:  # type: 
     np.testing.assert_array_equal(res.stereo.xyz, forced.stereo.xyz)  # type: ignore[union-attr]
     assert _error_mm(res.stereo.xyz, truth) < 0.3  # measured 0.21, the good u+v's noise
     # what keeping u+v would have given: ray against ray with the biased rows
-    from hdrfringe.stereo import projector_coordinate, triangulate_maps
+    from hdrfringe.core.stereo import projector_coordinate, triangulate_maps
 
     fams = {f.orientation: f for f in res.decoded.families}
     u, v = (
@@ -149,7 +149,7 @@ def test_explicit_directions_skip_the_check(virtual) -> None:  # type: ignore[no
 def test_check_blames_the_direction_along_the_epipolar_lines() -> None:
     """Closed-form pair, vertical baseline (the kimthyung layout: rows carry the depth): a
     column bias is dropped, a row bias is dropped, the noise std scales the ratio."""
-    from hdrfringe.stereo import check_directions
+    from hdrfringe.core.stereo import check_directions
 
     cam = LensModel([[400, 0, 31.5], [0, 400, 23.5], [0, 0, 1]], [], (64, 48))
     proj = LensModel([[800, 0, 50], [0, 800, 40], [0, 0, 1]], [], (100, 80))
@@ -172,7 +172,7 @@ def test_check_blames_the_direction_along_the_epipolar_lines() -> None:
 
 
 def test_coordinate_noise_px_measures_white_noise_on_a_curved_map() -> None:
-    from hdrfringe.stereo import coordinate_noise_px
+    from hdrfringe.core.stereo import coordinate_noise_px
 
     rng = np.random.default_rng(3)
     r, c = np.mgrid[0:300, 0:400].astype(float)
@@ -187,7 +187,7 @@ def test_dominant_plane_is_not_tilted_by_a_large_sphere() -> None:
     50 mm in front of it: the robust least-squares fit (MAD refits, an IRLS) runs through the
     sphere's bulk, tilted by 23 degrees with every point an inlier, as kimthyung's was; the
     dominant plane is the wall within 0.05 degrees and its RMS is the noise."""
-    from hdrfringe.stereo import fit_dominant_plane, fit_plane
+    from hdrfringe.core.stereo import fit_dominant_plane, fit_plane
 
     rng = np.random.default_rng(1)
     y, x = np.mgrid[-150:150:1.5, -150:150:1.5]

@@ -4,7 +4,7 @@ finds the vertical set's columns far off the calibration's epipolar lines and ke
 reference plane is the wall. Skips when ``../shared/realdata`` is absent.
 
 References the code under test did not choose: the rows triangulated directly
-(:func:`hdrfringe.stereo.triangulate` with ``v_proj`` alone, every 2nd pixel) for the sphere,
+(:func:`hdrfringe.core.stereo.triangulate` with ``v_proj`` alone, every 2nd pixel) for the sphere,
 and the wall selected by geometry (the robust plane of the points beyond the median depth,
 :func:`tests.test_sphere_realdata.wall_plane`) for the reference plane.
 """
@@ -64,9 +64,9 @@ def test_auto_sphere_is_the_rows_sphere(auto: dict) -> None:
     """The default's sphere within 2 % of the radius the rows alone give (triangulated here,
     every 2nd pixel, from the absolute phase measure wrote). Ray against ray (what auto did
     before the check) fits the sphere 1.5 times worse."""
+    from hdrfringe.core.stereo import projector_coordinate, triangulate
     from hdrfringe.io.results import read_map_tiff
     from hdrfringe.io.stereo_file import load_stereo_calibration
-    from hdrfringe.stereo import projector_coordinate, triangulate
 
     fit = sphere_fit(auto["xyz"], wall_plane(auto["xyz"])[0])[0]
     phase = read_map_tiff(auto["out"] / "absolute_phase_horizontal.tiff")[::2, ::2]
@@ -99,7 +99,7 @@ def test_reference_plane_is_the_wall(auto: dict) -> None:
     assert angle < 2.0  # measured 0.59
     assert float(printed.group(1)) == pytest.approx(3.40, rel=0.10)  # measured 3.246
     assert wall.rms_mm == pytest.approx(3.40, abs=0.01)
-    from hdrfringe.stereo import fit_plane
+    from hdrfringe.core.stereo import fit_plane
 
     old = fit_plane(auto["xyz"], robust=True)  # the reference plane before: through the bulk
     tilt = float(np.degrees(np.arccos(min(1.0, abs(old.normal @ wall.normal)))))

@@ -12,6 +12,16 @@ import json
 import numpy as np
 import pytest
 
+from hdrfringe.core.stereo import triangulate
+from hdrfringe.core.stereo_calibration import (
+    BoardPose,
+    BoardSpec,
+    calibrate_stereo,
+    detect_board,
+    map_to_projector,
+    observe_pose,
+    projector_coordinates,
+)
 from hdrfringe.io.stereo_file import load_stereo_calibration
 from hdrfringe.rig.board_poses import (
     CALIBRATION_GEOMETRY,
@@ -22,16 +32,6 @@ from hdrfringe.rig.board_poses import (
 )
 from hdrfringe.rig.scenes import board, mask, plate, scene_from_manifest
 from hdrfringe.rig.simulated import CameraModel, ProjectorModel, RigGeometry, SimulatedRig
-from hdrfringe.stereo import triangulate
-from hdrfringe.stereo_calibration import (
-    BoardPose,
-    BoardSpec,
-    calibrate_stereo,
-    detect_board,
-    map_to_projector,
-    observe_pose,
-    projector_coordinates,
-)
 from hdrfringe.tasks.calibrate_stereo import report_path
 from tests.conftest import run_cli
 
@@ -248,7 +248,7 @@ def _rigid_aligned_rms(points: np.ndarray, truth: np.ndarray) -> float:
     ],
 )
 def test_triangulated_plate_matches_truth(calibrated, scene) -> None:
-    """Issue 12, Done when: plate points triangulated (``hdrfringe.stereo.triangulate``, camera
+    """Issue 12, Done when: plate points triangulated (``hdrfringe.core.stereo.triangulate``, camera
     ray against the projector column) with the calibration from the 10 noisy poses lie within
     0.05 mm RMS of the true surface points.
 
@@ -360,7 +360,7 @@ def test_detection_does_not_depend_on_what_ran_before() -> None:
     # at 6 of 200 consecutive calls (and the doctest failed in a loaded test worker).
     import cv2
 
-    from hdrfringe.stereo_calibration import BoardSpec, detect_board
+    from hdrfringe.core.stereo_calibration import BoardSpec, detect_board
 
     yy, xx = np.mgrid[0:120, 0:160]
     img = np.where(((xx - 20) // 20 + (yy - 20) // 20) % 2 == 0, 60, 200)

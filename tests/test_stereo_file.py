@@ -13,6 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
+from hdrfringe.core.stereo import LensModel, StereoCalibration
 from hdrfringe.errors import OutputExistsError
 from hdrfringe.io.calibration_file import CalibrationFileError, load_calibration
 from hdrfringe.io.stereo_file import (
@@ -21,7 +22,6 @@ from hdrfringe.io.stereo_file import (
     load_stereo_calibration,
     save_stereo_calibration,
 )
-from hdrfringe.stereo import LensModel, StereoCalibration
 
 KC = np.array([[2400.0, 0.0, 1010.0], [0.0, 2390.0, 770.0], [0.0, 0.0, 1.0]])
 DC = np.array([-0.25, 0.18, 0.0012, -0.0008, -0.05])

@@ -23,18 +23,18 @@ import numpy as np
 import pytest
 from scipy.ndimage import map_coordinates
 
-from hdrfringe.io.captures import load_image
-from hdrfringe.io.stereo_file import convert_calibration
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
-from hdrfringe.stereo import (
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
+from hdrfringe.core.stereo import (
     StereoCalibration,
     fit_plane,
     projector_coordinate,
     triangulate,
     triangulate_maps,
 )
-from hdrfringe.unwrap import unwrap_spatial, unwrap_temporal_levels
+from hdrfringe.core.unwrap import unwrap_spatial, unwrap_temporal_levels
+from hdrfringe.io.captures import load_image
+from hdrfringe.io.stereo_file import convert_calibration
 from tests.conftest import realdata_path
 
 # one worker computes the module fixtures (the measured sphere, the decoded board) once

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
 from hdrfringe.strategies import make_params
 from tests.conftest import run_cli, run_cli_in_process
 

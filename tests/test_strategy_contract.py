@@ -5,7 +5,7 @@
   registered strategy or one of their parameters, no ``.details`` and no ``isinstance`` test
   of a calibration kind. The checker is first shown the lines it must reject (the ones
   pipeline.py had before the contract), so a checker that sees nothing cannot pass.
-* Both calibration kinds follow :class:`~hdrfringe.calibration.MeasurementCalibration`, and
+* Both calibration kinds follow :class:`~hdrfringe.core.calibration.MeasurementCalibration`, and
   ``load_any_calibration`` tells them apart by the file alone.
 * The hooks: a strategy's ``prepare`` sees what the measurement offers (a replay's MIGLs, the
   projector-camera geometry) and its ``metrics`` blocks reach the metrics; a block the metrics
@@ -22,21 +22,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.calibration import (
+from hdrfringe.core.calibration import (
     NO_GEOMETRY,
     Calibration,
     CalibrationMismatchError,
     MeasurementCalibration,
 )
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.reconstruct import CameraGeometry
+from hdrfringe.core.stereo import HEIGHT_STD_NOTE, LensModel, StereoCalibration
 from hdrfringe.errors import InputError
 from hdrfringe.io.calibration_file import CalibrationFileError, save_calibration
 from hdrfringe.io.stereo_file import load_any_calibration, save_stereo_calibration
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import measure
-from hdrfringe.reconstruct import CameraGeometry
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
-from hdrfringe.stereo import HEIGHT_STD_NOTE, LensModel, StereoCalibration
 from hdrfringe.strategies import (
     BUILTIN,
     MetricsContext,

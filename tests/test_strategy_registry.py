@@ -21,10 +21,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from hdrfringe._validation import unsaturated_mask
 from hdrfringe.cli._strategy_options import cli_options, params_from_options
+from hdrfringe.core._validation import unsaturated_mask
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import composite_captures
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.scenes import white_plate
@@ -269,7 +269,7 @@ def test_params_from_options_keeps_todays_cli_rules() -> None:
 
 
 def test_params_from_options_reads_files_only_for_the_chosen_strategy() -> None:
-    from hdrfringe.saturation.estimate import CorrectionPolynomial
+    from hdrfringe.core.saturation.estimate import CorrectionPolynomial
 
     read: list[str] = []
 

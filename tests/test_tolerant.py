@@ -15,24 +15,24 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hdrfringe.captures import Captures, ProjectorInfo
-from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.io.captures import write_capture_folder
-from hdrfringe.io.results import read_map_tiff
-from hdrfringe.patterns import FringeSpec, fringe_gray
-from hdrfringe.phase import sinusoidal_phase, sinusoidal_phase_ls
-from hdrfringe.pipeline import measure
-from hdrfringe.process import decode_captures
-from hdrfringe.rig.camera import sensor_readout
-from hdrfringe.rig.factory import virtual_rig
-from hdrfringe.rig.scenes import plate
-from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
-from hdrfringe.saturation_tolerant import (
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
+from hdrfringe.core.phase import sinusoidal_phase, sinusoidal_phase_ls
+from hdrfringe.core.saturation.tolerant import (
     decode_set_tolerant,
     inverted_spec,
     tolerant_noise_gain,
     tolerant_phase,
 )
+from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.io.captures import write_capture_folder
+from hdrfringe.io.results import read_map_tiff
+from hdrfringe.pipeline import measure
+from hdrfringe.rig.factory import virtual_rig
+from hdrfringe.rig.scenes import plate
+from hdrfringe.rig.sensor import sensor_readout
+from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.strategies.conventional import conventional
 from hdrfringe.strategies.tolerant import tolerant
 

@@ -14,11 +14,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
+from hdrfringe.core.saturation.tolerant import decode_set_tolerant
+from hdrfringe.core.unwrap import unwrap_spatial, unwrap_temporal
 from hdrfringe.io.captures import load_image
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
-from hdrfringe.saturation_tolerant import decode_set_tolerant
-from hdrfringe.unwrap import unwrap_spatial, unwrap_temporal
 from tests.conftest import realdata_path
 
 pytestmark = pytest.mark.realdata

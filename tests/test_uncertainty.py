@@ -1,4 +1,5 @@
-"""Predicted phase std (hdrfringe.uncertainty) against Monte Carlo runs of the decoders themselves.
+"""Predicted phase std (hdrfringe.core.uncertainty) against Monte Carlo runs of the decoders
+themselves.
 
 Every formula is checked against the std of the phase that the decoder under test returns for
 many noisy draws of the same pixels (the decoders, not the predictor, make the reference). The
@@ -14,17 +15,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec, fringe_profile
-from hdrfringe.phase import (
+from hdrfringe.core.patterns import FringeSpec, fringe_profile
+from hdrfringe.core.phase import (
     decode_set,
     sinusoidal_phase,
     sinusoidal_phase_ls,
     triangular_2step,
     triangular_3step,
 )
-from hdrfringe.saturation_tolerant import tolerant_noise_gain, tolerant_phase
-from hdrfringe.uncertainty import (
+from hdrfringe.core.saturation.tolerant import tolerant_noise_gain, tolerant_phase
+from hdrfringe.core.uncertainty import (
     NoiseModel,
     estimate_noise,
     fit_noise_model,
@@ -35,6 +35,7 @@ from hdrfringe.uncertainty import (
     phase_std_triangular,
     predict_phase_std,
 )
+from hdrfringe.errors import InputError
 
 DRAWS = 4000
 TOL = 0.06
@@ -211,7 +212,7 @@ def test_predict_phase_std_flags_kept_saturation_and_tolerant_needs_images() -> 
     sat = kept.saturation_count > 0
     assert sat.any() and (~sat).any()
     assert np.isnan(std[sat]).all() and np.isfinite(std[~sat & kept.valid]).all()
-    from hdrfringe.saturation_tolerant import decode_set_tolerant
+    from hdrfringe.core.saturation.tolerant import decode_set_tolerant
 
     tol = decode_set_tolerant(imgs, spec, 8)
     with pytest.raises(InputError, match="images and bit depth"):
@@ -264,7 +265,7 @@ def test_noise_from_manifest_and_bad_values() -> None:
     ],
 )
 def test_height_derivative_matches_the_model_numerically(model: str, coef: list) -> None:
-    from hdrfringe.calibration import evaluate_model
+    from hdrfringe.core.calibration import evaluate_model
 
     c = np.array(coef, dtype=np.float64)
     d = np.array([[7.3]])
@@ -276,7 +277,7 @@ def test_height_derivative_matches_the_model_numerically(model: str, coef: list)
 def test_noise_estimate_of_rounded_four_step_images_is_not_a_median() -> None:
     """4-step residuals of integer images take few values (1 dof each): their median, even
     corrected by the chi-square median, is 15 % low in variance; the cut mean is not."""
-    from hdrfringe.uncertainty import _chi2_factors
+    from hdrfringe.core.uncertainty import _chi2_factors
 
     spec = FringeSpec("sinusoidal", 4, 16.0)
     cols = np.mgrid[0:100, 0:160][1]
@@ -297,7 +298,7 @@ def test_noise_estimate_of_rounded_four_step_images_is_not_a_median() -> None:
 def test_chi2_table_equals_scipy() -> None:
     """The precomputed chi-square factors (no scipy import in a ``phase`` run) are scipy's own,
     for every tabulated nu; other nu still go through scipy."""
-    from hdrfringe.uncertainty import _CHI2_TABLE, _chi2_factors, _chi2_factors_scipy
+    from hdrfringe.core.uncertainty import _CHI2_TABLE, _chi2_factors, _chi2_factors_scipy
 
     nus = np.arange(1, len(_CHI2_TABLE) + 1)
     for tabulated, computed in zip(_chi2_factors(nus), _chi2_factors_scipy(nus), strict=True):

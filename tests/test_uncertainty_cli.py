@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.io.calibration_file import load_calibration, save_calibration
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import read_map_tiff
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig

@@ -20,12 +20,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
+from hdrfringe.core.uncertainty import NoiseModel, fit_noise_model, predict_phase_std
 from hdrfringe.pipeline import calibrate, measure
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
-from hdrfringe.uncertainty import NoiseModel, fit_noise_model, predict_phase_std
 from tests.conftest import realdata_path
 
 REPEATS = 30
@@ -117,8 +117,8 @@ def test_virtual_rig_tolerant_decoder_under_saturation() -> None:
     the others (``saturated="exclude"``), the noise estimated from their residuals. Per number
     of shifts used, measured / predicted within 15 %; the full set's ``sqrt(2/N)`` (ignoring
     the dropped shifts) is outside it for the pixels that kept 5."""
-    from hdrfringe.process import decode_captures
-    from hdrfringe.uncertainty import phase_std_sinusoidal, predict_uncertainty
+    from hdrfringe.core.decode import decode_captures
+    from hdrfringe.core.uncertainty import phase_std_sinusoidal, predict_uncertainty
 
     rig = SimulatedRig(
         white_plate(4.0),

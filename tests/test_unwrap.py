@@ -1,4 +1,4 @@
-"""Tests of hdrfringe.unwrap: spatial, temporal, centerline and absolute phase."""
+"""Tests of hdrfringe.core.unwrap: spatial, temporal, centerline and absolute phase."""
 
 from __future__ import annotations
 
@@ -8,8 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from hdrfringe.errors import InputError
-from hdrfringe.unwrap import (
+from hdrfringe.core.unwrap import (
     TemporalUnwrapResult,
     absolute_phase,
     absolute_phase_from_centerline,
@@ -19,6 +18,7 @@ from hdrfringe.unwrap import (
     unwrap_temporal,
     unwrap_temporal_levels,
 )
+from hdrfringe.errors import InputError
 
 TWO_PI = 2.0 * np.pi
 H, W = 494, 648  # camera image size used throughout (rows, columns)
@@ -552,7 +552,7 @@ def _ramp_phase(x: np.ndarray, pitch: float) -> np.ndarray:
 
 
 def test_phase_regions_cut_at_steps_not_at_steep_slopes() -> None:
-    from hdrfringe.unwrap import phase_regions
+    from hdrfringe.core.unwrap import phase_regions
 
     # a steep smooth surface: 1.2 rad per pixel (pitch 5 px per camera px), curved
     cols = np.arange(300.0)
@@ -571,7 +571,7 @@ def test_phase_regions_cut_at_steps_not_at_steep_slopes() -> None:
 
 def test_phase_regions_use_every_pitch() -> None:
     """A step of exactly 3 periods of pitch 10 is invisible in that map, not in a pitch-7 map."""
-    from hdrfringe.unwrap import phase_regions
+    from hdrfringe.core.unwrap import phase_regions
 
     x = np.tile(np.arange(200.0) * 0.5, (30, 1))
     x[:, 100:] += 30.0
@@ -581,7 +581,7 @@ def test_phase_regions_use_every_pitch() -> None:
 
 
 def test_phase_regions_specks_nan_and_errors() -> None:
-    from hdrfringe.unwrap import phase_regions
+    from hdrfringe.core.unwrap import phase_regions
 
     x = np.tile(np.arange(100.0), (50, 1))
     phi = _ramp_phase(x, 20.0)

@@ -22,7 +22,7 @@ import pytest
 from scipy import ndimage
 from skimage.restoration import unwrap_phase
 
-from hdrfringe.unwrap import (
+from hdrfringe.core.unwrap import (
     _FOUR_CONNECTED,
     _SKIMAGE_SEED,
     TWO_PI,
@@ -204,7 +204,7 @@ def _random_masks() -> list[np.ndarray]:
 
 @pytest.mark.parametrize("index", range(10))
 def test_labels_are_scipys(index: int) -> None:
-    from hdrfringe.unwrap import _label4
+    from hdrfringe.core.unwrap import _label4
 
     mask = _random_masks()[index]
     labels, n = _label4(mask)
@@ -236,7 +236,7 @@ def test_labels_out_of_raster_order_are_renumbered(monkeypatch: pytest.MonkeyPat
     their first pixel (a permuted labelling, as another OpenCV build might return)."""
     import cv2
 
-    from hdrfringe.unwrap import _label4
+    from hdrfringe.core.unwrap import _label4
 
     mask = _random_masks()[0]
     ref, n = ndimage.label(mask, structure=_FOUR_CONNECTED)

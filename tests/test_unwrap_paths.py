@@ -3,7 +3,7 @@ valid pixels closes, elsewhere the native unwrapper (tests/test_native_unwrap.py
 is not built, scikit-image; and what that makes deterministic. The scikit-image side here runs
 with the native kernels off.
 
-The integration (``hdrfringe.unwrap._path_orders``) must give, on every map where it answers,
+The integration (``hdrfringe.core.unwrap._path_orders``) must give, on every map where it answers,
 the orders scikit-image's path gives (the reference: the same function with the integration
 switched off), bit for bit once both go through the same anchoring; it must refuse (None) every
 map where a loop does not close: a residue, or a hole whose boundary turns by 2 pi. Its
@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hdrfringe import unwrap as unwrap_module
-from hdrfringe.unwrap import TWO_PI, unwrap_spatial
+from hdrfringe.core import unwrap as unwrap_module
+from hdrfringe.core.unwrap import TWO_PI, unwrap_spatial
 from tests.test_unwrap_identity import reseed_c_rand
 
 

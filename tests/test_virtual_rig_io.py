@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.frames import CenterlineFrame, UniformFrame
+from hdrfringe.core.limits import MAX_SERIES_FOLDERS
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import CaptureFormatError, InputError, OutputExistsError
-from hdrfringe.frames import CenterlineFrame, UniformFrame
 from hdrfringe.io.captures import read_capture_folder, write_capture_folder
-from hdrfringe.limits import MAX_SERIES_FOLDERS
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig import Rig, SimulatedRig, virtual_rig
 from hdrfringe.rig.acquire import IntensityModification, simulated_captures
 from hdrfringe.rig.modify import modify_captures

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.calibration import measurement_mask
-from hdrfringe.phase import decode_set
+from hdrfringe.core.calibration import measurement_mask
+from hdrfringe.core.phase import decode_set
 from hdrfringe.rig.simulated import Lighting
 from hdrfringe_thesis import ch4
 from hdrfringe_thesis.engine import SweepGrid, run_sweep

@@ -40,9 +40,9 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.calibration import measurement_mask
-from hdrfringe.rig.camera import sensor_readout
+from hdrfringe.core.calibration import measurement_mask
 from hdrfringe.rig.modify import lux_to_dn, modify_intensity
+from hdrfringe.rig.sensor import sensor_readout
 from hdrfringe_thesis import ch4
 
 PATTERN, PITCH = "sinusoidal-3", 6

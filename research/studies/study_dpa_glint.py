@@ -43,15 +43,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.calibration import measurement_mask
-from hdrfringe.phase import saturation_count
-from hdrfringe.rig.scenes import white_plate
-from hdrfringe.saturation.estimate import (
+from hdrfringe.core.calibration import measurement_mask
+from hdrfringe.core.phase import saturation_count
+from hdrfringe.core.saturation.estimate import (
     CorrectionPolynomial,
     peak_and_trough,
     true_peak_scaled,
     unsaturation_migl,
 )
+from hdrfringe.rig.scenes import white_plate
 from hdrfringe.strategies.dpa import dpa
 from hdrfringe.strategies.lpa import lpa
 from hdrfringe_thesis.adaptive import (

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from hdrfringe.saturation.estimate import CorrectionPolynomial
+from hdrfringe.core.saturation.estimate import CorrectionPolynomial
 from hdrfringe_thesis.engine import open_results
 
 __all__ = [
@@ -674,8 +674,8 @@ def held_out_samples() -> tuple[np.ndarray, np.ndarray]:
     tuple of ndarray
         Estimate and truth (DN) per usable saturated pixel.
     """
+    from hdrfringe.core.saturation.estimate import training_data_from_rig
     from hdrfringe.rig.simulated import Lighting
-    from hdrfringe.saturation.estimate import training_data_from_rig
     from hdrfringe_thesis.adaptive import PLATE_LUX, TRAINING_PITCH
     from hdrfringe_thesis.ch4 import QUICK_SETUP, pattern_spec
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from hdrfringe.patterns import FringeSpec
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate, measure
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import CameraModel, SimulatedRig

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import reproduce_checks as checks
-from hdrfringe.saturation.estimate import CorrectionPolynomial
+from hdrfringe.core.saturation.estimate import CorrectionPolynomial
 from hdrfringe_thesis.adaptive import SweepRig, experiments
 from hdrfringe_thesis.ch4 import QUICK_SETUP, PlateSweep, pattern_spec
 from hdrfringe_thesis.engine import open_results

@@ -17,7 +17,7 @@ import pytest
 from numpy.polynomial import Polynomial
 
 import reproduce_checks as checks
-from hdrfringe.saturation.estimate import CorrectionPolynomial
+from hdrfringe.core.saturation.estimate import CorrectionPolynomial
 from hdrfringe_thesis.engine import open_results
 
 pytestmark = pytest.mark.xdist_group("dask-cluster")
@@ -62,7 +62,7 @@ def test_the_fig_5_6_check_rejects_an_lpa_that_tests_one_shift_only(
     std check rejects it (MIGL 255's pixels, about 70 % of all, have 1.86 x the std of the
     others), while the former check, the steps' pooled RMSE within 0.05 mm, passed it
     (0.036 mm) as it passed the real LPA (0.017 mm)."""
-    from hdrfringe._validation import full_scale
+    from hdrfringe.core._validation import full_scale
     from hdrfringe.strategies import lpa as lpa_module
     from hdrfringe_thesis.adaptive import adaptive_cell, experiments
     from hdrfringe_thesis.adaptive_report import pooled_levels

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from tests.conftest import run_cli_in_process
 
-from hdrfringe.calibration import measurement_mask
+from hdrfringe.core.calibration import measurement_mask
+from hdrfringe.core.frames import CenterlineFrame
+from hdrfringe.core.unwrap import unwrap_spatial
 from hdrfringe.errors import InputError
-from hdrfringe.frames import CenterlineFrame
-from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.modify import lux_to_dn, modify_intensity
-from hdrfringe.unwrap import unwrap_spatial
+from hdrfringe.rig.sensor import sensor_readout
 from hdrfringe_thesis.ch4 import (
     QUICK_DEPTHS_MM,
     QUICK_SETUP,

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import reproduce_checks as checks
-from hdrfringe.rig.camera import sensor_readout
+from hdrfringe.rig.sensor import sensor_readout
 from hdrfringe.rig.simulated import Lighting
 from hdrfringe_thesis.ch4 import (
     SWEEP_DTYPE,

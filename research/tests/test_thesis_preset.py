@@ -17,8 +17,8 @@ import math
 import numpy as np
 import pytest
 
+from hdrfringe.core.frames import UniformFrame
 from hdrfringe.errors import InputError
-from hdrfringe.frames import UniformFrame
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import THESIS_GAMMA, CameraModel, RigGeometry, SimulatedRig
 from hdrfringe_thesis.adaptive import (

@@ -16,9 +16,9 @@ import pytest
 from tests.test_pipeline import series
 
 import reproduce_checks as checks
-from hdrfringe.captures import Captures
-from hdrfringe.frames import CenterlineFrame
-from hdrfringe.patterns import FringeSpec
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import CenterlineFrame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.pipeline import calibrate, measure, tradeoff_search
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig

@@ -20,6 +20,10 @@ from typing import Any
 
 import lazy_loader as _lazy
 
+from hdrfringe import _moved
+
+_moved.install()
+
 _getattr, _dir, _names = _lazy.attach_stub(__name__, __file__)
 __all__ = sorted([*_names, "__version__"])
 

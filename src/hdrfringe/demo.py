@@ -43,13 +43,13 @@ from rich.console import Console
 from rich.table import Table
 
 from hdrfringe import pipeline
-from hdrfringe._validation import describe_saturated
-from hdrfringe.calibration import Calibration
-from hdrfringe.frames import CenterlineFrame, Frame
+from hdrfringe.core._validation import describe_saturated
+from hdrfringe.core.calibration import Calibration
+from hdrfringe.core.frames import CenterlineFrame, Frame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import check_output_dir, staged_output_dir
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.scenes import (
     BLACK_PLATE_REFLECTIVITY,
     THESIS_CALIBRATION_DEPTHS_MM,
@@ -304,7 +304,7 @@ def fringe_order_errors(
 
     Examples
     --------
-    >>> from hdrfringe.calibration import Calibration
+    >>> from hdrfringe.core.calibration import Calibration
     >>> cal = Calibration("linear", np.full((4, 4), 2.0), None, np.zeros((4, 4)),
     ...                   np.array([2.0, 4.0]), border_px=0)
     >>> err = np.full((4, 4), 0.1)

@@ -36,7 +36,7 @@ class InputError(HdrFringeError, ValueError):
 
     Examples
     --------
-    >>> from hdrfringe._validation import check_bit_depth
+    >>> from hdrfringe.core._validation import check_bit_depth
     >>> try:
     ...     check_bit_depth(20)
     ... except InputError as err:

@@ -1,13 +1,13 @@
 """The measurement pipeline: captures or a rig in, calibration, heights and metrics out.
 
 * :func:`measure`: captures (or the live rig a saturation-avoidance strategy drives) ->
-  absolute phase (:func:`hdrfringe.process.decode_captures`) -> height with a calibration
+  absolute phase (:func:`hdrfringe.core.decode.decode_captures`) -> height with a calibration
   (Eq. 2.10-2.11 or the non-linear model), or 3D points triangulated with a projector-camera
-  calibration (:mod:`hdrfringe.stereo`) -> :class:`MeasurementResult`: the captures measured,
+  calibration (:mod:`hdrfringe.core.stereo`) -> :class:`MeasurementResult`: the captures measured,
   the decoded phase, the height map, the points (:meth:`MeasurementResult.points`), the typed
   :class:`MeasurementMetrics` (error against the truth the captures or the rig know) and, with a
   strategy, its results and what its metrics hook adds (DPA: the CDF analysis of thesis
-  Fig. 6.3). The calibration is any :class:`~hdrfringe.calibration.MeasurementCalibration`
+  Fig. 6.3). The calibration is any :class:`~hdrfringe.core.calibration.MeasurementCalibration`
   and the strategy any registered one: nothing here asks which one it is.
 * :func:`calibrate`: flat-plate captures at known ``scene.depth_mm`` -> :class:`Calibration`
   (Eq. 2.10, 2.15 and the non-linear models, Sec. 4.1 filtering) with provenance.
@@ -31,26 +31,23 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import json_safe
-from hdrfringe.calibration import NO_GEOMETRY, Calibration, MeasurementCalibration
-from hdrfringe.calibration import calibrate as fit_calibration
-from hdrfringe.captures import Captures
-from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import CenterlineFrame, Frame, GrayCodeFrame, UniformFrame
-from hdrfringe.geometric_order import check_depth_range, family_geometric_order
-from hdrfringe.harmonics import harmonics_mode
-from hdrfringe.patterns import FringeSpec, same_fringes
-from hdrfringe.process import (
+from hdrfringe.core._validation import json_safe
+from hdrfringe.core.calibration import NO_GEOMETRY, Calibration, MeasurementCalibration
+from hdrfringe.core.calibration import calibrate as fit_calibration
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.decode import (
     FolderPhase,
     decode_captures,
     group_families,
     no_absolute_phase_note,
 )
-from hdrfringe.reconstruct import CameraGeometry, height_errors, points_from_height
-from hdrfringe.rig.base import Rig
-from hdrfringe.rig.replay import ReplayRig
-from hdrfringe.saturation_tolerant import DECODER_NAME
-from hdrfringe.stereo import (
+from hdrfringe.core.frames import CenterlineFrame, Frame, GrayCodeFrame, UniformFrame
+from hdrfringe.core.geometric_order import check_depth_range, family_geometric_order
+from hdrfringe.core.harmonics import harmonics_mode
+from hdrfringe.core.patterns import FringeSpec, same_fringes
+from hdrfringe.core.reconstruct import CameraGeometry, height_errors, points_from_height
+from hdrfringe.core.saturation.tolerant import DECODER_NAME
+from hdrfringe.core.stereo import (
     DirectionCheck,
     StereoCalibration,
     StereoMaps,
@@ -59,6 +56,15 @@ from hdrfringe.stereo import (
     projector_coordinate,
     triangulate_maps,
 )
+from hdrfringe.core.uncertainty import (
+    NoiseModel,
+    NoiseUnknownError,
+    Uncertainty,
+    predict_uncertainty,
+)
+from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.rig.base import Rig
+from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.strategies import (
     DEFAULT_STRATEGY,
     MetricsContext,
@@ -70,7 +76,6 @@ from hdrfringe.strategies import (
     run_strategy,
     strategy_metrics,
 )
-from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, Uncertainty, predict_uncertainty
 
 if TYPE_CHECKING:  # the types of two strategy blocks of the metrics; their hook fills them
     from hdrfringe.strategies.dpa_analysis import DPACDFs, DPAMetrics
@@ -111,7 +116,7 @@ def calibration_geometry(cal: MeasurementCalibration) -> CameraGeometry | None:
     Parameters
     ----------
     cal : MeasurementCalibration
-        Either kind (:meth:`~hdrfringe.calibration.Calibration.camera_geometry`).
+        Either kind (:meth:`~hdrfringe.core.calibration.Calibration.camera_geometry`).
 
     Returns
     -------
@@ -147,7 +152,7 @@ def height_points(
     Returns
     -------
     x, y, z : ndarray (H, W)
-        ``z`` is the height (:func:`hdrfringe.reconstruct.points_from_height` with a geometry).
+        ``z`` is the height (:func:`hdrfringe.core.reconstruct.points_from_height` with a geometry).
 
     References
     ----------
@@ -381,7 +386,7 @@ def strategy_absolute_phases(results: Sequence[StrategyResult]) -> dict[str, F64
     A strategy that measures where each camera pixel looks on the projector (the adaptive
     projection's mapping) unwraps its finest set with those fringe orders and leaves the
     result in :attr:`StrategyResult.absolute_phase
-    <hdrfringe.strategies.StrategyResult>`; :func:`hdrfringe.process.decode_captures` takes
+    <hdrfringe.strategies.StrategyResult>`; :func:`hdrfringe.core.decode.decode_captures` takes
     them as ``given_phases``.
 
     Parameters
@@ -572,14 +577,14 @@ class MeasurementMetrics:
         (:func:`hdrfringe.strategies.adaptive.adaptive_summary`).
     stereo : dict or None
         With a stereo calibration: points, depth range, reference plane and triangulation
-        residual (:meth:`hdrfringe.stereo.StereoMaps.summary`).
+        residual (:meth:`hdrfringe.core.stereo.StereoMaps.summary`).
     skipped : tuple of str
         Stages not run, and why.
     notes : tuple of str
         What the decoding and the outputs need said.
     regions : dict or None
         With spatial unwrapping of the primary family: its regions
-        (:meth:`FamilyResult.regions_summary <hdrfringe.process.FamilyResult.regions_summary>`:
+        (:meth:`FamilyResult.regions_summary <hdrfringe.core.decode.FamilyResult.regions_summary>`:
         ``islands`` flag, ``count``, ``pixels``, ...).
     decoder : dict or None
         With the saturation-tolerant decoder (``saturated="exclude"``, the ``tolerant``
@@ -587,13 +592,13 @@ class MeasurementMetrics:
         of the finest set whose fit used k images, k = 0, 1, ...); None with the standard one.
     uncertainty : dict or None
         The predicted phase and height std (:meth:`Uncertainty.summary
-        <hdrfringe.uncertainty.Uncertainty.summary>`: the noise model and its source, sigma_I
+        <hdrfringe.core.uncertainty.Uncertainty.summary>`: the noise model and its source, sigma_I
         used, median predicted std), or ``{"predicted": False, "reason": ...}``; None when not
         asked for (docs/uncertainty.md).
     harmonics : dict or None
         With harmonic compensation: ``mode`` and per set its estimated coefficients, RMS
         correction and whether it was applied (:attr:`FolderPhase.harmonics
-        <hdrfringe.process.FolderPhase>`, docs/harmonics.md); None when off.
+        <hdrfringe.core.decode.FolderPhase>`, docs/harmonics.md); None when off.
 
     References
     ----------
@@ -700,14 +705,14 @@ class MeasurementResult:
     captures : Captures
         The captures measured: the input, or the strategy's composite.
     decoded : FolderPhase
-        Their phases (:func:`hdrfringe.process.decode_captures`).
+        Their phases (:func:`hdrfringe.core.decode.decode_captures`).
     height_mm : ndarray (H, W) or None
         Height in mm (NaN = invalid); None without a calibration. With a stereo calibration:
         the height over the fitted reference plane (:attr:`StereoMaps.height_mm
-        <hdrfringe.stereo.StereoMaps.height_mm>`).
+        <hdrfringe.core.stereo.StereoMaps.height_mm>`).
     calibration : MeasurementCalibration or None
-        :class:`~hdrfringe.calibration.Calibration` or
-        :class:`~hdrfringe.stereo.StereoCalibration`.
+        :class:`~hdrfringe.core.calibration.Calibration` or
+        :class:`~hdrfringe.core.stereo.StereoCalibration`.
     metrics : MeasurementMetrics
     strategy_results : tuple of StrategyResult
         One per pitch with a strategy, coarsest first; empty without.
@@ -718,7 +723,7 @@ class MeasurementResult:
         The triangulated points, with a stereo calibration.
     uncertainty : Uncertainty or None
         The predicted phase std of each family's finest set and, with a phase-to-height
-        calibration, the height std (:func:`hdrfringe.uncertainty.predict_uncertainty`);
+        calibration, the height std (:func:`hdrfringe.core.uncertainty.predict_uncertainty`);
         None when not asked for or not predictable (``metrics.uncertainty`` says why).
 
     Examples
@@ -839,7 +844,8 @@ def _geometric_orders(
     directions: str,
 ) -> tuple[FolderPhase, dict[str, Any]]:
     """The families triangulation will use that lack an absolute phase, ordered from the
-    calibration and the depth range (:func:`~hdrfringe.geometric_order.family_geometric_order`);
+    calibration and the depth range
+    (:func:`~hdrfringe.core.geometric_order.family_geometric_order`);
     the ``stereo.fringe_order`` block of the metrics (empty without a depth range). Without a
     depth range and without any absolute phase: a one-line error naming the option."""
     keys = {id(f): "u" if f.orientation == "vertical" else "v" for f in decoded.families}
@@ -884,7 +890,7 @@ def _triangulate_auto(
     noise: NoiseModel | float | None,
 ) -> tuple[StereoMaps, DirectionCheck | None]:
     """``stereo_directions="auto"``: with both projector coordinates, the ones that agree
-    (:func:`hdrfringe.stereo.check_directions`) with the phase noise predicted
+    (:func:`hdrfringe.core.stereo.check_directions`) with the phase noise predicted
     (docs/uncertainty.md), else measured from the maps' roughness; the check (None with one
     coordinate)."""
     maps = _triangulate(caps, decoded, calibration, "auto")
@@ -1047,7 +1053,7 @@ def _heights_stage(
 
 
 #: What a calibration makes of the phase (:attr:`MeasurementCalibration.output
-#: <hdrfringe.calibration.MeasurementCalibration>`) -> the stage that does it.
+#: <hdrfringe.core.calibration.MeasurementCalibration>`) -> the stage that does it.
 _OUTPUTS: dict[str, Callable[..., tuple[FolderPhase, F64 | None, dict[str, Any], Any]]] = {
     "heights": _heights_stage,
     "points": _points_stage,
@@ -1174,10 +1180,10 @@ def measure(
         What to measure.
     calibration : MeasurementCalibration, optional
         Without it the phase is decoded and the height skipped. A
-        :class:`~hdrfringe.calibration.Calibration` gives heights; a
-        :class:`~hdrfringe.stereo.StereoCalibration` triangulates every valid pixel from the
+        :class:`~hdrfringe.core.calibration.Calibration` gives heights; a
+        :class:`~hdrfringe.core.stereo.StereoCalibration` triangulates every valid pixel from the
         absolute phase of the vertical and/or horizontal fringes
-        (:func:`hdrfringe.stereo.triangulate_maps`, docs/stereo.md) and offers the strategy
+        (:func:`hdrfringe.core.stereo.triangulate_maps`, docs/stereo.md) and offers the strategy
         its projector-camera geometry (the adaptive projection's epipolar mapping).
     method : str, optional
         A registered strategy (:func:`hdrfringe.strategies.available_strategies`).
@@ -1199,7 +1205,7 @@ def measure(
     stereo_directions : {"auto", "u", "v"}
         With a stereo calibration: ``"auto"`` triangulates with every orientation that has an
         absolute phase (ray against ray when both do), unless the two disagree far beyond the
-        phase noise (:func:`hdrfringe.stereo.check_directions`): then with the one that
+        phase noise (:func:`hdrfringe.core.stereo.check_directions`): then with the one that
         explains the disagreement, or with both and the calibration named as suspect
         (``metrics.stereo.direction_check``); ``"u"`` (vertical fringes) or ``"v"``
         (horizontal fringes) uses that projector coordinate alone, against the projector's
@@ -1208,7 +1214,7 @@ def measure(
         calibration.
     uncertainty : bool
         Predict the per-pixel phase std and, with a phase-to-height calibration, the height
-        std (:func:`hdrfringe.uncertainty.predict_uncertainty`; docs/uncertainty.md).
+        std (:func:`hdrfringe.core.uncertainty.predict_uncertainty`; docs/uncertainty.md).
     noise : NoiseModel or float, optional
         The camera noise for the prediction (a float: one sigma in DN). Default: the capture
         manifest's, else estimated from the sets with 4 or more shifts; when neither exists
@@ -1217,12 +1223,12 @@ def measure(
         With a stereo calibration: ``(zmin, zmax)``, the scene's depths along the camera axis
         (mm). Every family triangulation uses that has no absolute phase (no set spanning the
         projector, no Gray code, no centerline) takes its fringe order from the calibration
-        and this range (:func:`hdrfringe.geometric_order.family_geometric_order`; pixels where
+        and this range (:func:`hdrfringe.core.geometric_order.family_geometric_order`; pixels where
         the range admits no order or several are invalid); ``metrics.stereo.fringe_order``
         records how each direction was ordered. A single pitch then suffices.
     harmonics : {"off", "auto"} or int
         Fringe-harmonic compensation of the decoded phases
-        (:func:`hdrfringe.process.decode_captures`, docs/harmonics.md); ``metrics.harmonics``
+        (:func:`hdrfringe.core.decode.decode_captures`, docs/harmonics.md); ``metrics.harmonics``
         records the estimates. Not with a saturation-tolerant strategy.
     saturated : {"flag", "exclude"}
         As ``phase --saturated``: ``"flag"`` marks a pixel with a saturated shift (invalid
@@ -1430,7 +1436,7 @@ def _checked_blocks(method: str, blocks: Mapping[str, Any], cls: type) -> dict[s
 
 def _check_saturated(saturated: str, reject_saturated: bool) -> None:
     """``measure``'s saturation arguments, refused as ``phase`` refuses its options."""
-    from hdrfringe._validation import SATURATED_MODES
+    from hdrfringe.core._validation import SATURATED_MODES
 
     if saturated not in SATURATED_MODES:
         raise InputError(
@@ -1501,7 +1507,7 @@ def calibrate(
     captures : sequence of Captures
         The reference plane and at least 2 plate positions.
     model : {"linear", "rational", "poly2", "poly3"}
-        The phase-to-height model (:func:`hdrfringe.calibration.calibrate`).
+        The phase-to-height model (:func:`hdrfringe.core.calibration.calibrate`).
     window_px, border_px : int
         Median and mean filter window and the unfiltered border (Sec. 4.1: 21 and 10).
     progress : callable, optional
@@ -1512,7 +1518,7 @@ def calibrate(
     Calibration
         Its provenance records the package version, the date, each input's ``name`` (resolved
         as a path), depth and :meth:`Captures.content_hash
-        <hdrfringe.captures.Captures.content_hash>`, and the reference plane's camera geometry.
+        <hdrfringe.core.captures.Captures.content_hash>`, and the reference plane's camera geometry.
 
     Raises
     ------

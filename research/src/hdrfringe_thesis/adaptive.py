@@ -36,16 +36,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.calibration import Calibration, measurement_mask
-from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.calibration import Calibration, measurement_mask
+from hdrfringe.core.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.frames import Frame, FringeFrame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import saturation_count
+from hdrfringe.core.saturation.estimate import CorrectionPolynomial, TrainingData
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame, FringeFrame
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import saturation_count
 from hdrfringe.rig.base import RigBase
-from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import BLACK_PLATE_REFLECTIVITY, Scene, checkerboard, white_plate
-from hdrfringe.saturation.estimate import CorrectionPolynomial, TrainingData
+from hdrfringe.rig.sensor import sensor_readout
 from hdrfringe_thesis.ch4 import (
     SWEEP_DTYPE,
     THESIS_DEPTHS_MM,
@@ -60,7 +60,7 @@ from hdrfringe_thesis.ch4 import (
 )
 
 if TYPE_CHECKING:
-    from hdrfringe.saturation.dpa_rules import SaturationCDF
+    from hdrfringe.core.saturation.dpa_rules import SaturationCDF
     from hdrfringe.strategies.base import StrategyResult
     from hdrfringe_thesis.engine import SweepGrid, Variable
 
@@ -494,7 +494,7 @@ def adaptive_cell(
             out["cdf_initial"][i] = _cdf_values(res.details["initial_cdf"])
             out["cdf_final"][i] = _cdf_values(res.details["final_cdf"])
         if method == "lpa-1" and saturated_at_top.any():  # Fig. 6.3's actual CDF
-            from hdrfringe.saturation.dpa_rules import index_image_cdf
+            from hdrfringe.core.saturation.dpa_rules import index_image_cdf
             from hdrfringe.strategies.dpa_analysis import index_without_never
 
             idx = index_without_never(res)
@@ -578,9 +578,10 @@ def training_depths(base: Ch4Setup) -> tuple[float, ...]:
 
 def training_data(base: Ch4Setup, depths_mm: Sequence[float]) -> TrainingData:
     """The Sec. 6.1.2 training sweeps (LPA step 1, white plate, 600 lx, pitch 20) at several
-    plate positions, joined into one :class:`~hdrfringe.saturation.estimate.TrainingData`.
+    plate positions, joined into one :class:`~hdrfringe.core.saturation.estimate.TrainingData`.
 
-    Each position is swept on its own (:func:`~hdrfringe.saturation.estimate.training_data_from_rig`
+    Each position is swept on its own
+    (:func:`~hdrfringe.core.saturation.estimate.training_data_from_rig`
     on the sweep's decomposition of the rig); the per-pixel arrays are stacked along the image
     rows, so the training sees every position's pixels as one taller image.
 
@@ -608,7 +609,7 @@ def training_data(base: Ch4Setup, depths_mm: Sequence[float]) -> TrainingData:
     >>> data.index_image.shape, data.images_at_top.shape[0]
     ((48, 32), 4)
     """
-    from hdrfringe.saturation.estimate import training_data_from_rig
+    from hdrfringe.core.saturation.estimate import training_data_from_rig
 
     spec = pattern_spec("sinusoidal-4", TRAINING_PITCH, base.imin)
     parts = [
@@ -639,7 +640,7 @@ def train_correction(base: Ch4Setup, order: int = 2) -> CorrectionPolynomial:
 
     LPA with a step of 1 on the white plate under 600 lx at a pitch of 20 px: every saturated
     pixel's true peak against its Eq. 6.2 estimate
-    (:meth:`~hdrfringe.saturation.estimate.TrainingData.train`). The default rig trains at one
+    (:meth:`~hdrfringe.core.saturation.estimate.TrainingData.train`). The default rig trains at one
     position on the live virtual rig (the same camera as the sweeps); a rig preset at the 25
     positions of the thesis (:func:`training_depths`, :func:`training_data`). Deterministic.
 
@@ -659,8 +660,8 @@ def train_correction(base: Ch4Setup, order: int = 2) -> CorrectionPolynomial:
     ----------
     Thesis Sec. 6.1.2, Eq. 6.2-6.4.
     """
+    from hdrfringe.core.saturation.estimate import training_data_from_rig
     from hdrfringe.rig.simulated import Lighting
-    from hdrfringe.saturation.estimate import training_data_from_rig
 
     spec = pattern_spec("sinusoidal-4", TRAINING_PITCH, base.imin)
     depths = training_depths(base)

@@ -15,7 +15,7 @@ measurement, so that the work shared by them is done once:
   (:meth:`~hdrfringe.rig.simulated.SimulatedRig.periodic_basis`) turns every frame of the MIGL
   sweep into one weighted sum (exact: the rig is linear from projected light to signal), and
   the lux levels differ only by the ambient signal;
-* the noise (read and shot noise, :func:`~hdrfringe.rig.camera.sensor_readout` as in
+* the noise (read and shot noise, :func:`~hdrfringe.rig.sensor.sensor_readout` as in
   :meth:`SimulatedRig.capture`) is computed in float32 (:data:`SWEEP_DTYPE`) from
   standard normal draws seeded by the pattern, pitch and depth (:func:`depth_normals`: common
   random numbers across MIGL and light), so any cell can be recomputed alone and gives the
@@ -41,14 +41,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.calibration import Calibration, calibrate, measurement_mask
+from hdrfringe.core.calibration import Calibration, calibrate, measurement_mask
+from hdrfringe.core.frames import CenterlineFrame, Frame
+from hdrfringe.core.patterns import FringeSpec, PatternKind
+from hdrfringe.core.phase import saturation_count, wrapped_phase
+from hdrfringe.core.unwrap import (
+    absolute_phase,
+    centerline_phase,
+    detect_centerline,
+    unwrap_spatial,
+)
 from hdrfringe.errors import InputError
-from hdrfringe.frames import CenterlineFrame, Frame
-from hdrfringe.patterns import FringeSpec, PatternKind
-from hdrfringe.phase import saturation_count, wrapped_phase
-from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.modify import lux_to_dn, modify_intensity
 from hdrfringe.rig.scenes import THESIS_CALIBRATION_DEPTHS_MM, Scene, white_plate
+from hdrfringe.rig.sensor import sensor_readout
 from hdrfringe.rig.simulated import (
     THESIS_GAMMA,
     CameraModel,
@@ -57,7 +63,6 @@ from hdrfringe.rig.simulated import (
     RigGeometry,
     SimulatedRig,
 )
-from hdrfringe.unwrap import absolute_phase, centerline_phase, detect_centerline, unwrap_spatial
 
 if TYPE_CHECKING:
     from hdrfringe_thesis.engine import SweepGrid
@@ -352,7 +357,7 @@ def pattern_spec(pattern: str, pitch: float, imin: float = THESIS_IMIN) -> Fring
 def sweep_phase(images: NDArray, spec: FringeSpec) -> NDArray:
     """Wrapped phase in [0, 2 pi) of one sweep set, every pixel kept (saturated ones too).
 
-    :func:`hdrfringe.phase.wrapped_phase` with the sweeps' precision: sinusoidal sets (Eq. 2.2)
+    :func:`hdrfringe.core.phase.wrapped_phase` with the sweeps' precision: sinusoidal sets (Eq. 2.2)
     in :data:`SWEEP_DTYPE`, triangular sets (Eq. 2.8, 2.9) in float64, their only precision.
 
     Parameters
@@ -369,7 +374,7 @@ def sweep_phase(images: NDArray, spec: FringeSpec) -> NDArray:
 
     Examples
     --------
-    >>> from hdrfringe.patterns import fringe_gray
+    >>> from hdrfringe.core.patterns import fringe_gray
     >>> spec = pattern_spec("sinusoidal-3", 6)
     >>> imgs = np.stack([fringe_gray(np.arange(12.0), spec, k) for k in range(3)])[:, None]
     >>> sweep_phase(imgs, spec).dtype, sweep_phase(imgs, pattern_spec("triangular-3", 6)).dtype
@@ -415,19 +420,19 @@ def centerline_absolute(
     """Absolute phase of a spatially unwrapped map from a centerline capture, as ``hdrfringe
     measure`` finds it; all NaN when the image shows no line.
 
-    The line is found in every camera row (:func:`~hdrfringe.unwrap.detect_centerline`, the
+    The line is found in every camera row (:func:`~hdrfringe.core.unwrap.detect_centerline`, the
     library's defaults), the unwrapped phase is averaged along it (Eq. 2.12,
-    :func:`~hdrfringe.unwrap.centerline_phase`) and the map gets the multiple of 2 pi that
+    :func:`~hdrfringe.core.unwrap.centerline_phase`) and the map gets the multiple of 2 pi that
     puts that average nearest to the line's projector coordinate
-    (:func:`~hdrfringe.unwrap.absolute_phase`, Eq. 2.13 rounded to whole fringes): the chain of
-    :func:`~hdrfringe.unwrap.absolute_phase_from_centerline`, which ``measure`` uses. A capture
+    (:func:`~hdrfringe.core.unwrap.absolute_phase`, Eq. 2.13 rounded to whole fringes): the chain of
+    :func:`~hdrfringe.core.unwrap.absolute_phase_from_centerline`, which ``measure`` uses. A capture
     in which no row shows the line has no absolute phase: NaN everywhere (the sweep's RMSE of
     that cell is then NaN) instead of an error.
 
     Parameters
     ----------
     unwrapped : ndarray, shape (H, W)
-        Spatially unwrapped phase (:func:`~hdrfringe.unwrap.unwrap_spatial`).
+        Spatially unwrapped phase (:func:`~hdrfringe.core.unwrap.unwrap_spatial`).
     line_image : ndarray, shape (H, W)
         Camera image of the vertical centerline frame.
     position : float
@@ -478,7 +483,7 @@ def centerline_unwrap(
     spatial unwrapping of the wrapped phase, then the centerline (:func:`centerline_absolute`).
 
     Every pixel is unwrapped, saturated ones too (the thesis's RMSE counts them all), by
-    :func:`~hdrfringe.unwrap.unwrap_spatial`. A ``candidate`` unwrapping is used instead when
+    :func:`~hdrfringe.core.unwrap.unwrap_spatial`. A ``candidate`` unwrapping is used instead when
     it proves to be the only one: ``candidate - wrapped`` a multiple of 2 pi and every
     4-neighbour step of ``candidate`` finite and below pi. Then the wrapped map has no
     residues (each step is the wrapped difference, and they sum to zero round every loop), so
@@ -621,7 +626,7 @@ def depth_normals(
     one pattern, pitch and plate position: **common random numbers**.
 
     Every MIGL and lighting of a position is measured with the same draws, each scaled by
-    that cell's own noise standard deviation (:func:`~hdrfringe.rig.camera.sensor_readout`).
+    that cell's own noise standard deviation (:func:`~hdrfringe.rig.sensor.sensor_readout`).
     A cell is still an exact sample of the camera model; only the cells of one position are
     correlated, so comparisons over MIGL and light are paired (the trade-off search compares
     exactly those) while the means over the 25 positions average independent draws. Drawing
@@ -994,12 +999,12 @@ def ch4_modified_block(
 
     With ``unwrap="centerline"`` the added-light measurements take their fringe orders as the
     thesis's pipeline does: the wrapped phase of every pixel (saturated ones too) is unwrapped
-    spatially (:func:`~hdrfringe.unwrap.unwrap_spatial`) and made absolute with a centerline
+    spatially (:func:`~hdrfringe.core.unwrap.unwrap_spatial`) and made absolute with a centerline
     (:func:`centerline_absolute`) captured at the set's MIGL through the same camera: its own
     noise draw per position (common across MIGL and light, as the set's) and the same Eq. 4.1
     added light, so saturation can hide the line or break the unwrapping as on the real rig.
     Where the known-order phase is itself a valid spatial unwrapping (every 4-neighbour step
-    below pi), it stands in for :func:`~hdrfringe.unwrap.unwrap_spatial`, which would return it
+    below pi), it stands in for :func:`~hdrfringe.core.unwrap.unwrap_spatial`, which would return it
     plus a constant multiple of 2 pi (:func:`centerline_unwrap`): the orders then rest on the
     centerline alone, exactly as with the unwrapper. The calibration keeps known orders (made
     in the dark at MIGL 255, where the centerline gives the same orders:

@@ -734,7 +734,7 @@ def open_results(store_path: str | os.PathLike[str]) -> xr.Dataset:
 #: which turns off glibc's adaptive mmap threshold: every large numpy temporary then is a fresh
 #: mmap and is page-faulted in again (the Ch. 4 quick sweep ran 3x slower, a third of it in the
 #: kernel). Keeping arrays below 1 GiB on the heap restores the speed of a plain process.
-#: Each worker runs one task thread, so the block decode (``hdrfringe._blockdecode``) uses one
+#: Each worker runs one task thread, so the block decode (``hdrfringe.core._blockdecode``) uses one
 #: thread too instead of one per CPU in every worker (same bits for any thread count).
 WORKER_ENV: dict[str, str] = {
     "MALLOC_MMAP_THRESHOLD_": str(2**30),

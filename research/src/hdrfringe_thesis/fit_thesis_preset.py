@@ -24,7 +24,7 @@ of squared log ratios ours / target over :data:`FIT_KEYS`: the sinusoidal and tr
 stds and the DSIE error, three numbers for three parameters (a Nelder-Mead search on the quick
 view, 5 positions; common random numbers make the objective deterministic). The triangular
 2-step's 1.03 mm is left out and reported as a prediction: in our decoder its error is set by
-the estimate of ``I_m`` from two images (:func:`hdrfringe.phase.triangular_2step`), and where
+the estimate of ``I_m`` from two images (:func:`hdrfringe.core.phase.triangular_2step`), and where
 the sinusoidal 3-step's std is near the thesis's (0.2 to 0.45 mm) the triangular 2-step's is
 only 1.5 to 2.6 times it, against the thesis's 3.8 (``--explore``: read noise 2 and 4 DN,
 camera blur 0.5 to 1.5 px, defocus 0.6 to 1.3 px, gamma 8); weighting it in would pull the

@@ -11,7 +11,7 @@ geometry and of the calibration depths alone, not of noise or saturation.
 noise: the noise-free absolute phase of every camera pixel at the reference plane and at each
 plate depth comes from the rig's geometry (the projector column each pixel sees,
 :meth:`~hdrfringe.rig.simulated.SimulatedRig.truth`, the same expected phase the sweeps take
-their fringe orders from); :func:`hdrfringe.calibration.calibrate` fits the same model with the
+their fringe orders from); :func:`hdrfringe.core.calibration.calibrate` fits the same model with the
 same 21 px median and mean filter; the model's height at each measured depth, minus the depth,
 over the measurement pixels (10 px border excluded), is the model residual per depth: its mean
 (``bias_mm``) is what every method of a reproduction shares as bias, its RMS over pixels
@@ -25,7 +25,7 @@ geometry: its residual is what the 21 px filter leaves, 1e-5 mm on the reproduct
 (about 1e-3 mm on a 64 x 48 camera over the same field).
 
 For a real calibration there is no geometry to trace: its model residual is the fit residual at
-the calibration depths, which every :class:`~hdrfringe.calibration.Calibration` carries
+the calibration depths, which every :class:`~hdrfringe.core.calibration.Calibration` carries
 (``residual_rms_mm``; ``hdrfringe calibrate`` prints it and ``measure`` writes it to
 ``metrics.json`` as ``calibration_residual_mm``).
 """
@@ -40,7 +40,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.calibration import MODELS, calibrate
+from hdrfringe.core.calibration import MODELS, calibrate
 from hdrfringe.errors import InputError
 from hdrfringe_thesis.ch4 import TWO_PI, Ch4Setup
 

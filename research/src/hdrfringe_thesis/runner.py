@@ -196,8 +196,8 @@ def _adaptive(
     fig_dir: Path,
     preset: str = "",
 ) -> dict[str, Any]:
+    from hdrfringe.core.saturation.estimate import CorrectionPolynomial
     from hdrfringe.io.results import staged_output_file
-    from hdrfringe.saturation.estimate import CorrectionPolynomial
     from hdrfringe.strategies.dpa_training import THESIS_CORRECTION_RMSE
     from hdrfringe_thesis import adaptive, adaptive_report, ch4, ch4_report
 

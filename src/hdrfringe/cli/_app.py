@@ -18,8 +18,8 @@ import typer.main
 from rich.console import Console
 from rich.markup import escape
 
+from hdrfringe.core.limits import MAX_PROGRAM_FRAMES, check_count
 from hdrfringe.errors import HdrFringeError, InputError
-from hdrfringe.limits import MAX_PROGRAM_FRAMES, check_count
 
 __all__ = [
     "COMMAND_MODULES",

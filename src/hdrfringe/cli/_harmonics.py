@@ -40,8 +40,8 @@ def check_harmonics(value: str, conflict: str | None = None) -> None:
     InputError
         One line naming the option.
     """
+    from hdrfringe.core.harmonics import harmonics_mode
     from hdrfringe.errors import InputError
-    from hdrfringe.harmonics import harmonics_mode
 
     try:
         mode = harmonics_mode(value)[0]

@@ -74,7 +74,7 @@ def strategy_file_readers() -> dict[type, tuple[Callable[[Any], Any], str]]:
     >>> [t.__name__ for t in strategy_file_readers()]
     ['CorrectionPolynomial']
     """
-    from hdrfringe.saturation.estimate import CorrectionPolynomial
+    from hdrfringe.core.saturation.estimate import CorrectionPolynomial
 
     return {CorrectionPolynomial: (CorrectionPolynomial.load, "JSON from train-correction")}
 

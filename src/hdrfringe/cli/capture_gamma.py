@@ -1,9 +1,10 @@
 """``hdrfringe capture-gamma``: project the gamma-estimation program live, write a capture folder.
 
-The program is the one ``hdrfringe gamma FOLDER`` fits (:func:`hdrfringe.gamma.gamma_report`):
-uniform grays (the same builder as ``simulate --gray``, :func:`hdrfringe.programs.fringe_program`)
-and one wide sinusoidal set shown at each of several pre-distortion exponents (kamino410's
-design, docs/gamma.md "From fringes"). docs/hardware.md ("capture-gamma") describes it.
+The program is the one ``hdrfringe gamma FOLDER`` fits (:func:`hdrfringe.core.gamma.gamma_report`):
+uniform grays (the same builder as ``simulate --gray``,
+:func:`hdrfringe.core.programs.fringe_program`) and one wide sinusoidal set shown at each of
+several pre-distortion exponents (kamino410's design, docs/gamma.md "From fringes").
+docs/hardware.md ("capture-gamma") describes it.
 
 The work is :func:`hdrfringe.tasks.capture_gamma.capture_gamma`. The rig comes from
 ``--rig-config`` and the hardware options as for ``capture``

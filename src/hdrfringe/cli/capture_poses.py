@@ -140,7 +140,7 @@ def capture_poses(
 def _print_report(report: Any) -> None:
     """What ``capture-poses`` prints once the poses are written: the folder, and the next
     step (the calibrate-stereo command when --board was given)."""
-    from hdrfringe.stereo_calibration import MIN_POSES
+    from hdrfringe.core.stereo_calibration import MIN_POSES
 
     output, names, stopped = report.output, report.names, report.stopped
     what = f"{len(names)} complete poses ({names[0]} .. {names[-1]})"

@@ -273,7 +273,7 @@ def print_summary(result: Any, output: Path) -> None:
         _print_direction_check(st.get("direction_check"))
     print_harmonics(m.harmonics)
     if m.uncertainty is not None:
-        from hdrfringe.uncertainty import describe_uncertainty
+        from hdrfringe.core.uncertainty import describe_uncertainty
 
         console.print(describe_uncertainty(m.uncertainty))
     for sk in m.skipped:

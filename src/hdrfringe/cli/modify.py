@@ -24,7 +24,7 @@ def modify(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Add light and noise to existing captures with clipping at 2^B - 1 (thesis Eq. 4.1)."""
-    from hdrfringe._validation import describe_saturated
+    from hdrfringe.core._validation import describe_saturated
     from hdrfringe.tasks.modify import modify
 
     done = modify(folder, output, add_lux=add_lux, add_dn=add_dn, noise=noise, seed=seed,

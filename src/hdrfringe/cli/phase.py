@@ -51,7 +51,7 @@ def check_saturation_options(keep_saturated: bool, saturated: str, min_shifts: i
     keep_saturated : bool
         ``--keep-saturated``.
     saturated : str
-        ``--saturated``: one of :data:`hdrfringe._validation.SATURATED_MODES`.
+        ``--saturated``: one of :data:`hdrfringe.core._validation.SATURATED_MODES`.
     min_shifts : int
         ``--min-shifts`` (3 unless given).
 
@@ -68,7 +68,7 @@ def check_saturation_options(keep_saturated: bool, saturated: str, min_shifts: i
     ...
     hdrfringe.errors.InputError: --saturated 'clip' is unknown; give one of flag, exclude
     """
-    from hdrfringe._validation import SATURATED_MODES
+    from hdrfringe.core._validation import SATURATED_MODES
 
     if saturated not in SATURATED_MODES:
         raise InputError(
@@ -203,8 +203,8 @@ def phase(
 def _print_summary(summary: dict[str, Any], n_pixels: int, uncertainty: bool) -> None:
     """The lines ``phase`` prints: each set's valid and saturated pixels, how each family
     was unwrapped, the harmonics, the predicted std and the notes."""
-    from hdrfringe._validation import describe_saturated
     from hdrfringe.cli._harmonics import print_harmonics
+    from hdrfringe.core._validation import describe_saturated
 
     for s in summary["sets"]:
         n_saturated = round(s["saturated_fraction"] * n_pixels)  # the fraction is count / n
@@ -217,7 +217,7 @@ def _print_summary(summary: dict[str, Any], n_pixels: int, uncertainty: bool) ->
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""
         console.print(f"{fam['orientation']}: unwrapped by {fam['unwrapping']}{extra}")
     if uncertainty:
-        from hdrfringe.uncertainty import describe_uncertainty
+        from hdrfringe.core.uncertainty import describe_uncertainty
 
         console.print(describe_uncertainty(summary.get("uncertainty", {})))
     for note in summary["notes"]:

@@ -98,8 +98,8 @@ def simulate(
     pixel count over the same field of view (the loop camera's size=, so that a calibration
     of captures at that size can be made).
     """
-    from hdrfringe._validation import describe_saturated
-    from hdrfringe.limits import MAX_SERIES_FOLDERS
+    from hdrfringe.core._validation import describe_saturated
+    from hdrfringe.core.limits import MAX_SERIES_FOLDERS
     from hdrfringe.tasks import simulate as task
     from hdrfringe.tasks.compare import parse_resolution
 

@@ -32,7 +32,7 @@ from typing import Protocol, Self, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import CameraSettings
+from hdrfringe.core.captures import CameraSettings
 from hdrfringe.errors import HdrFringeError, InputError
 
 __all__ = [
@@ -251,7 +251,7 @@ class CameraBase:
 
     Context-manager use (``with cam:`` opens and closes, also after an error), the pixel-format
     and trigger-mode checks with their one-line errors, :meth:`apply` for a
-    :class:`~hdrfringe.captures.CameraSettings`, and the dtype of grabbed images. A back end
+    :class:`~hdrfringe.core.captures.CameraSettings`, and the dtype of grabbed images. A back end
     sets :attr:`name`, implements ``open``, ``close``, ``set_exposure``, ``set_gain``,
     ``_offered_formats``, ``_apply_pixel_format``, ``_apply_trigger_mode``, ``_grab`` and
     ``_current_format``.

@@ -23,13 +23,13 @@ from typing import Any, Self
 
 from numpy.typing import ArrayLike
 
-from hdrfringe.captures import CameraSettings
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.limits import MAX_PROJECTOR_PIXELS
 from hdrfringe.errors import InputError
 from hdrfringe.hardware.backends import open_camera
 from hdrfringe.hardware.camera import Camera, CameraBase
 from hdrfringe.hardware.projector import Projector
 from hdrfringe.hardware.rig import HardwareRig, SyncSettings, open_projector
-from hdrfringe.limits import MAX_PROJECTOR_PIXELS
 
 __all__ = [
     "CameraConfig",
@@ -219,7 +219,7 @@ class CameraConfig:
         _validate(self, "camera", "rig configuration", None)
 
     def settings(self) -> CameraSettings:
-        """Exposure and gain as the rig's :class:`~hdrfringe.captures.CameraSettings`.
+        """Exposure and gain as the rig's :class:`~hdrfringe.core.captures.CameraSettings`.
 
         Returns
         -------
@@ -682,7 +682,7 @@ class RigConfig:
         --------
         >>> import tempfile
         >>> from pathlib import Path
-        >>> from hdrfringe.frames import UniformFrame
+        >>> from hdrfringe.core.frames import UniformFrame
         >>> play = Path(tempfile.mkdtemp()) / "play"
         >>> cfg = RigConfig.from_dict({"gamma": 2.2,
         ...     "projector": {"spec": f"folder:{play}", "width": 64, "height": 48},

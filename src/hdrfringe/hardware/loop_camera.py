@@ -3,7 +3,7 @@
 ``--camera loop:SCENE`` tries the hardware path (projector window, camera protocol,
 synchronisation, live capture) without any hardware: :class:`LoopCamera` grabs the screen the
 :class:`~hdrfringe.hardware.projector.ScreenProjector` draws on, takes that image as the 8-bit
-levels the projector is sent (an :class:`~hdrfringe.frames.ImageFrame`), and renders it with a
+levels the projector is sent (an :class:`~hdrfringe.core.frames.ImageFrame`), and renders it with a
 :class:`~hdrfringe.rig.simulated.SimulatedRig` of the named scene: geometry (camera pixel ->
 projector ``(u, v)``), projector gamma and defocus, reflectivity, ambient light, noise and
 clipping (thesis Eq. 3.3), at the exposure, gain and pixel format set through the camera
@@ -50,9 +50,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import CameraSettings
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.frames import ImageFrame
 from hdrfringe.errors import InputError
-from hdrfringe.frames import ImageFrame
 from hdrfringe.hardware.camera import CameraBase, CameraError, _check_positive
 from hdrfringe.rig.factory import APERTURES, virtual_rig
 from hdrfringe.rig.scenes import SCENES
@@ -295,7 +295,7 @@ class LoopCamera(CameraBase):
 
     Each :meth:`grab` takes a screenshot of the projector's screen (Pillow's ``ImageGrab``
     over XCB), uses it as the 8-bit levels sent to the projector (an
-    :class:`~hdrfringe.frames.ImageFrame`; the pattern's gamma pre-compensation is already in
+    :class:`~hdrfringe.core.frames.ImageFrame`; the pattern's gamma pre-compensation is already in
     them, so the rig adds none) and returns what the virtual rig's camera records of that
     projector image: :meth:`SimulatedRig.capture
     <hdrfringe.rig.simulated.SimulatedRig.capture>` at the exposure and gain set here, with the

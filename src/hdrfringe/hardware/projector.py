@@ -23,8 +23,8 @@ from typing import Any, Protocol, Self, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hdrfringe.core.frames import Frame, render_frame
 from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
-from hdrfringe.frames import Frame, render_frame
 
 __all__ = [
     "FolderProjector",
@@ -604,10 +604,10 @@ def render_for_projector(
     """The 8-bit image a projector back end shows for one frame.
 
     Any frame kind: line frames (fringes, centre lines, uniform gray, Gray codes) render one
-    line broadcast over the image; per-pixel frames (:class:`~hdrfringe.frames.
-    PixelwiseFringeFrame`, :class:`~hdrfringe.frames.ImageFrame`) render their 2-D data, which
+    line broadcast over the image; per-pixel frames (:class:`~hdrfringe.core.frames.
+    PixelwiseFringeFrame`, :class:`~hdrfringe.core.frames.ImageFrame`) render their 2-D data, which
     must be of the projector's size. The result is a writable C-contiguous ``(height, width)``
-    uint8 array, the same levels :func:`hdrfringe.frames.render_frame` gives (and
+    uint8 array, the same levels :func:`hdrfringe.core.frames.render_frame` gives (and
     ``hdrfringe patterns`` writes).
 
     Parameters
@@ -632,11 +632,11 @@ def render_for_projector(
 
     Notes
     -----
-    Gamma pre-compensation: thesis Eq. 2.17 (:func:`hdrfringe.frames.render_frame`).
+    Gamma pre-compensation: thesis Eq. 2.17 (:func:`hdrfringe.core.frames.render_frame`).
 
     Examples
     --------
-    >>> from hdrfringe.frames import CenterlineFrame, ImageFrame
+    >>> from hdrfringe.core.frames import CenterlineFrame, ImageFrame
     >>> render_for_projector(CenterlineFrame(1.0), 4, 2).tolist()
     [[0, 255, 0, 0], [0, 255, 0, 0]]
     >>> render_for_projector(ImageFrame(np.array([[0.0, 10.0], [20.0, 30.0]])), 2, 2).tolist()

@@ -34,10 +34,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import full_scale
-from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core._validation import full_scale
+from hdrfringe.core.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.frames import Frame
 from hdrfringe.errors import HdrFringeError, InputError
-from hdrfringe.frames import Frame
 from hdrfringe.hardware.camera import Camera
 from hdrfringe.hardware.projector import Projector, render_for_projector
 from hdrfringe.rig.base import RigBase
@@ -338,7 +338,7 @@ class HardwareRig(RigBase):
 
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> from hdrfringe.hardware.backends import open_camera
     >>> from hdrfringe.hardware.projector import FolderProjector
     >>> play = FolderProjector(Path(tempfile.mkdtemp()) / "play", 64, 48)
@@ -707,7 +707,7 @@ class Recorder(RigBase):
 
     Examples
     --------
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.rig.base import Rig
     >>> class Gray(RigBase):
     ...     camera_bit_depth, image_shape, projector = 8, (2, 3), ProjectorInfo()
@@ -766,7 +766,7 @@ class Recorder(RigBase):
         return images
 
     def captures(self, name: str = "<memory>", camera: dict[str, Any] | None = None) -> Any:
-        """Everything recorded, in capture order, as :class:`~hdrfringe.captures.Captures`.
+        """Everything recorded, in capture order, as :class:`~hdrfringe.core.captures.Captures`.
 
         Parameters
         ----------
@@ -779,7 +779,7 @@ class Recorder(RigBase):
         -------
         Captures
         """
-        from hdrfringe.captures import Captures
+        from hdrfringe.core.captures import Captures
 
         frames = [f for fr, _, _ in self.calls for f in fr]
         images = np.concatenate([im for _, im, _ in self.calls])

@@ -4,7 +4,7 @@ One module per kind of file; import from the module, e.g.
 ``from hdrfringe.io.results import write_map_tiff``:
 
 * :mod:`~hdrfringe.io.captures`: capture folders (docs/capture_format.md) to and from
-  :class:`~hdrfringe.captures.Captures`.
+  :class:`~hdrfringe.core.captures.Captures`.
 * :mod:`~hdrfringe.io.pattern_folder`: pattern folders for a real projector.
 * :mod:`~hdrfringe.io.calibration_file`: phase-to-height calibration files.
 * :mod:`~hdrfringe.io.results`: result folders written atomically, float32 TIFF maps, PNG

@@ -1,12 +1,12 @@
 """Bounded readers for hostile input: a JSON file and image headers, checked before decoding.
 
-:func:`load_json_bounded` refuses a file above :data:`~hdrfringe.limits.MAX_MANIFEST_BYTES`
-before reading it, nesting beyond :data:`~hdrfringe.limits.MAX_JSON_DEPTH` before parsing it (the
-standard parser would recurse until :class:`RecursionError`), and number literals longer than
-:data:`~hdrfringe.limits.MAX_NUMBER_DIGITS` (which would raise ``ValueError`` from the integer
+:func:`load_json_bounded` refuses a file above :data:`~hdrfringe.core.limits.MAX_MANIFEST_BYTES`
+before reading it, nesting beyond :data:`~hdrfringe.core.limits.MAX_JSON_DEPTH` before parsing it
+(the standard parser would recurse until :class:`RecursionError`), and number literals longer than
+:data:`~hdrfringe.core.limits.MAX_NUMBER_DIGITS` (which would raise ``ValueError`` from the integer
 digit limit, or ``OverflowError`` when converted to float), naming the field that holds one.
 :func:`probe_image` reads an image's shape and pixel type from its header only and refuses one
-above :data:`~hdrfringe.limits.MAX_IMAGE_PIXELS`, so a small file declaring a huge image costs
+above :data:`~hdrfringe.core.limits.MAX_IMAGE_PIXELS`, so a small file declaring a huge image costs
 nothing. Every failure is one :class:`~hdrfringe.errors.CaptureFormatError` line.
 :func:`load_toml_bounded` reads the small TOML files users write (import descriptions, rig
 configurations) within a size limit, refusing deep nesting and huge integers in one
@@ -25,13 +25,13 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.limits import (
+from hdrfringe.core.limits import (
     MAX_IMAGE_PIXELS,
     MAX_JSON_DEPTH,
     MAX_MANIFEST_BYTES,
     MAX_NUMBER_DIGITS,
 )
+from hdrfringe.errors import CaptureFormatError, InputError
 
 __all__ = ["ImageHeader", "load_json_bounded", "load_toml_bounded", "probe_image", "reason_of"]
 
@@ -121,9 +121,9 @@ def load_json_bounded(path: str | Path) -> Any:
     Raises
     ------
     CaptureFormatError
-        A file above :data:`~hdrfringe.limits.MAX_MANIFEST_BYTES`, not UTF-8, not JSON, nested
-        beyond :data:`~hdrfringe.limits.MAX_JSON_DEPTH`, or with a number literal longer than
-        :data:`~hdrfringe.limits.MAX_NUMBER_DIGITS` (the message names its field).
+        A file above :data:`~hdrfringe.core.limits.MAX_MANIFEST_BYTES`, not UTF-8, not JSON, nested
+        beyond :data:`~hdrfringe.core.limits.MAX_JSON_DEPTH`, or with a number literal longer than
+        :data:`~hdrfringe.core.limits.MAX_NUMBER_DIGITS` (the message names its field).
 
     Examples
     --------
@@ -331,7 +331,7 @@ def probe_image(path: str | Path, what: str = "the image") -> ImageHeader:
 
     TIFF (``.tif``, ``.tiff``) headers are read with tifffile (the first series, as
     ``tifffile.imread`` decodes it), others with Pillow; Pillow's decompression-bomb warning is
-    silenced here, as :data:`~hdrfringe.limits.MAX_IMAGE_PIXELS` is the bound that applies.
+    silenced here, as :data:`~hdrfringe.core.limits.MAX_IMAGE_PIXELS` is the bound that applies.
 
     Parameters
     ----------
@@ -349,7 +349,7 @@ def probe_image(path: str | Path, what: str = "the image") -> ImageHeader:
     ------
     CaptureFormatError
         An unreadable header (truncated, corrupt, not that format), or more pixels than
-        :data:`~hdrfringe.limits.MAX_IMAGE_PIXELS`.
+        :data:`~hdrfringe.core.limits.MAX_IMAGE_PIXELS`.
 
     Examples
     --------

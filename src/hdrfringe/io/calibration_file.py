@@ -29,9 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.calibration import MODELS, N_COEFFICIENTS, Calibration, check_calibration
+from hdrfringe.core.calibration import MODELS, N_COEFFICIENTS, Calibration, check_calibration
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
-from hdrfringe.patterns import FringeSpec
 
 __all__ = [
     "FORMAT_NAME",
@@ -228,14 +228,14 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     OutputExistsError
         ``path`` exists (and ``force`` is False) or is a folder.
     InputError
-        ``cal`` is not a :class:`~hdrfringe.calibration.Calibration`, or fails
-        :func:`~hdrfringe.calibration.check_calibration` (non-finite or insane values).
+        ``cal`` is not a :class:`~hdrfringe.core.calibration.Calibration`, or fails
+        :func:`~hdrfringe.core.calibration.check_calibration` (non-finite or insane values).
 
     Examples
     --------
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from hdrfringe.calibration import Calibration
+    >>> from hdrfringe.core.calibration import Calibration
     >>> cal = Calibration("linear", np.full((2, 3), 0.5), None, np.zeros((2, 3)),
     ...                   np.array([2.0, 4.0]), border_px=0, provenance={"operator": "doctest"})
     >>> with tempfile.TemporaryDirectory() as tmp:
@@ -405,22 +405,22 @@ def load_calibration(path: str | Path) -> Calibration:
     -------
     Calibration
         The calibration as saved, checked by the
-        :class:`~hdrfringe.calibration.Calibration` constructor.
+        :class:`~hdrfringe.core.calibration.Calibration` constructor.
 
     Raises
     ------
     CalibrationFileError
         Missing file, not HDF5 or corrupt, an HDF5 file of something else, an unsupported
         version, missing/inconsistent contents, or values that fail
-        :func:`~hdrfringe.calibration.check_calibration` (inf, all-NaN maps, a K or model that
+        :func:`~hdrfringe.core.calibration.check_calibration` (inf, all-NaN maps, a K or model that
         cannot give heights, a failed residual); the message says which and what to do.
 
     Examples
     --------
     >>> import tempfile
     >>> from pathlib import Path
-    >>> from hdrfringe.calibration import Calibration
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.calibration import Calibration
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> coef = np.stack([np.full((2, 2), 2.0), np.full((2, 2), 0.01)])  # h ~ dphi / 2
     >>> cal = Calibration("rational", np.full((2, 2), 0.5), coef,
     ...                   np.zeros((2, 2)), np.array([2.0, 4.0, 6.0]), border_px=0,
@@ -474,7 +474,7 @@ def coefficient_names(model: str) -> tuple[str, ...]:
     Parameters
     ----------
     model : {"linear", "rational", "poly2", "poly3"}
-        Calibration model (see :func:`hdrfringe.calibration.fit_model`).
+        Calibration model (see :func:`hdrfringe.core.calibration.fit_model`).
 
     Returns
     -------

@@ -3,12 +3,12 @@ validate, write.
 
 A capture folder is a ``manifest.json`` plus the single-channel PNG or TIFF images it names and,
 in version 2, the side files holding the 2-D data of projector-image frames (MIGL maps, projector
-images); in memory it is a :class:`hdrfringe.captures.Captures`. :func:`read_capture_folder`
+images); in memory it is a :class:`hdrfringe.core.captures.Captures`. :func:`read_capture_folder`
 validates everything (manifest fields, file paths, image sizes, bit depth, side files from their
 headers before decoding, content digests, complete fringe sets, maps) *before* any processing
 starts, so a bad folder fails with one clear :class:`~hdrfringe.errors.CaptureFormatError` and no
-output is written; :func:`write_capture_folder` writes a :class:`~hdrfringe.captures.Captures` as
-a folder, in the lowest version the captures fit in (version 1 whenever they can).
+output is written; :func:`write_capture_folder` writes a :class:`~hdrfringe.core.captures.Captures`
+as a folder, in the lowest version the captures fit in (version 1 whenever they can).
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import full_scale, is_saturated
-from hdrfringe.captures import (
+from hdrfringe.core._validation import full_scale, is_saturated
+from hdrfringe.core.captures import (
     FORMAT_NAME,
     FORMAT_VERSION,
     FORMAT_VERSIONS,
@@ -33,17 +33,17 @@ from hdrfringe.captures import (
     Captures,
     ProjectorInfo,
 )
-from hdrfringe.errors import CaptureFormatError
-from hdrfringe.frames import IMAGE_FRAMES, Frame
-from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
-from hdrfringe.io.results import staged_output_dir, write_map_tiff
-from hdrfringe.limits import (
+from hdrfringe.core.frames import IMAGE_FRAMES, Frame
+from hdrfringe.core.limits import (
     MAX_FOLDER_PIXELS,
     MAX_PROGRAM_FRAMES,
     MAX_PROJECTOR_PIXELS,
     MAX_STEPS,
 )
-from hdrfringe.patterns import ORIENTATIONS, PATTERNS
+from hdrfringe.core.patterns import ORIENTATIONS, PATTERNS
+from hdrfringe.errors import CaptureFormatError
+from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
+from hdrfringe.io.results import staged_output_dir, write_map_tiff
 
 __all__ = [
     "FORMAT_NAME",
@@ -240,8 +240,8 @@ def _check_side_file_fields(entry: dict[str, Any], kind: str, where: str) -> str
 def _check_graycode_fields(entry: dict[str, Any], where: str, version: int) -> None:
     """A ``graycode`` frame (version 3): orientation, bit, bits, stripe; optional inverse,
     code, migl, convention, exposure_ms."""
-    from hdrfringe.graycode import CODES as GRAYCODE_CODES
-    from hdrfringe.graycode import MAX_BITS as GRAYCODE_MAX_BITS
+    from hdrfringe.core.graycode import CODES as GRAYCODE_CODES
+    from hdrfringe.core.graycode import MAX_BITS as GRAYCODE_MAX_BITS
 
     if version < 3:
         raise _fail(
@@ -471,7 +471,7 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
 
     RGB(A) images are converted to luma with the BT.601 weights (0.299, 0.587, 0.114) as
     float32; a pixel with any clipped colour channel is set to ``2^B - 1`` so that it still
-    counts as saturated (:func:`hdrfringe._validation.is_saturated`). Grayscale images keep
+    counts as saturated (:func:`hdrfringe.core._validation.is_saturated`). Grayscale images keep
     their integer dtype.
 
     Parameters
@@ -767,7 +767,7 @@ def read_capture_folder(path: str | Path) -> Captures:
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> caps = Captures(FringeSpec(steps=3).frames(), np.zeros((3, 4, 5), np.uint8), 8)
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     back = read_capture_folder(write_capture_folder(Path(tmp) / "caps", caps))
@@ -910,7 +910,7 @@ def write_side_files(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.frames import ImageFrame
+    >>> from hdrfringe.core.frames import ImageFrame
     >>> frames = [ImageFrame(np.eye(2) * 255, "a"), ImageFrame(np.eye(2) * 255, "b")]
     >>> entries = [f.manifest_entry(f"{i}.png") for i, f in enumerate(frames)]
     >>> with tempfile.TemporaryDirectory() as tmp:
@@ -974,7 +974,8 @@ def write_capture_folder(
     offset). Images go to PNG: 8-bit for
     ``camera_bit_depth <= 8``, 16-bit otherwise (float luma is rounded). Maps go beside them as
     float32 TIFF ``<key>.tiff``, listed in the manifest's ``maps``. The 2-D data of
-    :class:`~hdrfringe.frames.PixelwiseFringeFrame` and :class:`~hdrfringe.frames.ImageFrame`
+    :class:`~hdrfringe.core.frames.PixelwiseFringeFrame` and
+    :class:`~hdrfringe.core.frames.ImageFrame`
     goes to side files under ``projector/``, named by content so that equal data (the N frames
     of a pixelwise set) is stored once (:func:`write_side_files`). Everything is written to a
     staging directory and moved into place only when complete.
@@ -1011,7 +1012,7 @@ def write_capture_folder(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> caps = Captures([UniformFrame(128)], np.full((1, 2, 3), 7, np.uint16), 12)
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     out = write_capture_folder(Path(tmp) / "caps", caps, extra={"lab": "B2"})

@@ -1,7 +1,7 @@
 """The gamma command's output folder: ``gamma.json`` and, for every fit, the mapping plot
 (thesis Fig. 2.6 b/c) and the residual nonlinearity plot.
 
-Files: ``gamma.json`` (:attr:`~hdrfringe.gamma.GammaReport.report`); for the uniform-gray fit
+Files: ``gamma.json`` (:attr:`~hdrfringe.core.gamma.GammaReport.report`); for the uniform-gray fit
 ``gamma_mapping.png`` and ``gamma_nonlinearity.png``; for the fringe-shape fit
 ``gamma_mapping_fringes.png`` and ``gamma_nonlinearity_fringes.png``.
 
@@ -9,9 +9,9 @@ Examples
 --------
 >>> import tempfile
 >>> import numpy as np
->>> from hdrfringe.captures import Captures
->>> from hdrfringe.frames import UniformFrame
->>> from hdrfringe.gamma import gamma_report
+>>> from hdrfringe.core.captures import Captures
+>>> from hdrfringe.core.frames import UniformFrame
+>>> from hdrfringe.core.gamma import gamma_report
 >>> levels = [0, 64, 128, 192, 255]
 >>> images = np.stack([np.full((4, 4), 10 + 200 * (g / 255) ** 2.2) for g in levels])
 >>> caps = Captures([UniformFrame(g) for g in levels], np.rint(images).astype(np.uint8), 8)
@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from hdrfringe._validation import full_scale
-from hdrfringe.gamma import GammaFit, GammaReport, line_deviation
-from hdrfringe.gamma.report import FRINGE_NONLINEARITY_BINS
+from hdrfringe.core._validation import full_scale
+from hdrfringe.core.gamma import GammaFit, GammaReport, line_deviation
+from hdrfringe.core.gamma.report import FRINGE_NONLINEARITY_BINS
 from hdrfringe.io.plots import plot_gamma_mapping
 from hdrfringe.io.results import staged_output_dir
 
@@ -62,12 +62,12 @@ def plot_gamma_nonlinearity(
 
     For every requested (linear) gray level, the deviation of the captured intensity from the
     straight line through the mapping, in percent of the captured range (the measure of
-    :func:`~hdrfringe.gamma.measure_nonlinearity`): predicted by the fit after
+    :func:`~hdrfringe.core.gamma.measure_nonlinearity`): predicted by the fit after
     pre-compensation with the fitted gamma, without pre-compensation, and with the captures'
     own ``precompensation`` when given; and the fit's samples re-indexed to pre-compensation
     with the fitted gamma (each sample's sent gray is what that pre-compensation sends for
     ``full * (sent/full)^gamma``), as points for uniform grays and as medians of
-    :data:`~hdrfringe.gamma.report.FRINGE_NONLINEARITY_BINS` bins over the faint samples for
+    :data:`~hdrfringe.core.gamma.report.FRINGE_NONLINEARITY_BINS` bins over the faint samples for
     fringes. What is left after pre-compensation is what the fit cannot remove.
 
     Parameters
@@ -95,7 +95,7 @@ def plot_gamma_nonlinearity(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.gamma import fit_gamma_uniform
+    >>> from hdrfringe.core.gamma import fit_gamma_uniform
     >>> g = np.arange(0, 256, 16.0)
     >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
     >>> out = plot_gamma_nonlinearity(fit, Path(tempfile.mkdtemp()) / "nl.png")
@@ -155,7 +155,7 @@ def write_gamma_outputs(path: str | Path, report: GammaReport, *, force: bool = 
     path : str or Path
         Output folder; refused if it exists and is not empty, unless ``force``.
     report : GammaReport
-        From :func:`hdrfringe.gamma.gamma_report`.
+        From :func:`hdrfringe.core.gamma.gamma_report`.
     force : bool
         Replace an existing non-empty folder.
 
@@ -174,9 +174,9 @@ def write_gamma_outputs(path: str | Path, report: GammaReport, *, force: bool = 
     --------
     >>> import tempfile
     >>> import numpy as np
-    >>> from hdrfringe.captures import Captures
-    >>> from hdrfringe.frames import UniformFrame
-    >>> from hdrfringe.gamma import gamma_report
+    >>> from hdrfringe.core.captures import Captures
+    >>> from hdrfringe.core.frames import UniformFrame
+    >>> from hdrfringe.core.gamma import gamma_report
     >>> levels = [0, 64, 128, 192, 255]
     >>> images = np.stack([np.full((4, 4), 10 + 200 * (g / 255) ** 2.2) for g in levels])
     >>> caps = Captures([UniformFrame(g) for g in levels], np.rint(images).astype(np.uint8), 8)

@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hdrfringe.core.limits import MAX_PROGRAM_FRAMES, MAX_STEPS
+from hdrfringe.core.patterns import ORIENTATIONS, PATTERNS
 from hdrfringe.errors import InputError
 from hdrfringe.io._read_limits import load_toml_bounded
-from hdrfringe.limits import MAX_PROGRAM_FRAMES, MAX_STEPS
-from hdrfringe.patterns import ORIENTATIONS, PATTERNS
 
 __all__ = [
     "TEMPLATE_FIELDS",

@@ -28,14 +28,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import FORMAT_NAME, Captures, ProjectorInfo
+from hdrfringe.core.captures import FORMAT_NAME, Captures, ProjectorInfo
+from hdrfringe.core.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS, MAX_PROGRAM_FRAMES
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
 from hdrfringe.io.captures import load_image, load_side_file, read_manifest
 from hdrfringe.io.import_description import Description, FrameGroup, Template, read_description
 from hdrfringe.io.pattern_folder import PATTERN_FORMAT
 from hdrfringe.io.results import check_output_against_inputs, staged_output_dir
-from hdrfringe.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS, MAX_PROGRAM_FRAMES
 
 __all__ = [
     "CONVERTED_SUFFIXES",

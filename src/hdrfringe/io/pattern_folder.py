@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.captures import ProjectorInfo, frames_format_version
-from hdrfringe.frames import Frame, render_frame
+from hdrfringe.core.captures import ProjectorInfo, frames_format_version
+from hdrfringe.core.frames import Frame, render_frame
 from hdrfringe.io.captures import write_side_files
 from hdrfringe.io.results import staged_output_dir
 
@@ -42,7 +42,7 @@ def write_pattern_folder(
 
     Each frame's ``file`` is the rendered projector image (gamma pre-compensated, at the
     projector's bit depth), ``NNN_<stem>.png`` in play order. The manifest is of the lowest
-    version that describes the frames (:func:`hdrfringe.captures.frames_format_version`: 1
+    version that describes the frames (:func:`hdrfringe.core.captures.frames_format_version`: 1
     unless a frame has 2-D data, 2 then, 3 for shift angles, a phase offset or Gray-code
     frames); with 2-D data each
     such entry also names its side file (the MIGL map or the linear image), written once per
@@ -73,13 +73,13 @@ def write_pattern_folder(
 
     Notes
     -----
-    Gamma pre-compensation: thesis Eq. 2.17 (:func:`hdrfringe.frames.render_frame`).
+    Gamma pre-compensation: thesis Eq. 2.17 (:func:`hdrfringe.core.frames.render_frame`).
 
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.frames import PixelwiseFringeFrame
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.frames import PixelwiseFringeFrame
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> spec = FringeSpec(steps=3)
     >>> frames = [PixelwiseFringeFrame(spec, i, np.full((4, 8), 200.0)) for i in range(3)]
     >>> with tempfile.TemporaryDirectory() as tmp:

@@ -9,13 +9,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hdrfringe.core.decode import FamilyResult, FolderPhase
+from hdrfringe.core.phase import PhaseResult
+from hdrfringe.core.saturation.tolerant import TolerantPhaseResult
 from hdrfringe.io.results import MAP_COMPRESSION, write_map_tiff, write_preview_png
-from hdrfringe.phase import PhaseResult
-from hdrfringe.process import FamilyResult, FolderPhase
-from hdrfringe.saturation_tolerant import TolerantPhaseResult
 
 if TYPE_CHECKING:
-    from hdrfringe.uncertainty import Uncertainty
+    from hdrfringe.core.uncertainty import Uncertainty
 
 __all__ = ["SET_MAPS", "write_phase_maps"]
 
@@ -139,17 +139,17 @@ def write_phase_maps(
         Folder to write into, existing and empty (e.g. the staging folder of
         :func:`~hdrfringe.io.results.staged_output_dir`).
     decoded : FolderPhase
-        From :func:`hdrfringe.process.decode_captures`.
+        From :func:`hdrfringe.core.decode.decode_captures`.
     source : str
         Where the captures came from (e.g. the capture folder), recorded in the summary.
     previews : bool
         Write a PNG preview beside every map (default). False: the maps and the summary only
         (``--no-previews``; the previews cost about as much as the maps).
     uncertainty : Uncertainty, optional
-        The predicted phase std (:func:`hdrfringe.uncertainty.predict_uncertainty`): every set
+        The predicted phase std (:func:`hdrfringe.core.uncertainty.predict_uncertainty`): every set
         also gets ``phase_std.tiff`` (float32 rad, NaN where not predicted) and its preview,
         and the summary an ``uncertainty`` block (:meth:`Uncertainty.summary
-        <hdrfringe.uncertainty.Uncertainty.summary>`). Without it the folder is what it was.
+        <hdrfringe.core.uncertainty.Uncertainty.summary>`). Without it the folder is what it was.
     std_per_set : bool
         With ``uncertainty`` and several sets: also ``phase_std__<set label>.tiff`` for every
         set predicted (False: only the unsuffixed ``phase_std.tiff`` of the primary family's
@@ -181,9 +181,9 @@ def write_phase_maps(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.captures import Captures, ProjectorInfo
-    >>> from hdrfringe.patterns import FringeSpec, fringe_gray
-    >>> from hdrfringe.process import decode_captures
+    >>> from hdrfringe.core.captures import Captures, ProjectorInfo
+    >>> from hdrfringe.core.patterns import FringeSpec, fringe_gray
+    >>> from hdrfringe.core.decode import decode_captures
     >>> spec = FringeSpec("sinusoidal", 4, 1024.0, migl=200.0)
     >>> x = np.tile(np.arange(16.0), (4, 1))
     >>> images = np.stack([np.rint(fringe_gray(x, spec, k)) for k in range(4)]).astype(np.uint8)

@@ -2,7 +2,7 @@
 
 Every figure of the library is drawn here, with matplotlib's Agg backend (no display needed);
 matplotlib is imported when a figure is drawn, not when this module is imported. The modules
-that compute what is plotted (:mod:`hdrfringe.gamma`, :mod:`hdrfringe.strategies.dpa_analysis`)
+that compute what is plotted (:mod:`hdrfringe.core.gamma`, :mod:`hdrfringe.strategies.dpa_analysis`)
 never import matplotlib.
 
 * :func:`plot_gamma_mapping`: thesis Fig. 2.6 b/c, input gray -> captured intensity without
@@ -22,11 +22,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hdrfringe._validation import full_scale
-from hdrfringe.gamma import GammaFit, line_deviation, measure_nonlinearity
+from hdrfringe.core._validation import full_scale
+from hdrfringe.core.gamma import GammaFit, line_deviation, measure_nonlinearity
 
 if TYPE_CHECKING:
-    from hdrfringe.saturation.dpa_rules import SaturationCDF
+    from hdrfringe.core.saturation.dpa_rules import SaturationCDF
     from hdrfringe.strategies.dpa_analysis import DPACDFs
 
 __all__ = ["plot_dpa_cdfs", "plot_gamma_mapping", "plot_migl_pie"]
@@ -64,8 +64,8 @@ def plot_gamma_mapping(
     Parameters
     ----------
     fit : GammaFit
-        From :func:`~hdrfringe.gamma.fit_gamma_uniform` or
-        :func:`~hdrfringe.gamma.fit_gamma_fringes`.
+        From :func:`~hdrfringe.core.gamma.fit_gamma_uniform` or
+        :func:`~hdrfringe.core.gamma.fit_gamma_fringes`.
     path : str or Path
         PNG file to write.
     gamma_hat : float, optional
@@ -90,7 +90,7 @@ def plot_gamma_mapping(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.gamma import fit_gamma_uniform
+    >>> from hdrfringe.core.gamma import fit_gamma_uniform
     >>> g = np.arange(0, 256, 16.0)
     >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
     >>> out = plot_gamma_mapping(fit, Path(tempfile.mkdtemp()) / "gamma_mapping.png")
@@ -240,7 +240,7 @@ def plot_dpa_cdfs(
     --------
     >>> import tempfile
     >>> from hdrfringe.strategies.dpa_analysis import DPACDFs
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> nothing = DPACDFs(FringeSpec("sinusoidal", 4, 8.0), [255.0], ["initial"], 0)
     >>> out = plot_dpa_cdfs(Path(tempfile.mkdtemp()) / "dpa_cdf.png", [nothing], threshold=0.1)
     >>> out.name, out.stat().st_size > 0

@@ -1,6 +1,6 @@
 """Point clouds as PLY files (written with plyfile).
 
-The points come from :func:`hdrfringe.reconstruct.points_from_height` (thesis Eq. 2.11's
+The points come from :func:`hdrfringe.core.reconstruct.points_from_height` (thesis Eq. 2.11's
 height with the camera's pinhole geometry); this module only writes them.
 """
 
@@ -30,7 +30,7 @@ def write_ply(
         PLY file to write.
     x, y, z : array_like
         Coordinates of the points (any shape, flattened), e.g. the maps of
-        :func:`~hdrfringe.reconstruct.points_from_height` in mm. A point with a non-finite
+        :func:`~hdrfringe.core.reconstruct.points_from_height` in mm. A point with a non-finite
         coordinate is left out.
     intensity : array_like, optional
         A value per point (same size), stored as the vertex property ``intensity``.

@@ -859,7 +859,7 @@ def read_map_tiff(path: str | Path) -> np.ndarray:
     ------
     CaptureFormatError
         A truncated, corrupt or non-TIFF file, or a header declaring more than
-        :data:`hdrfringe.limits.MAX_IMAGE_PIXELS` pixels (refused before decoding), in one line
+        :data:`hdrfringe.core.limits.MAX_IMAGE_PIXELS` pixels (refused before decoding), in one line
         naming the file.
 
     Examples

@@ -22,7 +22,7 @@ Converters (:func:`convert_calibration`) read OpenCV FileStorage YAML/XML/JSON f
 kimthyung's ``CalibrationData*`` folders; ``docs/stereo.md`` documents every key and mapping.
 
 :func:`load_any_calibration` reads a calibration file of either kind, knowing which from the
-file: what a measurement takes (:class:`~hdrfringe.calibration.MeasurementCalibration`).
+file: what a measurement takes (:class:`~hdrfringe.core.calibration.MeasurementCalibration`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.calibration import MeasurementCalibration
+from hdrfringe.core.calibration import MeasurementCalibration
+from hdrfringe.core.stereo import DISTORTION_LENGTHS, LensModel, StereoCalibration
 from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.io.calibration_file import (
     FORMAT_NAME,
@@ -45,7 +46,6 @@ from hdrfringe.io.calibration_file import (
     _write_tree,
     load_calibration,
 )
-from hdrfringe.stereo import DISTORTION_LENGTHS, LensModel, StereoCalibration
 
 __all__ = [
     "FILESTORAGE_KEYS",
@@ -349,8 +349,8 @@ def load_any_calibration(path: str | Path) -> MeasurementCalibration:
     Returns
     -------
     MeasurementCalibration
-        A :class:`~hdrfringe.calibration.Calibration` or a
-        :class:`~hdrfringe.stereo.StereoCalibration`.
+        A :class:`~hdrfringe.core.calibration.Calibration` or a
+        :class:`~hdrfringe.core.stereo.StereoCalibration`.
 
     Raises
     ------

@@ -5,7 +5,7 @@
 * :class:`SimulatedRig`, the virtual rig (:mod:`hdrfringe.rig.simulated`), and
   :func:`virtual_rig`, the one a few plain options describe (:mod:`hdrfringe.rig.factory`).
 * :class:`ReplayRig`, a rig over captures read from a folder (:mod:`hdrfringe.rig.replay`).
-* :class:`ProjectorInfo` and :class:`CameraSettings` (core, :mod:`hdrfringe.captures`).
+* :class:`ProjectorInfo` and :class:`CameraSettings` (core, :mod:`hdrfringe.core.captures`).
 
 The virtual and replay rigs are imported on first use (``hdrfringe.rig.SimulatedRig``), so that
 importing the protocol does not load the simulator.
@@ -22,7 +22,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.captures import CameraSettings, ProjectorInfo
 from hdrfringe.rig.base import Rig, RigBase
 
 if TYPE_CHECKING:

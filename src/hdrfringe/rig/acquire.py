@@ -1,5 +1,5 @@
-"""Acquire a program on the virtual rig as :class:`~hdrfringe.captures.Captures`, optionally with
-light and noise added afterwards (thesis Eq. 4.1).
+"""Acquire a program on the virtual rig as :class:`~hdrfringe.core.captures.Captures`, optionally
+with light and noise added afterwards (thesis Eq. 4.1).
 
 * :class:`IntensityModification`: the Eq. 4.1 parameters (added lux, DN, noise sigma, seed),
   validated, applied with :func:`hdrfringe.rig.modify.modify_captures`, and recorded in a
@@ -12,7 +12,7 @@ Writing the result as a folder is I/O (:mod:`hdrfringe.tasks.simulate`).
 
 Examples
 --------
->>> from hdrfringe.patterns import FringeSpec
+>>> from hdrfringe.core.patterns import FringeSpec
 >>> from hdrfringe.rig.factory import virtual_rig
 >>> caps = simulated_captures(virtual_rig("white_plate"), FringeSpec(steps=3).frames())
 >>> caps.images.shape, sorted(caps.maps)
@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import Captures
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import Frame
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
 from hdrfringe.rig.modify import lux_to_dn, modify_captures
 from hdrfringe.rig.simulated import SimulatedRig
 
@@ -204,7 +204,7 @@ def simulated_captures(
 
     Examples
     --------
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> from hdrfringe.rig.factory import virtual_rig
     >>> rig = virtual_rig("white_plate", noise=0, shot_noise=False)
     >>> caps = simulated_captures(rig, [UniformFrame(255)], modification=IntensityModification(

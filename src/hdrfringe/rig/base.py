@@ -22,9 +22,9 @@ from typing import Protocol, Self, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.frames import Frame
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
 
 __all__ = ["Rig", "RigBase"]
 
@@ -59,7 +59,7 @@ class Rig(Protocol):  # numpydoc ignore=PR01
     --------
     A rig whose camera sees a constant gray, built on :class:`RigBase`:
 
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> class Gray(RigBase):
     ...     camera_bit_depth, image_shape, projector = 8, (2, 3), ProjectorInfo()
     ...
@@ -191,7 +191,7 @@ class RigBase:
             return current
         if not isinstance(settings, CameraSettings):
             raise InputError(
-                f"camera settings must be a hdrfringe.captures.CameraSettings or None, got "
+                f"camera settings must be a hdrfringe.core.captures.CameraSettings or None, got "
                 f"{type(settings).__name__}"
             )
         return CameraSettings(

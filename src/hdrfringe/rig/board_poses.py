@@ -24,10 +24,10 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.frames import Frame
+from hdrfringe.core.programs import fringe_program
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
-from hdrfringe.programs import fringe_program
 from hdrfringe.rig.scenes import CalibrationBoard, Scene, board
 from hdrfringe.rig.simulated import CameraModel, ProjectorModel, RigGeometry, SimulatedRig
 

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, DTypeLike, NDArray
 
-from hdrfringe._validation import full_scale
+from hdrfringe.core._validation import full_scale
 from hdrfringe.errors import InputError
 
 __all__ = ["lux_to_dn", "modify_captures", "modify_intensity"]

@@ -1,7 +1,7 @@
 """Replay captures as a rig: strategies run offline on captured MIGL sweeps.
 
 The thesis captured every MIGL from 255 to 60 in steps of 1 and ran its strategies offline;
-:class:`ReplayRig` does the same with any :class:`~hdrfringe.captures.Captures` (read from a
+:class:`ReplayRig` does the same with any :class:`~hdrfringe.core.captures.Captures` (read from a
 capture folder, which ``hdrfringe simulate --migl-sweep`` writes, or made in memory).
 ``capture(frames)`` returns, for each frame, the image the captures hold for exactly that frame
 (same pattern, steps, shift, pitch, orientation, imin and MIGL; or the same centerline or
@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import CameraSettings, Captures, ProjectorInfo
+from hdrfringe.core.captures import CameraSettings, Captures, ProjectorInfo
+from hdrfringe.core.frames import Frame, FringeFrame
 from hdrfringe.errors import CaptureFormatError
-from hdrfringe.frames import Frame, FringeFrame
 from hdrfringe.rig.base import RigBase
 
 __all__ = ["ReplayRig"]
@@ -38,7 +38,7 @@ def _key(frame: Frame) -> str:
 
 
 class ReplayRig(RigBase):
-    """A rig whose captures come from a :class:`~hdrfringe.captures.Captures`.
+    """A rig whose captures come from a :class:`~hdrfringe.core.captures.Captures`.
 
     ``capture(frames, settings)`` with an exposure time returns the frame captured at exactly
     that exposure (the per-frame ``exposure_ms``) and refuses an exposure the captures do not
@@ -54,7 +54,7 @@ class ReplayRig(RigBase):
     ----------
     camera_bit_depth, image_shape, projector
         As the :class:`~hdrfringe.rig.base.Rig` protocol asks (the projector defaults to
-        :class:`~hdrfringe.captures.ProjectorInfo` when the captures record none).
+        :class:`~hdrfringe.core.captures.ProjectorInfo` when the captures record none).
     captured : int
         Number of images returned so far.
 
@@ -65,7 +65,7 @@ class ReplayRig(RigBase):
     Examples
     --------
     >>> import numpy as np
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> frames = FringeSpec(steps=3).frames()
     >>> rig = ReplayRig(Captures(frames, np.arange(3).reshape(3, 1, 1).astype(np.uint8), 8))
     >>> rig.capture(frames[::-1])[:, 0, 0].tolist()

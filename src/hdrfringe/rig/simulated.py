@@ -12,7 +12,7 @@ Radiometry follows thesis Eq. 3.3 with each term parameterised physically::
     I = alpha * [ S * (r + k_s * (n.h)^m) * L_proj(u, v) + r * a1 ] + alpha * a2
 
 - ``L_proj``: projected light, 1 at full-white input. The input gray of the frame is what
-  :func:`hdrfringe.patterns.render_frame` sends (gamma pre-compensation with the rig's
+  :func:`hdrfringe.core.patterns.render_frame` sends (gamma pre-compensation with the rig's
   ``gamma_precompensation``, rounding at the projector bit depth); the projector's true gamma
   (Eq. 2.16) and black level turn it into light, ``L = b + (1 - b) * (g / (2^Bp - 1)) ** gamma``,
   which is then blurred by the projector defocus (a Gaussian acting on light, as optics do).
@@ -28,12 +28,12 @@ The camera then blurs (Gaussian PSF), optionally integrates each pixel's area (s
 scales by the camera settings (exposure time ``t`` against the camera's reference exposure
 ``t_ref``, gain ``G = 10^(gain_db / 20)``: ``I -> G (t / t_ref) I``), adds read noise (times
 ``G``) and shot noise, rounds and clips to ``[0, 2^B - 1]``
-(:func:`hdrfringe.rig.camera.sensor_readout`).
+(:func:`hdrfringe.rig.sensor.sensor_readout`).
 
 Line frames (which vary along one projector axis) are sampled from one projector line; frames
-that vary along both axes (:class:`~hdrfringe.frames.PixelwiseFringeFrame`,
-:class:`~hdrfringe.frames.ImageFrame`) are looked up in the full projector image at each sample's
-``(u, v)``, with the same projector models (docs/virtual_rig.md, "Projector images").
+that vary along both axes (:class:`~hdrfringe.core.frames.PixelwiseFringeFrame`,
+:class:`~hdrfringe.core.frames.ImageFrame`) are looked up in the full projector image at each
+sample's ``(u, v)``, with the same projector models (docs/virtual_rig.md, "Projector images").
 
 Noise is seeded per frame from ``(seed, scene, frame identity, camera settings, repeat count)``
 through a SHA-256 hash, so a frame's image does not depend on the capture order.
@@ -54,10 +54,9 @@ from numpy.typing import NDArray
 from scipy.ndimage import gaussian_filter, gaussian_filter1d
 from scipy.special import erf
 
-from hdrfringe._validation import full_scale
-from hdrfringe.captures import CameraSettings, Captures, ProjectorInfo
-from hdrfringe.errors import InputError
-from hdrfringe.frames import (
+from hdrfringe.core._validation import full_scale
+from hdrfringe.core.captures import CameraSettings, Captures, ProjectorInfo
+from hdrfringe.core.frames import (
     IMAGE_FRAMES,
     LINE_FRAMES,
     Frame,
@@ -68,13 +67,14 @@ from hdrfringe.frames import (
     frame_axis,
     render_frame,
 )
-from hdrfringe.patterns import precompensate_gamma
+from hdrfringe.core.patterns import precompensate_gamma
+from hdrfringe.errors import InputError
 from hdrfringe.rig.base import RigBase
-from hdrfringe.rig.camera import sensor_readout
 from hdrfringe.rig.scenes import Scene
+from hdrfringe.rig.sensor import sensor_readout
 
 if TYPE_CHECKING:
-    from hdrfringe.stereo import StereoCalibration
+    from hdrfringe.core.stereo import StereoCalibration
 
 __all__ = [
     "REFERENCE_EXPOSURE_MS",
@@ -144,7 +144,7 @@ class CameraModel:
         Reference exposure time t_ref in ms (default :data:`REFERENCE_EXPOSURE_MS`, 10 ms): the
         exposure at which ``white_level`` and the ambient coefficients hold. A capture at
         exposure ``t`` scales the signal by ``t / t_ref`` (:class:`SimulatedRig`,
-        :class:`~hdrfringe.captures.CameraSettings`).
+        :class:`~hdrfringe.core.captures.CameraSettings`).
     vignetting : float
         Lens vignetting: the fraction of light lost at the image corners, falling off as
         ``1 - vignetting (r / r_corner)^2`` with ``r`` the distance from the image centre
@@ -245,12 +245,12 @@ class CameraModel:
 
     def noise_manifest(self, gain: float = 1.0) -> dict[str, float]:
         """The camera's noise model as a capture manifest records it (``camera.read_noise_dn``,
-        ``camera.gain_dn_per_e``; :func:`hdrfringe.uncertainty.noise_from_manifest`).
+        ``camera.gain_dn_per_e``; :func:`hdrfringe.core.uncertainty.noise_from_manifest`).
 
         The images' variance at a signal of ``I`` DN is ``read_noise_dn^2 + gain_dn_per_e * I``
         with ``read_noise_dn^2 = (G sigma_r)^2 + 1/12`` (the read noise and the rounding to
         integers, the uniform quantisation error's variance) and ``gain_dn_per_e = G g``, at
-        the analogue gain ``G`` (:func:`~hdrfringe.rig.camera.sensor_readout`). A camera
+        the analogue gain ``G`` (:func:`~hdrfringe.rig.sensor.sensor_readout`). A camera
         without read and shot noise records nothing (its images repeat exactly).
 
         Parameters
@@ -317,7 +317,7 @@ class ProjectorModel:
         Gaussian defocus blur standard deviation in projector pixels (0: sharp).
     model : {"pixelated", "continuous"}
         "pixelated": real projector pixels, piecewise constant, exactly the image of
-        :func:`~hdrfringe.patterns.render_frame`. "continuous": the pattern is evaluated
+        :func:`~hdrfringe.core.patterns.render_frame`. "continuous": the pattern is evaluated
         analytically at the continuous projector coordinate (then gamma-pre-compensated and
         rounded at Bp bits), i.e. a projector with infinitely many pixels.
 
@@ -504,7 +504,7 @@ class RigGeometry:
 
         The camera frame has ``x`` along the image columns, ``y`` along the rows (down the
         image) and ``z`` along the viewing direction, origin at the camera centre: the frame of
-        :class:`hdrfringe.stereo.StereoCalibration`. The camera looks straight down, columns
+        :class:`hdrfringe.core.stereo.StereoCalibration`. The camera looks straight down, columns
         along +X and rows along -Y, so ``X_cam = diag(1, -1, -1) @ (X_world - C)``.
 
         Returns
@@ -561,7 +561,7 @@ class RigGeometry:
         >>> round(calib.baseline_mm, 1)  # 1967 mm * sin(15 deg) along X at the camera's height
         509.1
         """
-        from hdrfringe.stereo import LensModel, StereoCalibration
+        from hdrfringe.core.stereo import LensModel, StereoCalibration
 
         (cw, ch), (pw, ph) = (_size(camera_size, "camera"), _size(projector_size, "projector"))
         fc = self.camera_focal_px(cw)
@@ -1050,7 +1050,7 @@ class SimulatedRig(RigBase):
 
     Examples
     --------
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> rig = SimulatedRig(white_plate(12.0), camera=CameraModel(width=64, height=48))
     >>> rig.capture(FringeSpec(steps=3).frames()).shape
@@ -1111,7 +1111,7 @@ class SimulatedRig(RigBase):
     def camera_settings(self) -> CameraSettings:
         """Settings of captures given none: exposure (default the camera's reference exposure
         ``camera.exposure_ms``) and gain (default 0 dB). Assigning a
-        :class:`~hdrfringe.captures.CameraSettings` changes the fields it gives."""
+        :class:`~hdrfringe.core.captures.CameraSettings` changes the fields it gives."""
         s = self._settings
         return CameraSettings(
             exposure_ms=s.exposure_ms if s.exposure_ms is not None else self.camera.exposure_ms,
@@ -1122,7 +1122,7 @@ class SimulatedRig(RigBase):
     def camera_settings(self, settings: CameraSettings) -> None:
         if not isinstance(settings, CameraSettings):
             raise InputError(
-                f"camera settings must be a hdrfringe.captures.CameraSettings, got "
+                f"camera settings must be a hdrfringe.core.captures.CameraSettings, got "
                 f"{type(settings).__name__}"
             )
         old = self._settings
@@ -1191,7 +1191,7 @@ class SimulatedRig(RigBase):
         return out
 
     def capture_folder(self, frames: Sequence[Frame]) -> Captures:
-        """Capture ``frames`` into an in-memory :class:`~hdrfringe.captures.Captures`, as
+        """Capture ``frames`` into an in-memory :class:`~hdrfringe.core.captures.Captures`, as
         ``simulate`` would write it.
 
         The captures carry the scene, the camera geometry (``focal_px``, ``standoff_mm``) and
@@ -1463,7 +1463,7 @@ class SimulatedRig(RigBase):
             return self._image_light(frame, rad)
         if not isinstance(frame, LINE_FRAMES):
             raise InputError(
-                f"cannot project a {type(frame).__name__}; use a frame of hdrfringe.frames "
+                f"cannot project a {type(frame).__name__}; use a frame of hdrfringe.core.frames "
                 "(FringeFrame, CenterlineFrame, UniformFrame, PixelwiseFringeFrame, ImageFrame)"
             )
         if isinstance(frame, FringeFrame) and frame.spec.migl > proj.full_scale:
@@ -1555,7 +1555,7 @@ def simulate_frames(rig: SimulatedRig, frames: Sequence[Frame]) -> NDArray[np.in
 
     Examples
     --------
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> from hdrfringe.rig.scenes import white_plate
     >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=8, height=6))
     >>> imgs = simulate_frames(rig, [UniformFrame(0.0), UniformFrame(255.0)])

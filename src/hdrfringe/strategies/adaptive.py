@@ -6,7 +6,7 @@ Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
 1. **Mapping** in both orientations: a ladder of fringe sets from one period across the
    projector down to within 16x of the finest pitch (it includes the measurement's coarser
    pitches). The first one-period set is captured at a low MIGL (``imin + 20``); its response
-   ``I = a g + c`` (:func:`~hdrfringe.saturation.adaptive_map.response_from_fringes`) sets the
+   ``I = a g + c`` (:func:`~hdrfringe.core.saturation.adaptive_map.response_from_fringes`) sets the
    MIGL of the others: the highest that keeps every pixel 10 % below clipping. Where a
    highlight holds that so low that more than 2 % of the field carries no fringe, the ladder
    is captured again at the full MIGL and merged per pixel (the bright capture where it does
@@ -15,25 +15,25 @@ Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
 2. **Map**: per camera pixel the highest MIGL that keeps every shift a ``margin`` below
    clipping, carried to the projector (minimum per projector pixel, holes filled, eroded by the
    camera pixel's footprint plus ``blur_px``, smoothed from below;
-   :func:`~hdrfringe.saturation.adaptive_map.projector_migl_map`).
+   :func:`~hdrfringe.core.saturation.adaptive_map.projector_migl_map`).
 3. **Adapted set** at the finest pitch of each orientation
-   (:class:`~hdrfringe.frames.PixelwiseFringeFrame`); a **refit** from its own offset and
+   (:class:`~hdrfringe.core.frames.PixelwiseFringeFrame`); a **refit** from its own offset and
    modulation (a fine fringe loses modulation to blur, so its peak stays below what the
-   response predicts: :func:`~hdrfringe.saturation.adaptive_map.refined_migl`) and one more
+   response predicts: :func:`~hdrfringe.core.saturation.adaptive_map.refined_migl`) and one more
    set where that gains a gray level or more, kept where it does not clip; **check** passes
    where a shift still clipped, lowered from the peak bound and merged there (Eq. 5.1), at most
    ``iterations``; a **boost** set where the erosion left pixels far below their own level
-   (a dim pixel next to a bright one: :func:`~hdrfringe.saturation.adaptive_map.boosted_map`),
+   (a dim pixel next to a bright one: :func:`~hdrfringe.core.saturation.adaptive_map.boosted_map`),
    kept for those pixels where its unclipped modulation is larger.
 4. **Phase**: the adapted set's fringe orders come from the mapping (no adapted set at the
    coarser pitches: the measurement's coarser sets are the mapping's own captures), and the
    bias of the map's steps under the blur is subtracted
-   (:func:`~hdrfringe.saturation.adaptive_map.map_phase_bias`, the blur fitted against the
+   (:func:`~hdrfringe.core.saturation.adaptive_map.map_phase_bias`, the blur fitted against the
    mapping). The result's ``absolute_phase`` is what :func:`hdrfringe.pipeline.measure` uses
    for the family's absolute phase.
 
 With ``epipolar`` the mapping is the vertical ladder only, each pixel's projector row from the
-projector-camera calibration (:func:`~hdrfringe.saturation.adaptive_map.epipolar_rows`); with
+projector-camera calibration (:func:`~hdrfringe.core.saturation.adaptive_map.epipolar_rows`); with
 ``full_mapping`` the first mapping set is tried at the full MIGL and, where only a highlight
 clips in it, the whole mapping stays there, the highlight is left to the top-up and the refit,
 check and boost sets are not captured (docs/adaptive.md, "One direction + the epipolar
@@ -52,14 +52,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import json_safe, saturation_count
-from hdrfringe.captures import CameraSettings
-from hdrfringe.errors import HdrFringeError, InputError
-from hdrfringe.frames import PixelwiseFringeFrame
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set
-from hdrfringe.rig.base import Rig
-from hdrfringe.saturation.adaptive_map import (
+from hdrfringe.core._validation import json_safe, saturation_count
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.frames import PixelwiseFringeFrame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set
+from hdrfringe.core.saturation.adaptive_map import (
     boosted_map,
     epipolar_rows,
     fill_holes,
@@ -75,7 +73,10 @@ from hdrfringe.saturation.adaptive_map import (
     safe_migl,
     sample_map,
 )
-from hdrfringe.stereo import StereoCalibration
+from hdrfringe.core.stereo import StereoCalibration
+from hdrfringe.core.unwrap import unwrap_spatial, unwrap_temporal
+from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
@@ -88,7 +89,6 @@ from hdrfringe.strategies.base import (
     register,
 )
 from hdrfringe.strategies.exposure import choose_exposure
-from hdrfringe.unwrap import unwrap_spatial, unwrap_temporal
 
 __all__ = [
     "ADAPTIVE_METRICS",
@@ -425,7 +425,7 @@ def _correct_map_bias(
 
     The mapping sets were projected at one MIGL: their phase carries the surface's own bias
     but not the map's, so the residual of the adapted phase against it is the map's bias plus
-    noise (:func:`~hdrfringe.saturation.adaptive_map.fit_blur_sigma`).
+    noise (:func:`~hdrfringe.core.saturation.adaptive_map.fit_blur_sigma`).
     """
 
     residual = (absolute - reference).ravel()
@@ -497,7 +497,7 @@ def _orders_from_neighbours(
 
     Each patch of decoded pixels without an order that holds a pixel of ``seeds`` (the
     top-up's), with a ring of :data:`ORDER_RING_PX` pixels of known absolute phase, is
-    unwrapped spatially (:func:`~hdrfringe.unwrap.unwrap_spatial`) and shifted by the whole
+    unwrapped spatially (:func:`~hdrfringe.core.unwrap.unwrap_spatial`) and shifted by the whole
     number of periods that puts the ring on its known phase (the median over the ring). The
     patch keeps no phase where the ring disagrees: fewer than :data:`ORDER_RING_AGREE` of its
     pixels within a quarter period of the shift (a fringe sampled too coarsely for spatial
@@ -587,7 +587,7 @@ def _epipolar_calibration(
         calibration = own()
     if not isinstance(calibration, StereoCalibration):
         raise InputError(
-            "adaptive: stereo_calibration must be a hdrfringe.stereo.StereoCalibration, got "
+            "adaptive: stereo_calibration must be a hdrfringe.core.stereo.StereoCalibration, got "
             f"{type(calibration).__name__}"
         )
     cam = (rig.image_shape[1], rig.image_shape[0])
@@ -1321,7 +1321,7 @@ def adaptive_sets(
     boost : bool
         Where the map gives pixels much less than their own level (a dim pixel next to a
         bright one), capture one more set with those raised
-        (:func:`~hdrfringe.saturation.adaptive_map.boosted_map`) and keep it per pixel where
+        (:func:`~hdrfringe.core.saturation.adaptive_map.boosted_map`) and keep it per pixel where
         its unclipped modulation is larger.
     bias_correction : bool
         Subtract the phase bias of the map's steps under the blur.
@@ -1354,7 +1354,7 @@ def adaptive_sets(
         Map one orientation only, the measurement's (vertical fringes), and take each camera
         pixel's projector row from the epipolar constraint: its ray meets the plane of its
         projector column in one 3-D point whose projection gives the row
-        (:func:`~hdrfringe.saturation.adaptive_map.epipolar_rows`). Saves the other
+        (:func:`~hdrfringe.core.saturation.adaptive_map.epipolar_rows`). Saves the other
         orientation's ladder. Needs a projector-camera calibration: ``stereo_calibration``,
         else the rig's own (the virtual rig's ``stereo_calibration()``, its true geometry).
     stereo_calibration : StereoCalibration, optional

@@ -45,14 +45,14 @@ from typing import TYPE_CHECKING, Any, Protocol, Union, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import full_scale
+from hdrfringe.core._validation import full_scale
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 
 if TYPE_CHECKING:
-    from hdrfringe.captures import Captures
-    from hdrfringe.stereo import StereoCalibration
+    from hdrfringe.core.captures import Captures
+    from hdrfringe.core.stereo import StereoCalibration
 
 __all__ = [
     "DEFAULT_STRATEGY",
@@ -386,7 +386,7 @@ class RunContext:
     projector_geometry : StereoCalibration or None
         The projector-camera calibration the measurement was given
         (:meth:`MeasurementCalibration.projector_geometry
-        <hdrfringe.calibration.MeasurementCalibration.projector_geometry>`); None: none.
+        <hdrfringe.core.calibration.MeasurementCalibration.projector_geometry>`); None: none.
 
     Examples
     --------
@@ -1044,7 +1044,8 @@ def merge_into_composite(
     images : ndarray (N, H, W)
         The set just captured.
     unsaturated : ndarray (H, W) bool
-        Where none of its N shifts is saturated (:func:`hdrfringe._validation.unsaturated_mask`).
+        Where none of its N shifts is saturated
+        (:func:`hdrfringe.core._validation.unsaturated_mask`).
     value : float
         The set's index value (its MIGL for LPA and DPA).
 

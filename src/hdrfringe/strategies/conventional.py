@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hdrfringe._validation import unsaturated_mask
-from hdrfringe.patterns import FringeSpec
+from hdrfringe.core._validation import unsaturated_mask
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,

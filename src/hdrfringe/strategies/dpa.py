@@ -2,10 +2,10 @@
 
 The loop of docs/dpa.md: capture at the highest MIGL; estimate each saturated pixel's true
 highest intensity (Eq. 6.2 / least squares on the sinusoid,
-:mod:`hdrfringe.saturation.estimate`), correct it with the trained polynomial (Sec. 6.1.2), turn
-the estimates into a CDF over the MIGL at which pixels become unsaturated (Sec. 6.1.3); then scan
-the MIGL down one gray level at a time and capture only where the threshold rule or the 0.01 %
-rule (:mod:`hdrfringe.saturation.dpa_rules`) asks; after each capture the composite grows as in
+:mod:`hdrfringe.core.saturation.estimate`), correct it with the trained polynomial (Sec. 6.1.2),
+turn the estimates into a CDF over the MIGL at which pixels become unsaturated (Sec. 6.1.3); then
+scan the MIGL down one gray level at a time and capture only where the threshold rule or the 0.01 %
+rule (:mod:`hdrfringe.core.saturation.dpa_rules`) asks; after each capture the composite grows as in
 LPA (Eq. 5.1) and the CDF gets both of its updates.
 """
 
@@ -16,23 +16,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hdrfringe._validation import saturation_count
-from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.rig.base import Rig
-from hdrfringe.saturation.dpa_rules import (
+from hdrfringe.core._validation import saturation_count
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.saturation.dpa_rules import (
     SaturationCDF,
     capture_rule,
     initial_dpa_state,
     next_capture_migl,
     update_dpa_state,
 )
-from hdrfringe.saturation.estimate import (
+from hdrfringe.core.saturation.estimate import (
     CorrectionPolynomial,
     peak_and_trough,
     saturated_peak_lower_bound,
     unsaturation_migl,
 )
+from hdrfringe.errors import InputError
+from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
     FunctionStrategy,
@@ -65,7 +65,7 @@ def bounded_cdf(
 
     Beyond the thesis's Sec. 6.1.3: a pending pixel (too many shifts saturated for the
     estimate) has a lower bound on its peak
-    (:func:`~hdrfringe.saturation.estimate.saturated_peak_lower_bound`); under the MIGL scaling
+    (:func:`~hdrfringe.core.saturation.estimate.saturated_peak_lower_bound`); under the MIGL scaling
     with the smallest possible offset (0) that bound becomes an upper bound on the MIGL at which
     the pixel stops saturating. Nothing is learnt about it by capturing above that MIGL, so the
     capture rules may skip there. The entries are provisional: recomputed from every capture,
@@ -101,7 +101,7 @@ def bounded_cdf(
 
     Examples
     --------
-    >>> from hdrfringe.saturation.dpa_rules import SaturationCDF
+    >>> from hdrfringe.core.saturation.dpa_rules import SaturationCDF
     >>> cdf = SaturationCDF(np.zeros(256, np.int64), total=1, migl0=255, lowest_migl=60)
     >>> imgs = np.array([[[255]], [[255]], [[255]], [[100]]], np.uint8)  # 3 of 4 saturated
     >>> out = bounded_cdf(cdf, np.array([[True]]), imgs, np.array([[3]]), 255.0, 40.0, 8)
@@ -155,7 +155,7 @@ def dpa(
     StrategyResult
         ``details`` holds the capture rules that fired (``rules``), the CDF estimated from the
         first set (``initial_cdf``) and after the last update (``final_cdf``), both
-        :class:`~hdrfringe.saturation.dpa_rules.SaturationCDF`, and the pixels saturated in the
+        :class:`~hdrfringe.core.saturation.dpa_rules.SaturationCDF`, and the pixels saturated in the
         first set (``saturated_at_top``; thesis Fig. 6.3 compares the CDFs with the actual one).
 
     Raises

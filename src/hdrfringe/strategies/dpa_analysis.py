@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.captures import Captures
-from hdrfringe.patterns import FringeSpec, same_fringes
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.patterns import FringeSpec, same_fringes
+from hdrfringe.core.saturation.dpa_rules import SaturationCDF, index_image_cdf
 from hdrfringe.rig.replay import ReplayRig
-from hdrfringe.saturation.dpa_rules import SaturationCDF, index_image_cdf
 from hdrfringe.strategies.base import StrategyResult
 from hdrfringe.strategies.lpa import lpa
 
@@ -112,7 +112,7 @@ def index_without_never(result: StrategyResult) -> NDArray[np.float64]:
     """The MIGL index image with the pixels never unsaturated marked -1.
 
     Such pixels count as ``beyond`` the lowest MIGL in a CDF built from the index image
-    (:func:`~hdrfringe.saturation.dpa_rules.index_image_cdf`).
+    (:func:`~hdrfringe.core.saturation.dpa_rules.index_image_cdf`).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Training data of DPA's error correction (thesis Sec. 6.1.2): live, or from a step-1 sweep.
 
 The correction polynomial is trained on LPA with a step of one gray level
-(:func:`hdrfringe.saturation.estimate.training_data_from_rig`). :func:`training_spec` is the
+(:func:`hdrfringe.core.saturation.estimate.training_data_from_rig`). :func:`training_spec` is the
 set the thesis trained on (with the changes a user asks for); :func:`training_data_from_folder`
 replays a captured step-1 MIGL sweep instead of a live rig. :data:`THESIS_CORRECTION_RMSE` is
 what the thesis reports for its correction.
@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import math
 
-from hdrfringe.captures import Captures
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import UniformFrame
+from hdrfringe.core.patterns import FringeSpec, same_fringes
+from hdrfringe.core.saturation.estimate import TrainingData, training_data_from_rig
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.frames import UniformFrame
-from hdrfringe.patterns import FringeSpec, same_fringes
 from hdrfringe.rig.replay import ReplayRig
-from hdrfringe.saturation.estimate import TrainingData, training_data_from_rig
 
 __all__ = [
     "THESIS_CORRECTION_RMSE",
@@ -85,7 +85,8 @@ def training_data_from_folder(
 
     The captures must hold a sinusoidal set of at least 4 steps at every integer MIGL from its
     highest down to its lowest one (``hdrfringe simulate white_plate --migl-sweep 255:60:1
-    --pitch 20 --ambient-lux 600``); :func:`~hdrfringe.saturation.estimate.training_data_from_rig`
+    --pitch 20 --ambient-lux 600``);
+    :func:`~hdrfringe.core.saturation.estimate.training_data_from_rig`
     then replays LPA with a step of 1 on it. ``pitch`` picks the set when the sweep holds
     several pitches. Uniform frames at ``imin``, when present, give the offset ``A``.
 

@@ -46,12 +46,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import full_scale, unsaturated_mask
-from hdrfringe.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core._validation import full_scale, unsaturated_mask
+from hdrfringe.core.captures import CameraSettings, ProjectorInfo
+from hdrfringe.core.frames import Frame
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.phase import decode_set, default_min_modulation
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
-from hdrfringe.patterns import FringeSpec
-from hdrfringe.phase import decode_set, default_min_modulation
 from hdrfringe.rig.base import Rig, RigBase
 from hdrfringe.strategies.base import (
     StrategyResult,
@@ -192,7 +192,7 @@ def darkest_modulation(
 
     Examples
     --------
-    >>> from hdrfringe.patterns import fringe_gray
+    >>> from hdrfringe.core.patterns import fringe_gray
     >>> spec = FringeSpec("sinusoidal", 4, 8.0, imin=0)
     >>> x = np.arange(16.0)
     >>> gain = np.array([[0.2], [1.5]])  # a dark row and a row that saturates

@@ -6,9 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hdrfringe._validation import unsaturated_mask
+from hdrfringe.core._validation import unsaturated_mask
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,

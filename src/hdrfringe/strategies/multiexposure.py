@@ -36,11 +36,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import unsaturated_mask
-from hdrfringe.captures import CameraSettings
+from hdrfringe.core._validation import unsaturated_mask
+from hdrfringe.core.captures import CameraSettings
+from hdrfringe.core.frames import Frame
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.replay import ReplayRig
 from hdrfringe.strategies.base import (
@@ -121,7 +121,8 @@ def fuse_exposures(
     exposures_ms : sequence of float
         Their exposure times (distinct).
     bit_depth : int
-        Camera bit depth B (saturated: ``2^B - 1``, :func:`hdrfringe._validation.is_saturated`).
+        Camera bit depth B (saturated: ``2^B - 1``,
+        :func:`hdrfringe.core._validation.is_saturated`).
 
     Returns
     -------

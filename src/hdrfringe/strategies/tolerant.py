@@ -1,11 +1,11 @@
 """Saturation-tolerant measurement: one set (plus its inverted set), decoded from the shifts
-that did not clip (:mod:`hdrfringe.saturation_tolerant`).
+that did not clip (:mod:`hdrfringe.core.saturation.tolerant`).
 
 No MIGL is lowered: the strategy captures the set at its MIGL and leaves the saturation to the
 decoder. The result carries ``decoder`` (:class:`~hdrfringe.strategies.base.DecoderSettings`):
 :func:`hdrfringe.pipeline.measure` then decodes the composite with
-:func:`hdrfringe.saturation_tolerant.decode_set_tolerant` (through
-:func:`hdrfringe.process.decode_captures`, ``saturated="exclude"``) instead of invalidating
+:func:`hdrfringe.core.saturation.tolerant.decode_set_tolerant` (through
+:func:`hdrfringe.core.decode.decode_captures`, ``saturated="exclude"``) instead of invalidating
 every pixel with a saturated shift.
 """
 
@@ -15,12 +15,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hdrfringe._validation import unsaturated_mask
+from hdrfringe.core._validation import unsaturated_mask
+from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.saturation.tolerant import inverted_spec
 from hdrfringe.errors import CaptureFormatError, InputError
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.rig.replay import ReplayRig
-from hdrfringe.saturation_tolerant import inverted_spec
 from hdrfringe.strategies.base import (
     CapturedSet,
     DecoderSettings,
@@ -45,7 +45,7 @@ def tolerant(
 ) -> StrategyResult:
     """One set at ``migl``, decoded from each pixel's unsaturated shifts.
 
-    With ``inverted``, the inverted set (:func:`~hdrfringe.saturation_tolerant.inverted_spec`)
+    With ``inverted``, the inverted set (:func:`~hdrfringe.core.saturation.tolerant.inverted_spec`)
     is captured too, but only when the first set saturates somewhere: with nothing saturated
     the result is the conventional one, bit for bit (the thesis's requirement 4).
 

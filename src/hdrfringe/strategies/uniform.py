@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hdrfringe._validation import check_tolerance, unsaturated_mask
+from hdrfringe.core._validation import check_tolerance, unsaturated_mask
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
@@ -190,7 +190,7 @@ class UniformParams:
     )
 
     def __post_init__(self) -> None:
-        """Refuse a tolerance outside 0..1 (:func:`hdrfringe._validation.check_tolerance`)."""
+        """Refuse a tolerance outside 0..1 (:func:`hdrfringe.core._validation.check_tolerance`)."""
         check_tolerance(self.tolerance)
 
 

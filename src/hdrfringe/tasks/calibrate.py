@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from hdrfringe.calibration import Calibration
+from hdrfringe.core.calibration import Calibration
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.pipeline import calibrate as fit_calibration
 from hdrfringe.tasks._progress import Progress, quiet
@@ -94,7 +94,7 @@ def calibrate_folders(
     --------
     >>> import tempfile
     >>> from hdrfringe.io.captures import write_capture_folder
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
     >>> frames = [f for p in (1024.0, 64.0) for f in FringeSpec("sinusoidal", 4, p).frames()]
@@ -133,7 +133,7 @@ def calibrate(
     output : Path
         The calibration file (``.h5``).
     model : str
-        :data:`hdrfringe.calibration.MODELS`.
+        :data:`hdrfringe.core.calibration.MODELS`.
     window : int
         Median and mean filter window, px.
     border : int
@@ -155,7 +155,7 @@ def calibrate(
     ...
     hdrfringe.errors.InputError: unknown model 'cubic'; use one of linear, rational, poly2, poly3
     """
-    from hdrfringe.calibration import MODELS
+    from hdrfringe.core.calibration import MODELS
     from hdrfringe.errors import InputError, OutputExistsError
     from hdrfringe.io.calibration_file import save_calibration
     from hdrfringe.io.results import check_output_against_inputs, check_output_file

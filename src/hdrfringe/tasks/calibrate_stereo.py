@@ -29,12 +29,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hdrfringe.captures import Captures
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.stereo import StereoCalibration
 from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.rig.board_poses import board_program, calibration_rig
 from hdrfringe.rig.scenes import CalibrationBoard
-from hdrfringe.stereo import StereoCalibration
 from hdrfringe.tasks._progress import Progress, quiet
 
 __all__ = [
@@ -379,7 +379,7 @@ def calibrate_stereo(
     min_valid : float, optional
         Least fraction of a window's pixels with projector coordinates.
     distortion : str
-        Lens distortion terms (:data:`~hdrfringe.stereo_calibration.DISTORTION_MODELS`).
+        Lens distortion terms (:data:`~hdrfringe.core.stereo_calibration.DISTORTION_MODELS`).
     fix_intrinsics : bool
         Keep the separate intrinsics in the stereo step.
     camera_size, projector_size : tuple of int, optional
@@ -400,8 +400,8 @@ def calibrate_stereo(
     ...
     hdrfringe.errors.InputError: give exactly one source: POSE folders, --from PATH ...
     """
+    from hdrfringe.core.stereo_calibration import DISTORTION_MODELS, MIN_POSES
     from hdrfringe.io.results import check_output_against_inputs
-    from hdrfringe.stereo_calibration import DISTORTION_MODELS, MIN_POSES
 
     poses = list(poses)
     sources = [bool(poses), from_path is not None, rig is not None]
@@ -433,8 +433,8 @@ def calibrate_stereo(
 
     if board is None:
         raise InputError("--board is required: e.g. --board checkerboard:9x6:25")
-    from hdrfringe.stereo_calibration import BoardSpec, observe_pose
-    from hdrfringe.stereo_calibration import calibrate_stereo as fit_stereo
+    from hdrfringe.core.stereo_calibration import BoardSpec, observe_pose
+    from hdrfringe.core.stereo_calibration import calibrate_stereo as fit_stereo
 
     spec = BoardSpec.parse(board)
     truth = None

@@ -383,8 +383,8 @@ def write_capture_output(
     --------
     >>> import tempfile
     >>> import numpy as np
-    >>> from hdrfringe.captures import Captures
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.captures import Captures
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> caps = Captures([UniformFrame(255.0)], np.zeros((1, 4, 6)), 8)
     >>> folder = Path(tempfile.mkdtemp())
     >>> write_capture_output(folder, caps, {"complete": True}, {"frames": []})
@@ -444,15 +444,15 @@ class LiveFringes:
 
         Examples
         --------
-        >>> from hdrfringe.captures import ProjectorInfo
+        >>> from hdrfringe.core.captures import ProjectorInfo
         >>> specs, line = LiveFringes("sinusoidal", 4, [8, 64, 8], 40, 255, True).build(
         ...     ProjectorInfo(1024, 768, 8))
         >>> [s.pitch_px for s in specs], line.position
         ([64, 8], 512)
         """
-        from hdrfringe._validation import full_scale
-        from hdrfringe.frames import CenterlineFrame
-        from hdrfringe.patterns import FringeSpec
+        from hdrfringe.core._validation import full_scale
+        from hdrfringe.core.frames import CenterlineFrame
+        from hdrfringe.core.patterns import FringeSpec
 
         pitches = sorted(set(self.pitches), reverse=True)
         specs = [

@@ -1,9 +1,10 @@
 """``hdrfringe capture-gamma``: the gamma-estimation program projected live, a capture folder out.
 
-The program is the one ``hdrfringe gamma FOLDER`` fits (:func:`hdrfringe.gamma.gamma_report`):
-uniform grays (the same builder as ``simulate --gray``, :func:`hdrfringe.programs.fringe_program`)
-and one wide sinusoidal set shown at each of several pre-distortion exponents (kamino410's
-design, docs/gamma.md "From fringes"). docs/hardware.md ("capture-gamma") describes it.
+The program is the one ``hdrfringe gamma FOLDER`` fits (:func:`hdrfringe.core.gamma.gamma_report`):
+uniform grays (the same builder as ``simulate --gray``,
+:func:`hdrfringe.core.programs.fringe_program`) and one wide sinusoidal set shown at each of
+several pre-distortion exponents (kamino410's design, docs/gamma.md "From fringes").
+docs/hardware.md ("capture-gamma") describes it.
 
 The rig comes from ``--rig-config`` and the hardware options as for ``capture``
 (:func:`hdrfringe.tasks.capture.hardware_rig`), with one exception: the grays are always sent
@@ -43,7 +44,7 @@ def precompensation_verdict(
     """Whether a pre-compensation exponent suits the projector a gamma fit describes.
 
     The residual nonlinearity (max deviation from a straight line, % of the captured range,
-    :func:`hdrfringe.gamma.predicted_nonlinearity`) that pre-compensating with ``gamma_hat``
+    :func:`hdrfringe.core.gamma.predicted_nonlinearity`) that pre-compensating with ``gamma_hat``
     leaves is compared with what the fitted gamma leaves; more than
     :data:`WRONG_PRECOMPENSATION_PERCENT` above it is wrong.
 
@@ -69,7 +70,7 @@ def precompensation_verdict(
     Examples
     --------
     >>> import numpy as np
-    >>> from hdrfringe.gamma import fit_gamma_uniform
+    >>> from hdrfringe.core.gamma import fit_gamma_uniform
     >>> g = np.arange(0, 256, 16.0)
     >>> fit = fit_gamma_uniform(g, 12 + 200 * (g / 255) ** 2.2, camera_bit_depth=8)
     >>> precompensation_verdict(fit, 2.2)[0], precompensation_verdict(fit, 1.8)[0]
@@ -77,7 +78,7 @@ def precompensation_verdict(
     >>> precompensation_verdict(fit, 1.8, source="rig.toml")[1].split("; ")[-1]
     'set gamma = 2.200 in rig.toml'
     """
-    from hdrfringe.gamma import predicted_nonlinearity
+    from hdrfringe.core.gamma import predicted_nonlinearity
 
     best, _ = predicted_nonlinearity(fit, fit.gamma)
     used, _ = predicted_nonlinearity(fit, gamma_hat)
@@ -152,7 +153,7 @@ class GammaCaptureReport:
     images : int
         Images written.
     lines : list of str
-        The fits' lines (:func:`hdrfringe.gamma.gamma_report`) and the verdicts on the
+        The fits' lines (:func:`hdrfringe.core.gamma.gamma_report`) and the verdicts on the
         pre-compensation in use and on the rig configuration's gamma.
     warning : str or None
         Why the folder gives no fit (then ``lines`` is empty).
@@ -188,7 +189,7 @@ def capture_gamma(
     """Project the gamma-estimation program live, write its capture folder, fit it.
 
     Uniform grays ``levels`` (sent with ``gamma``) and one wide sinusoidal set sent at each of
-    ``exponents``; then :func:`hdrfringe.gamma.gamma_report` on what was written. The output
+    ``exponents``; then :func:`hdrfringe.core.gamma.gamma_report` on what was written. The output
     is checked before the rig opens. Ctrl-C keeps the complete groups and raises
     :class:`~hdrfringe.errors.HdrFringeError` (before the first group: nothing written, the
     ``KeyboardInterrupt`` propagates).
@@ -232,21 +233,21 @@ def capture_gamma(
     ...
     hdrfringe.errors.InputError: --gray 0,255: 2 distinct levels; the fit needs at least ...
     """
-    from hdrfringe.captures import ProjectorInfo
-    from hdrfringe.gamma import (
+    from hdrfringe.core.captures import ProjectorInfo
+    from hdrfringe.core.gamma import (
         MIN_FRINGE_PITCH_PX,
         MIN_UNIFORM_LEVELS,
         gamma_report,
         select_gamma_sets,
     )
+    from hdrfringe.core.patterns import FringeSpec
+    from hdrfringe.core.programs import fringe_program
     from hdrfringe.hardware.rig import Recorder
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
         staged_output_dir,
     )
-    from hdrfringe.patterns import FringeSpec
-    from hdrfringe.programs import fringe_program
 
     levels, exponents = list(levels), list(exponents)
     grays, fringes = bool(levels), bool(exponents)

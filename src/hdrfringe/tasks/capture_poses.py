@@ -159,6 +159,7 @@ def capture_poses(
     ...
     hdrfringe.errors.InputError: --poses 0: give 1..100 (10 or more recommended)
     """
+    from hdrfringe.core.stereo_calibration import BoardSpec
     from hdrfringe.hardware.rig import Recorder
     from hdrfringe.io.results import (
         check_output_against_inputs,
@@ -166,7 +167,6 @@ def capture_poses(
         staged_output_dir,
     )
     from hdrfringe.rig.board_poses import MAX_BOARD_POSES, board_program
-    from hdrfringe.stereo_calibration import BoardSpec
 
     def tell(line: str) -> None:
         if say is not None:
@@ -247,5 +247,5 @@ def capture_poses(
 
 
 def _board_text(spec: Any) -> str:
-    """A :class:`~hdrfringe.stereo_calibration.BoardSpec` as ``--board`` takes it."""
+    """A :class:`~hdrfringe.core.stereo_calibration.BoardSpec` as ``--board`` takes it."""
     return f"{spec.pattern}:{spec.cols}x{spec.rows}:{spec.spacing_mm:g}"

@@ -43,9 +43,9 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
 from hdrfringe.io.results import check_output_dir, staged_output_dir
-from hdrfringe.patterns import FringeSpec
 from hdrfringe.pipeline import measure
 from hdrfringe.rig.factory import virtual_rig
 from hdrfringe.rig.simulated import SimulatedRig

@@ -13,7 +13,7 @@ __all__ = ["gamma"]
 def gamma(
     folder: Path, output: Path | None = None, *, force: bool = False, say: Say = silent
 ) -> Any:
-    """Fit the projector's gamma from a capture folder (:func:`hdrfringe.gamma.gamma_report`).
+    """Fit the projector's gamma from a capture folder (:func:`hdrfringe.core.gamma.gamma_report`).
 
     The output, when given, is checked (not the input, new or empty, or ``force``) before the
     folder is read. The report's lines are said before the fits are checked, so that a folder
@@ -50,7 +50,7 @@ def gamma(
     >>> round(report.uniform_fit.gamma, 1), (tmp / "fits").is_dir()
     (2.8, True)
     """
-    from hdrfringe.gamma import gamma_report
+    from hdrfringe.core.gamma import gamma_report
     from hdrfringe.io.captures import read_capture_folder
     from hdrfringe.io.gamma_outputs import write_gamma_outputs
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir

@@ -109,9 +109,9 @@ def next_step(folder: Path) -> str | None:
     >>> next_step(tmp / "caps") == f"hdrfringe phase {tmp / 'caps'} -o OUT"
     True
     """
-    from hdrfringe.gamma import select_gamma_sets, uniform_gray_means
+    from hdrfringe.core.decode import group_families
+    from hdrfringe.core.gamma import select_gamma_sets, uniform_gray_means
     from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.process import group_families
 
     caps = read_capture_folder(folder)
     families = group_families(caps.sets)

@@ -42,9 +42,9 @@ from hdrfringe.tasks.capture import (
 )
 
 if TYPE_CHECKING:
+    from hdrfringe.core.reconstruct import CameraGeometry
+    from hdrfringe.core.stereo import StereoMaps
     from hdrfringe.pipeline import MeasurementResult
-    from hdrfringe.reconstruct import CameraGeometry
-    from hdrfringe.stereo import StereoMaps
     from hdrfringe.strategies.base import StrategyResult
 
 __all__ = [
@@ -68,7 +68,7 @@ __all__ = [
 
 def plot_migl_pie(*args: Any, **kwargs: Any) -> None:
     """:func:`hdrfringe.io.plots.plot_migl_pie`, imported on first use: ``io.plots`` imports
-    ``hdrfringe.gamma`` and with it scipy.stats, which ``measure`` without a strategy does not
+    ``hdrfringe.core.gamma`` and with it scipy.stats, which ``measure`` without a strategy does not
     need (cold start, issue 16)."""
     from hdrfringe.io import plots
 
@@ -148,7 +148,7 @@ def write_uncertainty_outputs(
     out : Path
         Output folder.
     height_std_mm : ndarray, shape (H, W)
-        :attr:`Uncertainty.height_std_mm <hdrfringe.uncertainty.Uncertainty.height_std_mm>`.
+        :attr:`Uncertainty.height_std_mm <hdrfringe.core.uncertainty.Uncertainty.height_std_mm>`.
     previews : bool
         Write the PNG preview (default); False: ``--no-previews``.
 
@@ -191,7 +191,7 @@ def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) 
     out : Path
         Output folder.
     maps : StereoMaps
-        From :func:`hdrfringe.stereo.triangulate_maps`.
+        From :func:`hdrfringe.core.stereo.triangulate_maps`.
     previews : bool
         Write the PNG preview of every map (default); False: ``--no-previews``.
 
@@ -203,7 +203,7 @@ def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) 
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.stereo import StereoMaps, fit_plane
+    >>> from hdrfringe.core.stereo import StereoMaps, fit_plane
     >>> xyz = np.dstack([*np.mgrid[0:3, 0:4].astype(float), np.full((3, 4), 500.0)])
     >>> maps = StereoMaps(xyz, None, fit_plane(xyz), ("u",), np.ones((3, 4)))
     >>> write_stereo_outputs(Path(tempfile.mkdtemp()), maps)
@@ -276,7 +276,7 @@ def write_strategy_outputs(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.strategies.base import CapturedSet, StrategyResult
     >>> index = np.array([[255, 240], [255, 225]], dtype=np.float32)
     >>> res = StrategyResult(
@@ -431,7 +431,7 @@ def write_measurement(
     Examples
     --------
     >>> import json, tempfile
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.pipeline import measure
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
@@ -614,8 +614,8 @@ def load_measure_calibration(path: Path | None) -> Any:
     Returns
     -------
     MeasurementCalibration or None
-        A :class:`~hdrfringe.calibration.Calibration` or a
-        :class:`~hdrfringe.stereo.StereoCalibration`.
+        A :class:`~hdrfringe.core.calibration.Calibration` or a
+        :class:`~hdrfringe.core.stereo.StereoCalibration`.
 
     Examples
     --------
@@ -709,7 +709,7 @@ class MeasureOptions:
         if self.harmonics != "off":
             kwargs["harmonics"] = self.harmonics
         if self.noise_sigma is not None:
-            from hdrfringe.uncertainty import NoiseModel
+            from hdrfringe.core.uncertainty import NoiseModel
 
             kwargs["noise"] = NoiseModel(self.noise_sigma, source="given (--noise-sigma)")
         return kwargs

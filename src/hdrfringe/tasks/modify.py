@@ -8,8 +8,8 @@ Examples
 --------
 >>> import tempfile
 >>> import numpy as np
->>> from hdrfringe.captures import Captures
->>> from hdrfringe.frames import UniformFrame
+>>> from hdrfringe.core.captures import Captures
+>>> from hdrfringe.core.frames import UniformFrame
 >>> from hdrfringe.io.captures import read_capture_folder, write_capture_folder
 >>> from hdrfringe.rig.acquire import IntensityModification
 >>> caps = Captures([UniformFrame(128)], np.array([[[100, 200]]], np.uint8), 8)
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hdrfringe._validation import is_saturated
+from hdrfringe.core._validation import is_saturated
 from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capture_folder
 from hdrfringe.io.results import check_output_dir
 from hdrfringe.rig.acquire import IntensityModification
@@ -59,7 +59,7 @@ class ModifiedFolder:
     --------
     >>> import tempfile
     >>> from hdrfringe.tasks.simulate import simulate_to_folder
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
     >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=32, height=24))
@@ -117,7 +117,7 @@ def modify_capture_folder(
     --------
     >>> import tempfile
     >>> from hdrfringe.tasks.simulate import simulate_to_folder
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
     >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=32, height=24))

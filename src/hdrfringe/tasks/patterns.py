@@ -62,7 +62,7 @@ def patterns(
     output : Path
         The pattern folder.
     pattern, steps, pitches, orientation, imin, migl, centerline, centerline_position, grays
-        The program (:func:`hdrfringe.programs.fringe_program`; the centerline at ``migl``).
+        The program (:func:`hdrfringe.core.programs.fringe_program`; the centerline at ``migl``).
     width, height, bit_depth, gamma
         The projector.
     force : bool
@@ -81,9 +81,9 @@ def patterns(
     >>> patterns(out, pitches=[8.0], width=64, height=48).images
     4
     """
-    from hdrfringe.captures import ProjectorInfo
+    from hdrfringe.core.captures import ProjectorInfo
+    from hdrfringe.core.programs import check_projector_size, fringe_program
     from hdrfringe.io.pattern_folder import write_pattern_folder
-    from hdrfringe.programs import check_projector_size, fringe_program
 
     projector = check_projector_size(ProjectorInfo(width, height, bit_depth, gamma))
     frames = fringe_program(  # every level checked against the projector before writing

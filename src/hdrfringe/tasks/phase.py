@@ -12,7 +12,7 @@ __all__ = ["PhaseOptions", "PhaseReport", "phase"]
 
 @dataclass(frozen=True)
 class PhaseOptions:
-    """How ``phase`` decodes (:func:`hdrfringe.process.decode_captures`) and what it writes.
+    """How ``phase`` decodes (:func:`hdrfringe.core.decode.decode_captures`) and what it writes.
 
     Parameters
     ----------
@@ -132,8 +132,8 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
         )
     # imported once the inputs are known good: a refused folder or output does not pay for
     # the decoder's and unwrapper's imports (scipy.ndimage, scikit-image)
+    from hdrfringe.core.decode import decode_captures
     from hdrfringe.io.phase_maps import write_phase_maps
-    from hdrfringe.process import decode_captures
 
     o = options
     if o.saturated == "flag":
@@ -150,7 +150,7 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
         )
     unc, unc_block = None, None
     if o.uncertainty:
-        from hdrfringe.uncertainty import NoiseModel, NoiseUnknownError, predict_uncertainty
+        from hdrfringe.core.uncertainty import NoiseModel, NoiseUnknownError, predict_uncertainty
 
         noise = None
         if o.noise_sigma is not None:

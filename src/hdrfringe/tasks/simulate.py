@@ -23,13 +23,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe._validation import is_saturated
-from hdrfringe.captures import Captures
+from hdrfringe.core._validation import is_saturated
+from hdrfringe.core.captures import Captures
+from hdrfringe.core.frames import Frame
+from hdrfringe.core.limits import MAX_SERIES_FOLDERS, check_count
 from hdrfringe.errors import InputError
-from hdrfringe.frames import Frame
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import staged_output_dir
-from hdrfringe.limits import MAX_SERIES_FOLDERS, check_count
 from hdrfringe.rig.acquire import IntensityModification, simulated_captures
 from hdrfringe.rig.simulated import SimulatedRig
 from hdrfringe.tasks._progress import Progress, quiet
@@ -62,7 +62,7 @@ def series_depths(depths: Sequence[float], *, reference: bool = True) -> list[fl
     Raises
     ------
     InputError
-        More than :data:`~hdrfringe.limits.MAX_SERIES_FOLDERS` depths, or none.
+        More than :data:`~hdrfringe.core.limits.MAX_SERIES_FOLDERS` depths, or none.
 
     Examples
     --------
@@ -124,7 +124,7 @@ class SimulationWritten:
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
     >>> depths = series_depths([2.0])
@@ -199,7 +199,7 @@ def write_simulation(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> from hdrfringe.rig.factory import virtual_rig
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     done = write_simulation(Path(tmp) / "caps", [virtual_rig("white_plate")],
@@ -272,7 +272,7 @@ def simulate_to_folder(
     Examples
     --------
     >>> import tempfile
-    >>> from hdrfringe.patterns import FringeSpec
+    >>> from hdrfringe.core.patterns import FringeSpec
     >>> from hdrfringe.rig.scenes import white_plate
     >>> from hdrfringe.rig.simulated import CameraModel, SimulatedRig
     >>> rig = SimulatedRig(white_plate(12.0), camera=CameraModel(width=32, height=24))
@@ -379,7 +379,7 @@ def simulate(
         Eq. 4.1 applied to the captures (:class:`~hdrfringe.rig.acquire.IntensityModification`
         with ``seed``).
     pattern, steps, pitches, orientations, imin, migls, centerline, grays
-        The program (:func:`hdrfringe.programs.fringe_program`).
+        The program (:func:`hdrfringe.core.programs.fringe_program`).
     ideal : bool
         An ideal rig: the program's levels at 8 bit.
     force : bool
@@ -400,8 +400,8 @@ def simulate(
     >>> report.folders, report.images, report.n_pixels
     (1, 13, 3072)
     """
+    from hdrfringe.core.programs import fringe_program
     from hdrfringe.io.results import check_output_dir
-    from hdrfringe.programs import fringe_program
     from hdrfringe.rig.factory import virtual_rig
 
     output = check_output_dir(output, force)

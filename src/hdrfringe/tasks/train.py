@@ -76,7 +76,7 @@ def train_correction(
     order : int
         Polynomial degree.
     truth : str
-        The truth model (:data:`hdrfringe.saturation.estimate.TRUTH_MODELS`).
+        The truth model (:data:`hdrfringe.core.saturation.estimate.TRUTH_MODELS`).
     margin : int
         Margin of the training pixels.
     force : bool
@@ -95,15 +95,15 @@ def train_correction(
     ...
     hdrfringe.errors.InputError: unknown truth 'exact-ish'; use one of ...
     """
+    from hdrfringe.core.saturation.estimate import (
+        TRUTH_MODELS,
+        check_correction_order,
+        training_data_from_rig,
+    )
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_file,
         staged_output_file,
-    )
-    from hdrfringe.saturation.estimate import (
-        TRUTH_MODELS,
-        check_correction_order,
-        training_data_from_rig,
     )
     from hdrfringe.strategies.dpa_training import training_data_from_folder, training_spec
 
