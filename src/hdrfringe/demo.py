@@ -45,8 +45,10 @@ from rich.table import Table
 from hdrfringe import pipeline
 from hdrfringe.core._validation import describe_saturated
 from hdrfringe.core.calibration import Calibration
-from hdrfringe.core.frames import CenterlineFrame, Frame
+from hdrfringe.core.captures import ProjectorInfo
+from hdrfringe.core.frames import Frame
 from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.programs import DEFAULT_PITCHES_PX, centerline_frame, fringe_specs
 from hdrfringe.io.calibration_file import save_calibration
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import check_output_dir, staged_output_dir
@@ -75,8 +77,8 @@ __all__ = [
     "study_scenes",
 ]
 
-PITCHES = (1024.0, 64.0, 8.0)
-CENTERLINE = CenterlineFrame(512, "vertical", 255)
+PITCHES = DEFAULT_PITCHES_PX
+CENTERLINE = centerline_frame(ProjectorInfo(1024, 768, 8))
 
 STUDY_AMBIENT_LUX = 600.0  # thesis Sec. 4.2
 DPA_THRESHOLD = 0.1  # thesis Ch. 6: 10 %
@@ -104,7 +106,7 @@ def study_scenes() -> list[tuple[str, str, Scene, bool, float, float]]:
 
 def demo_specs() -> list[FringeSpec]:
     """Sinusoidal 4-step at pitches 1024, 64 and 8 px (MIGL 255, imin 40), coarse first."""
-    return [FringeSpec("sinusoidal", 4, p, "vertical", 40, 255) for p in PITCHES]
+    return fringe_specs("sinusoidal", 4, PITCHES, "vertical", 40, 255)
 
 
 def demo_frames() -> list[Frame]:

@@ -28,7 +28,6 @@ __all__ = [
     "ForceOpt",
     "MarginOpt",
     "MeasureFolderArg",
-    "MeasureMiglOpt",
     "MeasurePitchOpt",
     "MeasureRigOpt",
     "MethodOpt",
@@ -38,7 +37,6 @@ __all__ = [
     "TrainAmbientOpt",
     "TrainFolderArg",
     "TrainForceOpt",
-    "TrainMiglOpt",
     "TrainOutputOpt",
     "TrainPitchOpt",
     "TrainStepsOpt",
@@ -73,7 +71,6 @@ MeasurePitchOpt = Annotated[
         rich_help_panel=LIVE_PANEL,
     ),
 ]
-MeasureMiglOpt = Annotated[float, typer.Option(help="Highest MIGL.", rich_help_panel=LIVE_PANEL)]
 ForceOpt = Annotated[bool, typer.Option(help="Replace an existing output folder.")]
 UncertaintyOpt = Annotated[
     bool,
@@ -115,9 +112,6 @@ TrainPitchOpt = Annotated[
         help="Pitch in projector px (live default 20, the thesis's; a folder: pick "
         "one of its pitches)."
     ),
-]
-TrainMiglOpt = Annotated[
-    float, typer.Option(help="Top MIGL of the sweep.", rich_help_panel=LIVE_PANEL)
 ]
 OrderOpt = Annotated[int, typer.Option(help="Polynomial degree (thesis: low order).")]
 TruthOpt = Annotated[

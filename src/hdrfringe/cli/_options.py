@@ -7,9 +7,11 @@ from typing import Annotated, Any
 
 import typer
 
+from hdrfringe.core.programs import DEFAULT_PITCHES_PX
 from hdrfringe.errors import InputError
 
 __all__ = [
+    "DEFAULT_PITCHES",
     "HARDWARE_PANEL",
     "LIVE_OPTIONS",
     "LIVE_PANEL",
@@ -41,12 +43,15 @@ __all__ = [
     "LiveDepthOpt",
     "LiveGammaOpt",
     "LiveIminOpt",
+    "LiveMiglOpt",
     "LiveNoiseOpt",
     "LivePatternOpt",
     "LiveSceneOpt",
     "LiveSeedOpt",
     "LiveStepsOpt",
     "MaxGrabsOpt",
+    "MiglOpt",
+    "MiglsOpt",
     "NoiseOpt",
     "PatternOpt",
     "PitchOpt",
@@ -94,7 +99,14 @@ SeedOpt, LiveSeedOpt = option_pair(int, "Random seed (noise).")
 PatternOpt, LivePatternOpt = option_pair(str, "sinusoidal or triangular.")
 StepsOpt, LiveStepsOpt = option_pair(int, "Number of phase shifts N.")
 PitchOpt = Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")]
+#: The default pitch ladder as an option value (core.programs.DEFAULT_PITCHES_PX).
+DEFAULT_PITCHES = ",".join(f"{p:g}" for p in DEFAULT_PITCHES_PX)
 IminOpt, LiveIminOpt = option_pair(float, "Minimum input gray level.")
+# the MIGL (thesis Sec. 4.1): one level; simulate also takes several (a sweep)
+MiglOpt, LiveMiglOpt = option_pair(float, "Maximum input gray level (MIGL) of the fringes.")
+MiglsOpt = Annotated[
+    str, typer.Option("--migl", help="MIGL(s) of the fringes: comma-separated or start:stop:step.")
+]
 CenterlineOpt, LiveCenterlineOpt = option_pair(bool, "Add a centerline frame.")
 LiveSceneOpt = Annotated[str, typer.Option(help=SCENES_HELP, rich_help_panel=LIVE_PANEL)]
 RigOpt = Annotated[

@@ -14,11 +14,11 @@ import typer
 from hdrfringe.cli._app import app, console, handle_errors
 from hdrfringe.cli._measure_options import (
     ForceOpt,
-    MeasureMiglOpt,
     MethodOpt,
     strategy_params,
 )
 from hdrfringe.cli._options import (
+    DEFAULT_PITCHES,
     HARDWARE_PANEL,
     CameraOpt,
     CenterlineOpt,
@@ -37,6 +37,7 @@ from hdrfringe.cli._options import (
     HwSettleOpt,
     HwSyncOpt,
     IminOpt,
+    LiveMiglOpt,
     MaxGrabsOpt,
     PatternOpt,
     PitchOpt,
@@ -104,9 +105,9 @@ def capture(
     method: MethodOpt = "conventional",
     pattern: PatternOpt = "sinusoidal",
     steps: StepsOpt = 4,
-    pitch: PitchOpt = "1024,64,8",
+    pitch: PitchOpt = DEFAULT_PITCHES,
     imin: IminOpt = 40.0,
-    migl: MeasureMiglOpt = 255.0,
+    migl: LiveMiglOpt = 255.0,
     centerline: CenterlineOpt = True,
     gamma: GammaOpt = 2.812,
     sync: SyncOpt = "software",

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from hdrfringe.cli._app import app, console, handle_errors, parse_floats, progress_stage
+from hdrfringe.cli._options import MiglOpt
 
 __all__ = ["patterns"]
 
@@ -23,7 +24,7 @@ def patterns(
     pitch: Annotated[str, typer.Option(help="Pitch(es) in projector px, comma-separated.")] = "6",
     orientation: Annotated[str, typer.Option(help="vertical or horizontal.")] = "vertical",
     imin: Annotated[float, typer.Option(help="Minimum input gray level.")] = 40.0,
-    migl: Annotated[float, typer.Option(help="Maximum input gray level (MIGL).")] = 255.0,
+    migl: MiglOpt = 255.0,
     width: Annotated[int, typer.Option(help="Projector width in px.")] = 1024,
     height: Annotated[int, typer.Option(help="Projector height in px.")] = 768,
     bit_depth: Annotated[int, typer.Option(help="Projector input bit depth.")] = 8,

@@ -25,6 +25,7 @@ from hdrfringe.cli._options import (
     DepthOpt,
     GammaOpt,
     IminOpt,
+    MiglsOpt,
     NoiseOpt,
     PatternOpt,
     PitchOpt,
@@ -47,7 +48,7 @@ def simulate(
     pitch: PitchOpt = "8",
     orientation: Annotated[str, typer.Option(help="vertical, horizontal or both.")] = "vertical",
     imin: IminOpt = 40.0,
-    migl: Annotated[str, typer.Option(help="MIGL(s): comma-separated or start:stop:step.")] = "255",
+    migl: MiglsOpt = "255",
     migl_sweep: Annotated[
         str | None,
         typer.Option(help="A MIGL sweep start:stop:step (e.g. 255:60:1) for offline strategies."),

@@ -32,7 +32,19 @@ from hdrfringe.core.limits import (
 from hdrfringe.core.patterns import ORIENTATIONS, FringeSpec
 from hdrfringe.errors import InputError
 
-__all__ = ["check_projector_size", "fringe_program"]
+__all__ = [
+    "DEFAULT_PITCHES_PX",
+    "centerline_frame",
+    "check_projector_size",
+    "fringe_program",
+    "fringe_specs",
+]
+
+#: The default pitch ladder in projector px, coarsest first: one period across a 1024 px wide
+#: projector (the coarse phase is absolute without a fringe order), then 64 and 8 px (pitch
+#: ratios 16 and 8 for temporal unwrapping, thesis Sec. 2.3.2). ``measure``, ``capture``,
+#: ``compare`` and the demo use it; every other ladder is given explicitly.
+DEFAULT_PITCHES_PX: tuple[float, ...] = (1024.0, 64.0, 8.0)
 
 
 def check_projector_size(projector: ProjectorInfo) -> ProjectorInfo:
@@ -184,19 +196,92 @@ def fringe_program(
     frames: list[Frame] = []
     for o in orientations:
         for m in migls:
-            for p in pitches:
-                frames += FringeSpec(pattern, steps, p, o, level(imin), level(m)).frames()  # type: ignore[arg-type]
+            for spec in fringe_specs(pattern, steps, pitches, o, level(imin), level(m)):
+                frames += spec.frames()
         if centerline:
-            extent = projector.width if o == "vertical" else projector.height
-            pos = extent // 2 if centerline_position is None else centerline_position
-            if not (math.isfinite(pos) and 0 <= pos <= extent - 1):
-                raise InputError(
-                    f"centerline position {pos:g} is outside the projector's 0..{extent - 1} px "
-                    f"({o} fringes); give a position on the projector"
-                )
-            lvl = full if centerline_level is None else level(centerline_level)
-            frames.append(CenterlineFrame(pos, o, lvl))  # type: ignore[arg-type]
+            lvl = None if centerline_level is None else level(centerline_level)
+            frames.append(centerline_frame(projector, o, centerline_position, lvl))
     frames += [UniformFrame(level(g)) for g in grays]
     for f in frames:  # every level within the projector's range, before anything is rendered
         render_frame(f, 1, 1, projector.gamma_precompensation, projector.bit_depth)
     return frames
+
+
+def fringe_specs(
+    pattern: str = "sinusoidal",
+    steps: int = 4,
+    pitches: Sequence[float] = DEFAULT_PITCHES_PX,
+    orientation: str = "vertical",
+    imin: float = 40.0,
+    migl: float = 255.0,
+) -> list[FringeSpec]:
+    """One fringe set per pitch, in the order given: the sets every program is built from.
+
+    Parameters
+    ----------
+    pattern : {"sinusoidal", "triangular"}
+        Fringe profile.
+    steps : int
+        Phase shifts N per set.
+    pitches : sequence of float
+        Pitches in projector px (default :data:`DEFAULT_PITCHES_PX`).
+    orientation : {"vertical", "horizontal"}
+        Fringe orientation.
+    imin, migl : float
+        Lowest and highest input gray level (projector levels).
+
+    Returns
+    -------
+    list of FringeSpec
+
+    Examples
+    --------
+    >>> [s.label() for s in fringe_specs()]
+    ['s4_p1024_v_i40_g255', 's4_p64_v_i40_g255', 's4_p8_v_i40_g255']
+    """
+    return [FringeSpec(pattern, steps, p, orientation, imin, migl) for p in pitches]  # type: ignore[arg-type]
+
+
+def centerline_frame(
+    projector: ProjectorInfo,
+    orientation: str = "vertical",
+    position: float | None = None,
+    level: float | None = None,
+) -> CenterlineFrame:
+    """The centerline frame of one orientation (thesis Sec. 2.4), checked against the projector.
+
+    Parameters
+    ----------
+    projector : ProjectorInfo
+        The projector: its extent across the fringes places the default line, its bit depth
+        gives the default level.
+    orientation : {"vertical", "horizontal"}
+        Orientation of the fringes the line makes absolute.
+    position : float, optional
+        Projector coordinate of the line; default the middle (``extent // 2``).
+    level : float, optional
+        Gray level of the line (projector levels); default the projector's full scale.
+
+    Returns
+    -------
+    CenterlineFrame
+
+    Raises
+    ------
+    InputError
+        A position off the projector.
+
+    Examples
+    --------
+    >>> centerline_frame(ProjectorInfo(1024, 768, 8)).default_name()
+    'centerline_v_512_g255'
+    """
+    extent = projector.width if orientation == "vertical" else projector.height
+    pos = extent // 2 if position is None else position
+    if not (math.isfinite(pos) and 0 <= pos <= extent - 1):
+        raise InputError(
+            f"centerline position {pos:g} is outside the projector's 0..{extent - 1} px "
+            f"({orientation} fringes); give a position on the projector"
+        )
+    full = full_scale(projector.bit_depth, "projector bit depth")
+    return CenterlineFrame(pos, orientation, full if level is None else level)  # type: ignore[arg-type]

@@ -450,20 +450,11 @@ class LiveFringes:
         >>> [s.pitch_px for s in specs], line.position
         ([64, 8], 512)
         """
-        from hdrfringe.core._validation import full_scale
-        from hdrfringe.core.frames import CenterlineFrame
-        from hdrfringe.core.patterns import FringeSpec
+        from hdrfringe.core.programs import centerline_frame, fringe_specs
 
         pitches = sorted(set(self.pitches), reverse=True)
-        specs = [
-            FringeSpec(self.pattern, self.steps, p, "vertical", self.imin, self.migl)  # type: ignore[arg-type]
-            for p in pitches
-        ]
-        full = full_scale(projector.bit_depth)
-        line = (
-            CenterlineFrame(projector.width // 2, "vertical", full) if self.centerline else None
-        )
-        return specs, line
+        specs = fringe_specs(self.pattern, self.steps, pitches, "vertical", self.imin, self.migl)
+        return specs, centerline_frame(projector) if self.centerline else None
 
 
 @dataclass(frozen=True)

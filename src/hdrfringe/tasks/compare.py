@@ -43,7 +43,9 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe.core import programs
 from hdrfringe.core.patterns import FringeSpec
+from hdrfringe.core.programs import DEFAULT_PITCHES_PX
 from hdrfringe.errors import InputError
 from hdrfringe.io.results import check_output_dir, staged_output_dir
 from hdrfringe.pipeline import measure
@@ -65,7 +67,7 @@ __all__ = [
     "compare",
     "compare_markdown",
     "compare_plot",
-    "fringe_specs",
+    "compare_specs",
     "parse_names",
     "parse_resolution",
     "run_compare",
@@ -73,9 +75,9 @@ __all__ = [
     "write_compare",
 ]
 
-#: The coarser sets of the family, kept where coarser than the finest pitch (1024: one period
-#: over the projector, so the family's phase is absolute without a centerline).
-COARSE_PITCHES = (1024.0, 64.0)
+#: The coarser sets of the family (the default ladder's), kept where coarser than the finest pitch
+#: (1024: one period over the projector, so the family's phase is absolute without a centerline).
+COARSE_PITCHES = DEFAULT_PITCHES_PX[:-1]
 #: The scenes: name -> :func:`hdrfringe.rig.factory.virtual_rig` arguments.
 SCENES: dict[str, dict[str, Any]] = {
     "checkerboard": {"scene": "checkerboard"},
@@ -267,7 +269,7 @@ class CompareRow:
         return d
 
 
-def fringe_specs(pitch: float) -> list[FringeSpec]:
+def compare_specs(pitch: float) -> list[FringeSpec]:
     """The family every method measures: vertical sinusoidal 4-step sets, coarsest first.
 
     Parameters
@@ -287,13 +289,13 @@ def fringe_specs(pitch: float) -> list[FringeSpec]:
 
     Examples
     --------
-    >>> [s.pitch_px for s in fringe_specs(8.0)]
+    >>> [s.pitch_px for s in compare_specs(8.0)]
     [1024.0, 64.0, 8.0]
     """
     if not (isinstance(pitch, (int, float)) and math.isfinite(pitch) and 2 <= pitch <= 1024):
         raise InputError(f"compare: --pitch must be a number in 2..1024 px, got {pitch!r}")
     pitches = [p for p in COARSE_PITCHES if p > pitch] + [float(pitch)]
-    return [FringeSpec("sinusoidal", 4, p) for p in pitches]
+    return programs.fringe_specs("sinusoidal", 4, pitches)
 
 
 def parse_names(text: str | None, known: Sequence[str], what: str) -> list[str]:
@@ -478,7 +480,7 @@ def compare(
     resolution : tuple of int, optional
         Camera ``(width, height)``; None: the rig's 648 x 494.
     pitch : float
-        Finest pitch in projector pixels (:func:`fringe_specs`).
+        Finest pitch in projector pixels (:func:`compare_specs`).
     seed : int
         Noise seed of every scene's rig.
     progress : callable, optional
@@ -511,7 +513,7 @@ def compare(
     wanted = parse_names(
         None if methods is None else ",".join(methods), [m.name for m in METHODS], "methods"
     )
-    specs = fringe_specs(pitch)
+    specs = compare_specs(pitch)
     registered = set(available_strategies())
     references = thesis_references()
     rows: list[CompareRow] = []
@@ -791,7 +793,7 @@ def run_compare(
     resolution : str or None
         Camera ``WIDTHxHEIGHT``, or ``default`` (the rig's 648 x 494).
     pitch : float
-        Finest pitch in projector pixels (:func:`fringe_specs`).
+        Finest pitch in projector pixels (:func:`compare_specs`).
     seed : int
         Noise seed of every scene's rig.
     force : bool
@@ -819,7 +821,7 @@ def run_compare(
     scene_names = parse_names(scenes, list(SCENES), "--scenes")
     method_names = parse_names(methods, [m.name for m in METHODS], "--methods")
     size = parse_resolution(resolution)
-    specs = fringe_specs(pitch)
+    specs = compare_specs(pitch)
     virtual_rig("white_plate", seed=seed, resolution=size)  # refuses a bad seed before work
     output = check_output_dir(output, force)
     with progress("comparing", len(scene_names) * len(method_names)) as advance:
