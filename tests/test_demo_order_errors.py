@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from hdrfringe.core.calibration import Calibration
-from hdrfringe.demo import fringe_order_errors, order_error_notes
+from hdrfringe.tasks.demo import fringe_order_errors, order_error_notes
 
 
 @pytest.fixture(scope="module")

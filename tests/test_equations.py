@@ -57,16 +57,21 @@ def _resolve(dotted: str) -> object:
     raise ModuleNotFoundError(dotted)
 
 
+#: A dotted name in the index: the product's (``hdrfringe.``) or the research package's
+#: (``hdrfringe_thesis.``, installed with the product by ``make test``).
+_NAME = r"`(hdrfringe(?:_thesis)?\.[\w.]+)`"
+
+
 def _index_problems(index: Path = INDEX) -> list[str]:
     """What is wrong with the index: malformed rows, names that do not resolve."""
     problems = []
     for label, (function, notes) in _rows(index).items():
-        names = re.findall(r"`(hdrfringe\.[\w.]+)`", function)
+        names = re.findall(_NAME, function)
         if function != "—" and len(names) != 1:
             problems.append(f"{label}: give one function or '—', got {function!r}")
         if function == "—" and not notes:
             problems.append(f"{label}: say why the code does not compute it")
-        for name in names + re.findall(r"`(hdrfringe\.[\w.]+)`", notes):
+        for name in names + re.findall(_NAME, notes):
             try:
                 obj = _resolve(name)
             except (ImportError, AttributeError) as err:
@@ -102,15 +107,18 @@ def test_the_index_check_rejects_a_bad_index(tmp_path: Path) -> None:
         "| Eq. 2.8 | ratio | `hdrfringe.core.phase.triangular_2step`, "
         "`hdrfringe.core.phase.wrap_phase` | |\n"
         "| Eq. 3.7 | approx | — | |\n"
-        "| Eq. 3.6 | psi | `hdrfringe.core.phase.TWO_PI` | |\n",
+        "| Eq. 3.6 | psi | `hdrfringe.core.phase.TWO_PI` | |\n"
+        "| Eq. 3.9 | b | `hdrfringe.core.patterns.fringe_gray` | "
+        "`hdrfringe_thesis.ch4.no_such` |\n",
         encoding="utf-8",
     )
     problems = _index_problems(bad)
-    assert len(problems) == 4, problems
+    assert len(problems) == 5, problems
     assert "sinusoidal_phase_only does not exist" in problems[0]
     assert "give one function" in problems[1]
     assert "say why" in problems[2]
     assert "TWO_PI is not a function" in problems[3]
+    assert "hdrfringe_thesis.ch4.no_such does not exist" in problems[4]
 
 
 # ---------------------------------------------------------------------------------------------

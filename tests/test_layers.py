@@ -53,9 +53,8 @@ LAYERS: dict[str, int] = {
     "io": MEASUREMENT,
     # 3 one workflow per command: paths and options in, a folder and a report out
     "tasks": TASKS,
-    # 4 front ends: declare options, call a task, print its report
+    # 4 the front end: each command declares options, calls a task, prints its report
     "cli": FRONT_END,
-    "demo": FRONT_END,
 }
 
 #: Imports a layer's own rank allows but the design forbids (issue 29): importer prefix ->

@@ -65,7 +65,7 @@ def test_pyproject_does_not_require_them() -> None:
 def test_every_module_help_and_phase_work_without_them(
     capture_folder: Path, tmp_path: Path
 ) -> None:
-    native = [p.stem for p in (ROOT / "src" / "hdrfringe" / "_native").glob("*.c")]
+    native = [p.stem for p in (ROOT / "src" / "hdrfringe" / "core" / "_native").glob("*.c")]
     code = _BLOCKED.format(blocked=RESEARCH_ONLY, native=native)
     res = subprocess.run(
         [sys.executable, "-c", code, str(capture_folder), str(tmp_path / "phase")],

@@ -1,13 +1,14 @@
 """Old module paths of modules that moved (issue 29), kept importable with a warning.
 
 The core modules moved from the package root into :mod:`hdrfringe.core`
-(``hdrfringe.phase`` is now ``hdrfringe.core.phase``), ``hdrfringe.process`` became
+(``hdrfringe.phase`` is now ``hdrfringe.core.phase``); ``hdrfringe.process`` became
 ``hdrfringe.core.decode``, ``hdrfringe.saturation_tolerant`` became
-``hdrfringe.core.saturation.tolerant`` and the virtual camera's sensor model
-``hdrfringe.rig.camera`` became ``hdrfringe.rig.sensor``. Importing an old path (or a submodule
-below it) returns the module object of the new path itself, never a second copy, and emits a
-:class:`DeprecationWarning` that names the new path. :func:`install` puts the finder first on
-:data:`sys.meta_path`; the package's ``__init__`` calls it.
+``hdrfringe.core.saturation.tolerant``, the virtual camera's sensor model ``hdrfringe.rig.camera``
+became ``hdrfringe.rig.sensor`` and the demo's workflow ``hdrfringe.demo`` became the task
+``hdrfringe.tasks.demo``. Importing an old path (or a submodule below it) returns the module
+object of the new path itself, never a second copy, and emits a :class:`DeprecationWarning` that
+names the new path. :func:`install` puts the finder first on :data:`sys.meta_path`; the
+package's ``__init__`` calls it.
 
 Examples
 --------
@@ -32,6 +33,8 @@ import sys
 import warnings
 from types import ModuleType
 
+__all__ = ["MOVED", "install", "new_name"]
+
 #: Old path -> new path (full dotted names). A submodule of an old path maps below the new one.
 MOVED: dict[str, str] = {
     **{
@@ -46,6 +49,7 @@ MOVED: dict[str, str] = {
     "hdrfringe.process": "hdrfringe.core.decode",
     "hdrfringe.saturation_tolerant": "hdrfringe.core.saturation.tolerant",
     "hdrfringe.rig.camera": "hdrfringe.rig.sensor",
+    "hdrfringe.demo": "hdrfringe.tasks.demo",
 }  # fmt: skip
 
 

@@ -6,8 +6,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.table import Table
 
-from hdrfringe.cli._app import app, console, handle_errors
+from hdrfringe.cli._app import app, console, handle_errors, progress_stage
 
 __all__ = ["demo"]
 
@@ -22,6 +23,16 @@ def demo(
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
 ) -> None:
     """Simulate scenes on the virtual rig, decode them, write maps and plots, print a summary."""
-    from hdrfringe.demo import run_demo
+    from hdrfringe.tasks.demo import ReportTable, demo_report, run_demo
 
-    run_demo(output, seed=seed, force=force, console=console)
+    summary = run_demo(output, seed=seed, force=force, progress=progress_stage)
+    for item in demo_report(summary, output):
+        if not isinstance(item, ReportTable):
+            console.print(item)
+            continue
+        table = Table(title=item.title)
+        for i, col in enumerate(item.columns):
+            table.add_column(col, no_wrap=True, justify="left" if i == 0 else "right")
+        for row in item.rows:
+            table.add_row(*row)
+        console.print(table)

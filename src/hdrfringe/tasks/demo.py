@@ -1,4 +1,7 @@
-"""The end-to-end demo on the virtual rig: ``hdrfringe demo``.
+"""The end-to-end demo on the virtual rig: the task of ``hdrfringe demo``.
+
+:func:`run_demo` writes everything and returns the summary (``summary.json``);
+:func:`demo_report` turns it into the tables and notes the command prints. Nothing here prints.
 
 1. **Calibration** (thesis Sec. 2.5, 4.1): the white plate at the reference plane and the 25
    positions 2..50 mm. Both the linear model (Eq. 2.15, the thesis's) and the rational model are
@@ -35,12 +38,11 @@
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from rich.console import Console
-from rich.table import Table
 
 from hdrfringe import pipeline
 from hdrfringe.core._validation import describe_saturated
@@ -63,13 +65,16 @@ from hdrfringe.rig.scenes import (
 )
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
 from hdrfringe.strategies import get_strategy, make_params
+from hdrfringe.tasks._progress import Progress, quiet
 from hdrfringe.tasks.measure import write_measurement
 
 __all__ = [
     "DPA_THRESHOLD",
     "PITCHES",
     "STUDY_RUNS",
+    "ReportTable",
     "demo_frames",
+    "demo_report",
     "demo_specs",
     "fringe_order_errors",
     "order_error_notes",
@@ -90,6 +95,16 @@ def study_scenes() -> list[tuple[str, str, Scene, bool, float, float]]:
     The white plate under 600 lx with the white-plate aperture (thesis Ch. 4, LPA S = 5 as in
     Table 5.1) and the checkerboard with the aperture opened for its black squares (Sec. 5.2.2,
     LPA S = 15 as in Table 5.2).
+
+    Returns
+    -------
+    list of tuple
+        One (name, label, scene, black-plate aperture, ambient lux, LPA S) per study scene.
+
+    Examples
+    --------
+    >>> [(s[0], s[4], s[5]) for s in study_scenes()]
+    [('white_plate_25mm_600lx', 600.0, 5.0), ('checkerboard', 0.0, 15.0)]
     """
     return [
         (
@@ -105,12 +120,35 @@ def study_scenes() -> list[tuple[str, str, Scene, bool, float, float]]:
 
 
 def demo_specs() -> list[FringeSpec]:
-    """Sinusoidal 4-step at pitches 1024, 64 and 8 px (MIGL 255, imin 40), coarse first."""
+    """Sinusoidal 4-step at pitches 1024, 64 and 8 px (MIGL 255, imin 40), coarse first.
+
+    Returns
+    -------
+    list of FringeSpec
+        The demo's fringe sets (the default ladder, :data:`PITCHES`).
+
+    Examples
+    --------
+    >>> [s.label() for s in demo_specs()]
+    ['s4_p1024_v_i40_g255', 's4_p64_v_i40_g255', 's4_p8_v_i40_g255']
+    """
     return fringe_specs("sinusoidal", 4, PITCHES, "vertical", 40, 255)
 
 
 def demo_frames() -> list[Frame]:
-    """The frames of :func:`demo_specs` and a centerline."""
+    """The frames of :func:`demo_specs` and a centerline.
+
+    Returns
+    -------
+    list of Frame
+        Twelve fringe frames, then the centerline at the 1024 px projector's middle column.
+
+    Examples
+    --------
+    >>> frames = demo_frames()
+    >>> len(frames), frames[-1].default_name()
+    (13, 'centerline_v_512_g255')
+    """
     frames: list[Frame] = []
     for spec in demo_specs():
         frames += spec.frames()
@@ -399,28 +437,53 @@ def _migl_span(method: str, row: dict[str, Any]) -> str:
     return f"{migls[0]:g}" if len(migls) == 1 else f"{migls[0]:g}..{min(migls):g}"
 
 
-def _study_tables(study: dict[str, Any]) -> list[Table]:
+@dataclass(frozen=True)
+class ReportTable:
+    """A table of the demo's report, as text: the front end draws it.
+
+    Parameters
+    ----------
+    title : str
+        The table's title.
+    columns : tuple of str
+        Column headers.
+    rows : tuple of tuple of str
+        The cells, row by row.
+
+    Examples
+    --------
+    >>> ReportTable("RMSE", ("scene", "mm"), (("plate", "0.044"),)).rows[0]
+    ('plate', '0.044')
+    """
+
+    title: str
+    columns: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+
+
+def _study_tables(study: dict[str, Any]) -> list[ReportTable]:
     """One table per study scene: sets, images, MIGLs, valid fraction, RMSE per method."""
     tables = []
     for st in study["scenes"].values():
-        table = Table(title=f"{st['label']}, {st['aperture']} aperture, 4-step 1024/64/8 px")
         cols = ("method", "sets", "images", "MIGL 8 px", "valid", "RMSE mm", "sat. kept")
-        for col in (*cols, "order err."):
-            table.add_column(col, no_wrap=True, justify="left" if col == "method" else "right")
+        rows = []
         for method, row in st["methods"].items():
-            table.add_row(
-                _method_label(STUDY_RUNS[method], row["params"]),
-                str(row["sets_captured"]),
-                str(row["images_captured"]),
-                _migl_span(method, row),
-                f"{100 * row['valid_fraction']:.1f} %",
-                *(
-                    "-" if not np.isfinite(v) else f"{v:.3f}"
-                    for v in (row["rmse_mm"], row["rmse_mm_saturated_kept"])
-                ),
-                f"{100 * row['order_error_fraction']:.2f} %",
+            rows.append(
+                (
+                    _method_label(STUDY_RUNS[method], row["params"]),
+                    str(row["sets_captured"]),
+                    str(row["images_captured"]),
+                    _migl_span(method, row),
+                    f"{100 * row['valid_fraction']:.1f} %",
+                    *(
+                        "-" if not np.isfinite(v) else f"{v:.3f}"
+                        for v in (row["rmse_mm"], row["rmse_mm_saturated_kept"])
+                    ),
+                    f"{100 * row['order_error_fraction']:.2f} %",
+                )
             )
-        tables.append(table)
+        title = f"{st['label']}, {st['aperture']} aperture, 4-step 1024/64/8 px"
+        tables.append(ReportTable(title, (*cols, "order err."), tuple(rows)))
     return tables
 
 
@@ -536,50 +599,98 @@ def _measure_demo_scene(
     return entry, panels
 
 
-def _print_demo_summary(console: Console, summary: dict[str, Any], output: Path) -> None:
-    """The demo's tables and notes on the console."""
-    table = Table(title="hdrfringe demo: virtual rig, 0 lx, MIGL 255, sinusoidal 4-step")
-    for col in ("scene", "saturated", "valid", "RMSE linear", "RMSE rational"):
-        table.add_column(col, no_wrap=True)
-    for name, st in summary["scenes"].items():
-        table.add_row(
+def demo_report(summary: dict[str, Any], output: Path) -> list[ReportTable | str]:
+    """What ``hdrfringe demo`` prints, in order: tables and lines of text.
+
+    Parameters
+    ----------
+    summary : dict
+        The summary :func:`run_demo` returned (``summary.json``).
+    output : Path
+        The demo's output folder (named in the last line).
+
+    Returns
+    -------
+    list of ReportTable or str
+        The scenes table, its note, one table per study scene, the study's notes, the
+        calibration residuals and where the files are.
+
+    Examples
+    --------
+    >>> summary = {"scenes": {}, "saturation_study": {"scenes": {}},
+    ...            "calibration_residual_mm": {"white": "0.01 mm"}}
+    >>> report = demo_report(summary, Path("out"))
+    >>> report[0].columns[0], report[-1]
+    ('scene', 'maps, point clouds, plots and capture folders written to out/')
+    """
+    rows = tuple(
+        (
             name,
             describe_saturated(st["saturated_pixels"], st["n_pixels"]),
             f"{100 * st['valid_fraction']:.1f} %",
             f"{st['rmse_mm']['linear']:.3f} mm",
             f"{st['rmse_mm']['rational']:.3f} mm",
         )
-    console.print(table)
-    console.print(
+        for name, st in summary["scenes"].items()
+    )
+    report: list[ReportTable | str] = [
+        ReportTable(
+            "hdrfringe demo: virtual rig, 0 lx, MIGL 255, sinusoidal 4-step",
+            ("scene", "saturated", "valid", "RMSE linear", "RMSE rational"),
+            rows,
+        ),
         "RMSE: height against the rig's ground truth over valid measurement pixels (10 px border "
         "excluded, thesis Sec. 4.1); saturated pixels are invalid by default, so the checkerboard "
         "is measured on its black squares only (the saturation-avoidance tables below recover "
-        "its white squares)."
-    )
-    for table in _study_tables(summary["saturation_study"]):
-        console.print(table)
-    console.print(
+        "its white squares).",
+        *_study_tables(summary["saturation_study"]),
         "Saturation avoidance, rational calibration, same seed for every method. 'valid' and "
         "'RMSE': saturated pixels invalid (measure's default); 'sat. kept': RMSE with saturated "
         "pixels measured as they are (thesis Ch. 4). Sets and images: summed over the three "
         "pitches. uniform auto: the highest MIGL at which nothing saturates, per pitch; DPA: no "
         "correction polynomial. 'order err.': valid pixels whose height error exceeds half a "
-        "fringe of the 8 px set (wrong fringe orders, not noise)."
-    )
-    for note in order_error_notes(summary["saturation_study"]):
-        console.print(note)
-    for a, text in summary["calibration_residual_mm"].items():
-        console.print(f"calibration fit residual, {a} plate: {text}")
-    console.print(f"maps, point clouds, plots and capture folders written to {output}/")
+        "fringe of the 8 px set (wrong fringe orders, not noise).",
+        *order_error_notes(summary["saturation_study"]),
+    ]
+    report += [
+        f"calibration fit residual, {a} plate: {text}"
+        for a, text in summary["calibration_residual_mm"].items()
+    ]
+    report.append(f"maps, point clouds, plots and capture folders written to {output}/")
+    return report
 
 
 def run_demo(
-    output: Path, *, seed: int = 0, force: bool = False, console: Console | None = None
+    output: Path, *, seed: int = 0, force: bool = False, progress: Progress = quiet
 ) -> dict[str, Any]:
-    """Run the demo and write everything under ``output``; return the summary (summary.json)."""
-    from rich.progress import Progress
+    """Run the demo and write everything under ``output``; return the summary (summary.json).
 
-    console = console or Console()
+    Parameters
+    ----------
+    output : Path
+        The output folder (staged: nothing partial is left when the run fails).
+    seed : int
+        Random seed of the virtual rig's noise.
+    force : bool
+        Replace an existing output folder.
+    progress : Progress
+        How the long stages are shown (default: not at all).
+
+    Returns
+    -------
+    dict
+        The summary written to ``summary.json`` (:func:`demo_report` makes the printed report).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp())
+    >>> _ = (out / "kept.txt").write_text("not replaced without force")
+    >>> run_demo(out)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.OutputExistsError: ...
+    """
     output = check_output_dir(output, force)
     frames = demo_frames()
     scenes = _demo_scenes()
@@ -591,34 +702,28 @@ def run_demo(
         "scenes": {},
     }
     panels: list[Panel] = []
-    with (
-        staged_output_dir(output, force=force) as tmp,
-        Progress(console=console, transient=True, disable=not console.is_terminal) as prog,
-    ):
-        task = prog.add_task("calibrating (26 plate positions)", total=26)
-        cals = {"white": _calibrations(seed, False, lambda: prog.advance(task))}
+    with staged_output_dir(output, force=force) as tmp:
+        with progress("calibrating (26 plate positions)", 26) as advance:
+            cals = {"white": _calibrations(seed, False, advance)}
         for aperture, by_model in cals.items():
             for model, cal in by_model.items():
                 save_calibration(tmp / f"calibration_{aperture}_plate_{model}.h5", cal)
         summary["calibration_residual_mm"] = {
             a: cals[a]["rational"].describe_residuals() for a in cals
         }
-        task = prog.add_task("measuring scenes", total=len(scenes))
-        for name, scene, black in scenes:
-            entry, shown = _measure_demo_scene(
-                tmp, output, name, scene, black, seed, frames, cals["white"]
-            )
-            summary["scenes"][name] = entry
-            panels += shown
-            prog.advance(task)
+        with progress("measuring scenes", len(scenes)) as advance:
+            for name, scene, black in scenes:
+                entry, shown = _measure_demo_scene(
+                    tmp, output, name, scene, black, seed, frames, cals["white"]
+                )
+                summary["scenes"][name] = entry
+                panels += shown
+                advance()
         _overview(tmp / "overview.png", panels)
         n_study = len(study_scenes()) * len(STUDY_RUNS)
-        task = prog.add_task(
-            f"saturation avoidance ({len(STUDY_RUNS)} runs x 2 scenes)", total=n_study
-        )
-        study, maps = _saturation_study(
-            tmp, seed + 1, cals["white"]["rational"], lambda: prog.advance(task)
-        )
+        label = f"saturation avoidance ({len(STUDY_RUNS)} runs x 2 scenes)"
+        with progress(label, n_study) as advance:
+            study, maps = _saturation_study(tmp, seed + 1, cals["white"]["rational"], advance)
         summary["saturation_study"] = {
             "pattern": "sinusoidal 4-step, pitches "
             + ", ".join(f"{p:g}" for p in PITCHES)
@@ -630,5 +735,4 @@ def run_demo(
         }
         _study_figure(tmp / "saturation_study.png", maps)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
-    _print_demo_summary(console, summary, output)
     return summary
