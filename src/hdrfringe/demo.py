@@ -23,12 +23,12 @@
    capture folder.
 4. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
-   table of RMSE per scene and model; per study scene and method the files of ``hdrfringe
-   measure --method`` but the phase maps
+   table of RMSE per scene and model; per study scene and strategy the files of ``hdrfringe
+   measure --strategy`` but the phase maps
    (:func:`hdrfringe.tasks.measure.write_measurement`: height, PLY, the MIGL index
    map and pie chart, for DPA its CDF figure, Fig. 6.3, and ``metrics.json`` with
    ``sets_captured``, ``images_captured``, ``migls``, plus the study's ``params`` and
-   ``rmse_mm_saturated_kept``); a figure comparing the methods and a table of RMSE, valid
+   ``rmse_mm_saturated_kept``); a figure comparing the strategies and a table of RMSE, valid
    fraction, sets and images captured (docs/saturation.md).
 """
 
@@ -196,7 +196,7 @@ def _overview(path: Path, panels: list[Panel], cols: int = 3) -> None:
     plt.close(fig)
 
 
-#: The study's runs: key (output folder, summary key) -> strategy method.
+#: The study's runs: key (output folder, summary key) -> strategy.
 STUDY_RUNS: dict[str, str] = {
     "conventional": "conventional",
     "uniform": "uniform",
@@ -231,7 +231,7 @@ def _study_run(
     pitch's MIGL index map."""
     rig = _rig(scene, seed, black, lux)
     res = pipeline.measure(
-        rig, cal, method=method, params=params, specs=demo_specs(), centerline=CENTERLINE
+        rig, cal, strategy=method, params=params, specs=demo_specs(), centerline=CENTERLINE
     )
     results, strategy = res.strategy_results, res.metrics.strategy
     assert strategy is not None and res.height_mm is not None
@@ -398,13 +398,13 @@ def _migl_span(method: str, row: dict[str, Any]) -> str:
 
 
 def _study_tables(study: dict[str, Any]) -> list[Table]:
-    """One table per study scene: sets, images, MIGLs, valid fraction, RMSE per method."""
+    """One table per study scene: sets, images, MIGLs, valid fraction, RMSE per strategy."""
     tables = []
     for st in study["scenes"].values():
         table = Table(title=f"{st['label']}, {st['aperture']} aperture, 4-step 1024/64/8 px")
-        cols = ("method", "sets", "images", "MIGL 8 px", "valid", "RMSE mm", "sat. kept")
+        cols = ("strategy", "sets", "images", "MIGL 8 px", "valid", "RMSE mm", "sat. kept")
         for col in (*cols, "order err."):
-            table.add_column(col, no_wrap=True, justify="left" if col == "method" else "right")
+            table.add_column(col, no_wrap=True, justify="left" if col == "strategy" else "right")
         for method, row in st["methods"].items():
             table.add_row(
                 _method_label(STUDY_RUNS[method], row["params"]),
@@ -557,7 +557,7 @@ def _print_demo_summary(console: Console, summary: dict[str, Any], output: Path)
     for table in _study_tables(summary["saturation_study"]):
         console.print(table)
     console.print(
-        "Saturation avoidance, rational calibration, same seed for every method. 'valid' and "
+        "Saturation avoidance, rational calibration, same seed for every strategy. 'valid' and "
         "'RMSE': saturated pixels invalid (measure's default); 'sat. kept': RMSE with saturated "
         "pixels measured as they are (thesis Ch. 4). Sets and images: summed over the three "
         "pitches. uniform auto: the highest MIGL at which nothing saturates, per pitch; DPA: no "
