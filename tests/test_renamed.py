@@ -171,3 +171,18 @@ def test_the_migl_maps_are_written_from_the_typed_fields(tmp_path: Path) -> None
     assert files == ["projector_migl_map.tiff", "camera_migl.tiff"]
     assert np.array_equal(tifffile.imread(tmp_path / "b" / files[0]), pmap)
     assert np.array_equal(tifffile.imread(tmp_path / "b" / files[1]), cam)
+
+
+def test_the_measure_task_reads_no_strategy_details() -> None:
+    """tasks/measure.py names what it writes by typed fields: no ``.details`` anywhere in it
+    (the maps were read as ``r.details["projector_migl_map"]``; such a line fails this)."""
+    import ast
+
+    import hdrfringe.tasks.measure as task
+
+    def reads(source: str) -> list[str]:
+        nodes = ast.walk(ast.parse(source))
+        return [ast.unparse(n) for n in nodes if getattr(n, "attr", None) == "details"]
+
+    assert reads(Path(task.__file__).read_text(encoding="utf-8")) == []
+    assert reads('adapted = [r for r in results if "projector_migl_map" in r.details]')

@@ -88,7 +88,8 @@ def test_public_api_docstrings_follow_numpydoc() -> None:
 #: The compiled kernels ``hdrfringe/core/_native/<name>.<EXT_SUFFIX>`` (one per C file) look like
 #: extension modules to pkgutil, but are plain C libraries opened with ctypes: not imported.
 NATIVE_LIBRARIES = {
-    f"hdrfringe.core._native.{p.stem}" for p in (ROOT / "src" / "hdrfringe" / "_native").glob("*.c")
+    f"hdrfringe.core._native.{p.stem}"
+    for p in (ROOT / "src" / "hdrfringe" / "core" / "_native").glob("*.c")
 }
 
 

@@ -32,6 +32,8 @@ import sys
 import warnings
 from types import ModuleType
 
+__all__ = ["MOVED", "install", "new_name"]
+
 #: Old path -> new path (full dotted names). A submodule of an old path maps below the new one.
 MOVED: dict[str, str] = {
     **{

@@ -15,3 +15,5 @@ Core modules import only :mod:`hdrfringe.errors` and each other (tests/test_laye
 
 The public names are re-exported by the package itself (``import hdrfringe as hf``).
 """
+
+__all__: list[str] = []
