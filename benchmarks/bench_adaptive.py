@@ -272,7 +272,7 @@ def draw_study(width: int, height: int, scene: str) -> list[tuple[str, str, floa
     specs = [FringeSpec("sinusoidal", 4, p) for p in PITCHES]
 
     def std_of(rig: SimulatedRig, params: dict[str, Any]) -> float:
-        res = measure(rig, method="adaptive", params=params, specs=specs)
+        res = measure(rig, strategy="adaptive", params=params, specs=specs)
         err = res.decoded.primary.absolute_phase - 2 * np.pi * rig.truth().u / PITCHES[-1]
         ok = rig.truth().valid & np.isfinite(err)
         return float(err[ok & (np.abs(np.where(ok, err, 0.0)) <= np.pi)].std())

@@ -2,7 +2,7 @@
 
 Run ``.venv/bin/python benchmarks/bench_compare.py`` (the rig's 648 x 494 camera, the four
 scenes, every method of :data:`hdrfringe.tasks.compare.METHODS`; ``--resolution 160x120``
-for a quick look, ``--scenes specular_part --methods lpa-1,adaptive`` to limit it (the
+for a quick look, ``--scenes specular_part --strategies lpa-1,adaptive`` to limit it (the
 methods still run in the table's order on one rig per scene), ``-o DIR`` to also keep the
 table, JSON and plot as ``hdrfringe compare`` writes them). It prints the markdown table of
 docs/compare.md and the wall time.
@@ -43,13 +43,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("-o", "--output", type=Path, default=None, help="also write the folder")
     ap.add_argument("--scenes", default=None, help="comma-separated scenes (default all)")
-    ap.add_argument("--methods", default=None, help="comma-separated methods (default all)")
+    ap.add_argument("--strategies", default=None, help="comma-separated strategies (default all)")
     args = ap.parse_args(argv)
     size = parse_resolution(args.resolution)
     t0 = time.perf_counter()
     rows = compare(
         None if args.scenes is None else args.scenes.split(","),
-        None if args.methods is None else args.methods.split(","),
+        None if args.strategies is None else args.strategies.split(","),
         resolution=size,
         pitch=args.pitch,
         seed=args.seed,

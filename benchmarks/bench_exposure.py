@@ -61,11 +61,11 @@ def _methods() -> dict[str, Callable[[SimulatedRig, FringeSpec], tuple[StrategyR
         def run(rig: SimulatedRig, spec: FringeSpec) -> tuple[StrategyResult, int, str]:
             res = fn(rig, spec, **kw)
             note = ""
-            if res.method == "uniform":
+            if res.strategy == "uniform":
                 note = f"MIGL {res.details['chosen_migl']:g}"
-            elif res.method == "lpa":
+            elif res.strategy == "lpa":
                 note = f"MIGL {min(res.migls):g}..255"
-            elif res.method == "multiexposure":
+            elif res.strategy == "multiexposure":
                 ts = res.details["exposures_ms"]
                 note = f"{min(ts):g}..{max(ts):g} ms"
             return res, res.images_captured, note

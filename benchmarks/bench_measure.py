@@ -58,7 +58,7 @@ def library_measure(folder: Path, out: Path, previews: bool = True) -> tuple[flo
     t0 = time.perf_counter()
     captures = read_capture_folder(folder)
     t1 = time.perf_counter()
-    result = pipeline.measure(captures, None, label=str(folder), method=None, params=None,
+    result = pipeline.measure(captures, None, label=str(folder), strategy=None, params=None,
                               param_sources={}, calibration_source=None)  # fmt: skip
     t2 = time.perf_counter()
     kw = {"previews": previews} if HAS_NO_PREVIEWS else {}

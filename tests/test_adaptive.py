@@ -1,6 +1,6 @@
 """Per-pixel adaptive projection (issue 14, item 2): the map math against closed forms, the
 done-when against LPA S=1 and DPA with the pending bound, the broken variants it rejects,
-requirement 4, and ``measure --rig sim --method adaptive``.
+requirement 4, and ``measure --rig sim --strategy adaptive``.
 
 The strategy comparisons use a 160 x 120 camera and pitches 1024, 64 and 16 px: at this camera
 one pixel spans about 5 projector pixels, so an 8 px fringe is sampled below two pixels per
@@ -87,7 +87,7 @@ def compare(make) -> dict[str, Any]:
     """Adaptive (through measure), LPA S=1 and DPA 10 % + bound on fresh rigs of one scene."""
     fine = SPECS[-1]
     rig = make()
-    res = measure(rig, method="adaptive", specs=SPECS)
+    res = measure(rig, strategy="adaptive", specs=SPECS)
     fam = res.decoded.primary
     assert fam is not None and fam.absolute_phase is not None
     std_a, cov_a = phase_error(rig, fam.absolute_phase, fine.pitch_px)
@@ -301,7 +301,7 @@ def test_adaptive_against_lpa1_and_dpa_bound(scene: str, request: pytest.Fixture
     assert sum(summary["images_per_step"].values()) == r["images_adaptive"]
     assert set(summary["seconds_per_step"]) >= {"mapping", "map", "adapted", "check"}
     fine = res.strategy_results[-1]
-    assert fine.details["projector_migl_map"].shape == (768, 1024)
+    assert fine.projector_migl_map.shape == (768, 1024)
     assert not fine.never_unsaturated.any()
 
 
@@ -504,7 +504,7 @@ def test_nothing_saturated_gives_the_conventional_result(
     res = adaptive_sets(r, SPECS, auto_exposure=auto_exposure, **variant)[-1]
     assert res.details["images_per_step"]["exposure"] == (4 if auto_exposure else 0)
     assert res.details["exposure_ms"] == (10.0 if auto_exposure else None)
-    assert np.all(res.details["projector_migl_map"] == 255.0)
+    assert np.all(res.projector_migl_map == 255.0)
     assert res.details["refit_passes"] == 0 and res.details["check_passes"] == 0
     std_a, cov_a = phase_error(r, res.absolute_phase, fine.pitch_px)
     truth = r.truth()
@@ -524,7 +524,7 @@ def test_measure_adaptive_through_the_cli(tmp_path: Path) -> None:
     out = tmp_path / "out"
     res = run_cli(
         "measure", "--rig", "sim", "--ambient-lux", "600", "--pitch", "8", "--no-centerline",
-        "--method", "adaptive", "--adaptive-margin", "0.02", "--adaptive-auto-exposure",
+        "--strategy", "adaptive", "--adaptive-margin", "0.02", "--adaptive-auto-exposure",
         "-o", str(out), timeout=600,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
@@ -551,7 +551,7 @@ def test_the_pie_of_a_per_pixel_map_bins_down_never_above_the_top_migl(
     res = StrategyResult(
         images=np.zeros((4, 20, 20), np.uint8), spec=FringeSpec("sinusoidal", 4, 8.0),
         captured=[CapturedSet(migl=None)], index_map=index, newly_unsaturated=[400],
-        never_unsaturated=np.zeros((20, 20), bool), method="adaptive",
+        never_unsaturated=np.zeros((20, 20), bool), strategy="adaptive",
     )  # fmt: skip
     seen: list[np.ndarray] = []
     monkeypatch.setattr(mo, "plot_migl_pie", lambda path, values, title: seen.append(values))
@@ -698,7 +698,7 @@ def test_epipolar_and_full_mapping_refuse_what_they_cannot_do() -> None:
 
 
 def test_measure_hands_its_stereo_calibration_to_the_epipolar_mapping() -> None:
-    """``pipeline.measure(rig, stereo_calibration, method="adaptive", params={"epipolar":
+    """``pipeline.measure(rig, stereo_calibration, strategy="adaptive", params={"epipolar":
     True})`` (what ``measure --calibration STEREO.h5 --adaptive-epipolar`` on a live rig does)
     maps with the calibration it measures with, on a rig that has no calibration of its own;
     without it the strategy refuses."""
@@ -709,8 +709,8 @@ def test_measure_hands_its_stereo_calibration_to_the_epipolar_mapping() -> None:
     bare = FixedExposureRig(rig, 10.0)
     params = {"epipolar": True, "topup": False}
     with pytest.raises(InputError, match=r"measure --calibration STEREO\.h5"):
-        measure(bare, None, method="adaptive", params=params, specs=SPECS, uncertainty=False)
-    res = measure(bare, calib, method="adaptive", params=params, specs=SPECS, uncertainty=False)
+        measure(bare, None, strategy="adaptive", params=params, specs=SPECS, uncertainty=False)
+    res = measure(bare, calib, strategy="adaptive", params=params, specs=SPECS, uncertainty=False)
     assert res.metrics.strategy is not None
     assert res.strategy_results[-1].details["epipolar"]  # the adapted (finest) set
     assert res.metrics.adaptive is not None and res.metrics.adaptive["vertical"]["epipolar"] is True
@@ -723,7 +723,7 @@ def test_the_cli_takes_the_new_switches_and_refuses_full_mapping_without_topup(
     """--adaptive-full-mapping, --no-adaptive-topup, --adaptive-epipolar and --adaptive-boost
     reach the strategy (its refusal, before any capture), as one line on stderr."""
     res = run_cli(
-        "measure", "--rig", "sim", "--scene", "specular_part", "--method", "adaptive",
+        "measure", "--rig", "sim", "--scene", "specular_part", "--strategy", "adaptive",
         "--adaptive-epipolar", "--adaptive-full-mapping", "--no-adaptive-topup",
         "--no-adaptive-boost", "-o", str(tmp_path / "out"), timeout=120,
     )  # fmt: skip

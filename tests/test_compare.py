@@ -31,7 +31,7 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
         str(out),
         "--scenes",
         ",".join(SCENES),
-        "--methods",
+        "--strategies",
         ",".join(METHODS),
         "--resolution",
         "x".join(map(str, RESOLUTION)),
@@ -114,7 +114,7 @@ def test_conventional_row_equals_an_independent_computation(run: Path, scene: st
     ("args", "reason"),
     [
         (["--scenes", "checkerboard,moon"], "--scenes: unknown name 'moon'"),
-        (["--methods", "lpa-2"], "--methods: unknown name 'lpa-2'"),
+        (["--strategies", "lpa-2"], "--strategies: unknown name 'lpa-2'"),
         (["--resolution", "160"], "--resolution must be WIDTHxHEIGHT"),
         (["--pitch", "0.5"], "--pitch must be a number in 2..1024"),
     ],

@@ -194,7 +194,7 @@ def test_cli_tolerance_out_of_range_names_the_option(
 ) -> None:
     out = tmp_path / "m"
     res = run_cli_in_process(
-        "measure", str(sweep), "--method", "uniform", "--tolerance", value, "-o", str(out)
+        "measure", str(sweep), "--strategy", "uniform", "--tolerance", value, "-o", str(out)
     )
     _one_line_failure(res, "--tolerance", "[0, 1]")
     assert not out.exists()

@@ -395,7 +395,7 @@ CASES: list[tuple[str, list[str]] | tuple[str, list[str], str]] = [
     ("measure-deep-nesting", ["measure", "{r}/deep", "-c", "{r}/good.h5", "-o", "{o}"]),
     (
         "measure-unknown-method",
-        ["measure", "{r}/caps", "-c", "{r}/good.h5", "-o", "{o}", "--method", "magic"],
+        ["measure", "{r}/caps", "-c", "{r}/good.h5", "-o", "{o}", "--strategy", "magic"],
     ),
     (
         "measure-tolerance-nan",
@@ -406,7 +406,7 @@ CASES: list[tuple[str, list[str]] | tuple[str, list[str], str]] = [
             "{r}/good.h5",
             "-o",
             "{o}",
-            "--method",
+            "--strategy",
             "uniform",
             "--tolerance",
             "nan",

@@ -376,7 +376,7 @@ def phase_difference(pa: np.ndarray, pb: np.ndarray) -> tuple[float, float]:
 
 
 def sim_phase(method: str, seed: int) -> np.ndarray:
-    """`measure --rig sim --scene checkerboard --seed S --method M` (in-process, at the loop
+    """`measure --rig sim --scene checkerboard --seed S --strategy M` (in-process, at the loop
     camera's resolution): the absolute phase of the live virtual rig."""
     from hdrfringe import pipeline
     from hdrfringe.rig.factory import virtual_rig
@@ -386,7 +386,9 @@ def sim_phase(method: str, seed: int) -> np.ndarray:
     sim = virtual_rig("checkerboard", seed=seed, resolution=LOOP_SIZE)
     specs, line = LiveFringes("sinusoidal", 4, [1024], 40.0, 255.0, True).build(sim.projector)
     params = make_params(method, **PARAMS[method])
-    result = pipeline.measure(sim, None, method=method, params=params, specs=specs, centerline=line)
+    result = pipeline.measure(
+        sim, None, strategy=method, params=params, specs=specs, centerline=line
+    )
     assert result.decoded.primary is not None
     return np.asarray(result.decoded.primary.absolute_phase)
 
@@ -401,7 +403,7 @@ def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
     camera = f"loop:checkerboard?display={xdisplay}&latency=2&{LOOP_CAMERA}"
     options = [*LIVE, *STRATEGY[method], "--settle", "0", "-o", str(caps)]
     r = cli("capture", "--projector", f"screen:0@{xdisplay}", "--camera", camera,
-            "--method", method, *options)  # fmt: skip
+            "--strategy", method, *options)  # fmt: skip
     assert r.returncode == 0, r.stderr
     log = json.loads((caps / "capture_log.json").read_text())
     assert log["complete"] is True
@@ -412,7 +414,7 @@ def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
     assert len(manifest["frames"]) == len(log["frames"])
 
     out = tmp_path / "measured"
-    r = cli("measure", str(caps), "--method", method, *STRATEGY[method], "-o", str(out))
+    r = cli("measure", str(caps), "--strategy", method, *STRATEGY[method], "-o", str(out))
     assert r.returncode == 0, r.stderr
     measured = read_map_tiff(out / "absolute_phase.tiff")
     sim, other_seed = sim_phase(method, 0), sim_phase(method, 1)
@@ -425,7 +427,7 @@ def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
 
 
 def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: Path) -> None:
-    """Issue 14: `--method adaptive` on the loop rig (per-pixel frames through a real window and
+    """Issue 14: `--strategy adaptive` on the loop rig (per-pixel frames through a real window and
     the X display) measures as the virtual rig's own adaptive run of the same scene and
     resolution: same images captured, full coverage, absolute phase within noise (two virtual
     runs with different seeds set the noise). Rejects a per-pixel frame shown wrongly (scaled,
@@ -440,7 +442,7 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: 
     out = tmp_path / "out"
     camera = f"loop:checkerboard?display={xdisplay}&latency=1&{LOOP_CAMERA}"
     r = cli("measure", "--rig", "hardware", "--projector", f"screen:0@{xdisplay}", "--camera",
-            camera, "--settle", "0", "--method", "adaptive", "--pitch", "1024,64,16",
+            camera, "--settle", "0", "--strategy", "adaptive", "--pitch", "1024,64,16",
             "-o", str(out))  # fmt: skip
     assert r.returncode == 0, r.stderr
     metrics = json.loads((out / "metrics.json").read_text())
@@ -453,7 +455,7 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: 
         specs, line = LiveFringes("sinusoidal", 4, [1024, 64, 16], 40.0, 255.0, True).build(
             rig.projector
         )
-        res = pipeline.measure(rig, None, method="adaptive", params=make_params("adaptive"),
+        res = pipeline.measure(rig, None, strategy="adaptive", params=make_params("adaptive"),
                                specs=specs, centerline=line)  # fmt: skip
         assert res.decoded.primary is not None and res.metrics.strategy is not None
         return np.asarray(res.decoded.primary.absolute_phase), res.metrics.strategy.images_captured
@@ -553,7 +555,7 @@ class InterruptingCamera(FakeCamera):
 def run_capture(
     monkeypatch: pytest.MonkeyPatch, out: Path, at: int
 ) -> subprocess.CompletedProcess[str]:
-    """`capture --method lpa` in-process on the fake rig, interrupted at grab ``at``."""
+    """`capture --strategy lpa` in-process on the fake rig, interrupted at grab ``at``."""
     from typer.testing import CliRunner
 
     from hdrfringe.cli import app
@@ -565,7 +567,7 @@ def run_capture(
         return HardwareRig(projector, InterruptingCamera(projector, at), sync, sleep=lambda s: 0)
 
     monkeypatch.setattr(capture, "hardware_options", fake_rig)
-    args = ["capture", "--projector", "screen:0", "--camera", "fake:0", "--method", "lpa"]
+    args = ["capture", "--projector", "screen:0", "--camera", "fake:0", "--strategy", "lpa"]
     args += ["--pitch", "64", "--step", "100", "-o", str(out)]
     r = CliRunner().invoke(app, args)
     return subprocess.CompletedProcess(args, r.exit_code, r.stdout, r.stderr)

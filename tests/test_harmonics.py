@@ -340,7 +340,7 @@ def test_cli_phase_and_measure_record_the_estimate(gamma_folder: Path, tmp_path:
     [
         (["phase", "--harmonics", "yes"], "--harmonics 'yes' is unknown; give off, auto"),
         (["phase", "--harmonics", "auto", "--saturated", "exclude"], "--saturated exclude"),
-        (["measure", "--harmonics", "auto", "--method", "tolerant"], "--method tolerant"),
+        (["measure", "--harmonics", "auto", "--strategy", "tolerant"], "--strategy tolerant"),
     ],
 )
 def test_cli_refuses_bad_combinations(

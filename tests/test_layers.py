@@ -44,6 +44,7 @@ LAYERS: dict[str, int] = {
     "core": CORE,
     "errors": CORE,
     "_moved": CORE,  # old module paths of moved modules (imports by computed name only)
+    "_renamed": CORE,  # old spellings of renamed keywords and fields
     # 1 acquisition: rigs, devices and the strategies that drive them
     "rig": ACQUISITION,
     "hardware": ACQUISITION,

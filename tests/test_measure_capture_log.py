@@ -1,10 +1,10 @@
 """``measure`` on a folder written by ``capture`` replays it with the method and strategy
-options ``capture_log.json`` records (issue 24, item 5): before, without ``--method`` it decoded
-every MIGL set of the sweep separately. An explicit equal ``--method`` is accepted, another one
+options ``capture_log.json`` records (issue 24, item 5): before, without ``--strategy`` it decoded
+every MIGL set of the sweep separately. An explicit equal ``--strategy`` is accepted, another one
 is a one-line error (exit 2).
 
 The loop rig (an Xvfb projector window and the loop camera, docs/hardware.md) captures with
-``--method lpa --step 50``; the reference is ``measure FOLDER --method lpa --step 50``, the
+``--strategy lpa --step 50``; the reference is ``measure FOLDER --strategy lpa --step 50``, the
 replay the user had to type before.
 """
 
@@ -26,12 +26,12 @@ pytestmark = pytest.mark.xdist_group("xvfb")
 
 @pytest.fixture(scope="module")
 def captured(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """``capture --method lpa --step 50`` on the loop rig (no rig configuration file)."""
+    """``capture --strategy lpa --step 50`` on the loop rig (no rig configuration file)."""
     caps = tmp_path_factory.mktemp("log") / "caps"
     with xvfb_display(*SCREEN) as display:
         r = run_cli(
             "capture", "--projector", f"screen:0@{display}", "--camera", loop_camera(display),
-            "--settle", "0", "--method", "lpa", "--step", "50", *FRINGES, "-o", str(caps),
+            "--settle", "0", "--strategy", "lpa", "--step", "50", *FRINGES, "-o", str(caps),
             timeout=600,
         )  # fmt: skip
         assert r.returncode == 0, r.stderr
@@ -46,18 +46,18 @@ def test_capture_log_records_the_method_and_its_options(captured: Path) -> None:
 
 
 def test_measure_replays_the_logged_strategy(captured: Path, tmp_path: Path) -> None:
-    """Without --method: the logged lpa with --step 50, the same maps and MIGLs as the explicit
-    replay; with --method lpa (equal): the same again. Rejects a measure that decodes every
+    """Without --strategy: the logged lpa with --step 50, the same maps and MIGLs as the explicit
+    replay; with --strategy lpa (equal): the same again. Rejects a measure that decodes every
     set of the sweep (no strategy block, one map per MIGL set) or that drops the logged step
     (LPA's default step walks other MIGLs, which the folder does not hold)."""
     auto, explicit, equal = tmp_path / "auto", tmp_path / "explicit", tmp_path / "equal"
     r = run_cli("measure", str(captured), "--no-previews", "-o", str(auto))
     assert r.returncode == 0, r.stderr
-    assert f"{captured}: captured with --method lpa (capture_log.json), replayed" in r.stdout
-    r = run_cli("measure", str(captured), "--method", "lpa", "--step", "50", "--no-previews",
+    assert f"{captured}: captured with --strategy lpa (capture_log.json), replayed" in r.stdout
+    r = run_cli("measure", str(captured), "--strategy", "lpa", "--step", "50", "--no-previews",
                 "-o", str(explicit))  # fmt: skip
     assert r.returncode == 0, r.stderr
-    r = run_cli("measure", str(captured), "--method", "lpa", "--no-previews", "-o", str(equal))
+    r = run_cli("measure", str(captured), "--strategy", "lpa", "--no-previews", "-o", str(equal))
     assert r.returncode == 0, r.stderr
     maps = sorted(p.name for p in explicit.glob("*.tiff"))
     assert "absolute_phase.tiff" in maps
@@ -75,12 +75,12 @@ def test_measure_replays_the_logged_strategy(captured: Path, tmp_path: Path) -> 
 
 def test_measure_refuses_another_method(captured: Path, tmp_path: Path) -> None:
     out = tmp_path / "never"
-    r = run_cli("measure", str(captured), "--method", "dpa", "-o", str(out))
+    r = run_cli("measure", str(captured), "--strategy", "dpa", "-o", str(out))
     assert r.returncode == 2
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "Traceback" not in r.stderr
-    assert "was captured with --method lpa (capture_log.json), not dpa" in lines[0]
-    assert "drop --method or give --method lpa" in lines[0]
+    assert "was captured with --strategy lpa (capture_log.json), not dpa" in lines[0]
+    assert "drop --strategy or give --strategy lpa" in lines[0]
     assert not out.exists()
 
 

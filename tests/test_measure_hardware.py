@@ -37,7 +37,7 @@ SCREEN = (1024, 768)  # the virtual rig's projector
 SIZE = (162, 124)  # a quarter of the virtual camera's 648x494, same field of view
 DEPTH_MM = 10.0
 AMBIENT_LX = 600.0  # the white plate saturates at MIGL 255: LPA walks down
-STRATEGY = ["--method", "lpa", "--step", "50"]
+STRATEGY = ["--strategy", "lpa", "--step", "50"]
 # The coarse pitches unwrap the finest temporally: a one-pixel centerline is too thin for the
 # quarter-resolution camera (a sixth of a camera pixel).
 FRINGES = ["--pitch", "1024,64,8", "--no-centerline"]
@@ -175,7 +175,7 @@ def test_measure_hardware_height_error_is_the_virtual_rigs_within_noise(
         specs, line = LiveFringes("sinusoidal", 4, [1024, 64, 8], 40.0, 255.0, False).build(
             sim.projector
         )
-        res = pipeline.measure(sim, cal, method="lpa", params={"step": 50.0}, specs=specs,
+        res = pipeline.measure(sim, cal, strategy="lpa", params={"step": 50.0}, specs=specs,
                                centerline=line)  # fmt: skip
         heights.append(res.height_mm)
     hw = read_map_tiff(hardware_run / "height.tiff")

@@ -114,7 +114,7 @@ def test_live_strategies_on_white_plate_600lx(
         "600",
         "--pitch",
         "8",
-        "--method",
+        "--strategy",
         method,
         *(["--step", "5"] if method == "lpa" else []),  # LPA's alone
         "-c",
@@ -159,7 +159,7 @@ def test_live_temporal_unwrapping_without_centerline(tmp_path: Path, calibration
         "--pitch",
         "8,64,1024",
         "--no-centerline",
-        "--method",
+        "--strategy",
         "lpa",
         "--step",
         "15",
@@ -178,14 +178,14 @@ def test_live_temporal_unwrapping_without_centerline(tmp_path: Path, calibration
 
 
 def test_live_dpa_bound_pending_through_the_cli(tmp_path: Path) -> None:
-    """``measure --method dpa --bound-pending`` on the checkerboard: the bound's captures are
+    """``measure --strategy dpa --bound-pending`` on the checkerboard: the bound's captures are
     labelled in the dpa block and the flat stretch of the thesis's rule is skipped."""
     sets = {}
     for flag in ("--no-bound-pending", "--bound-pending"):
         out = tmp_path / flag
         res = run_cli(
             "measure", "--rig", "sim", "--scene", "checkerboard", "--pitch", "8",
-            "--method", "dpa", flag, "-o", str(out),
+            "--strategy", "dpa", flag, "-o", str(out),
         )  # fmt: skip
         assert res.returncode == 0, res.stderr
         m = _metrics(out)
@@ -197,7 +197,7 @@ def test_live_dpa_bound_pending_through_the_cli(tmp_path: Path) -> None:
     assert sets["--bound-pending"] < 0.4 * sets["--no-bound-pending"]
     out = tmp_path / "lpa"
     res = run_cli_in_process(
-        "measure", "--rig", "sim", "--method", "lpa", "--bound-pending", "-o", str(out)
+        "measure", "--rig", "sim", "--strategy", "lpa", "--bound-pending", "-o", str(out)
     )
     assert res.returncode == 2 and "--bound-pending is a DPA option" in res.stderr
     assert "Traceback" not in res.stderr and not out.exists()
@@ -207,7 +207,7 @@ def test_live_dpa_without_saturation_is_one_set(tmp_path: Path) -> None:
     """Requirement 4 through the CLI: nothing saturates at 0 lx, DPA captures one set and
     reports no CDF (the figure says so instead of plotting empty curves)."""
     out = tmp_path / "dpa"
-    res = run_cli("measure", "--rig", "sim", "--pitch", "8", "--method", "dpa", "-o", str(out))
+    res = run_cli("measure", "--rig", "sim", "--pitch", "8", "--strategy", "dpa", "-o", str(out))
     assert res.returncode == 0, res.stderr
     m = _metrics(out)
     assert m["migls"] == [255.0] and m["sets_captured"] == 1
@@ -227,7 +227,7 @@ def test_dpa_cdf_on_a_step1_sweep(tmp_path: Path) -> None:
     sweep = tmp_path / "sweep"
     _small_sweep(sweep, 32.0, 175)
     out = tmp_path / "dpa"
-    res = run_cli("measure", str(sweep), "--method", "dpa", "-o", str(out))
+    res = run_cli("measure", str(sweep), "--strategy", "dpa", "-o", str(out))
     assert res.returncode == 0, res.stderr
     m = _metrics(out)
     entry = m["dpa"]["sets"][0]
@@ -285,7 +285,7 @@ def test_train_correction_round_trip_into_dpa(tmp_path: Path) -> None:
         "600",
         "--pitch",
         "8",
-        "--method",
+        "--strategy",
         "dpa",
         "--correction",
         str(corr),
@@ -343,10 +343,13 @@ def _assert_clean_failure(res: subprocess.CompletedProcess, out: Path, *needles:
         (["--rig", "camera"], ["unknown rig 'camera'"]),
         (["--rig", "sim", "--scene", "teapot"], ["unknown scene 'teapot'"]),
         (["--rig", "sim", "--aperture", "wide"], ["unknown aperture 'wide'"]),
-        (["--rig", "sim", "--method", "magic"], ["unknown method 'magic'"]),
-        (["--rig", "sim", "--method", "dpa", "--steps", "3"], ["at least 4 steps"]),
+        (["--rig", "sim", "--strategy", "magic"], ["unknown strategy 'magic'"]),
+        (["--rig", "sim", "--strategy", "dpa", "--steps", "3"], ["at least 4 steps"]),
         (["--rig", "sim", "--pitch", "8,abc"], ["--pitch"]),
-        (["--rig", "sim", "--method", "dpa", "--correction", "{tmp}/no.json"], ["does not exist"]),
+        (
+            ["--rig", "sim", "--strategy", "dpa", "--correction", "{tmp}/no.json"],
+            ["does not exist"],
+        ),
     ],
 )
 def test_measure_bad_source_options(

@@ -44,14 +44,14 @@ def sweep():  # type: ignore[no-untyped-def]
 
 
 def test_replay_keeps_every_family_and_the_gray_code(sweep) -> None:  # type: ignore[no-untyped-def]
-    """``--method tolerant`` on the sweep replays both orientations and takes the Gray code
+    """``--strategy tolerant`` on the sweep replays both orientations and takes the Gray code
     along (patterns and inverses): both families are absolute by the Gray code and match the
     rig's projector columns and rows. Before, the vertical family alone was replayed, without
     its Gray code."""
     from hdrfringe.pipeline import measure
 
     rig, caps = sweep
-    res = measure(caps, method="tolerant")
+    res = measure(caps, strategy="tolerant")
     fams = {f.orientation: f for f in res.decoded.families}
     assert set(fams) == {"vertical", "horizontal"}
     assert res.metrics.strategy is not None and res.metrics.strategy.sets_captured == 4

@@ -274,11 +274,11 @@ def test_parameters_are_checked_and_registered() -> None:
 
 
 def test_measure_on_the_live_rig_through_the_cli(tmp_path: Path) -> None:
-    """measure --rig sim --scene specular_part --method multiexposure end to end: nothing
+    """measure --rig sim --scene specular_part --strategy multiexposure end to end: nothing
     saturated in the composite, exposures recorded per pitch, the exposure index map written."""
     out = tmp_path / "out"
     res = run_cli(
-        "measure", "--rig", "sim", "--scene", "specular_part", "--method", "multiexposure",
+        "measure", "--rig", "sim", "--scene", "specular_part", "--strategy", "multiexposure",
         "--pitch", "1024,32", "--steps", "3", "--max-sets", "6", "-o", str(out),
     )  # fmt: skip
     assert res.returncode == 0, res.stderr

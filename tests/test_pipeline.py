@@ -218,13 +218,13 @@ def test_measure_live_rig_with_a_strategy(small_cal: Calibration) -> None:
     """LPA per pitch on the live rig = LPA run by hand on the same rig (same seed, same images);
     the typed metrics sum its sets and measure against the rig's truth."""
     res = measure(
-        small_rig(lux=600), small_cal, method="lpa", params={"step": 10.0}, specs=SMALL_SPECS
+        small_rig(lux=600), small_cal, strategy="lpa", params={"step": 10.0}, specs=SMALL_SPECS
     )
     by_hand = small_rig(lux=600)
     ref = [lpa(by_hand, s, step=10.0) for s in SMALL_SPECS]
     assert np.array_equal(res.captures.images, np.concatenate([r.images for r in ref]))
     s = res.metrics.strategy
-    assert s is not None and s.method == "lpa" and s.index_quantity == "migl"
+    assert s is not None and s.name == "lpa" and s.index_quantity == "migl"
     assert s.values == tuple(tuple(r.migls) for r in ref) and len(s.values[1]) > 3
     assert s.sets_captured == sum(len(r.migls) for r in ref) and s.images_captured == 4 * (
         s.sets_captured
@@ -245,9 +245,9 @@ def test_a_mismatched_calibration_is_refused_before_capturing(
     capture = rig.capture
     monkeypatch.setattr(rig, "capture", lambda *a, **k: calls.append(1) or capture(*a, **k))
     with pytest.raises(CalibrationMismatchError, match=r"pitch 64 px \(calibration\) vs 32 px"):
-        measure(rig, small_cal, method="lpa", specs=[FringeSpec("sinusoidal", 4, 32.0)])
+        measure(rig, small_cal, strategy="lpa", specs=[FringeSpec("sinusoidal", 4, 32.0)])
     assert calls == []
-    measure(rig, None, method="lpa", specs=[FringeSpec("sinusoidal", 4, 32.0)])
+    measure(rig, None, strategy="lpa", specs=[FringeSpec("sinusoidal", 4, 32.0)])
     assert calls  # the spy sees captures
 
 
@@ -259,8 +259,8 @@ def replayed(small_cal: Calibration) -> tuple:
     frames = [f for m in range(255, 149, -1) for s in SMALL_SPECS for f in s.with_migl(m).frames()]
     sweep = rig.capture_folder(frames)
     rig.reset_noise()
-    replay = measure(sweep, small_cal, method="dpa")
-    live = measure(rig, small_cal, method="dpa", specs=SMALL_SPECS)
+    replay = measure(sweep, small_cal, strategy="dpa")
+    live = measure(rig, small_cal, strategy="dpa", specs=SMALL_SPECS)
     return replay, live, rig
 
 
@@ -315,7 +315,7 @@ def test_metrics_are_strict_json_and_name_what_varied(tmp_path: Path) -> None:
     res = StrategyResult(
         images=np.zeros((4, 1, 2), np.uint8), spec=FringeSpec("sinusoidal", 4, 8.0),
         captured=[CapturedSet(exposure_ms=10.0), CapturedSet(exposure_ms=2.5)], index_map=index,
-        newly_unsaturated=[1, 1], never_unsaturated=np.zeros((1, 2), bool), method="exposures",
+        newly_unsaturated=[1, 1], never_unsaturated=np.zeros((1, 2), bool), strategy="exposures",
         index_quantity="exposure_ms",
     )  # fmt: skip
     d = strategy_summary([res]).to_dict()
@@ -328,16 +328,16 @@ def test_metrics_are_strict_json_and_name_what_varied(tmp_path: Path) -> None:
 
 def test_measure_refuses_what_it_cannot_use(small_cal: Calibration) -> None:
     caps = small_rig().capture_folder(SMALL_FRAMES)
-    with pytest.raises(InputError, match="params given without a method"):
+    with pytest.raises(InputError, match="params given without a strategy"):
         measure(caps, params={"step": 5.0})
-    with pytest.raises(InputError, match="centerline given without a method"):
+    with pytest.raises(InputError, match="centerline given without a strategy"):
         measure(caps, centerline=CenterlineFrame(512, "vertical", 255))
     with pytest.raises(InputError, match="needs specs"):
-        measure(small_rig(), method="lpa")
+        measure(small_rig(), strategy="lpa")
     with pytest.raises(InputError, match="takes Captures or a Rig"):
         measure("some/folder")  # type: ignore[arg-type]
     with pytest.raises(InputError, match="lpa has no parameter 'threshold'"):
-        measure(caps, method="lpa", params={"threshold": 0.1})
+        measure(caps, strategy="lpa", params={"threshold": 0.1})
 
 
 def test_the_docs_python_api_example_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -349,7 +349,7 @@ def test_the_docs_python_api_example_runs(tmp_path: Path, monkeypatch: pytest.Mo
     scope: dict = {}
     exec(compile(code, "docs/measurement.md", "exec"), scope)
     m = scope["result"].metrics
-    assert m.strategy.method == "dpa" and m.valid_fraction > 0.99 and m.rmse_mm < 0.5
+    assert m.strategy.name == "dpa" and m.valid_fraction > 0.99 and m.rmse_mm < 0.5
     assert "dpa_cdf.png" in scope["files"] and (tmp_path / "out" / "metrics.json").is_file()
 
 

@@ -1,4 +1,4 @@
-"""kamino410 object1 replayed by a strategy (``measure object1 --method tolerant``) keeps the
+"""kamino410 object1 replayed by a strategy (``measure object1 --strategy tolerant``) keeps the
 folder's two fringe families and its Gray code (issue 24): both directions come out absolute by
 the Gray code, as ``phase`` gives them. Before, the two vertical sets alone were replayed and
 the measurement advised adding a Gray code. Skips when ``../shared/realdata`` is absent."""
@@ -25,7 +25,7 @@ def test_tolerant_replay_of_object1_keeps_both_families_and_the_gray_code(tmp_pa
     desc = EXAMPLES / "kamino410_object1.toml"
     r = run_cli("import", str(root), "-d", str(desc), "-o", str(caps))
     assert r.returncode == 0, r.stderr
-    r = run_cli("measure", str(caps), "--method", "tolerant", "--no-previews", "-o", str(out),
+    r = run_cli("measure", str(caps), "--strategy", "tolerant", "--no-previews", "-o", str(out),
                 timeout=600)  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert "Gray code" not in r.stdout  # no advice to add what the folder holds

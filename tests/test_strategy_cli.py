@@ -1,4 +1,4 @@
-"""measure --method on a replayed MIGL sweep (simulate --migl-sweep), end to end; strategy
+"""measure --strategy on a replayed MIGL sweep (simulate --migl-sweep), end to end; strategy
 options given for a method that does not take them are refused; the range checks of
 --tolerance and --min-modulation are the library's, word for word."""
 
@@ -28,13 +28,13 @@ def _one_line_error(res) -> str:  # type: ignore[no-untyped-def]
 @pytest.mark.parametrize(
     ("args", "option", "takers"),
     [
-        (["--tolerance", "nan"], "--tolerance", "--method uniform"),  # refused, not range-checked
-        (["--tolerance", "0.1"], "--tolerance", "--method uniform"),
-        (["--method", "lpa", "--tolerance", "0.1"], "--tolerance", "--method uniform"),
-        (["--method", "uniform", "--step", "5"], "--step", "--method lpa"),
-        (["--method", "dpa", "--uniform-migl", "180"], "--uniform-migl", "--method uniform"),
-        (["--method", "lpa", "--threshold", "0.2"], "--threshold", "--method dpa"),
-        (["--method", "uniform", "--no-bound-pending"], "--no-bound-pending", "--method dpa"),
+        (["--tolerance", "nan"], "--tolerance", "--strategy uniform"),  # refused, not range-checked
+        (["--tolerance", "0.1"], "--tolerance", "--strategy uniform"),
+        (["--strategy", "lpa", "--tolerance", "0.1"], "--tolerance", "--strategy uniform"),
+        (["--strategy", "uniform", "--step", "5"], "--step", "--strategy lpa"),
+        (["--strategy", "dpa", "--uniform-migl", "180"], "--uniform-migl", "--strategy uniform"),
+        (["--strategy", "lpa", "--threshold", "0.2"], "--threshold", "--strategy dpa"),
+        (["--strategy", "uniform", "--no-bound-pending"], "--no-bound-pending", "--strategy dpa"),
     ],
 )
 def test_an_option_of_another_method_is_refused(
@@ -54,7 +54,7 @@ def test_tolerance_is_refused_by_the_library_as_by_the_command_line(
 ) -> None:
     with pytest.raises(InputError) as exc:
         make_params("uniform", tolerance=value)
-    res = run_cli_in_process("measure", "--rig", "sim", "--method", "uniform", "--tolerance",
+    res = run_cli_in_process("measure", "--rig", "sim", "--strategy", "uniform", "--tolerance",
                              str(value), "-o", str(tmp_path / "out"))  # fmt: skip
     assert _one_line_error(res) == str(exc.value)
 
@@ -113,7 +113,7 @@ def test_measure_methods_on_a_checkerboard_sweep(tmp_path: Path) -> None:
             str(cal),
             "-o",
             str(out),
-            "--method",
+            "--strategy",
             method,
             *(["--step", "15"] if method == "lpa" else []),  # --step is LPA's alone
         )

@@ -259,16 +259,16 @@ def test_a_strategy_metrics_hook_fills_its_block_and_an_unknown_block_is_refused
     spec = [FringeSpec("sinusoidal", 4, 8.0)]
     register(_Flagged)
     try:
-        res = measure(rig, method="lpa-flagged", specs=spec, uncertainty=False)
+        res = measure(rig, strategy="lpa-flagged", specs=spec, uncertainty=False)
         assert res.metrics.adaptive == {"sets": 1}
         assert res.metrics.to_dict()["adaptive"] == {"sets": 1}
         _Flagged.block = "colour"
         with pytest.raises(InputError, match="'colour', not a block of MeasurementMetrics"):
-            measure(rig, method="lpa-flagged", specs=spec, uncertainty=False)
+            measure(rig, strategy="lpa-flagged", specs=spec, uncertainty=False)
     finally:
         _Flagged.block = "adaptive"
         unregister("lpa-flagged")
-    plain = measure(rig, method="lpa", specs=spec, uncertainty=False)
+    plain = measure(rig, strategy="lpa", specs=spec, uncertainty=False)
     assert plain.metrics.adaptive is None and plain.metrics.dpa is None
 
 

@@ -109,7 +109,7 @@ def test_builtin_strategies_are_registered_in_the_thesis_order() -> None:
     assert available_strategies()[: len(BUILTIN)] == BUILTIN  # the thesis's first, then ours
     assert BUILTIN[:4] == ("conventional", "uniform", "lpa", "dpa")
     assert [get_strategy(n).title for n in BUILTIN[:4]] == ["Conventional", "Uniform", "LPA", "DPA"]
-    with pytest.raises(InputError, match=r"unknown method 'magic'; use one of conventional, "):
+    with pytest.raises(InputError, match=r"unknown strategy 'magic'; use one of conventional, "):
         get_strategy("magic")
 
 
@@ -121,7 +121,7 @@ def test_a_registered_strategy_is_listed_and_runs_like_a_builtin(toy: str) -> No
     folder, results = composite_captures(lit_rig(), [SPEC], toy, {"stride": 20.0})
     (res,) = results
     ref = lpa(lit_rig(), SPEC, step=40.0)  # the same sets: LPA with twice the stride
-    assert res.method == toy and res.migls == ref.migls and len(res.migls) >= 3
+    assert res.strategy == toy and res.migls == ref.migls and len(res.migls) >= 3
     assert np.array_equal(res.images, ref.images)
     assert np.array_equal(res.migl_index, ref.migl_index)
     assert res.newly_unsaturated == ref.newly_unsaturated
@@ -129,14 +129,14 @@ def test_a_registered_strategy_is_listed_and_runs_like_a_builtin(toy: str) -> No
     # the unregistered strategy is gone again
     unregister(toy)
     try:
-        with pytest.raises(InputError, match="unknown method 'every-other-set'"):
+        with pytest.raises(InputError, match="unknown strategy 'every-other-set'"):
             composite_captures(lit_rig(), [SPEC], toy)
     finally:
         register(EveryOtherSet)
 
 
 def test_the_toy_strategy_through_the_command_line(tmp_path: Path) -> None:
-    """A plug-in imported before the CLI gets --method and its own option in measure."""
+    """A plug-in imported before the CLI gets --strategy and its own option in measure."""
     script = (
         "import sys; from tests.test_strategy_registry import EveryOtherSet; "
         "from hdrfringe.strategies import register; register(EveryOtherSet); "
@@ -161,18 +161,18 @@ def test_the_toy_strategy_through_the_command_line(tmp_path: Path) -> None:
     assert "--stride" in help_text.stdout and "Every-other-set: half the MIGL" in help_text.stdout
     out = tmp_path / "out"
     args = ["--rig", "sim", "--ambient-lux", "600", "--pitch", "8", "-o", str(out)]
-    res = cli("measure", *args, "--method", "every-other-set", "--stride", "20")
+    res = cli("measure", *args, "--strategy", "every-other-set", "--stride", "20")
     assert res.returncode == 0, res.stderr
     m = json.loads((out / "metrics.json").read_text())
     assert m["method"] == "every-other-set" and m["sets_captured"] == len(m["migls"]) >= 3
     assert (out / "migl_index.tiff").is_file()
-    # --stride belongs to the toy: with another method it is refused (as --step is with the
+    # --stride belongs to the toy: with another strategy it is refused (as --step is with the
     # toy); LPA with twice the stride captures the same sets
     args[-1] = str(tmp_path / "lpa")
-    res = cli("measure", *args, "--method", "lpa", "--step", "40", "--stride", "5")
+    res = cli("measure", *args, "--strategy", "lpa", "--step", "40", "--stride", "5")
     assert res.returncode == 2 and "--stride is an Every-other-set option" in res.stderr
     assert not (tmp_path / "lpa").exists()
-    res = cli("measure", *args, "--method", "lpa", "--step", "40")
+    res = cli("measure", *args, "--strategy", "lpa", "--step", "40")
     assert res.returncode == 0, res.stderr
     ref = json.loads((tmp_path / "lpa" / "metrics.json").read_text())
     assert ref["method"] == "lpa" and ref["migls"] == m["migls"]
@@ -180,7 +180,7 @@ def test_the_toy_strategy_through_the_command_line(tmp_path: Path) -> None:
 
 
 def test_the_cli_method_list_and_options_are_the_registry() -> None:
-    """measure's --method help and its per-method options are read from the registry: the
+    """measure's --strategy help and its per-method options are read from the registry: the
     two cannot drift apart."""
     import typer.main
 
@@ -188,8 +188,8 @@ def test_the_cli_method_list_and_options_are_the_registry() -> None:
 
     command = typer.main.get_command(app).commands["measure"]  # type: ignore[attr-defined]
     params = {p.name: p for p in command.params}
-    listed = re.match(r"Saturation avoidance: (.*?) \(", params["method"].help or "")
-    assert listed is not None, params["method"].help
+    listed = re.match(r"Saturation avoidance: (.*?) \(", params["strategy"].help or "")
+    assert listed is not None, params["strategy"].help
     assert re.split(r", | or ", listed.group(1)) == list(available_strategies())
     strategy_opts = {o.option for o in cli_options()}
     assert strategy_opts == {"--step", "--threshold", "--correction", "--bound-pending",
@@ -253,18 +253,18 @@ def test_params_from_options_keeps_todays_cli_rules() -> None:
     assert params_from_options("lpa", opts) == make_params("lpa", step=15.0)
     assert params_from_options("uniform", opts) == make_params("uniform", migl=180.0)
     assert params_from_options("conventional", opts) == make_params("conventional")
-    # the exclusive option, set, with another method or none: today's one-line error
+    # the exclusive option, set, with another strategy or none: today's one-line error
     for method in ("lpa", None):
         with pytest.raises(
             InputError,
-            match=rf"--bound-pending is a DPA option; use it with --method dpa \(got {method}\)",
+            match=rf"--bound-pending is a DPA option; use it with --strategy dpa \(got {method}\)",
         ):
             params_from_options(method, {"--bound-pending": True})
     assert params_from_options("lpa", {"--bound-pending": False}) == make_params("lpa")
     assert params_from_options(None, {"--step": 3.0}) is None
     with pytest.raises(InputError, match="unknown strategy option --speed"):
         params_from_options("lpa", {"--speed": 3.0})
-    with pytest.raises(InputError, match="unknown method 'magic'"):
+    with pytest.raises(InputError, match="unknown strategy 'magic'"):
         params_from_options("magic", {})
 
 
@@ -363,7 +363,7 @@ def _result(captured: list[CapturedSet], quantity: str = "migl", n: int | None =
         index_map=np.zeros(shape, np.float32),
         newly_unsaturated=[0] * (len(captured) if n is None else n),
         never_unsaturated=np.zeros(shape, bool),
-        method="toy",
+        strategy="toy",
         index_quantity=quantity,
     )
 

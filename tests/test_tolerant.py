@@ -317,8 +317,8 @@ def test_nothing_saturated_tolerant_is_conventional(reflectivity, depth, lux, pi
     assert res.sets_captured == 1 and np.array_equal(res.images, ref.images)
     assert res.migls == [255.0] and res.details["inverted"] is False
     assert not res.never_unsaturated.any()
-    a = measure(rig(), method="conventional", specs=specs)
-    b = measure(rig(), method="tolerant", params={"inverted": True}, specs=specs)
+    a = measure(rig(), strategy="conventional", specs=specs)
+    b = measure(rig(), strategy="tolerant", params={"inverted": True}, specs=specs)
     assert np.array_equal(a.captures.images, b.captures.images)
     for label, ra in a.decoded.set_results.items():
         rb = b.decoded.set_results[label]
@@ -341,9 +341,9 @@ def test_inverted_set_recovers_a_3_step_board() -> None:
     def rig():
         return virtual_rig("checkerboard", resolution=(96, 72), seed=4)
 
-    conv = measure(rig(), method="conventional", specs=specs)
-    plain = measure(rig(), method="tolerant", specs=specs)
-    inv = measure(rig(), method="tolerant", params={"inverted": True}, specs=specs)
+    conv = measure(rig(), strategy="conventional", specs=specs)
+    plain = measure(rig(), strategy="tolerant", specs=specs)
+    inv = measure(rig(), strategy="tolerant", params={"inverted": True}, specs=specs)
     assert inv.metrics.strategy.images_captured == 6
     assert [s.label for s in inv.captures.sets] == [
         "s3_p1024_v_i10_g140",
@@ -464,7 +464,7 @@ def test_decode_captures_pairs_inverted_sets_only_when_excluding(
 
 
 def test_inverted_on_a_replayed_sweep_is_refused_in_one_line() -> None:
-    """``--method tolerant --inverted`` replayed from a MIGL sweep: the sweep holds no set at a
+    """``--strategy tolerant --inverted`` replayed from a MIGL sweep: the sweep holds no set at a
     180 deg phase offset, so the inverted set cannot be replayed. Before, the replay's own
     "holds no capture of frame ..." error advised capturing another MIGL sweep, which never
     helps; now a one-line InputError says what to do. Without --inverted the same folder runs."""

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._renamed import renamed_fields, renamed_keyword
 from hdrfringe.core._validation import json_safe
 from hdrfringe.core.calibration import NO_GEOMETRY, Calibration, MeasurementCalibration
 from hdrfringe.core.calibration import calibrate as fit_calibration
@@ -277,17 +278,17 @@ def describe_rig(rig: Rig) -> RigDescription:
 # ---------------------------------------------------------------------------------------------
 
 
-def _strategy_params(method: str, params: Any) -> Any:
+def _strategy_params(name: str, params: Any) -> Any:
     """``params`` as the strategy's ``Params`` (a mapping goes through :func:`make_params`)."""
-    strategy = get_strategy(method)
+    strategy = get_strategy(name)
     if params is None:
-        return make_params(method)
+        return make_params(name)
     if isinstance(params, strategy.Params):
         return params
     if isinstance(params, Mapping):
-        return make_params(method, **params)
+        return make_params(name, **params)
     raise InputError(
-        f"params of {method} must be a {strategy.Params.__name__} or a mapping of its fields, "
+        f"params of {name} must be a {strategy.Params.__name__} or a mapping of its fields, "
         f"got {type(params).__name__}"
     )
 
@@ -295,12 +296,13 @@ def _strategy_params(method: str, params: Any) -> Any:
 def composite_captures(
     rig: Rig,
     specs: Sequence[FringeSpec],
-    method: str,
+    strategy: str | None = None,
     params: Any = None,
     *,
     centerline: Frame | None = None,
     description: RigDescription | None = None,
     extra_frames: Sequence[Frame] = (),
+    method: str | None = None,
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
     """Run a strategy for every set in ``specs`` on ``rig`` and assemble the composites.
 
@@ -310,8 +312,8 @@ def composite_captures(
         Live or replayed (:class:`~hdrfringe.rig.replay.ReplayRig`).
     specs : sequence of FringeSpec
         The sets at their highest MIGL (e.g. one per pitch, coarse first).
-    method : str
-        A registered strategy (:func:`hdrfringe.strategies.available_strategies`).
+    strategy : str
+        A registered strategy (:func:`hdrfringe.strategies.available_strategies`); required.
     params : Params or mapping, optional
         Its parameters (a mapping by field name goes through
         :func:`~hdrfringe.strategies.make_params`); None: the defaults.
@@ -322,6 +324,8 @@ def composite_captures(
     extra_frames : sequence of Frame
         Captured once, after the centerline, as they are (a replayed folder's Gray code, its
         other centerlines and uniform frames).
+    method : str, optional
+        Deprecated spelling of ``strategy`` (a :class:`DeprecationWarning`).
 
     Returns
     -------
@@ -348,11 +352,14 @@ def composite_captures(
     >>> caps.name, len(caps.frames), res.migls[:3]
     ('white_plate', 4, [255.0, 235.0, 215.0])
     """
-    strategy, p = get_strategy(method), _strategy_params(method, params)
+    strategy = renamed_keyword("composite_captures", "strategy", strategy, "method", method)
+    if strategy is None:
+        raise InputError("composite_captures needs a strategy: give strategy=NAME, e.g. 'lpa'")
+    chosen, p = get_strategy(strategy), _strategy_params(strategy, params)
     desc = describe_rig(rig) if description is None else description
     frames: list[Frame] = []
     images = []
-    results = run_strategy(strategy, rig, specs, p)
+    results = run_strategy(chosen, rig, specs, p)
     for spec, res in zip(specs, results, strict=True):
         frames += spec.frames()
         images.append(res.images)
@@ -420,14 +427,16 @@ def strategy_absolute_phases(results: Sequence[StrategyResult]) -> dict[str, F64
 # ---------------------------------------------------------------------------------------------
 
 
+@renamed_fields(method="name")
 @dataclass(frozen=True)
 class StrategySummary:
     """What a strategy captured, summed over the pitches of a measurement.
 
     Parameters
     ----------
-    method : str
-        The strategy's registry name.
+    name : str
+        The strategy's registry name (``method`` before issue 29: a deprecated alias; the
+        ``metrics.json`` key stays ``method``).
     sets_captured, images_captured : int
         Summed over the pitches.
     index_quantity : str
@@ -450,7 +459,7 @@ class StrategySummary:
     [255.0, 250.0, 245.0]
     """
 
-    method: str
+    name: str
     sets_captured: int
     images_captured: int
     index_quantity: str
@@ -458,9 +467,9 @@ class StrategySummary:
     never_unsaturated_fraction: float
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``metrics.json`` keys: ``method``, ``sets_captured``, ``images_captured``, the
-        values as ``migls`` (or ``index_quantity`` and ``exposures_ms`` for an exposure
-        strategy), ``never_unsaturated_fraction``.
+        """The ``metrics.json`` keys: ``method`` (the strategy's name), ``sets_captured``,
+        ``images_captured``, the values as ``migls`` (or ``index_quantity`` and
+        ``exposures_ms`` for an exposure strategy), ``never_unsaturated_fraction``.
 
         Returns
         -------
@@ -472,7 +481,7 @@ class StrategySummary:
         [20.0]
         """
         out: dict[str, Any] = {
-            "method": self.method,
+            "method": self.name,
             "sets_captured": self.sets_captured,
             "images_captured": self.images_captured,
         }
@@ -504,7 +513,7 @@ def strategy_summary(results: Sequence[StrategyResult]) -> StrategySummary:
     ...     images=np.zeros((4, 2, 2), np.uint8), spec=FringeSpec("sinusoidal", 4, 8.0),
     ...     captured=[CapturedSet(migl=m) for m in (255.0, 240.0)],
     ...     index_map=np.full((2, 2), 240.0, np.float32), newly_unsaturated=[0, 4],
-    ...     never_unsaturated=np.zeros((2, 2), bool), method="lpa")
+    ...     never_unsaturated=np.zeros((2, 2), bool), strategy="lpa")
     >>> s = strategy_summary([res])
     >>> s.images_captured, s.values
     (8, (255.0, 240.0))
@@ -516,7 +525,7 @@ def strategy_summary(results: Sequence[StrategyResult]) -> StrategySummary:
         return tuple(None if getattr(s, q) is None else float(getattr(s, q)) for s in r.captured)
 
     return StrategySummary(
-        method=fine.method,
+        name=fine.strategy,
         sets_captured=int(sum(r.sets_captured for r in results)),
         images_captured=int(sum(r.images_captured for r in results)),
         index_quantity=q,
@@ -588,7 +597,7 @@ class MeasurementMetrics:
         ``islands`` flag, ``count``, ``pixels``, ...).
     decoder : dict or None
         With the saturation-tolerant decoder (``saturated="exclude"``, the ``tolerant``
-        method): ``name``, ``min_shifts``, ``inverted`` and ``shifts_used_histogram`` (pixels
+        strategy): ``name``, ``min_shifts``, ``inverted`` and ``shifts_used_histogram`` (pixels
         of the finest set whose fit used k images, k = 0, 1, ...); None with the standard one.
     uncertainty : dict or None
         The predicted phase and height std (:meth:`Uncertainty.summary
@@ -718,7 +727,7 @@ class MeasurementResult:
         One per pitch with a strategy, coarsest first; empty without.
     dpa : tuple of DPACDFs or None
         DPA's CDFs (thesis Fig. 6.3), one per pitch (its metrics hook); None for another
-        method.
+        strategy.
     stereo : StereoMaps or None
         The triangulated points, with a stereo calibration.
     uncertainty : Uncertainty or None
@@ -1099,7 +1108,7 @@ def _decoder_summary(decoded: FolderPhase, min_shifts: int) -> dict[str, Any]:
 def _replay(
     captures: Captures,
     calibration: MeasurementCalibration | None,
-    method: str,
+    strategy: str,
     params: Any,
     specs: Sequence[FringeSpec] | None,
     centerline: Frame | None,
@@ -1120,8 +1129,10 @@ def _replay(
         )
     rig = ReplayRig(captures)
     context = RunContext(available_migls=rig.available_migls())
-    params = prepare_params(get_strategy(method), params, context)
-    return composite_captures(rig, specs, method, params, centerline=centerline, extra_frames=extra)
+    params = prepare_params(get_strategy(strategy), params, context)
+    return composite_captures(
+        rig, specs, strategy, params, centerline=centerline, extra_frames=extra
+    )
 
 
 def _replay_frames(captures: Captures, orientations: set[str], centerlines: bool) -> list[Frame]:
@@ -1144,7 +1155,7 @@ def measure(
     source: Captures | Rig,
     calibration: MeasurementCalibration | None = None,
     *,
-    method: str | None = None,
+    strategy: str | None = None,
     params: Any = None,
     specs: Sequence[FringeSpec] | None = None,
     centerline: Frame | None = None,
@@ -1159,11 +1170,12 @@ def measure(
     harmonics: str | int = "off",
     saturated: str = "flag",
     min_shifts: int = 3,
+    method: str | None = None,
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
-    * Captures without ``method``: decoded and measured as they are.
-    * Captures with ``method``: a MIGL sweep; the strategy runs on a
+    * Captures without ``strategy``: decoded and measured as they are.
+    * Captures with ``strategy``: a MIGL sweep; the strategy runs on a
       :class:`~hdrfringe.rig.replay.ReplayRig` over it for every pitch of its primary family
       (or ``specs``) at its highest MIGL, with its first centerline of that orientation (or
       ``centerline``), and the composite is measured.
@@ -1185,7 +1197,7 @@ def measure(
         absolute phase of the vertical and/or horizontal fringes
         (:func:`hdrfringe.core.stereo.triangulate_maps`, docs/stereo.md) and offers the strategy
         its projector-camera geometry (the adaptive projection's epipolar mapping).
-    method : str, optional
+    strategy : str, optional
         A registered strategy (:func:`hdrfringe.strategies.available_strategies`).
     params : Params or mapping, optional
         The strategy's parameters (:func:`hdrfringe.strategies.make_params` fields).
@@ -1237,6 +1249,8 @@ def measure(
         strategy asks for it by itself).
     min_shifts : int
         With ``saturated="exclude"``: the least unsaturated shifts per pixel.
+    method : str, optional
+        Deprecated spelling of ``strategy`` (a :class:`DeprecationWarning`).
 
     Returns
     -------
@@ -1245,7 +1259,7 @@ def measure(
     Raises
     ------
     InputError
-        Strategy options without a method, a rig without ``specs``, an unknown method or
+        Strategy options without a strategy, a rig without ``specs``, an unknown strategy or
         parameter, a source that is neither captures nor a rig.
     CalibrationMismatchError
         A calibration that does not fit the measurement.
@@ -1262,19 +1276,20 @@ def measure(
     >>> from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
     >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=81, height=62),
     ...                    lighting=Lighting(ambient_lux=600))
-    >>> res = measure(rig, method="lpa", params={"step": 20.0},
+    >>> res = measure(rig, strategy="lpa", params={"step": 20.0},
     ...               specs=[FringeSpec("sinusoidal", 4, 8.0)])
-    >>> res.metrics.strategy.method, res.metrics.strategy.values[:2]
+    >>> res.metrics.strategy.name, res.metrics.strategy.values[:2]
     ('lpa', (255.0, 235.0))
     """
     depth_range_mm = _check_measure_options(
         calibration, stereo_directions, depth_range_mm, harmonics, saturated, reject_saturated
     )
+    strategy = renamed_keyword("measure", "strategy", strategy, "method", method)
     sources = dict(param_sources or {})
-    if isinstance(source, Rig) and method is None:
-        method = DEFAULT_STRATEGY
+    if isinstance(source, Rig) and strategy is None:
+        strategy = DEFAULT_STRATEGY
     caps, results, p, replay, description = _acquire(
-        source, calibration, method, params, specs, centerline, calibration_source, sources
+        source, calibration, strategy, params, specs, centerline, calibration_source, sources
     )
     decoded, height, fields, stereo = _measure_captures(
         caps,
@@ -1289,10 +1304,12 @@ def measure(
         noise=noise,
     )
     extra: Mapping[str, Any] = {}
-    if method is not None:
-        hooked = strategy_metrics(get_strategy(method), results, MetricsContext(p, replay, sources))
-        fields.update(_checked_blocks(method, hooked.metrics, MeasurementMetrics))
-        extra = _checked_blocks(method, hooked.result, MeasurementResult)
+    if strategy is not None:
+        hooked = strategy_metrics(
+            get_strategy(strategy), results, MetricsContext(p, replay, sources)
+        )
+        fields.update(_checked_blocks(strategy, hooked.metrics, MeasurementMetrics))
+        extra = _checked_blocks(strategy, hooked.result, MeasurementResult)
     unc = None
     if uncertainty:
         unc, fields["uncertainty"] = _predict_uncertainty(caps, decoded, calibration, noise)
@@ -1349,7 +1366,7 @@ def _check_measure_options(
 def _run_live(
     rig: Rig,
     calibration: MeasurementCalibration | None,
-    method: str,
+    strategy: str,
     params: Any,
     specs: Sequence[FringeSpec] | None,
     centerline: Frame | None,
@@ -1357,7 +1374,7 @@ def _run_live(
 ) -> tuple[Captures, tuple[StrategyResult, ...], Any, RigDescription]:
     """The strategy run live on ``rig``: the composite captures, the strategy's results, its
     parameters (prepared with what the measurement offers) and the rig's description."""
-    p = _strategy_params(method, params)
+    p = _strategy_params(strategy, params)
     if not specs:
         raise InputError(
             "measuring on a rig needs specs: the fringe sets to capture (e.g. one per pitch)"
@@ -1371,10 +1388,10 @@ def _run_live(
     # calibration (the adaptive projection's epipolar mapping takes the projector row
     # from it when given none, docs/adaptive.md)
     geometry = None if calibration is None else calibration.projector_geometry()
-    p = prepare_params(get_strategy(method), p, RunContext(projector_geometry=geometry))
+    p = prepare_params(get_strategy(strategy), p, RunContext(projector_geometry=geometry))
     description = describe_rig(rig)
     caps, results = composite_captures(
-        rig, specs, method, p, centerline=centerline, description=description
+        rig, specs, strategy, p, centerline=centerline, description=description
     )
     return caps, results, p, description
 
@@ -1382,7 +1399,7 @@ def _run_live(
 def _acquire(
     source: Captures | Rig,
     calibration: MeasurementCalibration | None,
-    method: str | None,
+    strategy: str | None,
     params: Any,
     specs: Sequence[FringeSpec] | None,
     centerline: Frame | None,
@@ -1393,7 +1410,7 @@ def _acquire(
     captured live), the strategy's results and parameters, the replayed sweep and the rig's
     description (None where there is none)."""
     if isinstance(source, Captures):
-        if method is None:
+        if strategy is None:
             given = [
                 n
                 for n, v in (("params", params), ("specs", specs), ("centerline", centerline))
@@ -1401,19 +1418,19 @@ def _acquire(
             ]
             if given or sources:
                 raise InputError(
-                    f"{', '.join(given or ['param_sources'])} given without a method; give "
-                    "method= to replay the captures with a strategy, or drop them"
+                    f"{', '.join(given or ['param_sources'])} given without a strategy; give "
+                    "strategy= to replay the captures with a strategy, or drop them"
                 )
             return source, (), None, None, None
-        p = _strategy_params(method, params)
+        p = _strategy_params(strategy, params)
         caps, results = _replay(
-            source, calibration, method, p, specs, centerline, calibration_source
+            source, calibration, strategy, p, specs, centerline, calibration_source
         )
         return caps, results, p, source, None
     if isinstance(source, Rig):
-        method = DEFAULT_STRATEGY if method is None else method
+        strategy = DEFAULT_STRATEGY if strategy is None else strategy
         caps, results, p, description = _run_live(
-            source, calibration, method, params, specs, centerline, calibration_source
+            source, calibration, strategy, params, specs, centerline, calibration_source
         )
         return caps, results, p, None, description
     raise InputError(
@@ -1422,13 +1439,13 @@ def _acquire(
     )
 
 
-def _checked_blocks(method: str, blocks: Mapping[str, Any], cls: type) -> dict[str, Any]:
+def _checked_blocks(strategy: str, blocks: Mapping[str, Any], cls: type) -> dict[str, Any]:
     """A strategy's metrics-hook blocks, refused unless each is a strategy block of ``cls``."""
     allowed = _strategy_blocks(cls)
     for name in blocks:
         if name not in allowed:
             raise InputError(
-                f"strategy {method!r}: its metrics hook gives {name!r}, not a block of "
+                f"strategy {strategy!r}: its metrics hook gives {name!r}, not a block of "
                 f"{cls.__name__} ({', '.join(allowed)})"
             )
     return dict(blocks)

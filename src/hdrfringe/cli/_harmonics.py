@@ -32,7 +32,7 @@ def check_harmonics(value: str, conflict: str | None = None) -> None:
         The option's value.
     conflict : str, optional
         The option that asks for the saturation-tolerant decoder (``--saturated exclude``,
-        ``--method tolerant``), when given: harmonic compensation models every shift in each
+        ``--strategy tolerant``), when given: harmonic compensation models every shift in each
         pixel's phase.
 
     Raises

@@ -16,9 +16,9 @@ from hdrfringe.cli._options import LIVE_PANEL, given_options
 from hdrfringe.cli._strategy_options import (
     article,
     cli_options,
-    method_help,
     params_from_options,
     strategy_file_readers,
+    strategy_help,
     strategy_option_type,
 )
 from hdrfringe.errors import InputError
@@ -34,6 +34,7 @@ __all__ = [
     "NoiseSigmaOpt",
     "OrderOpt",
     "OutputOpt",
+    "StrategyOpt",
     "TrainAmbientOpt",
     "TrainFolderArg",
     "TrainForceOpt",
@@ -48,13 +49,18 @@ __all__ = [
 
 # --- measure --------------------------------------------------------------------------------
 MeasureFolderArg = Annotated[
-    Path | None, typer.Argument(help="Capture folder of the part (or a MIGL sweep with --method).")
+    Path | None,
+    typer.Argument(help="Capture folder of the part (or a MIGL sweep with --strategy)."),
 ]
 OutputOpt = Annotated[Path | None, typer.Option("-o", "--output", help="Output folder (required).")]
 CalibrationOpt = Annotated[
     Path | None, typer.Option("--calibration", "-c", help="Calibration file from calibrate.")
 ]
-MethodOpt = Annotated[str | None, typer.Option(help=method_help())]
+StrategyOpt = Annotated[str | None, typer.Option("--strategy", help=strategy_help())]
+#: ``--method``, the old spelling of ``--strategy`` (issue 29): hidden, deprecated.
+MethodOpt = Annotated[
+    str | None, typer.Option("--method", hidden=True, help="Deprecated: use --strategy.")
+]
 MeasureRigOpt = Annotated[
     str | None,
     typer.Option(
@@ -149,14 +155,14 @@ def given_strategy_options(ctx: typer.Context, options: dict[str, Any]) -> dict[
 
 def strategy_params(
     ctx: typer.Context,
-    method: str | None,
+    strategy: str | None,
     options: dict[str, Any],
     recorded: dict[str, Any] | None = None,
 ) -> tuple[Any, dict[str, str]]:
     """The strategy's ``Params`` from the strategy options given, and the files they named.
 
-    A strategy option given on the command line for a method that does not take it (e.g.
-    ``--tolerance`` with ``--method lpa``, or without ``--method``) is refused, before its
+    A strategy option given on the command line for a strategy that does not take it (e.g.
+    ``--tolerance`` with ``--strategy lpa``, or without ``--strategy``) is refused, before its
     value is read or checked: silently ignoring it would run something other than what was
     asked for.
 
@@ -164,7 +170,7 @@ def strategy_params(
     ----------
     ctx : typer.Context
         The command's context (which options were given, not left at their default).
-    method : str or None
+    strategy : str or None
         The strategy; None: no strategy (its exclusive options are refused).
     options : dict
         The command's strategy options by Python name (``**strategy_options``).
@@ -181,31 +187,31 @@ def strategy_params(
     Raises
     ------
     InputError
-        A strategy option of another method, or a bad value.
+        A strategy option of another strategy, or a bad value.
     sources : dict
         Field name -> the file given for it (e.g. ``{"correction": "corr.json"}``).
     """
     readers = strategy_file_readers()
     given = given_strategy_options(ctx, options)  # this command's (built at import)
     for o in cli_options():  # refused before any value is read or checked
-        if o.option in given and method not in o.fields:
+        if o.option in given and strategy not in o.fields:
             titles = o.titles()  # the wording of the library's refusal of exclusive options
             raise InputError(
                 f"{o.option} is {article(titles[0])} {' or '.join(titles)} option; use it with "
-                f"--method {' or '.join(o.fields)} or leave it out (got "
-                f"{'no --method' if method is None else method})"
+                f"--strategy {' or '.join(o.fields)} or leave it out (got "
+                f"{'no --strategy' if strategy is None else strategy})"
             )
     if recorded:
         files = {o.option for o in cli_options() if strategy_option_type(o)[1]}
         logged = {k: Path(v) if k in files and v is not None else v for k, v in recorded.items()}
         given = {**logged, **given}
     params = params_from_options(
-        method, given, readers={t: read for t, (read, _) in readers.items()}
+        strategy, given, readers={t: read for t, (read, _) in readers.items()}
     )
     sources = {
-        o.fields[method]: str(given[o.option])
+        o.fields[strategy]: str(given[o.option])
         for o in cli_options()
-        if method in o.fields and isinstance(given.get(o.option), Path)
+        if strategy in o.fields and isinstance(given.get(o.option), Path)
     }
     return params, sources
 

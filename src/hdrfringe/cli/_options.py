@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -68,6 +69,7 @@ __all__ = [
     "given_options",
     "option_pair",
     "parse_orientations",
+    "renamed_option",
 ]
 
 
@@ -200,6 +202,45 @@ def given_options(ctx: typer.Context, names: tuple[str, ...]) -> list[str]:
         if src is not None and src.name not in ("DEFAULT", "DEFAULT_MAP"):
             out.append("--" + name.replace("_", "-"))
     return out
+
+
+def renamed_option(
+    ctx: typer.Context, new: str, value: Any, old: str, old_value: Any
+) -> Any:
+    """The value of option ``new``, or of its deprecated hidden spelling ``old`` (issue 29).
+
+    The old spelling, when given, says on stderr in one line that it is deprecated; given
+    together with the new one and another value, the command is refused.
+
+    Parameters
+    ----------
+    ctx : typer.Context
+        The command's context (was ``new`` given, or left at its default?).
+    new, old : str
+        The two options' Python names (``"strategy"``, ``"method"``).
+    value, old_value : object
+        Their values; ``old_value`` None: not given.
+
+    Returns
+    -------
+    object
+        ``old_value`` when only the old spelling was given, else ``value``.
+
+    Raises
+    ------
+    InputError
+        Both spellings given, with different values.
+    """
+    if old_value is None:
+        return value
+    new_opt, old_opt = f"--{new.replace('_', '-')}", f"--{old.replace('_', '-')}"
+    print(f"note: {old_opt} is deprecated; use {new_opt}", file=sys.stderr)
+    if given_options(ctx, (new,)) and value != old_value:
+        raise InputError(
+            f"{new_opt} {value} and the deprecated {old_opt} {old_value} disagree; give "
+            f"{new_opt} only"
+        )
+    return old_value
 
 
 def given_names(ctx: typer.Context, names: tuple[str, ...]) -> set[str]:

@@ -25,9 +25,9 @@ __all__ = [
     "StrategyOption",
     "article",
     "cli_options",
-    "method_help",
     "params_from_options",
     "strategy_file_readers",
+    "strategy_help",
     "strategy_option_type",
     "with_strategy_options",
 ]
@@ -38,8 +38,8 @@ def _type_name(hint: Any) -> str:
     return getattr(hint, "__name__", None) or str(hint).replace("typing.", "")
 
 
-def method_help() -> str:
-    """``measure --method``'s help: the registered strategies, read when the CLI is imported.
+def strategy_help() -> str:
+    """``measure --strategy``'s help: the registered strategies, read when the CLI is imported.
 
     Returns
     -------
@@ -47,7 +47,7 @@ def method_help() -> str:
 
     Examples
     --------
-    >>> method_help()[:53]
+    >>> strategy_help()[:53]
     'Saturation avoidance: conventional, uniform, lpa, dpa'
     """
     from hdrfringe.strategies import available_strategies
@@ -103,7 +103,7 @@ def strategy_option_type(opt: Any) -> tuple[Any, str]:
 
 
 def with_strategy_options(func: F) -> F:
-    """Give a command one option per strategy parameter on the command line, after --method.
+    """Give a command one option per strategy parameter on the command line, after --strategy.
 
     The options come from the registry (:func:`cli_options`) when this
     module is imported: a strategy registered before that has its options here. The command
@@ -112,7 +112,7 @@ def with_strategy_options(func: F) -> F:
     Parameters
     ----------
     func : callable
-        A command with a ``method`` parameter and ``**strategy_options``.
+        A command with a ``strategy`` parameter and ``**strategy_options``.
 
     Returns
     -------
@@ -129,7 +129,7 @@ def with_strategy_options(func: F) -> F:
 
     sig = inspect.signature(func, eval_str=True)
     own = [p for p in sig.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
-    at = [p.name for p in own].index("method") + 1
+    at = [p.name for p in own].index("strategy") + 1
     extra = []
     for opt in cli_options():
         if opt.dest in sig.parameters:
@@ -171,7 +171,7 @@ class StrategyOption:
     fields : dict
         Strategy name -> field name, for every strategy that takes the option.
     exclusive : bool
-        Given with another method, the option is an error (else it is ignored there).
+        Given with another strategy, the option is an error (else it is ignored there).
 
     Examples
     --------
@@ -298,7 +298,7 @@ def params_from_options(
 ) -> Any:
     """The ``Params`` of strategy ``name`` from command-line options, checked.
 
-    Options of another strategy are ignored (one command line can serve several methods),
+    Options of another strategy are ignored (one command line can serve several strategies),
     except the ``exclusive`` ones, which are refused when set away from their default.
 
     Parameters
@@ -320,8 +320,8 @@ def params_from_options(
     Raises
     ------
     InputError
-        An unknown strategy or option, an exclusive option of another method (e.g.
-        ``--bound-pending is a DPA option; use it with --method dpa (got lpa)``), a bad value.
+        An unknown strategy or option, an exclusive option of another strategy (e.g.
+        ``--bound-pending is a DPA option; use it with --strategy dpa (got lpa)``), a bad value.
 
     Examples
     --------
@@ -345,7 +345,7 @@ def params_from_options(
                 titles, names = spec.titles(), list(spec.fields)
                 raise InputError(
                     f"{opt} is {article(titles[0])} {' or '.join(titles)} option; use it with "
-                    f"--method {' or '.join(names)} (got {name})"
+                    f"--strategy {' or '.join(names)} (got {name})"
                 )
             continue
         if value is not None:

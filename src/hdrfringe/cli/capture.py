@@ -15,6 +15,7 @@ from hdrfringe.cli._app import app, console, handle_errors
 from hdrfringe.cli._measure_options import (
     ForceOpt,
     MethodOpt,
+    StrategyOpt,
     strategy_params,
 )
 from hdrfringe.cli._options import (
@@ -48,6 +49,7 @@ from hdrfringe.cli._options import (
     StepsOpt,
     SyncOpt,
     given_names,
+    renamed_option,
 )
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.errors import InputError
@@ -102,7 +104,7 @@ def capture(
     output: Annotated[
         Path | None, typer.Option("-o", "--output", help="Capture folder to write (required).")
     ] = None,
-    method: MethodOpt = "conventional",
+    strategy: StrategyOpt = "conventional",
     pattern: PatternOpt = "sinusoidal",
     steps: StepsOpt = 4,
     pitch: PitchOpt = DEFAULT_PITCHES,
@@ -119,6 +121,7 @@ def capture(
     pixel_format: PixelFormatOpt = None,
     view_check: ViewCheckOpt = True,
     force: ForceOpt = False,
+    method: MethodOpt = None,
     **strategy_options: Any,
 ) -> None:
     """Run a strategy live on a projector and camera and write the capture folder.
@@ -126,7 +129,7 @@ def capture(
     The rig comes from --rig-config FILE and/or the options (an option given overrides the
     file). Every set the strategy captured is written (a MIGL sweep of exactly those MIGLs, plus the
     centerline), with capture_log.json (per-frame timing and synchronisation). `measure FOLDER
-    --method M` with the same strategy options replays it and measures the composite. Ctrl-C
+    --strategy S` with the same strategy options replays it and measures the composite. Ctrl-C
     mid-capture writes the complete sets captured so far, marks the folder incomplete
     (manifest "capture": {"complete": false}) and exits with code 2 (before the first set, or
     a second Ctrl-C while writing: nothing written, code 130). Any other error (sync, camera
@@ -139,8 +142,8 @@ def capture(
 
     if output is None:
         raise InputError("no output folder: give -o/--output CAPTURES")
-    method = method or "conventional"
-    params, sources = strategy_params(ctx, method, strategy_options)
+    strategy = renamed_option(ctx, "strategy", strategy, "method", method) or "conventional"
+    params, sources = strategy_params(ctx, strategy, strategy_options)
     hardware = {
         "projector": projector, "camera": camera, "sync": sync, "settle": settle,
         "discard": discard, "max_grabs": max_grabs, "gamma": gamma, "exposure_ms": exposure_ms,
@@ -150,7 +153,7 @@ def capture(
     report = task.capture(
         output, rig_config, hardware,
         task.LiveFringes(pattern, steps, pitches, imin, migl, centerline),
-        given=given_names(ctx, tuple(hardware)), method=method, params=params, sources=sources,
+        given=given_names(ctx, tuple(hardware)), strategy=strategy, params=params, sources=sources,
         strategy_options=given_strategy_options(ctx, strategy_options), force=force,
         say=console.print,
     )  # fmt: skip

@@ -23,6 +23,7 @@ from hdrfringe.cli._measure_options import (
     MethodOpt,
     NoiseSigmaOpt,
     OutputOpt,
+    StrategyOpt,
     UncertaintyOpt,
     given_strategy_options,
     strategy_params,
@@ -45,6 +46,7 @@ from hdrfringe.cli._options import (
     LiveStepsOpt,
     check_source,
     given_names,
+    renamed_option,
 )
 from hdrfringe.cli._strategy_options import with_strategy_options
 from hdrfringe.cli.capture import (
@@ -88,7 +90,7 @@ def measure(
     folder: MeasureFolderArg = None,
     output: OutputOpt = None,
     calibration: CalibrationOpt = None,
-    method: MethodOpt = None,
+    strategy: StrategyOpt = None,
     rig: MeasureRigOpt = None,
     scene: LiveSceneOpt = "white_plate",
     depth_mm: LiveDepthOpt = None,
@@ -149,19 +151,20 @@ def measure(
     harmonics: HarmonicsOpt = "off",
     keep_saturated: KeepSaturatedOpt = False,
     saturated: SaturatedOpt = "flag",
+    method: MethodOpt = None,
     **strategy_options: Any,
 ) -> None:
     """Height map, point cloud, phase maps and metrics of a capture folder or the live rig.
 
     The source is a capture FOLDER (replay), --rig sim with scene and fringe options (the
     live virtual rig), or --rig hardware with --rig-config and/or the projector, camera and
-    sync options of `capture` (a real rig). With --method, a FOLDER is a MIGL sweep (hdrfringe
+    sync options of `capture` (a real rig). With --strategy, a FOLDER is a MIGL sweep (hdrfringe
     simulate --migl-sweep) replayed by the strategy; a live rig captures what the strategy
     asks for. The composite images are then measured; OUT also gets the MIGL index map and pie
     chart, and for DPA the estimated-versus-actual CDF (dpa_cdf.png, thesis Fig. 6.3). With
     --rig hardware OUT also holds the capture folder (OUT/captures, with capture_log.json),
     which `measure OUT/captures` replays to the same result (a folder written by `capture`
-    is replayed with the method and strategy options its capture_log.json records); Ctrl-C
+    is replayed with the strategy and strategy options its capture_log.json records); Ctrl-C
     writes nothing (exit 130): use `capture` to keep the sets of an interrupted run.
     """
     from hdrfringe.tasks import measure as task
@@ -173,14 +176,14 @@ def measure(
         raise InputError("no output folder: give -o/--output OUT")
     task.check_noise_sigma(noise_sigma, uncertainty)
     zrange = _depth_range(depth_range, calibration)
-    check_harmonics(harmonics, "--method tolerant" if method == "tolerant" else None)
-    if live and method is None:
-        method = "conventional"
-    method, recorded, replayed = task.replayed_strategy(None if live else folder, method)
-    min_shifts = decoder_min_shifts(method, saturated, keep_saturated, strategy_options)
-    params, sources = strategy_params(ctx, method, strategy_options, recorded)
+    strategy = renamed_option(ctx, "strategy", strategy, "method", method)
+    check_harmonics(harmonics, "--strategy tolerant" if strategy == "tolerant" else None)
+    strategy = "conventional" if live and strategy is None else strategy
+    strategy, recorded, replayed = task.replayed_strategy(None if live else folder, strategy)
+    min_shifts = decoder_min_shifts(strategy, saturated, keep_saturated, strategy_options)
+    params, sources = strategy_params(ctx, strategy, strategy_options, recorded)
     options = task.MeasureOptions(
-        method, params, sources, given_strategy_options(ctx, strategy_options),
+        strategy, params, sources, given_strategy_options(ctx, strategy_options),
         stereo_directions, uncertainty, zrange, keep_saturated, saturated, min_shifts,
         harmonics, noise_sigma, previews,
     )  # fmt: skip
@@ -246,7 +249,7 @@ def print_summary(result: Any, output: Path) -> None:
     m = result.metrics
     if m.strategy is not None:
         s = m.strategy
-        console.print(f"{s.method}: {s.sets_captured} sets, {s.images_captured} images captured")
+        console.print(f"{s.name}: {s.sets_captured} sets, {s.images_captured} images captured")
     for entry in m.dpa.sets if m.dpa is not None else ():
         if entry.max_abs_difference_initial_vs_actual is not None:
             extra = ""

@@ -84,18 +84,18 @@ def check_saturation_options(keep_saturated: bool, saturated: str, min_shifts: i
 
 
 def decoder_min_shifts(
-    method: str | None, saturated: str, keep_saturated: bool, strategy_options: dict[str, Any]
+    strategy: str | None, saturated: str, keep_saturated: bool, strategy_options: dict[str, Any]
 ) -> int:
     """``measure``'s ``--min-shifts``, checked as ``phase`` checks it.
 
-    ``measure`` has ``--min-shifts`` from the tolerant strategy's options; with ``--method
+    ``measure`` has ``--min-shifts`` from the tolerant strategy's options; with ``--strategy
     tolerant`` it stays the strategy's (which decodes with it), otherwise it is the decoder's
     (``--saturated exclude``) and is taken out of ``strategy_options``.
 
     Parameters
     ----------
-    method : str or None
-        ``--method``.
+    strategy : str or None
+        ``--strategy``.
     saturated : str
         ``--saturated``.
     keep_saturated : bool
@@ -114,7 +114,7 @@ def decoder_min_shifts(
     >>> decoder_min_shifts(None, "exclude", False, options), options
     (4, {'step': None})
     """
-    if method == "tolerant":
+    if strategy == "tolerant":
         check_saturation_options(keep_saturated, saturated, 3)
         return int(strategy_options.get("min_shifts", 3))
     min_shifts = int(strategy_options.pop("min_shifts", 3))

@@ -63,7 +63,7 @@ def train_correction(
     LPA with a step of one gray level on a white plate at a large pitch (thesis: 20 px) gives
     every saturated pixel's true peak; a polynomial in the Eq. 6.2 estimate is fitted to the
     estimate's error. Live (--rig sim; white plate under 600 lx by default) or from a step-1
-    MIGL sweep FOLDER. Use the file with measure --method dpa --correction FILE.
+    MIGL sweep FOLDER. Use the file with measure --strategy dpa --correction FILE.
     """
     from hdrfringe.strategies.dpa_training import THESIS_CORRECTION_RMSE
     from hdrfringe.tasks.train import train_correction as task

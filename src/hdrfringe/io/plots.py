@@ -169,7 +169,7 @@ def plot_migl_pie(
 
     References
     ----------
-    Thesis Sec. 5.2.1, Fig. 5.6 (pie charts of the pixels per adaptive MIGL step).
+    Thesis Sec. 5.2.1, Fig. 5.6 (pie charts of the pixels per MIGL step).
 
     Examples
     --------

@@ -11,8 +11,8 @@ Built in, one module each (import the function from its module, e.g.
 
 * :mod:`~hdrfringe.strategies.conventional`: one set at the highest MIGL.
 * :mod:`~hdrfringe.strategies.uniform`: one MIGL for every pixel (Ch. 4).
-* :mod:`~hdrfringe.strategies.lpa`: linear pixel-wise adaptive (Ch. 5, Eq. 5.1).
-* :mod:`~hdrfringe.strategies.dpa`: dynamic pixel-wise adaptive (Ch. 6).
+* :mod:`~hdrfringe.strategies.lpa`: LPA, pixel-wise MIGL in linear steps (Ch. 5, Eq. 5.1).
+* :mod:`~hdrfringe.strategies.dpa`: DPA, pixel-wise MIGL in dynamic steps (Ch. 6).
 * :mod:`~hdrfringe.strategies.tolerant`: one set, phase from the unsaturated shifts.
 * :mod:`~hdrfringe.strategies.multiexposure`: sets at several exposure times (Zhang & Yau
   2009), with the exposure choice of :mod:`~hdrfringe.strategies.exposure` (Sec. 7.3).

@@ -1,4 +1,4 @@
-"""Per-pixel adaptive projection, ``--method adaptive`` (beyond the thesis: its Sec. 7.2).
+"""Per-pixel adaptive projection, ``--strategy adaptive`` (beyond the thesis: its Sec. 7.2).
 
 The steps (docs/adaptive.md); with ``auto_exposure`` the exposure is chosen first (thesis
 Sec. 7.3, :func:`~hdrfringe.strategies.exposure.choose_exposure`):
@@ -605,7 +605,7 @@ def _checked_inputs(
     rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
 ) -> tuple[list[FringeSpec], StereoCalibration | None, float]:
     """The sets, the epipolar calibration and the mapping MIGL; InputError for what the
-    method cannot do."""
+    strategy cannot do."""
     specs = _check_specs(rig, specs)
     margin, exposure_ms = params.margin, params.exposure_ms
     if not 0.0 <= float(margin) < 1.0:
@@ -885,7 +885,7 @@ def _mapping_set_results(run: _Run, mp: _Mapping) -> list[StrategyResult | None]
             index_map=mp.index[spec.orientation][k],
             newly_unsaturated=[int((~sat).sum())] + [0] * (len(sets) - 1),
             never_unsaturated=sat,
-            method="adaptive",
+            strategy="adaptive",
             details={"mapping_set": True, "mapping_migl": m_set},
         )
     return results
@@ -1207,8 +1207,6 @@ def _adapted_details(
         "mapping_bright_migl": mp.bright_migl,
         "mapping_pitches": {o: list(p) for o, p in run.pitches.items()},
         "erosion_radius_px": float(proj.radius),
-        "projector_migl_map": st.pmap.astype(np.float32),
-        "camera_migl": st.levels.astype(np.float32),
         "mapping_saturated": int(mp.saturated.sum()),
         "refit_passes": st.passes["refit"],
         "check_passes": st.passes["check"],
@@ -1250,9 +1248,11 @@ def _adapt_orientation(
         index_map=st.index,
         newly_unsaturated=st.newly,
         never_unsaturated=st.remaining,
-        method="adaptive",
+        strategy="adaptive",
         details=_adapted_details(proj, st, mapping, topup_info, blur),
         absolute_phase=absolute,
+        projector_migl_map=st.pmap.astype(np.float32),
+        camera_migl=st.levels.astype(np.float32),
     )
 
 
@@ -1373,16 +1373,17 @@ def adaptive_sets(
     tuple of StrategyResult
         One per spec, in order. A coarser set is the mapping's own capture at its MIGL; the
         finest set of each orientation is the adapted composite: ``index_map`` holds the MIGL
-        each camera pixel received, and ``details`` the maps (``projector_migl_map`` of the
-        last pass, ``camera_migl``: the camera-side levels), the images, sets and seconds per
-        step (``images_per_step``, ``sets_per_step``, ``seconds_per_step``; the mapping is
-        counted once, with the first adapted set), the blur fitted (``blur_sigma_px``) and
-        ``absolute_phase``: the set's absolute phase, unwrapped with the mapping's orders.
+        each camera pixel received, ``projector_migl_map`` (the projector's map of the last
+        pass) and ``camera_migl`` (the camera-side levels), ``details`` the images, sets and
+        seconds per step (``images_per_step``, ``sets_per_step``, ``seconds_per_step``; the
+        mapping is counted once, with the first adapted set) and the blur fitted
+        (``blur_sigma_px``), and ``absolute_phase``: the set's absolute phase, unwrapped with
+        the mapping's orders.
 
     Raises
     ------
     InputError
-        For sets the method cannot adapt or parameters out of range.
+        For sets the strategy cannot adapt or parameters out of range.
 
     References
     ----------
@@ -1691,7 +1692,7 @@ def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
     return {
         r.spec.orientation: {k: json_safe(r.details[k]) for k in ADAPTIVE_METRICS}
         for r in results
-        if r.method == "adaptive" and "images_per_step" in r.details
+        if r.strategy == "adaptive" and "images_per_step" in r.details
     }
 
 

@@ -3,7 +3,7 @@
 A saturation-avoidance strategy decides which fringe sets to capture on a rig and builds the
 composite the phase stage decodes (thesis Ch. 4-6). Each one is an object with
 
-* ``name`` (what ``--method`` takes), ``title`` (how messages and help name it) and ``help``
+* ``name`` (what ``--strategy`` takes), ``title`` (how messages and help name it) and ``help``
   (one line),
 * ``Params``: a frozen dataclass whose fields are its parameters, each with a type, a default
   and ``field(metadata={"help": ..., "cli": "--option"})`` (``cli`` absent: not on the command
@@ -19,7 +19,7 @@ composite the phase stage decodes (thesis Ch. 4-6). Each one is an object with
 
 :func:`register` adds one to the registry (it also works as a class decorator);
 :func:`get_strategy` and :func:`available_strategies` read it. Importing
-:mod:`hdrfringe.strategies` registers the built-in ones. Front ends never list the methods
+:mod:`hdrfringe.strategies` registers the built-in ones. Front ends never list the strategies
 themselves: the command-line options are generated from the ``Params`` fields by
 :mod:`hdrfringe.cli._strategy_options`.
 
@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any, Protocol, Union, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._renamed import renamed_fields
 from hdrfringe.core._validation import full_scale
 from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import InputError
@@ -162,6 +163,7 @@ class DecoderSettings:
     min_shifts: int
 
 
+@renamed_fields(method="strategy")
 @dataclass
 class StrategyResult:
     """What a strategy returns: the composite and a record of what it captured.
@@ -181,8 +183,8 @@ class StrategyResult:
         Per captured set, the pixels that became unsaturated (copied to the composite) there.
     never_unsaturated : ndarray (H, W) bool
         Pixels saturated in every set captured (their composite comes from the last set).
-    method : str
-        The strategy's registry name.
+    strategy : str
+        The strategy's registry name (``method`` before issue 29: a deprecated alias).
     index_quantity : str
         What ``index_map`` holds: ``"migl"`` or ``"exposure_ms"``.
     details : dict
@@ -195,6 +197,12 @@ class StrategyResult:
         projection, from its camera-to-projector mapping); the decoder takes it as given.
     decoder : DecoderSettings or None
         The decoder the composite needs; None: the standard one.
+    projector_migl_map : ndarray (H_p, W_p) float32 or None
+        A strategy that projects a per-pixel MIGL (the adaptive projection): the projector's
+        MIGL map of its last pass, which the measurement writes (``projector_migl_map.tiff``).
+    camera_migl : ndarray (H, W) float32 or None
+        With ``projector_migl_map``: the per-camera-pixel levels the map was built from
+        (``camera_migl.tiff``).
 
     Notes
     -----
@@ -208,7 +216,7 @@ class StrategyResult:
     ...     images=np.zeros((4, 2, 3), np.uint8), spec=spec,
     ...     captured=[CapturedSet(migl=255.0), CapturedSet(migl=250.0)],
     ...     index_map=np.full((2, 3), 250.0, np.float32), newly_unsaturated=[0, 6],
-    ...     never_unsaturated=np.zeros((2, 3), bool), method="lpa")
+    ...     never_unsaturated=np.zeros((2, 3), bool), strategy="lpa")
     >>> res.migls, res.sets_captured, res.images_captured
     ([255.0, 250.0], 2, 8)
     """
@@ -219,16 +227,18 @@ class StrategyResult:
     index_map: NDArray[np.float32]
     newly_unsaturated: list[int]
     never_unsaturated: NDArray[np.bool_]
-    method: str
+    strategy: str
     index_quantity: str = "migl"
     details: dict[str, Any] = field(default_factory=dict)
     extra_sets: tuple[ExtraSet, ...] = ()
     absolute_phase: NDArray[np.float64] | None = None
     decoder: DecoderSettings | None = None
+    projector_migl_map: NDArray[np.float32] | None = None
+    camera_migl: NDArray[np.float32] | None = None
 
     def __post_init__(self) -> None:
         """Refuse records that do not fit together (counts per set, maps per pixel)."""
-        where = f"strategy {self.method!r} result"
+        where = f"strategy {self.strategy!r} result"
         if self.index_quantity not in INDEX_QUANTITIES:
             raise InputError(
                 f"{where}: index_quantity {self.index_quantity!r} is not one of "
@@ -263,7 +273,7 @@ class StrategyResult:
         out = [s.migl for s in self.captured]
         if any(m is None for m in out):
             raise AttributeError(
-                f"strategy {self.method!r}: a captured set has no single MIGL; read .captured"
+                f"strategy {self.strategy!r}: a captured set has no single MIGL; read .captured"
             )
         return [float(m) for m in out if m is not None]
 
@@ -282,7 +292,7 @@ class StrategyResult:
         """
         if self.index_quantity != "migl":
             raise AttributeError(
-                f"strategy {self.method!r}: the index map holds {self.index_quantity}, not the "
+                f"strategy {self.strategy!r}: the index map holds {self.index_quantity}, not the "
                 "MIGL; read .index_map"
             )
         return self.index_map
@@ -321,7 +331,7 @@ class Strategy(Protocol):  # numpydoc ignore=PR01
     Attributes
     ----------
     name : str
-        Registry name, what ``measure --method`` takes: lower case, digits, ``-`` and ``_``.
+        Registry name, what ``measure --strategy`` takes: lower case, digits, ``-`` and ``_``.
     title : str
         How messages and help text name it (``"DPA"``, ``"Uniform"``).
     help : str
@@ -329,7 +339,7 @@ class Strategy(Protocol):  # numpydoc ignore=PR01
     Params : type
         Frozen dataclass of its parameters; every field has a default and
         ``metadata={"help": ...}``, and ``"cli": "--option"`` to appear on the command line
-        (``"exclusive": True``: that option given with another method is an error).
+        (``"exclusive": True``: that option given with another strategy is an error).
 
     Examples
     --------
@@ -673,7 +683,7 @@ def get_strategy(name: str) -> Strategy:
     Raises
     ------
     InputError
-        ``unknown method 'x'; use one of conventional, uniform, lpa, dpa``.
+        ``unknown strategy 'x'; use one of conventional, uniform, lpa, dpa``.
 
     Examples
     --------
@@ -684,7 +694,7 @@ def get_strategy(name: str) -> Strategy:
         return _REGISTRY[name]
     except (KeyError, TypeError):
         raise InputError(
-            f"unknown method {name!r}; use one of {', '.join(available_strategies())}"
+            f"unknown strategy {name!r}; use one of {', '.join(available_strategies())}"
         ) from None
 
 
@@ -736,7 +746,7 @@ def run_strategy(
     >>> from hdrfringe.rig.scenes import white_plate
     >>> rig = SimulatedRig(white_plate(), camera=CameraModel(width=32, height=24))
     >>> lpa = get_strategy("lpa")
-    >>> [r.method for r in run_strategy(lpa, rig, [FringeSpec("sinusoidal", 4, 8.0)],
+    >>> [r.strategy for r in run_strategy(lpa, rig, [FringeSpec("sinusoidal", 4, 8.0)],
     ...                                 make_params("lpa"))]
     ['lpa']
     """

@@ -59,7 +59,7 @@ def conventional(rig: Rig, spec: FringeSpec) -> StrategyResult:
         index_map=np.full(imgs.shape[1:], spec.migl, dtype=np.float32),
         newly_unsaturated=[int(unsat.sum())],
         never_unsaturated=~unsat,
-        method="conventional",
+        strategy="conventional",
     )
 
 

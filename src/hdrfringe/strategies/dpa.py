@@ -1,4 +1,5 @@
-"""The dynamic pixel-wise adaptive strategy, DPA (thesis Ch. 6).
+"""DPA: pixel-wise MIGL in dynamic steps (thesis Ch. 6, its "dynamic pixel-wise adaptive
+method"; not the per-pixel adaptive projection, :mod:`hdrfringe.strategies.adaptive`).
 
 The loop of docs/dpa.md: capture at the highest MIGL; estimate each saturated pixel's true
 highest intensity (Eq. 6.2 / least squares on the sinusoid,
@@ -200,7 +201,7 @@ def dpa(
             index_map=index,
             newly_unsaturated=newly,
             never_unsaturated=remaining,
-            method="dpa",
+            strategy="dpa",
             details={"threshold": threshold, "rules": ["initial"]},
         )
     saturated_at_top = remaining.copy()
@@ -260,7 +261,7 @@ def dpa(
         index_map=index,
         newly_unsaturated=newly,
         never_unsaturated=remaining,
-        method="dpa",
+        strategy="dpa",
         details={
             "threshold": threshold,
             "rules": rules,
@@ -338,7 +339,8 @@ class DPA(FunctionStrategy):
     name = "dpa"
     title = "DPA"
     help = (
-        "dynamic pixel-wise adaptive (Ch. 6): sets where the estimated CDF says pixels unsaturate"
+        "pixel-wise MIGL, dynamic steps (Ch. 6): sets where the estimated CDF says pixels "
+        "unsaturate"
     )
     Params = DPAParams
     function = staticmethod(dpa)

@@ -133,7 +133,7 @@ def index_without_never(result: StrategyResult) -> NDArray[np.float64]:
     >>> res = StrategyResult(
     ...     images=np.zeros((4, 1, 2), np.uint8), spec=FringeSpec("sinusoidal", 4, 8.0),
     ...     captured=[CapturedSet(migl=255.0)], index_map=np.full((1, 2), 255.0, np.float32),
-    ...     newly_unsaturated=[1], never_unsaturated=np.array([[False, True]]), method="dpa")
+    ...     newly_unsaturated=[1], never_unsaturated=np.array([[False, True]]), strategy="dpa")
     >>> index_without_never(res).tolist()
     [[255.0, -1.0]]
     """

@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._renamed import renamed_keyword
 from hdrfringe.core._validation import full_scale, unsaturated_mask
 from hdrfringe.core.captures import CameraSettings, ProjectorInfo
 from hdrfringe.core.frames import Frame
@@ -543,10 +544,11 @@ class FixedExposureRig(RigBase):
 def run_at_exposure(
     rig: Rig,
     spec: FringeSpec,
-    method: str,
+    strategy: str | None = None,
     params: Any = None,
     *,
     choice: ExposureChoice | None = None,
+    method: str | None = None,
     **choose: Any,
 ) -> tuple[ExposureChoice, StrategyResult, int]:
     """A registered strategy run at an automatically chosen exposure (thesis Sec. 7.3).
@@ -561,12 +563,14 @@ def run_at_exposure(
         Any rig whose exposure time can be set.
     spec : FringeSpec
         The set, at its highest MIGL.
-    method : str
-        A registered strategy (e.g. ``"uniform"``, ``"lpa"``).
+    strategy : str
+        A registered strategy (e.g. ``"uniform"``, ``"lpa"``); required.
     params : Params or mapping, optional
         Its parameters (a mapping goes through :func:`~hdrfringe.strategies.make_params`).
     choice : ExposureChoice, optional
         An exposure already chosen; None: choose one now.
+    method : str, optional
+        Deprecated spelling of ``strategy`` (a :class:`DeprecationWarning`).
     **choose
         Keyword arguments of :func:`choose_exposure`.
 
@@ -592,13 +596,16 @@ def run_at_exposure(
     >>> res.captured[0].exposure_ms == choice.exposure_ms, n == choice.images_captured
     (True, True)
     """
-    strategy = get_strategy(method)
+    name = renamed_keyword("run_at_exposure", "strategy", strategy, "method", method)
+    if name is None:
+        raise InputError("run_at_exposure needs a strategy: give strategy=NAME, e.g. 'uniform'")
+    chosen = get_strategy(name)
     if params is None:
-        p = make_params(method)
-    elif isinstance(params, strategy.Params):
+        p = make_params(name)
+    elif isinstance(params, chosen.Params):
         p = params
     else:
-        p = make_params(method, **dict(params))
+        p = make_params(name, **dict(params))
     if choice is None:
         choice = choose_exposure(rig, spec, **choose)
     elif choose:
@@ -607,7 +614,7 @@ def run_at_exposure(
     frames = spec.frames()
     held = list(zip(frames, last, strict=True)) if last is not None else []
     fixed = FixedExposureRig(rig, choice.exposure_ms, held)
-    res = strategy.run(fixed, spec, p)
+    res = chosen.run(fixed, spec, p)
     res.captured = [dataclasses.replace(s, exposure_ms=choice.exposure_ms) for s in res.captured]
     res.details = {**res.details, "exposure_ms": choice.exposure_ms}
     return choice, res, choice.images_captured + fixed.fresh_images

@@ -1,4 +1,5 @@
-"""The linear pixel-wise adaptive strategy, LPA (thesis Ch. 5, Eq. 5.1)."""
+"""LPA: pixel-wise MIGL in linear steps (thesis Ch. 5, Eq. 5.1, its "linear pixel-wise
+adaptive method"; not the per-pixel adaptive projection, :mod:`hdrfringe.strategies.adaptive`)."""
 
 from __future__ import annotations
 
@@ -97,7 +98,7 @@ def lpa(
         index_map=index,
         newly_unsaturated=newly,
         never_unsaturated=remaining,
-        method="lpa",
+        strategy="lpa",
         details={"step": step, "min_migl": floor},
     )
 
@@ -143,7 +144,7 @@ class LPA(FunctionStrategy):
 
     name = "lpa"
     title = "LPA"
-    help = "linear pixel-wise adaptive (Ch. 5): sets every S gray levels down from the top"
+    help = "pixel-wise MIGL, linear steps (Ch. 5): sets every S gray levels down from the top"
     Params = LPAParams
     function = staticmethod(lpa)
 

@@ -291,7 +291,7 @@ def multiexposure(
         index_map=index,
         newly_unsaturated=newly,
         never_unsaturated=never,
-        method="multiexposure",
+        strategy="multiexposure",
         index_quantity="exposure_ms",
         details={
             "exposures_ms": times,

@@ -89,8 +89,8 @@ def tolerant(
     check_fringe_spec(spec, rig)
     if spec.pattern != "sinusoidal":
         raise InputError(
-            f"the tolerant method needs sinusoidal fringes, got {spec.pattern}; use "
-            "--pattern sinusoidal or another method"
+            f"the tolerant strategy needs sinusoidal fringes, got {spec.pattern}; use "
+            "--pattern sinusoidal or another strategy"
         )
     top = float(spec.migl if migl is None else migl)
     if not spec.imin < top:
@@ -140,7 +140,7 @@ def tolerant(
         index_map=np.full(imgs.shape[1:], top, dtype=np.float32),
         newly_unsaturated=newly,
         never_unsaturated=never,
-        method="tolerant",
+        strategy="tolerant",
         details=details,
         extra_sets=extra,
         decoder=DecoderSettings(min_shifts=int(min_shifts)),

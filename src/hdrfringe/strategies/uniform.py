@@ -136,7 +136,7 @@ def uniform(
         index_map=np.full(imgs.shape[1:], chosen, dtype=np.float32),
         newly_unsaturated=[0] * (len(order) - 1) + [int(unsat.sum())],
         never_unsaturated=~unsat,
-        method="uniform",
+        strategy="uniform",
         details={"chosen_migl": chosen, "saturated_fraction": fractions, "tolerance": tolerance},
     )
 

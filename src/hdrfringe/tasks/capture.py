@@ -214,12 +214,12 @@ def hardware_rig(
     return rig, config
 
 
-def announce_line(method: str, rig: Any, config: Any) -> str:
+def announce_line(strategy: str, rig: Any, config: Any) -> str:
     """The line a live hardware command says once the rig is open.
 
     Parameters
     ----------
-    method : str
+    strategy : str
         The strategy run.
     rig : HardwareRig
         The open rig (its projector and image sizes).
@@ -241,7 +241,7 @@ def announce_line(method: str, rig: Any, config: Any) -> str:
     """
     name = f" ({config.name})" if config.name else ""
     return (
-        f"{method} live{name}: projector {config.projector.spec} ({rig.projector.width}x"
+        f"{strategy} live{name}: projector {config.projector.spec} ({rig.projector.width}x"
         f"{rig.projector.height}), camera {config.camera.spec} ({rig.image_shape[1]}x"
         f"{rig.image_shape[0]}, {rig.camera_bit_depth} bit)"
     )
@@ -251,7 +251,7 @@ def live_record(
     recorder: Any,
     rig: Any,
     config: Any,
-    method: str | None,
+    strategy: str | None,
     name: str,
     stopped: str | None = None,
     *,
@@ -268,7 +268,7 @@ def live_record(
         The rig it ran on (its noise variance and timing log).
     config : RigConfig
         The resolved configuration (:func:`hardware_rig`).
-    method : str or None
+    strategy : str or None
         The strategy; None for a fixed program (``capture-gamma``, ``capture-poses``), which
         says what it was in ``entries``.
     name : str
@@ -276,7 +276,7 @@ def live_record(
     stopped : str, optional
         Why the run stopped before the end (the record is then incomplete).
     entries : mapping, optional
-        A program's own entries of the record, after ``method`` (its name, levels, pose).
+        A program's own entries of the record, after the strategy's (its name, levels, pose).
     start : int
         The first entry of ``rig.log`` that belongs to this record (``capture-poses`` writes
         one record per pose).
@@ -286,8 +286,9 @@ def live_record(
     captures : Captures
         Every complete set recorded, in capture order.
     state : dict
-        Method, completeness, devices, sync settings and the resolved rig configuration
-        (``rig``, with ``config_file``: path and SHA-256 when a file was read).
+        The strategy (key ``method``), completeness, devices, sync settings and the resolved
+        rig configuration (``rig``, with ``config_file``: path and SHA-256 when a file was
+        read).
     log : dict
         ``state`` plus the noise variance, the view check's change ratio (``view_change``,
         None when it was off) and the per-frame timing.
@@ -309,7 +310,7 @@ def live_record(
         camera["read_noise_dn"] = config.camera.read_noise_dn
     caps = recorder.captures(name=name, camera=camera)
     sync = config.sync
-    state: dict[str, Any] = {} if method is None else {"method": method}
+    state: dict[str, Any] = {} if strategy is None else {"method": strategy}
     state.update(entries or {})
     state.update(
         {
@@ -491,7 +492,7 @@ def capture(
     fringes: LiveFringes,
     *,
     given: Collection[str] = (),
-    method: str = "conventional",
+    strategy: str = "conventional",
     params: Any = None,
     sources: Mapping[str, str] | None = None,
     strategy_options: Mapping[str, Any] | None = None,
@@ -517,7 +518,7 @@ def capture(
         What to project.
     given : collection of str
         The hardware options given explicitly (:func:`resolve_rig_config`).
-    method : str
+    strategy : str
         The strategy.
     params : Params, optional
         The strategy's parameters.
@@ -559,10 +560,10 @@ def capture(
     with rig:
         specs, line = fringes.build(rig.projector)
         if say is not None:
-            say(announce_line(method, rig, config))
+            say(announce_line(strategy, rig, config))
         try:
             pipeline.composite_captures(
-                recorder, specs, method, params, centerline=line,
+                recorder, specs, strategy, params, centerline=line,
                 description=pipeline.RigDescription("capture", {}, {}),
             )  # fmt: skip
         except KeyboardInterrupt:
@@ -570,7 +571,7 @@ def capture(
                 raise
             stopped = "interrupted (Ctrl-C)"
     caps, state, log = live_record(
-        recorder, rig, config, method, output.name, stopped,
+        recorder, rig, config, strategy, output.name, stopped,
         entries=strategy_record(strategy_options or {}),
     )  # fmt: skip
     with staged_output_dir(checked, force=force) as tmp:

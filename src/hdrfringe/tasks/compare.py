@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe._renamed import renamed_fields, renamed_keyword
 from hdrfringe.core import programs
 from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.core.programs import DEFAULT_PITCHES_PX
@@ -122,7 +123,7 @@ class Method:
     Parameters
     ----------
     name : str
-        Stable row name (what ``--methods`` takes).
+        Stable row name (what ``--strategies`` takes).
     label : str
         How tables and the plot name it.
     strategy : str
@@ -388,7 +389,7 @@ def _note(res: Any) -> str:
     values = [s.migl for s in res.captured if s.migl is not None]
     exposures = sorted({s.exposure_ms for s in res.captured if s.exposure_ms is not None})
     parts = []
-    if res.details.get("exposure_ms") is not None and res.method == "adaptive":
+    if res.details.get("exposure_ms") is not None and res.strategy == "adaptive":
         parts.append(f"exposure {res.details['exposure_ms']:g} ms")
         exposures = []
     if "chosen_migl" in res.details:
@@ -416,7 +417,7 @@ def _measure_one(rig: SimulatedRig, method: Method, specs: list[FringeSpec]) -> 
         held = list(zip(finest.frames(), last, strict=True)) if last is not None else []
         source = FixedExposureRig(rig, choice.exposure_ms, held)
         extra_sets = choice.sets_captured
-    result = measure(source, method=method.strategy, params=dict(method.params), specs=specs)
+    result = measure(source, strategy=method.strategy, params=dict(method.params), specs=specs)
     seconds = time.perf_counter() - t0
     results = result.strategy_results
     if isinstance(source, FixedExposureRig):
@@ -462,12 +463,13 @@ def _measure_one(rig: SimulatedRig, method: Method, specs: list[FringeSpec]) -> 
 
 def compare(
     scenes: Sequence[str] | None = None,
-    methods: Sequence[str] | None = None,
+    strategies: Sequence[str] | None = None,
     *,
     resolution: tuple[int, int] | None = None,
     pitch: float = 8.0,
     seed: int = 0,
     progress: Callable[[str], Any] | None = None,
+    methods: Sequence[str] | None = None,
 ) -> list[CompareRow]:
     """Measure every method on every scene of the virtual rig; one row per (scene, method).
 
@@ -475,8 +477,8 @@ def compare(
     ----------
     scenes : sequence of str, optional
         Names of :data:`SCENES` (default all).
-    methods : sequence of str, optional
-        Names of :data:`METHODS` (default all), run in the table's order.
+    strategies : sequence of str, optional
+        Row names of :data:`METHODS` (default all), run in the table's order.
     resolution : tuple of int, optional
         Camera ``(width, height)``; None: the rig's 648 x 494.
     pitch : float
@@ -485,6 +487,8 @@ def compare(
         Noise seed of every scene's rig.
     progress : callable, optional
         Called with ``"scene: label"`` after each row.
+    methods : sequence of str, optional
+        Deprecated spelling of ``strategies`` (a :class:`DeprecationWarning`).
 
     Returns
     -------
@@ -510,8 +514,11 @@ def compare(
     [('conventional', 3, 0.0), ('LPA S=15', 19, 1.0)]
     """
     scene_names = parse_names(None if scenes is None else ",".join(scenes), list(SCENES), "scenes")
+    strategies = renamed_keyword("compare", "strategies", strategies, "methods", methods)
     wanted = parse_names(
-        None if methods is None else ",".join(methods), [m.name for m in METHODS], "methods"
+        None if strategies is None else ",".join(strategies),
+        [m.name for m in METHODS],
+        "strategies",
     )
     specs = compare_specs(pitch)
     registered = set(available_strategies())
@@ -741,6 +748,7 @@ def write_compare(
     return output
 
 
+@renamed_fields(methods="strategies")
 @dataclass(frozen=True)
 class CompareReport:
     """What :func:`run_compare` did.
@@ -751,10 +759,11 @@ class CompareReport:
         The folder written (compare.md, compare.json, compare.png).
     rows : list of CompareRow
         One row per (scene, method).
-    scenes, methods : list of str
-        The scenes and methods compared.
+    scenes, strategies : list of str
+        The scenes and strategy rows (:data:`METHODS` names) compared; ``methods`` before
+        issue 29 (a deprecated alias).
     missing : list of str
-        Methods whose strategy is not registered (rows without numbers).
+        Rows whose strategy is not registered (rows without numbers).
 
     Examples
     --------
@@ -765,7 +774,7 @@ class CompareReport:
     output: Path
     rows: list[CompareRow]
     scenes: list[str]
-    methods: list[str]
+    strategies: list[str]
     missing: list[str]
 
 
@@ -773,12 +782,13 @@ def run_compare(
     output: Path,
     *,
     scenes: str | None = "all",
-    methods: str | None = "all",
+    strategies: str | None = None,
     resolution: str | None = "default",
     pitch: float = 8.0,
     seed: int = 0,
     force: bool = False,
     progress: Progress = quiet,
+    methods: str | None = None,
 ) -> CompareReport:
     """``hdrfringe compare``: check the options and the output, measure every method on every
     scene of the virtual rig (:func:`compare`) and write the table, JSON and plot
@@ -788,8 +798,8 @@ def run_compare(
     ----------
     output : Path
         Folder for compare.md, compare.json and compare.png.
-    scenes, methods : str or None
-        Comma-separated names of :data:`SCENES` and :data:`METHODS`, or ``all``.
+    scenes, strategies : str or None
+        Comma-separated names of :data:`SCENES` and :data:`METHODS`, or ``all`` (None: all).
     resolution : str or None
         Camera ``WIDTHxHEIGHT``, or ``default`` (the rig's 648 x 494).
     pitch : float
@@ -800,6 +810,8 @@ def run_compare(
         Replace an existing output folder.
     progress : Progress
         The front end's progress (one unit per row).
+    methods : str, optional
+        Deprecated spelling of ``strategies`` (a :class:`DeprecationWarning`).
 
     Returns
     -------
@@ -819,7 +831,8 @@ def run_compare(
     hdrfringe.errors.InputError: --scenes: unknown name 'moon'; use one of checkerboard, ...
     """
     scene_names = parse_names(scenes, list(SCENES), "--scenes")
-    method_names = parse_names(methods, [m.name for m in METHODS], "--methods")
+    strategies = renamed_keyword("run_compare", "strategies", strategies, "methods", methods)
+    method_names = parse_names(strategies, [m.name for m in METHODS], "--strategies")
     size = parse_resolution(resolution)
     specs = compare_specs(pitch)
     virtual_rig("white_plate", seed=seed, resolution=size)  # refuses a bad seed before work

@@ -26,12 +26,12 @@
    capture folder.
 4. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
    height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
-   table of RMSE per scene and model; per study scene and method the files of ``hdrfringe
-   measure --method`` but the phase maps
+   table of RMSE per scene and model; per study scene and strategy the files of ``hdrfringe
+   measure --strategy`` but the phase maps
    (:func:`hdrfringe.tasks.measure.write_measurement`: height, PLY, the MIGL index
    map and pie chart, for DPA its CDF figure, Fig. 6.3, and ``metrics.json`` with
    ``sets_captured``, ``images_captured``, ``migls``, plus the study's ``params`` and
-   ``rmse_mm_saturated_kept``); a figure comparing the methods and a table of RMSE, valid
+   ``rmse_mm_saturated_kept``); a figure comparing the strategies and a table of RMSE, valid
    fraction, sets and images captured (docs/saturation.md).
 """
 
@@ -236,7 +236,7 @@ def _overview(path: Path, panels: list[Panel], cols: int = 3) -> None:
     plt.close(fig)
 
 
-#: The study's runs: key (output folder, summary key) -> strategy method.
+#: The study's runs: key (output folder, summary key) -> strategy.
 STUDY_RUNS: dict[str, str] = {
     "conventional": "conventional",
     "uniform": "uniform",
@@ -271,7 +271,7 @@ def _study_run(
     pitch's MIGL index map."""
     rig = _rig(scene, seed, black, lux)
     res = pipeline.measure(
-        rig, cal, method=method, params=params, specs=demo_specs(), centerline=CENTERLINE
+        rig, cal, strategy=method, params=params, specs=demo_specs(), centerline=CENTERLINE
     )
     results, strategy = res.strategy_results, res.metrics.strategy
     assert strategy is not None and res.height_mm is not None
@@ -462,10 +462,10 @@ class ReportTable:
 
 
 def _study_tables(study: dict[str, Any]) -> list[ReportTable]:
-    """One table per study scene: sets, images, MIGLs, valid fraction, RMSE per method."""
+    """One table per study scene: sets, images, MIGLs, valid fraction, RMSE per strategy."""
     tables = []
     for st in study["scenes"].values():
-        cols = ("method", "sets", "images", "MIGL 8 px", "valid", "RMSE mm", "sat. kept")
+        cols = ("strategy", "sets", "images", "MIGL 8 px", "valid", "RMSE mm", "sat. kept")
         rows = []
         for method, row in st["methods"].items():
             rows.append(
@@ -644,7 +644,7 @@ def demo_report(summary: dict[str, Any], output: Path) -> list[ReportTable | str
         "is measured on its black squares only (the saturation-avoidance tables below recover "
         "its white squares).",
         *_study_tables(summary["saturation_study"]),
-        "Saturation avoidance, rational calibration, same seed for every method. 'valid' and "
+        "Saturation avoidance, rational calibration, same seed for every strategy. 'valid' and "
         "'RMSE': saturated pixels invalid (measure's default); 'sat. kept': RMSE with saturated "
         "pixels measured as they are (thesis Ch. 4). Sets and images: summed over the three "
         "pitches. uniform auto: the highest MIGL at which nothing saturates, per pitch; DPA: no "

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe._renamed import renamed_fields
 from hdrfringe.errors import InputError
 from hdrfringe.io.results import (
     MAP_COMPRESSION,
@@ -57,9 +58,9 @@ __all__ = [
     "logged_strategy",
     "measure",
     "replayed_strategy",
-    "write_adaptive_outputs",
     "write_height_outputs",
     "write_measurement",
+    "write_migl_maps",
     "write_stereo_outputs",
     "write_strategy_outputs",
     "write_uncertainty_outputs",
@@ -286,7 +287,7 @@ def write_strategy_outputs(
     ...     index_map=index,
     ...     newly_unsaturated=[2, 1, 1],
     ...     never_unsaturated=np.zeros((2, 2), bool),
-    ...     method="lpa",
+    ...     strategy="lpa",
     ... )
     >>> write_strategy_outputs(Path(tempfile.mkdtemp()), [res])
     ['migl_index.tiff', 'migl_index.png', 'migl_pie.png']
@@ -308,16 +309,18 @@ def write_strategy_outputs(
     if np.unique(pie).size > PIE_SLICES:  # a per-pixel map (adaptive): slices of 10 levels
         # lower edges (250 holds 250..255): rounding labelled a 255 slice "260", above any MIGL
         pie, step = np.floor(pie / 10.0) * 10.0, ", bins of 10 from the label"
-    plot_migl_pie(out / files[-1], pie, title=f"pixels per {per}{step} ({fine.method}, {pitch})")
+    plot_migl_pie(out / files[-1], pie, title=f"pixels per {per}{step} ({fine.strategy}, {pitch})")
     return files
 
 
-def write_adaptive_outputs(
+def write_migl_maps(
     out: Path, results: Sequence[StrategyResult], *, previews: bool = True
 ) -> list[str]:
-    """The adaptive projection's MIGL maps: projector side and camera side.
+    """The per-pixel MIGL maps of a strategy that projects one (the adaptive projection):
+    projector side and camera side.
 
-    Per adapted set (one per orientation; the file names carry the orientation when there
+    Per set with a :attr:`~hdrfringe.strategies.StrategyResult.projector_migl_map` (the
+    adaptive projection: one per orientation; the file names carry the orientation when there
     are two): ``projector_migl_map.tiff`` (float32, projector pixels: the map of its last
     pass) and ``camera_migl.tiff`` (float32, camera pixels: the levels it was built from),
     each with a PNG preview.
@@ -343,16 +346,20 @@ def write_adaptive_outputs(
     Examples
     --------
     >>> import tempfile
-    >>> write_adaptive_outputs(Path(tempfile.mkdtemp()), [])
+    >>> write_migl_maps(Path(tempfile.mkdtemp()), [])
     []
     """
-    adapted = [r for r in results if "projector_migl_map" in r.details]
+    adapted = [r for r in results if r.projector_migl_map is not None]
     files: list[str] = []
     for r in adapted:
         tag = f"_{r.spec.orientation}" if len(adapted) > 1 else ""
         pitch = f"{r.spec.orientation} {r.spec.pitch_px:g} px"
-        for key, where in (("projector_migl_map", "projector"), ("camera_migl", "camera")):
-            data = np.asarray(r.details[key], dtype=np.float32)
+        maps = (("projector_migl_map", r.projector_migl_map, "projector"),
+                ("camera_migl", r.camera_migl, "camera"))  # fmt: skip
+        for key, value, where in maps:
+            if value is None:
+                continue
+            data = np.asarray(value, dtype=np.float32)
             name = f"{key}{tag}"
             write_map_tiff(out / f"{name}.tiff", data)
             files.append(f"{name}.tiff")
@@ -389,7 +396,7 @@ def write_measurement(
     (:func:`write_uncertainty_outputs`); with a stereo calibration, the
     triangulated outputs instead (:func:`write_stereo_outputs`); with a strategy, its index
     map and pie chart (:func:`write_strategy_outputs`); for DPA, ``dpa_cdf.png`` (thesis
-    Fig. 6.3); for the adaptive projection, its MIGL maps (:func:`write_adaptive_outputs`); and
+    Fig. 6.3); for the adaptive projection, its MIGL maps (:func:`write_migl_maps`); and
     ``metrics.json`` (:meth:`MeasurementMetrics.to_dict
     <hdrfringe.pipeline.MeasurementMetrics.to_dict>`).
 
@@ -465,7 +472,7 @@ def write_measurement(
                 write_uncertainty_outputs(tmp, unc.height_std_mm, previews=previews)
         if result.strategy_results:
             write_strategy_outputs(tmp, result.strategy_results, previews=previews)
-            write_adaptive_outputs(tmp, result.strategy_results, previews=previews)
+            write_migl_maps(tmp, result.strategy_results, previews=previews)
         if result.dpa is not None and result.metrics.dpa is not None:
             plot_dpa_cdfs(tmp / "dpa_cdf.png", result.dpa, threshold=result.metrics.dpa.threshold)
         metrics = result.metrics.to_dict()
@@ -512,27 +519,29 @@ def check_noise_sigma(noise_sigma: float | None, uncertainty: bool) -> None:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
 
 
-def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[str, Any] | None]:
+def logged_strategy(
+    folder: Path, strategy: str | None
+) -> tuple[str | None, dict[str, Any] | None]:
     """The strategy a folder written by ``capture`` was captured with (its ``capture_log.json``).
 
     Parameters
     ----------
     folder : Path
         The capture folder measured.
-    method : str or None
-        ``--method`` as given.
+    strategy : str or None
+        ``--strategy`` as given.
 
     Returns
     -------
-    method : str or None
-        The logged method (``method`` when the folder has no log or the log none).
+    strategy : str or None
+        The logged strategy (``strategy`` when the folder has no log or the log none).
     recorded : dict or None
         The logged strategy options by option name (``strategy_options``), None without a log.
 
     Raises
     ------
     InputError
-        A ``--method`` other than the logged one, or an unreadable log.
+        A ``--strategy`` other than the logged one, or an unreadable log.
 
     Examples
     --------
@@ -545,18 +554,18 @@ def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[
     """
     path = Path(folder) / CAPTURE_LOG
     if not path.is_file():
-        return method, None
+        return strategy, None
     try:
         log = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"{path}: not a readable capture log ({exc}); fix or remove it") from None
     logged = log.get("method") if isinstance(log, dict) else None
     if not isinstance(logged, str):
-        return method, None
-    if method is not None and method != logged:
+        return strategy, None
+    if strategy is not None and strategy != logged:
         raise InputError(
-            f"{folder} was captured with --method {logged} ({CAPTURE_LOG}), not {method}; "
-            f"drop --method or give --method {logged}"
+            f"{folder} was captured with --strategy {logged} ({CAPTURE_LOG}), not {strategy}; "
+            f"drop --strategy or give --strategy {logged}"
         )
     options = log.get("strategy_options") or {}
     if not isinstance(options, dict):
@@ -565,41 +574,41 @@ def logged_strategy(folder: Path, method: str | None) -> tuple[str | None, dict[
 
 
 def replayed_strategy(
-    folder: Path | None, method: str | None
+    folder: Path | None, strategy: str | None
 ) -> tuple[str | None, dict[str, Any] | None, str]:
     """:func:`logged_strategy` of a folder measured (none for a live rig), with the note that
-    says the logged method is replayed when ``--method`` was not given.
+    says the logged strategy is replayed when ``--strategy`` was not given.
 
     Parameters
     ----------
     folder : Path or None
         The capture folder; None for a live rig.
-    method : str or None
-        ``--method`` as given.
+    strategy : str or None
+        ``--strategy`` as given.
 
     Returns
     -------
-    method : str or None
+    strategy : str or None
     recorded : dict or None
     note : str
-        Empty unless the folder's logged method is replayed without ``--method``.
+        Empty unless the folder's logged strategy is replayed without ``--strategy``.
 
     Examples
     --------
     >>> import tempfile
     >>> folder = Path(tempfile.mkdtemp())
     >>> _ = (folder / CAPTURE_LOG).write_text('{"method": "lpa"}')
-    >>> method, recorded, note = replayed_strategy(folder, None)
-    >>> method, recorded, note.endswith("captured with --method lpa (capture_log.json), replayed")
+    >>> strategy, recorded, note = replayed_strategy(folder, None)
+    >>> strategy, recorded, note.endswith("with --strategy lpa (capture_log.json), replayed")
     ('lpa', {}, True)
     """
     if folder is None:
-        return method, None, ""
-    given = method
-    method, recorded = logged_strategy(folder, method)
+        return strategy, None, ""
+    given = strategy
+    strategy, recorded = logged_strategy(folder, strategy)
     replayed = recorded is not None and given is None
-    note = f"{folder}: captured with --method {method} ({CAPTURE_LOG}), replayed"
-    return method, recorded, note if replayed else ""
+    note = f"{folder}: captured with --strategy {strategy} ({CAPTURE_LOG}), replayed"
+    return strategy, recorded, note if replayed else ""
 
 
 def load_measure_calibration(path: Path | None) -> Any:
@@ -627,14 +636,16 @@ def load_measure_calibration(path: Path | None) -> Any:
     return None if path is None else load_any_calibration(path)
 
 
+@renamed_fields(method="strategy")
 @dataclass(frozen=True)
 class MeasureOptions:
     """How ``measure`` decodes and what it computes (:func:`hdrfringe.pipeline.measure`).
 
     Parameters
     ----------
-    method : str or None
-        The strategy (None: the folder's images as they are).
+    strategy : str or None
+        The strategy (None: the folder's images as they are); ``method`` before issue 29 (a
+        deprecated alias).
     params : Params, optional
         The strategy's parameters.
     sources : mapping
@@ -662,13 +673,13 @@ class MeasureOptions:
 
     Examples
     --------
-    >>> options = MeasureOptions(method="lpa", saturated="exclude", min_shifts=4)
+    >>> options = MeasureOptions(strategy="lpa", saturated="exclude", min_shifts=4)
     >>> kwargs = options.pipeline_kwargs(None)
-    >>> kwargs["method"], kwargs["reject_saturated"], kwargs["min_shifts"]
+    >>> kwargs["strategy"], kwargs["reject_saturated"], kwargs["min_shifts"]
     ('lpa', True, 4)
     """
 
-    method: str | None = None
+    strategy: str | None = None
     params: Any = None
     sources: Mapping[str, str] = field(default_factory=dict)
     strategy_options: Mapping[str, Any] = field(default_factory=dict)
@@ -695,7 +706,7 @@ class MeasureOptions:
         dict
         """
         kwargs: dict[str, Any] = {
-            "method": self.method,
+            "strategy": self.strategy,
             "params": self.params,
             "param_sources": dict(self.sources),
             "calibration_source": None if calibration is None else str(calibration),
@@ -831,7 +842,7 @@ def measure(
     cal = load_measure_calibration(calibration)
     kwargs = options.pipeline_kwargs(calibration)
     if rig is not None:
-        assert fringes is not None and options.method is not None
+        assert fringes is not None and options.strategy is not None
         return _measure_hardware(rig, config, cal, output, force, options, fringes, kwargs, say)
     if sim is not None:
         from hdrfringe.rig.factory import virtual_rig  # the simulator loads only when used
@@ -841,7 +852,7 @@ def measure(
         specs, line = fringes.build(live.projector)
         label = f"live virtual rig: {json.dumps(live.scene.to_manifest())}, "
         label += f"{sim.get('ambient_lux', 0.0):g} lx"
-        with progress(f"{options.method} on the virtual rig ({sim['scene']})", None):
+        with progress(f"{options.strategy} on the virtual rig ({sim['scene']})", None):
             result = pipeline.measure(
                 live, cal, specs=specs, centerline=line, label=label, **kwargs
             )
@@ -869,18 +880,18 @@ def _measure_hardware(
     from hdrfringe.hardware.rig import Recorder
     from hdrfringe.tasks.capture import strategy_record
 
-    method = options.method
-    assert method is not None
+    strategy = options.strategy
+    assert strategy is not None
     recorder = Recorder(rig)
     with rig:  # Ctrl-C: the rig closes, nothing is written (the CLI: exit 130)
         specs, line = fringes.build(rig.projector)
-        say(announce_line(method, rig, config))
+        say(announce_line(strategy, rig, config))
         label = f"live hardware rig: projector {config.projector.spec}, camera {config.camera.spec}"
         result = pipeline.measure(
             recorder, cal, specs=specs, centerline=line, label=label, **kwargs
         )
     record = strategy_record(options.strategy_options)
-    caps, state, log = live_record(recorder, rig, config, method, CAPTURES, entries=record)
+    caps, state, log = live_record(recorder, rig, config, strategy, CAPTURES, entries=record)
 
     def captures(tmp: Path) -> None:
         write_capture_output(tmp / CAPTURES, caps, state, log)
