@@ -9,7 +9,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import ClassVar
 
-__all__ = ["CaptureFormatError", "HdrFringeError", "InputError", "OutputExistsError"]
+__all__ = [
+    "CaptureFormatError",
+    "HdrFringeError",
+    "InputError",
+    "OutputExistsError",
+    "ResourceError",
+    "StoppedError",
+]
 
 
 class HdrFringeError(Exception):
@@ -144,3 +151,60 @@ class OutputExistsError(HdrFringeError):
     >>> isinstance(err, HdrFringeError), isinstance(err, ValueError)
     (True, False)
     """
+
+
+class ResourceError(HdrFringeError):
+    """The environment refused what a command needed: disk space, the file size limit, a disk
+    quota, a name length, a permission or memory (the fault policy of ``docs/safety.md``).
+
+    Not a fault of the input nor a bug: the message names what was refused, where (the output
+    or input path) and the errno, and the command line exits with status 2.
+
+    Parameters
+    ----------
+    message : str
+        One line: what, which path, the errno, what to do.
+    errno : int or None
+        The refused operation's errno (``errno.ENOSPC``, ...); None for memory.
+
+    Attributes
+    ----------
+    errno : int or None
+        As given.
+
+    Examples
+    --------
+    >>> import errno
+    >>> err = ResourceError("out: cannot write: No space left on device (ENOSPC)", errno.ENOSPC)
+    >>> isinstance(err, HdrFringeError), err.errno == errno.ENOSPC
+    (True, True)
+    """
+
+    def __init__(self, message: str = "", errno: int | None = None) -> None:
+        super().__init__(message)
+        self.errno = errno
+
+
+class StoppedError(HdrFringeError):
+    """A command stopped by a signal after keeping what was complete (a live capture's sets).
+
+    The message says what was kept; the command line prints it in one line and exits with
+    :attr:`exit_code`, the shell's code of the signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP),
+    so a supervisor that sent SIGTERM sees it honoured.
+
+    Parameters
+    ----------
+    message : str
+        One line: what stopped it and what was kept.
+    exit_code : int
+        The exit status the command line gives (128 + the signal's number).
+
+    Examples
+    --------
+    >>> StoppedError("capture stopped by SIGTERM after 3 sets", 143).exit_code
+    143
+    """
+
+    def __init__(self, message: str = "", exit_code: int = 2) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code

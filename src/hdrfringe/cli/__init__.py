@@ -14,6 +14,10 @@ command function, run under the same error handling; it prints with :data:`conso
 
 from __future__ import annotations
 
-from hdrfringe.cli._app import PLUGIN_GROUP, app, console
+from hdrfringe.cli._environment import prepare_process
+
+prepare_process()  # before numpy and OpenCV load (their BLAS reads its thread count once)
+
+from hdrfringe.cli._app import PLUGIN_GROUP, app, console  # noqa: E402
 
 __all__ = ["PLUGIN_GROUP", "app", "console"]
