@@ -407,8 +407,7 @@ def _environment_error(exc: BaseException) -> HdrFringeError | None:
         from hdrfringe.io.results import _memory_note
 
         return ResourceError(
-            f"out of memory ({_memory_note()}); free memory, raise the limit or use smaller "
-            "images"
+            f"out of memory ({_memory_note()}); free memory, raise the limit or use smaller images"
         )
     return None
 
@@ -451,10 +450,17 @@ def handle_errors(func: F) -> F:
         except HdrFringeError as exc:
             _say_error(str(exc))
             raise typer.Exit(code=getattr(exc, "exit_code", 2)) from None
-        except KeyboardInterrupt:  # Ctrl-C: nothing written (outputs are staged); shell's 130
+        except KeyboardInterrupt as stop:  # Ctrl-C: nothing written (outputs are staged)
+            # the shell's 130; a SIGTERM/SIGHUP turned into one (io.results.SignalStop): 143/129
+            name = getattr(stop, "name", None)
             with contextlib.suppress(OSError, ValueError):
-                err_console.print("interrupted: nothing was written", highlight=False)
-            raise typer.Exit(code=130) from None
+                err_console.print(
+                    f"stopped by {name}: nothing was written"
+                    if name
+                    else "interrupted: nothing was written",
+                    highlight=False,
+                )
+            raise typer.Exit(code=getattr(stop, "exit_code", 130)) from None
         except (OSError, MemoryError, ImportError) as exc:
             if isinstance(exc, OSError) and _is_stdout_error(exc):
                 _stdout_failed()

@@ -952,8 +952,7 @@ def environment_fault(
         return None
     reason = os.strerror(code) if exc.errno is None else (exc.strerror or os.strerror(code))
     return ResourceError(
-        f"{path}: cannot {action}: {reason} (errno {errno.errorcode[code]}); "
-        f"{FAULT_ERRNOS[code]}",
+        f"{path}: cannot {action}: {reason} (errno {errno.errorcode[code]}); {FAULT_ERRNOS[code]}",
         code,
     )
 
