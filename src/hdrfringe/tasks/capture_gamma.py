@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hdrfringe.errors import HdrFringeError, InputError
-from hdrfringe.tasks.capture import hardware_rig, live_record, write_capture_output
+from hdrfringe.errors import HdrFringeError, InputError, StoppedError
+from hdrfringe.tasks.capture import hardware_rig, live_record, stop_reason, write_capture_output
 
 __all__ = [
     "WRONG_PRECOMPENSATION_PERCENT",
@@ -246,6 +246,7 @@ def capture_gamma(
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
+        signals_as_interrupt,
         staged_output_dir,
     )
 
@@ -276,6 +277,7 @@ def capture_gamma(
     checked = check_output_dir(output, force)
     recorder = Recorder(rig)
     stopped: str | None = None
+    code = 2
     with rig:
         width, height = rig.projector.width, rig.projector.height
         full = float(2**rig.projector.bit_depth - 1)
@@ -295,15 +297,16 @@ def capture_gamma(
                 f"(pre-distorted with {', '.join(f'{e:g}' for e in exponents) or 'none'})"
             )
         try:
-            if uniform:
-                recorder.capture(uniform)
-            for exponent in exponents:
-                rig.gamma_hat = exponent
-                recorder.capture(fringe_set)
-        except KeyboardInterrupt:
+            with signals_as_interrupt():  # SIGTERM, SIGHUP: kept as for Ctrl-C (issue 31)
+                if uniform:
+                    recorder.capture(uniform)
+                for exponent in exponents:
+                    rig.gamma_hat = exponent
+                    recorder.capture(fringe_set)
+        except KeyboardInterrupt as stop:
             if not recorder.calls:
                 raise
-            stopped = "interrupted (Ctrl-C)"
+            stopped, code = stop_reason(stop)
         finally:
             rig.gamma_hat = gamma
     program = {
@@ -318,10 +321,11 @@ def capture_gamma(
     with staged_output_dir(checked, force=force) as tmp:
         write_capture_output(tmp, caps, state, log)
     if stopped is not None:
-        raise HdrFringeError(
+        raise StoppedError(
             f"capture-gamma {stopped} after {len(recorder.calls)} complete groups; {output} "
             'holds those only (manifest "capture": {"complete": false}); capture again for the '
-            "whole program"
+            "whole program",
+            code,
         )
     try:
         report = gamma_report(caps, source=str(output))
