@@ -34,9 +34,8 @@ from pathlib import Path
 import pytest
 
 import hdrfringe
-from hdrfringe.errors import ResourceError
+from hdrfringe.errors import FAULT_ERRNOS, ResourceError
 from hdrfringe.io.results import (
-    FAULT_ERRNOS,
     STAGING_INFIX,
     staged_output_dir,
     staged_output_file,
@@ -203,7 +202,7 @@ def test_measure_under_a_460_mb_address_space_limit(series: Path, tmp_path: Path
 
 
 def test_address_space_limit_too_small_to_start_is_one_line(tmp_path: Path) -> None:
-    from hdrfringe.cli._environment import MIN_ADDRESS_SPACE_MIB
+    from hdrfringe.cli._app import MIN_ADDRESS_SPACE_MIB
 
     res = _child(
         [*CLI, "phase", "nothing", "-o", "x"],

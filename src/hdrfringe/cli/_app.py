@@ -20,16 +20,18 @@ import typer.main
 from rich.console import Console
 from rich.markup import escape
 
-from hdrfringe.cli._environment import (
-    columns,
-    memory_limit_problem,
-    working_directory_problem,
-)
 from hdrfringe.core.limits import MAX_PROGRAM_FRAMES, check_count
-from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.errors import (
+    HdrFringeError,
+    InputError,
+    ResourceError,
+    environment_fault,
+    memory_note,
+)
 
 __all__ = [
     "COMMAND_MODULES",
+    "MIN_ADDRESS_SPACE_MIB",
     "PLUGIN_GROUP",
     "PLUGIN_INSTALL",
     "F",
@@ -344,6 +346,95 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
+# --- the process's environment (issue 31; docs/safety.md, "Fault policy") -------------------
+#: The smallest address-space limit (``ulimit -v``, MiB) under which a command is started: below
+#: it loading numpy, OpenCV and HDF5 fails (their libraries cannot be mapped, or OpenBLAS, out of
+#: memory for its buffer, ends the process itself), so the command refuses in one line first.
+#: tests/test_fault_policy.py runs ``measure`` at this limit.
+MIN_ADDRESS_SPACE_MIB = 400
+
+
+def columns() -> int | None:
+    """``COLUMNS`` when it is a usable width (a positive integer), else None.
+
+    Returns
+    -------
+    int or None
+
+    Examples
+    --------
+    >>> old = os.environ.get("COLUMNS")
+    >>> os.environ["COLUMNS"] = "0"
+    >>> columns() is None
+    True
+    >>> os.environ["COLUMNS"] = "120"
+    >>> columns()
+    120
+    >>> _ = os.environ.pop("COLUMNS") if old is None else os.environ.update(COLUMNS=old)
+    """
+    value = os.environ.get("COLUMNS", "").strip()
+    return int(value) if value.isdigit() and int(value) > 0 else None
+
+
+def working_directory_problem() -> str | None:
+    """The one-line error for a working directory that no longer exists, else None.
+
+    Relative paths cannot be resolved there (``os.getcwd`` fails), so a command refuses to
+    start instead of failing half-way with a traceback.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> working_directory_problem() is None
+    True
+    """
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        pwd = os.environ.get("PWD", "the working directory")
+        return (
+            f"{pwd}: the working directory no longer exists (it was deleted or moved); cd to "
+            "an existing folder and run the command again"
+        )
+    return None
+
+
+def memory_limit_problem() -> str | None:
+    """The one-line error for an address-space limit too small to start a command, else None.
+
+    Under a limit (``ulimit -v``) the BLAS buffer is also taken now, while the process is
+    small: OpenBLAS allocates it at its first use and ends the process (exit 1, no message of
+    ours) when that fails, which a later, larger moment of the command would risk.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> memory_limit_problem() is None  # no limit, or a large one
+    True
+    """
+    import resource
+
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if soft == resource.RLIM_INFINITY:
+        return None
+    if soft < MIN_ADDRESS_SPACE_MIB * 2**20:
+        return (
+            f"the address-space limit (ulimit -v) is {soft / 2**20:.0f} MiB, below the "
+            f"{MIN_ADDRESS_SPACE_MIB} MiB hdrfringe needs to load numpy, OpenCV and HDF5; "
+            "raise the limit"
+        )
+    import numpy as np
+
+    np.dot(np.ones((256, 256)), np.ones((256, 256)))  # takes OpenBLAS's buffer now
+    return None
+
+
 #: Width of standard output when it is not a terminal (a log file, a pipe, CI): rich would take
 #: 80 columns and cut the demo's tables to ellipses; COLUMNS, when exported, still sets it.
 PIPE_WIDTH = 160
@@ -395,19 +486,14 @@ def _say_error(message: str) -> None:
 def _environment_error(exc: BaseException) -> HdrFringeError | None:
     """The one-line error for a fault of the user's environment raised outside a staged
     write (which names its output itself): an errno of the fault policy or memory."""
-    from hdrfringe.io.results import environment_fault
-
     if isinstance(exc, OSError) and exc.filename is not None:
         action = "write" if exc.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT) else "use"
         return environment_fault(exc, exc.filename, action)
     if isinstance(exc, MemoryError) or (
         isinstance(exc, ImportError) and "failed to map segment" in str(exc)
     ):  # a library that cannot be mapped under an address-space limit
-        from hdrfringe.errors import ResourceError
-        from hdrfringe.io.results import _memory_note
-
         return ResourceError(
-            f"out of memory ({_memory_note()}); free memory, raise the limit or use smaller images"
+            f"out of memory ({memory_note()}); free memory, raise the limit or use smaller images"
         )
     return None
 

@@ -52,11 +52,11 @@ def hdf5_memory_fault(exc: BaseException, path: str | Path) -> ResourceError | N
     """
     import resource
 
-    from hdrfringe.io.results import _memory_note
+    from hdrfringe.errors import memory_note
 
     if isinstance(exc, MemoryError) or (isinstance(exc, OSError) and "allocate" in str(exc)):
         return ResourceError(
-            f"{path}: out of memory while reading it ({_memory_note()}); free memory, raise the "
+            f"{path}: out of memory while reading it ({memory_note()}); free memory, raise the "
             "limit or use a smaller calibration"
         )
     soft = resource.getrlimit(resource.RLIMIT_AS)[0]

@@ -399,8 +399,8 @@ def load_calibration(path: str | Path) -> Calibration:
     """
     import h5py
 
+    from hdrfringe.errors import environment_fault
     from hdrfringe.io._hdf5 import hdf5_memory_fault
-    from hdrfringe.io.results import environment_fault
 
     src = Path(path)
     if not src.exists():
