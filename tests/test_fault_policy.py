@@ -152,6 +152,7 @@ _HELD_SAVE = textwrap.dedent(
         original(f, cal)
         print("saving", flush=True)
         sys.stdin.readline()
+        print("saved", flush=True)  # the signal did not cut the save
 
     calfile._write = held
     app(sys.argv[1:], prog_name="hdrfringe")
@@ -163,9 +164,10 @@ _HELD_SAVE = textwrap.dedent(
 def test_signal_during_calibration_save_is_honoured_after_it(
     series: Path, tmp_path: Path, signum: int, code: int
 ) -> None:
-    """The signal arrives while the HDF5 file is being written: it is held (not lost in
-    h5py, not killing the process with its temporary file left), then honoured: its exit code,
-    no file, no temporary file, no traceback."""
+    """The signal arrives while the HDF5 file is being written: it is held (not raised
+    inside h5py, where it was lost; not killing the process with its temporary file left),
+    the save completes, then the signal is honoured: its exit code, no file, no temporary
+    file, no traceback."""
     driver = tmp_path / "held_save.py"
     driver.write_text(_HELD_SAVE)
     out = tmp_path / "cals" / "cal.h5"
@@ -182,8 +184,34 @@ def test_signal_during_calibration_save_is_honoured_after_it(
     assert proc.wait(timeout=60) == code, proc.stderr.read()
     stderr = proc.stderr.read()
     assert "Traceback" not in stderr and "Exception ignored" not in stderr, stderr
-    assert "wrote" not in proc.stdout.read()
+    rest = proc.stdout.read()
+    assert "saved" in rest and "wrote" not in rest  # held until the file was complete
     assert list(out.parent.iterdir()) == []
+
+
+def test_signal_swallowed_in_a_callback_still_stops_the_writer(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The audit's SIGTERM in ``calibrate``: the handler's SystemExit was raised inside a
+    weakref callback run from C, reported as "Exception ignored" and lost; the command wrote
+    its file and exited 0. A ``__del__`` is such a callback: the writer must still stop (143)
+    and publish nothing."""
+
+    class Dropped:
+        def __del__(self) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)  # the handler runs in here: swallowed
+
+    reported: list[object] = []
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+    out = tmp_path / "out"
+    went_on = False
+    with pytest.raises(SystemExit) as info, staged_output_dir(out) as tmp:
+        (tmp / "a.txt").write_text("complete")
+        Dropped()
+        went_on = True  # the SystemExit was swallowed in __del__
+    assert went_on and info.value.code == 143
+    assert reported == []  # and not reported as "Exception ignored": it is honoured
+    assert list(tmp_path.iterdir()) == []
 
 
 # ------------------------------------------------------------------------------------------

@@ -124,22 +124,19 @@ def save_hdf5(path: str | Path, fill: Callable[[Any], None], force: bool = False
     ...     f["a"][()].tolist()
     [1.0, 2.0]
     """
-    from hdrfringe.io.results import (
-        deferred_signals,
-        environment_fault,
-        honour_signal,
-        staged_output_file,
-    )
+    from hdrfringe.errors import environment_fault
+    from hdrfringe.io.results import deferred_signals, honour_signal, staged_output_file
 
-    with deferred_signals() as stopped, staged_output_file(path, force=force) as tmp:
+    # the staging first, the deferral inside it: the staging's own handlers (which raise at
+    # once) would otherwise replace the deferral's for the whole save
+    with staged_output_file(path, force=force) as tmp, deferred_signals() as stopped:
         try:
             image = _image(fill)
         except MemoryError as exc:
             fault = environment_fault(exc, path)
             raise fault from None  # type: ignore[misc]
-        honour_signal(stopped())  # before writing: the staging file is removed
+        honour_signal(stopped())  # before writing; the staging file is then removed
         with open(tmp, "wb") as fh:
             fh.write(image)
         del image
-        honour_signal(stopped())
     return Path(path)

@@ -35,12 +35,13 @@ import errno
 import os
 import shutil
 import signal
+import sys
 import tempfile
 import threading
 from collections.abc import Callable, Iterable, Iterator
 from glob import escape as glob_escape
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -711,31 +712,52 @@ def _stoppable(signum: int) -> bool:
 
 
 @contextlib.contextmanager
-def sigterm_cleanup() -> Iterator[None]:
+def sigterm_cleanup() -> Iterator[Callable[[], int | None]]:
     """Within the block, SIGTERM raises ``SystemExit(143)`` and SIGHUP ``SystemExit(129)``, so
     cleanup code runs.
+
+    The exception is raised wherever Python is when the signal arrives; where that is a
+    callback run from C (a weakref callback, a ``__del__``, h5py's object bookkeeping) Python
+    reports it as "Exception ignored" and goes on (issue 31: ``calibrate`` then wrote its file
+    and exited 0). So the signal is also recorded: the yielded ``stopped()`` returns it, and a
+    writer asks before it publishes anything (:func:`staged_output_dir` and
+    :func:`staged_output_file` do, and stop with :func:`honour_signal`).
 
     Only the main thread can set signal handlers; elsewhere this does nothing, and a signal the
     process ignores (``nohup``) stays ignored. The previous handlers are restored on exit.
 
     Yields
     ------
-    None
+    callable
+        ``stopped()``: the first SIGTERM or SIGHUP received in the block, or None.
 
     Examples
     --------
-    >>> with sigterm_cleanup():
-    ...     signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
-    True
+    >>> with sigterm_cleanup() as stopped:
+    ...     signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL, stopped()
+    (True, None)
     """
+    hit: list[int] = []
 
     def _stop(signum: int, frame: object) -> None:
+        hit.append(signum)
         raise SystemExit(_STOP_SIGNALS[signum])
 
     old = {sig: signal.signal(sig, _stop) for sig in _STOP_SIGNALS if _stoppable(sig)}
+    if not old:
+        yield lambda: None
+        return
+    previous_hook = sys.unraisablehook
+
+    def _quiet(unraisable: Any) -> None:  # our SystemExit, lost in a callback: honoured later
+        if not (hit and isinstance(unraisable.exc_value, SystemExit)):
+            previous_hook(unraisable)
+
+    sys.unraisablehook = _quiet
     try:
-        yield
+        yield lambda: hit[0] if hit else None
     finally:
+        sys.unraisablehook = previous_hook
         for sig, handler in old.items():
             signal.signal(sig, handler)
 
@@ -983,12 +1005,13 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     ident = checked.identity
     target = _resolved(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    with sigterm_cleanup():
+    with sigterm_cleanup() as stopped:
         prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
         tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
         try:
             os.chmod(tmp, 0o777 & ~current_umask())
             yield tmp
+            honour_signal(stopped())  # a SystemExit swallowed in a callback: stop here
             with deferred_signals():  # the renames are not cut half-way
                 _finish(tmp, target, path, ident, force)
         except BaseException as exc:
@@ -1079,7 +1102,7 @@ def staged_output_file(path: str | Path, force: bool = False) -> Iterator[Path]:
         checked = check_output_file(path, force)
     target = _resolved(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    with sigterm_cleanup():
+    with sigterm_cleanup() as stopped:
         prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
         fd, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
         os.close(fd)
@@ -1087,6 +1110,7 @@ def staged_output_file(path: str | Path, force: bool = False) -> Iterator[Path]:
         try:
             os.chmod(tmp, 0o666 & ~current_umask())
             yield tmp
+            honour_signal(stopped())  # a SystemExit swallowed in a callback: stop here
             with deferred_signals():  # the rename is not cut half-way
                 _finish_file(tmp, target, path, checked.identity, force)
         except BaseException as exc:
