@@ -347,10 +347,10 @@ app = typer.Typer(
     add_completion=False,
 )
 # --- the process's environment (issue 31; docs/safety.md, "Fault policy") -------------------
-#: The smallest address-space limit (``ulimit -v``, MiB) under which a command is started: below
-#: it loading numpy, OpenCV and HDF5 fails (their libraries cannot be mapped, or OpenBLAS, out of
-#: memory for its buffer, ends the process itself), so the command refuses in one line first.
-#: tests/test_fault_policy.py runs ``measure`` at this limit.
+#: The smallest address-space limit (``ulimit -v``, MiB) under which a command is started: far
+#: below it loading numpy, OpenCV and HDF5 fails (a library cannot be mapped, or OpenBLAS, out of
+#: memory for its buffer, ends the process itself with exit 1), so the command refuses in one
+#: line first. tests/test_fault_policy.py runs ``measure`` under 460 MiB and refuses below this.
 MIN_ADDRESS_SPACE_MIB = 400
 
 
