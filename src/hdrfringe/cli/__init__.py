@@ -28,7 +28,9 @@ def _prepare_process() -> None:
     - Under an address-space limit (``ulimit -v``, RLIMIT_AS) OpenBLAS runs one thread unless
       ``OPENBLAS_NUM_THREADS`` is set: the thread server of the OpenBLAS that OpenCV bundles
       dereferences the NULL of a failed buffer allocation (SIGSEGV when ``measure`` imports
-      OpenCV under ``ulimit -v 460000``), and each thread's buffer costs address space.
+      OpenCV under ``ulimit -v 460000``), and each thread's buffer costs address space. The C
+      library is also asked for at most two malloc arenas (each thread's arena reserves 64 MiB
+      of address space on glibc).
 
     Examples
     --------
@@ -49,6 +51,11 @@ def _prepare_process() -> None:
 
     if resource.getrlimit(resource.RLIMIT_AS)[0] != resource.RLIM_INFINITY:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+        import contextlib
+        import ctypes
+
+        with contextlib.suppress(OSError, AttributeError):  # glibc only: M_ARENA_MAX = -8
+            ctypes.CDLL(None).mallopt(-8, 2)
 
 
 _prepare_process()  # before numpy and OpenCV load (their BLAS reads its thread count once)
