@@ -132,9 +132,8 @@ def save_hdf5(path: str | Path, fill: Callable[[Any], None], force: bool = False
     with staged_output_file(path, force=force) as tmp, deferred_signals() as stopped:
         try:
             image = _image(fill)
-        except MemoryError as exc:
-            fault = environment_fault(exc, path)
-            raise fault from None  # type: ignore[misc]
+        except MemoryError as exc:  # one line naming the file (docs/safety.md)
+            raise (environment_fault(exc, path) or exc) from None
         honour_signal(stopped())  # before writing; the staging file is then removed
         with open(tmp, "wb") as fh:
             fh.write(image)
