@@ -176,8 +176,16 @@ def test_window_closed_mid_capture_is_a_one_line_error_and_writes_nothing(
     assert leftovers(tmp_path) == []  # no output, no staging folder
 
 
+@pytest.mark.parametrize(
+    ("signum", "code", "stopped"),
+    [
+        (signal.SIGINT, 2, "interrupted (Ctrl-C)"),
+        # issue 31: SIGTERM (a supervisor, systemd) discarded the sets captured so far
+        (signal.SIGTERM, 143, "stopped by SIGTERM"),
+    ],
+)
 def test_ctrl_c_mid_capture_keeps_the_complete_sets_and_says_so(
-    xdisplay: str, tmp_path: Path
+    xdisplay: str, tmp_path: Path, signum: int, code: int, stopped: str
 ) -> None:
     from hdrfringe.io.captures import read_capture_folder
 
@@ -187,19 +195,19 @@ def test_ctrl_c_mid_capture_keeps_the_complete_sets_and_says_so(
         # the root, the rig's mid-gray and white, the view check's black and white, the four
         # frames of the first set, the second set's first
         wait_for_screens(xdisplay, proc, 10)
-        os.kill(proc.pid, signal.SIGINT)
+        os.kill(proc.pid, signum)
         _, stderr = proc.communicate(timeout=60)
     finally:
         proc.kill()
-    assert proc.returncode == 2, stderr
+    assert proc.returncode == code, stderr
     text = " ".join(stderr.split())
-    assert stderr.count("error:") == 1 and "capture interrupted (Ctrl-C) after" in text
-    sets = int(text.split("interrupted (Ctrl-C) after ")[1].split()[0])
+    assert stderr.count("error:") == 1 and f"capture {stopped} after" in text
+    sets = int(text.split(f"{stopped} after ")[1].split()[0])
     assert sets in (1, 2)  # the second set may complete before the signal arrives
     caps = read_capture_folder(out)  # every image readable: nothing half-written
     assert len(caps.sets) == sets and len(caps.frames) == 4 * sets
     assert caps.sets[0].spec.pitch_px == 1024.0
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["capture"]["complete"] is False
-    assert manifest["capture"]["stopped"] == "interrupted (Ctrl-C)"
+    assert manifest["capture"]["stopped"] == stopped
     assert leftovers(tmp_path) == ["caps"]  # no staging folder left beside it

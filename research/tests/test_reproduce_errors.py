@@ -162,3 +162,22 @@ def test_cli_reproduce_with_a_bad_scheduler_writes_nothing(
         assert time.monotonic() - start < SCHEDULER_TIMEOUT_S + 8
     _one_line_failure(res, "no Dask scheduler answered", address)
     assert not out.exists()
+
+
+def test_second_run_on_a_locked_folder_is_refused(tmp_path: Path) -> None:
+    """Two ``reproduce`` runs on one folder both ran the whole sweep (issue 31). The first
+    run's lock is taken here as another process takes it (``flock`` on the folder, through an
+    open file of its own); the second run is refused in one line before it writes anything."""
+    import fcntl
+    import os
+
+    out = tmp_path / "repro"
+    out.mkdir()
+    fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        res = run_cli_in_process("reproduce", "ch4", "--quick", "-o", str(out))
+    finally:
+        os.close(fd)
+    _one_line_failure(res, "another reproduce run is writing this folder")
+    assert list(out.iterdir()) == []

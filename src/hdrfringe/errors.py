@@ -6,10 +6,24 @@ interface prints the message of any :class:`HdrFringeError` and exits with statu
 
 from __future__ import annotations
 
+import contextlib
+import errno as _errno
+import os
 from collections.abc import Sequence
+from pathlib import Path
 from typing import ClassVar
 
-__all__ = ["CaptureFormatError", "HdrFringeError", "InputError", "OutputExistsError"]
+__all__ = [
+    "FAULT_ERRNOS",
+    "CaptureFormatError",
+    "HdrFringeError",
+    "InputError",
+    "OutputExistsError",
+    "ResourceError",
+    "StoppedError",
+    "environment_fault",
+    "memory_note",
+]
 
 
 class HdrFringeError(Exception):
@@ -144,3 +158,166 @@ class OutputExistsError(HdrFringeError):
     >>> isinstance(err, HdrFringeError), isinstance(err, ValueError)
     (True, False)
     """
+
+
+class ResourceError(HdrFringeError):
+    """The environment refused what a command needed: disk space, the file size limit, a disk
+    quota, a name length, a permission or memory (the fault policy of ``docs/safety.md``).
+
+    Not a fault of the input nor a bug: the message names what was refused, where (the output
+    or input path) and the errno, and the command line exits with status 2.
+
+    Parameters
+    ----------
+    message : str
+        One line: what, which path, the errno, what to do.
+    errno : int or None
+        The refused operation's errno (``errno.ENOSPC``, ...); None for memory.
+
+    Attributes
+    ----------
+    errno : int or None
+        As given.
+
+    Examples
+    --------
+    >>> import errno
+    >>> err = ResourceError("out: cannot write: No space left on device (ENOSPC)", errno.ENOSPC)
+    >>> isinstance(err, HdrFringeError), err.errno == errno.ENOSPC
+    (True, True)
+    """
+
+    def __init__(self, message: str = "", errno: int | None = None) -> None:
+        super().__init__(message)
+        self.errno = errno
+
+
+class StoppedError(HdrFringeError):
+    """A command stopped by a signal after keeping what was complete (a live capture's sets).
+
+    The message says what was kept; the command line prints it in one line and exits with
+    :attr:`exit_code`, the shell's code of the signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP),
+    so a supervisor that sent SIGTERM sees it honoured.
+
+    Parameters
+    ----------
+    message : str
+        One line: what stopped it and what was kept.
+    exit_code : int
+        The exit status the command line gives (128 + the signal's number).
+
+    Examples
+    --------
+    >>> StoppedError("capture stopped by SIGTERM after 3 sets", 143).exit_code
+    143
+    """
+
+    def __init__(self, message: str = "", exit_code: int = 2) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+FAULT_ERRNOS: dict[int, str] = {
+    _errno.ENOSPC: "free space on that disk or write elsewhere",
+    _errno.EFBIG: "the file size limit (ulimit -f) or the file system's largest file is "
+    "exceeded; raise the limit or write elsewhere",
+    _errno.EDQUOT: "free space in your disk quota or write elsewhere",
+    _errno.ENAMETOOLONG: "use a shorter name",
+    _errno.EACCES: "choose a path you may write",
+    _errno.EROFS: "the file system is read-only; write elsewhere",
+}
+"""The errnos that are the user's environment, not a bug, and what to do about each: a write
+refused with one of them ends in one line naming the path and the errno (exit code 2)."""
+
+
+def _short_write_errno(where: Path) -> int | None:
+    """The errno behind a write that stopped short without one (numpy's ``tofile`` says only
+    "N requested and M written"): EFBIG if a file under ``where`` has reached the file size
+    limit, ENOSPC if the disk has (almost) no space left, else None."""
+    import resource
+
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    with contextlib.suppress(OSError):
+        if soft != resource.RLIM_INFINITY:
+            files = [where] if where.is_file() else [p for p in where.rglob("*") if p.is_file()]
+            if any(p.stat().st_size >= soft - 65536 for p in files):
+                return _errno.EFBIG
+        st = os.statvfs(where if where.exists() else where.parent)
+        if st.f_bavail * st.f_frsize < 1 << 20:
+            return _errno.ENOSPC
+    return None
+
+
+def environment_fault(
+    exc: BaseException, path: str | Path, action: str = "write", where: Path | None = None
+) -> ResourceError | None:
+    """The one-line error for ``exc`` if the user's environment refused the operation.
+
+    An :class:`OSError` with one of :data:`FAULT_ERRNOS` (a full disk, the file size limit, a
+    quota, a name too long, a permission, a read-only file system), or a write that stopped
+    short without an errno (diagnosed from ``where``: the file size limit or a full disk), and
+    a :class:`MemoryError` become a :class:`~hdrfringe.errors.ResourceError` naming ``path``
+    and the errno; anything else gives None (a bug or an input fault, handled elsewhere).
+
+    Parameters
+    ----------
+    exc : BaseException
+        What was raised.
+    path : str or Path
+        The path the user named (the output, not its hidden staging name).
+    action : str
+        What was being done to ``path``: "write", "read", ...
+    where : Path, optional
+        The staging file or folder written when ``exc`` was raised (for a short write).
+
+    Returns
+    -------
+    ResourceError or None
+
+    Examples
+    --------
+    >>> err = environment_fault(OSError(_errno.ENOSPC, "No space left on device"), "out")
+    >>> print(err)  # doctest: +NORMALIZE_WHITESPACE
+    out: cannot write: No space left on device (errno ENOSPC); free space on that disk or
+    write elsewhere
+    >>> environment_fault(ValueError("x"), "out") is None
+    True
+    """
+    if isinstance(exc, MemoryError):
+        return ResourceError(
+            f"{path}: out of memory while making it ({memory_note()}); free memory, raise the "
+            "limit or use smaller images"
+        )
+    if not isinstance(exc, OSError):
+        return None
+    code = exc.errno
+    if code is None and where is not None and "written" in str(exc):
+        code = _short_write_errno(where)
+    if code not in FAULT_ERRNOS:
+        return None
+    reason = os.strerror(code) if exc.errno is None else (exc.strerror or os.strerror(code))
+    return ResourceError(
+        f"{path}: cannot {action}: {reason} (errno {_errno.errorcode[code]}); {FAULT_ERRNOS[code]}",
+        code,
+    )
+
+
+def memory_note() -> str:
+    """The memory limit in force, as a note for a MemoryError's message.
+
+    Returns
+    -------
+    str
+        ``"MemoryError"``, with the address-space limit (``ulimit -v``) when one is set.
+
+    Examples
+    --------
+    >>> memory_note().startswith("MemoryError")
+    True
+    """
+    import resource
+
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if soft == resource.RLIM_INFINITY:
+        return "MemoryError"
+    return f"MemoryError; address-space limit {soft / 2**20:.0f} MiB, ulimit -v"

@@ -20,9 +20,11 @@ staging folder that replaces the previous ``figures/`` only when the run complet
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -116,6 +118,56 @@ def _check_folder(out: Path, force: bool, quick: bool, preset: str = "") -> None
                 f"{out} holds a reproduction on {rigs.get(rig_before, '--preset ' + rig_before)}"
                 "; rerun with the same --preset to resume it, or use another folder (-o)"
             )
+
+
+@contextlib.contextmanager
+def folder_lock(out: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the reproduction folder ``out`` for the block.
+
+    Two ``reproduce`` runs on one folder would both run every sweep (the stores are resumable,
+    not shared): the second is refused at once. The lock is ``flock`` on the folder itself, so
+    no file is left in it and the system releases the lock when the process ends, however it
+    ends (SIGKILL included): a killed run never blocks the next one.
+
+    Parameters
+    ----------
+    out : Path
+        The reproduction folder (it exists).
+
+    Yields
+    ------
+    None
+
+    Raises
+    ------
+    OutputExistsError
+        Another run (process) holds the folder.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> with folder_lock(folder):
+    ...     with folder_lock(folder):
+    ...         pass  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.OutputExistsError: ...: another reproduce run is writing this folder; ...
+    """
+    import fcntl
+
+    fd = os.open(out, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise OutputExistsError(
+                f"{out}: another reproduce run is writing this folder; wait for it to end (its "
+                "lock goes with its process) or give another folder (-o)"
+            ) from None
+        yield
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def _write_text(path: Path, text: str) -> None:
@@ -334,8 +386,8 @@ def reproduce(
     ----------
     Thesis Ch. 4 (Sec. 4.1-4.3), Ch. 5 (Sec. 5.2) and Ch. 6 (Sec. 6.2-6.3).
     """
-    from hdrfringe.io.results import check_writable, staged_output_dir
-    from hdrfringe_thesis.engine import check_scheduler, run_sweep
+    from hdrfringe.io.results import check_writable
+    from hdrfringe_thesis.engine import check_scheduler
 
     unknown = [c for c in chapters if c not in CHAPTERS]
     if unknown or not chapters:
@@ -362,6 +414,26 @@ def reproduce(
         check_scheduler(scheduler)  # before anything is written
     check_writable(out / MARKER)  # an entry can be made in out (resumed, never replaced)
     out.mkdir(parents=True, exist_ok=True)
+    with folder_lock(out):  # one run per folder: a second one is refused (issue 31)
+        return _reproduce_in(
+            out, chapters, quick, scheduler, n_workers, progress, preset, unwrap
+        )  # fmt: skip
+
+
+def _reproduce_in(
+    out: Path,
+    chapters: Sequence[str],
+    quick: bool,
+    scheduler: str | None,
+    n_workers: int | None,
+    progress: bool,
+    preset: str,
+    unwrap: str,
+) -> dict[str, Any]:
+    """:func:`reproduce` in the checked, created and locked folder ``out``."""
+    from hdrfringe.io.results import staged_output_dir
+    from hdrfringe_thesis.engine import run_sweep
+
     marker = {"hdrfringe": __version__, "quick": quick, "chapters": list(chapters)}
     if preset:
         marker["preset"] = preset

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import importlib
 import math
 import os
+import shutil
 import sys
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from typing import Annotated, Any, TypeVar
@@ -19,10 +21,17 @@ from rich.console import Console
 from rich.markup import escape
 
 from hdrfringe.core.limits import MAX_PROGRAM_FRAMES, check_count
-from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.errors import (
+    HdrFringeError,
+    InputError,
+    ResourceError,
+    environment_fault,
+    memory_note,
+)
 
 __all__ = [
     "COMMAND_MODULES",
+    "MIN_ADDRESS_SPACE_MIB",
     "PLUGIN_GROUP",
     "PLUGIN_INSTALL",
     "F",
@@ -337,32 +346,238 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
+# --- the process's environment (issue 31; docs/safety.md, "Fault policy") -------------------
+#: The smallest address-space limit (``ulimit -v``, MiB) under which a command is started: far
+#: below it loading numpy, OpenCV and HDF5 fails (a library cannot be mapped, or OpenBLAS, out of
+#: memory for its buffer, ends the process itself with exit 1), so the command refuses in one
+#: line first. tests/test_fault_policy.py runs ``measure`` under 460 MiB and refuses below this.
+MIN_ADDRESS_SPACE_MIB = 400
+
+
+def columns() -> int | None:
+    """``COLUMNS`` when it is a usable width (a positive integer), else None.
+
+    Returns
+    -------
+    int or None
+
+    Examples
+    --------
+    >>> old = os.environ.get("COLUMNS")
+    >>> os.environ["COLUMNS"] = "0"
+    >>> columns() is None
+    True
+    >>> os.environ["COLUMNS"] = "120"
+    >>> columns()
+    120
+    >>> _ = os.environ.pop("COLUMNS") if old is None else os.environ.update(COLUMNS=old)
+    """
+    value = os.environ.get("COLUMNS", "").strip()
+    return int(value) if value.isdigit() and int(value) > 0 else None
+
+
+def working_directory_problem() -> str | None:
+    """The one-line error for a working directory that no longer exists, else None.
+
+    Relative paths cannot be resolved there (``os.getcwd`` fails), so a command refuses to
+    start instead of failing half-way with a traceback.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> working_directory_problem() is None
+    True
+    """
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        pwd = os.environ.get("PWD", "the working directory")
+        return (
+            f"{pwd}: the working directory no longer exists (it was deleted or moved); cd to "
+            "an existing folder and run the command again"
+        )
+    return None
+
+
+def memory_limit_problem() -> str | None:
+    """The one-line error for an address-space limit too small to start a command, else None.
+
+    Under a limit (``ulimit -v``) the BLAS buffer is also taken now, while the process is
+    small: OpenBLAS allocates it at its first use and ends the process (exit 1, no message of
+    ours) when that fails, which a later, larger moment of the command would risk.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> memory_limit_problem() is None  # no limit, or a large one
+    True
+    """
+    import resource
+
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if soft == resource.RLIM_INFINITY:
+        return None
+    if soft < MIN_ADDRESS_SPACE_MIB * 2**20:
+        return (
+            f"the address-space limit (ulimit -v) is {soft / 2**20:.0f} MiB, below the "
+            f"{MIN_ADDRESS_SPACE_MIB} MiB hdrfringe needs to load numpy, OpenCV and HDF5; "
+            "raise the limit"
+        )
+    import numpy as np
+
+    np.dot(np.ones((256, 256)), np.ones((256, 256)))  # takes OpenBLAS's buffer now
+    return None
+
+
 #: Width of standard output when it is not a terminal (a log file, a pipe, CI): rich would take
 #: 80 columns and cut the demo's tables to ellipses; COLUMNS, when exported, still sets it.
 PIPE_WIDTH = 160
-console = Console(width=None if sys.stdout.isatty() or "COLUMNS" in os.environ else PIPE_WIDTH)
-err_console = Console(stderr=True, soft_wrap=True)
+
+
+def _width(stream: Any, pipe_width: int | None) -> int | None:
+    """The width a console on ``stream`` is given: None (rich's choice: COLUMNS, the
+    terminal) where that is usable, else the terminal's or ``pipe_width``. ``COLUMNS=0`` or
+    junk would make rich print in zero columns, i.e. nothing at all (issue 31)."""
+    tty = stream is not None and stream.isatty()
+    if columns() is not None or ("COLUMNS" not in os.environ and (tty or pipe_width is None)):
+        return None
+    fallback = pipe_width or 80
+    return shutil.get_terminal_size((fallback, 24)).columns if tty else fallback
+
+
+#: Exit code of a command whose standard output's reader went away (``| head -1``): the
+#: shell's code for SIGPIPE, as a C tool killed by it gives (rich would say 1, a failure).
+BROKEN_PIPE_EXIT_CODE = 141
+
+
+class _Console(Console):
+    """A rich console whose closed pipe ends the command quietly with
+    :data:`BROKEN_PIPE_EXIT_CODE`."""
+
+    def on_broken_pipe(self) -> None:
+        """The reader of the stream went away: nothing more is written to it; stop."""
+        with contextlib.suppress(OSError, ValueError):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self.file.fileno())
+        raise SystemExit(BROKEN_PIPE_EXIT_CODE)
+
+
+console = _Console(width=_width(sys.stdout, PIPE_WIDTH))
+err_console = _Console(stderr=True, soft_wrap=True, width=_width(sys.stderr, None))
 
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+def _say_error(message: str) -> None:
+    """Print ``error: message`` on one line of stderr; a stderr that cannot take it (closed,
+    full, a closed pipe) is given up on silently: the exit code still tells."""
+    msg = " ".join(message.split())
+    # The message is user text (paths, regexes): escaped, so "[a-z]" prints verbatim.
+    with contextlib.suppress(OSError, ValueError):
+        err_console.print(f"[bold red]error:[/] {escape(msg)}", markup=True, highlight=False)
+
+
+def _environment_error(exc: BaseException) -> HdrFringeError | None:
+    """The one-line error for a fault of the user's environment raised outside a staged
+    write (which names its output itself): an errno of the fault policy or memory."""
+    if isinstance(exc, OSError) and exc.filename is not None:
+        action = "write" if exc.errno in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT) else "use"
+        return environment_fault(exc, exc.filename, action)
+    if isinstance(exc, MemoryError) or (
+        isinstance(exc, ImportError) and "failed to map segment" in str(exc)
+    ):  # a library that cannot be mapped under an address-space limit
+        return ResourceError(
+            f"out of memory ({memory_note()}); free memory, raise the limit or use smaller images"
+        )
+    return None
+
+
+def _stdout_failed() -> None:
+    """Standard output refused the command's report: a reader that went away (``| head -1``)
+    ends the command quietly with the shell's code for SIGPIPE, as a C tool would end; a full
+    or broken device is said in one line (exit code 2). The output files are in place."""
+    exc = sys.exc_info()[1]
+    with contextlib.suppress(OSError, ValueError):  # nothing more goes to the dead stream
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    if isinstance(exc, BrokenPipeError):
+        raise typer.Exit(code=BROKEN_PIPE_EXIT_CODE)
+    reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+    code = errno.errorcode.get(exc.errno or 0, "?") if isinstance(exc, OSError) else "?"
+    _say_error(
+        f"standard output: cannot write: {reason} (errno {code}); the command's files were "
+        "written, its report not: send standard output elsewhere"
+    )
+    raise typer.Exit(code=2)
+
+
 def handle_errors(func: F) -> F:
-    """Turn an HdrFringeError into a one-line message and exit code 2, Ctrl-C into exit code 130."""
+    """Turn an HdrFringeError, and a fault of the user's environment (full disk, file size
+    limit, quota, name length, permission, memory; docs/safety.md), into a one-line message and
+    exit code 2, Ctrl-C into exit code 130; a signal-stopped run exits with the signal's code."""
 
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        problem = working_directory_problem() or memory_limit_problem()
+        if problem is not None:
+            _say_error(problem)
+            raise typer.Exit(code=2)
         try:
-            return func(*args, **kwargs)
+            result = func(*args, **kwargs)
+            with contextlib.suppress(AttributeError, ValueError):
+                sys.stdout.flush()  # a broken pipe shows here if the report was buffered
+            return result
         except HdrFringeError as exc:
-            msg = " ".join(str(exc).split())
-            # The message is user text (paths, regexes): escaped, so "[a-z]" prints verbatim.
-            err_console.print(f"[bold red]error:[/] {escape(msg)}", markup=True, highlight=False)
+            _say_error(str(exc))
+            raise typer.Exit(code=getattr(exc, "exit_code", 2)) from None
+        except KeyboardInterrupt as stop:  # Ctrl-C: nothing written (outputs are staged)
+            # the shell's 130; a SIGTERM/SIGHUP turned into one (io.results.SignalStop): 143/129
+            name = getattr(stop, "name", None)
+            with contextlib.suppress(OSError, ValueError):
+                err_console.print(
+                    f"stopped by {name}: nothing was written"
+                    if name
+                    else "interrupted: nothing was written",
+                    highlight=False,
+                )
+            raise typer.Exit(code=getattr(stop, "exit_code", 130)) from None
+        except (OSError, MemoryError, ImportError) as exc:
+            if isinstance(exc, OSError) and _is_stdout_error(exc):
+                _stdout_failed()
+            fault = _environment_error(exc)
+            if fault is None:
+                raise
+            _say_error(str(fault))
             raise typer.Exit(code=2) from None
-        except KeyboardInterrupt:  # Ctrl-C: nothing written (outputs are staged); shell's 130
-            err_console.print("interrupted: nothing was written", highlight=False)
-            raise typer.Exit(code=130) from None
 
     return wrapper  # type: ignore[return-value]
+
+
+def _is_stdout_error(exc: OSError) -> bool:
+    """Whether ``exc`` was raised writing to standard output (a pipe closed by its reader, a
+    full device): the report's write, not the command's files."""
+    if isinstance(exc, BrokenPipeError):
+        return True
+    if exc.filename is not None:
+        return False
+    tb = exc.__traceback__
+    while tb is not None:  # the console's write
+        if tb.tb_frame.f_globals.get("__name__", "").startswith("rich."):
+            return True
+        tb = tb.tb_next
+    try:  # a print(): what it could not write is still buffered
+        sys.stdout.flush()
+    except OSError:
+        return True
+    except (AttributeError, ValueError):
+        pass
+    return False
 
 
 def _version_callback(value: bool) -> None:

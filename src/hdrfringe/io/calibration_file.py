@@ -22,8 +22,7 @@ Only plain numeric datasets and attributes and fixed-length UTF-8 string attribu
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -246,9 +245,7 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
     >>> bool(np.array_equal(back.k_map, cal.k_map))
     True
     """
-    import h5py
-
-    from hdrfringe.io.results import staged_output_file
+    from hdrfringe.io._hdf5 import save_hdf5
 
     if not isinstance(cal, Calibration):
         raise InputError(f"expected a Calibration, got {type(cal).__name__}")
@@ -261,39 +258,9 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
             f"{out}: calibration file exists; pass --force to replace it or choose another path"
         )
     # path may be the CheckedOutput of the command's start (check_output_file): then only the
-    # file checked there is replaced
-    with _deferred_sigint() as interrupted, staged_output_file(path, force=force) as tmp:
-        with h5py.File(tmp, "w", track_order=True) as f:
-            _write(f, cal)
-        if interrupted():
-            raise KeyboardInterrupt
+    # file checked there is replaced; built in memory, signals held (io._hdf5, docs/safety.md)
+    save_hdf5(path, lambda f: _write(f, cal), force=force)
     return out
-
-
-@contextlib.contextmanager
-def _deferred_sigint() -> Iterator[Callable[[], bool]]:
-    """Hold back SIGINT while HDF5 is written; yield "was it pressed?"; re-raise it after.
-
-    A KeyboardInterrupt raised inside h5py's C code can be reported as "ignored" and lost,
-    so the command would end 0 with the file written. Here the signal only sets a flag; the
-    caller checks it before the final rename and, if set, removes the temporary file and raises
-    KeyboardInterrupt (exit code 130 from the command line).
-    """
-    import signal
-    import threading
-
-    hit: list[int] = []
-    ignored = signal.getsignal(signal.SIGINT) in (signal.SIG_IGN, None)
-    if threading.current_thread() is not threading.main_thread() or ignored:
-        yield lambda: False  # not ours to set, or SIGINT ignored on purpose: leave it so
-        return
-    old = signal.signal(signal.SIGINT, lambda signum, frame: hit.append(signum))
-    try:
-        yield lambda: bool(hit)
-    finally:
-        signal.signal(signal.SIGINT, old)
-    if hit:
-        raise KeyboardInterrupt
 
 
 # --------------------------------------------------------------------------------------------
@@ -432,6 +399,9 @@ def load_calibration(path: str | Path) -> Calibration:
     """
     import h5py
 
+    from hdrfringe.errors import environment_fault
+    from hdrfringe.io._hdf5 import hdf5_memory_fault
+
     src = Path(path)
     if not src.exists():
         raise CalibrationFileError(
@@ -444,6 +414,9 @@ def load_calibration(path: str | Path) -> Calibration:
     try:
         f = h5py.File(src, "r")
     except OSError as exc:
+        fault = environment_fault(exc, src, "read") or hdf5_memory_fault(exc, src)
+        if fault is not None:  # permission, memory: the environment, not the file
+            raise fault from None
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise CalibrationFileError(
             f"{src}: not an HDF5 file or corrupt ({reason}); give a calibration file written "
@@ -456,6 +429,9 @@ def load_calibration(path: str | Path) -> Calibration:
         raise
     except (InputError, KeyError, ValueError, TypeError, OSError, UnicodeDecodeError) as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        memory = hdf5_memory_fault(exc, src)
+        if memory is not None:  # memory ran out: not damage (issue 31)
+            raise memory from None
         raise CalibrationFileError(
             f"{src}: calibration file is damaged or inconsistent ({reason}); recalibrate"
         ) from exc

@@ -11,14 +11,20 @@ when complete, so a failure never leaves a half-written result. The guarantees (
   on to the writer. The final move never replaces anything but what was checked: without
   ``force`` it fails if the target appeared meanwhile, with ``force`` it replaces only the same
   folder or file (device and inode) that was checked;
-- SIGTERM while staging removes the staging folder and exits with code 143; a staging folder
+- SIGTERM (SIGHUP) while staging removes the staging folder and exits with code 143 (129); the
+  final move and a save in C code (HDF5) hold SIGINT, SIGTERM and SIGHUP back and honour them
+  after (:func:`deferred_signals`); a staging folder
   left by a killed run (its name holds a dead process's PID) is removed by the next run on the
   same target, one of a live run makes the next run refuse; the previous output that a killed
   ``force`` replace had moved aside (``.<name>.old-<PID>-*``) is moved back when the target is
   missing, removed when the replace had completed, and reported otherwise;
 - a single file (:func:`staged_output_file`) is written to a temporary file beside it and moved
   into place by a rename that cannot replace a file that appeared meanwhile;
-- folders and files follow the umask.
+- folders and files follow the umask;
+- the user's environment refusing a write (full disk, file size limit, quota, name too long,
+  permission) ends in one line naming the output and the errno (:class:`ResourceError`, from
+  :func:`~hdrfringe.errors.environment_fault`); a staging name stays short enough for any
+  legal output name (:func:`staging_stem`).
 """
 
 from __future__ import annotations
@@ -29,40 +35,66 @@ import errno
 import os
 import shutil
 import signal
+import sys
 import tempfile
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from glob import escape as glob_escape
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from hdrfringe.errors import InputError, OutputExistsError
+from hdrfringe.errors import (
+    InputError,
+    OutputExistsError,
+    ResourceError,
+    environment_fault,
+)
 
 __all__ = [
     "OLD_INFIX",
+    "SIGHUP_EXIT_CODE",
     "SIGTERM_EXIT_CODE",
     "STAGING_INFIX",
     "CheckedOutput",
+    "SignalStop",
+    "check_name_length",
     "check_output_against_inputs",
     "check_output_dir",
     "check_output_file",
     "check_writable",
     "current_umask",
+    "deferred_signals",
+    "honour_signal",
     "marked_pid",
     "pid_alive",
     "read_map_tiff",
     "rename_noreplace",
+    "signals_as_interrupt",
     "sigterm_cleanup",
     "staged_output_dir",
     "staged_output_file",
+    "staging_stem",
     "write_map_tiff",
     "write_preview_png",
 ]
 
 SIGTERM_EXIT_CODE = 143
 """Exit code of a run stopped by SIGTERM while writing (128 + 15, as a shell reports it)."""
+
+SIGHUP_EXIT_CODE = 129
+"""Exit code of a run stopped by SIGHUP (its terminal closed) while writing (128 + 1)."""
+
+#: The signals that stop a run from outside, and the exit code each gives (SIGINT: 130, raised
+#: as KeyboardInterrupt). SIGHUP is absent where the system has none.
+_STOP_SIGNALS: dict[int, int] = {
+    int(getattr(signal, name)): code
+    for name, code in (("SIGTERM", SIGTERM_EXIT_CODE), ("SIGHUP", SIGHUP_EXIT_CODE))
+    if hasattr(signal, name)
+}
+
 
 STAGING_INFIX = ".staging-"
 """A staging folder of ``out`` is named ``.{out.name}.staging-{PID}-{random}``: the PID of the
@@ -291,6 +323,58 @@ def check_writable(path: str | Path) -> None:
         ) from None
 
 
+def check_name_length(path: str | Path) -> None:
+    """Refuse a path with a name longer than its file system allows, before any work.
+
+    Every component is compared with the limit of the nearest existing folder
+    (``pathconf NAME_MAX``, 255 bytes where unknown), and the whole path with ``PATH_MAX``.
+
+    Parameters
+    ----------
+    path : str or Path
+        An output path.
+
+    Raises
+    ------
+    ResourceError
+        A name or the path is too long (errno ENAMETOOLONG), in one line naming it.
+
+    Examples
+    --------
+    >>> check_name_length("out/" + "x" * 255)
+    >>> check_name_length("out/" + "x" * 256)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.ResourceError: out/xxx...: the name xxxxxxxx... is 256 bytes, longer ...
+    """
+    given = Path(path)
+    absolute = Path(os.path.abspath(given))
+    base = absolute
+    while not os.path.isdir(base) and base.parent != base:
+        base = base.parent
+    name_max, path_max = 255, 4096
+    with contextlib.suppress(OSError, ValueError):
+        name_max = os.pathconf(base, "PC_NAME_MAX")
+        path_max = os.pathconf(base, "PC_PATH_MAX")
+    shown = str(given) if len(str(given)) <= 60 else f"{str(given)[:40]}...{str(given)[-12:]}"
+    for part in absolute.parts:
+        size = len(os.fsencode(part))
+        if size > name_max:
+            name = part if len(part) <= 20 else f"{part[:8]}...{part[-8:]}"
+            raise ResourceError(
+                f"{shown}: the name {name} is {size} bytes, longer than the {name_max} the file "
+                "system allows (errno ENAMETOOLONG); use a shorter name",
+                errno.ENAMETOOLONG,
+            )
+    size = len(os.fsencode(str(absolute)))
+    if size >= path_max:
+        raise ResourceError(
+            f"{shown}: the path is {size} bytes, longer than the {path_max} the system allows "
+            "(errno ENAMETOOLONG); use a shorter path",
+            errno.ENAMETOOLONG,
+        )
+
+
 def pid_alive(pid: int) -> bool:
     """Whether process ``pid`` is running (one owned by another user counts as running).
 
@@ -315,6 +399,57 @@ def pid_alive(pid: int) -> bool:
     except PermissionError:
         return True
     return True
+
+
+#: Longest output name (bytes) whose hidden siblings carry it whole: the staging and backup
+#: names add up to 36 bytes (``.``, the infix, a PID, the random part, ``.tmp``) and a name may
+#: have 255 (NAME_MAX on Linux and macOS).
+_STEM_BYTES = 200
+
+
+def staging_stem(name: str) -> str:
+    """The part of an output's name its staging and backup siblings carry.
+
+    A name of at most 200 bytes is carried whole (``.result.staging-<PID>-<random>``); a longer
+    one (still legal: up to 255 bytes) by its first characters and a hash of the whole name,
+    so the hidden sibling's name stays within the 255-byte limit and still belongs to this
+    output alone.
+
+    Parameters
+    ----------
+    name : str
+        The output's file or folder name.
+
+    Returns
+    -------
+    str
+        ``name``, or a shortening of it of at most 200 bytes.
+
+    Examples
+    --------
+    >>> staging_stem("result")
+    'result'
+    >>> long = "x" * 250
+    >>> stem = staging_stem(long)
+    >>> len(stem.encode()), stem[:4], stem == staging_stem(long)
+    (200, 'xxxx', True)
+    """
+    raw = os.fsencode(name)
+    if len(raw) <= _STEM_BYTES:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(raw).hexdigest()[:16]
+    head = raw[: _STEM_BYTES - len(digest) - 1]
+    while head:  # cut at a character boundary of the file-system encoding
+        try:
+            text = os.fsdecode(head)
+            if os.fsencode(text) == head:
+                break
+        except UnicodeError:
+            pass
+        head = head[:-1]
+    return f"{os.fsdecode(head)}~{digest}"
 
 
 def marked_pid(entry: Path, out: Path, infix: str) -> int | None:
@@ -346,7 +481,7 @@ def marked_pid(entry: Path, out: Path, infix: str) -> int | None:
     True
     """
     try:
-        return int(entry.name[len(out.name) + 1 + len(infix) :].split("-")[0])
+        return int(entry.name[len(staging_stem(out.name)) + 1 + len(infix) :].split("-")[0])
     except ValueError:
         return None
 
@@ -362,12 +497,13 @@ def _recover_leftovers(out: Path, path: str | Path) -> None:
     asked for it to be replaced); when ``out`` exists *and* that run's staging folder is still
     there, something else created ``out`` after the kill: the old copy is kept and reported.
     """
+    stem = glob_escape(staging_stem(out.name))
     with contextlib.suppress(OSError):
         staging = {
             entry: marked_pid(entry, out, STAGING_INFIX)
-            for entry in out.parent.glob(f".{out.name}{STAGING_INFIX}*")
+            for entry in out.parent.glob(f".{stem}{STAGING_INFIX}*")
         }
-        for entry in sorted(out.parent.glob(f".{out.name}{OLD_INFIX}*")):
+        for entry in sorted(out.parent.glob(f".{stem}{OLD_INFIX}*")):
             pid = marked_pid(entry, out, OLD_INFIX)
             if pid is None or pid == os.getpid() or pid_alive(pid):
                 continue  # not named by this version, or its run is still replacing
@@ -443,6 +579,7 @@ def check_output_dir(path: str | Path, force: bool) -> CheckedOutput:
     'new'
     """
     out = Path(path)
+    check_name_length(out)
     check_writable(out)
     _recover_leftovers(_resolved(out), out)
     if out.exists() and not out.is_dir():
@@ -495,6 +632,7 @@ def check_output_file(path: str | Path, force: bool) -> CheckedOutput:
     True
     """
     out = Path(path)
+    check_name_length(out)
     if out.is_dir():
         raise OutputExistsError(f"{out}: is a folder; give a file name")
     if os.path.lexists(out) and not force:
@@ -502,7 +640,8 @@ def check_output_file(path: str | Path, force: bool) -> CheckedOutput:
     check_writable(out)
     target = _resolved(out)
     with contextlib.suppress(OSError):
-        for entry in target.parent.glob(f".{target.name}{STAGING_INFIX}*"):
+        stem = glob_escape(staging_stem(target.name))
+        for entry in target.parent.glob(f".{stem}{STAGING_INFIX}*"):
             pid = marked_pid(entry, target, STAGING_INFIX)
             if pid is not None and pid != os.getpid() and not pid_alive(pid):
                 entry.unlink()
@@ -564,12 +703,176 @@ def rename_noreplace(src: str | Path, dst: str | Path) -> None:
         raise
 
 
-@contextlib.contextmanager
-def sigterm_cleanup() -> Iterator[None]:
-    """Within the block, SIGTERM raises ``SystemExit(143)`` so cleanup code runs.
+def _stoppable(signum: int) -> bool:
+    """Whether this process may take over signal ``signum`` (main thread, not ignored on
+    purpose as ``nohup`` ignores SIGHUP or a shell's background job SIGINT)."""
+    if threading.current_thread() is not threading.main_thread():
+        return False
+    return signal.getsignal(signum) not in (signal.SIG_IGN, None)
 
-    Only the main thread can set signal handlers; elsewhere this does nothing. The previous
-    handler is restored on exit.
+
+@contextlib.contextmanager
+def sigterm_cleanup() -> Iterator[Callable[[], int | None]]:
+    """Within the block, SIGTERM raises ``SystemExit(143)`` and SIGHUP ``SystemExit(129)``, so
+    cleanup code runs.
+
+    The exception is raised wherever Python is when the signal arrives; where that is a
+    callback run from C (a weakref callback, a ``__del__``, h5py's object bookkeeping) Python
+    reports it as "Exception ignored" and goes on (issue 31: ``calibrate`` then wrote its file
+    and exited 0). So the signal is also recorded: the yielded ``stopped()`` returns it, and a
+    writer asks before it publishes anything (:func:`staged_output_dir` and
+    :func:`staged_output_file` do, and stop with :func:`honour_signal`).
+
+    Only the main thread can set signal handlers; elsewhere this does nothing, and a signal the
+    process ignores (``nohup``) stays ignored. The previous handlers are restored on exit.
+
+    Yields
+    ------
+    callable
+        ``stopped()``: the first SIGTERM or SIGHUP received in the block, or None.
+
+    Examples
+    --------
+    >>> with sigterm_cleanup() as stopped:
+    ...     signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL, stopped()
+    (True, None)
+    """
+    hit: list[int] = []
+
+    def _stop(signum: int, frame: object) -> None:
+        hit.append(signum)
+        raise SystemExit(_STOP_SIGNALS[signum])
+
+    old = {sig: signal.signal(sig, _stop) for sig in _STOP_SIGNALS if _stoppable(sig)}
+    if not old:
+        yield lambda: None
+        return
+    previous_hook = sys.unraisablehook
+
+    def _quiet(unraisable: Any) -> None:  # our SystemExit, lost in a callback: honoured later
+        if not (hit and isinstance(unraisable.exc_value, SystemExit)):
+            previous_hook(unraisable)
+
+    sys.unraisablehook = _quiet
+    try:
+        yield lambda: hit[0] if hit else None
+    finally:
+        sys.unraisablehook = previous_hook
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+def honour_signal(signum: int | None) -> None:
+    """Stop as signal ``signum`` asks, after it was held back (:func:`deferred_signals`).
+
+    Parameters
+    ----------
+    signum : int or None
+        The signal received, or None (nothing to do).
+
+    Raises
+    ------
+    KeyboardInterrupt
+        For SIGINT (exit code 130 from the command line).
+    SystemExit
+        For SIGTERM (143) and SIGHUP (129).
+
+    Examples
+    --------
+    >>> honour_signal(None)
+    >>> honour_signal(signal.SIGTERM)
+    Traceback (most recent call last):
+    ...
+    SystemExit: 143
+    """
+    if signum is None:
+        return
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    raise SystemExit(_STOP_SIGNALS.get(signum, 128 + signum))
+
+
+@contextlib.contextmanager
+def deferred_signals() -> Iterator[Callable[[], int | None]]:
+    """Hold SIGINT, SIGTERM and SIGHUP back within the block; honour the first one after it.
+
+    For work that must not be cut (a final rename) or that runs in C code whose callbacks
+    swallow Python exceptions (h5py: a ``SystemExit`` or ``KeyboardInterrupt`` raised there is
+    reported as "ignored" and lost, so the command would end 0). A signal only sets a flag; the
+    block may ask for it (the yielded function) to stop early and clean up, for example with
+    :func:`honour_signal` inside a staging block so the staging is removed; otherwise, on leaving
+    the block, the signal is honoured: KeyboardInterrupt (130), ``SystemExit(143)`` or
+    ``SystemExit(129)``. Outside the main thread, or for a signal the process ignores, nothing
+    is changed.
+
+    Yields
+    ------
+    callable
+        ``stopped()``: the first signal received so far, or None.
+
+    Examples
+    --------
+    >>> with deferred_signals() as stopped:
+    ...     os.kill(os.getpid(), signal.SIGTERM)
+    ...     got = signal.Signals(stopped()).name  # still running: the block ends first
+    Traceback (most recent call last):
+    ...
+    SystemExit: 143
+    """
+    hit: list[int] = []
+    held = [signal.SIGINT, *_STOP_SIGNALS]
+    old = {
+        sig: signal.signal(sig, lambda signum, frame: hit.append(signum))
+        for sig in held
+        if _stoppable(sig)
+    }
+    try:
+        yield lambda: hit[0] if hit else None
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+    honour_signal(hit[0] if hit else None)
+
+
+class SignalStop(KeyboardInterrupt):
+    """SIGTERM or SIGHUP received where a run keeps what is complete, as for Ctrl-C.
+
+    A :class:`KeyboardInterrupt`, so the code that handles Ctrl-C (a live capture keeping its
+    complete sets) handles it the same way; :attr:`signum` says which signal it was.
+
+    Parameters
+    ----------
+    signum : int
+        The signal received.
+
+    Attributes
+    ----------
+    signum : int
+        As given.
+    exit_code : int
+        The exit status a command stopped by it gives (143, 129).
+
+    Examples
+    --------
+    >>> stop = SignalStop(signal.SIGTERM)
+    >>> isinstance(stop, KeyboardInterrupt), stop.exit_code, stop.name
+    (True, 143, 'SIGTERM')
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+        self.exit_code = _STOP_SIGNALS.get(signum, 128 + signum)
+        self.name = signal.Signals(signum).name
+
+
+@contextlib.contextmanager
+def signals_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM and SIGHUP raise :class:`SignalStop` (a KeyboardInterrupt).
+
+    For work that keeps its complete part when stopped (a live capture): the ``except
+    KeyboardInterrupt`` that handles Ctrl-C then handles a supervisor's SIGTERM and a closed
+    terminal's SIGHUP too. Main thread only; a signal the process ignores stays ignored.
 
     Yields
     ------
@@ -577,22 +880,23 @@ def sigterm_cleanup() -> Iterator[None]:
 
     Examples
     --------
-    >>> with sigterm_cleanup():
-    ...     signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
-    True
+    >>> try:
+    ...     with signals_as_interrupt():
+    ...         os.kill(os.getpid(), signal.SIGTERM)
+    ... except KeyboardInterrupt as stop:
+    ...     print(stop.name)
+    SIGTERM
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
 
     def _stop(signum: int, frame: object) -> None:
-        raise SystemExit(SIGTERM_EXIT_CODE)
+        raise SignalStop(signum)
 
-    old = signal.signal(signal.SIGTERM, _stop)
+    old = {sig: signal.signal(sig, _stop) for sig in _STOP_SIGNALS if _stoppable(sig)}
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
 
 
 def _finish(
@@ -629,7 +933,7 @@ def _finish(
         _finish(tmp, target, path, None, force)
         return
     # the folder checked at start (force): move it aside, then claim the name
-    prefix = f".{target.name}{OLD_INFIX}{os.getpid()}-"
+    prefix = f".{staging_stem(target.name)}{OLD_INFIX}{os.getpid()}-"
     backup = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
     backup.rmdir()
     os.rename(target, backup)
@@ -701,15 +1005,20 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     ident = checked.identity
     target = _resolved(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    with sigterm_cleanup():
-        prefix = f".{target.name}{STAGING_INFIX}{os.getpid()}-"
+    with sigterm_cleanup() as stopped:
+        prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
         tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
         try:
             os.chmod(tmp, 0o777 & ~current_umask())
             yield tmp
-            _finish(tmp, target, path, ident, force)
-        except BaseException:
+            honour_signal(stopped())  # a SystemExit swallowed in a callback: stop here
+            with deferred_signals():  # the renames are not cut half-way
+                _finish(tmp, target, path, ident, force)
+        except BaseException as exc:
+            fault = environment_fault(exc, path, where=tmp)
             shutil.rmtree(tmp, ignore_errors=True)
+            if fault is not None:
+                raise fault from None
             raise
 
 
@@ -793,18 +1102,23 @@ def staged_output_file(path: str | Path, force: bool = False) -> Iterator[Path]:
         checked = check_output_file(path, force)
     target = _resolved(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    with sigterm_cleanup():
-        prefix = f".{target.name}{STAGING_INFIX}{os.getpid()}-"
+    with sigterm_cleanup() as stopped:
+        prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
         fd, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
         os.close(fd)
         tmp = Path(name)
         try:
             os.chmod(tmp, 0o666 & ~current_umask())
             yield tmp
-            _finish_file(tmp, target, path, checked.identity, force)
-        except BaseException:
+            honour_signal(stopped())  # a SystemExit swallowed in a callback: stop here
+            with deferred_signals():  # the rename is not cut half-way
+                _finish_file(tmp, target, path, checked.identity, force)
+        except BaseException as exc:
+            fault = environment_fault(exc, path, where=tmp)
             with contextlib.suppress(OSError):
                 tmp.unlink()
+            if fault is not None:
+                raise fault from None
             raise
 
 

@@ -41,7 +41,6 @@ from hdrfringe.io.calibration_file import (
     FORMAT_VERSION,
     CalibrationFileError,
     _decode,
-    _deferred_sigint,
     _set_str,
     _write_tree,
     load_calibration,
@@ -132,9 +131,7 @@ def save_stereo_calibration(
     >>> kind, back.baseline_mm, dict(back.reprojection_px), back.projector.size
     ('stereo', 200.0, {'stereo': 0.2}, (912, 1140))
     """
-    import h5py
-
-    from hdrfringe.io.results import staged_output_file
+    from hdrfringe.io._hdf5 import save_hdf5
 
     if not isinstance(calib, StereoCalibration):
         raise InputError(f"expected a StereoCalibration, got {type(calib).__name__}")
@@ -147,11 +144,7 @@ def save_stereo_calibration(
         )
     # the same staged writer as the phase-to-height calibration (docs/safety.md): path may be
     # the CheckedOutput of the command's start, and then only the file checked there is replaced
-    with _deferred_sigint() as interrupted, staged_output_file(path, force=force) as tmp:
-        with h5py.File(tmp, "w", track_order=True) as f:
-            _write(f, calib, dict(provenance or {}))
-        if interrupted():
-            raise KeyboardInterrupt
+    save_hdf5(path, lambda f: _write(f, calib, dict(provenance or {})), force=force)
     return out
 
 

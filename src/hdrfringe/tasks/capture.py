@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hdrfringe.errors import HdrFringeError, InputError
+from hdrfringe.errors import InputError, StoppedError
 
 __all__ = [
     "CAPTURE_LOG",
@@ -485,6 +485,33 @@ class CaptureReport:
     rejected: int
 
 
+def stop_reason(stop: KeyboardInterrupt) -> tuple[str, int]:
+    """Why a live capture stopped early, as its manifest records it, and the exit code:
+    Ctrl-C (2, as before: the command reports the kept sets as an error), or SIGTERM (143) /
+    SIGHUP (129) turned into a :class:`~hdrfringe.io.results.SignalStop`.
+
+    Parameters
+    ----------
+    stop : KeyboardInterrupt
+        What the capture raised.
+
+    Returns
+    -------
+    (str, int)
+
+    Examples
+    --------
+    >>> import signal
+    >>> from hdrfringe.io.results import SignalStop
+    >>> stop_reason(KeyboardInterrupt()), stop_reason(SignalStop(signal.SIGTERM))
+    (('interrupted (Ctrl-C)', 2), ('stopped by SIGTERM', 143))
+    """
+    name = getattr(stop, "name", None)
+    if name is None:
+        return "interrupted (Ctrl-C)", 2
+    return f"stopped by {name}", int(getattr(stop, "exit_code", 2))
+
+
 def capture(
     output: Path,
     rig_config: Path | None,
@@ -503,8 +530,10 @@ def capture(
 
     The output is checked (not an input, new or empty, or ``force``) before the rig opens; it
     appears only when complete. Ctrl-C after the first set writes the complete sets, marks the
-    folder incomplete and raises :class:`~hdrfringe.errors.HdrFringeError`; before it, the
-    ``KeyboardInterrupt`` propagates and nothing is written.
+    folder incomplete and raises :class:`~hdrfringe.errors.HdrFringeError`; SIGTERM and SIGHUP
+    do the same and raise :class:`~hdrfringe.errors.StoppedError` with exit code 143 / 129;
+    before the first set, the ``KeyboardInterrupt`` (:class:`~hdrfringe.io.results.SignalStop`)
+    propagates and nothing is written.
 
     Parameters
     ----------
@@ -548,6 +577,7 @@ def capture(
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
+        signals_as_interrupt,
         staged_output_dir,
     )
 
@@ -557,19 +587,21 @@ def capture(
     checked = check_output_dir(output, force)
     recorder = Recorder(rig)
     stopped: str | None = None
+    code = 2
     with rig:
         specs, line = fringes.build(rig.projector)
         if say is not None:
             say(announce_line(strategy, rig, config))
         try:
-            pipeline.composite_captures(
-                recorder, specs, strategy, params, centerline=line,
-                description=pipeline.RigDescription("capture", {}, {}),
-            )  # fmt: skip
-        except KeyboardInterrupt:
+            with signals_as_interrupt():  # SIGTERM, SIGHUP: kept as for Ctrl-C (issue 31)
+                pipeline.composite_captures(
+                    recorder, specs, strategy, params, centerline=line,
+                    description=pipeline.RigDescription("capture", {}, {}),
+                )  # fmt: skip
+        except KeyboardInterrupt as stop:
             if not recorder.calls:
                 raise
-            stopped = "interrupted (Ctrl-C)"
+            stopped, code = stop_reason(stop)
     caps, state, log = live_record(
         recorder, rig, config, strategy, output.name, stopped,
         entries=strategy_record(strategy_options or {}),
@@ -578,9 +610,10 @@ def capture(
         write_capture_output(tmp, caps, state, log)
     sets = len(caps.sets)
     if stopped is not None:
-        raise HdrFringeError(
+        raise StoppedError(
             f"capture {stopped} after {sets} complete sets; {output} holds those sets only "
-            '(manifest "capture": {"complete": false}); capture again for a complete folder'
+            '(manifest "capture": {"complete": false}); capture again for a complete folder',
+            code,
         )
     rejected = sum(t.rejected for t in rig.log)
     return CaptureReport(output, len(caps.frames), sets, rejected)

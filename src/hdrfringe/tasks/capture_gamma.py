@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hdrfringe.errors import HdrFringeError, InputError
-from hdrfringe.tasks.capture import hardware_rig, live_record, write_capture_output
+from hdrfringe.errors import HdrFringeError, InputError, StoppedError
+from hdrfringe.tasks.capture import hardware_rig, live_record, stop_reason, write_capture_output
 
 __all__ = [
     "WRONG_PRECOMPENSATION_PERCENT",
@@ -170,6 +170,36 @@ class GammaCaptureReport:
     warning: str | None = None
 
 
+def _run_program(
+    recorder: Any,
+    rig: Any,
+    uniform: list[Any],
+    fringe_set: list[Any],
+    exponents: Sequence[float],
+    gamma: float,
+) -> tuple[str | None, int]:
+    """Project and grab the gamma program: the uniform grays, then the fringe set once per
+    exponent. Stopped after the first group by Ctrl-C, SIGTERM or SIGHUP, it keeps what is
+    complete and returns why it stopped and the exit code (:func:`stop_reason`); before it, the
+    interrupt propagates. Returns ``(None, 0)`` when the whole program ran."""
+    from hdrfringe.io.results import signals_as_interrupt
+
+    try:
+        with signals_as_interrupt():  # SIGTERM, SIGHUP: kept as for Ctrl-C (issue 31)
+            if uniform:
+                recorder.capture(uniform)
+            for exponent in exponents:
+                rig.gamma_hat = exponent
+                recorder.capture(fringe_set)
+    except KeyboardInterrupt as stop:
+        if not recorder.calls:
+            raise
+        return stop_reason(stop)
+    finally:
+        rig.gamma_hat = gamma
+    return None, 0
+
+
 def capture_gamma(
     output: Path,
     rig_config: Path | None,
@@ -275,7 +305,6 @@ def capture_gamma(
     check_output_against_inputs(output, [rig_config, config.gamma_file])
     checked = check_output_dir(output, force)
     recorder = Recorder(rig)
-    stopped: str | None = None
     with rig:
         width, height = rig.projector.width, rig.projector.height
         full = float(2**rig.projector.bit_depth - 1)
@@ -294,18 +323,7 @@ def capture_gamma(
                 f"{len(uniform)} grays at --gamma {gamma:g}, {len(exponents)} fringe sets "
                 f"(pre-distorted with {', '.join(f'{e:g}' for e in exponents) or 'none'})"
             )
-        try:
-            if uniform:
-                recorder.capture(uniform)
-            for exponent in exponents:
-                rig.gamma_hat = exponent
-                recorder.capture(fringe_set)
-        except KeyboardInterrupt:
-            if not recorder.calls:
-                raise
-            stopped = "interrupted (Ctrl-C)"
-        finally:
-            rig.gamma_hat = gamma
+        stopped, code = _run_program(recorder, rig, uniform, fringe_set, exponents, gamma)
     program = {
         "program": "gamma",
         "gray_levels": levels,
@@ -318,10 +336,11 @@ def capture_gamma(
     with staged_output_dir(checked, force=force) as tmp:
         write_capture_output(tmp, caps, state, log)
     if stopped is not None:
-        raise HdrFringeError(
+        raise StoppedError(
             f"capture-gamma {stopped} after {len(recorder.calls)} complete groups; {output} "
             'holds those only (manifest "capture": {"complete": false}); capture again for the '
-            "whole program"
+            "whole program",
+            code,
         )
     try:
         report = gamma_report(caps, source=str(output))

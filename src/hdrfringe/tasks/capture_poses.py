@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hdrfringe.errors import HdrFringeError, InputError
-from hdrfringe.tasks.capture import hardware_rig, live_record, write_capture_output
+from hdrfringe.errors import HdrFringeError, InputError, StoppedError
+from hdrfringe.tasks.capture import hardware_rig, live_record, stop_reason, write_capture_output
 
 __all__ = ["POSES_LOG", "PosesReport", "board_pitches", "capture_poses"]
 
@@ -164,6 +164,7 @@ def capture_poses(
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
+        signals_as_interrupt,
         staged_output_dir,
     )
     from hdrfringe.rig.board_poses import MAX_BOARD_POSES, board_program
@@ -180,6 +181,7 @@ def capture_poses(
     checked = check_output_dir(output, force)
     names: list[str] = []
     stopped: str | None = None
+    code = 0  # the exit code of a stop by Ctrl-C (2), SIGTERM (143) or SIGHUP (129)
     failure: HdrFringeError | None = None
     with rig, staged_output_dir(checked, force=force) as tmp:
         width, height = rig.projector.width, rig.projector.height
@@ -196,17 +198,18 @@ def capture_poses(
         )
         for number in range(1, poses + 1):
             try:
-                if not wait(number, poses):
-                    stopped = "finished with q"
-                    break
-                rig.rebaseline()  # the board moved: a new reference image of the screen
-                start = len(rig.log)
-                recorder = Recorder(rig)
-                recorder.capture(program)
-            except KeyboardInterrupt:
+                with signals_as_interrupt():  # SIGTERM, SIGHUP: kept as for Ctrl-C (issue 31)
+                    if not wait(number, poses):
+                        stopped = "finished with q"
+                        break
+                    rig.rebaseline()  # the board moved: a new reference image of the screen
+                    start = len(rig.log)
+                    recorder = Recorder(rig)
+                    recorder.capture(program)
+            except KeyboardInterrupt as stop:
                 if not names:
                     raise
-                stopped = "interrupted (Ctrl-C)"
+                stopped, code = stop_reason(stop)
                 break
             except HdrFringeError as err:
                 if not names:
@@ -237,11 +240,12 @@ def capture_poses(
             summary["stopped"] = stopped
         (tmp / POSES_LOG).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
     what = f"{len(names)} complete poses ({names[0]} .. {names[-1]})"
-    if failure is not None or stopped == "interrupted (Ctrl-C)":
+    if failure is not None or code:
         why = stopped if failure is None else f"{stopped}: {' '.join(str(failure).split())}"
-        raise HdrFringeError(
+        raise StoppedError(
             f"capture-poses {why}; {output} holds the {what} captured before it, the pose "
-            "being captured was dropped"
+            "being captured was dropped",
+            code or 2,
         )
     return PosesReport(output, names, stopped, None if spec is None else _board_text(spec))
 
