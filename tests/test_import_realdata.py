@@ -46,7 +46,7 @@ def import_and_phase(name: str, images: Path, tmp_path: Path) -> tuple[dict, Pat
     caps, out = tmp_path / "caps", tmp_path / "phase"
     res = run_cli("import", str(images), "-d", str(EXAMPLES / f"{name}.toml"), "-o", str(caps))
     assert res.returncode == 0, res.stderr
-    command, res = run_hint(res.stdout, out)
+    command, res = run_hint(res.stdout, out, "--per-set-maps")  # set_map reads every set's
     assert command == "phase" and res.returncode == 0, res.stderr
     return json.loads((out / "phase_summary.json").read_text()), caps, out
 

@@ -175,6 +175,14 @@ def phase(
             "whatever their size (docs/harmonics.md).",
         ),
     ] = "off",
+    per_set_maps: Annotated[
+        bool,
+        typer.Option(
+            help="With several sets, also write every set's maps (wrapped_phase__<set "
+            "label>.tiff, ...); default: the final maps only, those of the finest set and the "
+            "unwrapped and absolute phase (docs/phase.md).",
+        ),
+    ] = False,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe.cli._harmonics import check_harmonics
@@ -193,7 +201,7 @@ def phase(
     check_harmonics(harmonics, "--saturated exclude" if saturated == "exclude" else None)
     options = PhaseOptions(
         min_modulation, keep_saturated, saturated, min_shifts, previews, uncertainty,
-        noise_sigma, map_dtype, harmonics,
+        noise_sigma, map_dtype, harmonics, per_set_maps,
     )  # fmt: skip
     report = task(folder, output, options, force=force)
     _print_summary(report.summary, report.n_pixels, uncertainty)

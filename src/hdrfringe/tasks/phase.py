@@ -34,6 +34,9 @@ class PhaseOptions:
         ``float64`` or ``float32``.
     harmonics : str
         ``off``, ``auto`` or a number of orders.
+    per_set_maps : bool
+        With several sets, also every set's maps (``__<set label>`` appended); default: the
+        final maps only (:func:`hdrfringe.io.phase_maps.write_phase_maps`, ``per_set``).
 
     Examples
     --------
@@ -50,6 +53,7 @@ class PhaseOptions:
     noise_sigma: float | None = None
     map_dtype: str = "float64"
     harmonics: str = "off"
+    per_set_maps: bool = False
 
 
 @dataclass(frozen=True)
@@ -112,8 +116,8 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
     >>> report = phase(tmp / "caps", tmp / "out", PhaseOptions(previews=False))
     >>> [s["label"] for s in report.summary["sets"]][:1]
     ['s4_p1024_v_i40_g255']
-    >>> "unwrapped_phase.tiff" in report.summary["files"]
-    True
+    >>> "unwrapped_phase.tiff" in report.summary["files"], len(report.summary["files"])
+    (True, 8)
     """
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.io.captures import read_capture_folder
@@ -156,12 +160,19 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
         if o.noise_sigma is not None:
             noise = NoiseModel(o.noise_sigma, source="given (--noise-sigma)")
         try:
-            unc = predict_uncertainty(captures, decoded, noise=noise)
+            unc = predict_uncertainty(
+                captures, decoded, noise=noise, finest_only=not o.per_set_maps
+            )
         except NoiseUnknownError as exc:  # none given and none to estimate (every set N = 3)
             unc_block = {"predicted": False, "reason": str(exc)}
     with staged_output_dir(output, force=force) as tmp:
         summary = write_phase_maps(
-            tmp, decoded, str(folder), previews=o.previews, uncertainty=unc
+            tmp,
+            decoded,
+            str(folder),
+            previews=o.previews,
+            uncertainty=unc,
+            per_set=o.per_set_maps,
         )
         if unc_block is not None:  # not predicted: the reason, where the block would be
             files = summary.pop("files")
