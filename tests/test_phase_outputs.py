@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.errors import InputError
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.phase_maps import SET_MAPS, write_phase_maps
 from hdrfringe.io.results import read_map_tiff
@@ -95,3 +96,28 @@ def test_phase_writes_the_final_maps_unless_every_set_is_asked_for(
     for name in names:
         if name.endswith(".tiff"):
             assert (final / name).read_bytes() == (every / name).read_bytes(), name
+
+
+def test_final_quality_maps_keep_every_final_result_bit_for_bit() -> None:
+    """quality_maps="final" (phase without --per-set-maps) drops the coarser sets' quality maps
+    and phases only: the finest set's maps, every set's validity and saturation count, and the
+    unwrapped and absolute phase are the bits of the full decode. Rejects a dropped map that
+    unwrapping still needed (the phases would change) or the finest set's maps dropped."""
+    caps = _captures()
+    every = decode_captures(caps, map_dtype="float32")
+    final = decode_captures(caps, map_dtype="float32", quality_maps="final")
+    fine = every.primary.sets[-1].label
+    assert [s.label for s in final.sets] == [s.label for s in every.sets]
+    for label, res in every.set_results.items():
+        got = final.set_results[label]
+        np.testing.assert_array_equal(got.valid, res.valid)
+        np.testing.assert_array_equal(got.saturation_count, res.saturation_count)
+        for _, attr, _, _ in SET_MAPS:
+            if label == fine:
+                np.testing.assert_array_equal(getattr(got, attr), getattr(res, attr))
+            elif attr != "saturation_count":
+                assert np.isnan(getattr(got, attr)).all(), (label, attr)
+    for name in ("unwrapped_phase", "absolute_phase"):
+        np.testing.assert_array_equal(getattr(final.primary, name), getattr(every.primary, name))
+    with pytest.raises(InputError, match="quality_maps"):
+        decode_captures(caps, quality_maps="some")
