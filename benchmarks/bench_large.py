@@ -85,8 +85,8 @@ for (pitch, orient), fs in sets.items():
 
 def render_folder(path: Path, width: int, height: int) -> Path:
     """The 3-pitch capture folder at ``width`` x ``height``, written by the project's writer."""
-    from hdrfringe.captures import Captures, ProjectorInfo
-    from hdrfringe.patterns import FringeSpec
+    from hdrfringe.core.captures import Captures, ProjectorInfo
+    from hdrfringe.core.patterns import FringeSpec
 
     rng = np.random.default_rng(SEED)
     frames = []

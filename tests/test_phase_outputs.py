@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hdrfringe.captures import Captures, ProjectorInfo
+from hdrfringe.core.captures import Captures, ProjectorInfo
+from hdrfringe.core.decode import decode_captures
+from hdrfringe.core.patterns import FringeSpec, fringe_gray
 from hdrfringe.errors import InputError
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.phase_maps import SET_MAPS, write_phase_maps
 from hdrfringe.io.results import read_map_tiff
-from hdrfringe.patterns import FringeSpec, fringe_gray
-from hdrfringe.process import decode_captures
 from tests.conftest import run_cli_in_process
 
 PITCHES = (1024.0, 64.0, 8.0)

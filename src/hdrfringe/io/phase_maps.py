@@ -42,10 +42,10 @@ def _run_writes(jobs: list[Job]) -> None:
     to float32 before a write), so two threads keep two cores or a disk busy: at 12 Mpx the
     maps and previews of ``phase`` took about half the time written one after the other
     (benchmarks/README.md, "Real camera sizes"). Threads, not processes: the maps are shared,
-    not copied. At most :func:`hdrfringe._blockdecode.decode_threads` threads (the CPUs, or
+    not copied. At most :func:`hdrfringe.core._blockdecode.decode_threads` threads (the CPUs, or
     ``HDRFRINGE_DECODE_THREADS``).
     """
-    from hdrfringe._blockdecode import decode_threads
+    from hdrfringe.core._blockdecode import decode_threads
 
     threads = decode_threads(len(jobs))
     if threads <= 1:

@@ -198,9 +198,10 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
 def _without_images(captures: Any) -> Any:
     """The captures' description (frames, sets, bit depth, camera) with their images replaced
     by a read-only view of one zero, so that the image stack (12 bytes per pixel for three
-    4-step 8-bit sets) is freed once decoded: :func:`hdrfringe.uncertainty.predict_uncertainty`
-    given a noise model reads the decoded maps only, except for a tolerant decode's images,
-    which keep theirs (benchmarks/README.md, "Real camera sizes")."""
+    4-step 8-bit sets) is freed once decoded:
+    :func:`hdrfringe.core.uncertainty.predict_uncertainty` given a noise model reads the
+    decoded maps only, except for a tolerant decode's images, which keep theirs
+    (benchmarks/README.md, "Real camera sizes")."""
     import dataclasses
 
     import numpy as np
