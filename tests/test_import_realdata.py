@@ -112,8 +112,9 @@ def assert_offset_of(ours: np.ndarray, ref: PhaseResult, imgs: np.ndarray, const
 
 
 def assert_same_as_handwritten(summary: dict, out: Path, reference: Path) -> None:
-    """Every set's maps and every family's unwrapped phase equal the hand-written folder's."""
-    dec = decode_captures(read_capture_folder(reference))
+    """Every set's maps and every family's unwrapped phase equal the hand-written folder's
+    (decoded as ``phase`` decodes by default: maps stored in float32)."""
+    dec = decode_captures(read_capture_folder(reference), map_dtype="float32")
     assert len(summary["sets"]) == len(dec.sets)
     for fs in dec.sets:
         res = dec.set_results[fs.label]

@@ -627,7 +627,7 @@ def decode_captures(
     _check_decode_options(captures, min_modulation, saturated, map_dtype, harmonics)
     if quality_maps not in ("every", "final"):
         raise InputError(f"quality_maps {quality_maps!r} is unknown; give every or final")
-    final_only = quality_maps == "final" and not captures.graycode_sets()
+    final_only = quality_maps == "final" and saturated == "flag" and not captures.graycode_sets()
     out = _decode_every_set(
         captures, min_modulation, reject_saturated, saturated, min_shifts, map_dtype, final_only
     )
