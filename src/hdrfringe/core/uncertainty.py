@@ -45,7 +45,7 @@ non-linear ones.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -260,6 +260,25 @@ def _design(shifts_deg: ArrayLike) -> F64:
 _STD_BLOCK = 32768
 
 
+def _each_block(work: Callable[[int], None], n: int) -> None:
+    """``work(i0)`` for every block start ``i0`` of ``n`` pixels, on the decode's threads
+    (:func:`hdrfringe.core._blockdecode.decode_threads`; numpy releases the GIL in its loops,
+    and each block writes its own slice of the result, so the bits do not depend on them)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from hdrfringe.core._blockdecode import decode_threads
+
+    starts = range(0, n, _STD_BLOCK)
+    threads = decode_threads(len(starts))
+    if threads <= 1:
+        for i0 in starts:
+            work(i0)
+        return
+    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="hdrfringe-std") as pool:
+        for _ in pool.map(work, starts):  # re-raises a block's error
+            pass
+
+
 def phase_std_least_squares(
     shifts_deg: ArrayLike,
     phase: ArrayLike,
@@ -334,7 +353,8 @@ def phase_std_least_squares(
         # block by block of pixels, in float64 (every operation is per pixel, so the blocks
         # give the maps' bits): nothing of image size but the result, whatever the maps' dtype
         flat, flat_phi, flat_b, flat_a = (x.reshape(-1) for x in (std, phi, b, a))
-        for i0 in range(0, flat.size, _STD_BLOCK):
+
+        def one_block(i0: int) -> None:
             part = slice(i0, i0 + _STD_BLOCK)
             pb = flat_b[part].astype(np.float64)
             pa = flat_a[part].astype(np.float64)
@@ -356,6 +376,8 @@ def phase_std_least_squares(
                 part_std /= pb
                 ok = np.isfinite(pphi) & np.isfinite(pa) & (pb > 0)
                 flat[part] = np.where(ok, part_std, np.nan)
+
+        _each_block(one_block, flat.size)
         return std
     phi = phi.astype(np.float64, copy=False)
     b = b.astype(np.float64, copy=False)
@@ -1077,7 +1099,7 @@ def resolve_noise(captures: Captures, noise: NoiseModel | float | None = None) -
 
     Examples
     --------
-    >>> from hdrfringe.frames import UniformFrame
+    >>> from hdrfringe.core.frames import UniformFrame
     >>> caps = Captures([UniformFrame(128)], np.zeros((1, 2, 3), np.uint8), 8)
     >>> resolve_noise(caps, 1.5).read_dn
     1.5
