@@ -121,3 +121,38 @@ def test_final_quality_maps_keep_every_final_result_bit_for_bit() -> None:
         np.testing.assert_array_equal(getattr(final.primary, name), getattr(every.primary, name))
     with pytest.raises(InputError, match="quality_maps"):
         decode_captures(caps, quality_maps="some")
+
+
+def test_blocked_std_and_unwrapping_match_closed_forms_on_any_thread_count(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The least-squares std and the temporal unwrapping run block by block (on threads for the
+    std): over several blocks, per pixel, the std is the closed form sqrt(2/N) sigma / b (read
+    noise only, equal shifts) and the unwrapping returns the projector phase, with the same
+    bits on one thread and on two. Rejects a block written to the wrong slice, a last partial
+    block left out, or a float32 map widened after the arithmetic instead of before."""
+    from hdrfringe.core._blockdecode import decode_threads
+    from hdrfringe.core.uncertainty import NoiseModel, phase_std_least_squares
+    from hdrfringe.core.unwrap import unwrap_temporal
+
+    rng = np.random.default_rng(11)
+    shape = (307, 311)  # 95477 px: three blocks of 32768 and a partial one
+    phi = rng.uniform(0, 2 * np.pi, shape).astype(np.float32)
+    b = rng.uniform(5, 80, shape).astype(np.float32)
+    a = rng.uniform(90, 150, shape).astype(np.float32)
+    b[0, 0] = 0.0  # not predicted
+    stds = {}
+    for threads in ("1", "2"):
+        monkeypatch.setenv("HDRFRINGE_DECODE_THREADS", threads)
+        assert decode_threads(10) == int(threads)
+        stds[threads] = phase_std_least_squares([0, 90, 180, 270], phi, b, a, NoiseModel(2.0))
+    np.testing.assert_array_equal(stds["1"], stds["2"])
+    want = np.sqrt(2 / 4) * 2.0 / b.astype(np.float64).ravel()[1:]
+    assert np.isnan(stds["1"][0, 0])
+    np.testing.assert_allclose(stds["1"].ravel()[1:], want, rtol=1e-12)
+    x = rng.uniform(0, 1000, shape)  # projector columns
+    maps = [np.mod(2 * np.pi * x / p, 2 * np.pi).astype(np.float32) for p in PITCHES]
+    got = unwrap_temporal(maps, PITCHES)
+    np.testing.assert_allclose(got, 2 * np.pi * x / PITCHES[-1], atol=1e-4)
+    widened = unwrap_temporal([m.astype(np.float64) for m in maps], PITCHES)
+    np.testing.assert_array_equal(got, widened)
