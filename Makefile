@@ -116,7 +116,7 @@ bench-unwrap: $(STAMP)
 
 # Renders 648x494, 4096x3000 and 5120x5120 capture folders once (BENCH_CACHE keeps them for
 # the next run; about 2 minutes and 0.5 GB the first time) and runs `phase` against a plain
-# numpy script on each; the 5120x5120 case needs about 5.5 GB of memory before issue 30.
+# numpy script on each; `phase` at 5120x5120 peaks at about 1.5 GB (5.4 GB before issue 30).
 BENCH_CACHE ?=
 bench-large: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_large.py $(if $(BENCH_CACHE),--cache $(BENCH_CACHE))
