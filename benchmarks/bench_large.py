@@ -3,8 +3,10 @@
 Run ``.venv/bin/python benchmarks/bench_large.py`` (or ``make bench-large``); ``--cache DIR``
 keeps the rendered capture folders there (rendered once, reused by later runs), ``--sizes
 648x494,4096x3000`` a subset, ``--repeats N`` (default 1), ``--json PATH`` also writes the
-results, ``--phase-args "..."`` extra options for ``phase``. See benchmarks/README.md,
-"Real camera sizes".
+results, ``--phase-args "..."`` extra options for ``phase``, ``--bytecode`` the package's
+modules compiled first (what an installed package has; as in ``bench_cold_start.py``: a
+checkout run with ``PYTHONDONTWRITEBYTECODE`` compiles every module at every start). See
+benchmarks/README.md, "Real camera sizes".
 
 The folders (rendered once, by a plain numpy evaluation of the contract's fringe equation,
 written with the project's ``write_capture_folder``: version 1, 8-bit PNG): three vertical
@@ -43,6 +45,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from bench_cold_start import compiled_package
 
 SEED = 20240601
 PITCHES = (1024.0, 64.0, 8.0)
@@ -141,6 +145,42 @@ def folder_for(cache: Path, width: int, height: int) -> Path:
     return path
 
 
+def run_sizes(
+    sizes: list[tuple[int, ...]], args: Any, cache: Path, tmp: Path, results: dict[str, Any]
+) -> None:
+    """Every size's cases, interleaved, into ``results`` (printed as they finish)."""
+    py = sys.executable
+    for w, h in sizes:
+        folder = folder_for(cache, w, h)
+        out_p, out_r = tmp / "out_phase", tmp / "out_ref"
+        cases = {
+            "phase": [py, "-m", "hdrfringe.cli", "phase", str(folder), "-o", str(out_p),
+                      "--force", *args.phase_args.split()],
+            "reference": [py, "-c", REFERENCE, str(folder), str(out_r)],
+        }  # fmt: skip
+        runs: dict[str, list[tuple[float, float]]] = {k: [] for k in cases}
+        for _ in range(args.repeats):
+            for name, cmd in cases.items():
+                shutil.rmtree(out_r, ignore_errors=True)
+                runs[name].append(run_child(cmd))
+        key = f"{w}x{h}"
+        results[key] = {
+            name: {
+                "wall_s": statistics.median(r[0] for r in rs),
+                "peak_mb": statistics.median(r[1] for r in rs),
+                "runs": rs,
+            }
+            for name, rs in runs.items()
+        }
+        results[key]["stack_mb"] = len(PITCHES) * STEPS * w * h / 1e6
+        p, r = results[key]["phase"], results[key]["reference"]
+        print(f"{key:>10}: phase {p['wall_s']:7.2f} s {p['peak_mb']:7.0f} MB | reference "
+              f"{r['wall_s']:6.2f} s {r['peak_mb']:6.0f} MB | phase/ref wall "
+              f"{p['wall_s'] / r['wall_s']:5.2f}, peak {p['peak_mb'] / r['peak_mb']:5.2f} | "
+              f"phase peak {p['peak_mb'] / results[key]['stack_mb']:.1f}x the stack "
+              f"({results[key]['stack_mb']:.0f} MB)", flush=True)  # fmt: skip
+
+
 def main() -> None:
     """Run every size's cases, interleaved, and print medians and ratios."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -149,44 +189,17 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--phase-args", default="", help="extra options for phase")
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--bytecode", action="store_true", help="compile the package first")
     args = ap.parse_args()
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
 
-    py = sys.executable
     tmp = Path(tempfile.mkdtemp(prefix="bench_large_"))
     cache = args.cache if args.cache is not None else tmp
     cache.mkdir(parents=True, exist_ok=True)
     results: dict[str, dict[str, Any]] = {}
     try:
-        for w, h in sizes:
-            folder = folder_for(cache, w, h)
-            out_p, out_r = tmp / "out_phase", tmp / "out_ref"
-            cases = {
-                "phase": [py, "-m", "hdrfringe.cli", "phase", str(folder), "-o", str(out_p),
-                          "--force", *args.phase_args.split()],
-                "reference": [py, "-c", REFERENCE, str(folder), str(out_r)],
-            }  # fmt: skip
-            runs: dict[str, list[tuple[float, float]]] = {k: [] for k in cases}
-            for _ in range(args.repeats):
-                for name, cmd in cases.items():
-                    shutil.rmtree(out_r, ignore_errors=True)
-                    runs[name].append(run_child(cmd))
-            key = f"{w}x{h}"
-            results[key] = {
-                name: {
-                    "wall_s": statistics.median(r[0] for r in rs),
-                    "peak_mb": statistics.median(r[1] for r in rs),
-                    "runs": rs,
-                }
-                for name, rs in runs.items()
-            }
-            results[key]["stack_mb"] = len(PITCHES) * STEPS * w * h / 1e6
-            p, r = results[key]["phase"], results[key]["reference"]
-            print(f"{key:>10}: phase {p['wall_s']:7.2f} s {p['peak_mb']:7.0f} MB | reference "
-                  f"{r['wall_s']:6.2f} s {r['peak_mb']:6.0f} MB | phase/ref wall "
-                  f"{p['wall_s'] / r['wall_s']:5.2f}, peak {p['peak_mb'] / r['peak_mb']:5.2f} | "
-                  f"phase peak {p['peak_mb'] / results[key]['stack_mb']:.1f}x the stack "
-                  f"({results[key]['stack_mb']:.0f} MB)", flush=True)  # fmt: skip
+        with compiled_package(args.bytecode):
+            run_sizes(sizes, args, cache, tmp, results)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     print(f"{platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}, "
