@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
 .PHONY: install system-packages demo test test-narrow lint bench bench-sweep bench-cold bench-peers \
-	bench-memory bench-measure bench-unwrap native clean
+	bench-memory bench-measure bench-unwrap bench-large native clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -113,6 +113,13 @@ bench-measure: $(STAMP)
 
 bench-unwrap: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_unwrap.py
+
+# Renders 648x494, 4096x3000 and 5120x5120 capture folders once (BENCH_CACHE keeps them for
+# the next run; about 2 minutes and 0.5 GB the first time) and runs `phase` against a plain
+# numpy script on each; `phase` at 5120x5120 peaks at about 1.5 GB (5.4 GB before issue 30).
+BENCH_CACHE ?=
+bench-large: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_large.py $(if $(BENCH_CACHE),--cache $(BENCH_CACHE))
 
 clean:
 	rm -rf $(VENV) $(BENCH_VENV) $(OUT)

@@ -46,7 +46,7 @@ def import_and_phase(name: str, images: Path, tmp_path: Path) -> tuple[dict, Pat
     caps, out = tmp_path / "caps", tmp_path / "phase"
     res = run_cli("import", str(images), "-d", str(EXAMPLES / f"{name}.toml"), "-o", str(caps))
     assert res.returncode == 0, res.stderr
-    command, res = run_hint(res.stdout, out)
+    command, res = run_hint(res.stdout, out, "--per-set-maps")  # set_map reads every set's
     assert command == "phase" and res.returncode == 0, res.stderr
     return json.loads((out / "phase_summary.json").read_text()), caps, out
 
@@ -112,8 +112,9 @@ def assert_offset_of(ours: np.ndarray, ref: PhaseResult, imgs: np.ndarray, const
 
 
 def assert_same_as_handwritten(summary: dict, out: Path, reference: Path) -> None:
-    """Every set's maps and every family's unwrapped phase equal the hand-written folder's."""
-    dec = decode_captures(read_capture_folder(reference))
+    """Every set's maps and every family's unwrapped phase equal the hand-written folder's
+    (decoded as ``phase`` decodes by default: maps stored in float32)."""
+    dec = decode_captures(read_capture_folder(reference), map_dtype="float32")
     assert len(summary["sets"]) == len(dec.sets)
     for fs in dec.sets:
         res = dec.set_results[fs.label]

@@ -92,7 +92,9 @@ def test_measure_takes_the_saturation_options_of_phase(sweep, tmp_path: Path) ->
         m, p = tmp_path / f"m_{name}", tmp_path / f"p_{name}"
         r = run_cli("measure", str(folder), *opts, "--no-previews", "-o", str(m))
         assert r.returncode == 0, r.stderr
-        r = run_cli("phase", str(folder), *opts, "--no-previews", "-o", str(p))
+        # measure decodes into float64 maps; phase stores float32 unless told (issue 30)
+        r = run_cli("phase", str(folder), *opts, "--no-previews", "--map-dtype", "float64",
+                    "-o", str(p))  # fmt: skip
         assert r.returncode == 0, r.stderr
         for map_name in ("absolute_phase.tiff", "absolute_phase_horizontal.tiff"):  # v, h
             a = read_map_tiff(m / map_name)

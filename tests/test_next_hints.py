@@ -17,13 +17,14 @@ import numpy as np
 from tests.conftest import run_cli
 
 
-def run_hint(stdout: str, out: Path):  # type: ignore[no-untyped-def]
-    """The ``next:`` command printed in ``stdout`` run with OUT replaced by ``out``."""
+def run_hint(stdout: str, out: Path, *extra: str):  # type: ignore[no-untyped-def]
+    """The ``next:`` command printed in ``stdout`` run with OUT replaced by ``out`` (and the
+    options ``extra`` added)."""
     found = re.findall(r"next: (hdrfringe .*)$", stdout, flags=re.MULTILINE)
     assert len(found) == 1, stdout
     args = [str(out) if a == "OUT" else a for a in shlex.split(found[0])]
     assert args[0] == "hdrfringe"
-    return args[1], run_cli(*args[1:], timeout=600)
+    return args[1], run_cli(*args[1:], *extra, timeout=600)
 
 
 def test_import_of_fringes_suggests_phase_and_it_runs(tmp_path: Path) -> None:

@@ -246,7 +246,7 @@ def test_pyramid_cli_phase(pyramid_root: Path, pyramid_ref: dict, tmp_path: Path
     }
     (caps / "manifest.json").write_text(json.dumps(manifest, indent=1))
     out = tmp_path / "out"
-    res = run_cli("phase", str(caps), "-o", str(out))
+    res = run_cli("phase", str(caps), "-o", str(out), "--per-set-maps")
     assert res.returncode == 0, res.stderr
 
     summary = json.loads((out / "phase_summary.json").read_text())

@@ -65,10 +65,13 @@ def test_phase_writes_the_std_of_every_set_and_nothing_else_changes(
     folders: dict, tmp_path: Path
 ) -> None:
     on, off = tmp_path / "on", tmp_path / "off"
-    res = run_cli_in_process("phase", str(folders["part4"]), "-o", str(on))
+    every = "--per-set-maps"  # every set's maps, so every set's std
+    res = run_cli_in_process("phase", str(folders["part4"]), "-o", str(on), every)
     assert res.returncode == 0, res.stderr
     assert "predicted phase std: median" in res.stdout
-    assert run_cli_in_process("phase", str(folders["part4"]), "-o", str(off), "--no-uncertainty")
+    assert run_cli_in_process(
+        "phase", str(folders["part4"]), "-o", str(off), "--no-uncertainty", every
+    )
     a, b = _files(on), _files(off)
     added = sorted(set(a) - set(b))
     assert added == [

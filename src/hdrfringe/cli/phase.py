@@ -159,13 +159,15 @@ def phase(
         ),
     ] = None,
     map_dtype: Annotated[
-        str,
+        str | None,
         typer.Option(
-            help="float64: decode into float64 maps (default); float32: the same float64 "
-            "computation stored in float32, half the memory for large images (the written "
-            "TIFFs are float32 either way; docs/phase.md).",
+            help="float32 (default with --saturated flag): the maps computed in float64 per "
+            "block of pixels and stored in float32, as they are written, half the memory of "
+            "float64; float64: stored in float64, the unwrapped and absolute phase computed "
+            "from the unrounded wrapped phase (docs/phase.md).",
+            show_default=False,
         ),
-    ] = "float64",
+    ] = None,
     harmonics: Annotated[
         str,
         typer.Option(
@@ -175,6 +177,14 @@ def phase(
             "whatever their size (docs/harmonics.md).",
         ),
     ] = "off",
+    per_set_maps: Annotated[
+        bool,
+        typer.Option(
+            help="With several sets, also write every set's maps (wrapped_phase__<set "
+            "label>.tiff, ...); default: the final maps only, those of the finest set and the "
+            "unwrapped and absolute phase (docs/phase.md).",
+        ),
+    ] = False,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe.cli._harmonics import check_harmonics
@@ -184,16 +194,18 @@ def phase(
     check_saturation_options(keep_saturated, saturated, min_shifts)
     if noise_sigma is not None and not (math.isfinite(noise_sigma) and noise_sigma >= 0):
         raise InputError(f"--noise-sigma must be a finite number of DN >= 0, got {noise_sigma:g}")
-    if map_dtype not in ("float64", "float32"):
+    if map_dtype is not None and map_dtype not in ("float64", "float32"):
         raise InputError(f"--map-dtype {map_dtype!r} is unknown; give float64 or float32")
-    if map_dtype != "float64" and saturated != "flag":
+    if map_dtype == "float32" and saturated != "flag":
         raise InputError("--map-dtype float32 applies to --saturated flag; drop one of them")
+    if map_dtype is None:
+        map_dtype = "float32" if saturated == "flag" else "float64"
     if noise_sigma is not None and not uncertainty:
         raise InputError("--noise-sigma is for the predicted std; drop --no-uncertainty")
     check_harmonics(harmonics, "--saturated exclude" if saturated == "exclude" else None)
     options = PhaseOptions(
         min_modulation, keep_saturated, saturated, min_shifts, previews, uncertainty,
-        noise_sigma, map_dtype, harmonics,
+        noise_sigma, map_dtype, harmonics, per_set_maps,
     )  # fmt: skip
     report = task(folder, output, options, force=force)
     _print_summary(report.summary, report.n_pixels, uncertainty)

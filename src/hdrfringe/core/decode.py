@@ -376,13 +376,16 @@ def _decode_every_set(
     saturated: str,
     min_shifts: int,
     map_dtype: str,
+    final_only: bool = False,
 ) -> FolderPhase:
-    """Each set's wrapped phase (no family yet): the tolerant decoder with ``exclude``."""
+    """Each set's wrapped phase (no family yet): the tolerant decoder with ``exclude``;
+    ``final_only``: the quality maps of the sets not finest in their family dropped."""
     if saturated == "exclude":
         return _decode_excluding(captures, min_modulation, min_shifts)
+    finest = {fam[-1].label for fam in group_families(captures.sets)}
     results = {}
     for s in captures.sets:
-        results[s.label] = decode_set(
+        res = decode_set(
             captures.set_images(s),
             s.spec,
             captures.camera_bit_depth,
@@ -390,6 +393,12 @@ def _decode_every_set(
             reject_saturated=reject_saturated,
             dtype=np.dtype(map_dtype),
         )
+        if final_only and s.label not in finest:
+            gone = np.broadcast_to(res.wrapped_phase.dtype.type(np.nan), res.wrapped_phase.shape)
+            res = dataclasses.replace(
+                res, modulation=gone, mean_intensity=gone, data_modulation=gone
+            )
+        results[s.label] = res
     return FolderPhase(set_results=results, sets=list(captures.sets))
 
 
@@ -432,7 +441,8 @@ def _unwrap_family(
         code = None
     gc_valid = None
     if spans:
-        base = np.asarray(coarse_phase, dtype=np.float64)  # float32 maps: float64 phases
+        # float32 maps: float64 phases (unwrap_temporal widens them block by block itself)
+        base = coarse_phase if len(fam) > 1 else np.asarray(coarse_phase, dtype=np.float64)
         method = "coarse set spans the projector with one period"
         unwrapping = "one-period"
     elif code is not None:
@@ -535,6 +545,7 @@ def decode_captures(
     given_phases: Mapping[str, NDArray[np.float64]] | None = None,
     map_dtype: str = "float64",
     harmonics: str | int = "off",
+    quality_maps: str = "every",
 ) -> FolderPhase:
     """Decode every set of the captures; unwrap and make absolute where the captures allow.
 
@@ -573,6 +584,16 @@ def decode_captures(
         removes K orders whatever their size. It acts on the wrapped phases before any
         unwrapping; :attr:`FolderPhase.harmonics` records what was estimated and applied.
         Only with ``saturated="flag"``.
+    quality_maps : {"every", "final"}
+        ``every`` (default): every set's result holds its modulation, mean intensity and data
+        modulation. ``final``: only each family's finest set keeps them (what ``phase`` writes
+        without ``--per-set-maps``); the other sets' are dropped as soon as the set is decoded,
+        and their wrapped phases once their family is unwrapped, and read as NaN (read-only
+        views of one value, no memory), which bounds a large folder's memory to one set's maps
+        plus the others' phases. The finest sets' maps, every set's validity and saturation
+        count, and the unwrapped and absolute phases are the same either way. With a Gray
+        code in the captures (its threshold may come from the coarsest set's mean) or
+        ``saturated="exclude"``, every set keeps them.
 
     Returns
     -------
@@ -604,8 +625,11 @@ def decode_captures(
     'one-period coarse set'
     """
     _check_decode_options(captures, min_modulation, saturated, map_dtype, harmonics)
+    if quality_maps not in ("every", "final"):
+        raise InputError(f"quality_maps {quality_maps!r} is unknown; give every or final")
+    final_only = quality_maps == "final" and saturated == "flag" and not captures.graycode_sets()
     out = _decode_every_set(
-        captures, min_modulation, reject_saturated, saturated, min_shifts, map_dtype
+        captures, min_modulation, reject_saturated, saturated, min_shifts, map_dtype, final_only
     )
     _compensate_harmonics(out, harmonics)
     results = out.set_results  # the families unwrap the compensated phases
@@ -634,6 +658,12 @@ def decode_captures(
                 unw.graycode_valid,
             )
         )
+    if final_only:  # the coarser sets' phases served their families: dropped as well
+        finest = {f.sets[-1].label for f in out.families}
+        for label, res in list(results.items()):
+            if label not in finest:
+                gone = np.broadcast_to(res.wrapped_phase.dtype.type(np.nan), res.valid.shape)
+                results[label] = dataclasses.replace(res, wrapped_phase=gone)
     return out
 
 

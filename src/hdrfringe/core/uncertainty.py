@@ -45,7 +45,7 @@ non-linear ones.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -79,6 +79,7 @@ __all__ = [
     "phase_std_triangular",
     "predict_phase_std",
     "predict_uncertainty",
+    "resolve_noise",
 ]
 
 F64 = NDArray[np.float64]
@@ -255,6 +256,29 @@ def _design(shifts_deg: ArrayLike) -> F64:
     return np.column_stack([np.ones(d.size), np.cos(d), -np.sin(d)])
 
 
+#: Pixels per block of :func:`phase_std_least_squares` (256 KiB of float64: in cache).
+_STD_BLOCK = 32768
+
+
+def _each_block(work: Callable[[int], None], n: int) -> None:
+    """``work(i0)`` for every block start ``i0`` of ``n`` pixels, on the decode's threads
+    (:func:`hdrfringe.core._blockdecode.decode_threads`; numpy releases the GIL in its loops,
+    and each block writes its own slice of the result, so the bits do not depend on them)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from hdrfringe.core._blockdecode import decode_threads
+
+    starts = range(0, n, _STD_BLOCK)
+    threads = decode_threads(len(starts))
+    if threads <= 1:
+        for i0 in starts:
+            work(i0)
+        return
+    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="hdrfringe-std") as pool:
+        for _ in pool.map(work, starts):  # re-raises a block's error
+            pass
+
+
 def phase_std_least_squares(
     shifts_deg: ArrayLike,
     phase: ArrayLike,
@@ -315,36 +339,51 @@ def phase_std_least_squares(
     """
     A = _design(shifts_deg)
     m = A.shape[0]
-    phi = np.asarray(phase, dtype=np.float64)
-    b = np.asarray(modulation, dtype=np.float64)
-    a = np.asarray(mean_intensity, dtype=np.float64)
+    phi, b, a = np.asarray(phase), np.asarray(modulation), np.asarray(mean_intensity)
     if b.shape != phi.shape or a.shape != phi.shape:
         raise InputError(
             f"phase {phi.shape}, modulation {b.shape} and mean {a.shape} must have one shape"
         )
-    out = np.full(phi.shape, np.nan)
-    ok = np.isfinite(phi) & np.isfinite(a) & (b > 0)
     offset = np.radians(float(phase_offset_deg))
     delta_cos, delta_sin = A[:, 1], -A[:, 2]
     if usable is None:  # one normal matrix for all: w_k = alpha_k cos(theta) - beta_k sin(theta)
         inv = np.linalg.inv(A.T @ A)
         alpha, beta = A @ inv[:, 2], A @ inv[:, 1]
-        with np.errstate(invalid="ignore", divide="ignore"):  # invalid pixels: NaN below
-            theta = phi + offset
-            sin_t, cos_t = np.sin(theta), np.cos(theta)
-            var = np.zeros(phi.shape)
-            for k in range(m):
-                w = alpha[k] * cos_t
-                w -= beta[k] * sin_t
-                w *= w
-                level = delta_cos[k] * cos_t  # the model intensity a + b cos(theta + delta_k)
-                level -= delta_sin[k] * sin_t
-                level *= b
-                level += a
-                var += w * noise.variance(level)
-            std = np.sqrt(var)
-            std /= b
-        return np.where(ok, std, np.nan)
+        std = np.empty(phi.shape)
+        # block by block of pixels, in float64 (every operation is per pixel, so the blocks
+        # give the maps' bits): nothing of image size but the result, whatever the maps' dtype
+        flat, flat_phi, flat_b, flat_a = (x.reshape(-1) for x in (std, phi, b, a))
+
+        def one_block(i0: int) -> None:
+            part = slice(i0, i0 + _STD_BLOCK)
+            pb = flat_b[part].astype(np.float64)
+            pa = flat_a[part].astype(np.float64)
+            pphi = flat_phi[part].astype(np.float64)
+            with np.errstate(invalid="ignore", divide="ignore"):  # invalid pixels: NaN below
+                theta = pphi + offset
+                sin_t, cos_t = np.sin(theta), np.cos(theta)
+                var = np.zeros(pphi.shape)
+                for k in range(m):
+                    w = alpha[k] * cos_t
+                    w -= beta[k] * sin_t
+                    w *= w
+                    level = delta_cos[k] * cos_t  # the model intensity a + b cos(theta + delta_k)
+                    level -= delta_sin[k] * sin_t
+                    level *= pb
+                    level += pa
+                    var += w * noise.variance(level)
+                part_std = np.sqrt(var)
+                part_std /= pb
+                ok = np.isfinite(pphi) & np.isfinite(pa) & (pb > 0)
+                flat[part] = np.where(ok, part_std, np.nan)
+
+        _each_block(one_block, flat.size)
+        return std
+    phi = phi.astype(np.float64, copy=False)
+    b = b.astype(np.float64, copy=False)
+    a = a.astype(np.float64, copy=False)
+    out = np.full(phi.shape, np.nan)
+    ok = np.isfinite(phi) & np.isfinite(a) & (b > 0)
     u_all = np.asarray(usable, dtype=bool)
     if u_all.shape != (m, *phi.shape):
         raise InputError(f"usable mask {u_all.shape}, expected {(m, *phi.shape)}")
@@ -944,9 +983,17 @@ def height_std(calibration: Calibration, absolute_phase: ArrayLike, phase_std: A
 
 
 def _finite_median(values: ArrayLike) -> float | None:
-    v = np.asarray(values, dtype=np.float64)
-    v = v[np.isfinite(v)]
-    return float(np.median(v)) if v.size else None
+    """Median of the finite values, the value ``np.median`` gives for them in float64: the
+    middle one, or the float64 mean of the middle two; from one compacted copy in the values'
+    own dtype, partitioned in place (no image-sized float64 copy of a float32 map)."""
+    v = np.asarray(values)
+    v = v[np.isfinite(v)]  # boolean indexing copies
+    if not v.size:
+        return None
+    k = v.size // 2
+    middle = [k - 1, k] if v.size % 2 == 0 else [k]
+    v.partition(middle)
+    return float(np.mean(v[middle].astype(np.float64)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -1028,7 +1075,35 @@ class Uncertainty:
         return out
 
 
-def _resolve_noise(captures: Captures, noise: NoiseModel | float | None) -> NoiseModel:
+def resolve_noise(captures: Captures, noise: NoiseModel | float | None = None) -> NoiseModel:
+    """The camera noise :func:`predict_uncertainty` uses: given, recorded or estimated.
+
+    Parameters
+    ----------
+    captures : Captures
+        The captures (their manifest's camera entry; their images when the noise is
+        estimated).
+    noise : NoiseModel or float, optional
+        A model, or one sigma in DN for every intensity. Default: the manifest's
+        (:func:`noise_from_manifest`), else estimated from the sets with N >= 4 shifts
+        (:func:`estimate_noise`).
+
+    Returns
+    -------
+    NoiseModel
+
+    Raises
+    ------
+    NoiseUnknownError
+        None given or recorded, and no set to estimate it from.
+
+    Examples
+    --------
+    >>> from hdrfringe.core.frames import UniformFrame
+    >>> caps = Captures([UniformFrame(128)], np.zeros((1, 2, 3), np.uint8), 8)
+    >>> resolve_noise(caps, 1.5).read_dn
+    1.5
+    """
     if isinstance(noise, NoiseModel):
         return noise
     if noise is not None:
@@ -1105,7 +1180,7 @@ def predict_uncertainty(
     >>> e["noise"]["source"][:9], round(e["sigma_i_dn"], 2)
     ('estimated', 1.62)
     """
-    model = _resolve_noise(captures, noise)
+    model = resolve_noise(captures, noise)
     bits = captures.camera_bit_depth
     by_label = {s.label: s for s in captures.sets}
     set_std: dict[str, F64] = {}
@@ -1124,7 +1199,11 @@ def predict_uncertainty(
     fam_std: dict[str, F64] = {}
     for fam in decoded.families:
         phase = fam.unwrapped_phase if fam.absolute_phase is None else fam.absolute_phase
-        fam_std[fam.orientation] = np.where(np.isfinite(phase), set_std[fam.sets[-1].label], np.nan)
+        std = set_std[fam.sets[-1].label]
+        finite = np.isfinite(phase)
+        if (np.isfinite(std) & ~finite).any():  # else the set's map is the family's: shared
+            std = np.where(finite, std, np.nan)
+        fam_std[fam.orientation] = std
     primary = decoded.primary
     notes: list[str] = []
     kept = [  # valid pixels decoded with a saturated shift (reject_saturated=False)

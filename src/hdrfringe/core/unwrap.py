@@ -1003,9 +1003,13 @@ def unwrap_temporal(
         return unwrap_temporal_levels(
             wrapped_phases, pitches, coarse_unwrapped=coarse_unwrapped, max_residual=max_residual
         ).phase
-    # Fast path: the same arithmetic in place, without keeping every level and residual map.
-    # Validation is shared by calling the full version on a one-pixel view of the inputs.
-    maps = [np.asarray(m, dtype=np.float64) for m in wrapped_phases]
+    # Fast path: the same arithmetic in place, without keeping every level and residual map,
+    # block by block of pixels (every operation is per pixel, so the blocks give the same bits
+    # as whole maps): float32 maps are widened a block at a time, and nothing of image size is
+    # allocated but the result. Validation is shared by calling the full version on a
+    # one-pixel view of the inputs.
+    maps = [np.asarray(m) for m in wrapped_phases]
+    maps = [m if m.dtype in (np.float32, np.float64) else m.astype(np.float64) for m in maps]
     unwrap_temporal_levels(
         [m.reshape(-1)[:1] if m.size else m for m in maps],
         pitches,
@@ -1018,19 +1022,34 @@ def unwrap_temporal(
                 "all maps must come from the same camera pixels"
             )
     p = [float(v) for v in pitches]
+    out = np.empty(maps[0].shape, dtype=np.float64)
+    flat_out = out.reshape(-1)
+    flat = [m.reshape(-1) for m in maps]
+    block = _TEMPORAL_BLOCK
     with np.errstate(invalid="ignore"):
-        current = maps[0].copy() if coarse_unwrapped else np.mod(maps[0], TWO_PI)
-        order = np.empty_like(current)
-        for k in range(1, len(maps)):
-            phi = maps[k]
-            current *= p[k - 1] / p[k]  # predicted phase at pitch p_k
-            np.subtract(current, phi, out=order)
-            order /= TWO_PI
-            np.rint(order, out=order)
-            order *= TWO_PI
-            np.add(phi, order, out=current)
-    current[~np.isfinite(current)] = np.nan
-    return current
+        for i0 in range(0, flat_out.size, block):
+            part = slice(i0, i0 + block)
+            first = flat[0][part].astype(np.float64)
+            current = flat_out[part]
+            if coarse_unwrapped:
+                current[...] = first
+            else:
+                np.mod(first, TWO_PI, out=current)
+            order = np.empty_like(current)
+            for k in range(1, len(maps)):
+                phi = flat[k][part].astype(np.float64, copy=False)
+                current *= p[k - 1] / p[k]  # predicted phase at pitch p_k
+                np.subtract(current, phi, out=order)
+                order /= TWO_PI
+                np.rint(order, out=order)
+                order *= TWO_PI
+                np.add(phi, order, out=current)
+            current[~np.isfinite(current)] = np.nan
+    return out
+
+
+#: Pixels per block of :func:`unwrap_temporal`'s fast path (256 KiB of float64: in cache).
+_TEMPORAL_BLOCK = 32768
 
 
 # --------------------------------------------------------------------------------------------

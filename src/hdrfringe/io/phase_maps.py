@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,10 +31,48 @@ SET_MAPS: tuple[tuple[str, str, str, str], ...] = (
 )
 
 
-def _preview(files: list[str] | None, path: Path, data: Any, **kw: Any) -> None:
-    """A map's PNG preview, and its name in ``files``; None: previews are off (nothing)."""
+#: A file write deferred to the writer threads (:func:`_run_writes`).
+Job = Callable[[], None]
+
+
+def _run_writes(jobs: list[Job]) -> None:
+    """Run the file writes on a few threads; the first failure is raised once all have ended.
+
+    tifffile's writes and Pillow's PNG encoder release the GIL (and so do numpy's conversions
+    to float32 before a write), so two threads keep two cores or a disk busy: at 12 Mpx the
+    maps and previews of ``phase`` took about half the time written one after the other
+    (benchmarks/README.md, "Real camera sizes"). Threads, not processes: the maps are shared,
+    not copied. At most :func:`hdrfringe.core._blockdecode.decode_threads` threads (the CPUs, or
+    ``HDRFRINGE_DECODE_THREADS``).
+    """
+    from hdrfringe.core._blockdecode import decode_threads
+
+    threads = decode_threads(len(jobs))
+    if threads <= 1:
+        for job in jobs:
+            job()
+        return
+    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="hdrfringe-write") as pool:
+        for future in [pool.submit(job) for job in jobs]:
+            future.result()
+
+
+def _tiff(jobs: list[Job], files: list[str], path: Path, data: Any) -> None:
+    """A float32 map (:func:`~hdrfringe.io.results.write_map_tiff`), queued, and its name."""
+    jobs.append(partial(write_map_tiff, path, data))
+    files.append(path.name)
+
+
+def _preview(
+    files: list[str] | None, path: Path, data: Any, jobs: list[Job] | None = None, **kw: Any
+) -> None:
+    """A map's PNG preview (queued on ``jobs``, else written now), and its name in ``files``;
+    ``files`` None: previews are off (nothing)."""
     if files is not None:
-        write_preview_png(path, data, **kw)
+        if jobs is None:
+            write_preview_png(path, data, **kw)
+        else:
+            jobs.append(partial(write_preview_png, path, data, **kw))
         files.append(path.name)
 
 
@@ -41,6 +81,7 @@ def _write_set(
     res: PhaseResult,
     suffix: str,
     files: list[str],
+    jobs: list[Job],
     *,
     previews: bool = True,
     phase_std: Mapping[str, np.ndarray] | None = None,
@@ -50,24 +91,23 @@ def _write_set(
     for stem, attr, cmap, unit in SET_MAPS:
         data = getattr(res, attr)
         name = f"{stem}{suffix}"
-        write_map_tiff(out / f"{name}.tiff", data)
+        _tiff(jobs, files, out / f"{name}.tiff", data)
         kw: dict[str, Any] = {}
         if stem == "wrapped_phase":
             kw = {"vmin": 0.0, "vmax": 2 * np.pi}
         elif stem == "saturation_count":
             kw = {"vmin": 0.0, "vmax": float(max(1, res.spec.steps if res.spec else 1))}
-        files.append(f"{name}.tiff")
-        _preview(shown, out / f"{name}.png", data, title=name, cmap=cmap, label=unit, **kw)
+        _preview(shown, out / f"{name}.png", data, jobs, title=name, cmap=cmap, label=unit, **kw)
     if isinstance(res, TolerantPhaseResult):  # --saturated exclude: the shifts each fit used
         name = f"shifts_used{suffix}"
         used = res.shifts_used.astype(np.float32)
-        write_map_tiff(out / f"{name}.tiff", used)
-        files.append(f"{name}.tiff")
+        _tiff(jobs, files, out / f"{name}.tiff", used)
         images = (2 if res.inverted else 1) * (res.spec.steps if res.spec else 1)
         _preview(
             shown,
             out / f"{name}.png",
             used,
+            jobs,
             title=name,
             cmap="viridis",
             label="shifts used",
@@ -76,11 +116,11 @@ def _write_set(
         )
     if phase_std is not None and label in phase_std:  # the predicted std (docs/uncertainty.md)
         name = f"phase_std{suffix}"
-        write_map_tiff(out / f"{name}.tiff", phase_std[label])
-        files.append(f"{name}.tiff")
+        _tiff(jobs, files, out / f"{name}.tiff", phase_std[label])
         _preview(
-            shown, out / f"{name}.png", phase_std[label], title=name, cmap="magma", label="rad"
-        )
+            shown, out / f"{name}.png", phase_std[label], jobs, title=name, cmap="magma",
+            label="rad",
+        )  # fmt: skip
 
 
 def _write_float64_tiff(path: Path, data: np.ndarray) -> None:
@@ -121,17 +161,20 @@ def write_phase_maps(
     previews: bool = True,
     uncertainty: Uncertainty | None = None,
     std_per_set: bool = True,
+    per_set: bool = True,
 ) -> dict[str, Any]:
     """Write every map of a decoded folder into ``out`` (an existing, empty staging folder).
 
     One set: ``wrapped_phase.tiff``, ``modulation.tiff``, ``mean_intensity.tiff``,
     ``data_modulation.tiff``, ``saturation_count.tiff`` (+ PNG previews). Several sets: the same
-    names with ``__<set label>`` appended for every set, and the unsuffixed names for the finest
-    set of the primary family. ``unwrapped_phase.tiff`` and ``absolute_phase.tiff`` belong to the
-    primary family; a second (horizontal) family gets ``_horizontal`` appended. Maps are float32
-    TIFF (unwrapped and absolute phase: float64, which keeps its fraction of a fringe at any
-    projector coordinate) with NaN where invalid
-    (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md describes each.
+    names with ``__<set label>`` appended for every set (unless ``per_set`` is False), and the
+    unsuffixed names for the finest set of the primary family. ``unwrapped_phase.tiff`` and
+    ``absolute_phase.tiff`` belong to the primary family; a second (horizontal) family gets
+    ``_horizontal`` appended. Maps are uncompressed float32 TIFF (unwrapped and absolute phase:
+    float64, which keeps its fraction of a fringe at any projector coordinate) with NaN where
+    invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md describes each. The
+    files are written on a few threads once every name is known (the encoders release the
+    GIL).
 
     Parameters
     ----------
@@ -154,6 +197,11 @@ def write_phase_maps(
         With ``uncertainty`` and several sets: also ``phase_std__<set label>.tiff`` for every
         set predicted (False: only the unsuffixed ``phase_std.tiff`` of the primary family's
         finest set, what ``measure`` writes).
+    per_set : bool
+        With several sets: write every set's maps with ``__<set label>`` appended (default;
+        ``phase --per-set-maps``). False: only the final maps (the unsuffixed maps of the
+        primary family's finest set, the unwrapped and absolute phases), what ``phase`` writes
+        by default; the summary still describes every set.
 
     Returns
     -------
@@ -197,6 +245,7 @@ def write_phase_maps(
     (1.0, True)
     """
     files: list[str] = []
+    jobs: list[Job] = []  # the writes, run on a few threads at the end (_run_writes)
     primary = decoded.primary
     std = None if uncertainty is None else uncertainty.set_phase_std
     if len(decoded.sets) == 1:
@@ -206,18 +255,20 @@ def write_phase_maps(
             decoded.set_results[label],
             "",
             files,
+            jobs,
             previews=previews,
             phase_std=std,
             label=label,
         )
     else:
-        for s in decoded.sets:
+        for s in decoded.sets if per_set else ():
             each = std if std_per_set else None
             _write_set(
                 out,
                 decoded.set_results[s.label],
                 f"__{s.label}",
                 files,
+                jobs,
                 previews=previews,
                 phase_std=each,
                 label=s.label,
@@ -229,6 +280,7 @@ def write_phase_maps(
                 decoded.set_results[label],
                 "",
                 files,
+                jobs,
                 previews=previews,
                 phase_std=std,
                 label=label,
@@ -238,9 +290,9 @@ def write_phase_maps(
     for i, fam in enumerate(decoded.families):
         suffix = "" if i == 0 else f"_{fam.orientation}"
         name = f"unwrapped_phase{suffix}"
-        _write_float64_tiff(out / f"{name}.tiff", fam.unwrapped_phase)
+        jobs.append(partial(_write_float64_tiff, out / f"{name}.tiff", fam.unwrapped_phase))
         files.append(f"{name}.tiff")
-        _preview(shown, out / f"{name}.png", fam.unwrapped_phase, title=name, label="rad")
+        _preview(shown, out / f"{name}.png", fam.unwrapped_phase, jobs, title=name, label="rad")
         entry: dict[str, Any] = {
             "orientation": fam.orientation,
             "sets": [s.label for s in fam.sets],
@@ -256,12 +308,15 @@ def write_phase_maps(
             entry["regions_map"] = f"regions{suffix}.tiff"
         if fam.absolute_phase is not None:
             aname = f"absolute_phase{suffix}"
-            _write_float64_tiff(out / f"{aname}.tiff", fam.absolute_phase)
+            jobs.append(partial(_write_float64_tiff, out / f"{aname}.tiff", fam.absolute_phase))
             files.append(f"{aname}.tiff")
-            _preview(shown, out / f"{aname}.png", fam.absolute_phase, title=aname, label="rad")
+            _preview(
+                shown, out / f"{aname}.png", fam.absolute_phase, jobs, title=aname, label="rad"
+            )
             entry["absolute_phase"] = f"{aname}.tiff"
             entry["absolute_method"] = fam.absolute_method
         families.append(entry)
+    _run_writes(jobs)
     sets = []
     for s in decoded.sets:
         r = decoded.set_results[s.label]

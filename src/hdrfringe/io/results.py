@@ -1200,8 +1200,9 @@ def read_map_tiff(path: str | Path) -> np.ndarray:
         ) from None
 
 
-#: Previews: maps wider than this are subsampled by an integer stride, narrower than the
-#: minimum enlarged by an integer factor; invalid (NaN) pixels are this gray.
+#: Previews: maps whose longer side exceeds this are subsampled by an integer stride (for
+#: viewing: a 12 Mpx map's preview is 1024x750), narrower than the minimum enlarged by an
+#: integer factor; invalid (NaN) pixels are this gray.
 PREVIEW_MAX_WIDTH = 1024
 PREVIEW_MIN_WIDTH = 256
 PREVIEW_INVALID_GRAY = (128, 128, 128)
@@ -1221,12 +1222,12 @@ def write_preview_png(
 
     The map is coloured by a lookup in matplotlib's colour map (256 levels; the tables of the
     usual maps are stored in :mod:`hdrfringe.io._colormaps`, so matplotlib is not imported) and
-    drawn with Pillow, one image pixel per map pixel (maps wider than 1024 px are subsampled by
-    an integer stride, maps narrower than 256 px enlarged by an integer factor), with the title
-    above and a colour bar with its range and label at the right. No figure is laid out: a
-    preview costs about what its TIFF costs. Without ``vmin``/``vmax`` the colour range spans
-    the 0.5 and 99.5 percentiles of the finite values, so a few outliers do not flatten the
-    picture.
+    drawn with Pillow, one image pixel per map pixel (maps longer than 1024 px on either side
+    are subsampled by an integer stride, maps narrower than 256 px enlarged by an integer
+    factor), with the title above and a colour bar with its range and label at the right. No
+    figure is laid out: a preview costs about what its TIFF costs. Without ``vmin``/``vmax``
+    the colour range spans the 0.5 and 99.5 percentiles of the finite values, so a few
+    outliers do not flatten the picture.
 
     Parameters
     ----------
@@ -1256,13 +1257,13 @@ def write_preview_png(
 
     from hdrfringe.io._colormaps import colormap_lut
 
-    arr = np.asarray(data, dtype=np.float64)
+    arr = np.asarray(data)
     if arr.ndim != 2 or arr.size == 0:
         raise InputError(f"{path}: a preview needs a non-empty 2-D map, got shape {arr.shape}")
-    w = arr.shape[1]
-    if w > PREVIEW_MAX_WIDTH:
-        stride = -(-w // PREVIEW_MAX_WIDTH)
+    if max(arr.shape) > PREVIEW_MAX_WIDTH:  # subsampled first: no full-size float64 copy
+        stride = -(-max(arr.shape) // PREVIEW_MAX_WIDTH)
         arr = arr[::stride, ::stride]
+    arr = np.asarray(arr, dtype=np.float64)
     finite = np.isfinite(arr)
     if vmin is None:
         vmin = float(np.percentile(arr[finite], 0.5)) if finite.any() else 0.0

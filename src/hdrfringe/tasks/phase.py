@@ -31,9 +31,13 @@ class PhaseOptions:
     noise_sigma : float, optional
         Camera noise std in DN (else the manifest's, else estimated).
     map_dtype : str
-        ``float64`` or ``float32``.
+        ``float32`` (default: the maps computed in float64 per block, stored in float32, as
+        they are written) or ``float64``; with ``saturated="exclude"`` float64 always.
     harmonics : str
         ``off``, ``auto`` or a number of orders.
+    per_set_maps : bool
+        With several sets, also every set's maps (``__<set label>`` appended); default: the
+        final maps only (:func:`hdrfringe.io.phase_maps.write_phase_maps`, ``per_set``).
 
     Examples
     --------
@@ -48,8 +52,9 @@ class PhaseOptions:
     previews: bool = True
     uncertainty: bool = True
     noise_sigma: float | None = None
-    map_dtype: str = "float64"
+    map_dtype: str = "float32"
     harmonics: str = "off"
+    per_set_maps: bool = False
 
 
 @dataclass(frozen=True)
@@ -112,8 +117,8 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
     >>> report = phase(tmp / "caps", tmp / "out", PhaseOptions(previews=False))
     >>> [s["label"] for s in report.summary["sets"]][:1]
     ['s4_p1024_v_i40_g255']
-    >>> "unwrapped_phase.tiff" in report.summary["files"]
-    True
+    >>> "unwrapped_phase.tiff" in report.summary["files"], len(report.summary["files"])
+    (True, 8)
     """
     from hdrfringe.errors import CaptureFormatError
     from hdrfringe.io.captures import read_capture_folder
@@ -143,30 +148,63 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
             reject_saturated=not o.keep_saturated,
             map_dtype=o.map_dtype,
             harmonics=o.harmonics,
+            quality_maps="every" if o.per_set_maps else "final",
         )
     else:
         decoded = decode_captures(
             captures, min_modulation=o.min_modulation, saturated="exclude", min_shifts=o.min_shifts
         )
     unc, unc_block = None, None
+    n_pixels = captures.image_shape[0] * captures.image_shape[1]
     if o.uncertainty:
-        from hdrfringe.core.uncertainty import NoiseModel, NoiseUnknownError, predict_uncertainty
+        from hdrfringe.core.uncertainty import (
+            NoiseModel,
+            NoiseUnknownError,
+            predict_uncertainty,
+            resolve_noise,
+        )
 
         noise = None
         if o.noise_sigma is not None:
             noise = NoiseModel(o.noise_sigma, source="given (--noise-sigma)")
         try:
-            unc = predict_uncertainty(captures, decoded, noise=noise)
+            model = resolve_noise(captures, noise)
         except NoiseUnknownError as exc:  # none given and none to estimate (every set N = 3)
             unc_block = {"predicted": False, "reason": str(exc)}
+        else:
+            if o.saturated == "flag":  # the std needs the decoded maps, not the images
+                captures = _without_images(captures)
+            unc = predict_uncertainty(
+                captures, decoded, noise=model, finest_only=not o.per_set_maps
+            )
+    del captures  # the image stack, released before the maps are written
     with staged_output_dir(output, force=force) as tmp:
         summary = write_phase_maps(
-            tmp, decoded, str(folder), previews=o.previews, uncertainty=unc
+            tmp,
+            decoded,
+            str(folder),
+            previews=o.previews,
+            uncertainty=unc,
+            per_set=o.per_set_maps,
         )
         if unc_block is not None:  # not predicted: the reason, where the block would be
             files = summary.pop("files")
             summary |= {"uncertainty": unc_block, "files": files}
             text = json.dumps(summary, indent=1) + "\n"
             (Path(tmp) / "phase_summary.json").write_text(text, encoding="utf-8")
-    n_pixels = captures.image_shape[0] * captures.image_shape[1]
     return PhaseReport(output, summary, n_pixels)
+
+
+def _without_images(captures: Any) -> Any:
+    """The captures' description (frames, sets, bit depth, camera) with their images replaced
+    by a read-only view of one zero, so that the image stack (12 bytes per pixel for three
+    4-step 8-bit sets) is freed once decoded:
+    :func:`hdrfringe.core.uncertainty.predict_uncertainty` given a noise model reads the
+    decoded maps only, except for a tolerant decode's images, which keep theirs
+    (benchmarks/README.md, "Real camera sizes")."""
+    import dataclasses
+
+    import numpy as np
+
+    zero = captures.images.dtype.type(0)
+    return dataclasses.replace(captures, images=np.broadcast_to(zero, captures.images.shape))
