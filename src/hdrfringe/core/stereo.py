@@ -156,7 +156,8 @@ def _undistort_block(xd: F64, yd: F64, d8: tuple[float, ...], stop: float) -> tu
         more = ~(e <= stop)
         if step == _UNDISTORT_ITERATIONS or not more.any():
             break
-        act, xa, ya, a, b, c, rx, ry, da = (v[more] for v in (act, xa, ya, a, b, c, rx, ry, da))
+        act = act[more]
+        xa, ya, a, b, c, rx, ry, da = (v[more] for v in (xa, ya, a, b, c, rx, ry, da))
         x[act] = xa + (c * rx - b * ry) / da
         y[act] = ya + (a * ry - b * rx) / da
     return x, y, err, det
