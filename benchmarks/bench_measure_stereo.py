@@ -15,6 +15,9 @@ one run of each, so a busy machine slows both alike):
 - ``python -m hdrfringe.cli measure FOLDER -c STEREO.h5 -o OUT --force``, a fresh process
   (decode, the direction check, triangulation, the dominant plane, the outputs).
 
+``--baseline-src DIR`` adds the same two commands run with ``PYTHONPATH=DIR`` (an older
+checkout's ``src``, native kernels built), in the same rounds: before and after in one run.
+
 Each process's wall time and peak RSS (its own ``ru_maxrss``, from ``os.wait4``) are recorded;
 printed are the medians of the wall times, the largest peak of each, and the ratios
 measure / phase (issue 30's targets: wall at most 3, peak RSS at most 1 GB).
@@ -79,10 +82,12 @@ def prepare(tmp: Path) -> tuple[Path, Path]:
     return caps, cal
 
 
-def run_process(cmd: list[str]) -> tuple[float, int]:
-    """Wall time (s) and peak RSS (bytes) of one fresh process running ``cmd``."""
+def run_process(cmd: list[str], pythonpath: str | None = None) -> tuple[float, int]:
+    """Wall time (s) and peak RSS (bytes) of one fresh process running ``cmd`` (with
+    ``PYTHONPATH`` set to ``pythonpath`` when given)."""
+    env = None if pythonpath is None else {**os.environ, "PYTHONPATH": pythonpath}
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     proc.returncode = os.waitstatus_to_exitcode(status)
@@ -125,6 +130,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--baseline-src", type=Path, default=None,
+                    help="also run both commands with PYTHONPATH=DIR (e.g. an older checkout's "
+                    "src), interleaved: before/after in one run")  # fmt: skip
     args = ap.parse_args()
     if not REALDATA.exists():
         print(f"skipped: the real captures are not here ({REALDATA}); nothing measured")
@@ -139,11 +147,16 @@ def main() -> None:
             "measure -c": [py, "-m", "hdrfringe.cli", "measure", str(caps), "-c", str(cal), "-o",
                            str(out_m), "--force"],
         }  # fmt: skip
+        paths: dict[str, str | None] = dict.fromkeys(cases)
+        if args.baseline_src is not None:
+            for name in list(cases):
+                cases[f"{name} (baseline)"] = cases[name]
+                paths[f"{name} (baseline)"] = str(args.baseline_src.resolve())
         walls: dict[str, list[float]] = {k: [] for k in cases}
         peaks: dict[str, list[int]] = {k: [] for k in cases}
         for _ in range(args.repeats):
             for name, cmd in cases.items():
-                wall, rss = run_process(cmd)
+                wall, rss = run_process(cmd, paths[name])
                 walls[name].append(wall)
                 peaks[name].append(rss)
         phase = tifffile.imread(out_m / "absolute_phase_horizontal.tiff").astype(np.float64)
@@ -189,10 +202,16 @@ def main() -> None:
           f"load average {os.getloadavg()[0]:.2f} at the end; kimthyung sphere "
           f"{cam.size[0]}x{cam.size[1]}, {args.repeats} interleaved rounds")  # fmt: skip
     head = f"{'wall s (median)':>16} {'(min':>7} {'max)':>7} {'peak RSS GB':>12}"
-    print(f"  {'fresh process':<14} {head}")
+    print(f"  {'fresh process':<22} {head}")
     for k in cases:
         w = walls[k]
-        print(f"  {k:<14} {med[k]:16.2f} {min(w):7.2f} {max(w):7.2f} {peak[k] / 1e9:12.3f}")
+        print(f"  {k:<22} {med[k]:16.2f} {min(w):7.2f} {max(w):7.2f} {peak[k] / 1e9:12.3f}")
+    if args.baseline_src is not None:
+        base = ("measure -c (baseline)", "phase (baseline)")
+        print(f"  baseline ({args.baseline_src}): measure / phase wall "
+              f"{med[base[0]] / med[base[1]]:.2f}, peak RSS {peak[base[0]] / peak[base[1]]:.2f}; "
+              f"measure now / baseline: wall {med['measure -c'] / med[base[0]]:.2f}, peak RSS "
+              f"{peak['measure -c'] / peak[base[0]]:.2f}")  # fmt: skip
     ratio_wall = med["measure -c"] / med["phase"]
     ratio_rss = peak["measure -c"] / peak["phase"]
     print(f"  measure / phase: wall {ratio_wall:.2f} (target <= {TARGET_RATIO:g}), peak RSS "
