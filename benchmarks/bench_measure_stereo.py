@@ -57,9 +57,9 @@ import cv2
 import numpy as np
 import tifffile
 
-from hdrfringe import stereo
+from hdrfringe.core import stereo
+from hdrfringe.core.stereo import fit_dominant_plane, triangulate_maps
 from hdrfringe.io.stereo_file import load_stereo_calibration
-from hdrfringe.stereo import fit_dominant_plane, triangulate_maps
 
 ROOT = Path(__file__).resolve().parents[1]
 REALDATA = ROOT.parent / "shared" / "realdata" / "kimthyung_sphere"
