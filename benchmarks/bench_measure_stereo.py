@@ -16,7 +16,9 @@ one run of each, so a busy machine slows both alike):
   (decode, the direction check, triangulation, the dominant plane, the outputs).
 
 ``--baseline-src DIR`` adds the same two commands run with ``PYTHONPATH=DIR`` (an older
-checkout's ``src``, native kernels built), in the same rounds: before and after in one run.
+checkout's ``src``, native kernels built), in the same rounds: before and after in one run;
+then every TIFF map both measurements wrote is compared (largest difference, pixels valid in
+one only).
 
 Each process's wall time and peak RSS (its own ``ru_maxrss``, from ``os.wait4``) are recorded;
 printed are the medians of the wall times, the largest peak of each, and the ratios
@@ -125,6 +127,24 @@ def plain_triangulation(
     return lam[:, None] * rays
 
 
+def compare_maps(ours: Path, theirs: Path) -> dict[str, dict[str, float]]:
+    """Every TIFF map both measurements wrote: the largest difference where both are finite
+    and the pixels finite in only one."""
+    out = {}
+    for path in sorted(ours.glob("*.tiff")):
+        other = theirs / path.name
+        if other.exists():
+            a = tifffile.imread(path).astype(np.float64)
+            b = tifffile.imread(other).astype(np.float64)
+            both = np.isfinite(a) & np.isfinite(b)
+            diff = float(np.abs(a - b)[both].max()) if both.any() else 0.0
+            out[path.name] = {
+                "max_abs": diff,
+                "valid_differs": int((np.isfinite(a) != np.isfinite(b)).sum()),
+            }
+    return out
+
+
 def main() -> None:
     """Time the processes interleaved, then the triangulation against the floor; print."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -150,7 +170,10 @@ def main() -> None:
         paths: dict[str, str | None] = dict.fromkeys(cases)
         if args.baseline_src is not None:
             for name in list(cases):
-                cases[f"{name} (baseline)"] = cases[name]
+                out = str(Path(d) / f"{name.split()[0]}_baseline")  # its own outputs
+                cases[f"{name} (baseline)"] = [
+                    out if a == cases[name][-2] else a for a in cases[name]
+                ]
                 paths[f"{name} (baseline)"] = str(args.baseline_src.resolve())
         walls: dict[str, list[float]] = {k: [] for k in cases}
         peaks: dict[str, list[int]] = {k: [] for k in cases}
@@ -160,6 +183,8 @@ def main() -> None:
                 walls[name].append(wall)
                 peaks[name].append(rss)
         phase = tifffile.imread(out_m / "absolute_phase_horizontal.tiff").astype(np.float64)
+        if args.baseline_src is not None:
+            result["maps_vs_baseline"] = compare_maps(out_m, Path(d) / "measure_baseline")
         calib = load_stereo_calibration(cal)
 
     v = PITCH * phase / (2 * np.pi)
@@ -212,6 +237,13 @@ def main() -> None:
               f"{med[base[0]] / med[base[1]]:.2f}, peak RSS {peak[base[0]] / peak[base[1]]:.2f}; "
               f"measure now / baseline: wall {med['measure -c'] / med[base[0]]:.2f}, peak RSS "
               f"{peak['measure -c'] / peak[base[0]]:.2f}")  # fmt: skip
+    maps = result.get("maps_vs_baseline")
+    if isinstance(maps, dict) and maps:
+        moved = {k: v for k, v in maps.items() if v["max_abs"] or v["valid_differs"]}
+        said = [f"{k} max {v['max_abs']:.2g}, {v['valid_differs']} px valid in one only"
+                for k, v in moved.items()]  # fmt: skip
+        print(f"  measure's maps against the baseline's: {len(maps) - len(moved)} of "
+              f"{len(maps)} identical; " + "; ".join(said))  # fmt: skip
     ratio_wall = med["measure -c"] / med["phase"]
     ratio_rss = peak["measure -c"] / peak["phase"]
     print(f"  measure / phase: wall {ratio_wall:.2f} (target <= {TARGET_RATIO:g}), peak RSS "
@@ -229,6 +261,7 @@ def main() -> None:
         print(f"  float32 ray table against float64: rays {f32['ray_px']:.1e} camera px, points "
               f"{f32['xyz_mm']:.1e} mm at most")  # fmt: skip
     result = {
+        **result,
         "wall_s": walls, "peak_rss_bytes": peaks, "median_wall_s": med, "peak_rss_max": peak,
         "measure_over_phase": {"wall": ratio_wall, "peak_rss": ratio_rss},
         "in_process_s": seconds, "in_process_median_s": t_in, "ratios_to_floor": ratios,
