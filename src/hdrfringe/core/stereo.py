@@ -89,14 +89,14 @@ def _finite_array(value: ArrayLike, name: str, shape: tuple[int, ...] | None = N
 
 
 #: Points per block of the numpy lens kernels below: a block's temporaries stay in the CPU
-#: cache and off the page-fault path (on a whole 3 Mpx image the same kernels run 5-10x
-#: slower unblocked).
+#: cache and off the page-fault path (on a whole 3 Mpx image the same kernels run several
+#: times slower unblocked).
 _LENS_BLOCK = 1 << 14
 
 #: Undistortion: Newton's method on the OpenCV model stops when the point reprojects onto its
 #: pixel within this many pixels (or after :data:`_UNDISTORT_ITERATIONS` steps).
 _UNDISTORT_STOP_PX = 1e-10
-#: Newton steps at most (3-4 suffice inside a lens's field; the rest are for points near the
+#: Newton steps at most (a few suffice inside a lens's field; the rest are for points near the
 #: edge of a strong lens).
 _UNDISTORT_ITERATIONS = 50
 
@@ -252,8 +252,8 @@ class LensModel:
         -----
         OpenCV's distortion model evaluated in numpy, in blocks (``cv2.projectPoints`` also
         computes a 15-column Jacobian per point, which made it the largest cost of a
-        measurement); it agrees with ``cv2.projectPoints`` to about 1e-12 px
-        (tests/test_stereo.py).
+        measurement); it agrees with ``cv2.projectPoints`` within 1e-9 px
+        (tests/test_stereo.py, tests/test_geometric_order.py).
 
         Examples
         --------
@@ -301,11 +301,11 @@ class LensModel:
         Notes
         -----
         Newton's method on the OpenCV model (its analytic Jacobian), started at the distorted
-        point, in numpy blocks, until the point reprojects onto its pixel within 1e-10 px (3-4
+        point, in numpy blocks, until the point reprojects onto its pixel within 1e-10 px (a few
         steps inside a lens's field, at most 50). OpenCV's ``undistortPoints`` iterates
         ``x <- (x_d - delta(x)) / radial(x)`` instead, whose default 5 iterations leave tens of
-        millipixels on a strong lens; run to the same 1e-10 px it agrees with this to about
-        1e-10 px (tests/test_stereo.py).
+        millipixels on a strong lens; run to the same 1e-10 px it agrees with this within
+        1e-6 px (tests/test_ray_table.py).
 
         Examples
         --------
@@ -670,7 +670,7 @@ _TOLERANCE_PX = 1e-4
 _MAX_ITERATIONS = 50
 #: Pixels per block of a triangulation: bounds its temporaries (a few dozen arrays of a
 #: block) whatever the image size, and keeps them in the CPU cache (blocks of 2**16 pixels
-#: took 1.5-3x longer on the kimthyung sphere).
+#: took longer on the kimthyung sphere).
 _TRIANGULATE_BLOCK = 1 << 14
 #: One direction: Newton's method along the epipolar line stops when the point's projector
 #: coordinate is within this many pixels of the given one.
@@ -703,7 +703,7 @@ def triangulate(
         One direction only: the point must project onto the given projector coordinate within
         this (pixels), else it is NaN.
     max_iterations : int
-        One direction only: Newton steps at most (2-4 suffice with a calibrated lens).
+        One direction only: Newton steps at most (a few suffice with a calibrated lens).
 
     Returns
     -------
@@ -729,7 +729,7 @@ def triangulate(
     point of that line whose distorted projection has the column ``u_proj`` is found by
     Newton's method along the line (the distortion's analytic Jacobian), started where the
     line meets the column's pinhole line ``fx x + s y + cx = u_proj`` (without distortion the
-    answer); it stops within 1e-9 px (typically 2-4 steps), and the projector ray through
+    answer); it stops within 1e-9 px (typically a few steps), and the projector ray through
     that point meets the camera ray: the point lies on the camera ray and projects exactly
     onto ``u_proj``, not a linearisation. ``v_proj`` alone is the same with the roles
     swapped.
