@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
 .PHONY: install system-packages demo test test-narrow lint bench bench-sweep bench-cold bench-peers \
-	bench-memory bench-measure bench-unwrap bench-large native clean
+	bench-memory bench-measure bench-measure-stereo bench-unwrap bench-large native clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -110,6 +110,9 @@ bench-memory: $(BENCH_VENV)/.installed-stamp
 
 bench-measure: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_measure.py
+
+bench-measure-stereo: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_measure_stereo.py
 
 bench-unwrap: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_unwrap.py

@@ -819,12 +819,12 @@ def _absolute_phase(captures: Captures, decoded: FolderPhase) -> tuple[F64, Frin
 _STEREO_DIRECTIONS = ("auto", "u", "v")
 
 
-def _triangulate(
-    caps: Captures, decoded: FolderPhase, calibration: StereoCalibration, directions: str = "auto"
-) -> StereoMaps:
+def _projector_coordinates(
+    caps: Captures, decoded: FolderPhase, directions: str = "auto"
+) -> tuple[dict[str, F64], F64 | None]:
     """Projector coordinates of the first family of each orientation with an absolute phase
-    (only ``u`` or only ``v`` when ``directions`` says so), triangulated; the quality is the
-    data modulation of the first family used's finest set."""
+    (only ``u`` or only ``v`` when ``directions`` says so) and the quality: the data
+    modulation of the first family used's finest set."""
     coords: dict[str, F64] = {}
     quality = None
     for fam in decoded.families:
@@ -841,6 +841,15 @@ def _triangulate(
             "a set whose pitch spans the projector (one period), a Gray code or a centerline "
             "frame"
         )
+    return coords, quality
+
+
+def _triangulate(
+    caps: Captures, decoded: FolderPhase, calibration: StereoCalibration, directions: str = "auto"
+) -> StereoMaps:
+    """The projector coordinates (:func:`_projector_coordinates`) triangulated, with their
+    quality."""
+    coords, quality = _projector_coordinates(caps, decoded, directions)
     maps = triangulate_maps(calibration, u_proj=coords.get("u"), v_proj=coords.get("v"))
     return dataclasses.replace(maps, quality=quality)
 
@@ -902,14 +911,13 @@ def _triangulate_auto(
     (:func:`hdrfringe.core.stereo.check_directions`) with the phase noise predicted
     (docs/uncertainty.md), else measured from the maps' roughness; the check (None with one
     coordinate)."""
-    maps = _triangulate(caps, decoded, calibration, "auto")
-    if maps.directions != ("u", "v"):
-        return maps, None
-    coords: dict[str, tuple[F64, str]] = {}
-    for fam in decoded.families:
-        key = "u" if fam.orientation == "vertical" else "v"
-        if key not in coords and fam.absolute_phase is not None:
-            coords[key] = (projector_coordinate(fam.absolute_phase, fam.pitch_px), fam.orientation)
+    found, _ = _projector_coordinates(caps, decoded)
+    if len(found) < 2:
+        return _triangulate(caps, decoded, calibration, "auto"), None
+    # the check looks at a subsample: the whole image is triangulated once, afterwards
+    coords: dict[str, tuple[F64, str]] = {
+        k: (c, "vertical" if k == "u" else "horizontal") for k, c in found.items()
+    }
     sigma: dict[str, F64 | float]
     try:
         given = noise if isinstance(noise, NoiseModel) or noise is None else NoiseModel(noise)
@@ -926,9 +934,9 @@ def _triangulate_auto(
     check = check_directions(
         calibration, coords["u"][0], coords["v"][0], sigma["u"], sigma["v"], sigma_source=source
     )
-    if check.directions != maps.directions:
-        maps = _triangulate(caps, decoded, calibration, check.directions[0])
-    return maps, check
+    kept = "auto" if check.directions == ("u", "v") else check.directions[0]
+    del found, coords  # the triangulation makes the ones it keeps again
+    return _triangulate(caps, decoded, calibration, kept), check
 
 
 def _measure_captures(

@@ -745,12 +745,12 @@ def _decode_graycode(
     """
     fs = full_scale(captures.camera_bit_depth)
     min_contrast = 5.0 * fs / 255.0  # OpenCV's default "white threshold", 5 DN at 8 bits
-    images = captures.images.astype(np.float64)
-    pattern = images[list(code.frame_indices)]
+    images = captures.images  # only the code's frames in float64, not the whole stack
+    pattern = images[list(code.frame_indices)].astype(np.float64)
     if code.inverse_indices is not None:
         dec = decode_graycode(
             pattern,
-            inverses=images[list(code.inverse_indices)],
+            inverses=images[list(code.inverse_indices)].astype(np.float64),
             code=code.code,
             min_contrast=min_contrast,
             full_scale=fs,

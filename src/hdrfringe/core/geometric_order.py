@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from hdrfringe.core.decode import FamilyResult, FolderPhase
-from hdrfringe.core.stereo import StereoCalibration
+from hdrfringe.core.stereo import StereoCalibration, ray_table
 from hdrfringe.core.unwrap import unwrap_temporal
 from hdrfringe.errors import InputError
 
@@ -124,16 +124,16 @@ def _camera_rays(
         raise InputError("calibration must be a StereoCalibration (measure -c STEREO.h5)")
     if (u_cam is None) != (v_cam is None):
         raise InputError("give both u_cam and v_cam, or neither (every camera pixel)")
-    if u_cam is None:
-        width, height = calibration.camera.size
-        rows, cols = np.mgrid[0:height, 0:width].astype(np.float64)
-    else:
-        try:
-            cols, rows = np.broadcast_arrays(
-                np.asarray(u_cam, np.float64), np.asarray(v_cam, np.float64)
-            )
-        except ValueError:
-            raise InputError("u_cam and v_cam do not broadcast; give arrays of one shape") from None
+    if u_cam is None:  # every pixel: the camera's ray table, computed once per calibration
+        table = ray_table(calibration.camera)
+        x, y = table[0].reshape(-1), table[1].reshape(-1)
+        return np.stack([x, y, np.ones_like(x)], axis=-1), table.shape[1:]
+    try:
+        cols, rows = np.broadcast_arrays(
+            np.asarray(u_cam, np.float64), np.asarray(v_cam, np.float64)
+        )
+    except ValueError:
+        raise InputError("u_cam and v_cam do not broadcast; give arrays of one shape") from None
     x, y = calibration.camera.undistort(cols.reshape(-1), rows.reshape(-1))
     return np.stack([x, y, np.ones_like(x)], axis=-1), cols.shape
 
