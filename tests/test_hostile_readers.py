@@ -143,3 +143,63 @@ def test_4_5_stereo_from_huge_npz_and_fifo(tmp_path: Path) -> None:
     fifo = tmp_path / "calib.yml"
     os.mkfifo(fifo)
     _refused(run_cli("calibrate-stereo", "--from", str(fifo), "-o", str(out)), out, "is a FIFO")
+
+
+# --- 10: manifests and odd paths ------------------------------------------------------------
+
+
+def _edit_manifest(folder: Path, edit: object) -> None:
+    path = folder / "manifest.json"
+    manifest = json.loads(path.read_text())
+    edit(manifest)  # type: ignore[operator]
+    path.write_text(json.dumps(manifest))
+
+
+@pytest.mark.parametrize(
+    ("edit", "needles"),
+    [
+        (lambda m: m["frames"][0].update(file="a\x00b.png"), ["frame 0", "NUL byte"]),
+        (lambda m: m["camera"].update(bit_depth=12), ["8-bit image", "camera.bit_depth is 12"]),
+        (lambda m: m["camera"].update(gain_dn_per_e=-1.0), ["camera: field 'gain_dn_per_e'"]),
+        (
+            lambda m: m["camera"].update(read_noise_dn=-1.0, gain_dn_per_e=0.01),
+            ["camera: field 'read_noise_dn' must be >= 0"],
+        ),
+    ],
+    ids=["nul", "12-bit-over-8-bit", "negative-gain", "negative-read-noise"],
+)
+def test_10_manifest_values(
+    tmp_path: Path, capture_folder: Path, edit: object, needles: list[str]
+) -> None:
+    """A NUL byte gave a ValueError traceback; a 12-bit manifest over 8-bit PNGs (clipping at
+    255) counted no saturated pixel; a negative gain was accepted, a negative read noise refused
+    by a message naming no manifest field."""
+    _edit_manifest(capture_folder, edit)
+    out = tmp_path / "out"
+    _refused(run_cli("phase", str(capture_folder), "-o", str(out)), out, *needles)
+
+
+def test_10_unreadable_manifest(
+    tmp_path: Path, capture_folder: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``chmod 000 manifest.json`` gave a PermissionError traceback (simulated: the suite may
+    run as root, which reads any file)."""
+    real_open = Path.open
+
+    def deny(self: Path, *args: object, **kwargs: object) -> object:
+        if self.name == "manifest.json":
+            raise PermissionError(13, "Permission denied", str(self))
+        return real_open(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Path, "open", deny)
+    out = tmp_path / "out"
+    res = run_cli("phase", str(capture_folder), "-o", str(out))
+    _refused(res, out, "manifest.json: cannot read the file (Permission denied)", "chmod")
+
+
+def test_10_import_description_is_a_folder(tmp_path: Path, capture_folder: Path) -> None:
+    """``import -d FOLDER`` said the description "does not exist"."""
+    out, desc = tmp_path / "out", tmp_path / "desc.toml"
+    desc.mkdir()
+    res = run_cli("import", str(capture_folder), "-d", str(desc), "-o", str(out))
+    _refused(res, out, f"{desc}: is a folder, not a description file")

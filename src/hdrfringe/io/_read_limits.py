@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe.core._validation import check_regular_file
 from hdrfringe.core.limits import (
     MAX_IMAGE_PIXELS,
     MAX_JSON_DEPTH,
@@ -140,14 +141,20 @@ def load_json_bounded(path: str | Path) -> Any:
     """
     path = Path(path)
     where = str(path)
-    size = path.stat().st_size
-    if size > MAX_MANIFEST_BYTES:
+    try:
+        size = path.stat().st_size
+        if size > MAX_MANIFEST_BYTES:
+            raise CaptureFormatError(
+                f"{where}: {size} bytes, more than the limit of {MAX_MANIFEST_BYTES}; a manifest "
+                "lists frames, it holds no image data"
+            )
+        with path.open("rb") as fh:  # read at most the limit, even if the file grew meanwhile
+            raw = fh.read(MAX_MANIFEST_BYTES + 1)
+    except OSError as exc:  # no permission, an I/O error: the file, not its contents
         raise CaptureFormatError(
-            f"{where}: {size} bytes, more than the limit of {MAX_MANIFEST_BYTES}; a manifest "
-            "lists frames, it holds no image data"
-        )
-    with path.open("rb") as fh:  # read at most the limit, even if the file grew meanwhile
-        raw = fh.read(MAX_MANIFEST_BYTES + 1)
+            f"{where}: cannot read the file ({exc.strerror or reason_of(exc)}); check its "
+            "permissions (chmod u+r) or copy the folder again"
+        ) from None
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -257,6 +264,8 @@ def load_toml_bounded(
 
     path = Path(path)
     if not path.is_file():
+        if path.exists():  # a folder, a FIFO (which would block the read), a device
+            check_regular_file(path, what, missing)
         raise InputError(f"{path}: {what} file does not exist; {missing}")
     with path.open("rb") as fh:  # at most the limit, even if the file grew meanwhile
         raw = fh.read(max_bytes + 1)

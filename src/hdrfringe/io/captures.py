@@ -130,6 +130,12 @@ def _choice(entry: dict[str, Any], key: str, where: str, allowed: Sequence[str])
 def _safe_relpath(file: Any, where: str, key: str = "file") -> str:
     if not isinstance(file, str) or not file:
         raise _fail(where, f"field '{key}' must be a non-empty string, got {file!r}", "fix it")
+    if any(ord(c) < 32 or ord(c) == 127 for c in file):  # NUL: the OS refuses the name
+        raise _fail(
+            where,
+            f"field '{key}' {file!r} holds a control character (a NUL byte or a line break)",
+            "name the image file with printable characters",
+        )
     norm = posixpath.normpath(file.replace("\\", "/"))
     if posixpath.isabs(norm) or norm == ".." or norm.startswith("../") or ":" in norm.split("/")[0]:
         raise _fail(
@@ -416,6 +422,22 @@ def _check_manifest(folder: Path) -> tuple[dict[str, Any], list[str]]:
         for key in ("focal_px", "standoff_mm"):  # the camera geometry, where given
             if key in camera:
                 _collect(problems, _number, camera, key, f"{where} camera", positive=True)
+        for key in ("read_noise_dn", "gain_dn_per_e"):  # the noise model, where given
+            value = (
+                _collect(problems, _number, camera, key, f"{where} camera")
+                if key in camera
+                else None
+            )
+            if value is not None and value < 0:
+                problems.append(
+                    str(
+                        _fail(
+                            f"{where} camera",
+                            f"field '{key}' must be >= 0, got {camera[key]!r}",
+                            "give the camera's noise in DN (gain in DN per electron)",
+                        )
+                    )
+                )
     projector = manifest.get("projector")
     projector_ok = projector is None
     if projector is not None and not isinstance(projector, dict):
@@ -510,6 +532,7 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
         )
     header = probe_image(path)  # size from the header, before any pixel is decoded
     _check_image_layout(path, header.shape, header.dtype)
+    _check_container_bits(path, header.dtype, bit_depth)
     try:
         if path.suffix.lower() in (".tif", ".tiff"):
             import tifffile
@@ -551,6 +574,19 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
             f"depth {bit_depth}; fix camera.bit_depth in the manifest"
         )
     return img
+
+
+def _check_container_bits(path: Path, dtype: np.dtype, bit_depth: int) -> None:
+    """Refuse integer images too narrow for the bit depth: a 12-bit manifest over 8-bit PNGs
+    clips at 255, which is not 2^B - 1, so no clipped pixel would count as saturated."""
+    bits = np.dtype(dtype).itemsize * 8
+    if np.dtype(dtype).kind == "u" and bits < bit_depth:
+        raise CaptureFormatError(
+            f"{path}: {bits}-bit image, but camera.bit_depth is {bit_depth}: values clipped at "
+            f"{(1 << bits) - 1} would not count as saturated (2^B - 1 = "
+            f"{full_scale(bit_depth)}); set camera.bit_depth to {bits} in the manifest, or "
+            "store the camera's full values"
+        )
 
 
 def _check_image_layout(path: Path, shape: tuple[int, ...], dtype: np.dtype) -> None:
@@ -1039,4 +1075,3 @@ def write_capture_folder(
             write_map_tiff(tmp / f"{key}.tiff", data)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return Path(path)
-
