@@ -154,10 +154,11 @@ def test_thomriiii_pyramid(tmp_path: Path) -> None:
 def test_kamino410_gamma(tmp_path: Path) -> None:
     """-120/0/+120 degrees: the hand-written manifest numbers them 2, 0, 1 (docs/import.md).
 
-    ``hdrfringe phase`` refuses this folder, imported or hand-written alike: two sets of one
-    orientation and pitch that differ only in their gamma pre-compensation are not a pitch
-    ladder; one line says it is a gamma capture and names ``hdrfringe gamma`` (exit 2,
-    nothing written). So the round trip compares the folders read back and every set decoded.
+    ``hdrfringe phase`` decodes this folder (it refused it before issue 31: "pitches must be
+    strictly decreasing"): sets of one orientation and pitch that differ in their gamma
+    pre-compensation are separate families, not one pitch ladder; each set's wrapped phase is
+    written, one family per orientation is unwrapped and a note names the other sets. The
+    round trip compares the folders read back and every set decoded.
     """
     root = realdata_path("kamino410", "gamma_correction_subset")
     caps = tmp_path / "caps"
@@ -167,14 +168,20 @@ def test_kamino410_gamma(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     from tests.test_next_hints import run_hint
 
-    command, ran = run_hint(res.stdout, tmp_path / "gamma")  # not phase: it refuses the sets
+    command, ran = run_hint(res.stdout, tmp_path / "gamma")  # gamma: what the sets are for
     assert command == "gamma" and ran.returncode == 0, ran.stderr
-    refused = run_cli("phase", str(caps), "-o", str(tmp_path / "phase"))
-    lines = [ln for ln in refused.stderr.splitlines() if ln.strip()]
-    assert refused.returncode == 2 and len(lines) == 1, refused.stderr
-    assert "pre-distorted with exponents 0.75, 1.25: a gamma capture" in lines[0]
-    assert f"`hdrfringe gamma {caps} -o OUT`" in lines[0] and "strictly" not in lines[0]
-    assert not (tmp_path / "phase").exists()
+    decoded = run_cli("phase", str(caps), "-o", str(tmp_path / "phase"))
+    assert decoded.returncode == 0, decoded.stderr
+    summary = json.loads((tmp_path / "phase" / "phase_summary.json").read_text())
+    assert len(summary["sets"]) == 4 and all(s["valid_fraction"] > 0.8 for s in summary["sets"])
+    assert [f["sets"] for f in summary["families"]] == [
+        ["s3_p240_v_i0_g255_gp0.75"],
+        ["s3_p240_h_i0_g255_gp0.75"],
+    ]
+    assert sum("s3_p240_v_i0_g255_gp1.25 (gamma pre-compensation 1.25)" in n
+               for n in summary["notes"]) == 1  # fmt: skip
+    for s in summary["sets"]:
+        assert f"wrapped_phase__{s['label']}.tiff" in summary["files"]
     frames = []
     sets = ((0, "vertical", 0.75), (3, "vertical", 1.25), (6, "horizontal", 0.75))
     for base, o, gamma in (*sets, (9, "horizontal", 1.25)):
