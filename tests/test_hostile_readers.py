@@ -203,3 +203,56 @@ def test_10_import_description_is_a_folder(tmp_path: Path, capture_folder: Path)
     desc.mkdir()
     res = run_cli("import", str(capture_folder), "-d", str(desc), "-o", str(out))
     _refused(res, out, f"{desc}: is a folder, not a description file")
+
+
+# --- 8: LZW-compressed TIFF captures --------------------------------------------------------
+
+
+def _lzw_folder(capture_folder: Path) -> Path:
+    """The capture folder with every PNG re-saved as an LZW-compressed TIFF."""
+    import imageio.v3 as iio
+    import tifffile
+
+    manifest = json.loads((capture_folder / "manifest.json").read_text())
+    for frame in manifest["frames"]:
+        png = capture_folder / frame["file"]
+        tifffile.imwrite(png.with_suffix(".tif"), iio.imread(png), compression="lzw")
+        png.unlink()
+        frame["file"] = png.with_suffix(".tif").name
+    (capture_folder / "manifest.json").write_text(json.dumps(manifest))
+    return capture_folder
+
+
+def test_8_lzw_tiff_captures_read(tmp_path: Path, capture_folder: Path) -> None:
+    """LZW TIFFs were called "corrupt or truncated: recapture" (the codec package was missing);
+    decoded, they give the PNG folder's phase bit for bit."""
+    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.process import decode_captures
+
+    png = decode_captures(read_capture_folder(capture_folder)).primary
+    lzw = _lzw_folder(capture_folder)
+    out = tmp_path / "out"
+    res = run_cli("phase", str(lzw), "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    got = decode_captures(read_capture_folder(lzw)).primary
+    assert png is not None and got is not None
+    np.testing.assert_array_equal(got.unwrapped_phase, png.unwrapped_phase)
+
+
+def test_8_lzw_without_the_codec_names_it(tmp_path: Path, capture_folder: Path) -> None:
+    """Where imagecodecs is missing, the message names it and how to install it, not damage
+    (a new interpreter: tifffile binds the codec package when it is imported)."""
+    import subprocess
+    import sys
+
+    lzw = _lzw_folder(capture_folder)
+    out = tmp_path / "out"
+    code = (
+        "import sys; sys.modules['imagecodecs'] = None\n"
+        "from hdrfringe.cli import app\n"
+        f"app(['phase', {str(lzw)!r}, '-o', {str(out)!r}], prog_name='hdrfringe')\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120, env={**os.environ, "COLUMNS": "400"})  # fmt: skip
+    line = _refused(res, out, "LZW", "requires the 'imagecodecs' package, which is not installed")
+    assert "pip install 'imagecodecs>=" in line and "corrupt" not in line

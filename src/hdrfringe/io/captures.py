@@ -52,6 +52,7 @@ __all__ = [
     "IMAGE_SUFFIXES",
     "MAX_SIDE_FILE_PIXELS",
     "RGB_LUMA_WEIGHTS",
+    "TIFF_CODECS",
     "load_image",
     "load_side_file",
     "read_capture_folder",
@@ -88,6 +89,11 @@ _MAP_DTYPES = tuple(np.dtype(t) for t in (np.float32, np.float64, np.uint8, np.u
 
 #: Luma weights (ITU-R BT.601) used when a capture is an RGB image.
 RGB_LUMA_WEIGHTS = (0.299, 0.587, 0.114)
+
+
+#: The codec package tifffile needs for LZW, Deflate-predictor, JPEG and most other compressed
+#: TIFFs (the lower bound tifffile's own ``codecs`` extra asks for); pyproject.toml requires it.
+TIFF_CODECS = "imagecodecs>=2025.11.11"
 
 
 def _fail(where: str, what: str, fix: str) -> CaptureFormatError:
@@ -546,8 +552,15 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
                 img = iio.imread(path)
     except Exception as exc:  # any decoder failure: truncated, corrupt, not an image
+        reason = reason_of(exc).strip("'\"")
+        if "requires the 'imagecodecs' package" in reason:  # tifffile: a codec, not the file
+            raise CaptureFormatError(
+                f"{path}: cannot decode the image: {reason}, which is not installed (the file "
+                f"is not damaged); install it with `pip install '{TIFF_CODECS}'`, a dependency "
+                "of hdrfringe"
+            ) from None
         raise CaptureFormatError(
-            f"{path}: cannot read the image ({reason_of(exc)}); the file is corrupt or "
+            f"{path}: cannot read the image ({reason}); the file is corrupt or "
             "truncated: recapture or re-export it"
         ) from None
     img = np.asarray(img)
