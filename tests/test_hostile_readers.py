@@ -256,3 +256,81 @@ def test_8_lzw_without_the_codec_names_it(tmp_path: Path, capture_folder: Path) 
                          timeout=120, env={**os.environ, "COLUMNS": "400"})  # fmt: skip
     line = _refused(res, out, "LZW", "requires the 'imagecodecs' package, which is not installed")
     assert "pip install 'imagecodecs>=" in line and "corrupt" not in line
+
+
+# --- 4: a folder within the pixel limits whose decode does not fit; a huge loop camera -------
+
+
+def _png_of_zeros(path: Path, width: int, height: int, rows: int) -> None:
+    """An 8-bit gray PNG of zeros, compressed once per block of ``rows`` rows and repeated (a
+    full flush makes each block's deflate bytes identical): 11585x11585 in about 0.1 s."""
+    import struct
+    import zlib
+
+    assert height % rows == 0
+    block = b"\x00" * ((width + 1) * rows)  # filter byte 0 and the row's pixels
+    c = zlib.compressobj(9, zlib.DEFLATED, -15)
+    deflated = c.compress(block) + c.flush(zlib.Z_FULL_FLUSH)
+    tail = zlib.compressobj(9, zlib.DEFLATED, -15).flush(zlib.Z_FINISH)
+    adler = 1
+    for _ in range(height // rows):
+        adler = zlib.adler32(block, adler)
+    data = b"\x78\xda" + deflated * (height // rows) + tail + struct.pack(">I", adler)
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        crc = zlib.crc32(kind + body)
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", data)
+                     + chunk(b"IEND", b""))  # fmt: skip
+
+
+def test_4_folder_needing_more_memory_than_available(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Four 11585x11585 PNGs (632 KB together, each within MAX_IMAGE_PIXELS, together within
+    MAX_FOLDER_PIXELS) needed more than 4 GiB in ``phase``: refused from the headers, saying
+    how much they need, on a machine with 4 GiB free (nothing decoded: the test takes < 1 s)."""
+    import shutil
+
+    import hdrfringe.io._read_limits as read_limits
+    from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL
+    from hdrfringe.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS
+    from hdrfringe.patterns import FringeSpec
+
+    side = 11585
+    assert side * side <= MAX_IMAGE_PIXELS and 4 * side * side <= MAX_FOLDER_PIXELS
+    folder = tmp_path / "big"
+    folder.mkdir()
+    _png_of_zeros(folder / "i0.png", side, side, rows=331)
+    frames = []
+    for k, frame in enumerate(FringeSpec("sinusoidal", 4, 16.0).frames()):
+        if k:
+            shutil.copyfile(folder / "i0.png", folder / f"i{k}.png")
+        frames.append(frame.manifest_entry(f"i{k}.png"))
+    manifest = {"format": "hdrfringe-captures", "version": 1, "camera": {"bit_depth": 8},
+                "frames": frames}  # fmt: skip
+    (folder / "manifest.json").write_text(json.dumps(manifest))
+    assert sum(p.stat().st_size for p in folder.iterdir()) < 700_000
+    monkeypatch.setattr(read_limits, "available_memory", lambda: 4 << 30)
+    out = tmp_path / "out"
+    need = 4 * side * side * (1 + DECODE_BYTES_PER_PIXEL) / (1 << 30)  # 19.5 GiB
+    line = _refused(run_cli("phase", str(folder), "-o", str(out)), out,
+                    f"4 images of {side}x{side} need at least {need:.1f} GiB of memory to decode",
+                    "4.0 GiB is available")  # fmt: skip
+    assert f"{need:.1f}" == "19.5" and "split the captures" in line  # docs/capture_format.md
+
+
+def test_4_loop_camera_size_bounded(tmp_path: Path) -> None:
+    """``--camera 'loop:plate?size=100000x100000'`` allocated 9.3 GiB: refused when parsed,
+    before a display or a rig is made."""
+    from hdrfringe.hardware.loop_camera import parse_loop_spec
+
+    with pytest.raises(InputError, match="size must be WIDTHxHEIGHT of at most 134217728"):
+        parse_loop_spec("loop:plate?size=100000x100000")
+    assert parse_loop_spec("loop:plate?size=11585x11585").size == (11585, 11585)
+    camera = "loop:plate?size=100000x100000"
+    res = run_cli("measure", "--rig", "hardware", "--projector", "screen:0@:4999",
+                  "--camera", camera, "-o", str(tmp_path / "o"))  # fmt: skip
+    _refused(res, tmp_path / "o", "size='100000x100000' is not valid")

@@ -42,10 +42,11 @@ from hdrfringe.core.limits import (
 )
 from hdrfringe.core.patterns import ORIENTATIONS, PATTERNS
 from hdrfringe.errors import CaptureFormatError
-from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
+from hdrfringe.io._read_limits import check_memory, load_json_bounded, probe_image, reason_of
 from hdrfringe.io.results import staged_output_dir, write_map_tiff
 
 __all__ = [
+    "DECODE_BYTES_PER_PIXEL",
     "FORMAT_NAME",
     "FORMAT_VERSION",
     "FORMAT_VERSIONS",
@@ -790,13 +791,24 @@ class _SideFileLoader:
         return self._cache[rel]
 
 
-def read_capture_folder(path: str | Path) -> Captures:
+#: Bytes that decoding a folder (``phase``, ``measure``) needs per pixel of its images, at
+#: least: a 4-step set of 8-bit images took 38 B per image pixel beyond the interpreter's own
+#: (peak RSS of ``phase --no-previews`` at 2000x2000 minus 1000x1000, divided by the 12 M image
+#: pixels added; docs/capture_format.md, "Limits"). 3-step sets and previews take more.
+DECODE_BYTES_PER_PIXEL = 38
+
+
+def read_capture_folder(path: str | Path, *, work_bytes_per_pixel: int = 0) -> Captures:
     """Read and fully validate a capture folder.
 
     Parameters
     ----------
     path : str or Path
         Folder holding ``manifest.json`` and its images.
+    work_bytes_per_pixel : int
+        Bytes the caller's work needs per pixel of the images, at least (the decoders:
+        :data:`DECODE_BYTES_PER_PIXEL`); with the images' own, checked against the available
+        memory from the image headers, before any pixel is decoded (default 0: the images' own).
 
     Returns
     -------
@@ -865,16 +877,25 @@ def read_capture_folder(path: str | Path) -> Captures:
     # every image's size from its header before any is decoded: one size, bounded in total
     paths = [_confined(folder, entry["file"], "image") for entry in entries]
     shape0: tuple[int, ...] = probe_image(paths[0]).shape[:2]
+    pixel_bytes = 1
     for path in paths:
         header = probe_image(path)
         _check_image_layout(path, header.shape, header.dtype)
         _check_size(path, header.shape[:2], shape0, entries[0]["file"])
+        # as decoded: an RGB(A) image becomes float32 luma
+        pixel_bytes = max(pixel_bytes, 4 if len(header.shape) == 3 else header.dtype.itemsize)
     total = len(paths) * math.prod(shape0)
     if total > MAX_FOLDER_PIXELS:
         raise CaptureFormatError(
             f"{folder}: {len(paths)} images of {shape0[1]}x{shape0[0]} are {total} pixels, more "
             f"than the limit of {MAX_FOLDER_PIXELS}; split the captures into several folders"
         )
+    check_memory(  # the images as decoded plus the caller's work, before decoding any
+        total * (pixel_bytes + work_bytes_per_pixel),
+        str(folder),
+        f"{len(paths)} images of {shape0[1]}x{shape0[0]}",
+        "split the captures into several folders, crop the images, or free memory",
+    )
     images: list[NDArray] = []
     for path in paths:
         img = load_image(path, bit_depth)
