@@ -334,3 +334,68 @@ def test_4_loop_camera_size_bounded(tmp_path: Path) -> None:
     res = run_cli("measure", "--rig", "hardware", "--projector", "screen:0@:4999",
                   "--camera", camera, "-o", str(tmp_path / "o"))  # fmt: skip
     _refused(res, tmp_path / "o", "size='100000x100000' is not valid")
+
+
+# --- 12: library arguments ------------------------------------------------------------------
+
+
+def test_12_saturation_count_does_not_wrap() -> None:
+    """256 saturated images counted 0 in a uint8 accumulator (up to MAX_STEPS are allowed)."""
+    import hdrfringe as hf
+
+    stack = np.full((300, 2, 3), 255, np.uint8)
+    stack[:44, 0, 0] = 3  # 256 saturated at (0, 0)
+    count = hf.saturation_count(stack, 8)
+    assert count[0, 0] == 256 and count[1, 2] == 300
+    assert hf.saturation_count(stack[:255], 8).dtype == np.uint8  # unchanged up to 255 images
+
+
+@pytest.mark.parametrize(
+    ("call", "needles"),
+    [
+        (lambda hf: hf.precompensate_gamma([np.nan, 3.0]), ["gray holds 1 non-finite", "nan"]),
+        (
+            lambda hf: hf.modify_captures(
+                np.zeros((2, 2), np.uint8), 8, add_lux=100, dn_per_lux=-1
+            ),
+            ["dn_per_lux must be", "got -1"],
+        ),
+        (lambda hf: hf.FringeSpec(pitch_px="8"), ["FringeSpec pitch_px must be a number", "'8'"]),
+        (
+            lambda hf: hf.decode_set(np.zeros((4, 8, 8), np.uint8), None, 8),
+            ["spec must be a FringeSpec", "None"],
+        ),
+    ],
+    ids=["gamma-nan", "negative-dn-per-lux", "pitch-as-text", "spec-none"],
+)
+def test_12_library_arguments_named(call: object, needles: list[str]) -> None:
+    """NaN was sent as gray 0, dn_per_lux=-1 darkened, a text pitch and spec=None raised a
+    TypeError/AttributeError naming no argument."""
+    import hdrfringe as hf
+
+    with pytest.raises(InputError) as err:
+        call(hf)  # type: ignore[operator]
+    for needle in needles:
+        assert needle in str(err.value)
+
+
+def test_12_predict_phase_std_images_of_another_size() -> None:
+    import hdrfringe as hf
+    from hdrfringe.uncertainty import NoiseModel, predict_phase_std
+
+    spec = hf.FringeSpec("sinusoidal", 4, 8.0)
+    images = np.random.default_rng(0).integers(40, 200, (4, 8, 8)).astype(np.uint8)
+    res = hf.decode_set(images, spec, 8)
+    predict_phase_std(res, NoiseModel(1.0), images=images, bit_depth=8)
+    with pytest.raises(InputError, match=r"images of shape \(4, 9, 9\) are not the decoded"):
+        predict_phase_std(res, NoiseModel(1.0), images=np.zeros((4, 9, 9), np.uint8), bit_depth=8)
+
+
+def test_12_measure_with_a_calibration_path() -> None:
+    """``hf.measure(rig, "cal.h5")`` said the rig needs specs, not that the path is no
+    calibration."""
+    import hdrfringe as hf
+
+    rig = hf.virtual_rig("white_plate", resolution=(64, 48))
+    with pytest.raises(InputError, match=r"calibration must be .* got str 'cal.h5'; load the"):
+        hf.measure(rig, "cal.h5", specs=[hf.FringeSpec("sinusoidal", 4, 8.0)])
