@@ -399,3 +399,36 @@ def test_12_measure_with_a_calibration_path() -> None:
     rig = hf.virtual_rig("white_plate", resolution=(64, 48))
     with pytest.raises(InputError, match=r"calibration must be .* got str 'cal.h5'; load the"):
         hf.measure(rig, "cal.h5", specs=[hf.FringeSpec("sinusoidal", 4, 8.0)])
+
+
+# --- the import regular expression with catastrophic backtracking ---------------------------
+
+
+def test_import_regex_backtracking_bounded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``regex = '(a|aa)+b'`` over a 40-character file name ran for minutes with re
+    (exponential in the name's length); the regex module's timeout refuses it after the
+    budget (REGEX_SECONDS, 2 s; 0.25 s here to keep the test short) with one line naming the
+    expression and the file."""
+    import time
+
+    import hdrfringe.io.import_description as description
+    import hdrfringe.io.importer as importer
+
+    assert description.REGEX_SECONDS == importer.REGEX_SECONDS == 2.0
+    for module in (description, importer):
+        monkeypatch.setattr(module, "REGEX_SECONDS", 0.25)
+    images = tmp_path / "images"
+    images.mkdir()
+    (images / ("a" * 40 + ".png")).write_bytes(b"")
+    desc = tmp_path / "d.toml"
+    desc.write_text(
+        "[camera]\nbit_depth = 8\n[[uniform]]\nregex = '(a|aa)+b'\nlevel = 'white'\n"
+    )
+    out = tmp_path / "out"
+    start = time.monotonic()
+    res = run_cli("import", str(images), "-d", str(desc), "-o", str(out))
+    took = time.monotonic() - start
+    _refused(res, out, "'(a|aa)+b' takes more than 0.25 s", "a" * 40 + ".png", "nested repeats")
+    assert 0.25 <= took < 2.0, took  # the regex module checks its clock coarsely
