@@ -296,9 +296,9 @@ def _dataset(
     ):
         expected = "x".join("N" if w is None else str(w) for w in want)
         raise CalibrationFileError(
-            f"{where}: dataset /{name} declares shape {'x'.join(map(str, declared))}, not "
-            f"{expected} (the file's image_height x image_width, N <= {MAX_PROGRAM_FRAMES}); "
-            "the file is damaged, recalibrate"
+            f"{where}: dataset /{name} declares shape {'x'.join(map(str, declared))}, "
+            f"inconsistent with {expected} (image_height x image_width of the file, N <= "
+            f"{MAX_PROGRAM_FRAMES}); the file is damaged, recalibrate"
         )
     arr = item[()]
     if not isinstance(arr, np.ndarray) or arr.ndim != ndim or arr.dtype.kind != "f":
