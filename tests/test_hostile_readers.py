@@ -19,10 +19,10 @@ import h5py
 import numpy as np
 import pytest
 
-from hdrfringe.calibration import Calibration
+from hdrfringe.core.calibration import Calibration
+from hdrfringe.core.saturation.estimate import CorrectionPolynomial
 from hdrfringe.errors import InputError
 from hdrfringe.io.calibration_file import save_calibration
-from hdrfringe.saturation.estimate import CorrectionPolynomial
 from tests.conftest import run_cli
 
 
@@ -226,8 +226,8 @@ def _lzw_folder(capture_folder: Path) -> Path:
 def test_8_lzw_tiff_captures_read(tmp_path: Path, capture_folder: Path) -> None:
     """LZW TIFFs were called "corrupt or truncated: recapture" (the codec package was missing);
     decoded, they give the PNG folder's phase bit for bit."""
+    from hdrfringe.core.decode import decode_captures
     from hdrfringe.io.captures import read_capture_folder
-    from hdrfringe.process import decode_captures
 
     png = decode_captures(read_capture_folder(capture_folder)).primary
     lzw = _lzw_folder(capture_folder)
@@ -295,9 +295,9 @@ def test_4_folder_needing_more_memory_than_available(
     import shutil
 
     import hdrfringe.io._read_limits as read_limits
+    from hdrfringe.core.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS
+    from hdrfringe.core.patterns import FringeSpec
     from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL
-    from hdrfringe.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS
-    from hdrfringe.patterns import FringeSpec
 
     side = 11585
     assert side * side <= MAX_IMAGE_PIXELS and 4 * side * side <= MAX_FOLDER_PIXELS
@@ -381,7 +381,7 @@ def test_12_library_arguments_named(call: object, needles: list[str]) -> None:
 
 def test_12_predict_phase_std_images_of_another_size() -> None:
     import hdrfringe as hf
-    from hdrfringe.uncertainty import NoiseModel, predict_phase_std
+    from hdrfringe.core.uncertainty import NoiseModel, predict_phase_std
 
     spec = hf.FringeSpec("sinusoidal", 4, 8.0)
     images = np.random.default_rng(0).integers(40, 200, (4, 8, 8)).astype(np.uint8)

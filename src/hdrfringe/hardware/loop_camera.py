@@ -52,9 +52,9 @@ from numpy.typing import NDArray
 
 from hdrfringe.core.captures import CameraSettings
 from hdrfringe.core.frames import ImageFrame
+from hdrfringe.core.limits import MAX_IMAGE_PIXELS, MAX_PROJECTOR_PIXELS
 from hdrfringe.errors import InputError
 from hdrfringe.hardware.camera import CameraBase, CameraError, _check_positive
-from hdrfringe.limits import MAX_IMAGE_PIXELS, MAX_PROJECTOR_PIXELS
 from hdrfringe.rig.factory import APERTURES, virtual_rig
 from hdrfringe.rig.scenes import SCENES
 from hdrfringe.rig.simulated import SimulatedRig
