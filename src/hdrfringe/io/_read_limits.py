@@ -373,10 +373,13 @@ def check_memory(needed: int, where: str, what: str, fix: str) -> None:
     """
     free = available_memory()
     if free is not None and needed > free:
-        gib = 1 << 30
+
+        def size(n: int) -> str:
+            return f"{n / (1 << 30):.1f} GiB" if n >= 1 << 30 else f"{n / (1 << 20):.0f} MiB"
+
         raise CaptureFormatError(
-            f"{where}: {what} need at least {needed / gib:.1f} GiB of memory to decode, "
-            f"{free / gib:.1f} GiB is available; {fix}"
+            f"{where}: {what} need at least {size(needed)} of memory to decode, {size(free)} "
+            f"is available; {fix}"
         )
 
 
