@@ -276,6 +276,11 @@ def load_stereo_calibration(path: str | Path) -> StereoCalibration:
 
     src = Path(path)
     if not src.is_file():
+        if src.exists() and not src.is_dir():  # a FIFO would block h5py forever
+            try:
+                check_regular_file(src, "calibration file", "check the path")
+            except InputError as exc:
+                raise CalibrationFileError(str(exc)) from None
         what = (
             "is a folder, not a calibration file" if src.is_dir() else "calibration file not found"
         )
