@@ -598,8 +598,8 @@ def _check_container_bits(path: Path, dtype: np.dtype, bit_depth: int) -> None:
         raise CaptureFormatError(
             f"{path}: {bits}-bit image, but camera.bit_depth is {bit_depth}: values clipped at "
             f"{(1 << bits) - 1} would not count as saturated (2^B - 1 = "
-            f"{full_scale(bit_depth)}); set camera.bit_depth to {bits} in the manifest, or "
-            "store the camera's full values"
+            f"{full_scale(bit_depth)}); fix camera.bit_depth in the manifest ({bits} for these "
+            "images), or store the camera's full values"
         )
 
 
