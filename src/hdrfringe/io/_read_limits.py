@@ -159,9 +159,13 @@ def load_json_bounded(path: str | Path) -> Any:
         with path.open("rb") as fh:  # read at most the limit, even if the file grew meanwhile
             raw = fh.read(MAX_MANIFEST_BYTES + 1)
     except OSError as exc:  # no permission, an I/O error: the file, not its contents
+        import errno
+
+        code = errno.errorcode.get(exc.errno or 0)
         raise CaptureFormatError(
-            f"{where}: cannot read the file ({exc.strerror or reason_of(exc)}); check its "
-            "permissions (chmod u+r) or copy the folder again"
+            f"{where}: cannot read the file ({exc.strerror or reason_of(exc)}"
+            f"{f', errno {code}' if code else ''}); check its permissions (chmod u+r) or copy "
+            "the folder again"
         ) from None
     try:
         text = raw.decode("utf-8")
