@@ -347,7 +347,7 @@ def test_pattern_manifest_as_description(tmp_path: Path) -> None:
     played = json.loads((pat / "manifest.json").read_text())["frames"]
     cam = tmp_path / "cam"
     for i in range(len(played)):  # cam1.png .. cam7.png: natural order, not cam1, cam10, ...
-        write(cam, f"cam{i + 1}.png", np.full((H, W), 10 * i, np.uint8))
+        write(cam, f"cam{i + 1}.png", np.full((H, W), 10 * i, np.uint16))
     rep = import_captures(cam, pat / "manifest.json", tmp_path / "caps", bit_depth=10)
     frames = rep.manifest["frames"]
     assert rep.manifest["camera"] == {"bit_depth": 10}

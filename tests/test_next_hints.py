@@ -1,6 +1,7 @@
 """Every ``next:`` hint a command prints is a command that runs (issue 24): ``import`` suggests
 ``phase`` for fringe sets that decode as families and ``gamma`` for a gamma capture (the
-kamino410 gamma sheet's sets differ only in their pre-distortion, which ``phase`` refuses).
+kamino410 gamma sheet's sets differ only in their pre-distortion: ``gamma`` fits it, ``phase``
+decodes each set).
 
 The hints of the real data imports run in tests/test_import_realdata.py (each import's printed
 hint replaces the ``phase`` call); here, synthetic and simulated folders.
@@ -137,21 +138,24 @@ def _same_pitch_folder(tmp_path: Path) -> Path:
 
 
 def test_phase_on_sets_of_one_pitch_says_what_the_folder_is(tmp_path: Path) -> None:
-    """Two sets of one pitch are no pitch ladder: ``phase`` refuses in one line, exit 2,
-    nothing written, and says what the folder is: pre-distorted with two exponents, a gamma
-    capture (``hdrfringe gamma``); the same two sets told apart by a label only (no exponents),
-    the sets to keep one of. Not the unwrapper's "pitches must be strictly decreasing"."""
+    """Two sets of one pitch pre-distorted with two exponents (a gamma capture, what
+    docs/gamma.md asks users to capture) decode: each is its own family (issue 31, root cause
+    7: ``phase`` refused it, "pitches must be strictly decreasing" and then "a gamma
+    capture"); both sets' wrapped phases are written, one family per orientation unwrapped, a
+    note names the other set. The same two sets told apart by a label only (no exponents) are
+    no pitch ladder: ``phase`` refuses in one line, exit 2, nothing written, naming the sets to
+    keep one of."""
     import json
     import shutil
 
     gamma = _same_pitch_folder(tmp_path)
     res = run_cli("phase", str(gamma), "-o", str(tmp_path / "p1"))
-    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
-    assert res.returncode == 2 and len(lines) == 1, res.stderr
-    assert "strictly decreasing" not in lines[0]
-    assert "all have pitch 64 px, pre-distorted with exponents 1, 2: a gamma capture" in lines[0]
-    assert f"`hdrfringe gamma {gamma} -o OUT`" in lines[0]
-    assert not (tmp_path / "p1").exists()
+    assert res.returncode == 0, res.stderr
+    summary = json.loads((tmp_path / "p1" / "phase_summary.json").read_text())
+    labels = [s["label"] for s in summary["sets"]]
+    assert len(labels) == 2 and [f["sets"] for f in summary["families"]] == [labels[:1]]
+    assert f"wrapped_phase__{labels[1]}.tiff" in summary["files"]
+    assert any(f"{labels[1]} (gamma pre-compensation 2)" in n for n in summary["notes"])
     labelled = tmp_path / "labelled"
     shutil.copytree(gamma, labelled)
     manifest = json.loads((labelled / "manifest.json").read_text())

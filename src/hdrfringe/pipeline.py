@@ -25,6 +25,7 @@ import dataclasses
 import datetime as _dt
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from os import PathLike
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
@@ -1354,6 +1355,16 @@ def _check_measure_options(
     reject_saturated: bool,
 ) -> tuple[float, float] | None:
     """:func:`measure`'s options refused before anything is captured; the depth range checked."""
+    if calibration is not None and not isinstance(calibration, MeasurementCalibration):
+        hint = (
+            f"; load the file first: calibration=hdrfringe.load_any_calibration({calibration!r})"
+            if isinstance(calibration, str | PathLike)
+            else ""
+        )
+        raise InputError(
+            "calibration must be a Calibration or StereoCalibration (or None), got "
+            f"{type(calibration).__name__} {calibration!r}{hint}"
+        )
     _check_saturated(saturated, reject_saturated)
     if stereo_directions not in _STEREO_DIRECTIONS:
         raise InputError(

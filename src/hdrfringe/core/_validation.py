@@ -14,7 +14,9 @@ what is wrong and how to fix it.
 from __future__ import annotations
 
 import math
+import stat
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -28,6 +30,7 @@ __all__ = [
     "as_stack",
     "check_bit_depth",
     "check_min_modulation",
+    "check_regular_file",
     "check_tolerance",
     "describe_saturated",
     "full_scale",
@@ -80,6 +83,59 @@ def check_bit_depth(bit_depth: object, what: str = "camera bit depth") -> int:
     return bits
 
 
+def check_regular_file(path: str | Path, what: str, fix: str) -> Path:
+    """``path`` as a Path, checked to be an existing regular file (or a link to one).
+
+    A FIFO would block the reader forever, a device could stream without end and a folder
+    raises ``IsADirectoryError``: each is refused in one line before the file is opened.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to read.
+    what : str
+        What the file is, for messages (``"correction polynomial"``).
+    fix : str
+        How to fix a missing file (``"train one with train-correction"``).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        ``path`` does not exist, is a folder, or is not a regular file.
+
+    Examples
+    --------
+    >>> check_regular_file("/dev/null", "correction polynomial", "train one")
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: /dev/null: correction polynomial is a character device, not \
+a regular file; give the file itself
+    """
+    p = Path(path)
+    try:
+        mode = p.stat().st_mode
+    except FileNotFoundError:
+        raise InputError(f"{p}: {what} does not exist; {fix}") from None
+    except (OSError, ValueError) as exc:  # a NUL byte, a name too long, no permission
+        raise InputError(f"{p}: cannot read the {what} ({exc}); {fix}") from None
+    if stat.S_ISDIR(mode):
+        raise InputError(f"{p}: is a folder, not a {what} file; give the file itself")
+    if not stat.S_ISREG(mode):
+        kinds = {
+            stat.S_ISFIFO: "a FIFO",
+            stat.S_ISCHR: "a character device",
+            stat.S_ISBLK: "a block device",
+            stat.S_ISSOCK: "a socket",
+        }
+        kind = next((name for test, name in kinds.items() if test(mode)), "a special file")
+        raise InputError(f"{p}: {what} is {kind}, not a regular file; give the file itself")
+    return p
+
+
 def full_scale(bit_depth: object, what: str = "camera bit depth") -> int:
     """Full-scale value ``2^B - 1`` of a B-bit camera or projector value.
 
@@ -129,29 +185,33 @@ def is_saturated(values: ArrayLike, bit_depth: int) -> NDArray[np.bool_]:
     return np.asarray(values) >= full_scale(bit_depth)
 
 
-def saturation_count(images: ArrayLike, bit_depth: int) -> NDArray[np.uint8]:
+def saturation_count(images: ArrayLike, bit_depth: int) -> NDArray[np.unsignedinteger]:
     """Number of images in which each pixel is saturated (:func:`is_saturated`).
 
     Parameters
     ----------
     images : array_like, shape (N, H, W)
-        Phase-shifted images, N <= 255.
+        Phase-shifted images.
     bit_depth : int
         Camera bit depth B.
 
     Returns
     -------
-    ndarray of uint8, shape (H, W)
+    ndarray of uint8 (N <= 255) or uint16 (more images), shape (H, W)
+        The count never wraps: up to :data:`~hdrfringe.limits.MAX_STEPS` shifts are allowed.
 
     Examples
     --------
     >>> saturation_count(np.array([[[255, 3]], [[255, 255]]]), 8).tolist()
     [[2, 1]]
+    >>> int(saturation_count(np.full((256, 1, 1), 255), 8)[0, 0])
+    256
     """
     stack = as_stack(images, what="saturation count")
     full = full_scale(bit_depth)
     # One image at a time into a uint8 accumulator: 4x faster than counting a full boolean stack.
-    count = np.zeros(stack.shape[1:], dtype=np.uint8)
+    # A wider one past 255 images, where uint8 would wrap (256 saturated images counted as 0).
+    count = np.zeros(stack.shape[1:], dtype=np.uint8 if stack.shape[0] <= 255 else np.uint16)
     for image in stack:
         count += image >= full
     return count

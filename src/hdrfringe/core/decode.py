@@ -223,7 +223,10 @@ class FolderPhase:
 
 def _family_key(s: FringeSet) -> tuple:
     sp = s.spec
-    # gain and map are None for every set of a version-1 folder: the same families as before
+    # gain and map are None for every set of a version-1 folder: the same families as before;
+    # so is the per-set gamma pre-compensation of a folder that gives none (or one per folder).
+    # Sets pre-distorted with different exponents (a gamma capture: the kamino410 sheet) are
+    # separate families, each unwrapped on its own, not one pitch ladder with repeated pitches.
     return (
         sp.orientation,
         sp.pattern,
@@ -233,6 +236,7 @@ def _family_key(s: FringeSet) -> tuple:
         s.exposure_ms,
         s.gain_db,
         s.migl_map_sha256,
+        s.gamma_precompensation,
     )
 
 
@@ -300,13 +304,10 @@ def no_absolute_phase_note(orientation: str) -> str:
 
 def _check_pitch_ladders(captures: Captures, families: Sequence[Sequence[FringeSet]]) -> None:
     """Refuse a family with two sets at one pitch: its sets do not form a pitch ladder
-    (coarse to fine) that temporal unwrapping could follow.
-
-    Sets of one pitch pre-distorted with several exponents are a gamma capture (e.g. the
-    kamino410 gamma sheet): the message says so and names ``hdrfringe gamma``; otherwise it
-    names the sets to keep one of.
+    (coarse to fine) that temporal unwrapping could follow; the message names the sets to keep
+    one of. (Sets of one pitch pre-distorted with different exponents, a gamma capture, are
+    separate families: :func:`_family_key`.)
     """
-    gamma0 = captures.projector.gamma_precompensation if captures.projector else 1.0
     for fam in families:
         by_pitch: dict[float, list[FringeSet]] = {}
         for s in fam:
@@ -317,9 +318,8 @@ def _check_pitch_ladders(captures: Captures, families: Sequence[Sequence[FringeS
         group = same[0]
         orient, pitch = group[0].spec.orientation, group[0].spec.pitch_px
         labels = ", ".join(s.label for s in group)
-        exponents = sorted({s.gamma_precompensation or gamma0 for s in group})
         offsets = {round((s.spec.phase_offset_deg % 360.0), 6) for s in group}
-        if len(group) == 2 and len(offsets) == 2 and len(exponents) == 1:
+        if len(group) == 2 and len(offsets) == 2:
             a, b = sorted(offsets)
             if abs((b - a) - 180.0) < 1e-6:
                 raise CaptureFormatError(
@@ -328,18 +328,36 @@ def _check_pitch_ladders(captures: Captures, families: Sequence[Sequence[FringeS
                     "decode them as a pair with --saturated exclude (phase or measure), or keep "
                     "one of them"
                 )
-        if len(exponents) > 1:
-            raise CaptureFormatError(
-                f"{captures.name}: the {orient} fringe sets {labels} all have pitch {pitch:g} px, "
-                f"pre-distorted with exponents {', '.join(f'{g:g}' for g in exponents)}: a gamma "
-                f"capture, not a pitch ladder; fit the projector's gamma with `hdrfringe gamma "
-                f"{captures.name} -o OUT`, or keep one set per pitch for phase"
-            )
         raise CaptureFormatError(
             f"{captures.name}: the {orient} fringe sets {labels} all have pitch {pitch:g} px, so "
             "they do not form a pitch ladder (one set per pitch, coarse to fine); keep one of "
             "them (remove the others' frames from manifest.json)"
         )
+
+
+def _note_other_gamma_families(
+    captures: Captures,
+    sets: Sequence[FringeSet],
+    families: Sequence[Sequence[FringeSet]],
+    notes: list[str],
+) -> None:
+    """Note the sets of another gamma pre-compensation than their orientation's unwrapped
+    family (a gamma capture): decoded (each set's wrapped phase), not unwrapped, as one family
+    per orientation is."""
+    gamma0 = captures.projector.gamma_precompensation if captures.projector else 1.0
+    unwrapped = {id(s) for fam in families for s in fam}
+    for fam in families:
+        key = _family_key(fam[0])[:-1]
+        others = [s for s in sets if id(s) not in unwrapped and _family_key(s)[:-1] == key]
+        if others:
+            exponents = sorted({s.gamma_precompensation or gamma0 for s in others})
+            notes.append(
+                f"{fam[0].spec.orientation} fringes: the sets "
+                f"{', '.join(s.label for s in others)} (gamma pre-compensation "
+                f"{', '.join(f'{g:g}' for g in exponents)}) are decoded but not unwrapped; the "
+                f"unwrapped family is the one pre-compensated with "
+                f"{fam[0].gamma_precompensation or gamma0:g} (one per orientation)"
+            )
 
 
 def _check_decode_options(
@@ -639,6 +657,7 @@ def decode_captures(
     codes = {g.orientation: g for g in captures.graycode_sets()}
     families = group_families(out.sets)
     _check_pitch_ladders(captures, families)
+    _note_other_gamma_families(captures, out.sets, families, out.notes)
     for fam in families:
         orient = fam[0].spec.orientation
         unw = _unwrap_family(captures, fam, results, codes, out.notes)

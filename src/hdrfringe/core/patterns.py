@@ -179,6 +179,13 @@ class FringeSpec:
             raise InputError(
                 f"unknown orientation {self.orientation!r}; use one of {', '.join(ORIENTATIONS)}"
             )
+        for name in ("steps", "pitch_px", "imin", "migl"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+                raise InputError(
+                    f"FringeSpec {name} must be a number, got {type(value).__name__} {value!r}"
+                    + (f"; write {name}={value.strip()}" if isinstance(value, str) else "")
+                )
         min_steps = 3 if self.pattern == "sinusoidal" else 2
         if int(self.steps) != self.steps or self.steps < min_steps:
             raise InputError(
@@ -393,7 +400,14 @@ def precompensate_gamma(
         raise InputError(f"gamma pre-compensation must be a positive number, got {gamma_hat}")
     bits = check_bit_depth(bit_depth, "projector bit depth")
     full = float(full_scale(bits))
-    g = np.clip(np.asarray(gray, dtype=np.float64), 0.0, full)
+    g = np.asarray(gray, dtype=np.float64)
+    if not np.isfinite(g).all():  # NaN would be sent as gray 0, inf as full scale
+        bad = g[~np.isfinite(g)].ravel()[0]
+        raise InputError(
+            f"gray holds {np.count_nonzero(~np.isfinite(g))} non-finite value(s) (e.g. {bad}); "
+            "give gray levels in 0..2^Bp - 1"
+        )
+    g = np.clip(g, 0.0, full)
     if gamma_hat != 1.0:
         g = full * (g / full) ** (1.0 / gamma_hat)
     dtype = np.uint8 if bits <= 8 else np.uint16

@@ -638,6 +638,11 @@ def default_min_modulation(bit_depth: int) -> float:
 
 
 def _check_steps(stack: NDArray, spec: FringeSpec) -> None:
+    if not isinstance(spec, FringeSpec):
+        raise InputError(
+            f"spec must be a FringeSpec (the set's pattern, steps and pitch), got "
+            f"{type(spec).__name__} {spec!r}; e.g. FringeSpec('sinusoidal', {stack.shape[0]}, 8.0)"
+        )
     n = stack.shape[0]
     if n != spec.steps:
         raise InputError(

@@ -538,6 +538,14 @@ def predict_phase_std(
     spec = result.spec
     if spec is None:
         raise InputError("the phase result has no spec; decode with decode_set(images, spec, ...)")
+    if images is not None:
+        shape = np.shape(images)
+        if len(shape) != 3 or tuple(shape[1:]) != result.wrapped_phase.shape:
+            raise InputError(
+                f"images of shape {shape} are not the decoded set's: expected (M, "
+                f"{', '.join(map(str, result.wrapped_phase.shape))}) like the result's maps; "
+                "pass the images that were decoded"
+            )
     tolerant = result if isinstance(result, TolerantPhaseResult) else None
     if spec.pattern == "triangular":
         std = phase_std_triangular(

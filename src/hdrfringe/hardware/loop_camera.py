@@ -52,6 +52,7 @@ from numpy.typing import NDArray
 
 from hdrfringe.core.captures import CameraSettings
 from hdrfringe.core.frames import ImageFrame
+from hdrfringe.core.limits import MAX_IMAGE_PIXELS, MAX_PROJECTOR_PIXELS
 from hdrfringe.errors import InputError
 from hdrfringe.hardware.camera import CameraBase, CameraError, _check_positive
 from hdrfringe.rig.factory import APERTURES, virtual_rig
@@ -162,6 +163,11 @@ def _wxh(spec: str, key: str, value: str) -> tuple[int, int]:
     w, x, h = value.lower().partition("x")
     if not (x and w.isdigit() and h.isdigit() and int(w) > 0 and int(h) > 0):
         raise _bad(spec, key, value, "WIDTHxHEIGHT in pixels, e.g. 320x240")
+    # checked before anything is allocated: size=100000x100000 asked for 9.3 GiB. A camera
+    # image beyond MAX_IMAGE_PIXELS could not be read back from its capture folder either.
+    limit = MAX_IMAGE_PIXELS if key == "size" else MAX_PROJECTOR_PIXELS
+    if int(w) * int(h) > limit:
+        raise _bad(spec, key, value, f"WIDTHxHEIGHT of at most {limit} pixels")
     return int(w), int(h)
 
 

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe.core._validation import check_regular_file
 from hdrfringe.core.limits import (
     MAX_IMAGE_PIXELS,
     MAX_JSON_DEPTH,
@@ -33,7 +34,15 @@ from hdrfringe.core.limits import (
 )
 from hdrfringe.errors import CaptureFormatError, InputError
 
-__all__ = ["ImageHeader", "load_json_bounded", "load_toml_bounded", "probe_image", "reason_of"]
+__all__ = [
+    "ImageHeader",
+    "available_memory",
+    "check_memory",
+    "load_json_bounded",
+    "load_toml_bounded",
+    "probe_image",
+    "reason_of",
+]
 
 #: A JSON string literal (unrolled loop: linear time, no backtracking).
 _JSON_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
@@ -140,14 +149,24 @@ def load_json_bounded(path: str | Path) -> Any:
     """
     path = Path(path)
     where = str(path)
-    size = path.stat().st_size
-    if size > MAX_MANIFEST_BYTES:
+    try:
+        size = path.stat().st_size
+        if size > MAX_MANIFEST_BYTES:
+            raise CaptureFormatError(
+                f"{where}: {size} bytes, more than the limit of {MAX_MANIFEST_BYTES}; a manifest "
+                "lists frames, it holds no image data"
+            )
+        with path.open("rb") as fh:  # read at most the limit, even if the file grew meanwhile
+            raw = fh.read(MAX_MANIFEST_BYTES + 1)
+    except OSError as exc:  # no permission, an I/O error: the file, not its contents
+        import errno
+
+        code = errno.errorcode.get(exc.errno or 0)
         raise CaptureFormatError(
-            f"{where}: {size} bytes, more than the limit of {MAX_MANIFEST_BYTES}; a manifest "
-            "lists frames, it holds no image data"
-        )
-    with path.open("rb") as fh:  # read at most the limit, even if the file grew meanwhile
-        raw = fh.read(MAX_MANIFEST_BYTES + 1)
+            f"{where}: cannot read the file ({exc.strerror or reason_of(exc)}"
+            f"{f', errno {code}' if code else ''}); check its permissions (chmod u+r) or copy "
+            "the folder again"
+        ) from None
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -257,6 +276,8 @@ def load_toml_bounded(
 
     path = Path(path)
     if not path.is_file():
+        if path.exists():  # a folder, a FIFO (which would block the read), a device
+            check_regular_file(path, what, missing)
         raise InputError(f"{path}: {what} file does not exist; {missing}")
     with path.open("rb") as fh:  # at most the limit, even if the file grew meanwhile
         raw = fh.read(max_bytes + 1)
@@ -279,6 +300,91 @@ def load_toml_bounded(
             f"{path}: a number with too many digits or arrays nested too deep; a {what} "
             f"holds short numbers and flat lists ({doc})"
         ) from None
+
+
+def available_memory() -> int | None:
+    """Bytes this process can still allocate, as far as the system says; None when unknown.
+
+    The least of: the memory the kernel reports available (``MemAvailable`` of
+    ``/proc/meminfo``, else ``sysconf`` free pages), what the address-space limit leaves
+    (``ulimit -v``, RLIMIT_AS, minus the process's current size) and what a cgroup v2 memory
+    limit leaves (a container's ``memory.max`` minus ``memory.current``).
+
+    Returns
+    -------
+    int or None
+
+    Examples
+    --------
+    >>> free = available_memory()
+    >>> free is None or free > 0
+    True
+    """
+    import os
+    import resource
+
+    found: list[int] = []
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    found.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError):
+        try:
+            found.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (OSError, ValueError, AttributeError):
+            pass
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft != resource.RLIM_INFINITY:
+        try:
+            with open("/proc/self/statm", encoding="ascii") as fh:
+                used = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        except (OSError, ValueError, IndexError):
+            used = 0
+        found.append(max(0, soft - used))
+    try:
+        cgroup = Path("/sys/fs/cgroup")
+        limit = (cgroup / "memory.max").read_text().strip()
+        if limit != "max":
+            found.append(max(0, int(limit) - int((cgroup / "memory.current").read_text())))
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None
+
+
+def check_memory(needed: int, where: str, what: str, fix: str) -> None:
+    """Refuse work that needs more memory than :func:`available_memory` reports.
+
+    Parameters
+    ----------
+    needed : int
+        Bytes the work needs at least.
+    where : str
+        What is read (a folder), for the message.
+    what : str
+        What needs the memory (``"4 images of 11585x11585"``).
+    fix : str
+        How to need less.
+
+    Raises
+    ------
+    CaptureFormatError
+        ``needed`` is above the available memory (nothing is refused when it is unknown).
+
+    Examples
+    --------
+    >>> check_memory(1, "caps", "1 byte", "nothing")
+    """
+    free = available_memory()
+    if free is not None and needed > free:
+
+        def size(n: int) -> str:
+            return f"{n / (1 << 30):.1f} GiB" if n >= 1 << 30 else f"{n / (1 << 20):.0f} MiB"
+
+        raise CaptureFormatError(
+            f"{where}: {what} need at least {size(needed)} of memory to decode, {size(free)} "
+            f"is available; {fix}"
+        )
 
 
 class ImageHeader:

@@ -28,7 +28,9 @@ from typing import Any
 
 import numpy as np
 
+from hdrfringe.core._validation import check_regular_file
 from hdrfringe.core.calibration import MODELS, N_COEFFICIENTS, Calibration, check_calibration
+from hdrfringe.core.limits import MAX_IMAGE_PIXELS, MAX_PROGRAM_FRAMES
 from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
 
@@ -266,13 +268,37 @@ def save_calibration(path: str | Path, cal: Calibration, force: bool = False) ->
 # --------------------------------------------------------------------------------------------
 # load
 # --------------------------------------------------------------------------------------------
-def _dataset(f: Any, name: str, where: str, ndim: int) -> np.ndarray:
+def _dataset(
+    f: Any, name: str, where: str, ndim: int, shape: tuple[int | None, ...] | None = None
+) -> np.ndarray:
+    """Dataset ``name``, its declared shape checked before anything is read.
+
+    ``shape`` gives the expected size of each axis (None: any, within
+    :data:`~hdrfringe.limits.MAX_PROGRAM_FRAMES`): a small file declaring a huge array (HDF5
+    stores an unwritten dataset in a few bytes) is refused instead of allocated.
+    """
     import h5py
 
     item = f.get(name)
     if not isinstance(item, h5py.Dataset):
         raise CalibrationFileError(
             f"{where}: dataset /{name} is missing; the file is incomplete, recalibrate"
+        )
+    declared = tuple(item.shape) if item.shape is not None else ()
+    if len(declared) != ndim or item.dtype.kind != "f":
+        raise CalibrationFileError(
+            f"{where}: dataset /{name} is not a {ndim}-D float array; the file is damaged, "
+            "recalibrate"
+        )
+    want = shape if shape is not None else (None,) * ndim
+    if any(w is not None and d != w for d, w in zip(declared, want, strict=True)) or any(
+        w is None and d > MAX_PROGRAM_FRAMES for d, w in zip(declared, want, strict=True)
+    ):
+        expected = "x".join("N" if w is None else str(w) for w in want)
+        raise CalibrationFileError(
+            f"{where}: dataset /{name} declares shape {'x'.join(map(str, declared))}, "
+            f"inconsistent with {expected} (image_height x image_width of the file, N <= "
+            f"{MAX_PROGRAM_FRAMES}); the file is damaged, recalibrate"
         )
     arr = item[()]
     if not isinstance(arr, np.ndarray) or arr.ndim != ndim or arr.dtype.kind != "f":
@@ -281,6 +307,22 @@ def _dataset(f: Any, name: str, where: str, ndim: int) -> np.ndarray:
             "recalibrate"
         )
     return arr
+
+
+def _image_size(attrs: Any, where: str) -> tuple[int, int]:
+    """The file's ``image_height`` x ``image_width``, within the image pixel limit."""
+    height = _get(attrs, "image_height", where)
+    width = _get(attrs, "image_width", where)
+    if (
+        not isinstance(height, int)
+        or not isinstance(width, int)
+        or not (1 <= height and 1 <= width and height * width <= MAX_IMAGE_PIXELS)
+    ):
+        raise CalibrationFileError(
+            f"{where}: image size {height!r} x {width!r} is not 1..{MAX_IMAGE_PIXELS} pixels "
+            "(image_height, image_width); the file is damaged, recalibrate"
+        )
+    return height, width
 
 
 def _read(f: Any, where: str) -> Calibration:
@@ -309,17 +351,27 @@ def _read(f: Any, where: str) -> Calibration:
         raise CalibrationFileError(
             f"{where}: unknown calibration model {model!r}; upgrade hdrfringe or recalibrate"
         )
-    k_map = _dataset(f, "k_map", where, 2)
-    reference = _dataset(f, "reference_phase", where, 2)
+    size = _image_size(attrs, where)
+    k_map = _dataset(f, "k_map", where, 2, size)
+    reference = _dataset(f, "reference_phase", where, 2, size)
     depths = _dataset(f, "depths_mm", where, 1)
-    coefficients = _dataset(f, "coefficients", where, 3) if model != "linear" else None
+    coefficients = (
+        _dataset(f, "coefficients", where, 3, (N_COEFFICIENTS[model], *size))
+        if model != "linear"
+        else None
+    )
     residuals: dict[str, dict[str, np.ndarray]] = {}
     for group_name in _RESIDUAL_GROUPS:
         group = f.get(group_name)
         maps: dict[str, np.ndarray] = {}
         if isinstance(group, h5py.Group):
+            if len(group) > len(MODELS):
+                raise CalibrationFileError(
+                    f"{where}: group /{group_name} holds {len(group)} maps, more than one per "
+                    "model; the file is damaged, recalibrate"
+                )
             for name in group:
-                maps[name] = _dataset(group, name, where, 2)
+                maps[name] = _dataset(group, name, where, 2, size)
         residuals[group_name] = maps
     spec = None
     if "spec" in f:
@@ -352,12 +404,17 @@ def _read(f: Any, where: str) -> Calibration:
         camera_bit_depth=(
             int(_decode(attrs["camera_bit_depth"])) if "camera_bit_depth" in attrs else None
         ),
-        image_shape=(
-            int(_get(attrs, "image_height", where)),
-            int(_get(attrs, "image_width", where)),
-        ),
+        image_shape=size,
         provenance=provenance,
     )
+
+
+def _check_regular(src: Path) -> None:
+    """Refuse a FIFO, device or socket before h5py opens it (a FIFO would block forever)."""
+    try:
+        check_regular_file(src, "calibration file", "check the path or calibrate first")
+    except InputError as exc:
+        raise CalibrationFileError(str(exc)) from None
 
 
 def load_calibration(path: str | Path) -> Calibration:
@@ -411,6 +468,7 @@ def load_calibration(path: str | Path) -> Calibration:
         raise CalibrationFileError(
             f"{src}: is a folder, not a calibration file; give the .h5 file written by calibrate"
         )
+    _check_regular(src)
     try:
         f = h5py.File(src, "r")
     except OSError as exc:

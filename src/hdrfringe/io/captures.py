@@ -42,16 +42,18 @@ from hdrfringe.core.limits import (
 )
 from hdrfringe.core.patterns import ORIENTATIONS, PATTERNS
 from hdrfringe.errors import CaptureFormatError
-from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
+from hdrfringe.io._read_limits import check_memory, load_json_bounded, probe_image, reason_of
 from hdrfringe.io.results import staged_output_dir, write_map_tiff
 
 __all__ = [
+    "DECODE_BYTES_PER_PIXEL",
     "FORMAT_NAME",
     "FORMAT_VERSION",
     "FORMAT_VERSIONS",
     "IMAGE_SUFFIXES",
     "MAX_SIDE_FILE_PIXELS",
     "RGB_LUMA_WEIGHTS",
+    "TIFF_CODECS",
     "load_image",
     "load_side_file",
     "read_capture_folder",
@@ -88,6 +90,11 @@ _MAP_DTYPES = tuple(np.dtype(t) for t in (np.float32, np.float64, np.uint8, np.u
 
 #: Luma weights (ITU-R BT.601) used when a capture is an RGB image.
 RGB_LUMA_WEIGHTS = (0.299, 0.587, 0.114)
+
+
+#: The codec package tifffile needs for LZW, Deflate-predictor, JPEG and most other compressed
+#: TIFFs (the lower bound tifffile's own ``codecs`` extra asks for); pyproject.toml requires it.
+TIFF_CODECS = "imagecodecs>=2025.11.11"
 
 
 def _fail(where: str, what: str, fix: str) -> CaptureFormatError:
@@ -130,6 +137,12 @@ def _choice(entry: dict[str, Any], key: str, where: str, allowed: Sequence[str])
 def _safe_relpath(file: Any, where: str, key: str = "file") -> str:
     if not isinstance(file, str) or not file:
         raise _fail(where, f"field '{key}' must be a non-empty string, got {file!r}", "fix it")
+    if any(ord(c) < 32 or ord(c) == 127 for c in file):  # NUL: the OS refuses the name
+        raise _fail(
+            where,
+            f"field '{key}' {file!r} holds a control character (a NUL byte or a line break)",
+            "name the image file with printable characters",
+        )
     norm = posixpath.normpath(file.replace("\\", "/"))
     if posixpath.isabs(norm) or norm == ".." or norm.startswith("../") or ":" in norm.split("/")[0]:
         raise _fail(
@@ -416,6 +429,22 @@ def _check_manifest(folder: Path) -> tuple[dict[str, Any], list[str]]:
         for key in ("focal_px", "standoff_mm"):  # the camera geometry, where given
             if key in camera:
                 _collect(problems, _number, camera, key, f"{where} camera", positive=True)
+        for key in ("read_noise_dn", "gain_dn_per_e"):  # the noise model, where given
+            value = (
+                _collect(problems, _number, camera, key, f"{where} camera")
+                if key in camera
+                else None
+            )
+            if value is not None and value < 0:
+                problems.append(
+                    str(
+                        _fail(
+                            f"{where} camera",
+                            f"field '{key}' must be >= 0, got {camera[key]!r}",
+                            "give the camera's noise in DN (gain in DN per electron)",
+                        )
+                    )
+                )
     projector = manifest.get("projector")
     projector_ok = projector is None
     if projector is not None and not isinstance(projector, dict):
@@ -510,6 +539,7 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
         )
     header = probe_image(path)  # size from the header, before any pixel is decoded
     _check_image_layout(path, header.shape, header.dtype)
+    _check_container_bits(path, header.dtype, bit_depth)
     try:
         if path.suffix.lower() in (".tif", ".tiff"):
             import tifffile
@@ -523,8 +553,15 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
                 img = iio.imread(path)
     except Exception as exc:  # any decoder failure: truncated, corrupt, not an image
+        reason = reason_of(exc).strip("'\"")
+        if "requires the 'imagecodecs' package" in reason:  # tifffile: a codec, not the file
+            raise CaptureFormatError(
+                f"{path}: cannot decode the image: {reason}, which is not installed (the file "
+                f"is not damaged); install it with `pip install '{TIFF_CODECS}'`, a dependency "
+                "of hdrfringe"
+            ) from None
         raise CaptureFormatError(
-            f"{path}: cannot read the image ({reason_of(exc)}); the file is corrupt or "
+            f"{path}: cannot read the image ({reason}); the file is corrupt or "
             "truncated: recapture or re-export it"
         ) from None
     img = np.asarray(img)
@@ -551,6 +588,19 @@ def load_image(path: str | Path, bit_depth: int) -> NDArray:
             f"depth {bit_depth}; fix camera.bit_depth in the manifest"
         )
     return img
+
+
+def _check_container_bits(path: Path, dtype: np.dtype, bit_depth: int) -> None:
+    """Refuse integer images too narrow for the bit depth: a 12-bit manifest over 8-bit PNGs
+    clips at 255, which is not 2^B - 1, so no clipped pixel would count as saturated."""
+    bits = np.dtype(dtype).itemsize * 8
+    if np.dtype(dtype).kind == "u" and bits < bit_depth:
+        raise CaptureFormatError(
+            f"{path}: {bits}-bit image, but camera.bit_depth is {bit_depth}: values clipped at "
+            f"{(1 << bits) - 1} would not count as saturated (2^B - 1 = "
+            f"{full_scale(bit_depth)}); fix camera.bit_depth in the manifest ({bits} for these "
+            "images), or store the camera's full values"
+        )
 
 
 def _check_image_layout(path: Path, shape: tuple[int, ...], dtype: np.dtype) -> None:
@@ -741,13 +791,24 @@ class _SideFileLoader:
         return self._cache[rel]
 
 
-def read_capture_folder(path: str | Path) -> Captures:
+#: Bytes that decoding a folder (``phase``, ``measure``) needs per pixel of its images, at
+#: least: a 4-step set of 8-bit images took 38 B per image pixel beyond the interpreter's own
+#: (peak RSS of ``phase --no-previews`` at 2000x2000 minus 1000x1000, divided by the 12 M image
+#: pixels added; docs/capture_format.md, "Limits"). 3-step sets and previews take more.
+DECODE_BYTES_PER_PIXEL = 38
+
+
+def read_capture_folder(path: str | Path, *, work_bytes_per_pixel: int = 0) -> Captures:
     """Read and fully validate a capture folder.
 
     Parameters
     ----------
     path : str or Path
         Folder holding ``manifest.json`` and its images.
+    work_bytes_per_pixel : int
+        Bytes the caller's work needs per pixel of the images, at least (the decoders:
+        :data:`DECODE_BYTES_PER_PIXEL`); with the images' own, checked against the available
+        memory from the image headers, before any pixel is decoded (default 0: the images' own).
 
     Returns
     -------
@@ -816,16 +877,25 @@ def read_capture_folder(path: str | Path) -> Captures:
     # every image's size from its header before any is decoded: one size, bounded in total
     paths = [_confined(folder, entry["file"], "image") for entry in entries]
     shape0: tuple[int, ...] = probe_image(paths[0]).shape[:2]
+    pixel_bytes = 1
     for path in paths:
         header = probe_image(path)
         _check_image_layout(path, header.shape, header.dtype)
         _check_size(path, header.shape[:2], shape0, entries[0]["file"])
+        # as decoded: an RGB(A) image becomes float32 luma
+        pixel_bytes = max(pixel_bytes, 4 if len(header.shape) == 3 else header.dtype.itemsize)
     total = len(paths) * math.prod(shape0)
     if total > MAX_FOLDER_PIXELS:
         raise CaptureFormatError(
             f"{folder}: {len(paths)} images of {shape0[1]}x{shape0[0]} are {total} pixels, more "
             f"than the limit of {MAX_FOLDER_PIXELS}; split the captures into several folders"
         )
+    check_memory(  # the images as decoded plus the caller's work, before decoding any
+        total * (pixel_bytes + work_bytes_per_pixel),
+        str(folder),
+        f"{len(paths)} images of {shape0[1]}x{shape0[0]}",
+        "split the captures into several folders, crop the images, or free memory",
+    )
     images: list[NDArray] = []
     for path in paths:
         img = load_image(path, bit_depth)
@@ -1039,4 +1109,3 @@ def write_capture_folder(
             write_map_tiff(tmp / f"{key}.tiff", data)
         (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
     return Path(path)
-

@@ -118,6 +118,12 @@ def _list(value: Any) -> list[Any]:
     return list(value) if isinstance(value, list) else [value]
 
 
+#: Seconds a description's regular expression may spend on all file names of the images
+#: folder together (Template.parse): a catastrophically backtracking one is refused instead of
+#: running for minutes.
+REGEX_SECONDS = 2.0
+
+
 @dataclass(frozen=True)
 class Template:
     """A compiled file-name template or regular expression.
@@ -126,14 +132,18 @@ class Template:
     ----------
     text : str
         The template (or the regular expression) as written in the description.
-    regex : re.Pattern
-        Matches a file's path relative to the images folder (POSIX ``/``), whole.
+    regex : re.Pattern or regex.Pattern
+        Matches a file's path relative to the images folder (POSIX ``/``), whole; a
+        description's own regular expression is compiled with the ``regex`` module, whose
+        timeout bounds it (:meth:`parse`).
     fields : tuple of str
         The fields it captures, in order.
     specs : dict
         Field -> Python format spec that the captured text must reproduce (``"03d"``).
     orientation_names : dict
         Text in file names -> orientation (``{"h": "horizontal"}``).
+    where : str
+        Where the template is (the description's group), for messages.
 
     Examples
     --------
@@ -146,25 +156,51 @@ class Template:
     """
 
     text: str
-    regex: re.Pattern[str]
+    regex: Any  # re.Pattern[str]; a regex.Pattern for a description's own expression
     fields: tuple[str, ...]
     specs: dict[str, str]
     orientation_names: dict[str, str]
+    where: str = ""
 
-    def parse(self, rel: str) -> dict[str, Any] | None:
+    @property
+    def user_regex(self) -> bool:
+        """Whether this is a description's own regular expression (matched with a time bound)."""
+        return not isinstance(self.regex, re.Pattern)
+
+    def parse(self, rel: str, *, timeout: float = REGEX_SECONDS) -> dict[str, Any] | None:
         """The field values of file ``rel`` (relative POSIX path), or None if it does not match.
 
         Parameters
         ----------
         rel : str
             Path relative to the images folder.
+        timeout : float
+            Seconds a description's regular expression may take on ``rel`` (templates, which
+            compile to expressions without nested repeats, are not bounded).
 
         Returns
         -------
         dict or None
             Orientation as ``"vertical"``/``"horizontal"``, numbers as float.
+
+        Raises
+        ------
+        InputError
+            The regular expression took longer than ``timeout`` (catastrophic backtracking).
         """
-        m = self.regex.fullmatch(rel)
+        if self.user_regex:
+            try:
+                m = self.regex.fullmatch(rel, timeout=max(timeout, 1e-3))
+            except TimeoutError:
+                raise _fail(
+                    self.where,
+                    f"the regular expression {self.text!r} takes more than {REGEX_SECONDS:g} s "
+                    f"on the file names (at {rel!r}): it backtracks catastrophically (a repeat "
+                    "that can match the same text in many ways, such as (a+)+ or (a|aa)+)",
+                    "rewrite it without nested repeats, or use a file-name template",
+                ) from None
+        else:
+            m = self.regex.fullmatch(rel)
         if m is None:
             return None
         out: dict[str, Any] = {}
@@ -245,14 +281,18 @@ def compile_template(
             raise _fail(where, f"unknown template field {{{name}}} in {text!r}", hint)
 
     if regex:
+        # the regex module, for its timeout (Template.parse): re cannot stop an expression
+        # such as (a|aa)+b, which takes minutes on a 40-character file name
+        import regex as regex_module
+
         try:
-            compiled = re.compile(text)
-        except re.error as exc:
+            compiled = regex_module.compile(text)
+        except regex_module.error as exc:
             raise _fail(where, f"bad regular expression {text!r} ({exc})", "fix it") from None
         fields = tuple(compiled.groupindex)
         for name in fields:
             check_field(name)
-        return Template(text, compiled, fields, {}, dict(orientation_names))
+        return Template(text, compiled, fields, {}, dict(orientation_names), where)
     parts: list[str] = []
     fields_l: list[str] = []
     specs: dict[str, str] = {}
@@ -301,7 +341,7 @@ def compile_template(
         raise _fail(where, f"unbalanced braces in template {text!r}", "write fields as {name}")
     parts.append(re.escape(rest))
     return Template(
-        text, re.compile("".join(parts)), tuple(fields_l), specs, dict(orientation_names)
+        text, re.compile("".join(parts)), tuple(fields_l), specs, dict(orientation_names), where
     )
 
 

@@ -19,6 +19,7 @@ import os
 import posixpath
 import re
 import shutil
+import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -33,7 +34,13 @@ from hdrfringe.core.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS, MAX_PROGR
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
 from hdrfringe.io.captures import load_image, load_side_file, read_manifest
-from hdrfringe.io.import_description import Description, FrameGroup, Template, read_description
+from hdrfringe.io.import_description import (
+    REGEX_SECONDS,
+    Description,
+    FrameGroup,
+    Template,
+    read_description,
+)
 from hdrfringe.io.pattern_folder import PATTERN_FORMAT
 from hdrfringe.io.results import check_output_against_inputs, staged_output_dir
 
@@ -317,8 +324,9 @@ def _match_group(group: FrameGroup, files: Sequence[str], root: Path) -> list[_S
     template = group.files
     assert isinstance(template, Template)
     found: dict[tuple[Any, ...], list[str]] = {}
+    deadline = time.monotonic() + REGEX_SECONDS  # one budget for all names (a regex's)
     for rel in files:
-        values = template.parse(rel)
+        values = template.parse(rel, timeout=deadline - time.monotonic())
         if values is not None:
             found.setdefault(tuple(values[f] for f in template.fields), []).append(rel)
     out = []

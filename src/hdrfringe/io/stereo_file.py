@@ -27,12 +27,14 @@ file: what a measurement takes (:class:`~hdrfringe.core.calibration.MeasurementC
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hdrfringe.core._validation import check_regular_file
 from hdrfringe.core.calibration import MeasurementCalibration
 from hdrfringe.core.stereo import DISTORTION_LENGTHS, LensModel, StereoCalibration
 from hdrfringe.errors import InputError, OutputExistsError
@@ -160,6 +162,13 @@ def _float_dataset(f: Any, name: str, where: str, shape: tuple[int, ...] | None)
             f"{where}: dataset /{name} is missing; the file is incomplete, convert or "
             "calibrate again"
         )
+    declared = tuple(item.shape or ())
+    if (shape is not None and declared != shape) or math.prod(declared) > _MAX_NPZ_ELEMENTS:
+        # checked before reading: a few bytes of HDF5 can declare a huge dataset
+        raise CalibrationFileError(
+            f"{where}: dataset /{name} has shape {declared}, expected "
+            f"{shape or 'a few coefficients'}; the file is damaged, convert or calibrate again"
+        )
     arr = np.asarray(item[()])
     if arr.dtype.kind not in "fiu":
         raise CalibrationFileError(f"{where}: dataset /{name} is not numeric; the file is damaged")
@@ -267,6 +276,11 @@ def load_stereo_calibration(path: str | Path) -> StereoCalibration:
 
     src = Path(path)
     if not src.is_file():
+        if src.exists() and not src.is_dir():  # a FIFO would block h5py forever
+            try:
+                check_regular_file(src, "calibration file", "check the path")
+            except InputError as exc:
+                raise CalibrationFileError(str(exc)) from None
         what = (
             "is a folder, not a calibration file" if src.is_dir() else "calibration file not found"
         )
@@ -595,11 +609,41 @@ def _from_filestorage(
     return _build(where, f"OpenCV FileStorage {path.name}", parts, unit, errors or None)
 
 
+#: Elements of one array of a stereo calibration file (.npz member, HDF5 dataset): its
+#: matrices are 3x3, its distortion vectors at most 14 long, its sizes and errors scalars.
+_MAX_NPZ_ELEMENTS = 4096
+
+
+def _npz_shape(z: Any, key: str) -> tuple[int, ...]:
+    """The shape a .npz member declares in its .npy header, read without its data."""
+    from numpy.lib import format as npy
+
+    with z.zip.open(f"{key}.npy") as fh:
+        version = npy.read_magic(fh)
+        read_header = {(1, 0): npy.read_array_header_1_0, (2, 0): npy.read_array_header_2_0}
+        if version not in read_header:
+            raise ValueError(f"member {key!r}: .npy format version {version} is not read here")
+        shape, _, _ = read_header[version](fh)
+    return tuple(shape)
+
+
 def _npz(path: Path, where: str) -> dict[str, np.ndarray]:
     try:
+        check_regular_file(path, "calibration file", "give the stereo_params.npz file")
+    except InputError as exc:
+        raise CalibrationFileError(str(exc)) from None
+    try:
         with np.load(path, allow_pickle=False) as z:
+            for key in z.files:  # before any is read: a small file can declare a huge array
+                shape = _npz_shape(z, key)
+                if math.prod(shape) > _MAX_NPZ_ELEMENTS:
+                    raise CalibrationFileError(
+                        f"{where}: array {key!r} declares shape {'x'.join(map(str, shape))}, "
+                        f"more than {_MAX_NPZ_ELEMENTS} values; a stereo calibration holds "
+                        "3x3 matrices and short vectors, give the calibration's own .npz"
+                    )
             return {k: np.asarray(z[k]) for k in z.files}
-    except (OSError, ValueError, EOFError) as exc:
+    except (OSError, ValueError, EOFError, KeyError) as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise CalibrationFileError(f"{where}: not a readable .npz file ({reason})") from None
 
@@ -785,6 +829,11 @@ def convert_calibration(
     src = Path(path)
     if not src.exists():
         raise CalibrationFileError(f"{src}: not found; give a calibration file or folder")
+    if not src.is_dir():  # a FIFO would block the reader forever
+        try:
+            check_regular_file(src, "calibration file", "give a calibration file or folder")
+        except InputError as exc:
+            raise CalibrationFileError(str(exc)) from None
     for name, size in (("camera_size", camera_size), ("projector_size", projector_size)):
         if size is not None:
             _size(size, name, str(src))

@@ -56,6 +56,15 @@ def lux_to_dn(lux: ArrayLike, bit_depth: int, dn_per_lux: float = _THESIS_DN_PER
     ----------
     Thesis Fig. 4.14c (0.17 gray level per lux on the white plate, 8 bits).
     """
+    if (
+        isinstance(dn_per_lux, bool)
+        or not (isinstance(dn_per_lux, int | float | np.number) and math.isfinite(dn_per_lux))
+        or dn_per_lux < 0
+    ):
+        raise InputError(
+            f"dn_per_lux must be a finite number >= 0 (8-bit gray levels per lux, thesis 0.17), "
+            f"got {dn_per_lux!r}; added light never darkens"
+        )
     return np.asarray(lux, dtype=np.float64) * dn_per_lux * full_scale(bit_depth) / 255.0
 
 

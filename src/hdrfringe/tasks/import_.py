@@ -86,10 +86,11 @@ def import_folder(
 def next_step(folder: Path) -> str | None:
     """The command that makes sense next on a capture folder, as ``import`` suggests it.
 
-    ``hdrfringe phase FOLDER -o OUT`` when its fringe sets decode as families (no two sets of
-    one family at one pitch), else ``hdrfringe gamma FOLDER -o OUT`` when the folder is a gamma
-    capture (uniform grays, or fringe sets pre-distorted with several exponents, e.g. the
-    kamino410 gamma sheet), else None (nothing to suggest).
+    ``hdrfringe gamma FOLDER -o OUT`` for fringe sets pre-distorted with several exponents
+    that the gamma fit can use (e.g. the kamino410 gamma sheet; ``phase`` decodes them too),
+    else ``hdrfringe phase FOLDER -o OUT`` when its fringe sets decode as families (no two sets
+    of one family at one pitch), else ``hdrfringe gamma FOLDER -o OUT`` when the folder is a
+    gamma capture of uniform grays (or fittable sets), else None (nothing to suggest).
 
     Parameters
     ----------
@@ -114,11 +115,14 @@ def next_step(folder: Path) -> str | None:
     from hdrfringe.io.captures import read_capture_folder
 
     caps = read_capture_folder(folder)
+    gamma0 = caps.projector.gamma_precompensation if caps.projector else 1.0
+    exponents = [s.gamma_precompensation or gamma0 for s in caps.sets]
+    chosen = select_gamma_sets([(s.spec, g) for s, g in zip(caps.sets, exponents, strict=True)])
+    if len(set(exponents)) > 1 and chosen.fittable:  # phase decodes it too, gamma is its use
+        return f"hdrfringe gamma {folder} -o OUT"
     families = group_families(caps.sets)
     if caps.sets and all(len({s.spec.pitch_px for s in f}) == len(f) for f in families):
         return f"hdrfringe phase {folder} -o OUT"
-    gamma0 = caps.projector.gamma_precompensation if caps.projector else 1.0
-    chosen = select_gamma_sets([(s.spec, s.gamma_precompensation or gamma0) for s in caps.sets])
     if chosen.fittable or uniform_gray_means(caps) is not None:
         return f"hdrfringe gamma {folder} -o OUT"
     return None

@@ -837,7 +837,7 @@ def measure(
     # imported once the options are known good: a refused command does not pay for the
     # pipeline's decoders, unwrapping, calibration and HDF5
     from hdrfringe import pipeline
-    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
 
     cal = load_measure_calibration(calibration)
     kwargs = options.pipeline_kwargs(calibration)
@@ -858,7 +858,8 @@ def measure(
             )
     else:
         assert folder is not None
-        result = pipeline.measure(read_capture_folder(folder), cal, label=str(folder), **kwargs)
+        caps = read_capture_folder(folder, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
+        result = pipeline.measure(caps, cal, label=str(folder), **kwargs)
     write_measurement(result, output, force=force, previews=options.previews)
     return MeasureReport(output, result)
 

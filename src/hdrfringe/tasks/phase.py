@@ -121,7 +121,7 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
     (True, 8)
     """
     from hdrfringe.errors import CaptureFormatError
-    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
     from hdrfringe.io.results import (
         check_output_against_inputs,
         check_output_dir,
@@ -130,7 +130,7 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
 
     check_output_against_inputs(output, [folder])
     output = check_output_dir(output, force)
-    captures = read_capture_folder(folder)
+    captures = read_capture_folder(folder, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
     if not captures.sets:
         raise CaptureFormatError(
             f"{folder}: no fringe frames in the manifest; add a complete phase-shifted set"

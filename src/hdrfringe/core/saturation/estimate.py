@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 from hdrfringe.core._validation import (
     as_stack,
     check_bit_depth,
+    check_regular_file,
     full_scale,
     is_saturated,
     unsaturated_mask,
@@ -840,6 +841,7 @@ class CorrectionPolynomial:
                 f"{where}: correction polynomial needs coefficients, a domain [lo, hi] with "
                 f"lo < hi and truth in {TRUTH_MODELS}; re-create it with train_correction"
             )
+        _check_correction_values(out, where)
         return out
 
     def save(self, path: str | Path, *, force: bool = False) -> Path:
@@ -855,16 +857,62 @@ class CorrectionPolynomial:
     @classmethod
     def load(cls, path: str | Path) -> CorrectionPolynomial:
         """Read a polynomial written by :meth:`save`."""
-        p = Path(path)
-        try:
-            data = json.loads(p.read_text(encoding="utf-8"))
-        except FileNotFoundError:
+        p = check_regular_file(
+            path, "correction polynomial", "train one with train_correction (train-correction)"
+        )
+        with p.open("rb") as fh:  # at most the limit, even from a file that grows meanwhile
+            raw = fh.read(_MAX_CORRECTION_BYTES + 1)
+        if len(raw) > _MAX_CORRECTION_BYTES:
             raise InputError(
-                f"correction polynomial {p} does not exist; train one with train_correction"
-            ) from None
+                f"{p}: more than {_MAX_CORRECTION_BYTES} bytes, not a correction polynomial (it "
+                "holds a few coefficients); give the JSON file train-correction wrote"
+            )
+        try:
+            data = json.loads(raw.decode("utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise InputError(f"correction polynomial {p} is not valid JSON ({exc})") from None
+        except (ValueError, RecursionError):  # a huge integer, arrays nested thousands deep
+            raise InputError(
+                f"correction polynomial {p}: a number with too many digits or arrays nested too "
+                "deep; give the JSON file train-correction wrote"
+            ) from None
         return cls.from_dict(data, where=str(p))
+
+
+#: Largest correction-polynomial file read (one written by save takes well under 2 KB).
+_MAX_CORRECTION_BYTES = 1 << 20
+
+
+def _check_correction_values(poly: CorrectionPolynomial, where: str) -> None:
+    """Refuse values no training gives: a NaN coefficient makes every estimate NaN (DPA then
+    captures far more sets than needed, silently), an infinite domain, an impossible bit depth."""
+    checks = (
+        ("coefficients", poly.coefficients),
+        ("domain", poly.domain),
+        ("window", poly.window),
+        ("top_migl", (poly.top_migl,)),
+        ("imin", (poly.imin,)),
+    )
+    for name, values in checks:
+        if not all(math.isfinite(v) for v in values):
+            raise InputError(
+                f"{where}: correction polynomial field '{name}' holds {list(values)}, not "
+                "finite numbers; re-create it with train-correction"
+            )
+    if not poly.window[0] < poly.window[1]:
+        raise InputError(
+            f"{where}: correction polynomial field 'window' must be [lo, hi] with lo < hi, got "
+            f"{list(poly.window)}; re-create it with train-correction"
+        )
+    try:
+        check_bit_depth(poly.bit_depth, f"{where}: correction polynomial field 'bit_depth'")
+    except InputError as exc:
+        raise InputError(f"{exc}; re-create it with train-correction") from None
+    if poly.order < 0 or poly.n_samples < 0:
+        raise InputError(
+            f"{where}: correction polynomial fields 'order' ({poly.order}) and 'n_samples' "
+            f"({poly.n_samples}) cannot be negative; re-create it with train-correction"
+        )
 
 
 def _json_float(x: float) -> float | None:
