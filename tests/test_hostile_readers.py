@@ -316,11 +316,11 @@ def test_4_folder_needing_more_memory_than_available(
     assert sum(p.stat().st_size for p in folder.iterdir()) < 700_000
     monkeypatch.setattr(read_limits, "available_memory", lambda: 4 << 30)
     out = tmp_path / "out"
-    need = 4 * side * side * (1 + DECODE_BYTES_PER_PIXEL) / (1 << 30)  # 19.5 GiB
+    need = 4 * side * side * (1 + DECODE_BYTES_PER_PIXEL) / (1 << 30)  # 10.0 GiB
     line = _refused(run_cli("phase", str(folder), "-o", str(out)), out,
                     f"4 images of {side}x{side} need at least {need:.1f} GiB of memory to decode",
                     "4.0 GiB is available")  # fmt: skip
-    assert f"{need:.1f}" == "19.5" and "split the captures" in line  # docs/capture_format.md
+    assert f"{need:.1f}" == "10.0" and "split the captures" in line  # docs/capture_format.md
 
 
 def test_4_loop_camera_size_bounded(tmp_path: Path) -> None:

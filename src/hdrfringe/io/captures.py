@@ -792,10 +792,12 @@ class _SideFileLoader:
 
 
 #: Bytes that decoding a folder (``phase``, ``measure``) needs per pixel of its images, at
-#: least: a 4-step set of 8-bit images took 38 B per image pixel beyond the interpreter's own
-#: (peak RSS of ``phase --no-previews`` at 2000x2000 minus 1000x1000, divided by the 12 M image
-#: pixels added; docs/capture_format.md, "Limits"). 3-step sets and previews take more.
-DECODE_BYTES_PER_PIXEL = 38
+#: least: one 4-step set of 8-bit images took 19.8 B per image pixel with ``phase
+#: --no-previews`` and 24.8 B with ``measure --no-previews`` (no calibration), beyond the
+#: interpreter's own (peak RSS at 2000x2000 minus 1000x1000, divided by the 12 M image pixels
+#: added; docs/capture_format.md, "Limits"). The lower of the two, rounded down, so that no folder
+#: that fits is refused; 3-step sets and previews take more.
+DECODE_BYTES_PER_PIXEL = 19
 
 
 def read_capture_folder(path: str | Path, *, work_bytes_per_pixel: int = 0) -> Captures:
