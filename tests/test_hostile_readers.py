@@ -287,12 +287,16 @@ def _png_of_zeros(path: Path, width: int, height: int, rows: int) -> None:
                      + chunk(b"IEND", b""))  # fmt: skip
 
 
+@pytest.mark.parametrize(
+    "command", [["phase"], ["measure"], ["gamma"], ["calibrate", "--model", "linear"]]
+)
 def test_4_folder_needing_more_memory_than_available(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: list[str]
 ) -> None:
     """Four 11585x11585 PNGs (632 KB together, each within MAX_IMAGE_PIXELS, together within
     MAX_FOLDER_PIXELS) needed more than 4 GiB in ``phase``: refused from the headers, saying
-    how much they need, on a machine with 4 GiB free (nothing decoded: the test takes < 1 s)."""
+    how much they need, on a machine with 4 GiB free (nothing decoded: the test takes < 1 s),
+    by every command that decodes a folder."""
     import shutil
 
     import hdrfringe.io._read_limits as read_limits
@@ -317,7 +321,7 @@ def test_4_folder_needing_more_memory_than_available(
     monkeypatch.setattr(read_limits, "available_memory", lambda: 4 << 30)
     out = tmp_path / "out"
     need = 4 * side * side * (1 + DECODE_BYTES_PER_PIXEL) / (1 << 30)  # 10.0 GiB
-    line = _refused(run_cli("phase", str(folder), "-o", str(out)), out,
+    line = _refused(run_cli(command[0], str(folder), *command[1:], "-o", str(out)), out,
                     f"4 images of {side}x{side} need at least {need:.1f} GiB of memory to decode",
                     "4.0 GiB is available")  # fmt: skip
     assert f"{need:.1f}" == "10.0" and "split the captures" in line  # docs/capture_format.md

@@ -149,12 +149,12 @@ def test_phase_on_sets_of_one_pitch_says_what_the_folder_is(tmp_path: Path) -> N
     import shutil
 
     gamma = _same_pitch_folder(tmp_path)
-    res = run_cli("phase", str(gamma), "-o", str(tmp_path / "p1"))
+    res = run_cli("phase", str(gamma), "-o", str(tmp_path / "p1"), "--per-set-maps")
     assert res.returncode == 0, res.stderr
     summary = json.loads((tmp_path / "p1" / "phase_summary.json").read_text())
     labels = [s["label"] for s in summary["sets"]]
     assert len(labels) == 2 and [f["sets"] for f in summary["families"]] == [labels[:1]]
-    assert f"wrapped_phase__{labels[1]}.tiff" in summary["files"]
+    assert f"wrapped_phase__{labels[1]}.tiff" in summary["files"]  # every set's maps on request
     assert any(f"{labels[1]} (gamma pre-compensation 2)" in n for n in summary["notes"])
     labelled = tmp_path / "labelled"
     shutil.copytree(gamma, labelled)

@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from hdrfringe.core.calibration import Calibration
-from hdrfringe.io.captures import read_capture_folder
+from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
 from hdrfringe.pipeline import calibrate as fit_calibration
 from hdrfringe.tasks._progress import Progress, quiet
 
@@ -105,7 +105,10 @@ def calibrate_folders(
     >>> calibrate_folders([root]).depths_mm.tolist()
     [10.0, 20.0]
     """
-    folders = [read_capture_folder(p) for p in expand_capture_dirs(paths)]
+    folders = [
+        read_capture_folder(p, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
+        for p in expand_capture_dirs(paths)
+    ]
     return fit_calibration(
         folders, model=model, window_px=window_px, border_px=border_px, progress=progress
     )

@@ -32,13 +32,13 @@ from typing import Any
 from hdrfringe.core.captures import Captures
 from hdrfringe.core.stereo import StereoCalibration
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.io.captures import read_capture_folder
+from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
 from hdrfringe.rig.board_poses import board_program, calibration_rig
 from hdrfringe.rig.scenes import CalibrationBoard
 from hdrfringe.tasks._progress import Progress, quiet
 
 __all__ = [
-    "StereoCalibrated",
+    "CalibrateStereoReport",
     "calibrate_stereo",
     "check_calibration_outputs",
     "read_pose_folders",
@@ -104,7 +104,7 @@ def read_pose_folders(folders: Sequence[str | Path]) -> list[Captures]:
         seen.add(key)
     out = []
     for f in folders:
-        caps = read_capture_folder(f)
+        caps = read_capture_folder(f, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
         out.append(caps)
     return out
 
@@ -295,7 +295,7 @@ def _truth_errors(calib: Any, truth: Any) -> dict[str, float]:
 
 
 @dataclass(frozen=True)
-class StereoCalibrated:
+class CalibrateStereoReport:
     """What ``calibrate-stereo`` wrote.
 
     Parameters
@@ -315,7 +315,7 @@ class StereoCalibrated:
     Examples
     --------
     >>> import dataclasses
-    >>> [f.name for f in dataclasses.fields(StereoCalibrated)][:3]
+    >>> [f.name for f in dataclasses.fields(CalibrateStereoReport)][:3]
     ['calibration_file', 'report_file', 'calibration']
     """
 
@@ -346,7 +346,7 @@ def calibrate_stereo(
     projector_size: tuple[int, int] | None = None,
     force: bool = False,
     progress: Progress = quiet,
-) -> StereoCalibrated:
+) -> CalibrateStereoReport:
     """Calibrate the projector and camera from board poses, or convert another calibration.
 
     Exactly one source: ``poses`` (capture folders, one per board pose), ``from_path`` (a
@@ -391,7 +391,7 @@ def calibrate_stereo(
 
     Returns
     -------
-    StereoCalibrated
+    CalibrateStereoReport
 
     Examples
     --------
@@ -429,7 +429,7 @@ def calibrate_stereo(
         )
         converted = {"converted_from": str(from_path), "calibration": calib.to_dict()}
         out, rep = write_calibration_and_report(output, calib, converted, force=force)
-        return StereoCalibrated(out, rep, calib, converted_from=from_path)
+        return CalibrateStereoReport(out, rep, calib, converted_from=from_path)
 
     if board is None:
         raise InputError("--board is required: e.g. --board checkerboard:9x6:25")
@@ -500,4 +500,4 @@ def calibrate_stereo(
         report["virtual_rig_truth"] = truth.to_dict()
         report["errors_vs_truth"] = errors
     out, rep = write_calibration_and_report(output, result.calibration, report, force=force)
-    return StereoCalibrated(out, rep, result.calibration, result, errors)
+    return CalibrateStereoReport(out, rep, result.calibration, result, errors)

@@ -26,7 +26,7 @@ from hdrfringe.tasks.capture import hardware_rig, live_record, stop_reason, writ
 
 __all__ = [
     "WRONG_PRECOMPENSATION_PERCENT",
-    "GammaCaptureReport",
+    "CaptureGammaReport",
     "capture_gamma",
     "precompensation_verdict",
     "spread_order",
@@ -143,7 +143,7 @@ def _gamma_rig(
 
 
 @dataclass(frozen=True)
-class GammaCaptureReport:
+class CaptureGammaReport:
     """What ``capture-gamma`` wrote and what the fits say.
 
     Parameters
@@ -160,7 +160,7 @@ class GammaCaptureReport:
 
     Examples
     --------
-    >>> GammaCaptureReport(Path("gamma"), 22, ["uniform grays: gamma = 2.81"]).warning is None
+    >>> CaptureGammaReport(Path("gamma"), 22, ["uniform grays: gamma = 2.81"]).warning is None
     True
     """
 
@@ -215,7 +215,7 @@ def capture_gamma(
     steps: int = 4,
     force: bool = False,
     say: Callable[[str], Any] | None = None,
-) -> GammaCaptureReport:
+) -> CaptureGammaReport:
     """Project the gamma-estimation program live, write its capture folder, fit it.
 
     Uniform grays ``levels`` (sent with ``gamma``) and one wide sinusoidal set sent at each of
@@ -254,7 +254,7 @@ def capture_gamma(
 
     Returns
     -------
-    GammaCaptureReport
+    CaptureGammaReport
 
     Examples
     --------
@@ -345,7 +345,7 @@ def capture_gamma(
     try:
         report = gamma_report(caps, source=str(output))
     except HdrFringeError as err:  # the folder is written; say why it does not fit
-        return GammaCaptureReport(output, len(caps.frames), warning=" ".join(str(err).split()))
+        return CaptureGammaReport(output, len(caps.frames), warning=" ".join(str(err).split()))
     lines = list(report.lines)
     fit = report.uniform_fit or report.fringe_fit
     if fit is not None:
@@ -353,4 +353,4 @@ def capture_gamma(
         if config.gamma is not None and config.gamma != gamma:  # the file's, not sent
             source = config.source or "the rig configuration"
             lines.append(precompensation_verdict(fit, config.gamma, source)[1])
-    return GammaCaptureReport(output, len(caps.frames), lines)
+    return CaptureGammaReport(output, len(caps.frames), lines)

@@ -21,7 +21,7 @@ from typing import Any
 from hdrfringe.errors import HdrFringeError, InputError, StoppedError
 from hdrfringe.tasks.capture import hardware_rig, live_record, stop_reason, write_capture_output
 
-__all__ = ["POSES_LOG", "PosesReport", "board_pitches", "capture_poses"]
+__all__ = ["POSES_LOG", "CapturePosesReport", "board_pitches", "capture_poses"]
 
 #: The summary ``capture-poses`` writes in OUT beside the pose folders.
 POSES_LOG = "capture_poses.json"
@@ -73,7 +73,7 @@ def _poses_rig(rig_config: Path | None, given: Collection[str], **options: Any) 
 
 
 @dataclass(frozen=True)
-class PosesReport:
+class CapturePosesReport:
     """What ``capture-poses`` wrote.
 
     Parameters
@@ -89,7 +89,7 @@ class PosesReport:
 
     Examples
     --------
-    >>> PosesReport(Path("poses"), ["pose_01", "pose_02"], "finished with q", None).names[-1]
+    >>> CapturePosesReport(Path("poses"), ["pose_01", "pose_02"], "finished with q", None).names[-1]
     'pose_02'
     """
 
@@ -113,7 +113,7 @@ def capture_poses(
     board: str | None = None,
     force: bool = False,
     say: Callable[[str], Any] | None = None,
-) -> PosesReport:
+) -> CapturePosesReport:
     """Capture the board poses live, one capture folder per pose, and their summary.
 
     The output is checked before the rig opens and appears when the run ends, holding the
@@ -150,7 +150,7 @@ def capture_poses(
 
     Returns
     -------
-    PosesReport
+    CapturePosesReport
 
     Examples
     --------
@@ -247,7 +247,7 @@ def capture_poses(
             "being captured was dropped",
             code or 2,
         )
-    return PosesReport(output, names, stopped, None if spec is None else _board_text(spec))
+    return CapturePosesReport(output, names, stopped, None if spec is None else _board_text(spec))
 
 
 def _board_text(spec: Any) -> str:

@@ -51,14 +51,15 @@ def gamma(
     (2.8, True)
     """
     from hdrfringe.core.gamma import gamma_report
-    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
     from hdrfringe.io.gamma_outputs import write_gamma_outputs
     from hdrfringe.io.results import check_output_against_inputs, check_output_dir
 
     if output is not None:
         check_output_against_inputs(output, [folder])
         output = check_output_dir(output, force)
-    report = gamma_report(read_capture_folder(folder), source=str(folder))
+    caps = read_capture_folder(folder, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
+    report = gamma_report(caps, source=str(folder))
     for line in report.lines:
         say(line)
     report.check_fitted()

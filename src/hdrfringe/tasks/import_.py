@@ -6,11 +6,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["Imported", "import_folder", "next_step"]
+__all__ = ["ImportReport", "import_folder", "next_step"]
 
 
 @dataclass(frozen=True)
-class Imported:
+class ImportReport:
     """What ``import`` wrote.
 
     Parameters
@@ -24,7 +24,7 @@ class Imported:
 
     Examples
     --------
-    >>> Imported(Path("caps"), None, "hdrfringe phase caps -o OUT").hint
+    >>> ImportReport(Path("caps"), None, "hdrfringe phase caps -o OUT").hint
     'hdrfringe phase caps -o OUT'
     """
 
@@ -41,7 +41,7 @@ def import_folder(
     bit_depth: int | None = None,
     crop_offset: tuple[int, int] | None = None,
     force: bool = False,
-) -> Imported:
+) -> ImportReport:
     """Import camera images as a capture folder (:func:`hdrfringe.io.importer.import_captures`).
 
     The output is checked (not an input, new or empty, or ``force``) before anything is read.
@@ -63,7 +63,7 @@ def import_folder(
 
     Returns
     -------
-    Imported
+    ImportReport
 
     Examples
     --------
@@ -80,7 +80,7 @@ def import_folder(
     report = import_captures(
         images, description, output, bit_depth=bit_depth, crop_offset=crop_offset, force=force
     )
-    return Imported(output, report, next_step(output))
+    return ImportReport(output, report, next_step(output))
 
 
 def next_step(folder: Path) -> str | None:

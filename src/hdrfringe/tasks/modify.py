@@ -34,14 +34,14 @@ from hdrfringe.io.captures import read_capture_folder, read_manifest, write_capt
 from hdrfringe.io.results import check_output_dir
 from hdrfringe.rig.acquire import IntensityModification
 
-__all__ = ["ModifiedFolder", "modify", "modify_capture_folder"]
+__all__ = ["ModifyReport", "modify", "modify_capture_folder"]
 
 #: Top-level manifest fields the captures write themselves (the rest is carried over as is).
 _CONTRACT_FIELDS = ("format", "version", "camera", "projector", "scene", "frames", "maps")
 
 
 @dataclass(frozen=True)
-class ModifiedFolder:
+class ModifyReport:
     """What :func:`modify_capture_folder` wrote.
 
     Parameters
@@ -66,7 +66,7 @@ class ModifiedFolder:
     >>> tmp = Path(tempfile.mkdtemp())
     >>> _ = simulate_to_folder(tmp / "caps", rig, FringeSpec(steps=3).frames())
     >>> done = modify_capture_folder(tmp / "caps", tmp / "mod", IntensityModification())
-    >>> done == ModifiedFolder(tmp / "mod", 3, 0.0)  # nothing added: nothing saturates
+    >>> done == ModifyReport(tmp / "mod", 3, 0.0)  # nothing added: nothing saturates
     True
     """
 
@@ -83,7 +83,7 @@ def modify_capture_folder(
     modification: IntensityModification,
     *,
     force: bool = False,
-) -> ModifiedFolder:
+) -> ModifyReport:
     """Apply thesis Eq. 4.1 to every image of a capture folder and write the result.
 
     Parameters
@@ -100,7 +100,7 @@ def modify_capture_folder(
 
     Returns
     -------
-    ModifiedFolder
+    ModifyReport
 
     Raises
     ------
@@ -141,7 +141,7 @@ def modify_capture_folder(
         output, dataclasses.replace(caps, images=images), names=names, extra=extra, force=force
     )
     sat = is_saturated(images, caps.camera_bit_depth).any(axis=0)
-    return ModifiedFolder(
+    return ModifyReport(
         Path(output), len(names), float(np.mean(sat)), int(np.count_nonzero(sat)), int(sat.size)
     )
 
@@ -155,7 +155,7 @@ def modify(
     noise: float = 0.0,
     seed: int = 0,
     force: bool = False,
-) -> ModifiedFolder:
+) -> ModifyReport:
     """``hdrfringe modify``: add light and noise to a capture folder's images (thesis Eq. 4.1).
 
     The output is checked (not the input, new or empty, or ``force``) before the folder is
@@ -174,7 +174,7 @@ def modify(
 
     Returns
     -------
-    ModifiedFolder
+    ModifyReport
 
     Examples
     --------

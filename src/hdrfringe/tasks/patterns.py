@@ -8,11 +8,11 @@ from pathlib import Path
 
 from hdrfringe.tasks._progress import Progress, quiet
 
-__all__ = ["PatternsWritten", "patterns"]
+__all__ = ["PatternsReport", "patterns"]
 
 
 @dataclass(frozen=True)
-class PatternsWritten:
+class PatternsReport:
     """What ``patterns`` wrote.
 
     Parameters
@@ -24,7 +24,7 @@ class PatternsWritten:
 
     Examples
     --------
-    >>> PatternsWritten(Path("patterns"), 4).images
+    >>> PatternsReport(Path("patterns"), 4).images
     4
     """
 
@@ -50,7 +50,7 @@ def patterns(
     grays: Sequence[float] = (),
     force: bool = False,
     progress: Progress = quiet,
-) -> PatternsWritten:
+) -> PatternsReport:
     """Write a projector program as a pattern folder
     (:func:`hdrfringe.io.pattern_folder.write_pattern_folder`).
 
@@ -72,7 +72,7 @@ def patterns(
 
     Returns
     -------
-    PatternsWritten
+    PatternsReport
 
     Examples
     --------
@@ -101,4 +101,4 @@ def patterns(
     )
     with progress("writing patterns", len(frames)) as advance:
         write_pattern_folder(output, frames, projector, force=force, progress=advance)
-    return PatternsWritten(output, len(frames))
+    return PatternsReport(output, len(frames))

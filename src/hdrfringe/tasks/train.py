@@ -124,11 +124,12 @@ def train_correction(
         with progress("LPA step-1 sweep on the virtual rig", None):
             data = training_data_from_rig(live, spec, margin=margin)
     else:
-        from hdrfringe.io.captures import read_capture_folder
+        from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
 
         assert folder is not None
         source = str(folder)
-        data = training_data_from_folder(read_capture_folder(folder), pitch, margin=margin)
+        caps = read_capture_folder(folder, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
+        data = training_data_from_folder(caps, pitch, margin=margin)
     poly = data.train(order, truth=truth, metadata={"source": source})  # type: ignore[arg-type]
     with staged_output_file(output, force=force) as tmp:  # atomic: complete or not at all
         poly.save(tmp, force=True)  # (the temporary file exists already)
