@@ -670,30 +670,29 @@ _FAILING_WRITE = textwrap.dedent(
 
 def test_train_correction_replaces_its_file_atomically(tmp_path: Path) -> None:
     """A write that fails half-way (disk full) must leave the existing file intact (it was
-    truncated and half-written when the JSON went straight to the target)."""
+    truncated and half-written when the JSON went straight to the target). The training
+    folder is a small step-1 MIGL sweep (64x48 camera, the thesis's 600 lx and 20 px pitch), so
+    the two trainings take about a second each."""
+    sweep = tmp_path / "sweep"
+    made = _run(
+        "simulate", "white_plate", "--migl-sweep", "255:60:1", "--resolution", "64x48",
+        "--pitch", "20", "--steps", "4", "--ambient-lux", "600", "-o", str(sweep),
+    )  # fmt: skip
+    assert made.returncode == 0, made.stderr
     out = tmp_path / "corr.json"
     out.write_text('{"previous": "polynomial"}\n')
     driver = tmp_path / "failing_write.py"
     driver.write_text(_FAILING_WRITE)
     res = subprocess.run(
-        [
-            sys.executable,
-            str(driver),
-            "train-correction",
-            "--rig",
-            "sim",
-            "-o",
-            str(out),
-            "--force",
-        ],
+        [sys.executable, str(driver), "train-correction", str(sweep), "-o", str(out), "--force"],
         capture_output=True,
         text=True,
         timeout=300,
     )
     assert res.returncode != 0
     assert out.read_text() == '{"previous": "polynomial"}\n'
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["corr.json", "failing_write.py"]
-    ok = _run("train-correction", "--rig", "sim", "-o", str(out), "--force")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["corr.json", "failing_write.py", "sweep"]
+    ok = _run("train-correction", str(sweep), "-o", str(out), "--force")
     assert ok.returncode == 0, ok.stderr
     assert '"coefficients"' in out.read_text()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["corr.json", "failing_write.py"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["corr.json", "failing_write.py", "sweep"]
