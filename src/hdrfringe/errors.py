@@ -280,6 +280,12 @@ def environment_fault(
     >>> print(err)  # doctest: +NORMALIZE_WHITESPACE
     out: cannot write: No space left on device (errno ENOSPC); free space on that disk or
     write elsewhere
+    >>> print(environment_fault(PermissionError(_errno.EACCES, "Permission denied"), "out"))
+    out: cannot write: Permission denied (errno EACCES); choose a path you may write
+    >>> print(environment_fault(PermissionError(_errno.EACCES, "Permission denied"), "c.h5",
+    ...                         "read"))
+    c.h5: cannot read: Permission denied (errno EACCES); give a path you may read, or change
+    its permissions
     >>> environment_fault(ValueError("x"), "out") is None
     True
     """
@@ -296,9 +302,11 @@ def environment_fault(
     if code not in FAULT_ERRNOS:
         return None
     reason = os.strerror(code) if exc.errno is None else (exc.strerror or os.strerror(code))
+    fix = FAULT_ERRNOS[code]
+    if code == _errno.EACCES and action != "write":  # a permission refused to read, not write
+        fix = f"give a path you may {action}, or change its permissions"
     return ResourceError(
-        f"{path}: cannot {action}: {reason} (errno {_errno.errorcode[code]}); {FAULT_ERRNOS[code]}",
-        code,
+        f"{path}: cannot {action}: {reason} (errno {_errno.errorcode[code]}); {fix}", code
     )
 
 
