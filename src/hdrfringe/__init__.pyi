@@ -2,6 +2,11 @@
 # This stub is the single list: hdrfringe/__init__.py hands it to lazy_loader.attach_stub, and
 # type checkers read it. Every name below must be importable (tests/test_api.py).
 
+from .core.acceptance import Mpe as Mpe
+from .core.acceptance import MpeSet as MpeSet
+from .core.acceptance import flatness_error as flatness_error
+from .core.acceptance import probing_error as probing_error
+from .core.acceptance import sphere_spacing_error as sphere_spacing_error
 from .core.calibration import Calibration as Calibration
 from .core.calibration import MeasurementCalibration as MeasurementCalibration
 from .core.captures import CameraSettings as CameraSettings
@@ -80,6 +85,7 @@ from .hardware.rig import SyncError as SyncError
 from .hardware.rig import SyncSettings as SyncSettings
 from .hardware.rig import check_rig as check_rig
 from .hardware.rig import open_projector as open_projector
+from .io.acceptance_file import load_acceptance_file as load_acceptance_file
 from .io.calibration_file import load_calibration as load_calibration
 from .io.calibration_file import save_calibration as save_calibration
 from .io.captures import read_capture_folder as read_capture_folder

@@ -25,6 +25,7 @@ per-position table that turns into JSON without NaN. All lengths are in millimet
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -111,7 +112,9 @@ def trim_count(n: int, fraction: float = GUIDELINE_TRIM) -> int:
         raise InputError(f"point count must be an integer >= 0, got {n}")
     f = float(fraction)
     if not 0.0 <= f < 0.5:
-        raise InputError(f"trim fraction must be in [0, 0.5), got {fraction}; the guideline's is 0.003")
+        raise InputError(
+            f"trim fraction must be in [0, 0.5), got {fraction}; the guideline's is 0.003"
+        )
     return math.floor(round(f * int(n), 9))
 
 
@@ -684,18 +687,22 @@ def segment_sphere(
 
     model = None
     if len(sample) > 4:
-        model, _ = ransac(
-            sample,
-            _SphereModel,
-            min_samples=4,
-            residual_threshold=band,
-            is_model_valid=plausible,
-            max_trials=SEGMENT_TRIALS,
-            stop_probability=0.999,
-            rng=rng,
-        )
+        with warnings.catch_warnings():  # "model is not valid": reported below as not found
+            warnings.simplefilter("ignore", UserWarning)
+            model, _ = ransac(
+                sample,
+                _SphereModel,
+                min_samples=4,
+                residual_threshold=band,
+                is_model_valid=plausible,
+                max_trials=SEGMENT_TRIALS,
+                stop_probability=0.999,
+                rng=rng,
+            )
     if not model:
-        raise ArtefactNotFoundError(f"{what} not found among {len(candidates)} points{where}; {fix}")
+        raise ArtefactNotFoundError(
+            f"{what} not found among {len(candidates)} points{where}; {fix}"
+        )
     centre, r = model.params[:3], float(model.params[3])
     mask = np.zeros(finite.shape, dtype=bool)
     for _ in range(2):
@@ -782,7 +789,10 @@ def segment_ball_bar(
     pts = np.asarray(xyz, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         off_shell = np.abs(np.linalg.norm(pts - a.centre, axis=-1) - length) > d_b / 2 + a.band_mm
-    b = segment_sphere(xyz, d_b, expected_centre=e_b, exclude=a.mask | off_shell, **kw)
+    try:
+        b = segment_sphere(xyz, d_b, expected_centre=e_b, exclude=a.mask | off_shell, **kw)
+    except ArtefactNotFoundError as err:
+        raise ArtefactNotFoundError(f"ball bar, sphere B: {err}") from None
     distance = float(np.linalg.norm(a.centre - b.centre))
     if abs(distance - length) > distance_tolerance * length:
         raise ArtefactNotFoundError(
@@ -1058,7 +1068,8 @@ class PositionResult:
 
     Examples
     --------
-    >>> r = check_position("sphere-01", "PS", -0.012, MpeSet(Mpe(.03), Mpe(.01), Mpe(.05), Mpe(.04)))
+    >>> mpes = MpeSet(Mpe(0.03), Mpe(0.01), Mpe(0.05), Mpe(0.04))
+    >>> r = check_position("sphere-01", "PS", -0.012, mpes)
     >>> r.passed, r.to_dict()["value_mm"]
     (False, -0.012)
     """
