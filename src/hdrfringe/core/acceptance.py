@@ -26,14 +26,14 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hdrfringe.core.stereo import fit_dominant_plane, fit_plane, fit_sphere
+from hdrfringe.core.stereo import PlaneFit, SphereFit, fit_dominant_plane, fit_plane, fit_sphere
 from hdrfringe.errors import InputError
 
 __all__ = [
@@ -125,14 +125,22 @@ def _points(xyz: ArrayLike, what: str) -> tuple[F64, Mask]:
     return pts, np.all(np.isfinite(pts), axis=-1)
 
 
-def _drop_largest(residuals: F64, finite: Mask, fraction: float) -> tuple[Mask, int]:
-    """The finite points left after dropping ``trim_count`` of the largest ``|residuals|``."""
+_Fit = TypeVar("_Fit", SphereFit, PlaneFit)
+
+
+def _trimmed_fit(
+    fit: Callable[[ArrayLike], _Fit], pts: F64, finite: Mask, fraction: float
+) -> tuple[_Fit, Mask, int]:
+    """The trimming rule around a fit: fit every finite point, drop the ``trim_count`` with
+    the largest ``|residual|``, fit the rest again. Returns (final fit, kept points, dropped)."""
+    first = fit(pts)
     kept = finite.copy()
     k = trim_count(int(finite.sum()), fraction)
-    if k:
-        flat = np.where(finite, np.abs(residuals), -np.inf).ravel()
-        kept.ravel()[np.argpartition(flat, flat.size - k)[flat.size - k :]] = False
-    return kept, k
+    if not k:
+        return first, kept, 0
+    flat = np.where(finite, np.abs(first.residuals), -np.inf).ravel()
+    kept.ravel()[np.argpartition(flat, flat.size - k)[flat.size - k :]] = False
+    return fit(np.where(kept[..., None], pts, np.nan)), kept, k
 
 
 # --- the quantities ---------------------------------------------------------------------------
@@ -214,9 +222,7 @@ def measure_sphere(xyz: ArrayLike, *, trim: float = GUIDELINE_TRIM) -> SphereMea
     (0.0, True)
     """
     pts, finite = _points(xyz, "sphere")
-    first = fit_sphere(pts)
-    kept, k = _drop_largest(first.residuals, finite, trim)
-    fit = fit_sphere(np.where(kept[..., None], pts, np.nan)) if k else first
+    fit, kept, k = _trimmed_fit(fit_sphere, pts, finite, trim)
     residuals = np.linalg.norm(pts - fit.centre, axis=-1) - fit.radius
     return SphereMeasurement(
         centre=fit.centre,
@@ -440,9 +446,7 @@ def flatness_error(xyz: ArrayLike, *, trim: float = GUIDELINE_TRIM) -> FlatnessE
     0.1
     """
     pts, finite = _points(xyz, "plane")
-    first = fit_plane(pts)
-    kept, k = _drop_largest(first.residuals, finite, trim)
-    fit = fit_plane(np.where(kept[..., None], pts, np.nan)) if k else first
+    fit, kept, k = _trimmed_fit(fit_plane, pts, finite, trim)
     residuals = pts @ fit.normal - fit.offset
     return FlatnessError(
         flatness_mm=float(np.ptp(residuals[kept])),
