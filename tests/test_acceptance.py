@@ -256,6 +256,12 @@ def test_segment_sphere_finds_the_cap_in_front_of_a_plane() -> None:
     np.testing.assert_allclose(seg.centre, [10.0, -5.0, 600.0], atol=0.01)
     p = probing_error(cloud[seg.mask], 25.0)
     assert abs(p.size_mm) < 0.01 and p.form_mm < 0.2
+    # a position's rows and record are plain JSON
+    mpes = MpeSet(Mpe(0.2), Mpe(0.01), Mpe(0.05), Mpe(0.04))
+    assert [r.passed for r in p.rows("sphere-01", mpes)] == [True, True]
+    record = json.loads(json.dumps(p.to_dict(), allow_nan=False))
+    assert record["sphere"]["n_dropped"] == trim_count(int(truth.sum())) == 1  # 640 points
+    assert record["sphere"]["n_points"] == 639 and record["ps_mm"] == p.size_mm
     near = segment_sphere(cloud, 25.0, expected_centre=(12.0, -4.0, 598.0))
     assert np.array_equal(near.mask, truth)
 
@@ -300,6 +306,13 @@ def test_segment_ball_bar_and_plane() -> None:
         segment_ball_bar(cloud, (25.0, 20.0), 120.0)
     seg = segment_plane(cloud, size_mm=(300.0, 300.0))
     assert seg.n_points == 3000 and seg.mask[-3000:].all()
+    mpes = MpeSet(Mpe(0.03), Mpe(0.03), Mpe(0.02, 20000.0), Mpe(0.01, 1e4))
+    rows = [*s.rows("bar-1", mpes), *flatness_error(cloud[seg.mask]).rows("plane-1", mpes, 300.0)]
+    assert [(r.quantity, r.mpe_mm, r.passed) for r in rows] == [
+        ("SD", 0.0275, True),
+        ("F", 0.04, True),
+    ]
+    assert json.dumps(s.to_dict(), allow_nan=False).count("centre_mm") == 2
     with pytest.raises(ArtefactNotFoundError, match="plane not found: 3 finite points"):
         segment_plane(plane[:3])
 

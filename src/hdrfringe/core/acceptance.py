@@ -186,6 +186,28 @@ class SphereMeasurement:
         """Points of the final fit."""
         return int(self.kept.sum())
 
+    def to_dict(self) -> dict[str, Any]:
+        """The fit as plain JSON types (the per-point arrays left out).
+
+        Returns
+        -------
+        dict
+            ``centre_mm``, ``diameter_mm``, ``form_mm``, ``n_points``, ``n_dropped``.
+
+        Examples
+        --------
+        >>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        >>> sorted(measure_sphere(5.0 * d).to_dict())
+        ['centre_mm', 'diameter_mm', 'form_mm', 'n_dropped', 'n_points']
+        """
+        return {
+            "centre_mm": [float(v) for v in self.centre],
+            "diameter_mm": float(self.diameter_mm),
+            "form_mm": float(self.form_mm),
+            "n_points": self.n_points,
+            "n_dropped": int(self.n_dropped),
+        }
+
 
 def measure_sphere(xyz: ArrayLike, *, trim: float = GUIDELINE_TRIM) -> SphereMeasurement:
     """Free-radius least-squares sphere through points, with the trimming rule.
@@ -269,6 +291,55 @@ class ProbingError:
     calibrated_diameter_mm: float
     sphere: SphereMeasurement
 
+    def rows(self, position: str, mpes: MpeSet) -> tuple[PositionResult, PositionResult]:
+        """The PF and PS rows of this position (:func:`check_position`).
+
+        Parameters
+        ----------
+        position : str
+            The position's id.
+        mpes : MpeSet
+            The MPEs.
+
+        Returns
+        -------
+        tuple of PositionResult
+            PF, PS.
+
+        Examples
+        --------
+        >>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        >>> mpes = MpeSet(Mpe(0.03), Mpe(0.01), Mpe(0.05), Mpe(0.04))
+        >>> [r.passed for r in probing_error(5.01 * d, 10.0).rows("s1", mpes)]
+        [True, False]
+        """
+        return (
+            check_position(position, "PF", self.form_mm, mpes),
+            check_position(position, "PS", self.size_mm, mpes),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """PF, PS and the fit as plain JSON types.
+
+        Returns
+        -------
+        dict
+            ``pf_mm``, ``ps_mm``, ``calibrated_diameter_mm``, ``sphere``
+            (:meth:`SphereMeasurement.to_dict`).
+
+        Examples
+        --------
+        >>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        >>> round(probing_error(5.01 * d, 10.0).to_dict()["ps_mm"], 9)
+        0.02
+        """
+        return {
+            "pf_mm": float(self.form_mm),
+            "ps_mm": float(self.size_mm),
+            "calibrated_diameter_mm": float(self.calibrated_diameter_mm),
+            "sphere": self.sphere.to_dict(),
+        }
+
 
 def probing_error(
     xyz: ArrayLike, calibrated_diameter_mm: float, *, trim: float = GUIDELINE_TRIM
@@ -332,6 +403,57 @@ class SphereSpacingError:
     distance_mm: float
     calibrated_distance_mm: float
     spheres: tuple[SphereMeasurement, SphereMeasurement]
+
+    def rows(self, position: str, mpes: MpeSet) -> tuple[PositionResult]:
+        """The SD row of this position, its MPE at the calibrated distance.
+
+        Parameters
+        ----------
+        position : str
+            The position's id.
+        mpes : MpeSet
+            The MPEs.
+
+        Returns
+        -------
+        tuple of PositionResult
+            SD.
+
+        Examples
+        --------
+        >>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        >>> s = sphere_spacing_error(5 * d, 5 * d + [100.02, 0, 0], 100.0)
+        >>> (row,) = s.rows("bar-1", MpeSet(Mpe(0.03), Mpe(0.03), Mpe(0.02, 10000.0), Mpe(0.04)))
+        >>> row.mpe_mm, row.passed
+        (0.03, True)
+        """
+        return (
+            check_position(
+                position, "SD", self.spacing_mm, mpes, length_mm=self.calibrated_distance_mm
+            ),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """SD and the two fits as plain JSON types.
+
+        Returns
+        -------
+        dict
+            ``sd_mm``, ``distance_mm``, ``calibrated_distance_mm``, ``spheres`` (two
+            :meth:`SphereMeasurement.to_dict`).
+
+        Examples
+        --------
+        >>> d = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1.0]])
+        >>> len(sphere_spacing_error(5 * d, 5 * d + [100, 0, 0], 100.0).to_dict()["spheres"])
+        2
+        """
+        return {
+            "sd_mm": float(self.spacing_mm),
+            "distance_mm": float(self.distance_mm),
+            "calibrated_distance_mm": float(self.calibrated_distance_mm),
+            "spheres": [s.to_dict() for s in self.spheres],
+        }
 
 
 def sphere_spacing_error(
@@ -412,6 +534,55 @@ class FlatnessError:
     def n_points(self) -> int:
         """Points of the final fit."""
         return int(self.kept.sum())
+
+    def rows(self, position: str, mpes: MpeSet, length_mm: float) -> tuple[PositionResult]:
+        """The F row of this position.
+
+        Parameters
+        ----------
+        position : str
+            The position's id.
+        mpes : MpeSet
+            The MPEs.
+        length_mm : float
+            The plane's length (the length of a length-dependent MPE of F), mm.
+
+        Returns
+        -------
+        tuple of PositionResult
+            F.
+
+        Examples
+        --------
+        >>> f = flatness_error([[1, 0, 10.0], [-1, 0, 10.0], [0, 1, 10.0], [0, -1, 10.0],
+        ...                     [0, 0, 10.2]])
+        >>> f.rows("plane-1", MpeSet(Mpe(.03), Mpe(.03), Mpe(.05), Mpe(.04)), 200.0)[0].passed
+        False
+        """
+        return (check_position(position, "F", self.flatness_mm, mpes, length_mm=length_mm),)
+
+    def to_dict(self) -> dict[str, Any]:
+        """F and the plane as plain JSON types (the per-point arrays left out).
+
+        Returns
+        -------
+        dict
+            ``f_mm``, ``normal``, ``offset_mm``, ``n_points``, ``n_dropped``.
+
+        Examples
+        --------
+        >>> f = flatness_error([[1, 0, 10.0], [-1, 0, 10.0], [0, 1, 10.0], [0, -1, 10.0],
+        ...                     [0, 0, 10.2]])
+        >>> f.to_dict()["normal"]
+        [0.0, 0.0, -1.0]
+        """
+        return {
+            "f_mm": float(self.flatness_mm),
+            "normal": [float(v) for v in self.normal],
+            "offset_mm": float(self.offset),
+            "n_points": self.n_points,
+            "n_dropped": int(self.n_dropped),
+        }
 
 
 def flatness_error(xyz: ArrayLike, *, trim: float = GUIDELINE_TRIM) -> FlatnessError:
