@@ -35,6 +35,7 @@ from hdrfringe.core.acceptance import (
     summarize,
     trim_count,
 )
+from hdrfringe.core.stereo import fit_plane, fit_sphere
 from hdrfringe.errors import InputError
 from hdrfringe.io.acceptance_file import load_acceptance_file, parse_acceptance
 
@@ -188,17 +189,24 @@ def _unit_sphere_points(n: int, seed: int) -> np.ndarray:
     return u / np.linalg.norm(u, axis=1, keepdims=True)
 
 
+@pytest.mark.parametrize("n", [1000, 1333])
 @pytest.mark.parametrize("quantity", ["PF", "F"])
-def test_trimming_drops_exactly_floor_0_3_percent(quantity: str) -> None:
-    """n = 1000: k = 3 planted outliers (2 mm) are ignored; with k + 1 one remains; with the
-    fraction 0 (the broken "no trimming") none is dropped."""
-    n = 1000
-    assert trim_count(n) == 3 == math.floor(GUIDELINE_TRIM * n)
+def test_trimming_drops_exactly_floor_0_3_percent(quantity: str, n: int) -> None:
+    """k = floor(0.003 n) = 3 planted 2 mm outliers are ignored; with k + 1 one remains.
+
+    n = 1000 is exactly 0.3 % (3.0); n = 1333 (3.999) rejects a count rounded to nearest or
+    up (4), which would ignore the fourth outlier too. Broken variants: the fraction 0, and
+    the range of a plain fit's residuals (no trimming), keep all outliers.
+    """
+    assert trim_count(n) == 3 == math.floor(GUIDELINE_TRIM * n) != round(GUIDELINE_TRIM * 1333)
     if quantity == "PF":
         clean = 12.5 * _unit_sphere_points(n, 3) + [0, 0, 600.0]
 
         def value(pts: np.ndarray, trim: float = GUIDELINE_TRIM) -> float:
             return probing_error(pts, 25.0, trim=trim).form_mm
+
+        def untrimmed(pts: np.ndarray) -> float:
+            return float(np.ptp(fit_sphere(pts).residuals))
 
         def plant(pts: np.ndarray, k: int) -> np.ndarray:
             out = pts.copy()
@@ -211,6 +219,9 @@ def test_trimming_drops_exactly_floor_0_3_percent(quantity: str) -> None:
         def value(pts: np.ndarray, trim: float = GUIDELINE_TRIM) -> float:
             return flatness_error(pts, trim=trim).flatness_mm
 
+        def untrimmed(pts: np.ndarray) -> float:
+            return float(np.ptp(fit_plane(pts).residuals))
+
         def plant(pts: np.ndarray, k: int) -> np.ndarray:
             out = pts.copy()
             out[:k, 2] += 2.0
@@ -219,7 +230,8 @@ def test_trimming_drops_exactly_floor_0_3_percent(quantity: str) -> None:
     assert value(clean) < 1e-9
     assert value(plant(clean, 3)) < 1e-9  # all three dropped, the refit is exact
     assert value(plant(clean, 4)) > 1.5  # one of four stays
-    assert value(plant(clean, 3), trim=0.0) > 1.5  # no trimming keeps them all
+    assert value(plant(clean, 3), trim=0.0) > 1.5  # the fraction 0 keeps them all
+    assert untrimmed(plant(clean, 3)) > 1.5  # so does a plain fit
 
 
 def test_the_trimmed_points_are_marked_and_keep_their_residuals() -> None:
