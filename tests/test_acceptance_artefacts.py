@@ -296,6 +296,19 @@ def test_positions_follow_the_guideline_inside_the_volume(plan) -> None:  # type
     the box the centres may take, rising; tilted planes tilted; one artefact per kind."""
     vol, l0 = plan.volume, plan.volume.l0_mm
     assert (len(plan.spheres), len(plan.ball_bars), len(plan.planes)) == (10, 7, 6)
+    # the numbers docs/acceptance_artefacts.md states (the same at 640 x 480: margins are
+    # fractions of the image)
+    assert [round(v, 1) for v in vol.size_mm] == [309.6, 232.2, 234.1] and round(l0, 1) == 452.3
+    sizes = (plan.sphere_diameter_mm, plan.ball_diameter_mm, plan.ball_distance_mm)
+    assert sizes == (68.0, 45.0, 187.0)
+    assert (plan.plane_length_mm, plan.plane_width_mm) == (227.0, 68.0)
+    assert plan.ball_bars[0].scene.bar_diameter_mm == 14.0 and plan.spheres[0].scene.base_mm == -141
+    rises = []
+    for pos in plan.ball_bars:
+        a, b = np.array(pos.truth.centre_a_mm), np.array(pos.truth.centre_b_mm)
+        rises.append(round(math.degrees(math.atan2(b[2] - a[2], math.hypot(*(b - a)[:2]))), 1))
+    assert rises == [33.1] * 4 + [0.0, 0.0, 38.6]
+    assert [p.scene.tilt_deg for p in plan.planes] == [0.0, 0.0] + [45.0] * 4
     assert 0.1 <= plan.sphere_diameter_mm / l0 <= 0.2
     assert plan.ball_distance_mm >= 0.3 * l0 and plan.plane_length_mm >= 0.5 * l0
     assert plan.notes == ()
