@@ -31,26 +31,41 @@ from numpy.typing import ArrayLike, NDArray
 from hdrfringe.errors import InputError
 
 __all__ = [
+    "ARTEFACT_BASE_REFLECTIVITY",
+    "ARTEFACT_REFLECTIVITY",
     "BLACK_PLATE_REFLECTIVITY",
     "BOARD_PATTERNS",
+    "GLOSSY_SHININESS",
+    "GLOSSY_SPECULAR",
+    "MAX_BAR_ELEVATION_DEG",
+    "MAX_PLANE_TILT_DEG",
     "SCENES",
     "THESIS_CALIBRATION_DEPTHS_MM",
+    "AcceptanceSphere",
+    "BallBar",
+    "BallBarTruth",
     "CalibrationBoard",
     "Checkerboard",
+    "FlatPlane",
     "FlatPlate",
     "GlossyDome",
     "Mask",
+    "PlaneTruth",
     "Scene",
     "SpecularPart",
+    "SphereTruth",
+    "ball_bar",
     "black_plate",
     "board",
     "checkerboard",
+    "flat_plane",
     "glossy",
     "make_scene",
     "mask",
     "plate",
     "scene_from_manifest",
     "specular_part",
+    "sphere",
     "white_plate",
 ]
 
@@ -1357,6 +1372,1035 @@ def board(
     )
 
 
+# --- acceptance artefacts (VDI/VDE 2634 Part 2: sphere, ball bar, flat plane) -----------------
+#
+# Each artefact is a union of simple solids (balls, a rod, a thin rectangular panel) floating
+# over a dark matte base plane. As a heightfield, the scene is the top surface of that union over
+# the base: every solid is seen as a column from its top surface down to the base (the lower
+# half of a ball, the underside of the rod and anything under a solid are hidden). The simulator
+# finds where camera rays meet it in closed form (:meth:`_Artefact.ray_heights`): the first solid
+# a ray enters, kept only where the entry point is that solid's top surface and no other solid is
+# above it; a ray that enters a ball below its equator, or passes under a solid to the base,
+# would meet the column's wall in the heightfield and is marked as not hitting the surface (the
+# silhouette's rim). The fixed-point search of the other scenes cannot be used: it assumes a
+# continuous heightfield of moderate slope, and a floating ball is neither.
+
+#: Reflectivity of the acceptance artefacts' matte surface (a white-grey matte coating).
+ARTEFACT_REFLECTIVITY = 0.7
+#: Reflectivity of the dark matte base plane under the artefacts.
+ARTEFACT_BASE_REFLECTIVITY = 0.15
+#: Blinn-Phong gain and exponent of the glossy variants (``specular`` > 0): the highlight peaks
+#: at ``(0.7 + 3) / 0.7``, about 5x the matte level, so the default camera saturates on it.
+GLOSSY_SPECULAR = 3.0
+GLOSSY_SHININESS = 150.0
+
+
+def _xyz(name: str, value: Sequence[float]) -> tuple[float, float, float]:
+    if isinstance(value, str):
+        raise InputError(f"{name} must be (x, y, z) in mm, got {value!r}")
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be (x, y, z) in mm, got {value!r}") from None
+    if len(out) != 3:
+        raise InputError(f"{name} must be (x, y, z) in mm, got {value!r}")
+    for k, v in zip("xyz", out, strict=True):
+        _finite(f"{name} {k}", v)
+    _depth_ok(f"{name} z", out[2])
+    return out[0], out[1], out[2]
+
+
+def _positive(what: str, key: str, value: float) -> None:
+    _finite(key, value)
+    if value <= 0:
+        raise InputError(f"{what} {key} must be > 0 mm, got {value}")
+
+
+def _gloss_ok(what: str, specular: float, shininess: float) -> None:
+    _finite("specular", specular)
+    _finite("shininess", shininess)
+    if specular < 0 or shininess <= 0:
+        raise InputError(
+            f"{what} specular must be >= 0 (0: matte) and shininess > 0, got {specular}, "
+            f"{shininess}"
+        )
+
+
+_F64 = NDArray[np.float64]
+#: Segments from a surface point start this far (as a fraction) along: the point's own solid.
+_SEGMENT_EPS = 1e-7
+
+
+class _Ball:
+    """A ball of radius ``r`` centred at ``c``: top surface and the first ray entry."""
+
+    def __init__(self, c: tuple[float, float, float], r: float) -> None:
+        self.c = np.asarray(c, dtype=np.float64)
+        self.r = float(r)
+
+    def top(self, x: _F64, y: _F64) -> tuple[_F64, _F64, _F64]:
+        dx, dy = x - self.c[0], y - self.c[1]
+        r2 = dx * dx + dy * dy
+        on = r2 < self.r * self.r
+        root = np.sqrt(np.where(on, self.r * self.r - r2, 1.0))
+        h = np.where(on, self.c[2] + root, -np.inf)
+        return h, np.where(on, -dx / root, 0.0), np.where(on, -dy / root, 0.0)
+
+    def entry(self, origin: _F64, d: tuple[_F64, _F64, _F64]) -> tuple[_F64, _F64]:
+        """Ray parameter ``t`` of the entry point (inf: missed) and whether it is on the top."""
+        m = origin - self.c
+        a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        b = d[0] * m[0] + d[1] * m[1] + d[2] * m[2]
+        disc = b * b - a * (m @ m - self.r * self.r)
+        t = np.where(disc >= 0, (-b - np.sqrt(np.maximum(disc, 0.0))) / a, np.inf)
+        z = origin[2] + t * d[2]
+        return t, z >= self.c[2]
+
+    def crosses(self, q: tuple[_F64, _F64, _F64], d: tuple[_F64, _F64, _F64]) -> _F64:
+        """Whether the segments ``q + t d``, ``0 < t <= 1``, pass through the ball."""
+        m = [q[k] - self.c[k] for k in range(3)]
+        a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        b = d[0] * m[0] + d[1] * m[1] + d[2] * m[2]
+        disc = b * b - a * (m[0] * m[0] + m[1] * m[1] + m[2] * m[2] - self.r * self.r)
+        root = np.sqrt(np.maximum(disc, 0.0))
+        t1, t2 = (-b - root) / a, (-b + root) / a
+        return np.asarray((disc > 0) & (t2 > _SEGMENT_EPS) & (t1 < 1.0))
+
+
+class _Rod:
+    """A cylinder of radius ``r`` from ``a`` to ``b`` (its ends lie inside the balls)."""
+
+    def __init__(self, a: tuple[float, float, float], b: tuple[float, float, float], r: float):
+        self.a = np.asarray(a, dtype=np.float64)
+        axis = np.asarray(b, dtype=np.float64) - self.a
+        self.length = float(np.linalg.norm(axis))
+        self.d = axis / self.length
+        self.r = float(r)
+
+    def top(self, x: _F64, y: _F64) -> tuple[_F64, _F64, _F64]:
+        dx, dy, dz = self.d
+        qx, qy = x - self.a[0], y - self.a[1]
+        s0 = qx * dx + qy * dy
+        a = 1.0 - dz * dz  # > 0: the rod is never vertical
+        disc = (s0 * dz) ** 2 - a * (qx * qx + qy * qy - s0 * s0 - self.r * self.r)
+        w = (s0 * dz + np.sqrt(np.maximum(disc, 0.0))) / a  # z - a_z on the upper side
+        s = s0 + w * dz
+        on = (disc > 0) & (s >= 0) & (s <= self.length)
+        # the normal is the component of q perpendicular to the axis: grad F = 2 p
+        px, py, pz = qx - s * dx, qy - s * dy, w - s * dz
+        on &= pz > 0
+        pz = np.where(on, pz, 1.0)
+        return (
+            np.where(on, self.a[2] + w, -np.inf),
+            np.where(on, -px / pz, 0.0),
+            np.where(on, -py / pz, 0.0),
+        )
+
+    def entry(self, origin: _F64, d: tuple[_F64, _F64, _F64]) -> tuple[_F64, _F64]:
+        m = origin - self.a
+        md = m @ self.d
+        dd = d[0] * self.d[0] + d[1] * self.d[1] + d[2] * self.d[2]
+        mp = [m[k] - md * self.d[k] for k in range(3)]
+        dp = [d[k] - dd * self.d[k] for k in range(3)]
+        a = dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2]
+        b = mp[0] * dp[0] + mp[1] * dp[1] + mp[2] * dp[2]
+        c = mp[0] ** 2 + mp[1] ** 2 + mp[2] ** 2 - self.r * self.r
+        disc = b * b - a * c
+        ok = (disc >= 0) & (a > 0)
+        t = np.where(ok, (-b - np.sqrt(np.maximum(disc, 0.0))) / np.where(a > 0, a, 1.0), np.inf)
+        s = md + t * dd
+        hit = ok & (s >= 0) & (s <= self.length)
+        upper = (mp[2] + t * dp[2]) >= 0  # the entry point's offset from the axis points up
+        return np.where(hit, t, np.inf), upper
+
+    def crosses(self, q: tuple[_F64, _F64, _F64], d: tuple[_F64, _F64, _F64]) -> _F64:
+        """Whether the segments ``q + t d``, ``0 < t <= 1``, pass through the rod."""
+        m = [q[k] - self.a[k] for k in range(3)]
+        md = m[0] * self.d[0] + m[1] * self.d[1] + m[2] * self.d[2]
+        dd = d[0] * self.d[0] + d[1] * self.d[1] + d[2] * self.d[2]
+        mp = [m[k] - md * self.d[k] for k in range(3)]
+        dp = [d[k] - dd * self.d[k] for k in range(3)]
+        a = dp[0] * dp[0] + dp[1] * dp[1] + dp[2] * dp[2]
+        b = mp[0] * dp[0] + mp[1] * dp[1] + mp[2] * dp[2]
+        c = mp[0] ** 2 + mp[1] ** 2 + mp[2] ** 2 - self.r * self.r
+        disc = b * b - a * c
+        safe = np.where(a > 0, a, 1.0)
+        root = np.sqrt(np.maximum(disc, 0.0))
+        t1, t2 = (-b - root) / safe, (-b + root) / safe
+        # the part of the segment between the rod's end planes (s = 0 and s = length)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s0, s1 = -md / dd, (self.length - md) / dd
+        lo = np.where(dd != 0, np.minimum(s0, s1), np.where((md >= 0) & (md <= self.length),
+                      -np.inf, np.inf))  # fmt: skip
+        hi = np.where(dd != 0, np.maximum(s0, s1), np.inf)
+        t1, t2 = np.maximum(t1, lo), np.minimum(t2, hi)
+        return np.asarray((disc > 0) & (a > 0) & (t2 > np.maximum(t1, _SEGMENT_EPS)) & (t1 < 1.0))
+
+
+class _Panel:
+    """A thin rectangle: centre ``c``, axes the columns of ``rot`` (length, width, normal)."""
+
+    def __init__(
+        self, c: tuple[float, float, float], rot: _F64, length: float, width: float
+    ) -> None:
+        self.c = np.asarray(c, dtype=np.float64)
+        self.rot = rot
+        self.n = rot[:, 2]
+        self.half = (0.5 * float(length), 0.5 * float(width))
+
+    def _inside(self, x: _F64, y: _F64, z: _F64) -> NDArray[np.bool_]:
+        rel = (x - self.c[0], y - self.c[1], z - self.c[2])
+        s = rel[0] * self.rot[0, 0] + rel[1] * self.rot[1, 0] + rel[2] * self.rot[2, 0]
+        t = rel[0] * self.rot[0, 1] + rel[1] * self.rot[1, 1] + rel[2] * self.rot[2, 1]
+        return np.asarray((np.abs(s) <= self.half[0]) & (np.abs(t) <= self.half[1]))
+
+    def plane(self, x: _F64, y: _F64) -> _F64:
+        n = self.n
+        return np.asarray(self.c[2] - (n[0] * (x - self.c[0]) + n[1] * (y - self.c[1])) / n[2])
+
+    def top(self, x: _F64, y: _F64) -> tuple[_F64, _F64, _F64]:
+        z = self.plane(x, y)
+        on = self._inside(x, y, z)
+        n = self.n
+        return (
+            np.where(on, z, -np.inf),
+            np.where(on, -n[0] / n[2], 0.0),
+            np.where(on, -n[1] / n[2], 0.0),
+        )
+
+    def entry(self, origin: _F64, d: tuple[_F64, _F64, _F64]) -> tuple[_F64, _F64]:
+        n = self.n
+        nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
+        safe = np.where(nd < 0, nd, -1.0)
+        t = ((self.c - origin) @ n) / safe
+        p = [origin[k] + t * d[k] for k in range(3)]
+        hit = (nd < 0) & self._inside(p[0], p[1], p[2])
+        return np.where(hit, t, np.inf), np.ones(np.shape(t), dtype=bool)
+
+    def crosses(self, q: tuple[_F64, _F64, _F64], d: tuple[_F64, _F64, _F64]) -> _F64:
+        """Whether the segments ``q + t d``, ``0 < t <= 1``, pass through the panel."""
+        n = self.n
+        nd = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
+        off = n[0] * (self.c[0] - q[0]) + n[1] * (self.c[1] - q[1]) + n[2] * (self.c[2] - q[2])
+        safe = np.where(nd != 0, nd, 1.0)
+        t = off / safe
+        p = [q[k] + t * d[k] for k in range(3)]
+        return np.asarray((nd != 0) & (t > _SEGMENT_EPS) & (t < 1.0) & self._inside(*p))
+
+
+def _rotation_tilt(azimuth_deg: float, tilt_deg: float, roll_deg: float) -> _F64:
+    """``R_z(azimuth) R_y(-tilt) R_x(roll)``: columns the length axis (rising by ``tilt`` toward
+    ``azimuth``), the width axis and the normal of a panel."""
+    az, tl, rl = (math.radians(v) for v in (azimuth_deg, tilt_deg, roll_deg))
+    rz = np.array([[math.cos(az), -math.sin(az), 0], [math.sin(az), math.cos(az), 0], [0, 0, 1]])
+    ry = np.array([[math.cos(tl), 0, -math.sin(tl)], [0, 1, 0], [math.sin(tl), 0, math.cos(tl)]])
+    rx = np.array([[1, 0, 0], [0, math.cos(rl), -math.sin(rl)], [0, math.sin(rl), math.cos(rl)]])
+    return np.asarray(rz @ ry @ rx, dtype=np.float64)
+
+
+def _moved(point: tuple[float, ...], rotation: _F64, translation: _F64) -> tuple[float, ...]:
+    return tuple(float(v) for v in rotation @ np.asarray(point) + translation)
+
+
+@dataclass(frozen=True)
+class SphereTruth:
+    """Calibrated values of a sphere at one position (world mm unless transformed).
+
+    Parameters
+    ----------
+    centre_mm : tuple of float
+        Sphere centre ``(x, y, z)``.
+    diameter_mm : float
+        Calibrated diameter.
+
+    Examples
+    --------
+    >>> t = SphereTruth((1.0, 2.0, 3.0), 50.0)
+    >>> t.to_frame(np.diag([1.0, -1.0, -1.0]), np.array([0.0, 0.0, 600.0])).centre_mm
+    (1.0, -2.0, 597.0)
+    """
+
+    centre_mm: tuple[float, float, float]
+    diameter_mm: float
+
+    def to_frame(self, rotation: ArrayLike, translation: ArrayLike) -> SphereTruth:
+        """The same truth in another frame, ``X' = rotation @ X + translation``.
+
+        Parameters
+        ----------
+        rotation : array_like, shape (3, 3)
+            A rotation (e.g. ``RigGeometry.world_to_camera()[0]``).
+        translation : array_like, shape (3,)
+            Translation in mm.
+
+        Returns
+        -------
+        SphereTruth
+        """
+        r, t = np.asarray(rotation, dtype=float), np.asarray(translation, dtype=float)
+        c = _moved(self.centre_mm, r, t)
+        return SphereTruth((c[0], c[1], c[2]), self.diameter_mm)
+
+
+@dataclass(frozen=True)
+class BallBarTruth:
+    """Calibrated values of a ball bar at one position (world mm unless transformed).
+
+    Parameters
+    ----------
+    centre_a_mm, centre_b_mm : tuple of float
+        The two sphere centres.
+    diameter_mm : float
+        Calibrated diameter of both spheres.
+    distance_mm : float
+        Calibrated centre distance.
+
+    Examples
+    --------
+    >>> BallBarTruth((0.0, 0.0, 0.0), (30.0, 40.0, 0.0), 20.0, 50.0).distance_mm
+    50.0
+    """
+
+    centre_a_mm: tuple[float, float, float]
+    centre_b_mm: tuple[float, float, float]
+    diameter_mm: float
+    distance_mm: float
+
+    def to_frame(self, rotation: ArrayLike, translation: ArrayLike) -> BallBarTruth:
+        """The same truth in another frame, ``X' = rotation @ X + translation``.
+
+        Parameters
+        ----------
+        rotation : array_like, shape (3, 3)
+            A rotation.
+        translation : array_like, shape (3,)
+            Translation in mm.
+
+        Returns
+        -------
+        BallBarTruth
+        """
+        r, t = np.asarray(rotation, dtype=float), np.asarray(translation, dtype=float)
+        a, b = _moved(self.centre_a_mm, r, t), _moved(self.centre_b_mm, r, t)
+        return BallBarTruth((a[0], a[1], a[2]), (b[0], b[1], b[2]), self.diameter_mm,
+                            self.distance_mm)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class PlaneTruth:
+    """Calibrated values of the flat plane at one position (world mm unless transformed).
+
+    Parameters
+    ----------
+    centre_mm : tuple of float
+        Centre of the rectangle (a point of the plane).
+    normal : tuple of float
+        Unit normal of the measured side (toward the camera).
+    length_mm, width_mm : float
+        Size of the rectangle.
+    corners_mm : tuple of tuple of float
+        The four corners.
+
+    Examples
+    --------
+    >>> t = flat_plane(200.0, 50.0, tilt_deg=30.0).truth()
+    >>> [round(v, 6) for v in t.normal]
+    [-0.5, 0.0, 0.866025]
+    """
+
+    centre_mm: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    length_mm: float
+    width_mm: float
+    corners_mm: tuple[tuple[float, float, float], ...]
+
+    def to_frame(self, rotation: ArrayLike, translation: ArrayLike) -> PlaneTruth:
+        """The same truth in another frame, ``X' = rotation @ X + translation``.
+
+        Parameters
+        ----------
+        rotation : array_like, shape (3, 3)
+            A rotation.
+        translation : array_like, shape (3,)
+            Translation in mm.
+
+        Returns
+        -------
+        PlaneTruth
+        """
+        r, t = np.asarray(rotation, dtype=float), np.asarray(translation, dtype=float)
+        c = _moved(self.centre_mm, r, t)
+        n = _moved(self.normal, r, np.zeros(3))
+        corners = tuple(_moved(p, r, t) for p in self.corners_mm)
+        return PlaneTruth(
+            (c[0], c[1], c[2]),
+            (n[0], n[1], n[2]),
+            self.length_mm,
+            self.width_mm,
+            tuple((p[0], p[1], p[2]) for p in corners),
+        )
+
+
+class _Artefact(Scene):
+    """Shared machinery of the acceptance artefacts: solids over a dark matte base plane.
+
+    Subclasses are frozen dataclasses with ``base_mm``, ``reflectivity_value``,
+    ``base_reflectivity``, ``specular`` and ``shininess`` and define :meth:`_solids` (the solids
+    and whether each is glossy) and :meth:`truth`.
+    """
+
+    base_mm: float
+    reflectivity_value: float
+    base_reflectivity: float
+
+    def _solids(self) -> list[tuple[_Ball | _Rod | _Panel, bool]]:  # pragma: no cover
+        raise NotImplementedError
+
+    def _check_common(self, what: str) -> None:
+        _depth_ok("base_mm", self.base_mm)
+        _reflectivity_ok("reflectivity", self.reflectivity_value)
+        _reflectivity_ok("base_reflectivity", self.base_reflectivity)
+        _gloss_ok(what, self.specular, self.shininess)
+
+    def _tops(self, x: ArrayLike, y: ArrayLike) -> tuple[_F64, _F64, _F64, NDArray[np.intp]]:
+        """Height and slopes of the top surface, and which solid is on top (-1: the base)."""
+        xa, ya = np.broadcast_arrays(
+            np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+        )
+        h = np.full(xa.shape, float(self.base_mm))
+        gx, gy = np.zeros(xa.shape), np.zeros(xa.shape)
+        which = np.full(xa.shape, -1, dtype=np.intp)
+        for k, (solid, _) in enumerate(self._solids()):
+            hk, gxk, gyk = solid.top(xa, ya)
+            above = hk > h
+            h = np.where(above, hk, h)
+            gx, gy = np.where(above, gxk, gx), np.where(above, gyk, gy)
+            which = np.where(above, k, which)
+        return h, gx, gy, which
+
+    def height(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return self._tops(x, y)[0]
+
+    def gradient(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        _, gx, gy, _ = self._tops(x, y)
+        return gx, gy
+
+    def reflectivity(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        which = self._tops(x, y)[3]
+        return np.where(which >= 0, float(self.reflectivity_value), float(self.base_reflectivity))
+
+    def specular_strength(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        which = self._tops(x, y)[3]
+        glossy_ids = [k for k, (_, g) in enumerate(self._solids()) if g]
+        return np.where(np.isin(which, glossy_ids), float(self.specular), 0.0)
+
+    def on_artefact(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
+        """True where the top surface at world ``(x, y)`` is the artefact, not the base.
+
+        Parameters
+        ----------
+        x, y : array_like
+            World coordinates in mm, broadcasting against each other.
+
+        Returns
+        -------
+        ndarray of bool
+        """
+        return np.asarray(self._tops(x, y)[3] >= 0)
+
+    def shadowed(
+        self, x: ArrayLike, y: ArrayLike, z: ArrayLike, source: ArrayLike
+    ) -> NDArray[np.bool_]:
+        """Whether the segment from each surface point to a light source crosses a solid.
+
+        The projector's shadow, in closed form on the real solids (light passes under a
+        floating ball; the base casts no shadow on what is above it).
+
+        Parameters
+        ----------
+        x, y, z : array_like
+            Surface points in world mm (broadcasting against each other).
+        source : array_like, shape (3,)
+            The light source (the projector's centre) in world mm.
+
+        Returns
+        -------
+        ndarray of bool
+        """
+        xa, ya, za = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (x, y, z)))
+        pc = np.asarray(source, dtype=np.float64)
+        d = (pc[0] - xa, pc[1] - ya, pc[2] - za)
+        out = np.zeros(xa.shape, dtype=bool)
+        for solid, _ in self._solids():
+            out |= solid.crosses((xa, ya, za), d)
+        return out
+
+    def ray_heights(
+        self, ax: ArrayLike, ay: ArrayLike, standoff_mm: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """Where the camera rays ``X = ax (zc - z), Y = ay (zc - z)`` meet the surface.
+
+        Closed form (see the section comment): the first solid each ray enters, or the base.
+
+        Parameters
+        ----------
+        ax, ay : array_like
+            Ray slopes (broadcasting against each other).
+        standoff_mm : float
+            Camera height ``zc`` above the reference plane.
+
+        Returns
+        -------
+        z : ndarray of float64
+            Height of the hit.
+        hit : ndarray of bool
+            False where the ray meets a part the heightfield hides (a column's wall).
+        """
+        axb, ayb = np.broadcast_arrays(
+            np.asarray(ax, dtype=np.float64), np.asarray(ay, dtype=np.float64)
+        )
+        zc = float(standoff_mm)
+        origin = np.array([0.0, 0.0, zc])
+        d = (axb, ayb, -np.ones(axb.shape))
+        t = np.full(axb.shape, zc - float(self.base_mm))
+        upper = np.ones(axb.shape, dtype=bool)
+        for solid, _ in self._solids():
+            tk, uk = solid.entry(origin, d)
+            first = tk < t
+            t = np.where(first, tk, t)
+            upper = np.where(first, uk, upper)
+        z = zc - t
+        top = self.height(axb * t, ayb * t)
+        hit = upper & (top <= z + 1e-6 * (1.0 + np.abs(z)))
+        return z, hit
+
+
+@dataclass(frozen=True)
+class AcceptanceSphere(_Artefact):
+    """A sphere (the probing-error artefact of VDI/VDE 2634 Part 2) over a dark matte base.
+
+    The camera sees the upper hemisphere, ``z = zc + sqrt(R^2 - (x - xc)^2 - (y - yc)^2)``
+    for ``r < R``; elsewhere the base plane at ``base_mm`` (below the centre). The mount is not
+    modelled (hidden under the sphere from above).
+
+    Parameters
+    ----------
+    diameter_mm : float
+        Calibrated diameter ``2 R``.
+    centre_mm : tuple of float
+        Centre ``(x, y, z)`` in world mm.
+    base_mm : float
+        Height of the base plane, at most the centre's z.
+    reflectivity_value : float
+        Diffuse reflectivity of the sphere.
+    base_reflectivity : float
+        Diffuse reflectivity of the base.
+    specular : float
+        Blinn-Phong gain of the sphere (0: matte, the guideline's artefact; > 0: glossy).
+    shininess : float
+        Blinn-Phong exponent.
+
+    References
+    ----------
+    VDI/VDE 2634 Part 2 (probing error form PF and size PS on a sphere of 0.1-0.2 L0).
+
+    Examples
+    --------
+    >>> s = sphere(50.0, (10.0, 0.0, 20.0), base_mm=-30.0)
+    >>> s.height([10.0, 25.0, 100.0], [0.0, 0.0, 0.0]).tolist()  # apex, r = 15, the base
+    [45.0, 40.0, -30.0]
+    >>> s.truth()
+    SphereTruth(centre_mm=(10.0, 0.0, 20.0), diameter_mm=50.0)
+    """
+
+    diameter_mm: float = 50.0
+    centre_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    base_mm: float = -50.0
+    reflectivity_value: float = ARTEFACT_REFLECTIVITY
+    base_reflectivity: float = ARTEFACT_BASE_REFLECTIVITY
+    specular: float = 0.0
+    shininess: float = GLOSSY_SHININESS
+
+    name: ClassVar[str] = "sphere"
+
+    def __post_init__(self) -> None:
+        _positive("sphere", "diameter_mm", self.diameter_mm)
+        object.__setattr__(self, "centre_mm", _xyz("sphere centre_mm", self.centre_mm))
+        self._check_common("sphere")
+        if self.base_mm > self.centre_mm[2]:
+            raise InputError(
+                f"sphere base_mm = {self.base_mm} is above the centre z = {self.centre_mm[2]}; "
+                "put the base at or below the sphere's equator"
+            )
+
+    def _solids(self) -> list[tuple[_Ball | _Rod | _Panel, bool]]:
+        return [(_Ball(self.centre_mm, self.diameter_mm / 2), True)]
+
+    def truth(self) -> SphereTruth:
+        """The calibrated centre and diameter (world mm).
+
+        Returns
+        -------
+        SphereTruth
+        """
+        return SphereTruth(self.centre_mm, float(self.diameter_mm))
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "diameter_mm": float(self.diameter_mm),
+            "centre_mm": [float(v) for v in self.centre_mm],
+            "base_mm": float(self.base_mm),
+            "reflectivity": float(self.reflectivity_value),
+            "base_reflectivity": float(self.base_reflectivity),
+            "specular": float(self.specular),
+            "shininess": float(self.shininess),
+        }
+
+
+#: Largest elevation of a ball bar's axis above the horizontal (the upper ball must not hide
+#: the lower one from the camera, and the rod stays a heightfield).
+MAX_BAR_ELEVATION_DEG = 60.0
+#: Largest tilt of the flat plane (it stays lit and seen at a useful angle).
+MAX_PLANE_TILT_DEG = 60.0
+
+
+@dataclass(frozen=True)
+class BallBar(_Artefact):
+    """A ball bar (the sphere-spacing artefact): two equal spheres joined by a rod.
+
+    Sphere tops as :class:`AcceptanceSphere`; the rod of diameter ``bar_diameter_mm`` joins
+    the centres (its ends lie inside the spheres) and is seen from above where it is not
+    covered by a sphere. The axis may rise in depth up to :data:`MAX_BAR_ELEVATION_DEG`, and
+    the centres must be at least one diameter apart sideways, so both sphere tops are seen.
+
+    Parameters
+    ----------
+    diameter_mm : float
+        Calibrated diameter of both spheres.
+    centre_a_mm, centre_b_mm : tuple of float
+        The sphere centres (world mm).
+    bar_diameter_mm : float
+        Rod diameter, below the spheres' (0: no rod).
+    base_mm : float
+        Height of the base plane, at most the lower centre's z minus the rod radius.
+    reflectivity_value, base_reflectivity : float
+        Diffuse reflectivities of the artefact (spheres and rod) and of the base.
+    specular : float
+        Blinn-Phong gain of the spheres (0: matte; the rod is always matte).
+    shininess : float
+        Blinn-Phong exponent.
+
+    References
+    ----------
+    VDI/VDE 2634 Part 2 (sphere-spacing error SD, centre distance >= 0.3 L0).
+
+    Examples
+    --------
+    >>> bar = ball_bar(40.0, (-100.0, 0.0, 0.0), (100.0, 0.0, 50.0), base_mm=-60.0)
+    >>> round(bar.truth().distance_mm, 3), float(bar.height(100.0, 0.0))
+    (206.155, 70.0)
+    """
+
+    diameter_mm: float = 40.0
+    centre_a_mm: tuple[float, float, float] = (-100.0, 0.0, 0.0)
+    centre_b_mm: tuple[float, float, float] = (100.0, 0.0, 0.0)
+    bar_diameter_mm: float = 12.0
+    base_mm: float = -50.0
+    reflectivity_value: float = ARTEFACT_REFLECTIVITY
+    base_reflectivity: float = ARTEFACT_BASE_REFLECTIVITY
+    specular: float = 0.0
+    shininess: float = GLOSSY_SHININESS
+
+    name: ClassVar[str] = "ball_bar"
+
+    def __post_init__(self) -> None:
+        _positive("ball_bar", "diameter_mm", self.diameter_mm)
+        a = _xyz("ball_bar centre_a_mm", self.centre_a_mm)
+        b = _xyz("ball_bar centre_b_mm", self.centre_b_mm)
+        object.__setattr__(self, "centre_a_mm", a)
+        object.__setattr__(self, "centre_b_mm", b)
+        self._check_common("ball_bar")
+        _finite("bar_diameter_mm", self.bar_diameter_mm)
+        if not 0 <= self.bar_diameter_mm < self.diameter_mm:
+            raise InputError(
+                f"ball_bar bar_diameter_mm must be in [0, diameter_mm = {self.diameter_mm}), "
+                f"got {self.bar_diameter_mm}"
+            )
+        sideways = math.hypot(b[0] - a[0], b[1] - a[1])
+        if sideways <= self.diameter_mm:
+            raise InputError(
+                f"ball_bar centres are {sideways:.1f} mm apart sideways, not more than the "
+                f"diameter {self.diameter_mm} mm: one sphere would hide the other from the "
+                "camera; move them apart in x/y"
+            )
+        rise = math.degrees(math.atan2(abs(b[2] - a[2]), sideways))
+        if rise > MAX_BAR_ELEVATION_DEG:
+            raise InputError(
+                f"ball_bar axis rises {rise:.1f} deg; at most {MAX_BAR_ELEVATION_DEG:g} deg "
+                "(seen from above)"
+            )
+        low = min(a[2], b[2]) - self.bar_diameter_mm / 2
+        if self.base_mm > low:
+            raise InputError(
+                f"ball_bar base_mm = {self.base_mm} is above the lower centre (minus the rod "
+                f"radius, {low:g} mm); put the base lower"
+            )
+
+    @property
+    def distance_mm(self) -> float:
+        """Centre distance in mm."""
+        return math.dist(self.centre_a_mm, self.centre_b_mm)
+
+    def _solids(self) -> list[tuple[_Ball | _Rod | _Panel, bool]]:
+        r = self.diameter_mm / 2
+        out: list[tuple[_Ball | _Rod | _Panel, bool]] = [
+            (_Ball(self.centre_a_mm, r), True),
+            (_Ball(self.centre_b_mm, r), True),
+        ]
+        if self.bar_diameter_mm > 0:
+            out.append((_Rod(self.centre_a_mm, self.centre_b_mm, self.bar_diameter_mm / 2), False))
+        return out
+
+    def on_sphere(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.intp]:
+        """Which sphere's top is the surface at world ``(x, y)``: 0 (a), 1 (b), -1 (neither).
+
+        Parameters
+        ----------
+        x, y : array_like
+            World coordinates in mm, broadcasting against each other.
+
+        Returns
+        -------
+        ndarray of intp
+        """
+        which = self._tops(x, y)[3]
+        return np.where(which <= 1, which, -1)
+
+    def truth(self) -> BallBarTruth:
+        """The calibrated centres, diameter and centre distance (world mm).
+
+        Returns
+        -------
+        BallBarTruth
+        """
+        return BallBarTruth(
+            self.centre_a_mm, self.centre_b_mm, float(self.diameter_mm), self.distance_mm
+        )
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "diameter_mm": float(self.diameter_mm),
+            "centre_a_mm": [float(v) for v in self.centre_a_mm],
+            "centre_b_mm": [float(v) for v in self.centre_b_mm],
+            "bar_diameter_mm": float(self.bar_diameter_mm),
+            "base_mm": float(self.base_mm),
+            "reflectivity": float(self.reflectivity_value),
+            "base_reflectivity": float(self.base_reflectivity),
+            "specular": float(self.specular),
+            "shininess": float(self.shininess),
+        }
+
+
+@dataclass(frozen=True)
+class FlatPlane(_Artefact):
+    """A flat rectangle (the flatness artefact) at any position and tilt, over the base.
+
+    The rectangle's axes are the columns of ``R = R_z(azimuth) R_y(-tilt) R_x(roll)``: its
+    length runs toward ``azimuth_deg`` (from +X toward +Y) rising by ``tilt_deg``; ``roll_deg``
+    turns it about that axis (tilting the width). Height inside the rectangle
+    ``z = zc - (n_x (x - xc) + n_y (y - yc)) / n_z`` with ``n`` the normal, elsewhere the base.
+    Zero thickness; the tilt (angle of ``n`` from vertical) at most :data:`MAX_PLANE_TILT_DEG`.
+
+    Parameters
+    ----------
+    length_mm, width_mm : float
+        Size of the rectangle.
+    centre_mm : tuple of float
+        Its centre (world mm).
+    azimuth_deg, tilt_deg, roll_deg : float
+        Orientation (see above).
+    base_mm : float
+        Height of the base plane, below the rectangle's lowest corner.
+    reflectivity_value, base_reflectivity : float
+        Diffuse reflectivities of the plane and of the base.
+    specular : float
+        Blinn-Phong gain of the plane (0: matte).
+    shininess : float
+        Blinn-Phong exponent.
+
+    References
+    ----------
+    VDI/VDE 2634 Part 2 (flatness measurement error F on a plane of length >= 0.5 L0).
+
+    Examples
+    --------
+    >>> p = flat_plane(200.0, 50.0, (0.0, 0.0, 10.0), tilt_deg=30.0, base_mm=-100.0)
+    >>> p.height([0.0, 50.0, 150.0], [0.0, 0.0, 0.0]).round(4).tolist()  # centre, up, off
+    [10.0, 38.8675, -100.0]
+    """
+
+    length_mm: float = 200.0
+    width_mm: float = 50.0
+    centre_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    azimuth_deg: float = 0.0
+    tilt_deg: float = 0.0
+    roll_deg: float = 0.0
+    base_mm: float = -50.0
+    reflectivity_value: float = ARTEFACT_REFLECTIVITY
+    base_reflectivity: float = ARTEFACT_BASE_REFLECTIVITY
+    specular: float = 0.0
+    shininess: float = GLOSSY_SHININESS
+
+    name: ClassVar[str] = "flat_plane"
+
+    def __post_init__(self) -> None:
+        _positive("flat_plane", "length_mm", self.length_mm)
+        _positive("flat_plane", "width_mm", self.width_mm)
+        object.__setattr__(self, "centre_mm", _xyz("flat_plane centre_mm", self.centre_mm))
+        for key in ("azimuth_deg", "tilt_deg", "roll_deg"):
+            _finite(key, getattr(self, key))
+        self._check_common("flat_plane")
+        n = self.rotation()[:, 2]
+        if n[2] < math.cos(math.radians(MAX_PLANE_TILT_DEG)) - 1e-12:
+            raise InputError(
+                f"flat_plane tilt {self.tilt_deg} deg, roll {self.roll_deg} deg leans "
+                f"{math.degrees(math.acos(min(1.0, n[2]))):.1f} deg from facing the camera; at "
+                f"most {MAX_PLANE_TILT_DEG:g}"
+            )
+        low = min(p[2] for p in self.corners())
+        if self.base_mm > low:
+            raise InputError(
+                f"flat_plane base_mm = {self.base_mm} is above its lowest corner "
+                f"(z = {low:.2f} mm); put the base lower"
+            )
+
+    def rotation(self) -> NDArray[np.float64]:
+        """``R``: columns the length axis, the width axis and the normal (world).
+
+        Returns
+        -------
+        ndarray, shape (3, 3)
+        """
+        return _rotation_tilt(self.azimuth_deg, self.tilt_deg, self.roll_deg)
+
+    def corners(self) -> tuple[tuple[float, float, float], ...]:
+        """The four corners in world mm.
+
+        Returns
+        -------
+        tuple of (x, y, z)
+        """
+        rot = self.rotation()
+        out = []
+        for s, t in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            p = np.asarray(self.centre_mm) + rot @ [
+                s * self.length_mm / 2,
+                t * self.width_mm / 2,
+                0,
+            ]
+            out.append((float(p[0]), float(p[1]), float(p[2])))
+        return tuple(out)
+
+    def _solids(self) -> list[tuple[_Ball | _Rod | _Panel, bool]]:
+        return [(_Panel(self.centre_mm, self.rotation(), self.length_mm, self.width_mm), True)]
+
+    def truth(self) -> PlaneTruth:
+        """The calibrated plane: centre, unit normal, size and corners (world mm).
+
+        Returns
+        -------
+        PlaneTruth
+        """
+        n = self.rotation()[:, 2]
+        return PlaneTruth(
+            self.centre_mm,
+            (float(n[0]), float(n[1]), float(n[2])),
+            float(self.length_mm),
+            float(self.width_mm),
+            self.corners(),
+        )
+
+    def to_manifest(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "length_mm": float(self.length_mm),
+            "width_mm": float(self.width_mm),
+            "centre_mm": [float(v) for v in self.centre_mm],
+            "azimuth_deg": float(self.azimuth_deg),
+            "tilt_deg": float(self.tilt_deg),
+            "roll_deg": float(self.roll_deg),
+            "base_mm": float(self.base_mm),
+            "reflectivity": float(self.reflectivity_value),
+            "base_reflectivity": float(self.base_reflectivity),
+            "specular": float(self.specular),
+            "shininess": float(self.shininess),
+        }
+
+
+def sphere(
+    diameter_mm: float = 50.0,
+    centre_mm: Sequence[float] = (0.0, 0.0, 0.0),
+    base_mm: float = -50.0,
+    reflectivity: float = ARTEFACT_REFLECTIVITY,
+    base_reflectivity: float = ARTEFACT_BASE_REFLECTIVITY,
+    specular: float = 0.0,
+    shininess: float = GLOSSY_SHININESS,
+) -> AcceptanceSphere:
+    """The acceptance sphere (see :class:`AcceptanceSphere`).
+
+    Parameters
+    ----------
+    diameter_mm : float
+        Calibrated diameter.
+    centre_mm : sequence of float
+        Centre ``(x, y, z)`` in world mm.
+    base_mm : float
+        Height of the dark base plane (at most the centre's z).
+    reflectivity, base_reflectivity : float
+        Diffuse reflectivities of the sphere and of the base.
+    specular : float
+        Blinn-Phong gain (0: matte; e.g. :data:`GLOSSY_SPECULAR` for the glossy variant).
+    shininess : float
+        Blinn-Phong exponent.
+
+    Returns
+    -------
+    AcceptanceSphere
+        Registered as ``"sphere"``.
+
+    Examples
+    --------
+    >>> s = sphere(40.0, (0.0, 0.0, 10.0), specular=GLOSSY_SPECULAR)
+    >>> scene_from_manifest(s.to_manifest()) == s
+    True
+    """
+    return AcceptanceSphere(
+        float(diameter_mm),
+        _xyz("sphere centre_mm", centre_mm),
+        float(base_mm),
+        float(reflectivity),
+        float(base_reflectivity),
+        float(specular),
+        float(shininess),
+    )
+
+
+def ball_bar(
+    diameter_mm: float = 40.0,
+    centre_a_mm: Sequence[float] = (-100.0, 0.0, 0.0),
+    centre_b_mm: Sequence[float] = (100.0, 0.0, 0.0),
+    bar_diameter_mm: float = 12.0,
+    base_mm: float = -50.0,
+    reflectivity: float = ARTEFACT_REFLECTIVITY,
+    base_reflectivity: float = ARTEFACT_BASE_REFLECTIVITY,
+    specular: float = 0.0,
+    shininess: float = GLOSSY_SHININESS,
+) -> BallBar:
+    """The ball bar (see :class:`BallBar`).
+
+    Parameters
+    ----------
+    diameter_mm : float
+        Calibrated diameter of both spheres.
+    centre_a_mm, centre_b_mm : sequence of float
+        The sphere centres in world mm.
+    bar_diameter_mm : float
+        Rod diameter (0: none).
+    base_mm : float
+        Height of the dark base plane.
+    reflectivity, base_reflectivity : float
+        Diffuse reflectivities of the artefact and of the base.
+    specular : float
+        Blinn-Phong gain of the spheres (0: matte).
+    shininess : float
+        Blinn-Phong exponent.
+
+    Returns
+    -------
+    BallBar
+        Registered as ``"ball_bar"``.
+
+    Examples
+    --------
+    >>> b = ball_bar(30.0, (-80.0, 0.0, 0.0), (80.0, 10.0, 20.0))
+    >>> scene_from_manifest(b.to_manifest()) == b
+    True
+    """
+    return BallBar(
+        float(diameter_mm),
+        _xyz("ball_bar centre_a_mm", centre_a_mm),
+        _xyz("ball_bar centre_b_mm", centre_b_mm),
+        float(bar_diameter_mm),
+        float(base_mm),
+        float(reflectivity),
+        float(base_reflectivity),
+        float(specular),
+        float(shininess),
+    )
+
+
+def flat_plane(
+    length_mm: float = 200.0,
+    width_mm: float = 50.0,
+    centre_mm: Sequence[float] = (0.0, 0.0, 0.0),
+    azimuth_deg: float = 0.0,
+    tilt_deg: float = 0.0,
+    roll_deg: float = 0.0,
+    base_mm: float = -50.0,
+    reflectivity: float = ARTEFACT_REFLECTIVITY,
+    base_reflectivity: float = ARTEFACT_BASE_REFLECTIVITY,
+    specular: float = 0.0,
+    shininess: float = GLOSSY_SHININESS,
+) -> FlatPlane:
+    """The flat plane artefact (see :class:`FlatPlane`).
+
+    Parameters
+    ----------
+    length_mm, width_mm : float
+        Size of the rectangle.
+    centre_mm : sequence of float
+        Its centre in world mm.
+    azimuth_deg, tilt_deg, roll_deg : float
+        Direction of the length, its rise, and the turn about the length axis.
+    base_mm : float
+        Height of the dark base plane.
+    reflectivity, base_reflectivity : float
+        Diffuse reflectivities of the plane and of the base.
+    specular : float
+        Blinn-Phong gain of the plane (0: matte).
+    shininess : float
+        Blinn-Phong exponent.
+
+    Returns
+    -------
+    FlatPlane
+        Registered as ``"flat_plane"``.
+
+    Examples
+    --------
+    >>> p = flat_plane(250.0, 60.0, (0.0, 0.0, 20.0), azimuth_deg=30.0, tilt_deg=20.0)
+    >>> scene_from_manifest(p.to_manifest()) == p
+    True
+    """
+    return FlatPlane(
+        float(length_mm),
+        float(width_mm),
+        _xyz("flat_plane centre_mm", centre_mm),
+        float(azimuth_deg),
+        float(tilt_deg),
+        float(roll_deg),
+        float(base_mm),
+        float(reflectivity),
+        float(base_reflectivity),
+        float(specular),
+        float(shininess),
+    )
+
+
 #: Scene constructors by name, for the command line and for :func:`scene_from_manifest`.
 SCENES: dict[str, Callable[..., Scene]] = {
     "white_plate": white_plate,
@@ -1367,6 +2411,9 @@ SCENES: dict[str, Callable[..., Scene]] = {
     "glossy": glossy,
     "board": board,
     "specular_part": specular_part,
+    "sphere": sphere,
+    "ball_bar": ball_bar,
+    "flat_plane": flat_plane,
 }
 
 

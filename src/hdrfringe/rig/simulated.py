@@ -708,7 +708,9 @@ def _trace(
     for rows in blocks:
         z[rows], converged[rows] = _intersect(scene, geometry, ax[None, :], ay[rows, None])
     zmax = float(z[converged].max()) + 0.5 if converged.any() else 0.0
-    march = _shadow_possible(scene, geometry, ax, ay, z, converged, zmax)
+    # a scene offering ``shadowed`` (the acceptance artefacts) casts its shadows in closed form
+    exact = hasattr(scene, "shadowed")
+    march = not exact and _shadow_possible(scene, geometry, ax, ay, z, converged, zmax)
 
     names = ("height_mm", "u", "v", "reflectivity", "shading", "specular", "x_mm", "y_mm")
     out: dict[str, NDArray[Any]] = {k: np.empty((h, w)) for k in names}
@@ -739,8 +741,13 @@ def _intersect(
 
     Fixed-point iteration ``z <- h(X(z), Y(z))``: it contracts by ``|grad h| * |a|``, with
     ``|a| < 0.1`` for these near-vertical rays, so it converges in a few steps for any slope
-    below about 10.
+    below about 10. A scene that offers ``ray_heights(ax, ay, standoff_mm)`` (the acceptance
+    artefacts, whose floating solids are no such heightfield) answers in closed form instead.
     """
+    exact = getattr(scene, "ray_heights", None)
+    if exact is not None:
+        z, hit = exact(ax, ay, geometry.standoff_mm)
+        return np.asarray(z, dtype=np.float64), np.asarray(hit, dtype=bool)
     zc = geometry.standoff_mm
     ax, ay = np.broadcast_arrays(ax, ay)
     axf, ayf = ax.reshape(-1), ay.reshape(-1)
@@ -831,7 +838,10 @@ def _shade(
     v = (projector.height - 1) / 2.0 + fp * yp / safe
 
     lit = converged & (zp > 0) & (cos_i > 0) & (cos_v > 0)
-    if shadow_zmax is not None:
+    exact = getattr(scene, "shadowed", None)
+    if exact is not None:
+        lit &= ~np.asarray(exact(x, y, z, pc), dtype=bool)
+    elif shadow_zmax is not None:
         lit &= ~_projector_shadow(scene, np.stack([x, y, z]), pc, lit, shadow_zmax)
     inside = (u >= -0.5) & (u <= projector.width - 0.5)
     inside &= (v >= -0.5) & (v <= projector.height - 0.5)
