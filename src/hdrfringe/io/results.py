@@ -899,6 +899,20 @@ def signals_as_interrupt() -> Iterator[None]:
             signal.signal(sig, handler)
 
 
+@contextlib.contextmanager
+def _as_environment_fault(path: str | Path) -> Iterator[None]:
+    """Within the block, an ``OSError`` of the fault policy (a permission refused, a full disk,
+    ...) becomes the one-line :class:`ResourceError` naming ``path``, the output the user gave,
+    instead of the hidden staging name the failing call was given."""
+    try:
+        yield
+    except OSError as exc:
+        fault = environment_fault(exc, path)
+        if fault is None:
+            raise
+        raise fault from None
+
+
 def _finish(
     tmp: Path, target: Path, path: str | Path, ident: tuple[int, int] | None, force: bool
 ) -> None:
@@ -1007,7 +1021,8 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     target.parent.mkdir(parents=True, exist_ok=True)
     with sigterm_cleanup() as stopped:
         prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
-        tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
+        with _as_environment_fault(path):  # the folder may have turned read-only since the check
+            tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
         try:
             os.chmod(tmp, 0o777 & ~current_umask())
             yield tmp
@@ -1104,7 +1119,8 @@ def staged_output_file(path: str | Path, force: bool = False) -> Iterator[Path]:
     target.parent.mkdir(parents=True, exist_ok=True)
     with sigterm_cleanup() as stopped:
         prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
-        fd, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
+        with _as_environment_fault(path):  # the folder may have turned read-only since the check
+            fd, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
         os.close(fd)
         tmp = Path(name)
         try:
