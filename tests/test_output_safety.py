@@ -24,6 +24,8 @@ from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import (
     SIGTERM_EXIT_CODE,
+    InterruptedAfterWriting,
+    StoppedAfterWriting,
     check_output_against_inputs,
     check_output_dir,
     check_output_file,
@@ -421,6 +423,76 @@ def test_staging_of_a_live_run_is_reported(caps: Path, tmp_path: Path) -> None:
     line = _one_line_error(_run("phase", str(caps), "-o", str(out)))
     assert f"PID {os.getpid()}" in line, line
     assert live.is_dir() and not out.exists()
+
+
+def _signal_in_the_rename(monkeypatch: pytest.MonkeyPatch, signum: int, name: str) -> None:
+    """The final move's rename (``name``: ``rename_noreplace`` of a folder, ``os.link``/
+    ``os.replace`` of a file) receives ``signum`` as it starts: in this process, at that very
+    point (no timer), then renames."""
+    import hdrfringe.io.results as results
+
+    owner = results if name == "rename_noreplace" else os
+    original = getattr(owner, name)
+
+    def signalled(*args: object) -> None:
+        os.kill(os.getpid(), signum)  # held (deferred_signals) until the move is done
+        original(*args)
+
+    monkeypatch.setattr(owner, name, signalled)
+
+
+@pytest.mark.parametrize(
+    ("signum", "stop"), [(signal.SIGTERM, SystemExit), (signal.SIGINT, KeyboardInterrupt)]
+)
+@pytest.mark.parametrize(
+    ("stage", "rename", "force"),
+    [
+        (staged_output_dir, "rename_noreplace", False),
+        (staged_output_file, "link", False),
+        (staged_output_file, "replace", True),
+    ],
+)
+def test_signal_in_the_final_move_says_the_output_is_in_place(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, signum: int, stop: type, stage, rename, force
+) -> None:
+    """A signal during the renames is honoured after them (143, 130) with the output complete:
+    the stop carries the output's path, so the command does not say "nothing was written"."""
+    target = tmp_path / "out"
+    if force:
+        target.write_text("previous")
+    _signal_in_the_rename(monkeypatch, signum, rename)
+    with pytest.raises(stop) as info, stage(target, force=force) as tmp:
+        if tmp.is_dir():
+            (tmp / "a.txt").write_text("complete")
+        else:
+            tmp.write_text("complete")
+    assert isinstance(info.value, (StoppedAfterWriting, InterruptedAfterWriting))
+    assert info.value.written == target and info.value.exit_code == 128 + signum
+    written = target / "a.txt" if stage is staged_output_dir else target
+    assert written.read_text() == "complete"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging, no backup
+
+
+@pytest.mark.parametrize(
+    ("signum", "said"), [(signal.SIGTERM, "stopped by SIGTERM"), (signal.SIGINT, "interrupted")]
+)
+def test_command_stopped_in_its_final_move_names_the_complete_output(
+    caps: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, signum: int, said: str
+) -> None:
+    """``phase`` stopped by a signal in its final move: the signal's exit code and one line
+    saying where the complete output is (it said "nothing was written" with the output in
+    place); a signal before the move still says nothing was written."""
+    from tests.conftest import run_cli_in_process
+
+    out = tmp_path / "out"
+    _signal_in_the_rename(monkeypatch, signum, "rename_noreplace")
+    res = run_cli_in_process("phase", str(caps), "-o", str(out), "--no-previews")
+    assert res.returncode == 128 + signum, res.stderr
+    assert res.stderr.split() == (
+        f"{said} once the output was in place: the complete output is at {out}"
+    ).split()
+    assert "Traceback" not in res.stderr
+    assert (out / "phase_summary.json").is_file() and _staging_left(tmp_path) == []
 
 
 # ------------------------------------------------------------------------------------------
