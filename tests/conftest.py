@@ -279,3 +279,32 @@ def xvfb_display(width: int, height: int) -> Iterator[str]:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+
+
+#: Root writes into read-only folders through the capabilities CAP_DAC_OVERRIDE and
+#: CAP_DAC_READ_SEARCH; the child drops them (from its bounding and inheritable sets, so the
+#: exec of the interpreter does not regain them) and stays root otherwise. Unlike switching to
+#: an unprivileged user, the child can still read the clone, the virtual environment and the
+#: interpreter wherever they live (a clone in a 0700 folder, an interpreter under /root).
+DROP_DAC = ["setpriv", "--inh-caps=-dac_override,-dac_read_search",
+            "--bounding-set=-dac_override,-dac_read_search", "--"]
+
+
+def without_dac_override() -> list[str]:
+    """Command prefix under which permission bits bind: none for a normal user; for root,
+    setpriv dropping the DAC override capabilities (skips, naming them, where the container
+    does not let root drop them)."""
+    if os.geteuid() != 0:
+        return []
+    if shutil.which("setpriv") is None:
+        pytest.skip("needs setpriv (util-linux) to run the child without CAP_DAC_OVERRIDE as root")
+    probe = subprocess.run(
+        [*DROP_DAC, "sh", "-c", "grep CapEff /proc/self/status"],
+        capture_output=True,
+        text=True,
+    )
+    if probe.returncode != 0:
+        pytest.skip(f"root cannot drop CAP_DAC_OVERRIDE here (setpriv: {probe.stderr.strip()})")
+    if int(probe.stdout.split()[-1], 16) & (1 << 1):  # bit 1: CAP_DAC_OVERRIDE
+        pytest.skip("setpriv ran but CAP_DAC_OVERRIDE stayed in the effective set")
+    return DROP_DAC

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -226,3 +228,45 @@ def test_capture_poses_refuses_bad_input_in_one_line(
     assert r.exit_code == 2
     assert message in " ".join(r.stderr.split()) and r.stderr.count("error:") == 1
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("signum", "code", "said"),
+    [
+        (signal.SIGTERM, 143, "stopped by SIGTERM"),
+        (signal.SIGHUP, 129, "stopped by SIGHUP"),
+        (signal.SIGINT, 2, "interrupted (Ctrl-C)"),
+    ],
+)
+def test_a_signal_while_a_pose_is_written_keeps_the_poses(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, signum: int, code: int, said: str
+) -> None:
+    """The signal arrives while pose 2's folder is being written (sent from inside the writer,
+    in this process: no timer). SIGTERM and SIGHUP there removed the whole staging, every pose
+    lost (issue 31); now, as Ctrl-C, they are held until the pose is complete, then stop the
+    run keeping poses 1 and 2."""
+    from hdrfringe.tasks import capture_poses
+
+    original = capture_poses.write_capture_output
+    written: list[Path] = []
+
+    def signalled_in_pose_2(folder: Path, *args: Any) -> None:
+        written.append(folder)
+        if folder.name == "pose_02":
+            os.kill(os.getpid(), signum)
+        original(folder, *args)
+
+    monkeypatch.setattr(capture_poses, "_poses_rig", fake_rig())
+    monkeypatch.setattr(capture_poses, "write_capture_output", signalled_in_pose_2)
+    out = tmp_path / "poses"
+    r = invoke([*FAKE, "--poses", "4", "--interval", "0", "-o", str(out)])
+    assert r.exit_code == code, r.output
+    message = " ".join(r.stderr.split())
+    assert r.stderr.count("error:") == 1 and f"capture-poses {said};" in message
+    assert "holds the 2 complete poses (pose_01 .. pose_02)" in message
+    assert "dropped" not in message  # pose 2 was complete when the signal was honoured
+    assert [p.name for p in written] == ["pose_01", "pose_02"]
+    assert sorted(p.name for p in out.iterdir()) == ["capture_poses.json", "pose_01", "pose_02"]
+    assert len(list((out / "pose_02").glob("*.png"))) == 17
+    summary = json.loads((out / "capture_poses.json").read_text())
+    assert summary["complete"] is False and summary["stopped"] == said

@@ -40,7 +40,7 @@ from hdrfringe.io.results import (
     staged_output_dir,
     staged_output_file,
 )
-from tests.conftest import run_cli
+from tests.conftest import run_cli, without_dac_override
 
 CLI = [sys.executable, "-m", "hdrfringe.cli"]
 #: The children run in their own folders: they import the package this process imported.
@@ -342,3 +342,123 @@ def test_deleted_working_directory_is_one_line(tmp_path: Path) -> None:
     line = _one_error_line(res)
     assert "working directory no longer exists" in line
     assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------------------------------
+# EACCES and ENOSPC met by the real writers (not an errno raised by the test)
+# ------------------------------------------------------------------------------------------
+_READ_ONLY_LATER = textwrap.dedent(
+    """
+    import importlib, os, sys
+    from hdrfringe.cli import app
+
+    module, name, folder = sys.argv[1:4]
+    mod = importlib.import_module(module)
+    original = getattr(mod, name)
+
+    def then_read_only(*args, **kwargs):  # the output was checked; now its folder turns 0555
+        result = original(*args, **kwargs)
+        os.chmod(folder, 0o555)
+        return result
+
+    setattr(mod, name, then_read_only)
+    app(sys.argv[4:], prog_name="hdrfringe")
+    """
+)
+
+
+@pytest.mark.parametrize(
+    ("command", "output", "hook"),
+    [
+        ("phase", "ph", "hdrfringe.core.decode:decode_captures"),
+        ("calibrate", "cal.h5", "hdrfringe.tasks.calibrate:calibrate_folders"),
+    ],
+)
+def test_permission_refused_while_writing_is_one_line(
+    series: Path, tmp_path: Path, command: str, output: str, hook: str
+) -> None:
+    """The output's folder passes the writability check, then turns read-only while the
+    command computes (as a user or a script may do during a long run): the writer itself
+    meets EACCES from the kernel. Root runs the child without CAP_DAC_OVERRIDE (setpriv),
+    so the permission bits bind. A writer that let the PermissionError through, or named its
+    hidden staging path, fails here; the previous output (``--force``) stays as it was."""
+    prefix = without_dac_override()
+    source = series / "S" if command == "calibrate" else series / "S" / "white_plate_010.00mm"
+    driver = tmp_path / "read_only_later.py"
+    driver.write_text(_READ_ONLY_LATER)
+    folder = tmp_path / "results"
+    folder.mkdir()
+    previous = folder / output
+    if command == "phase":
+        previous.mkdir()
+        (previous / "mine.txt").write_text("previous result")
+    else:
+        previous.write_text("previous calibration")
+    before = sorted(p.name for p in folder.rglob("*"))
+    module, name = hook.split(":")
+    try:
+        res = _child(
+            [*prefix, sys.executable, str(driver), module, name, str(folder), command,
+             str(source), "-o", str(previous), "--force"],
+            tmp_path,
+        )  # fmt: skip
+    finally:
+        folder.chmod(0o755)
+    line = _one_error_line(res)
+    assert line.startswith(f"error: {previous}: cannot write: Permission denied"), line
+    assert "(errno EACCES); choose a path you may write" in line, line
+    assert STAGING_INFIX not in line
+    assert sorted(p.name for p in folder.rglob("*")) == before  # nothing partial, no staging
+    if command == "phase":
+        assert (previous / "mine.txt").read_text() == "previous result"
+    else:
+        assert previous.read_text() == "previous calibration"
+
+
+def _tiny_tmpfs_child(
+    command_line: str, mount: Path, kept: Path, cwd: Path
+) -> subprocess.CompletedProcess[str]:
+    """Run ``command_line`` (sh) in a private mount namespace where ``mount`` is a 64 KiB
+    tmpfs, then print what is left there after a ``LEFT:`` line and the file ``kept`` after
+    ``KEPT:``; skips where this process may not create a mount namespace (``unshare -m``
+    needs root or user namespaces)."""
+    import shutil
+
+    if shutil.which("unshare") is None:
+        pytest.skip("needs unshare (util-linux) for a private 64 KiB tmpfs")
+    script = (
+        f"mount -t tmpfs -o size=64k tmpfs {mount} || exit 99; {command_line}; rc=$?; "
+        f"echo LEFT:; ls -A {mount}; echo KEPT:; cat {kept}; exit $rc"
+    )
+    res = _child(["unshare", "-m", "sh", "-c", script], cwd)
+    if res.returncode == 99 or "unshare failed" in res.stderr:
+        pytest.skip(f"cannot mount a tmpfs in a private namespace here: {res.stderr.strip()}")
+    return res
+
+
+@pytest.mark.parametrize(("command", "output"), [("phase", "ph"), ("calibrate", "cal.h5")])
+def test_full_disk_while_writing_is_one_line(
+    series: Path, tmp_path: Path, command: str, output: str
+) -> None:
+    """A real full file system: a 64 KiB tmpfs (the calibration is ~80 KB, the phase maps
+    ~260 KB), mounted in a private namespace. ENOSPC (the HDF5 file written by Python, the
+    TIFFs by numpy's short write) is one line naming the output; nothing partial is left and
+    the previous output (a small file or folder, ``--force``) is untouched."""
+    source = series / "S" if command == "calibrate" else series / "S" / "white_plate_010.00mm"
+    mount = tmp_path / "small"
+    mount.mkdir()
+    target = mount / output
+    make_previous = (
+        f"mkdir {target} && echo previous > {target}/mine.txt"
+        if command == "phase"
+        else f"echo previous > {target}"
+    )
+    cli = " ".join([*CLI, command, str(source), "-o", str(target), "--force"])
+    kept = target / "mine.txt" if command == "phase" else target
+    res = _tiny_tmpfs_child(f"{make_previous} && {cli}", mount, kept, tmp_path)
+    line = _one_error_line(res)
+    assert line.startswith(f"error: {target}: cannot write: No space left on device"), line
+    assert "(errno ENOSPC); free space on that disk or write elsewhere" in line, line
+    left, previous = res.stdout.split("LEFT:")[1].split("KEPT:")
+    assert left.split() == [output]  # no staging file or folder
+    assert previous.strip() == "previous"

@@ -327,6 +327,47 @@ def test_4_folder_needing_more_memory_than_available(
     assert f"{need:.1f}" == "10.0" and "split the captures" in line  # docs/capture_format.md
 
 
+def test_4_calibrate_counts_every_plate_folder_it_holds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``calibrate`` reads all its plate folders (26 in a typical series) before decoding one,
+    but each was checked alone: 26 folders of four 4000x4000 images, each needing 1.2 GiB to
+    decode, passed on a machine with 4 GiB free and together needed 5.8 GiB. Refused from the
+    headers now, naming the count; no image is decoded (a broken check fails at once)."""
+    import hdrfringe.io._read_limits as read_limits
+    import hdrfringe.io.captures as captures
+    from hdrfringe.core.patterns import FringeSpec
+    from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL
+
+    side, count = 4000, 26
+    _png_of_zeros(tmp_path / "zeros.png", side, side, rows=400)
+    spec = FringeSpec("sinusoidal", 4, 16.0)
+    frames = [f.manifest_entry(f"i{k}.png") for k, f in enumerate(spec.frames())]
+    for n in range(count):
+        folder = tmp_path / "S" / f"plate_{n:02d}"
+        folder.mkdir(parents=True)
+        for k in range(4):
+            os.link(tmp_path / "zeros.png", folder / f"i{k}.png")
+        manifest = {"format": "hdrfringe-captures", "version": 1, "camera": {"bit_depth": 8},
+                    "frames": frames, "scene": {"depth_mm": float(n)}}  # fmt: skip
+        (folder / "manifest.json").write_text(json.dumps(manifest))
+
+    def no_decoding(*args: object) -> None:
+        raise AssertionError("an image was decoded")
+
+    monkeypatch.setattr(read_limits, "available_memory", lambda: 4 << 30)
+    monkeypatch.setattr(captures, "load_image", no_decoding)
+    pixels = 4 * side * side  # one folder's image pixels, 8-bit
+    one = pixels * (1 + DECODE_BYTES_PER_PIXEL) / (1 << 30)
+    held = (count * pixels + pixels * DECODE_BYTES_PER_PIXEL + count * side * side * 8) / (1 << 30)
+    assert f"{one:.1f} {held:.1f}" == "1.2 5.8"  # each alone fits in 4 GiB; together not
+    out = tmp_path / "cal.h5"
+    line = _refused(run_cli("calibrate", str(tmp_path / "S"), "-o", str(out)), out,
+                    f"{count} folders of {side}x{side} images held together need at least "
+                    f"{held:.1f} GiB of memory to decode", "4.0 GiB is available")  # fmt: skip
+    assert "plate_00 and 25 more folders" in line and "use fewer folders" in line
+
+
 def test_4_loop_camera_size_bounded(tmp_path: Path) -> None:
     """``--camera 'loop:plate?size=100000x100000'`` allocated 9.3 GiB: refused when parsed,
     before a display or a rig is made."""

@@ -157,8 +157,8 @@ def test_kamino410_gamma(tmp_path: Path) -> None:
 
     The folder decodes (``phase`` refused it before issue 31: "pitches must be strictly
     decreasing"): sets of one orientation and pitch that differ in their gamma
-    pre-compensation are separate families, not one pitch ladder; every set is decoded, one
-    family per orientation unwrapped, and a note names the other sets (the command line on
+    pre-compensation are separate families, not one pitch ladder; every set is decoded, each
+    family unwrapped within itself, and a note names the other sets (the command line on
     such a folder: tests/test_next_hints.py; ``decode_captures`` here, 2.8 s, where ``phase``
     writing its maps took 10 s more). The round trip compares the folders read back and every
     set decoded.
@@ -200,6 +200,12 @@ def test_kamino410_gamma(tmp_path: Path) -> None:
     assert [f.method for f in decoded.families] == ["spatial", "spatial"]
     assert sum("s3_p240_v_i0_g255_gp1.25 (gamma pre-compensation 1.25)" in n
                for n in decoded.notes) == 1  # fmt: skip
+    # the other exponent's sets: each a family unwrapped within itself (issue 31)
+    assert [[s.label for s in f.sets] for f in decoded.gamma_families] == [
+        ["s3_p240_v_i0_g255_gp1.25"],
+        ["s3_p240_h_i0_g255_gp1.25"],
+    ]
+    assert [f.method for f in decoded.gamma_families] == ["spatial", "spatial"]
     for a, b in zip(imported.sets, ref.sets, strict=True):
         ra = decoded.set_results[a.label]
         assert np.mean(ra.valid) > 0.8  # 87 % measured

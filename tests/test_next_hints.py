@@ -141,10 +141,10 @@ def test_phase_on_sets_of_one_pitch_says_what_the_folder_is(tmp_path: Path) -> N
     """Two sets of one pitch pre-distorted with two exponents (a gamma capture, what
     docs/gamma.md asks users to capture) decode: each is its own family (issue 31, root cause
     7: ``phase`` refused it, "pitches must be strictly decreasing" and then "a gamma
-    capture"); both sets' wrapped phases are written, one family per orientation unwrapped, a
-    note names the other set. The same two sets told apart by a label only (no exponents) are
-    no pitch ladder: ``phase`` refuses in one line, exit 2, nothing written, naming the sets to
-    keep one of."""
+    capture"); both sets' wrapped phases are written, each family unwrapped within itself
+    (the second named by its set), a note names the other set. The same two sets told apart
+    by a label only (no exponents) are no pitch ladder: ``phase`` refuses in one line, exit 2,
+    nothing written, naming the sets to keep one of."""
     import json
     import shutil
 
@@ -156,6 +156,8 @@ def test_phase_on_sets_of_one_pitch_says_what_the_folder_is(tmp_path: Path) -> N
     assert len(labels) == 2 and [f["sets"] for f in summary["families"]] == [labels[:1]]
     assert f"wrapped_phase__{labels[1]}.tiff" in summary["files"]  # every set's maps on request
     assert any(f"{labels[1]} (gamma pre-compensation 2)" in n for n in summary["notes"])
+    assert [f["sets"] for f in summary["gamma_families"]] == [labels[1:]]
+    assert f"unwrapped_phase__{labels[1]}.tiff" in summary["files"]
     labelled = tmp_path / "labelled"
     shutil.copytree(gamma, labelled)
     manifest = json.loads((labelled / "manifest.json").read_text())

@@ -24,6 +24,8 @@ from hdrfringe.errors import InputError, OutputExistsError
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.results import (
     SIGTERM_EXIT_CODE,
+    InterruptedAfterWriting,
+    StoppedAfterWriting,
     check_output_against_inputs,
     check_output_dir,
     check_output_file,
@@ -31,7 +33,7 @@ from hdrfringe.io.results import (
     staged_output_dir,
     staged_output_file,
 )
-from tests.conftest import synthetic_set
+from tests.conftest import synthetic_set, without_dac_override
 
 CLI = [sys.executable, "-m", "hdrfringe.cli"]
 
@@ -317,40 +319,9 @@ def test_working_directory_as_output(caps: Path, tmp_path: Path) -> None:
     assert _staging_left(tmp_path) == []
 
 
-#: Root writes into read-only folders through the capabilities CAP_DAC_OVERRIDE and
-#: CAP_DAC_READ_SEARCH; the child drops them (from its bounding and inheritable sets, so the
-#: exec of the interpreter does not regain them) and stays root otherwise. Unlike switching to
-#: an unprivileged user, the child can still read the clone, the virtual environment and the
-#: interpreter wherever they live (a clone in a 0700 folder, an interpreter under /root).
-_DROP_DAC = ["setpriv", "--inh-caps=-dac_override,-dac_read_search",
-             "--bounding-set=-dac_override,-dac_read_search", "--"]
-
-
-def _without_dac_override() -> list[str]:
-    """Command prefix under which permission bits bind: none for a normal user; for root,
-    setpriv dropping the DAC override capabilities (skips, naming them, where the container
-    does not let root drop them)."""
-    import shutil
-
-    if os.geteuid() != 0:
-        return []
-    if shutil.which("setpriv") is None:
-        pytest.skip("needs setpriv (util-linux) to run the child without CAP_DAC_OVERRIDE as root")
-    probe = subprocess.run(
-        [*_DROP_DAC, "sh", "-c", "grep CapEff /proc/self/status"],
-        capture_output=True,
-        text=True,
-    )
-    if probe.returncode != 0:
-        pytest.skip(f"root cannot drop CAP_DAC_OVERRIDE here (setpriv: {probe.stderr.strip()})")
-    if int(probe.stdout.split()[-1], 16) & (1 << 1):  # bit 1: CAP_DAC_OVERRIDE
-        pytest.skip("setpriv ran but CAP_DAC_OVERRIDE stayed in the effective set")
-    return _DROP_DAC
-
-
 @pytest.mark.parametrize("command", ["phase", "calibrate"])
 def test_read_only_parent_refused_before_the_work(command: str, tmp_path: Path) -> None:
-    prefix = _without_dac_override()
+    prefix = without_dac_override()
     caps = _tiny_caps(tmp_path / "caps")
     ro = tmp_path / "ro"
     ro.mkdir(mode=0o555)
@@ -452,6 +423,76 @@ def test_staging_of_a_live_run_is_reported(caps: Path, tmp_path: Path) -> None:
     line = _one_line_error(_run("phase", str(caps), "-o", str(out)))
     assert f"PID {os.getpid()}" in line, line
     assert live.is_dir() and not out.exists()
+
+
+def _signal_in_the_rename(monkeypatch: pytest.MonkeyPatch, signum: int, name: str) -> None:
+    """The final move's rename (``name``: ``rename_noreplace`` of a folder, ``os.link``/
+    ``os.replace`` of a file) receives ``signum`` as it starts: in this process, at that very
+    point (no timer), then renames."""
+    import hdrfringe.io.results as results
+
+    owner = results if name == "rename_noreplace" else os
+    original = getattr(owner, name)
+
+    def signalled(*args: object) -> None:
+        os.kill(os.getpid(), signum)  # held (deferred_signals) until the move is done
+        original(*args)
+
+    monkeypatch.setattr(owner, name, signalled)
+
+
+@pytest.mark.parametrize(
+    ("signum", "stop"), [(signal.SIGTERM, SystemExit), (signal.SIGINT, KeyboardInterrupt)]
+)
+@pytest.mark.parametrize(
+    ("stage", "rename", "force"),
+    [
+        (staged_output_dir, "rename_noreplace", False),
+        (staged_output_file, "link", False),
+        (staged_output_file, "replace", True),
+    ],
+)
+def test_signal_in_the_final_move_says_the_output_is_in_place(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, signum: int, stop: type, stage, rename, force
+) -> None:
+    """A signal during the renames is honoured after them (143, 130) with the output complete:
+    the stop carries the output's path, so the command does not say "nothing was written"."""
+    target = tmp_path / "out"
+    if force:
+        target.write_text("previous")
+    _signal_in_the_rename(monkeypatch, signum, rename)
+    with pytest.raises(stop) as info, stage(target, force=force) as tmp:
+        if tmp.is_dir():
+            (tmp / "a.txt").write_text("complete")
+        else:
+            tmp.write_text("complete")
+    assert isinstance(info.value, (StoppedAfterWriting, InterruptedAfterWriting))
+    assert info.value.written == target and info.value.exit_code == 128 + signum
+    written = target / "a.txt" if stage is staged_output_dir else target
+    assert written.read_text() == "complete"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging, no backup
+
+
+@pytest.mark.parametrize(
+    ("signum", "said"), [(signal.SIGTERM, "stopped by SIGTERM"), (signal.SIGINT, "interrupted")]
+)
+def test_command_stopped_in_its_final_move_names_the_complete_output(
+    caps: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, signum: int, said: str
+) -> None:
+    """``phase`` stopped by a signal in its final move: the signal's exit code and one line
+    saying where the complete output is (it said "nothing was written" with the output in
+    place); a signal before the move still says nothing was written."""
+    from tests.conftest import run_cli_in_process
+
+    out = tmp_path / "out"
+    _signal_in_the_rename(monkeypatch, signum, "rename_noreplace")
+    res = run_cli_in_process("phase", str(caps), "-o", str(out), "--no-previews")
+    assert res.returncode == 128 + signum, res.stderr
+    assert res.stderr.split() == (
+        f"{said} once the output was in place: the complete output is at {out}"
+    ).split()
+    assert "Traceback" not in res.stderr
+    assert (out / "phase_summary.json").is_file() and _staging_left(tmp_path) == []
 
 
 # ------------------------------------------------------------------------------------------

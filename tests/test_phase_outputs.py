@@ -156,3 +156,36 @@ def test_blocked_std_and_unwrapping_match_closed_forms_on_any_thread_count(
     np.testing.assert_allclose(got, 2 * np.pi * x / PITCHES[-1], atol=1e-4)
     widened = unwrap_temporal([m.astype(np.float64) for m in maps], PITCHES)
     np.testing.assert_array_equal(got, widened)
+
+
+def test_gamma_capture_unwraps_each_exponent_within_its_family(tmp_path: Path) -> None:
+    """Two vertical pitch ladders that differ in their gamma pre-compensation (a gamma
+    capture, issue 31: the second was decoded and not unwrapped): each is unwrapped within
+    itself, to the absolute phase of its own finest pitch (64 px and 32 px, so a family
+    unwrapped with the other's sets, or not at all, fails), against the closed form
+    2*pi*x/pitch of the projector column x the images were made from."""
+    x = 10.0 + 14.0 * np.arange(64.0)[None, :] + 2.0 * np.arange(48.0)[:, None]  # < 1024
+    ladders = ((1.0, (1024.0, 64.0)), (2.0, (1024.0, 32.0)))
+    specs = [FringeSpec("sinusoidal", 4, p, migl=200.0) for _, ps in ladders for p in ps]
+    frames = [f for spec in specs for f in spec.frames()]  # 200: no pixel saturates
+    images = np.stack([fringe_gray(x, f.spec, f.shift) for f in frames])
+    caps = Captures(
+        frames, np.rint(images).astype(np.uint8), 8, projector=ProjectorInfo(width=1024),
+        gamma_precompensation=[g for g, ps in ladders for _ in range(4 * len(ps))],
+    )  # fmt: skip
+    folder = write_capture_folder(tmp_path / "caps", caps)
+    res = run_cli_in_process("phase", str(folder), "-o", str(tmp_path / "out"), "--no-previews")
+    assert res.returncode == 0, res.stderr
+    out = tmp_path / "out"
+    summary = json.loads((out / "phase_summary.json").read_text())
+    fine = [s["label"] for s in summary["sets"]][1::2]  # the 64 px and the 32 px sets
+    assert [f["sets"][-1] for f in summary["families"]] == fine[:1]
+    (other,) = summary["gamma_families"]
+    assert other["sets"][-1] == fine[1] and other["gamma_precompensation"] == 2.0
+    assert other["absolute_phase"] == f"absolute_phase__{fine[1]}.tiff"
+    assert f"vertical ({', '.join(other['sets'])}): unwrapped by temporal" in res.stdout
+    for name, pitch in (("absolute_phase.tiff", 64.0), (other["absolute_phase"], 32.0)):
+        phase = read_map_tiff(out / name)
+        np.testing.assert_allclose(phase, 2 * np.pi * x / pitch, atol=0.05, err_msg=name)
+    unwrapped = read_map_tiff(out / other["unwrapped_phase"])
+    assert np.isfinite(unwrapped).all()

@@ -517,6 +517,21 @@ def _stdout_failed() -> None:
     raise typer.Exit(code=2)
 
 
+def _say_stopped(stop: BaseException) -> None:
+    """The line for a run stopped by a signal: nothing was written (outputs are staged), or,
+    for a signal held during an output's final move (``io.results.InterruptedAfterWriting``,
+    ``StoppedAfterWriting``), that the output is complete and where."""
+    name = getattr(stop, "name", None)
+    written = getattr(stop, "written", None)
+    what = "interrupted" if name in (None, "SIGINT") else f"stopped by {name}"
+    if written is not None:
+        line = f"{what} once the output was in place: the complete output is at {written}"
+    else:
+        line = f"{what}: nothing was written"
+    with contextlib.suppress(OSError, ValueError):
+        err_console.print(escape(line), highlight=False)
+
+
 def handle_errors(func: F) -> F:
     """Turn an HdrFringeError, and a fault of the user's environment (full disk, file size
     limit, quota, name length, permission, memory; docs/safety.md), into a one-line message and
@@ -538,15 +553,12 @@ def handle_errors(func: F) -> F:
             raise typer.Exit(code=getattr(exc, "exit_code", 2)) from None
         except KeyboardInterrupt as stop:  # Ctrl-C: nothing written (outputs are staged)
             # the shell's 130; a SIGTERM/SIGHUP turned into one (io.results.SignalStop): 143/129
-            name = getattr(stop, "name", None)
-            with contextlib.suppress(OSError, ValueError):
-                err_console.print(
-                    f"stopped by {name}: nothing was written"
-                    if name
-                    else "interrupted: nothing was written",
-                    highlight=False,
-                )
+            _say_stopped(stop)
             raise typer.Exit(code=getattr(stop, "exit_code", 130)) from None
+        except SystemExit as stop:  # a signal's 143/129: after the final move, say so
+            if getattr(stop, "written", None) is not None:
+                _say_stopped(stop)
+            raise
         except (OSError, MemoryError, ImportError) as exc:
             if isinstance(exc, OSError) and _is_stdout_error(exc):
                 _stdout_failed()

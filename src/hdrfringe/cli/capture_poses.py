@@ -112,7 +112,8 @@ def capture_poses(
     pitch spanning the projector, then a white frame), written as OUT/pose_NN with
     capture_log.json; OUT/capture_poses.json lists the poses. OUT appears when the run ends,
     holding complete poses only. Ctrl-C or an error mid-run keeps the complete poses, drops
-    the one being captured, and exits with code 2 (before the first pose: nothing written).
+    the one being captured, and exits with code 2 (before the first pose: nothing written);
+    SIGTERM and SIGHUP do the same with exit code 143 and 129.
     The rig comes from --rig-config FILE and/or the options (an option given overrides the
     file), as for capture. With --board the last line is `next: hdrfringe calibrate-stereo
     ...`, a command that runs as printed; without it, how to calibrate with your board.

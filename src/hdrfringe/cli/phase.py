@@ -225,9 +225,12 @@ def _print_summary(summary: dict[str, Any], n_pixels: int, uncertainty: bool) ->
             f"saturated {describe_saturated(n_saturated, n_pixels)}"
         )
     print_harmonics(summary.get("harmonics"))
-    for fam in summary["families"]:
+    for fam in [*summary["families"], *summary.get("gamma_families", [])]:
         extra = f", absolute by {fam['absolute_method']}" if "absolute_method" in fam else ""
-        console.print(f"{fam['orientation']}: unwrapped by {fam['unwrapping']}{extra}")
+        which = fam["orientation"]
+        if "gamma_precompensation" in fam:  # a gamma capture's other exponent
+            which += f" ({', '.join(fam['sets'])})"
+        console.print(f"{which}: unwrapped by {fam['unwrapping']}{extra}")
     if uncertainty:
         from hdrfringe.core.uncertainty import describe_uncertainty
 

@@ -173,7 +173,7 @@ class FolderPhase:
     sets : list of FringeSet
         The fringe sets of the captures, in capture order.
     families : list of FamilyResult
-        Unwrapped (and absolute) phase per family, primary family first.
+        Unwrapped (and absolute) phase per family, primary family first: one per orientation.
     notes : list of str
         What could not be done and why (e.g. no centerline frame for an absolute phase).
     saturated : {"flag", "exclude"}
@@ -185,6 +185,10 @@ class FolderPhase:
         With harmonic compensation (``decode_captures(harmonics=...)`` not ``off``): ``mode``
         and per set label its estimate and whether it was ``applied``
         (:func:`hdrfringe.core.harmonics.compensate_sets`); None without.
+    gamma_families : list of FamilyResult
+        The families that differ from an orientation's family in :attr:`families` only in
+        their gamma pre-compensation (a gamma capture: one set or pitch ladder per exponent),
+        each unwrapped (and made absolute where it can be) within itself, in capture order.
 
     Attributes
     ----------
@@ -214,6 +218,7 @@ class FolderPhase:
     saturated: str = "flag"
     inverted_sets: dict[str, str] = field(default_factory=dict)
     harmonics: dict[str, Any] | None = None
+    gamma_families: list[FamilyResult] = field(default_factory=list)
 
     @property
     def primary(self) -> FamilyResult | None:
@@ -335,29 +340,37 @@ def _check_pitch_ladders(captures: Captures, families: Sequence[Sequence[FringeS
         )
 
 
-def _note_other_gamma_families(
+def _other_gamma_families(
     captures: Captures,
     sets: Sequence[FringeSet],
     families: Sequence[Sequence[FringeSet]],
     notes: list[str],
-) -> None:
-    """Note the sets of another gamma pre-compensation than their orientation's unwrapped
-    family (a gamma capture): decoded (each set's wrapped phase), not unwrapped, as one family
-    per orientation is."""
+) -> list[list[FringeSet]]:
+    """The families of sets that differ from an unwrapped family only in their gamma
+    pre-compensation (a gamma capture), coarse to fine each, in capture order; a note names
+    them. Each is unwrapped within itself (issue 31): one family per orientation is what
+    :func:`group_families` gives."""
     gamma0 = captures.projector.gamma_precompensation if captures.projector else 1.0
     unwrapped = {id(s) for fam in families for s in fam}
+    out: list[list[FringeSet]] = []
     for fam in families:
         key = _family_key(fam[0])[:-1]
         others = [s for s in sets if id(s) not in unwrapped and _family_key(s)[:-1] == key]
-        if others:
-            exponents = sorted({s.gamma_precompensation or gamma0 for s in others})
-            notes.append(
-                f"{fam[0].spec.orientation} fringes: the sets "
-                f"{', '.join(s.label for s in others)} (gamma pre-compensation "
-                f"{', '.join(f'{g:g}' for g in exponents)}) are decoded but not unwrapped; the "
-                f"unwrapped family is the one pre-compensated with "
-                f"{fam[0].gamma_precompensation or gamma0:g} (one per orientation)"
-            )
+        if not others:
+            continue
+        groups: dict[tuple, list[FringeSet]] = {}
+        for s in others:
+            groups.setdefault(_family_key(s), []).append(s)
+        out += [sorted(g, key=lambda s: -s.spec.pitch_px) for g in groups.values()]
+        exponents = sorted({s.gamma_precompensation or gamma0 for s in others})
+        notes.append(
+            f"{fam[0].spec.orientation} fringes: the sets "
+            f"{', '.join(s.label for s in others)} (gamma pre-compensation "
+            f"{', '.join(f'{g:g}' for g in exponents)}) are unwrapped as families of their own, "
+            f"one per exponent, beside the one pre-compensated with "
+            f"{fam[0].gamma_precompensation or gamma0:g}"
+        )
+    return out
 
 
 def _check_decode_options(
@@ -657,7 +670,8 @@ def decode_captures(
     codes = {g.orientation: g for g in captures.graycode_sets()}
     families = group_families(out.sets)
     _check_pitch_ladders(captures, families)
-    _note_other_gamma_families(captures, out.sets, families, out.notes)
+    others = _other_gamma_families(captures, out.sets, families, out.notes)
+    _check_pitch_ladders(captures, others)
     for fam in families:
         orient = fam[0].spec.orientation
         unw = _unwrap_family(captures, fam, results, codes, out.notes)
@@ -677,8 +691,28 @@ def decode_captures(
                 unw.graycode_valid,
             )
         )
+    for fam in others:  # a gamma capture's other exponents: each family on its own
+        notes: list[str] = []  # the orientation's notes are said once, by its family above
+        unw = _unwrap_family(captures, fam, results, codes, notes)
+        absolute, abs_method = _absolute_of_family(captures, fam, results, unw, None, notes)
+        regions = _spatial_regions(fam, results, unw, notes)
+        out.notes += [n for n in notes if n not in out.notes]
+        out.gamma_families.append(
+            FamilyResult(
+                fam[0].spec.orientation,
+                fam[-1].spec.pitch_px,
+                fam,
+                unw.phase,
+                absolute,
+                unw.method,
+                abs_method,
+                unw.unwrapping,
+                regions,
+                unw.graycode_valid,
+            )
+        )
     if final_only:  # the coarser sets' phases served their families: dropped as well
-        finest = {f.sets[-1].label for f in out.families}
+        finest = {f.sets[-1].label for f in [*out.families, *out.gamma_families]}
         for label, res in list(results.items()):
             if label not in finest:
                 gone = np.broadcast_to(res.wrapped_phase.dtype.type(np.nan), res.valid.shape)

@@ -54,6 +54,7 @@ __all__ = [
     "MAX_SIDE_FILE_PIXELS",
     "RGB_LUMA_WEIGHTS",
     "TIFF_CODECS",
+    "check_folders_memory",
     "load_image",
     "load_side_file",
     "read_capture_folder",
@@ -800,6 +801,122 @@ class _SideFileLoader:
 DECODE_BYTES_PER_PIXEL = 19
 
 
+def _checked_images(folder: Path) -> tuple[dict[str, Any], list[Path], tuple[int, ...], int]:
+    """A folder's manifest checked (every field problem reported together) and its images'
+    headers: the manifest, the image paths, their one size (H, W) and the bytes of a pixel
+    as decoded; the folder's pixels bounded by MAX_FOLDER_PIXELS. No pixel is decoded."""
+    manifest, problems = _check_manifest(folder)
+    # the folder's files, for every frame whose path is usable, reported with the field problems
+    raw = [e.get("file") if isinstance(e, dict) else None for e in manifest["frames"]]
+    files: list[str | None] = []
+    for entry, file in zip(manifest["frames"], raw, strict=True):
+        try:
+            files.append(entry["file"] if entry is not None else _safe_relpath(file, ""))
+        except CaptureFormatError:
+            files.append(None)  # its problem is already listed
+    seen: dict[str, int] = {}
+    for i, file in enumerate(files):
+        if file is None:
+            continue
+        if file in seen:
+            problems.append(
+                f"manifest frames {seen[file]} and {i} both name {file}; give each frame its "
+                "own image"
+            )
+        else:
+            seen[file] = i
+    for i, entry in enumerate(manifest["frames"]):
+        side = None if entry is None else entry.get(_DATA_FIELDS.get(entry["kind"], ""))
+        if side is not None and side in seen:
+            problems.append(
+                f"manifest frame {i} names {side} as its side file, but it is the camera image of "
+                f"frame {seen[side]}; keep projector data and camera images in separate files"
+            )
+    for file in dict.fromkeys(f for f in files if f is not None):
+        image = _collect(problems, _confined, folder, file, "image")
+        if image is not None and not image.is_file():
+            problems.append(
+                f"{image}: image file named in the manifest does not exist; add it or fix the "
+                "manifest"
+            )
+    if problems:
+        raise CaptureFormatError.from_problems(problems)
+    entries: list[dict[str, Any]] = manifest["frames"]
+    # every image's size from its header before any is decoded: one size, bounded in total
+    paths = [_confined(folder, entry["file"], "image") for entry in entries]
+    shape0: tuple[int, ...] = probe_image(paths[0]).shape[:2]
+    pixel_bytes = 1
+    for path in paths:
+        header = probe_image(path)
+        _check_image_layout(path, header.shape, header.dtype)
+        _check_size(path, header.shape[:2], shape0, entries[0]["file"])
+        # as decoded: an RGB(A) image becomes float32 luma
+        pixel_bytes = max(pixel_bytes, 4 if len(header.shape) == 3 else header.dtype.itemsize)
+    total = len(paths) * math.prod(shape0)
+    if total > MAX_FOLDER_PIXELS:
+        raise CaptureFormatError(
+            f"{folder}: {len(paths)} images of {shape0[1]}x{shape0[0]} are {total} pixels, more "
+            f"than the limit of {MAX_FOLDER_PIXELS}; split the captures into several folders"
+        )
+    return manifest, paths, shape0, pixel_bytes
+
+
+def check_folders_memory(
+    paths: Sequence[str | Path],
+    work_bytes_per_pixel: int = DECODE_BYTES_PER_PIXEL,
+    kept_bytes_per_pixel: int = 8,
+) -> None:
+    """Refuse folders that are all held at once (``calibrate``'s plate positions,
+    ``calibrate-stereo``'s poses) when they do not fit, before any image is decoded.
+
+    :func:`read_capture_folder` checks one folder; a command that reads every folder first
+    and then decodes them one by one needs all their images, the decoding work of the
+    largest and what it keeps of each decoded folder (a phase map) at once.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        The capture folders.
+    work_bytes_per_pixel : int
+        Decoding work per image pixel of one folder (:data:`DECODE_BYTES_PER_PIXEL`).
+    kept_bytes_per_pixel : int
+        Bytes kept per camera pixel of each decoded folder (8: one float64 map).
+
+    Raises
+    ------
+    CaptureFormatError
+        A folder's manifest or image headers are invalid (as :func:`read_capture_folder`
+        says), or the total needs more memory than is available, saying how much.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.core.patterns import FringeSpec
+    >>> caps = Captures(FringeSpec(steps=3).frames(), np.zeros((3, 4, 5), np.uint8), 8)
+    >>> root = Path(tempfile.mkdtemp())
+    >>> folders = [write_capture_folder(root / f"p{i}", caps) for i in range(3)]
+    >>> check_folders_memory(folders)  # 3 x 60 image bytes + 60 x 19 + 3 x 20 x 8: fits
+    """
+    images = work = kept = 0
+    count = 0
+    shape: tuple[int, ...] = (0, 0)
+    for path in paths:
+        _, files, shape, pixel_bytes = _checked_images(Path(path))
+        pixels = len(files) * math.prod(shape)
+        images += pixels * pixel_bytes
+        work = max(work, pixels * work_bytes_per_pixel)
+        kept += math.prod(shape) * kept_bytes_per_pixel
+        count += 1
+    if count > 1:
+        where = f"{paths[0]} and {count - 1} more folders"
+        check_memory(
+            images + work + kept,
+            where,
+            f"{count} folders of {shape[1]}x{shape[0]} images held together",
+            "use fewer folders, crop the images, or free memory",
+        )
+
+
 def read_capture_folder(path: str | Path, *, work_bytes_per_pixel: int = 0) -> Captures:
     """Read and fully validate a capture folder.
 
@@ -838,62 +955,11 @@ def read_capture_folder(path: str | Path, *, work_bytes_per_pixel: int = 0) -> C
     ('s3_p6_v_i40_g255', True, True)
     """
     folder = Path(path)
-    manifest, problems = _check_manifest(folder)
-    # the folder's files, for every frame whose path is usable, reported with the field problems
-    raw = [e.get("file") if isinstance(e, dict) else None for e in manifest["frames"]]
-    files: list[str | None] = []
-    for entry, file in zip(manifest["frames"], raw, strict=True):
-        try:
-            files.append(entry["file"] if entry is not None else _safe_relpath(file, ""))
-        except CaptureFormatError:
-            files.append(None)  # its problem is already listed
-    seen: dict[str, int] = {}
-    for i, file in enumerate(files):
-        if file is None:
-            continue
-        if file in seen:
-            problems.append(
-                f"manifest frames {seen[file]} and {i} both name {file}; give each frame its "
-                "own image"
-            )
-        else:
-            seen[file] = i
-    for i, entry in enumerate(manifest["frames"]):
-        side = None if entry is None else entry.get(_DATA_FIELDS.get(entry["kind"], ""))
-        if side is not None and side in seen:
-            problems.append(
-                f"manifest frame {i} names {side} as its side file, but it is the camera image of "
-                f"frame {seen[side]}; keep projector data and camera images in separate files"
-            )
-    for file in dict.fromkeys(f for f in files if f is not None):
-        image = _collect(problems, _confined, folder, file, "image")
-        if image is not None and not image.is_file():
-            problems.append(
-                f"{image}: image file named in the manifest does not exist; add it or fix the "
-                "manifest"
-            )
-    if problems:
-        raise CaptureFormatError.from_problems(problems)
+    manifest, paths, shape0, pixel_bytes = _checked_images(folder)
     bit_depth = int(manifest["camera"]["bit_depth"])
     entries: list[dict[str, Any]] = manifest["frames"]
-    # every image's size from its header before any is decoded: one size, bounded in total
-    paths = [_confined(folder, entry["file"], "image") for entry in entries]
-    shape0: tuple[int, ...] = probe_image(paths[0]).shape[:2]
-    pixel_bytes = 1
-    for path in paths:
-        header = probe_image(path)
-        _check_image_layout(path, header.shape, header.dtype)
-        _check_size(path, header.shape[:2], shape0, entries[0]["file"])
-        # as decoded: an RGB(A) image becomes float32 luma
-        pixel_bytes = max(pixel_bytes, 4 if len(header.shape) == 3 else header.dtype.itemsize)
-    total = len(paths) * math.prod(shape0)
-    if total > MAX_FOLDER_PIXELS:
-        raise CaptureFormatError(
-            f"{folder}: {len(paths)} images of {shape0[1]}x{shape0[0]} are {total} pixels, more "
-            f"than the limit of {MAX_FOLDER_PIXELS}; split the captures into several folders"
-        )
     check_memory(  # the images as decoded plus the caller's work, before decoding any
-        total * (pixel_bytes + work_bytes_per_pixel),
+        len(paths) * math.prod(shape0) * (pixel_bytes + work_bytes_per_pixel),
         str(folder),
         f"{len(paths)} images of {shape0[1]}x{shape0[0]}",
         "split the captures into several folders, crop the images, or free memory",

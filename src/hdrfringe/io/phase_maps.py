@@ -153,6 +153,39 @@ def _write_regions(out: Path, fam: FamilyResult, name: str, previews: bool = Tru
     return files
 
 
+def _family_maps(
+    out: Path, fam: FamilyResult, suffix: str, files: list[str], jobs: list[Job], previews: bool
+) -> dict[str, Any]:
+    """Queue a family's unwrapped and absolute phases (and its region map) as
+    ``unwrapped_phase{suffix}.tiff``, ...; return its summary entry."""
+    shown = files if previews else None
+    name = f"unwrapped_phase{suffix}"
+    jobs.append(partial(_write_float64_tiff, out / f"{name}.tiff", fam.unwrapped_phase))
+    files.append(f"{name}.tiff")
+    _preview(shown, out / f"{name}.png", fam.unwrapped_phase, jobs, title=name, label="rad")
+    entry: dict[str, Any] = {
+        "orientation": fam.orientation,
+        "sets": [s.label for s in fam.sets],
+        "pitch_px": fam.pitch_px,
+        "unwrapping": fam.method,
+        "order_from": fam.unwrapping,
+        "unwrapped_phase": f"{name}.tiff",
+    }
+    if fam.regions is not None:
+        entry["regions"] = fam.regions_summary()
+    if fam.islands:
+        files += _write_regions(out, fam, f"regions{suffix}", previews)
+        entry["regions_map"] = f"regions{suffix}.tiff"
+    if fam.absolute_phase is not None:
+        aname = f"absolute_phase{suffix}"
+        jobs.append(partial(_write_float64_tiff, out / f"{aname}.tiff", fam.absolute_phase))
+        files.append(f"{aname}.tiff")
+        _preview(shown, out / f"{aname}.png", fam.absolute_phase, jobs, title=aname, label="rad")
+        entry["absolute_phase"] = f"{aname}.tiff"
+        entry["absolute_method"] = fam.absolute_method
+    return entry
+
+
 def write_phase_maps(
     out: Path,
     decoded: FolderPhase,
@@ -170,7 +203,10 @@ def write_phase_maps(
     names with ``__<set label>`` appended for every set (unless ``per_set`` is False), and the
     unsuffixed names for the finest set of the primary family. ``unwrapped_phase.tiff`` and
     ``absolute_phase.tiff`` belong to the primary family; a second (horizontal) family gets
-    ``_horizontal`` appended. Maps are uncompressed float32 TIFF (unwrapped and absolute phase:
+    ``_horizontal`` appended; a family that differs from its orientation's only in its gamma
+    pre-compensation (a gamma capture, :attr:`FolderPhase.gamma_families
+    <hdrfringe.core.decode.FolderPhase.gamma_families>`) gets ``__<its finest set's label>``.
+    Maps are uncompressed float32 TIFF (unwrapped and absolute phase:
     float64, which keeps its fraction of a fringe at any projector coordinate) with NaN where
     invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md describes each. The
     files are written on a few threads once every name is known (the encoders release the
@@ -211,7 +247,8 @@ def write_phase_maps(
         ``families`` (per family its sets, unwrapping and absolute-phase method and files,
     ``order_from`` (``one-period``, ``graycode`` or ``spatial``) and, with spatial unwrapping,
     ``regions``; a family whose valid area falls into separate regions (islands) also gets
-    ``regions.tiff``, a label map, 0 = invalid, ``regions_map`` naming it);
+    ``regions.tiff``, a label map, 0 = invalid, ``regions_map`` naming it); with a gamma
+    capture ``gamma_families``, the same per such family and its ``gamma_precompensation``;
         ``notes``; ``files`` (every map and preview written, sorted). Decoded with
         ``saturated="exclude"`` (docs/tolerant.md): ``saturated``, and per set
         ``shifts_used_histogram`` (pixels whose fit used k images, k = 0, 1, ...) and
@@ -285,37 +322,15 @@ def write_phase_maps(
                 phase_std=std,
                 label=label,
             )
-    shown = files if previews else None
-    families = []
-    for i, fam in enumerate(decoded.families):
-        suffix = "" if i == 0 else f"_{fam.orientation}"
-        name = f"unwrapped_phase{suffix}"
-        jobs.append(partial(_write_float64_tiff, out / f"{name}.tiff", fam.unwrapped_phase))
-        files.append(f"{name}.tiff")
-        _preview(shown, out / f"{name}.png", fam.unwrapped_phase, jobs, title=name, label="rad")
-        entry: dict[str, Any] = {
-            "orientation": fam.orientation,
-            "sets": [s.label for s in fam.sets],
-            "pitch_px": fam.pitch_px,
-            "unwrapping": fam.method,
-            "order_from": fam.unwrapping,
-            "unwrapped_phase": f"{name}.tiff",
-        }
-        if fam.regions is not None:
-            entry["regions"] = fam.regions_summary()
-        if fam.islands:
-            files += _write_regions(out, fam, f"regions{suffix}", previews)
-            entry["regions_map"] = f"regions{suffix}.tiff"
-        if fam.absolute_phase is not None:
-            aname = f"absolute_phase{suffix}"
-            jobs.append(partial(_write_float64_tiff, out / f"{aname}.tiff", fam.absolute_phase))
-            files.append(f"{aname}.tiff")
-            _preview(
-                shown, out / f"{aname}.png", fam.absolute_phase, jobs, title=aname, label="rad"
-            )
-            entry["absolute_phase"] = f"{aname}.tiff"
-            entry["absolute_method"] = fam.absolute_method
-        families.append(entry)
+    families = [
+        _family_maps(out, fam, "" if i == 0 else f"_{fam.orientation}", files, jobs, previews)
+        for i, fam in enumerate(decoded.families)
+    ]
+    gamma_families = []  # a gamma capture's other exponents: named by their finest set
+    for fam in decoded.gamma_families:
+        entry = _family_maps(out, fam, f"__{fam.sets[-1].label}", files, jobs, previews)
+        entry["gamma_precompensation"] = fam.sets[0].gamma_precompensation
+        gamma_families.append(entry)
     _run_writes(jobs)
     sets = []
     for s in decoded.sets:
@@ -343,8 +358,10 @@ def write_phase_maps(
     summary |= {
         "sets": sets,
         "families": families,
-        "notes": decoded.notes,
     }
+    if gamma_families:  # absent without a gamma capture: today's summary, byte for byte
+        summary["gamma_families"] = gamma_families
+    summary["notes"] = decoded.notes
     if uncertainty is not None:
         summary["uncertainty"] = uncertainty.summary()
     if decoded.harmonics is not None:  # absent when off: today's summary, byte for byte

@@ -59,7 +59,9 @@ __all__ = [
     "SIGTERM_EXIT_CODE",
     "STAGING_INFIX",
     "CheckedOutput",
+    "InterruptedAfterWriting",
     "SignalStop",
+    "StoppedAfterWriting",
     "check_name_length",
     "check_output_against_inputs",
     "check_output_dir",
@@ -762,20 +764,93 @@ def sigterm_cleanup() -> Iterator[Callable[[], int | None]]:
             signal.signal(sig, handler)
 
 
-def honour_signal(signum: int | None) -> None:
+class InterruptedAfterWriting(KeyboardInterrupt):
+    """Ctrl-C received during an output's final move, honoured once the output was in place.
+
+    The command stops as for Ctrl-C (exit code 130), but its output is complete: the
+    message says so instead of "nothing was written" (issue 31).
+
+    Parameters
+    ----------
+    written : Path
+        The output (as the user named it), complete and in place.
+
+    Attributes
+    ----------
+    written : Path
+        As given.
+    name : str
+        ``"SIGINT"``.
+    exit_code : int
+        130.
+
+    Examples
+    --------
+    >>> stop = InterruptedAfterWriting(Path("out"))
+    >>> isinstance(stop, KeyboardInterrupt), stop.exit_code, str(stop.written)
+    (True, 130, 'out')
+    """
+
+    def __init__(self, written: Path) -> None:
+        super().__init__(str(written))
+        self.written = written
+        self.name = "SIGINT"
+        self.exit_code = 130
+
+
+class StoppedAfterWriting(SystemExit):
+    """SIGTERM or SIGHUP received during an output's final move, honoured once the output
+    was in place: ``SystemExit`` with the signal's exit code (143, 129), as in a staging
+    block, carrying the output written (issue 31: the stop said nothing was written).
+
+    Parameters
+    ----------
+    signum : int
+        The signal received.
+    written : Path
+        The output (as the user named it), complete and in place.
+
+    Attributes
+    ----------
+    written : Path
+        As given.
+    name : str
+        The signal's name.
+    exit_code : int
+        The exit status (:attr:`code`).
+
+    Examples
+    --------
+    >>> stop = StoppedAfterWriting(signal.SIGTERM, Path("cal.h5"))
+    >>> stop.code, stop.name, str(stop.written)
+    (143, 'SIGTERM', 'cal.h5')
+    """
+
+    def __init__(self, signum: int, written: Path) -> None:
+        self.exit_code = _STOP_SIGNALS.get(signum, 128 + signum)
+        super().__init__(self.exit_code)
+        self.written = written
+        self.name = signal.Signals(signum).name
+
+
+def honour_signal(signum: int | None, written: Path | None = None) -> None:
     """Stop as signal ``signum`` asks, after it was held back (:func:`deferred_signals`).
 
     Parameters
     ----------
     signum : int or None
         The signal received, or None (nothing to do).
+    written : Path, optional
+        The output that is complete and in place although the run stops (the signal came
+        during its final move); the exception raised carries it.
 
     Raises
     ------
     KeyboardInterrupt
-        For SIGINT (exit code 130 from the command line).
+        For SIGINT (exit code 130 from the command line); :class:`InterruptedAfterWriting`
+        with ``written``.
     SystemExit
-        For SIGTERM (143) and SIGHUP (129).
+        For SIGTERM (143) and SIGHUP (129); :class:`StoppedAfterWriting` with ``written``.
 
     Examples
     --------
@@ -784,16 +859,24 @@ def honour_signal(signum: int | None) -> None:
     Traceback (most recent call last):
     ...
     SystemExit: 143
+    >>> honour_signal(signal.SIGINT, written=Path("out"))
+    Traceback (most recent call last):
+    ...
+    hdrfringe.io.results.InterruptedAfterWriting: out
     """
     if signum is None:
         return
     if signum == signal.SIGINT:
-        raise KeyboardInterrupt
+        raise KeyboardInterrupt if written is None else InterruptedAfterWriting(written)
+    if written is not None:
+        raise StoppedAfterWriting(signum, written)
     raise SystemExit(_STOP_SIGNALS.get(signum, 128 + signum))
 
 
 @contextlib.contextmanager
-def deferred_signals() -> Iterator[Callable[[], int | None]]:
+def deferred_signals(
+    written: Path | None = None, *, honour: bool = True
+) -> Iterator[Callable[[], int | None]]:
     """Hold SIGINT, SIGTERM and SIGHUP back within the block; honour the first one after it.
 
     For work that must not be cut (a final rename) or that runs in C code whose callbacks
@@ -804,6 +887,15 @@ def deferred_signals() -> Iterator[Callable[[], int | None]]:
     the block, the signal is honoured: KeyboardInterrupt (130), ``SystemExit(143)`` or
     ``SystemExit(129)``. Outside the main thread, or for a signal the process ignores, nothing
     is changed.
+
+    Parameters
+    ----------
+    written : Path, optional
+        What the block puts in place (a final move): a signal honoured after the block
+        completed says that this output is complete (:func:`honour_signal`).
+    honour : bool
+        False: the signal is not honoured on leaving the block; the caller asks the yielded
+        function and stops its own way (a live capture keeping the pose it just wrote).
 
     Yields
     ------
@@ -818,6 +910,10 @@ def deferred_signals() -> Iterator[Callable[[], int | None]]:
     Traceback (most recent call last):
     ...
     SystemExit: 143
+    >>> with deferred_signals(honour=False) as stopped:
+    ...     os.kill(os.getpid(), signal.SIGHUP)
+    >>> signal.Signals(stopped()).name
+    'SIGHUP'
     """
     hit: list[int] = []
     held = [signal.SIGINT, *_STOP_SIGNALS]
@@ -831,7 +927,8 @@ def deferred_signals() -> Iterator[Callable[[], int | None]]:
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
-    honour_signal(hit[0] if hit else None)
+    if honour:
+        honour_signal(hit[0] if hit else None, written)
 
 
 class SignalStop(KeyboardInterrupt):
@@ -897,6 +994,20 @@ def signals_as_interrupt() -> Iterator[None]:
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def _as_environment_fault(path: str | Path) -> Iterator[None]:
+    """Within the block, an ``OSError`` of the fault policy (a permission refused, a full disk,
+    ...) becomes the one-line :class:`ResourceError` naming ``path``, the output the user gave,
+    instead of the hidden staging name the failing call was given."""
+    try:
+        yield
+    except OSError as exc:
+        fault = environment_fault(exc, path)
+        if fault is None:
+            raise
+        raise fault from None
 
 
 def _finish(
@@ -1007,12 +1118,15 @@ def staged_output_dir(path: str | Path, force: bool = False) -> Iterator[Path]:
     target.parent.mkdir(parents=True, exist_ok=True)
     with sigterm_cleanup() as stopped:
         prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
-        tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
+        with _as_environment_fault(path):  # the folder may have turned read-only since the check
+            tmp = Path(tempfile.mkdtemp(prefix=prefix, dir=target.parent))
         try:
             os.chmod(tmp, 0o777 & ~current_umask())
             yield tmp
             honour_signal(stopped())  # a SystemExit swallowed in a callback: stop here
-            with deferred_signals():  # the renames are not cut half-way
+            # the renames are not cut half-way; a signal held there is honoured with the
+            # output in place, and says so
+            with deferred_signals(written=Path(path)):
                 _finish(tmp, target, path, ident, force)
         except BaseException as exc:
             fault = environment_fault(exc, path, where=tmp)
@@ -1104,14 +1218,15 @@ def staged_output_file(path: str | Path, force: bool = False) -> Iterator[Path]:
     target.parent.mkdir(parents=True, exist_ok=True)
     with sigterm_cleanup() as stopped:
         prefix = f".{staging_stem(target.name)}{STAGING_INFIX}{os.getpid()}-"
-        fd, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
+        with _as_environment_fault(path):  # the folder may have turned read-only since the check
+            fd, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=target.parent)
         os.close(fd)
         tmp = Path(name)
         try:
             os.chmod(tmp, 0o666 & ~current_umask())
             yield tmp
             honour_signal(stopped())  # a SystemExit swallowed in a callback: stop here
-            with deferred_signals():  # the rename is not cut half-way
+            with deferred_signals(written=Path(path)):  # the rename is not cut half-way
                 _finish_file(tmp, target, path, checked.identity, force)
         except BaseException as exc:
             fault = environment_fault(exc, path, where=tmp)

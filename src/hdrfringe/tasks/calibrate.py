@@ -13,7 +13,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from hdrfringe.core.calibration import Calibration
-from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
+from hdrfringe.io.captures import (
+    DECODE_BYTES_PER_PIXEL,
+    check_folders_memory,
+    read_capture_folder,
+)
 from hdrfringe.pipeline import calibrate as fit_calibration
 from hdrfringe.tasks._progress import Progress, quiet
 
@@ -68,7 +72,10 @@ def calibrate_folders(
     """Calibrate from flat-plate capture folders (thesis Sec. 2.5, 4.1).
 
     Every folder (:func:`expand_capture_dirs`) is read first, so an unreadable one is refused
-    before any decoding; then :func:`hdrfringe.pipeline.calibrate` checks and fits.
+    before any decoding, and they are held together: their images, the decoding of one and a
+    phase map of each must fit in the available memory
+    (:func:`~hdrfringe.io.captures.check_folders_memory`, before any image is decoded); then
+    :func:`hdrfringe.pipeline.calibrate` checks and fits.
 
     Parameters
     ----------
@@ -105,10 +112,9 @@ def calibrate_folders(
     >>> calibrate_folders([root]).depths_mm.tolist()
     [10.0, 20.0]
     """
-    folders = [
-        read_capture_folder(p, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
-        for p in expand_capture_dirs(paths)
-    ]
+    dirs = expand_capture_dirs(paths)
+    check_folders_memory(dirs)  # all held at once: each fitting alone is not enough
+    folders = [read_capture_folder(p, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL) for p in dirs]
     return fit_calibration(
         folders, model=model, window_px=window_px, border_px=border_px, progress=progress
     )

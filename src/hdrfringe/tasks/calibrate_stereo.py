@@ -32,7 +32,11 @@ from typing import Any
 from hdrfringe.core.captures import Captures
 from hdrfringe.core.stereo import StereoCalibration
 from hdrfringe.errors import InputError, OutputExistsError
-from hdrfringe.io.captures import DECODE_BYTES_PER_PIXEL, read_capture_folder
+from hdrfringe.io.captures import (
+    DECODE_BYTES_PER_PIXEL,
+    check_folders_memory,
+    read_capture_folder,
+)
 from hdrfringe.rig.board_poses import board_program, calibration_rig
 from hdrfringe.rig.scenes import CalibrationBoard
 from hdrfringe.tasks._progress import Progress, quiet
@@ -102,6 +106,8 @@ def read_pose_folders(folders: Sequence[str | Path]) -> list[Captures]:
         if key in seen:
             raise InputError(f"pose folder {f} is given twice; give each pose once")
         seen.add(key)
+    # the poses are held together: their images, one pose's decoding and two phase maps each
+    check_folders_memory(folders, kept_bytes_per_pixel=16)
     out = []
     for f in folders:
         caps = read_capture_folder(f, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)

@@ -13,6 +13,8 @@ hardware options exactly as for ``capture`` (:func:`hdrfringe.tasks.capture.hard
 from __future__ import annotations
 
 import json
+import shutil
+import signal
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -162,8 +164,10 @@ def capture_poses(
     from hdrfringe.core.stereo_calibration import BoardSpec
     from hdrfringe.hardware.rig import Recorder
     from hdrfringe.io.results import (
+        SignalStop,
         check_output_against_inputs,
         check_output_dir,
+        deferred_signals,
         signals_as_interrupt,
         staged_output_dir,
     )
@@ -183,6 +187,7 @@ def capture_poses(
     stopped: str | None = None
     code = 0  # the exit code of a stop by Ctrl-C (2), SIGTERM (143) or SIGHUP (129)
     failure: HdrFringeError | None = None
+    dropped = True  # a stop (signal, error) came before the pose being captured was written
     with rig, staged_output_dir(checked, force=force) as tmp:
         width, height = rig.projector.width, rig.projector.height
         used = tuple(pitches) if pitches is not None else board_pitches(width, height)
@@ -197,6 +202,7 @@ def capture_poses(
             f"{', '.join(f'{p:g}' for p in used)})"
         )
         for number in range(1, poses + 1):
+            folder = f"pose_{number:02d}"
             try:
                 with signals_as_interrupt():  # SIGTERM, SIGHUP: kept as for Ctrl-C (issue 31)
                     if not wait(number, poses):
@@ -206,10 +212,27 @@ def capture_poses(
                     start = len(rig.log)
                     recorder = Recorder(rig)
                     recorder.capture(program)
+                    # the pose is captured: it is written whole with the signals held, then a
+                    # signal stops the run keeping it (a SIGTERM here lost every pose, issue 31)
+                    with deferred_signals(honour=False) as held:
+                        caps, state, log = live_record(
+                            recorder, rig, config, None, folder,
+                            entries={**entries, "pose": number}, start=start,
+                        )  # fmt: skip
+                        _write_pose(tmp / folder, caps, state, log)
+                        names.append(folder)
+                    rejected = sum(t.rejected for t in rig.log[start:])
+                    tell(f"pose {number}: {len(caps.frames)} images, {rejected} stale grabs "
+                         "rejected")  # fmt: skip
+                    if held() == signal.SIGINT:
+                        raise KeyboardInterrupt
+                    if held() is not None:
+                        raise SignalStop(int(held() or 0))
             except KeyboardInterrupt as stop:
                 if not names:
                     raise
                 stopped, code = stop_reason(stop)
+                dropped = names[-1] != folder
                 break
             except HdrFringeError as err:
                 if not names:
@@ -217,16 +240,6 @@ def capture_poses(
                 stopped = f"stopped by an error at pose {number}"
                 failure = err
                 break
-            folder = f"pose_{number:02d}"
-            caps, state, log = live_record(
-                recorder, rig, config, None, folder, entries={**entries, "pose": number},
-                start=start,
-            )  # fmt: skip
-            with staged_output_dir(tmp / folder) as pose_dir:
-                write_capture_output(pose_dir, caps, state, log)
-            names.append(folder)
-            rejected = sum(t.rejected for t in rig.log[start:])
-            tell(f"pose {number}: {len(caps.frames)} images, {rejected} stale grabs rejected")
         if not names:
             raise HdrFringeError(
                 f"capture-poses {stopped or 'stopped'} before the first pose; nothing written"
@@ -243,11 +256,22 @@ def capture_poses(
     if failure is not None or code:
         why = stopped if failure is None else f"{stopped}: {' '.join(str(failure).split())}"
         raise StoppedError(
-            f"capture-poses {why}; {output} holds the {what} captured before it, the pose "
-            "being captured was dropped",
+            f"capture-poses {why}; {output} holds the {what} captured before it"
+            + (", the pose being captured was dropped" if dropped else ""),
             code or 2,
         )
     return CapturePosesReport(output, names, stopped, None if spec is None else _board_text(spec))
+
+
+def _write_pose(folder: Path, caps: Any, state: dict[str, Any], log: dict[str, Any]) -> None:
+    """Write one pose's capture folder (inside the run's staging), whole or not at all: a
+    failure removes the folder, so a run that keeps its complete poses keeps no partial one."""
+    folder.mkdir()
+    try:
+        write_capture_output(folder, caps, state, log)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
 
 
 def _board_text(spec: Any) -> str:
