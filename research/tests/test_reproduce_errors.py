@@ -151,16 +151,34 @@ def test_check_scheduler_accepts_a_dask_scheduler_only() -> None:
     assert "the peer is Worker" in worker_error
 
 
-@pytest.mark.parametrize("reply", [HTTP_REPLY, None])
-def test_cli_reproduce_with_a_bad_scheduler_writes_nothing(
-    reply: bytes | None, tmp_path: Path
-) -> None:
+def test_cli_reproduce_with_a_bad_scheduler_writes_nothing(tmp_path: Path) -> None:
+    """A web server at the scheduler address: the command (a process of its own) answers in
+    one line before anything is written."""
     out = tmp_path / "repro"
-    with _tcp_server(reply) as address:
+    with _tcp_server(HTTP_REPLY) as address:
         start = time.monotonic()
         res = run_cli("reproduce", "ch4", "--quick", "-o", str(out), "--scheduler", address)
         assert time.monotonic() - start < SCHEDULER_TIMEOUT_S + 8
     _one_line_failure(res, "no Dask scheduler answered", address)
+    assert not out.exists()
+
+
+def test_cli_reproduce_with_a_silent_scheduler_gives_up_after_the_timeout(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A peer that accepts and never answers: the command waits SCHEDULER_TIMEOUT_S (read when
+    the check runs; 1 s here instead of the 10 s default, so the case costs 1 s), then says so
+    in one line and writes nothing."""
+    import hdrfringe_thesis.engine as engine
+
+    monkeypatch.setattr(engine, "SCHEDULER_TIMEOUT_S", 1.0)
+    out = tmp_path / "repro"
+    with _tcp_server(None) as address:
+        res = run_cli_in_process(
+            "reproduce", "ch4", "--quick", "-o", str(out), "--scheduler", address
+        )
+    _one_line_failure(res, "no Dask scheduler answered", address)
+    assert "within 1 s" in res.stderr  # the timeout read when the check ran
     assert not out.exists()
 
 

@@ -747,10 +747,10 @@ WORKER_ENV_KEY = "distributed.nanny.pre-spawn-environ"
 SCHEDULER_TIMEOUT_S = 10.0
 
 
-async def _scheduler_identity(address: str) -> Any:
+async def _scheduler_identity(address: str, timeout: float) -> Any:
     from distributed.comm import connect
 
-    comm = await connect(address, timeout=SCHEDULER_TIMEOUT_S)
+    comm = await connect(address, timeout=timeout)
     try:
         await comm.write({"op": "identity", "reply": True})
         return await comm.read()
@@ -758,7 +758,7 @@ async def _scheduler_identity(address: str) -> Any:
         comm.abort()
 
 
-def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
+def check_scheduler(address: str, timeout: float | None = None) -> None:
     """Check that ``address`` answers as a Dask scheduler within ``timeout`` seconds.
 
     Connects with Dask's own comm layer and asks for the peer's identity (the ``identity``
@@ -769,8 +769,9 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
     ----------
     address : str
         Scheduler address, e.g. ``"tcp://10.0.0.5:8786"``.
-    timeout : float
-        Seconds to wait for the connection and the answer.
+    timeout : float, optional
+        Seconds to wait for the connection and the answer (default
+        :data:`SCHEDULER_TIMEOUT_S`, read when called).
 
     Raises
     ------
@@ -800,6 +801,8 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
     from urllib.parse import urlsplit
 
     hint = "check the address (e.g. tcp://host:8786) and that `dask scheduler` runs there"
+    if timeout is None:
+        timeout = SCHEDULER_TIMEOUT_S
     try:  # a port outside 1-65535 is refused at once, not after the connection timeout
         port = urlsplit(address if "://" in address else f"tcp://{address}").port
     except ValueError as exc:
@@ -808,7 +811,7 @@ def check_scheduler(address: str, timeout: float = SCHEDULER_TIMEOUT_S) -> None:
         raise InputError(f"{address!r} is not a scheduler address (port 0); {hint}")
 
     def probe() -> Any:
-        return asyncio.run(asyncio.wait_for(_scheduler_identity(address), timeout))
+        return asyncio.run(asyncio.wait_for(_scheduler_identity(address, timeout), timeout))
 
     # A thread of its own: the caller may be inside a running event loop (a notebook).
     pool = concurrent.futures.ThreadPoolExecutor(1)
