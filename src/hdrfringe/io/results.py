@@ -859,10 +859,14 @@ def honour_signal(signum: int | None, written: Path | None = None) -> None:
     Traceback (most recent call last):
     ...
     SystemExit: 143
-    >>> honour_signal(signal.SIGINT, written=Path("out"))
-    Traceback (most recent call last):
-    ...
-    hdrfringe.io.results.InterruptedAfterWriting: out
+
+    SIGINT raises a ``KeyboardInterrupt``, which doctest (and pytest) would not catch:
+
+    >>> try:
+    ...     honour_signal(signal.SIGINT, written=Path("out"))
+    ... except InterruptedAfterWriting as stop:
+    ...     print(type(stop).__name__, stop.written, stop.exit_code)
+    InterruptedAfterWriting out 130
     """
     if signum is None:
         return
