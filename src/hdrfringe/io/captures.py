@@ -64,6 +64,11 @@ __all__ = [
 ]
 
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
+#: zlib level of the PNG files written (captures, side files, imported images). Lossless at
+#: every level; camera images carry noise that zlib hardly compresses, so the fastest level
+#: costs little space and writes several times faster than Pillow's default (the ratio for a
+#: virtual capture: ``benchmarks/bench_png.py``).
+PNG_COMPRESS_LEVEL = 1
 MAP_SUFFIXES = (".tif", ".tiff")
 
 #: Frame kinds of each capture-format version (version 2 adds the frames with 2-D data).
@@ -1091,7 +1096,7 @@ def write_side_files(
                     f"side file {rel}: a PNG holds whole gray levels but the {frame.kind} data "
                     "has fractions; name a .tiff side file (float32)"
                 )
-            iio.imwrite(target, data.astype(dtype))
+            iio.imwrite(target, data.astype(dtype), compress_level=PNG_COMPRESS_LEVEL)
     return list(plan)
 
 
@@ -1170,7 +1175,9 @@ def write_capture_folder(
     dtype = np.uint8 if captures.camera_bit_depth <= 8 else np.uint16
     with staged_output_dir(path, force=force) as tmp:
         for img, stem in zip(captures.images, stems, strict=True):
-            iio.imwrite(tmp / f"{stem}.png", np.rint(img).astype(dtype))
+            iio.imwrite(
+                tmp / f"{stem}.png", np.rint(img).astype(dtype), compress_level=PNG_COMPRESS_LEVEL
+            )
         if captures.projector is not None:  # Captures requires it for frames with 2-D data
             write_side_files(tmp, captures.frames, manifest["frames"], captures.projector)
         for key, data in captures.maps.items():

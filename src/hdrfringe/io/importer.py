@@ -33,7 +33,7 @@ from hdrfringe.core.captures import FORMAT_NAME, Captures, ProjectorInfo
 from hdrfringe.core.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS, MAX_PROGRAM_FRAMES
 from hdrfringe.errors import CaptureFormatError, InputError
 from hdrfringe.io._read_limits import load_json_bounded, probe_image, reason_of
-from hdrfringe.io.captures import load_image, load_side_file, read_manifest
+from hdrfringe.io.captures import PNG_COMPRESS_LEVEL, load_image, load_side_file, read_manifest
 from hdrfringe.io.import_description import (
     REGEX_SECONDS,
     Description,
@@ -529,7 +529,7 @@ class _Writer:
 
         target = self.stage / name
         target.parent.mkdir(parents=True, exist_ok=True)
-        iio.imwrite(target, counts)
+        iio.imwrite(target, counts, compress_level=PNG_COMPRESS_LEVEL)
         self.converted += 1
 
     def store(self, src: _Source) -> str:
