@@ -269,14 +269,14 @@ _RACE_DRIVER = textwrap.dedent(
 
 
 def test_two_concurrent_measures_never_both_succeed(caps: Path, tmp_path: Path) -> None:
-    """20 rounds of two ``measure`` runs to one output (forked from one driver started with
+    """10 rounds of two ``measure`` runs to one output (forked from one driver started with
     Popen, so the imports are paid once); in odd rounds a user's folder appears mid-run."""
     root = tmp_path / "race"
     root.mkdir()
     driver = tmp_path / "race.py"
     driver.write_text(_RACE_DRIVER)
     proc = subprocess.Popen(
-        [sys.executable, str(driver), str(caps), str(root), "20"],
+        [sys.executable, str(driver), str(caps), str(root), "10"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -284,7 +284,7 @@ def test_two_concurrent_measures_never_both_succeed(caps: Path, tmp_path: Path) 
     stdout, stderr = proc.communicate(timeout=240)
     assert proc.returncode == 0, stderr
     rows = [list(map(int, ln.split())) for ln in stdout.splitlines()]
-    assert len(rows) == 20, stdout
+    assert len(rows) == 10, stdout
     for i, _force, made, a, b in rows:
         out = root / f"out{i}"
         assert {a, b} <= {0, 2}, rows
