@@ -222,6 +222,24 @@ def kimthyung_rows(kimthyung_stereo: dict) -> dict:
 
 
 @pytest.fixture(scope="session")
+def kimthyung_sphere(kimthyung_rows: dict) -> dict:
+    """The cloud of :func:`kimthyung_rows` (``xyz``), its wall (``plane``, ``far``:
+    :func:`tests.test_sphere_realdata.wall_plane`) and the reference sphere (``fit``,
+    ``n_region``, ``n_kept``: :func:`tests.test_sphere_realdata.sphere_fit`), once: the sphere
+    test asserts them, tests/test_acceptance_realdata.py compares the acceptance quantities
+    with them (xdist group ``sphere-realdata``)."""
+    import tifffile
+
+    from tests.test_sphere_realdata import sphere_fit, wall_plane
+
+    xyz = tifffile.imread(kimthyung_rows["out"] / "xyz.tiff").astype(np.float64)
+    plane, far = wall_plane(xyz)
+    fit, n_region, n_kept = sphere_fit(xyz, plane)
+    return {"xyz": xyz, "plane": plane, "far": far, "fit": fit, "n_region": n_region,
+            "n_kept": n_kept}  # fmt: skip
+
+
+@pytest.fixture(scope="session")
 def thomriiii_geometric(tmp_path_factory: pytest.TempPathFactory) -> dict:
     """The thomriiii checkerboard through the command line, the fringe order from the geometry
     (``import`` -> ``calibrate-stereo --from`` -> ``measure -c --depth-range 550:800

@@ -41,7 +41,6 @@ from hdrfringe.core.stereo import fit_plane
 from hdrfringe.io.stereo_file import load_stereo_calibration
 from tests.conftest import realdata_path
 from tests.test_geometric_order_realdata import CALIB, _coordinates
-from tests.test_sphere_realdata import sphere_fit, wall_plane
 
 pytestmark = pytest.mark.realdata
 #: the groups of the modules whose session fixtures these tests share (one worker each)
@@ -93,12 +92,11 @@ def _rms(r: np.ndarray) -> float:
 
 
 @pytest.fixture(scope="module")
-def sphere(kimthyung_rows: dict) -> dict:
+def sphere(kimthyung_sphere: dict) -> dict:
     """The sphere found by the acceptance segmentation, measured with and without trimming,
     and the reference sphere of tests/test_sphere_realdata.py (nominal and position for the
-    segmentation: the source states no diameter)."""
-    xyz = tifffile.imread(kimthyung_rows["out"] / "xyz.tiff").astype(np.float64)
-    ref = sphere_fit(xyz, wall_plane(xyz)[0])[0]
+    segmentation: the source states no diameter; conftest computes it once for both)."""
+    xyz, ref = kimthyung_sphere["xyz"], kimthyung_sphere["fit"]
     seg = segment_sphere(xyz, 2.0 * ref.radius, expected_centre=ref.centre)
     pts = xyz[seg.mask]
     return {
