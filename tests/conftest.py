@@ -22,6 +22,9 @@ from hdrfringe.core.patterns import FringeSpec, fringe_gray
 from hdrfringe.io.captures import write_capture_folder
 
 REALDATA = Path(__file__).resolve().parents[2] / "shared" / "realdata"
+#: ``measure --depth-range`` of the thomriiii board, mm: it stands 611-711 mm from the camera
+#: (tests/test_geometric_order_realdata.py measures it); the range leaves room.
+THOMRIIII_DEPTH_RANGE = "550:800"
 
 
 def realdata_path(*parts: str) -> Path:
@@ -216,6 +219,51 @@ def kimthyung_rows(kimthyung_stereo: dict) -> dict:
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     return {**kimthyung_stereo, "out": out, "stdout": res.stdout}
+
+
+@pytest.fixture(scope="session")
+def kimthyung_sphere(kimthyung_rows: dict) -> dict:
+    """The cloud of :func:`kimthyung_rows` (``xyz``), its wall (``plane``, ``far``:
+    :func:`tests.test_sphere_realdata.wall_plane`) and the reference sphere (``fit``,
+    ``n_region``, ``n_kept``: :func:`tests.test_sphere_realdata.sphere_fit`), once: the sphere
+    test asserts them, tests/test_acceptance_realdata.py compares the acceptance quantities
+    with them (xdist group ``sphere-realdata``)."""
+    import tifffile
+
+    from tests.test_sphere_realdata import sphere_fit, wall_plane
+
+    xyz = tifffile.imread(kimthyung_rows["out"] / "xyz.tiff").astype(np.float64)
+    plane, far = wall_plane(xyz)
+    fit, n_region, n_kept = sphere_fit(xyz, plane)
+    return {"xyz": xyz, "plane": plane, "far": far, "fit": fit, "n_region": n_region,
+            "n_kept": n_kept}  # fmt: skip
+
+
+@pytest.fixture(scope="session")
+def thomriiii_geometric(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """The thomriiii checkerboard through the command line, the fringe order from the geometry
+    (``import`` -> ``calibrate-stereo --from`` -> ``measure -c --depth-range 550:800
+    --keep-saturated``), once per worker. The modules that use it
+    (tests/test_geometric_order_realdata.py, the board of tests/test_acceptance_realdata.py)
+    share the xdist group ``geometric-realdata``, so it is made once."""
+    data = realdata_path("thomriiii", "dec2025_checkerboard_saturated_4step")
+    calib = realdata_path("thomriiii", "calibration_dec2025")
+    description = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
+    tmp = tmp_path_factory.mktemp("thomriiii")
+    caps, cal, out = tmp / "caps", tmp / "s.h5", tmp / "out"
+    for args in (
+        ["import", str(data), "-d", str(description / "thomriiii_checkerboard.toml"), "-o",
+         str(caps)],
+        ["calibrate-stereo", "--from", str(calib), "-o", str(cal)],
+    ):  # fmt: skip
+        res = run_cli(*args)
+        assert res.returncode == 0, res.stderr
+    res = run_cli(
+        "measure", str(caps), "-c", str(cal), "--depth-range", THOMRIIII_DEPTH_RANGE,
+        "--keep-saturated", "--no-previews", "--no-uncertainty", "-o", str(out), timeout=600,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    return {"caps": caps, "calibration": cal, "out": out, "stdout": res.stdout}
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

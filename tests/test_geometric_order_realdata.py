@@ -28,13 +28,9 @@ from tests.conftest import realdata_path, run_cli
 
 pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("geometric-realdata")]
 
-ROOT = Path(__file__).resolve().parents[1]
-DESCRIPTION = ROOT / "docs" / "examples" / "import" / "thomriiii_checkerboard.toml"
 CHECKER = ("thomriiii", "dec2025_checkerboard_saturated_4step")
 CALIB = ("thomriiii", "calibration_dec2025")
 TWO_PI = 2.0 * np.pi
-#: The board stands 611-711 mm from the camera (measured below); the range leaves room.
-DEPTH_RANGE = "550:800"
 #: The plane RMS the hand-resolved orders give (tests/test_stereo_realdata.py), mm.
 HAND_RMS_MM = 0.83
 
@@ -44,23 +40,10 @@ def _measured(what: str, value: object) -> None:
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory: pytest.TempPathFactory) -> dict:
-    """import -> calibrate-stereo --from -> measure -c --depth-range, as a user would."""
-    data, calib = realdata_path(*CHECKER), realdata_path(*CALIB)
-    tmp = tmp_path_factory.mktemp("thomriiii")
-    caps, cal, out = tmp / "caps", tmp / "s.h5", tmp / "out"
-    for args in (
-        ["import", str(data), "-d", str(DESCRIPTION), "-o", str(caps)],
-        ["calibrate-stereo", "--from", str(calib), "-o", str(cal)],
-    ):
-        res = run_cli(*args)
-        assert res.returncode == 0, res.stderr
-    res = run_cli(
-        "measure", str(caps), "-c", str(cal), "--depth-range", DEPTH_RANGE, "--keep-saturated",
-        "--no-previews", "--no-uncertainty", "-o", str(out), timeout=600,
-    )  # fmt: skip
-    assert res.returncode == 0, res.stderr
-    return {"caps": caps, "calibration": cal, "out": out, "stdout": res.stdout}
+def run(thomriiii_geometric: dict) -> dict:
+    """import -> calibrate-stereo --from -> measure -c --depth-range, as a user would (once per
+    session: conftest, shared with tests/test_acceptance_realdata.py)."""
+    return thomriiii_geometric
 
 
 def _coordinates(out: Path) -> dict[str, np.ndarray]:

@@ -133,15 +133,14 @@ def test_phase_is_zero_on_the_gray_code_stripe_edges(measured: dict) -> None:
     assert 300 < np.nanpercentile(v, 1) and np.nanpercentile(v, 99.9) < 1141.5
 
 
-def test_sphere_and_wall(measured: dict) -> None:
-    import tifffile
-
-    xyz = tifffile.imread(measured["out"] / "xyz.tiff").astype(np.float64)
+def test_sphere_and_wall(measured: dict, kimthyung_sphere: dict) -> None:
+    """The wall and the sphere, :func:`wall_plane` and :func:`sphere_fit` on ``xyz.tiff``
+    (computed once: conftest ``kimthyung_sphere``)."""
     metrics = json.loads((measured["out"] / "metrics.json").read_text())
     assert metrics["stereo"]["directions"] == "v"
-    plane, far = wall_plane(xyz)
+    plane, far = kimthyung_sphere["plane"], kimthyung_sphere["far"]
     _measured("wall plane", f"RMS {plane.rms_mm:.3f} mm, {plane.inliers.sum()} of {far.sum()}")
-    fit, n_region, n_kept = sphere_fit(xyz, plane)
+    fit, n_region, n_kept = (kimthyung_sphere[k] for k in ("fit", "n_region", "n_kept"))
     _measured(
         "sphere",
         f"radius {fit.radius:.3f} mm, RMS {fit.rms_mm:.3f} mm, centre "
