@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from hdrfringe.core.strict_json import loads_strict
 from hdrfringe.io.captures import read_capture_folder
 from hdrfringe.io.results import read_map_tiff
 from hdrfringe.tasks.demo import demo_report, run_demo
@@ -46,6 +47,18 @@ def test_demo_runs_and_meets_its_own_numbers(tmp_path: Path) -> None:
     assert 0.3 < board["valid_fraction"] < 0.6
     assert board["rmse_mm"]["rational"] < 0.08
     _check_saturation_study(out, summary, repr(demo_report(summary, out)))
+    _check_strict_json(out, summary)
+
+
+def _check_strict_json(out: Path, summary: dict[str, Any]) -> None:
+    """Every JSON file the demo wrote parses with a parser that refuses NaN/Infinity (issue 27);
+    summary.json is the summary returned, and its missing RMSE is null."""
+    written = sorted(out.rglob("*.json"))
+    # summary.json, 5 scenes x (manifest, metrics, phase_summary), 2 study scenes x 5 metrics
+    assert len(written) == 1 + 5 * 3 + 2 * 5
+    for path in written:
+        loads_strict(path.read_text(encoding="utf-8"))  # raises on a bare NaN
+    assert loads_strict((out / "summary.json").read_text()) == summary
 
 
 def _check_study_bookkeeping(out: Path, name: str, key: str, row: dict[str, Any]) -> None:
@@ -116,7 +129,7 @@ def _check_saturation_study(out: Path, summary: dict[str, Any], text: str) -> No
     plate = scenes["white_plate_25mm_600lx"]["methods"]
     conv = plate["conventional"]
     assert conv["saturated_fraction"] == 1.0 and conv["valid_fraction"] == 0.0
-    assert np.isnan(conv["rmse_mm"])
+    assert conv["rmse_mm"] is None  # no valid pixel: null in summary.json, not NaN
     assert 0.3 < conv["rmse_mm_saturated_kept"] < 0.6  # 0.44 mm
     for method in METHODS[1:]:
         assert plate[method]["rmse_mm"] < 0.075  # 0.057-0.064 mm

@@ -14,7 +14,6 @@ ends and how the window is tested against a screenshot of the X display.
 from __future__ import annotations
 
 import ctypes
-import json
 import os
 from pathlib import Path
 from types import TracebackType
@@ -23,6 +22,7 @@ from typing import Any, Protocol, Self, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hdrfringe.core import strict_json
 from hdrfringe.core.frames import Frame, render_frame
 from hdrfringe.errors import HdrFringeError, InputError, OutputExistsError
 
@@ -555,7 +555,7 @@ class FolderProjector(_ProjectorBase):
             "height": self._size[1],
             "frames": self._entries,
         }
-        text = json.dumps(manifest, indent=1) + "\n"
+        text = strict_json.dumps(manifest, nonfinite="error") + "\n"
         m3u = "".join(e["file"] + "\n" for e in self._entries)
         self._replace("playlist.json", lambda p: p.write_text(text, encoding="utf-8"))
         self._replace("playlist.m3u", lambda p: p.write_text(m3u, encoding="utf-8"))

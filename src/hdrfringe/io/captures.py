@@ -13,7 +13,6 @@ as a folder, in the lowest version the captures fit in (version 1 whenever they 
 
 from __future__ import annotations
 
-import json
 import math
 import posixpath
 import warnings
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe.core import strict_json
 from hdrfringe.core._validation import full_scale, is_saturated
 from hdrfringe.core.captures import (
     FORMAT_NAME,
@@ -1182,5 +1182,6 @@ def write_capture_folder(
             write_side_files(tmp, captures.frames, manifest["frames"], captures.projector)
         for key, data in captures.maps.items():
             write_map_tiff(tmp / f"{key}.tiff", data)
-        (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+        text = strict_json.dumps(manifest, nonfinite="error") + "\n"
+        (tmp / "manifest.json").write_text(text, encoding="utf-8")
     return Path(path)

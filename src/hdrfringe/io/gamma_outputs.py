@@ -24,11 +24,11 @@ Examples
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
+from hdrfringe.core import strict_json
 from hdrfringe.core._validation import full_scale
 from hdrfringe.core.gamma import GammaFit, GammaReport, line_deviation
 from hdrfringe.core.gamma.report import FRINGE_NONLINEARITY_BINS
@@ -191,7 +191,7 @@ def write_gamma_outputs(path: str | Path, report: GammaReport, *, force: bool = 
     fits = {"uniform": report.uniform_fit, "fringes": report.fringe_fit}
     what = {"uniform": "uniform grays", "fringes": "fringe shape"}
     with staged_output_dir(path, force=force) as tmp:
-        text = json.dumps(report.report, indent=1) + "\n"
+        text = strict_json.dumps(report.report) + "\n"
         (tmp / "gamma.json").write_text(text, encoding="utf-8")
         for key, fit in fits.items():
             if fit is None:

@@ -13,7 +13,6 @@ before the folder is moved into place, so a bad import writes nothing.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 import posixpath
@@ -29,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from hdrfringe.core import strict_json
 from hdrfringe.core.captures import FORMAT_NAME, Captures, ProjectorInfo
 from hdrfringe.core.limits import MAX_FOLDER_PIXELS, MAX_IMAGE_PIXELS, MAX_PROGRAM_FRAMES
 from hdrfringe.errors import CaptureFormatError, InputError
@@ -822,7 +822,7 @@ def import_captures(
             manifest["import"]["frame_size"] = list(desc.frame_size)
             manifest["import"]["crop_offset"] = list(desc.crop_offset or (0, 0))
         mpath = tmp / "manifest.json"
-        mpath.write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+        mpath.write_text(strict_json.dumps(manifest, nonfinite="error") + "\n", encoding="utf-8")
         try:
             _check_manifest(tmp, len(entries))
         except CaptureFormatError as exc:

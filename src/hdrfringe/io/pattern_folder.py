@@ -12,13 +12,13 @@ reads back through ``hdrfringe import`` (tests/test_pattern_folder_v3.py).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from hdrfringe.core import strict_json
 from hdrfringe.core.captures import ProjectorInfo, frames_format_version
 from hdrfringe.core.frames import Frame, render_frame
 from hdrfringe.io.captures import write_side_files
@@ -115,5 +115,6 @@ def write_pattern_folder(
             if progress is not None:
                 progress()
         write_side_files(tmp, frames, entries, projector)
-        (tmp / "manifest.json").write_text(json.dumps(manifest, indent=1) + "\n", encoding="utf-8")
+        text = strict_json.dumps(manifest, nonfinite="error") + "\n"
+        (tmp / "manifest.json").write_text(text, encoding="utf-8")
     return manifest

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
@@ -11,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hdrfringe.core import strict_json
 from hdrfringe.core.decode import FamilyResult, FolderPhase
 from hdrfringe.core.phase import PhaseResult
 from hdrfringe.core.saturation.tolerant import TolerantPhaseResult
@@ -367,5 +367,5 @@ def write_phase_maps(
     if decoded.harmonics is not None:  # absent when off: today's summary, byte for byte
         summary["harmonics"] = decoded.harmonics
     summary["files"] = sorted(files)
-    (out / "phase_summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+    (out / "phase_summary.json").write_text(strict_json.dumps(summary) + "\n", encoding="utf-8")
     return summary

@@ -21,7 +21,6 @@ Examples
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
@@ -29,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hdrfringe.core import strict_json
 from hdrfringe.core.captures import Captures
 from hdrfringe.core.stereo import StereoCalibration
 from hdrfringe.errors import InputError, OutputExistsError
@@ -204,7 +204,7 @@ def write_calibration_and_report(
 
     out, rep = check_calibration_outputs(path, force)
     out.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(report, indent=2, allow_nan=False, default=_plain) + "\n"
+    text = strict_json.dumps(report, indent=2) + "\n"
     fd, tmp_name = tempfile.mkstemp(prefix=f".{rep.name}.", suffix=".tmp", dir=rep.parent)
     tmp = Path(tmp_name)
     try:
@@ -225,12 +225,6 @@ def write_calibration_and_report(
         with contextlib.suppress(OSError):
             tmp.unlink()
     return out, rep
-
-
-def _plain(value: Any) -> Any:
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    raise TypeError(f"not JSON-serialisable: {type(value).__name__}")
 
 
 def write_board_pose_folders(

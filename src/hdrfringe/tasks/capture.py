@@ -9,12 +9,12 @@ folder (:func:`write_capture_output`).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hdrfringe.core import strict_json
 from hdrfringe.errors import InputError, StoppedError
 
 __all__ = [
@@ -395,7 +395,7 @@ def write_capture_output(
     from hdrfringe.io.captures import write_capture_folder
 
     write_capture_folder(folder, captures, extra={"capture": state}, force=True)
-    (folder / CAPTURE_LOG).write_text(json.dumps(log, indent=1) + "\n", encoding="utf-8")
+    (folder / CAPTURE_LOG).write_text(strict_json.dumps(log) + "\n", encoding="utf-8")
 
 
 

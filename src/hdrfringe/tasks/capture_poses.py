@@ -12,7 +12,6 @@ hardware options exactly as for ``capture`` (:func:`hdrfringe.tasks.capture.hard
 
 from __future__ import annotations
 
-import json
 import shutil
 import signal
 from collections.abc import Callable, Collection, Mapping, Sequence
@@ -20,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hdrfringe.core import strict_json
 from hdrfringe.errors import HdrFringeError, InputError, StoppedError
 from hdrfringe.tasks.capture import hardware_rig, live_record, stop_reason, write_capture_output
 
@@ -251,7 +251,7 @@ def capture_poses(
             summary["board"] = _board_text(spec)
         if stopped is not None:
             summary["stopped"] = stopped
-        (tmp / POSES_LOG).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+        (tmp / POSES_LOG).write_text(strict_json.dumps(summary) + "\n", encoding="utf-8")
     what = f"{len(names)} complete poses ({names[0]} .. {names[-1]})"
     if failure is not None or code:
         why = stopped if failure is None else f"{stopped}: {' '.join(str(failure).split())}"

@@ -33,7 +33,6 @@ Examples
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -44,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from hdrfringe._renamed import renamed_fields, renamed_keyword
-from hdrfringe.core import programs
+from hdrfringe.core import programs, strict_json
 from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.core.programs import DEFAULT_PITCHES_PX
 from hdrfringe.errors import InputError
@@ -743,7 +742,7 @@ def write_compare(
             "# Every strategy side by side\n\n" + compare_markdown(rows, header=header) + "\n"
         )
         doc = {"settings": dict(settings), "rows": [r.to_dict() for r in rows]}
-        (tmp / "compare.json").write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
+        (tmp / "compare.json").write_text(strict_json.dumps(doc) + "\n")
         compare_plot(rows, tmp / "compare.png")
     return output
 

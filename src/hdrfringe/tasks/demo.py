@@ -37,7 +37,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -45,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from hdrfringe import pipeline
+from hdrfringe.core import strict_json
 from hdrfringe.core._validation import describe_saturated
 from hdrfringe.core.calibration import Calibration
 from hdrfringe.core.captures import ProjectorInfo
@@ -476,7 +476,7 @@ def _study_tables(study: dict[str, Any]) -> list[ReportTable]:
                     _migl_span(method, row),
                     f"{100 * row['valid_fraction']:.1f} %",
                     *(
-                        "-" if not np.isfinite(v) else f"{v:.3f}"
+                        "-" if v is None or not np.isfinite(v) else f"{v:.3f}"
                         for v in (row["rmse_mm"], row["rmse_mm_saturated_kept"])
                     ),
                     f"{100 * row['order_error_fraction']:.2f} %",
@@ -665,6 +665,9 @@ def run_demo(
 ) -> dict[str, Any]:
     """Run the demo and write everything under ``output``; return the summary (summary.json).
 
+    The summary is strict JSON (docs/json_outputs.md): an RMSE over no valid pixel is ``None``
+    (``null``), never NaN.
+
     Parameters
     ----------
     output : Path
@@ -734,5 +737,6 @@ def run_demo(
             "scenes": study,
         }
         _study_figure(tmp / "saturation_study.png", maps)
-        (tmp / "summary.json").write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+        summary = strict_json.plain(summary)  # what summary.json holds: a missing RMSE is None
+        (tmp / "summary.json").write_text(strict_json.dumps(summary) + "\n", encoding="utf-8")
     return summary

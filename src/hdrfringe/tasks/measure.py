@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe._renamed import renamed_fields
+from hdrfringe.core import strict_json
 from hdrfringe.errors import InputError
 from hdrfringe.io.results import (
     MAP_COMPRESSION,
@@ -477,7 +478,7 @@ def write_measurement(
             plot_dpa_cdfs(tmp / "dpa_cdf.png", result.dpa, threshold=result.metrics.dpa.threshold)
         metrics = result.metrics.to_dict()
         metrics.update(extra_metrics or {})
-        (tmp / "metrics.json").write_text(json.dumps(metrics, indent=1) + "\n", encoding="utf-8")
+        (tmp / "metrics.json").write_text(strict_json.dumps(metrics) + "\n", encoding="utf-8")
         if extra_files is not None:
             extra_files(tmp)
         files = sorted(p.name for p in tmp.iterdir())

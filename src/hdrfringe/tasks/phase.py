@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from hdrfringe.core import strict_json
 
 __all__ = ["PhaseOptions", "PhaseReport", "phase"]
 
@@ -190,7 +191,7 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
         if unc_block is not None:  # not predicted: the reason, where the block would be
             files = summary.pop("files")
             summary |= {"uncertainty": unc_block, "files": files}
-            text = json.dumps(summary, indent=1) + "\n"
+            text = strict_json.dumps(summary) + "\n"
             (Path(tmp) / "phase_summary.json").write_text(text, encoding="utf-8")
     return PhaseReport(output, summary, n_pixels)
 

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import contextlib
-import json
 from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hdrfringe.core import strict_json
 from hdrfringe.errors import InputError
 from hdrfringe.tasks.capture import resolve_rig_config
 
@@ -126,7 +126,7 @@ def check_rig_folder(
         **result.to_dict(),
         "rig": config.to_record(),
     }
-    text = json.dumps(report, indent=1) + "\n"
+    text = strict_json.dumps(report) + "\n"
     toml = None
     if write_config is not None:
         measured = {

@@ -39,6 +39,7 @@ import numpy as np
 from numpy.polynomial import Polynomial
 from numpy.typing import ArrayLike, NDArray
 
+from hdrfringe.core import strict_json
 from hdrfringe.core._validation import (
     as_stack,
     check_bit_depth,
@@ -851,7 +852,8 @@ class CorrectionPolynomial:
             raise OutputExistsError(
                 f"correction polynomial {p} already exists; pass force=True to replace it"
             )
-        p.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
+        text = strict_json.dumps(self.to_dict(), indent=2, nonfinite="error") + "\n"
+        p.write_text(text, encoding="utf-8")
         return p
 
     @classmethod
