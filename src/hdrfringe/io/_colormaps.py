@@ -18,7 +18,14 @@ import functools
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["STORED_LUTS", "colormap_lut", "matplotlib_lut"]
+__all__ = [
+    "LABEL_COLOURS",
+    "LABEL_LUT",
+    "STORED_LUTS",
+    "colormap_lut",
+    "label_colour_index",
+    "matplotlib_lut",
+]
 
 #: base64 of each stored table: (256, 3) uint8, row k = the colour at level k / 255.
 STORED_LUTS: dict[str, str] = {
@@ -161,12 +168,57 @@ def matplotlib_lut(name: str) -> NDArray[np.uint8]:
     return np.rint(rgba[:, :3] * 255).astype(np.uint8)
 
 
+#: Name of the label maps' (regions) table: not a matplotlib colour map (:data:`LABEL_COLOURS`).
+LABEL_LUT = "labels"
+
+#: Colours of label maps: matplotlib's tab10 without its gray (127, 127, 127), which reads as
+#: the previews' invalid gray (128, 128, 128). A label map coloured by tab10 itself drew one
+#: region in the invalid colour (issue 27).
+LABEL_COLOURS: tuple[tuple[int, int, int], ...] = (
+    (31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
+    (140, 86, 75), (227, 119, 194), (188, 189, 34), (23, 190, 207),
+)  # fmt: skip
+
+
+def label_colour_index(labels: NDArray[np.integer]) -> NDArray[np.float64]:
+    """The values that colour positive labels 1, 2, ... by :data:`LABEL_COLOURS` in turn.
+
+    Drawn with ``cmap=LABEL_LUT, vmin=1, vmax=len(LABEL_COLOURS)`` (a preview's linear range),
+    label ``k`` gets colour ``(k - 1) % 9``: neighbouring labels differ, the tenth repeats the
+    first. Labels below 1 are NaN (invalid: the previews' gray).
+
+    Parameters
+    ----------
+    labels : ndarray of int
+        Label map, 0 (or negative) = no label.
+
+    Returns
+    -------
+    ndarray of float64
+        ``(k - 1) % 9 + 1`` for a positive label ``k``, NaN elsewhere.
+
+    Examples
+    --------
+    >>> label_colour_index(np.array([0, 1, 2, 9, 10])).tolist()
+    [nan, 1.0, 2.0, 9.0, 1.0]
+    """
+    k = np.asarray(labels)
+    return np.where(k > 0, (k - 1) % len(LABEL_COLOURS) + 1.0, np.nan)
+
+
+def _label_lut() -> NDArray[np.uint8]:
+    """256 levels in 9 equal bands, one per label colour (as tab10 is 10 bands of 25.6)."""
+    band = np.arange(256) * len(LABEL_COLOURS) // 256
+    return np.asarray(LABEL_COLOURS, dtype=np.uint8)[band]
+
+
 @functools.cache
 def colormap_lut(name: str) -> NDArray[np.uint8]:
     """The 256-entry 8-bit colour table of a preview's colour map.
 
     Stored tables (:data:`STORED_LUTS`) are decoded without matplotlib; any other name is
-    computed by :func:`matplotlib_lut`. The result is cached and read-only.
+    computed by :func:`matplotlib_lut`; :data:`LABEL_LUT` is the label maps' table (no gray).
+    The result is cached and read-only.
 
     Parameters
     ----------
@@ -185,7 +237,9 @@ def colormap_lut(name: str) -> NDArray[np.uint8]:
     ((256, 3), dtype('uint8'), [68, 1, 84])
     """
     text = STORED_LUTS.get(name)
-    if text is None:
+    if name == LABEL_LUT:
+        lut = _label_lut()
+    elif text is None:
         lut = matplotlib_lut(name)
     else:
         lut = np.frombuffer(base64.b64decode(text), dtype=np.uint8).reshape(256, 3).copy()

@@ -14,6 +14,7 @@ from hdrfringe.core import strict_json
 from hdrfringe.core.decode import FamilyResult, FolderPhase
 from hdrfringe.core.phase import PhaseResult
 from hdrfringe.core.saturation.tolerant import TolerantPhaseResult
+from hdrfringe.io._colormaps import LABEL_COLOURS, LABEL_LUT, label_colour_index
 from hdrfringe.io.results import MAP_COMPRESSION, write_map_tiff, write_preview_png
 
 if TYPE_CHECKING:
@@ -142,13 +143,17 @@ def _write_regions(out: Path, fam: FamilyResult, name: str, previews: bool = Tru
     dtype = np.uint16 if labels.max(initial=0) <= np.iinfo(np.uint16).max else np.int32
     tifffile.imwrite(out / f"{name}.tiff", labels.astype(dtype), compression="zlib")
     files = [f"{name}.tiff"]
-    shown = np.where(labels > 0, np.minimum(labels, fam.regions.significant + 1), np.nan)
+    # the label colours (tab10 without its gray: no region in the invalid colour), in turn
+    shown = label_colour_index(np.minimum(labels, fam.regions.significant + 1))
     _preview(
         files if previews else None,
         out / f"{name}.png",
         shown,
         title=f"{name} (relative fringe order unknown)",
-        cmap="tab10",
+        cmap=LABEL_LUT,
+        label="region",
+        vmin=1.0,
+        vmax=float(len(LABEL_COLOURS)),
     )
     return files
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -149,7 +149,8 @@ def plot_migl_pie(
     """Pie chart of the pixels per MIGL of a composite (thesis Fig. 5.6 b/d/f) as a PNG.
 
     One slice per MIGL in the index map, highest MIGL first, clockwise from the top; slices
-    under 2 % of the pixels are left unlabelled.
+    of 2 % of the pixels or more carry their MIGL, and a legend beside the pie names every
+    slice with its share (a thin slice's label would overlap its neighbours').
 
     Parameters
     ----------
@@ -180,16 +181,33 @@ def plot_migl_pie(
     ('migl_pie.png', True)
     """
     plt = _pyplot()
-    levels, counts = np.unique(np.asarray(migl_index), return_counts=True)
-    order = np.argsort(levels)[::-1]
-    fig, ax = plt.subplots(figsize=(6, 6), dpi=dpi)
-    labels = [f"{levels[i]:g}" if counts[i] / counts.sum() > 0.02 else "" for i in order]
-    ax.pie(counts[order], labels=labels, startangle=90, counterclock=False)
-    ax.set_title(title)
+    fig = _migl_pie_figure(plt, migl_index, title, dpi)
     out = Path(path)
     fig.savefig(out)
     plt.close(fig)
     return out
+
+
+def _migl_pie_figure(plt: ModuleType, migl_index: ArrayLike, title: str, dpi: int) -> Any:
+    """The figure of :func:`plot_migl_pie` (not saved): the pie and its legend."""
+    levels, counts = np.unique(np.asarray(migl_index), return_counts=True)
+    order = np.argsort(levels)[::-1]
+    share = counts / counts.sum()
+    fig, ax = plt.subplots(figsize=(6, 6), dpi=dpi)
+    labels = [f"{levels[i]:g}" if share[i] > 0.02 else "" for i in order]
+    wedges, _ = ax.pie(counts[order], labels=labels, startangle=90, counterclock=False)
+    ax.legend(
+        wedges,
+        [f"{levels[i]:g}: {100 * share[i]:.1f} %" for i in order],
+        title="MIGL: pixels",
+        loc="center left",
+        bbox_to_anchor=(1.0, 0.5),
+        fontsize="small",
+        ncols=-(-len(order) // 24),
+    )
+    ax.set_title(title)
+    fig.tight_layout()
+    return fig
 
 
 def _cdf_curve(cdf: SaturationCDF, lo: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

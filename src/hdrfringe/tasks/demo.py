@@ -205,6 +205,38 @@ def _figure_3d(path: Path, height: np.ndarray, title: str) -> None:
 Panel = tuple  # (title, data, cmap, unit) or (title, data, cmap, unit, (vmin, vmax))
 
 
+def _saturated_panel(name: str, count: np.ndarray, n_sets: int) -> Panel:
+    """The overview panel of a scene's saturated pixels: per pixel, the sets with a saturated
+    shift, on a fixed 0..``n_sets`` range whose 0 is the palest colour (``Reds``), the title
+    saying "none saturated" when no pixel is (issue 27: a range taken from the data made a
+    scene with nothing saturated one solid red panel).
+
+    Parameters
+    ----------
+    name : str
+        The scene.
+    count : ndarray of int, shape (H, W)
+        Sets in which the pixel has a saturated shift.
+    n_sets : int
+        Sets decoded (the range's top).
+
+    Returns
+    -------
+    Panel
+        ``(title, data, "Reds", unit, (0, n_sets))`` for :func:`_overview`.
+
+    Examples
+    --------
+    >>> _saturated_panel("plate", np.zeros((2, 2), int), 3)[0]
+    'plate: saturated shifts (none saturated)'
+    """
+    data = np.asarray(count, dtype=np.float64)
+    n = int(np.count_nonzero(data))
+    state = "none saturated" if n == 0 else f"{100 * n / data.size:.1f} % of pixels"
+    unit = f"sets with a saturated shift (of {n_sets})"
+    return (f"{name}: saturated shifts ({state})", data, "Reds", unit, (0.0, float(n_sets)))
+
+
 def _overview(path: Path, panels: list[Panel], cols: int = 3) -> None:
     """A grid of maps; NaN (invalid) in gray; each panel its own 0.5-99.5 % range or limits."""
     import matplotlib
@@ -586,13 +618,11 @@ def _measure_demo_scene(
     panels: list[Panel] = []
     if name in ("white_plate_25mm", "mask", "checkerboard"):
         err = height - rig.truth().height_mm
-        saturated = np.logical_or.reduce(
-            [best.decoded.set_results[s.label].saturation_count > 0 for s in primary.sets]
-        )
+        sets = [best.decoded.set_results[s.label].saturation_count > 0 for s in primary.sets]
         panels += [
             (f"{name}: height", height, "viridis", "mm"),
             (f"{name}: error (rational)", err, "coolwarm", "mm"),
-            (f"{name}: saturated shifts", saturated.astype(float), "inferno", ""),
+            _saturated_panel(name, np.sum(sets, axis=0), len(sets)),
         ]
     if name == "mask":
         _figure_3d(tmp / "mask_3d.png", height, "mask, measured height")
