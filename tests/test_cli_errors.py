@@ -49,8 +49,8 @@ def test_valid_folder_decodes(capture_folder: Path, tmp_path: Path) -> None:
         "mean_intensity",
         "data_modulation",
         "saturation_count",
-        "unwrapped_phase",
-        "absolute_phase",
+        "unwrapped_phase_vertical",
+        "absolute_phase_vertical",
     ):
         assert (out / f"{name}.tiff").is_file()
         assert (out / f"{name}.png").is_file()

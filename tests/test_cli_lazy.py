@@ -186,8 +186,8 @@ def test_phase_and_measure_import_no_scipy_or_matplotlib(
         [sys.executable, "-c", _RUN_PROBE, str(folder), str(tmp_path), str(single)],
         capture_output=True, text=True, check=True,
     )  # fmt: skip
-    assert (tmp_path / "measure" / "absolute_phase.png").is_file()  # previews were drawn
-    assert (tmp_path / "spatial" / "unwrapped_phase.png").is_file()
+    assert (tmp_path / "measure" / "absolute_phase_vertical.png").is_file()  # previews were drawn
+    assert (tmp_path / "spatial" / "unwrapped_phase_vertical.png").is_file()
     lines = run.stdout.splitlines()
     assert "temporal:" in lines, [ln for ln in lines if ln.startswith("temporal:")]
     assert "spatial:" in lines, [ln for ln in lines if ln.startswith("spatial:")]

@@ -265,7 +265,7 @@ def test_legal_long_output_names_work_and_illegal_ones_are_one_line(
     folder = tmp_path / ("p" * 255)
     res = run_cli("phase", str(series / "S" / "white_plate_010.00mm"), "-o", str(folder))
     assert res.returncode == 0, res.stderr
-    assert (folder / "absolute_phase.tiff").is_file()
+    assert (folder / "absolute_phase_vertical.tiff").is_file()
     res = run_cli("phase", str(series / "S" / "white_plate_010.00mm"), "-o", str(folder),
                   "--force")  # fmt: skip
     assert res.returncode == 0, res.stderr  # the replace's backup name is short too
@@ -290,7 +290,7 @@ def test_stdout_closed_runs_the_command(series: Path, tmp_path: Path) -> None:
     """``>&-``: Python has no sys.stdout, and the console failed at import (traceback)."""
     res = _child(_phase(series, "out"), tmp_path, setup=lambda: os.close(1), stdout=None)
     assert res.returncode == 0, res.stderr
-    assert (tmp_path / "out" / "absolute_phase.tiff").is_file()
+    assert (tmp_path / "out" / "absolute_phase_vertical.tiff").is_file()
 
 
 def test_stdout_full_is_one_line(series: Path, tmp_path: Path) -> None:
@@ -299,7 +299,7 @@ def test_stdout_full_is_one_line(series: Path, tmp_path: Path) -> None:
         res = _child(_phase(series, "out"), tmp_path, stdout=full)
     line = _one_error_line(res)
     assert "standard output: cannot write" in line and "ENOSPC" in line
-    assert (tmp_path / "out" / "absolute_phase.tiff").is_file()
+    assert (tmp_path / "out" / "absolute_phase_vertical.tiff").is_file()
 
 
 def test_stdout_pipe_closed_by_its_reader_ends_quietly(series: Path, tmp_path: Path) -> None:
@@ -313,14 +313,14 @@ def test_stdout_pipe_closed_by_its_reader_ends_quietly(series: Path, tmp_path: P
         os.close(write)
     assert res.returncode == 141, res.stderr
     assert res.stderr == ""
-    assert (tmp_path / "out" / "absolute_phase.tiff").is_file()
+    assert (tmp_path / "out" / "absolute_phase_vertical.tiff").is_file()
 
 
 def test_ascii_encoding_and_a_non_ascii_output_name(series: Path, tmp_path: Path) -> None:
     res = _child(_phase(series, "résultat"), tmp_path, env={"PYTHONIOENCODING": "ascii"})
     assert res.returncode == 0, res.stderr
     assert "wrote" in res.stdout and "r\\xe9sultat" in res.stdout
-    assert (tmp_path / "résultat" / "absolute_phase.tiff").is_file()
+    assert (tmp_path / "résultat" / "absolute_phase_vertical.tiff").is_file()
 
 
 def test_columns_zero_still_prints_the_error_line(tmp_path: Path) -> None:

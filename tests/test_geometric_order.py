@@ -248,7 +248,7 @@ def test_cli_measure_depth_range_with_a_calibrate_stereo_calibration(scene, tmp_
     printed = " ".join(res.stdout.split())  # the console wraps long lines
     assert "absolute phase from the stereo calibration and the depth range 570..605" in printed
     assert "so no absolute phase" not in printed  # no note contradicts it
-    u = tifffile.imread(out / "absolute_phase.tiff").astype(np.float64) * PITCH / TWO_PI
+    u = tifffile.imread(out / "absolute_phase_vertical.tiff").astype(np.float64) * PITCH / TWO_PI
     assert np.isfinite(u).mean() > 0.99 and not np.any(_wrong(u, scene["u"]))
     xyz = tifffile.imread(out / "xyz.tiff").astype(np.float64)
     assert np.nanmedian(np.linalg.norm(xyz - scene["xyz"], axis=-1)) < 1.5

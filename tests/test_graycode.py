@@ -410,7 +410,7 @@ def test_object1_spatial_only_reports_islands(tmp_path: Path) -> None:
     # continuous in both wrapped phases, so no spatial method can separate it from the wall.
     _measured("object1 spatial regions (wall, sponge, block)", (int(wall), int(sponge), int(block)))
     # the spatial orders are wrong (compared with the Gray code decode of the full folder)
-    unwrapped = tifffile.imread(tmp_path / "phase" / "unwrapped_phase.tiff") * (200 / 3) / TWO_PI
+    unwrapped = tifffile.imread(tmp_path / "phase" / vert["unwrapped_phase"]) * (200 / 3) / TWO_PI
     from hdrfringe.core.decode import decode_captures
 
     full = decode_captures(read_capture_folder(_object1_folder(root, tmp_path / "full")))

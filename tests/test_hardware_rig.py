@@ -416,7 +416,7 @@ def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
     out = tmp_path / "measured"
     r = cli("measure", str(caps), "--strategy", method, *STRATEGY[method], "-o", str(out))
     assert r.returncode == 0, r.stderr
-    measured = read_map_tiff(out / "absolute_phase.tiff")
+    measured = read_map_tiff(out / "absolute_phase_vertical.tiff")
     sim, other_seed = sim_phase(method, 0), sim_phase(method, 1)
     assert measured.shape == sim.shape == LOOP_SIZE[::-1]
     noise_median, noise_p99 = phase_difference(sim, other_seed)
@@ -448,7 +448,7 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: 
     metrics = json.loads((out / "metrics.json").read_text())
     log = json.loads((out / "captures" / "capture_log.json").read_text())
     assert [f["rejected"] for f in log["frames"]] == [1] * len(log["frames"])
-    measured = read_map_tiff(out / "absolute_phase.tiff")
+    measured = read_map_tiff(out / "absolute_phase_vertical.tiff")
 
     def sim(seed: int) -> tuple[np.ndarray, int]:
         rig = virtual_rig("checkerboard", seed=seed, resolution=LOOP_SIZE)

@@ -149,7 +149,7 @@ def test_measure_hardware_equals_measure_of_its_capture_folder(
             "-o", str(replay))  # fmt: skip
     assert r.returncode == 0, r.stderr
     maps = sorted(p.name for p in hardware_run.glob("*.tiff"))
-    assert "height.tiff" in maps and "absolute_phase.tiff" in maps
+    assert "height.tiff" in maps and "absolute_phase_vertical.tiff" in maps
     assert maps == sorted(p.name for p in replay.glob("*.tiff"))
     for name in maps:
         a, b = read_map_tiff(hardware_run / name), read_map_tiff(replay / name)

@@ -96,10 +96,10 @@ def test_measure_takes_the_saturation_options_of_phase(sweep, tmp_path: Path) ->
         r = run_cli("phase", str(folder), *opts, "--no-previews", "--map-dtype", "float64",
                     "-o", str(p))  # fmt: skip
         assert r.returncode == 0, r.stderr
-        for map_name in ("absolute_phase.tiff", "absolute_phase_horizontal.tiff"):  # v, h
+        for map_name in ("absolute_phase_vertical.tiff", "absolute_phase_horizontal.tiff"):  # v, h
             a = read_map_tiff(m / map_name)
             np.testing.assert_array_equal(a, read_map_tiff(p / map_name), err_msg=name)
-        valid[name] = float(np.isfinite(read_map_tiff(m / "absolute_phase.tiff")).mean())
+        valid[name] = float(np.isfinite(read_map_tiff(m / "absolute_phase_vertical.tiff")).mean())
         metrics = json.loads((m / "metrics.json").read_text())
         assert ("decoder" in metrics) == (name == "exclude")
     assert valid["flag"] < 0.9 * valid["exclude"] and valid["flag"] < 0.9 * valid["keep"]

@@ -157,7 +157,7 @@ def test_phase_on_sets_of_one_pitch_says_what_the_folder_is(tmp_path: Path) -> N
     assert f"wrapped_phase__{labels[1]}.tiff" in summary["files"]  # every set's maps on request
     assert any(f"{labels[1]} (gamma pre-compensation 2)" in n for n in summary["notes"])
     assert [f["sets"] for f in summary["gamma_families"]] == [labels[1:]]
-    assert f"unwrapped_phase__{labels[1]}.tiff" in summary["files"]
+    assert f"unwrapped_phase_vertical__{labels[1]}.tiff" in summary["files"]
     labelled = tmp_path / "labelled"
     shutil.copytree(gamma, labelled)
     manifest = json.loads((labelled / "manifest.json").read_text())

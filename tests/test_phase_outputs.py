@@ -54,7 +54,7 @@ def test_written_maps_read_back_equal_to_the_computed_arrays(tmp_path: Path) -> 
     fam = decoded.primary
     for name, arr in (("unwrapped_phase", fam.unwrapped_phase), ("absolute_phase",
                                                                  fam.absolute_phase)):  # fmt: skip
-        got = read_map_tiff(tmp_path / f"{name}.tiff")
+        got = read_map_tiff(tmp_path / f"{name}_vertical.tiff")
         assert got.dtype == np.float64
         np.testing.assert_array_equal(got, arr, err_msg=name)
 
@@ -79,7 +79,8 @@ def test_phase_writes_the_final_maps_unless_every_set_is_asked_for(
     names = sorted(p.name for p in final.iterdir())
     stems = [stem for stem, *_ in SET_MAPS]
     assert names == sorted(
-        [f"{m}.{e}" for m in [*stems, "phase_std", "unwrapped_phase", "absolute_phase"]
+        [f"{m}.{e}" for m in [*stems, "phase_std", "unwrapped_phase_vertical",
+                              "absolute_phase_vertical"]
          for e in ("tiff", "png")] + ["phase_summary.json"]
     )  # fmt: skip
     summary = json.loads((final / "phase_summary.json").read_text())
@@ -182,9 +183,9 @@ def test_gamma_capture_unwraps_each_exponent_within_its_family(tmp_path: Path) -
     assert [f["sets"][-1] for f in summary["families"]] == fine[:1]
     (other,) = summary["gamma_families"]
     assert other["sets"][-1] == fine[1] and other["gamma_precompensation"] == 2.0
-    assert other["absolute_phase"] == f"absolute_phase__{fine[1]}.tiff"
+    assert other["absolute_phase"] == f"absolute_phase_vertical__{fine[1]}.tiff"
     assert f"vertical ({', '.join(other['sets'])}): unwrapped by temporal" in res.stdout
-    for name, pitch in (("absolute_phase.tiff", 64.0), (other["absolute_phase"], 32.0)):
+    for name, pitch in (("absolute_phase_vertical.tiff", 64.0), (other["absolute_phase"], 32.0)):
         phase = read_map_tiff(out / name)
         np.testing.assert_allclose(phase, 2 * np.pi * x / pitch, atol=0.05, err_msg=name)
     unwrapped = read_map_tiff(out / other["unwrapped_phase"])

@@ -169,11 +169,11 @@ def test_islands_are_reported_with_a_region_map(tmp_path: Path) -> None:
     assert labels[0, 0] != labels[0, 200] != labels[0, 300] != labels[0, 0]
     summary = write_phase_maps(tmp_path, decoded, "memory")
     (entry,) = summary["families"]
-    assert entry["order_from"] == "spatial" and entry["regions_map"] == "regions.tiff"
+    assert entry["order_from"] == "spatial" and entry["regions_map"] == "regions_vertical.tiff"
     assert entry["regions"]["islands"] and entry["regions"]["count"] == 3
     import tifffile
 
-    written = tifffile.imread(tmp_path / "regions.tiff")
+    written = tifffile.imread(tmp_path / "regions_vertical.tiff")
     assert written.dtype == np.uint16 and np.array_equal(written, labels)
     # one connected, continuous ramp: one region, no note, no map
     smooth = decode_captures(_ramp_captures(np.tile(np.arange(400.0), (60, 1))))

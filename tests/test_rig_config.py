@@ -404,7 +404,7 @@ def test_measure_hardware_writes_all_or_nothing(
         manifest = json.loads((out / "captures" / "manifest.json").read_text())
         assert len(manifest["frames"]) == 8 and manifest["capture"]["complete"] is True
         assert (out / "captures" / "capture_log.json").is_file()
-        assert (out / "unwrapped_phase.tiff").is_file()
+        assert (out / "unwrapped_phase_vertical.tiff").is_file()
     else:  # Ctrl-C in the second set: nothing written, no staging left, the shell's 130
         assert r.exit_code == 130 and "nothing was written" in r.stderr
         assert sorted(p.name for p in tmp_path.iterdir()) == []

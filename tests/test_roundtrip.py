@@ -80,7 +80,7 @@ def test_round_trip_through_files_and_cli(tmp_path: Path) -> None:
     ok = truth.valid & np.isfinite(wrapped)
     assert ok.mean() > 0.99
     assert wrap_err(wrapped, TWO_PI * truth.u / pitch)[ok].max() < 1e-3
-    absolute = tifffile.imread(tmp_path / "out" / "absolute_phase.tiff")
+    absolute = tifffile.imread(tmp_path / "out" / "absolute_phase_vertical.tiff")
     ok = truth.valid & np.isfinite(absolute)
     assert ok.mean() > 0.99
     # absolute phase is 2*pi*u/p itself, not only modulo 2*pi
@@ -111,7 +111,7 @@ def test_pixelwise_round_trip_through_files_and_cli(tmp_path: Path) -> None:
     assert res.returncode == 0, res.stderr
     truth = rig.truth()
     wrapped = tifffile.imread(tmp_path / "out" / "wrapped_phase.tiff")
-    absolute = tifffile.imread(tmp_path / "out" / "absolute_phase.tiff")
+    absolute = tifffile.imread(tmp_path / "out" / "absolute_phase_vertical.tiff")
     dark = (truth.u > proj.width * 3 / 4 + 2) & (truth.v < proj.height / 4 - 2)
     lit = truth.valid & ~((truth.u > proj.width * 3 / 4 - 2) & (truth.v < proj.height / 4 + 2))
     assert dark.sum() > 100 and lit.sum() > 0.5 * truth.valid.sum()

@@ -71,7 +71,8 @@ def test_auto_sphere_is_the_rows_sphere(auto: dict) -> None:
     fit = sphere_fit(auto["xyz"], wall_plane(auto["xyz"])[0])[0]
     phase = read_map_tiff(auto["out"] / "absolute_phase_horizontal.tiff")[::2, ::2]
     v = projector_coordinate(phase, PITCH)
-    u = projector_coordinate(read_map_tiff(auto["out"] / "absolute_phase.tiff")[::2, ::2], PITCH)
+    phase = read_map_tiff(auto["out"] / "absolute_phase_vertical.tiff")[::2, ::2]
+    u = projector_coordinate(phase, PITCH)
     rows, cols = np.mgrid[0 : 2 * v.shape[0] : 2, 0 : 2 * v.shape[1] : 2].astype(float)
     cal = load_stereo_calibration(auto["cal"])
     xyz = triangulate(cal, cols, rows, v_proj=v).xyz

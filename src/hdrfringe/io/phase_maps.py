@@ -206,11 +206,13 @@ def write_phase_maps(
     One set: ``wrapped_phase.tiff``, ``modulation.tiff``, ``mean_intensity.tiff``,
     ``data_modulation.tiff``, ``saturation_count.tiff`` (+ PNG previews). Several sets: the same
     names with ``__<set label>`` appended for every set (unless ``per_set`` is False), and the
-    unsuffixed names for the finest set of the primary family. ``unwrapped_phase.tiff`` and
-    ``absolute_phase.tiff`` belong to the primary family; a second (horizontal) family gets
-    ``_horizontal`` appended; a family that differs from its orientation's only in its gamma
-    pre-compensation (a gamma capture, :attr:`FolderPhase.gamma_families
-    <hdrfringe.core.decode.FolderPhase.gamma_families>`) gets ``__<its finest set's label>``.
+    unsuffixed names for the finest set of the primary family. A family's maps name its
+    orientation: ``unwrapped_phase_vertical.tiff``, ``absolute_phase_vertical.tiff`` (and
+    ``regions_vertical.tiff``), ``_horizontal`` for the horizontal family (issue 27: before,
+    the primary family's names had no suffix); a family that differs from its orientation's
+    only in its gamma pre-compensation (a gamma capture, :attr:`FolderPhase.gamma_families
+    <hdrfringe.core.decode.FolderPhase.gamma_families>`) also gets ``__<its finest set's
+    label>``, e.g. ``unwrapped_phase_vertical__<label>.tiff``.
     Maps are uncompressed float32 TIFF (unwrapped and absolute phase:
     float64, which keeps its fraction of a fringe at any projector coordinate) with NaN where
     invalid (:func:`~hdrfringe.io.results.write_map_tiff`); docs/phase.md describes each. The
@@ -252,8 +254,8 @@ def write_phase_maps(
         ``families`` (per family its sets, unwrapping and absolute-phase method and files,
     ``order_from`` (``one-period``, ``graycode`` or ``spatial``) and, with spatial unwrapping,
     ``regions``; a family whose valid area falls into separate regions (islands) also gets
-    ``regions.tiff``, a label map, 0 = invalid, ``regions_map`` naming it); with a gamma
-    capture ``gamma_families``, the same per such family and its ``gamma_precompensation``;
+    ``regions_<orientation>.tiff``, a label map, 0 = invalid, ``regions_map`` naming it); with a
+    gamma capture ``gamma_families``, the same per such family and its ``gamma_precompensation``;
         ``notes``; ``files`` (every map and preview written, sorted). Decoded with
         ``saturated="exclude"`` (docs/tolerant.md): ``saturated``, and per set
         ``shifts_used_histogram`` (pixels whose fit used k images, k = 0, 1, ...) and
@@ -281,8 +283,9 @@ def write_phase_maps(
     >>> out = Path(tempfile.mkdtemp())
     >>> summary = write_phase_maps(out, decoded, "in memory")
     >>> [f for f in summary["files"] if f.endswith(".tiff")]  # doctest: +NORMALIZE_WHITESPACE
-    ['absolute_phase.tiff', 'data_modulation.tiff', 'mean_intensity.tiff', 'modulation.tiff',
-     'saturation_count.tiff', 'unwrapped_phase.tiff', 'wrapped_phase.tiff']
+    ['absolute_phase_vertical.tiff', 'data_modulation.tiff', 'mean_intensity.tiff',
+     'modulation.tiff', 'saturation_count.tiff', 'unwrapped_phase_vertical.tiff',
+     'wrapped_phase.tiff']
     >>> summary["sets"][0]["valid_fraction"], (out / "phase_summary.json").is_file()
     (1.0, True)
     """
@@ -327,13 +330,15 @@ def write_phase_maps(
                 phase_std=std,
                 label=label,
             )
+    # every family's maps name its orientation (one family per orientation)
     families = [
-        _family_maps(out, fam, "" if i == 0 else f"_{fam.orientation}", files, jobs, previews)
-        for i, fam in enumerate(decoded.families)
+        _family_maps(out, fam, f"_{fam.orientation}", files, jobs, previews)
+        for fam in decoded.families
     ]
-    gamma_families = []  # a gamma capture's other exponents: named by their finest set
+    gamma_families = []  # a gamma capture's other exponents: also named by their finest set
     for fam in decoded.gamma_families:
-        entry = _family_maps(out, fam, f"__{fam.sets[-1].label}", files, jobs, previews)
+        suffix = f"_{fam.orientation}__{fam.sets[-1].label}"
+        entry = _family_maps(out, fam, suffix, files, jobs, previews)
         entry["gamma_precompensation"] = fam.sets[0].gamma_precompensation
         gamma_families.append(entry)
     _run_writes(jobs)

@@ -118,7 +118,7 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
     >>> report = phase(tmp / "caps", tmp / "out", PhaseOptions(previews=False))
     >>> [s["label"] for s in report.summary["sets"]][:1]
     ['s4_p1024_v_i40_g255']
-    >>> "unwrapped_phase.tiff" in report.summary["files"], len(report.summary["files"])
+    >>> "unwrapped_phase_vertical.tiff" in report.summary["files"], len(report.summary["files"])
     (True, 8)
     """
     from hdrfringe.errors import CaptureFormatError
