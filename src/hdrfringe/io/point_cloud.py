@@ -11,7 +11,96 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["write_ply"]
+__all__ = ["grid_normals", "intensity_colour", "write_ply"]
+
+
+def _grid_derivative(p: np.ndarray, axis: int) -> np.ndarray:
+    """Derivative of an organised (H, W, 3) point grid along ``axis`` (0: rows, 1: columns),
+    per pixel: the central difference where both neighbours are finite, else the one-sided
+    difference to the finite neighbour, else NaN."""
+    d = np.full_like(p, np.nan)
+    n = p.shape[axis]
+    if n < 2:
+        return d
+    lo = [slice(None)] * 3
+    hi = [slice(None)] * 3
+    lo[axis], hi[axis] = slice(0, n - 1), slice(1, n)
+    step = p[tuple(hi)] - p[tuple(lo)]  # p[i + 1] - p[i], for i = 0 .. n - 2
+    pad = [(0, 0)] * 3
+    pad[axis] = (0, 1)
+    forward = np.pad(step, pad, constant_values=np.nan)  # at i: p[i + 1] - p[i]
+    pad[axis] = (1, 0)
+    backward = np.pad(step, pad, constant_values=np.nan)  # at i: p[i] - p[i - 1]
+    central = 0.5 * (forward + backward)
+    for cand in (central, forward, backward):
+        use = np.isnan(d[..., :1]) & np.isfinite(cand).all(axis=-1, keepdims=True)
+        d = np.where(use, cand, d)
+    return d
+
+
+def grid_normals(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> np.ndarray:
+    """Unit normals of an organised point grid (a structured-light cloud: one point per pixel).
+
+    The normal of pixel (r, c) is the cross product of the surface's derivatives along the rows
+    and along the columns, ``dP/dr x dP/dc``, each a central difference of the neighbouring
+    points (one-sided at an edge of the valid area). With rows going down the image and
+    columns to the right this points toward the camera: +z for ``measure``'s height points
+    (height up toward the camera), -Z for a stereo cloud in the camera frame (Z away from it).
+
+    Parameters
+    ----------
+    x, y, z : array_like, shape (H, W)
+        The points' coordinates on the camera's pixel grid; NaN where invalid.
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W, 3)
+        Unit normals; NaN where the point is invalid or has no valid neighbour along a row or
+        a column.
+
+    Examples
+    --------
+    >>> rows, cols = np.mgrid[0:3, 0:4].astype(float)
+    >>> n = grid_normals(cols, -rows, 0.5 * cols)  # a plane z = x / 2, y up the image
+    >>> np.round(n[1, 1] * np.sqrt(1.25), 6).tolist()
+    [-0.5, 0.0, 1.0]
+    """
+    p = np.stack([np.asarray(a, dtype=np.float64) for a in (x, y, z)], axis=-1)
+    if p.ndim != 3:
+        raise ValueError(f"normals need an organised (H, W) grid of points, got shape {p.shape}")
+    n = np.cross(_grid_derivative(p, 0), _grid_derivative(p, 1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    n[~np.isfinite(p).all(axis=-1)] = np.nan
+    return n
+
+
+def intensity_colour(mean_intensity: ArrayLike, bit_depth: int) -> np.ndarray:
+    """8-bit gray of a mean-intensity map, as a point's RGB: ``rint(255 I / (2^B - 1))``.
+
+    Parameters
+    ----------
+    mean_intensity : array_like
+        The mean intensity ``I'`` in DN (thesis Eq. 3.5), e.g. of the finest set.
+    bit_depth : int
+        The camera's bit depth B (full scale ``2^B - 1``).
+
+    Returns
+    -------
+    ndarray of uint8
+        Same shape; 0 where not finite.
+
+    Examples
+    --------
+    >>> intensity_colour([0.0, 2047.5, 4095.0, np.nan], 12).tolist()
+    [0, 128, 255, 0]
+    """
+    from hdrfringe.core._validation import full_scale
+
+    i = np.asarray(mean_intensity, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        g = np.clip(np.rint(i * (255.0 / full_scale(bit_depth))), 0, 255)
+    return np.where(np.isfinite(g), g, 0).astype(np.uint8)
 
 
 def write_ply(
@@ -21,8 +110,11 @@ def write_ply(
     z: ArrayLike,
     *,
     intensity: ArrayLike | None = None,
+    colour: ArrayLike | None = None,
+    normals: bool = False,
 ) -> int:
-    """Write the finite points as a binary little-endian PLY (vertex x, y, z [, intensity]).
+    """Write the finite points as a binary little-endian PLY (vertex x, y, z [, intensity]
+    [, red, green, blue] [, nx, ny, nz]).
 
     Parameters
     ----------
@@ -34,6 +126,14 @@ def write_ply(
         coordinate is left out.
     intensity : array_like, optional
         A value per point (same size), stored as the vertex property ``intensity``.
+    colour : array_like, optional
+        The points' colour, uint8: gray (same size as ``x``; e.g. :func:`intensity_colour`)
+        or RGB (a last axis of 3), stored as ``red``, ``green``, ``blue`` (uchar) as point
+        cloud viewers (MeshLab, CloudCompare, Open3D, trimesh) read them.
+    normals : bool
+        Also store unit normals ``nx, ny, nz`` (float32) from the organised grid
+        (:func:`grid_normals`; ``x``, ``y``, ``z`` must be (H, W) maps); 0, 0, 0 for a point
+        without one (no valid neighbour along a row or a column).
 
     Returns
     -------
@@ -53,6 +153,11 @@ def write_ply(
     2
     >>> PlyData.read(str(path))["vertex"]["z"].tolist()
     [5.0, 6.0]
+    >>> write_ply(path, [[0.0, 1.0]], [[0.0, 0.0]], [[5.0, 6.0]], colour=[[0, 255]], normals=True)
+    2
+    >>> v = PlyData.read(str(path))["vertex"]
+    >>> v["red"].tolist(), v["nz"].tolist()
+    ([0, 255], [0.0, 0.0])
     """
     from plyfile import PlyData, PlyElement
 
@@ -61,9 +166,28 @@ def write_ply(
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
     if intensity is not None:
         fields.append(("intensity", "<f4"))
+    rgb = None
+    if colour is not None:
+        c = np.asarray(colour, dtype=np.uint8)
+        if c.size == 3 * xa.size:  # RGB
+            rgb = c.reshape(-1, 3)
+        elif c.size == xa.size:  # gray
+            rgb = np.repeat(c.reshape(-1, 1), 3, axis=1)
+        else:
+            raise ValueError(f"colour has {c.size} values for {xa.size} points (gray or RGB)")
+        fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+    normal = None
+    if normals:
+        normal = grid_normals(x, y, z).reshape(-1, 3)
+        normal = np.where(np.isfinite(normal), normal, 0.0)
+        fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
     vert = np.empty(int(ok.sum()), dtype=fields)
     vert["x"], vert["y"], vert["z"] = xa[ok], ya[ok], za[ok]
     if intensity is not None:
         vert["intensity"] = np.asarray(intensity, dtype=np.float64).ravel()[ok]
+    if rgb is not None:
+        vert["red"], vert["green"], vert["blue"] = rgb[ok].T
+    if normal is not None:
+        vert["nx"], vert["ny"], vert["nz"] = normal[ok].T
     PlyData([PlyElement.describe(vert, "vertex")], byte_order="<").write(str(path))
     return int(ok.sum())

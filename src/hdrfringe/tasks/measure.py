@@ -97,8 +97,13 @@ def write_height_outputs(
     geometry: CameraGeometry | None,
     *,
     previews: bool = True,
+    colour: NDArray[np.uint8] | None = None,
 ) -> list[str]:
     """Write ``height.tiff``, ``height.png`` and ``points.ply`` into ``out``; return notes.
+
+    ``points.ply`` holds x, y, z in mm, the unit normals ``nx, ny, nz`` from the pixel grid
+    (toward the camera; :func:`~hdrfringe.io.point_cloud.grid_normals`) and, with ``colour``,
+    ``red, green, blue``.
 
     Parameters
     ----------
@@ -111,6 +116,8 @@ def write_height_outputs(
         (column, minus row) and a note says so.
     previews : bool
         Write the PNG preview of every map (default); False: ``--no-previews``.
+    colour : ndarray of uint8, shape (H, W), optional
+        The points' gray (the mean intensity, as ``measure`` writes it); None: no colour.
 
     Returns
     -------
@@ -135,8 +142,33 @@ def write_height_outputs(
     from hdrfringe.io.point_cloud import write_ply
     from hdrfringe.pipeline import NO_GEOMETRY, height_points
 
-    write_ply(out / "points.ply", *height_points(height_mm, geometry))
+    write_ply(out / "points.ply", *height_points(height_mm, geometry), colour=colour, normals=True)
     return [NO_GEOMETRY] if geometry is None else []
+
+
+def _point_colour(result: MeasurementResult) -> NDArray[np.uint8] | None:
+    """The point cloud's gray: the mean intensity of the primary family's finest set (thesis
+    Eq. 3.5, the fringes averaged over their shifts: the scene as lit by a uniform mid-gray),
+    scaled to 8 bits by the camera's full scale
+    (:func:`~hdrfringe.io.point_cloud.intensity_colour`).
+
+    Parameters
+    ----------
+    result : MeasurementResult
+        From :func:`hdrfringe.pipeline.measure`.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W), or None
+        None when no family was decoded.
+    """
+    from hdrfringe.io.point_cloud import intensity_colour
+
+    primary = result.decoded.primary
+    if primary is None:
+        return None
+    finest = result.decoded.set_results[primary.sets[-1].label]
+    return intensity_colour(finest.mean_intensity, result.captures.camera_bit_depth)
 
 
 def write_uncertainty_outputs(
@@ -179,13 +211,16 @@ def write_uncertainty_outputs(
     return ["height_std.tiff", "height_std.png"]
 
 
-def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) -> list[str]:
+def write_stereo_outputs(
+    out: Path, maps: StereoMaps, *, previews: bool = True, colour: NDArray[np.uint8] | None = None
+) -> list[str]:
     """The outputs of a triangulated measurement (docs/stereo.md); returns the files written.
 
     ``xyz.tiff`` (H x W x 3 float32, mm, camera frame, NaN invalid), ``depth.tiff`` (Z),
     ``height.tiff`` and ``height.png`` (over the fitted reference plane, positive toward the
     camera), ``points.ply`` (mm; ``intensity`` holds the per-point quality, the data
-    modulation in DN) and, where both projector coordinates were decoded,
+    modulation in DN; normals from the pixel grid, toward the camera; with ``colour`` its
+    gray as ``red, green, blue``) and, where both projector coordinates were decoded,
     ``triangulation_residual.tiff`` (ray-ray distance, mm).
 
     Parameters
@@ -196,6 +231,8 @@ def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) 
         From :func:`hdrfringe.core.stereo.triangulate_maps`.
     previews : bool
         Write the PNG preview of every map (default); False: ``--no-previews``.
+    colour : ndarray of uint8, shape (H, W), optional
+        The points' gray (the mean intensity, as ``measure`` writes it); None: no colour.
 
     Returns
     -------
@@ -232,7 +269,7 @@ def write_stereo_outputs(out: Path, maps: StereoMaps, *, previews: bool = True) 
 
     write_ply(
         out / "points.ply", maps.xyz[..., 0], maps.xyz[..., 1], maps.xyz[..., 2],
-        intensity=maps.quality,
+        intensity=maps.quality, colour=colour, normals=True,
     )  # fmt: skip
     files = ["xyz.tiff", "depth.tiff", "height.tiff", "height.png", "points.ply"]
     if not previews:
@@ -466,9 +503,13 @@ def write_measurement(
                 std_per_set=False,
             )
         if result.stereo is not None:
-            write_stereo_outputs(tmp, result.stereo, previews=previews)
+            colour = _point_colour(result)
+            write_stereo_outputs(tmp, result.stereo, previews=previews, colour=colour)
         elif result.height_mm is not None:  # its note is in the metrics already
-            write_height_outputs(tmp, result.height_mm, result.geometry, previews=previews)
+            write_height_outputs(
+                tmp, result.height_mm, result.geometry, previews=previews,
+                colour=_point_colour(result),
+            )  # fmt: skip
             if unc is not None and unc.height_std_mm is not None:
                 write_uncertainty_outputs(tmp, unc.height_std_mm, previews=previews)
         if result.strategy_results:
