@@ -488,7 +488,7 @@ class FolderProjector(_ProjectorBase):
     ...     projector.show(np.full((2, 4, 3), 255, np.uint8))
     1
     2
-    >>> json.loads((folder / "playlist.json").read_text())["frames"][1]
+    >>> strict_json.loads_strict((folder / "playlist.json").read_text())["frames"][1]
     {'frame': 2, 'file': '000002.png', 'mode': 'RGB'}
     >>> (folder / "playlist.m3u").read_text().split()
     ['000001.png', '000002.png']

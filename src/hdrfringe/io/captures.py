@@ -1159,7 +1159,7 @@ def write_capture_folder(
     >>> caps = Captures([UniformFrame(128)], np.full((1, 2, 3), 7, np.uint16), 12)
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     out = write_capture_folder(Path(tmp) / "caps", caps, extra={"lab": "B2"})
-    ...     m = json.loads((out / "manifest.json").read_text())
+    ...     m = strict_json.loads_strict((out / "manifest.json").read_text())
     >>> m["version"], m["camera"], m["lab"], m["frames"][0]["file"]
     (1, {'bit_depth': 12}, 'B2', 'gray_128.png')
     """

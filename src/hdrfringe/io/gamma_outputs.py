@@ -181,7 +181,7 @@ def write_gamma_outputs(path: str | Path, report: GammaReport, *, force: bool = 
     >>> images = np.stack([np.full((4, 4), 10 + 200 * (g / 255) ** 2.2) for g in levels])
     >>> caps = Captures([UniformFrame(g) for g in levels], np.rint(images).astype(np.uint8), 8)
     >>> out = write_gamma_outputs(Path(tempfile.mkdtemp()) / "g", gamma_report(caps, source="x"))
-    >>> written = json.loads((out / "gamma.json").read_text(encoding="utf-8"))
+    >>> written = strict_json.loads_strict((out / "gamma.json").read_text(encoding="utf-8"))
     >>> written["source"], round(written["uniform"]["gamma"], 2), written["uniform"]["levels_used"]
     ('x', 2.2, 5)
     >>> (out / "gamma_mapping.png").is_file(), (out / "gamma_nonlinearity.png").is_file()

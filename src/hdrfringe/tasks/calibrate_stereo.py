@@ -196,7 +196,7 @@ def write_calibration_and_report(
     >>> with tempfile.TemporaryDirectory() as tmp:
     ...     out, rep = write_calibration_and_report(Path(tmp) / "s.h5", calib, {"note": "doc"})
     ...     text = rep.read_text()
-    >>> out.name, rep.name, json.loads(text)
+    >>> out.name, rep.name, strict_json.loads_strict(text)
     ('s.h5', 's_report.json', {'note': 'doc'})
     """
     from hdrfringe.io.results import current_umask
