@@ -223,15 +223,18 @@ def _estimate_lsq(stack: F64, bit_depth: int) -> tuple[F64, F64, NDArray[np.intp
     shape = stack.shape[1:]
     flat = stack.reshape(n, -1)
     sat = is_saturated(flat, bit_depth)
-    codes = np.zeros(flat.shape[1], dtype=np.int64)
+    # N <= 16 shifts: the pattern codes fit 16 bits, so the stable argsort below is numpy's
+    # radix sort (linear time) and the groups' sizes one bincount.
+    codes = np.zeros(flat.shape[1], dtype=np.uint16)
     for k in range(n):
-        codes |= sat[k].astype(np.int64) << k
+        codes |= sat[k].astype(np.uint16) << np.uint16(k)
     design = _design(n)
     coef = np.full((3, flat.shape[1]), np.nan)
     est = flat.copy()
-    patterns, inverse, counts = np.unique(codes, return_inverse=True, return_counts=True)
-    order = np.argsort(inverse, kind="stable")
-    starts = np.concatenate([[0], np.cumsum(counts)])
+    counts = np.bincount(codes, minlength=1)
+    patterns = np.flatnonzero(counts)
+    order = np.argsort(codes, kind="stable")  # pixels grouped by pattern, in pixel order
+    starts = np.concatenate([[0], np.cumsum(counts[patterns])])
     for g, code in enumerate(patterns.tolist()):
         idx = order[starts[g] : starts[g + 1]]
         bad = np.array([(code >> k) & 1 for k in range(n)], dtype=bool)
@@ -239,7 +242,7 @@ def _estimate_lsq(stack: F64, bit_depth: int) -> tuple[F64, F64, NDArray[np.intp
             est[:, idx] = np.nan
             continue
         good = ~bad
-        c = np.linalg.pinv(design[good]) @ flat[good][:, idx]
+        c = np.linalg.pinv(design[good]) @ flat[np.ix_(good, idx)]
         coef[:, idx] = c
         if bad.any():
             est[np.ix_(bad, idx)] = design[bad] @ c
@@ -331,7 +334,9 @@ def peak_and_trough(
     >>> peak.tolist(), trough.tolist()
     ([[270.0, nan]], [[30.0, nan]])
     """
-    stack = _stack(images, bit_depth, "saturated estimate")
+    full_scale(bit_depth)  # as _stack, without converting the pixels not fitted
+    stack = as_stack(images, what="saturated estimate", n_min=3, n_max=_MAX_STEPS,
+                     bit_depth=bit_depth)  # fmt: skip
     shape = stack.shape[1:]
     peak = np.full(shape, np.nan)
     trough = np.full(shape, np.nan)
@@ -340,7 +345,8 @@ def peak_and_trough(
         raise InputError(f"pixel mask shape {sel.shape} does not match the images' {shape}")
     if not sel.any():
         return peak, trough
-    coef, est, _ = _estimate_lsq(stack[:, sel][:, :, None], bit_depth)
+    picked = stack[:, sel].astype(np.float64, copy=False)[:, :, None]
+    coef, est, _ = _estimate_lsq(picked, bit_depth)
     a, c, s = coef[..., 0]
     peak[sel] = est[..., 0].max(axis=0)
     trough[sel] = a - np.hypot(c, s)
