@@ -69,6 +69,7 @@ COMMAND_MODULES: dict[str, str] = {
     "simulate": "simulate",
     "train-correction": "train",
     "rig": "rig_check",
+    "acceptance": "acceptance",
 }
 
 

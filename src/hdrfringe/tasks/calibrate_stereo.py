@@ -383,7 +383,8 @@ def calibrate_stereo(
     fix_intrinsics : bool
         Keep the separate intrinsics in the stereo step.
     camera_size, projector_size : tuple of int, optional
-        ``(width, height)`` for a converted file that records none.
+        ``(width, height)`` for a converted file that records none; with ``rig="sim"``
+        ``camera_size`` is the virtual camera's (default 640 x 480).
     force : bool
         Replace existing files.
     progress : callable
@@ -459,6 +460,8 @@ def calibrate_stereo(
             spacing_mm=spec.spacing_mm,
         )
         options: dict[str, Any] = {"noise": noise, "seed": seed}
+        if camera_size is not None:  # the virtual camera's size (default 640 x 480)
+            options["camera_size"] = camera_size
         truth = calibration_rig(boards[0], **options).stereo_calibration()
         with progress("simulating board poses", len(boards)) as advance:
             if save_poses is not None:
