@@ -5,7 +5,8 @@ STAMP := $(VENV)/.installed-stamp
 OUT ?= hdrfringe-demo
 
 .PHONY: install system-packages demo test test-narrow lint bench bench-sweep bench-cold bench-peers \
-	bench-memory bench-measure bench-measure-stereo bench-unwrap bench-large native clean
+	bench-memory bench-measure bench-measure-stereo bench-unwrap bench-large bench-acceptance native \
+	clean
 
 # The projector window tests (tests/test_projector_window.py) run a real X server: Xvfb, with
 # Mesa's OpenGL (GLX, software rendering) and the X client libraries pyglet loads. Installed with
@@ -116,6 +117,12 @@ bench-measure: $(STAMP)
 
 bench-measure-stereo: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_measure_stereo.py
+
+# The acceptance test's full procedure (23 positions, 640 x 480) and the glossy sphere's HDR table
+# (docs/acceptance.md, "The acceptance command"); ACC_OUT keeps the result folders.
+ACC_OUT ?= hdrfringe-acceptance
+bench-acceptance: $(STAMP)
+	$(VENV)/bin/python benchmarks/bench_acceptance.py -o $(ACC_OUT) --force
 
 bench-unwrap: $(STAMP)
 	$(VENV)/bin/python benchmarks/bench_unwrap.py

@@ -97,7 +97,7 @@ def acceptance(
     flatness error (F) of a plane at 6, each against its MPE. --rig sim runs it on the virtual
     rig (calibrated first unless --calibration is given), per --strategy: the HDR table. With
     FOLDERs it evaluates captured positions. Writes OUT/acceptance.json, acceptance.md,
-    quantities.png and residuals/STRATEGY/POSITION.png (docs/acceptance.md).
+    quantities.png and residuals/STRATEGY/POSITION.tiff + .png (docs/acceptance.md).
     """
     from hdrfringe.tasks import acceptance as task
 

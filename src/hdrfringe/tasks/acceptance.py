@@ -15,7 +15,8 @@ on captured positions (issue 25; docs/acceptance.md, "The acceptance command").
 
 Both write, staged (all or nothing), ``acceptance.json`` (strict JSON, no NaN),
 ``acceptance.md``, ``quantities.png`` (PF, PS, SD, F per position against the MPE, one series
-per strategy) and ``residuals/<strategy>/<position>.png`` (the residual map of every position).
+per strategy) and ``residuals/<strategy>/<position>.tiff`` (the residual map of every position,
+float32, NaN off the artefact) with its PNG preview.
 The tasks print nothing: the front end gives ``progress``.
 """
 
@@ -736,30 +737,29 @@ def _plot_quantities(report: AcceptanceReport, path: Path) -> None:
             ax.axhline(0.0, color="0.7", lw=0.5)
         ax.set_xticks(range(len(labels)), labels, rotation=60, fontsize=7)
     axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.95, bottom=0.14, hspace=0.55, wspace=0.2)
+    fig.savefig(path, dpi=80)
     plt.close(fig)
 
 
-def _plot_residuals(outcome: PositionOutcome, path: Path) -> None:
-    """The residual map of one position (diverging colours, symmetric range)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+def _write_residuals(outcome: PositionOutcome, folder: Path) -> None:
+    """The residual map of one position: float32 TIFF (NaN off the artefact) and its preview
+    (symmetric colour range)."""
+    from hdrfringe.io.results import write_map_tiff, write_preview_png
 
     res = outcome.residual_map
     assert res is not None
-    fig, ax = plt.subplots(figsize=(6, 4.5))
+    write_map_tiff(folder / f"{outcome.label}.tiff", res.astype(np.float32))
     lim = float(np.nanmax(np.abs(res))) if np.isfinite(res).any() else 1.0
-    im = ax.imshow(res, cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest")
-    fig.colorbar(im, ax=ax, label="residual (mm)")
-    vals = ", ".join(f"{k} {_fmt(v)} mm" for k, v in outcome.values.items())
-    ax.set_title(f"{outcome.strategy}: {outcome.label} ({vals})", fontsize=9)
-    ax.set_axis_off()
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    vals = ", ".join(f"{k} {_fmt(v)}" for k, v in outcome.values.items())
+    write_preview_png(
+        folder / f"{outcome.label}.png",
+        res,
+        title=f"{outcome.strategy}: {outcome.label} ({vals})",
+        label="residual (mm)",
+        vmin=-lim,
+        vmax=lim,
+    )
 
 
 def _write_report(tmp: Path, report: AcceptanceReport) -> None:
@@ -772,7 +772,7 @@ def _write_report(tmp: Path, report: AcceptanceReport) -> None:
         if o.residual_map is not None:
             folder = tmp / "residuals" / o.strategy
             folder.mkdir(parents=True, exist_ok=True)
-            _plot_residuals(o, folder / f"{o.label}.png")
+            _write_residuals(o, folder)
 
 
 def _summaries(outcomes: Sequence[PositionOutcome], artefacts: Artefacts) -> dict[str, Any]:
