@@ -257,3 +257,90 @@ def test_artefact_not_found_is_a_failed_row_with_its_reason(run: dict[str, Any])
     row = doc["positions"][0]
     assert row["values"] == {"PF": None, "PS": None} and "not found" in row["note"]
     assert doc["strategies"]["conventional"]["all_passed"] is False
+
+
+# --- --rig hardware on the fake projector and camera of tests/test_hardware_rig.py -------------
+
+
+def _hardware_inputs(tmp: Path) -> tuple[Path, Path]:
+    from hdrfringe.io.stereo_file import save_stereo_calibration
+    from hdrfringe.rig.simulated import RigGeometry
+    from tests.test_hardware_rig import H, W
+
+    cal = tmp / "fake.h5"
+    if not cal.exists():
+        save_stereo_calibration(cal, RigGeometry().stereo_calibration((W // 2, H // 2), (W, H)))
+    toml = _toml(tmp / "hw.toml", 68.0, 45.0, 187.0, (227.0, 68.0))
+    return cal, toml
+
+
+def _invoke(args: list[str], stdin: str = "") -> Any:
+    from typer.testing import CliRunner
+
+    from hdrfringe.cli import app
+
+    return CliRunner().invoke(app, ["acceptance", *args], input=stdin)
+
+
+#: The fake rig's grabs when it opens, and per position: 7 for the new reference image and one
+#: per frame of the 12 (3 pitches x 4 steps, conventional).
+PER_POSITION = 7 + 12
+
+
+def test_hardware_prompts_per_position_and_keeps_complete_ones(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """q at the third prompt: the two complete positions are written, each a capture folder
+    with its sidecar, evaluated (a plane: the fake camera's cloud is no artefact; what it
+    measures is not checked). Ctrl-C mid position 2: position 1 kept, exit 2."""
+    from hdrfringe.io.captures import read_capture_folder
+    from hdrfringe.tasks import acceptance as task
+    from tests.test_capture_poses import fake_rig
+    from tests.test_hardware_rig import OPEN_GRABS, InterruptingCamera
+
+    cal, toml = _hardware_inputs(tmp_path)
+    common = [
+        "--rig",
+        "hardware",
+        "--projector",
+        "screen:0",
+        "--camera",
+        "fake:0",
+        "-c",
+        str(cal),
+        "--file",
+        str(toml),
+        "--positions",
+        "plane:1-3",
+    ]
+    monkeypatch.setattr(task, "_acceptance_rig", fake_rig())
+    out = tmp_path / "live"
+    r = _invoke([*common, "-o", str(out)], stdin="\n\nq\n")
+    assert r.exit_code == 0, r.output
+    assert "position 3/3 (plane_03): place the artefact" in r.output
+    doc = json.loads((out / "acceptance.json").read_text())
+    assert [p["label"] for p in doc["positions"]] == ["plane_01", "plane_02"]
+    assert doc["setup"]["complete"] is False and doc["setup"]["stopped"] == "finished with q"
+    folders = sorted((out / "captures" / "conventional").iterdir())
+    assert [f.name for f in folders] == ["plane_01", "plane_02"]
+    assert len(read_capture_folder(folders[1]).frames) == 12
+    side = json.loads((folders[0] / "acceptance_position.json").read_text())
+    assert side["kind"] == "plane" and side["images"] == 12
+    # Ctrl-C in position 2 (the camera's gain as FakeCamera's: the fringes unclipped)
+    class Interrupting(InterruptingCamera):
+        def __init__(self, projector: Any, at: int) -> None:
+            super().__init__(projector, at)
+            self.gain = 1.0
+
+    at = OPEN_GRABS + PER_POSITION + 5
+    monkeypatch.setattr(task, "_acceptance_rig", fake_rig(Interrupting, at=at))
+    r = _invoke([*common, "--interval", "0", "-o", str(tmp_path / "stopped")])
+    assert r.exit_code == 2
+    assert "holds the 1 complete positions" in " ".join(r.stderr.split())
+    names = [p.name for p in (tmp_path / "stopped" / "captures" / "conventional").iterdir()]
+    assert names == ["plane_01"]
+    # q at the first prompt: nothing written
+    monkeypatch.setattr(task, "_acceptance_rig", fake_rig())
+    r = _invoke([*common, "-o", str(tmp_path / "none")], stdin="q\n")
+    assert r.exit_code == 2 and "before the first position; nothing written" in r.stderr
+    assert not (tmp_path / "none").exists()

@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import json
 import math
+import signal
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from numpy.typing import NDArray
 from hdrfringe.core import acceptance as acc
 from hdrfringe.core.acceptance_noise import ray_depth_std, spacing_std, sphere_fit_std
 from hdrfringe.core.stereo import StereoCalibration
-from hdrfringe.errors import CaptureFormatError, InputError
+from hdrfringe.errors import CaptureFormatError, HdrFringeError, InputError, StoppedError
 from hdrfringe.io.acceptance_file import (
     AcceptanceFile,
     BallBarArtefact,
@@ -44,7 +45,7 @@ from hdrfringe.io.acceptance_file import (
     SphereArtefact,
     load_acceptance_file,
 )
-from hdrfringe.tasks._progress import Progress, quiet
+from hdrfringe.tasks._progress import Progress, Say, quiet, silent
 
 __all__ = [
     "ACCEPTANCE_JSON",
@@ -56,6 +57,7 @@ __all__ = [
     "SIM_MPES",
     "AcceptanceReport",
     "PositionOutcome",
+    "acceptance_hardware",
     "acceptance_markdown",
     "acceptance_offline",
     "acceptance_sim",
@@ -551,7 +553,7 @@ def _evaluate(
         values, details, residuals = evaluate_cloud(
             xyz, kind, artefacts, expected=sidecar.get("expected"), point_std=point_std
         )
-    except acc.ArtefactNotFoundError as err:
+    except InputError as err:  # not found, too few points: a row without values
         return dict.fromkeys(_quantities(kind)), str(err), {}, None
     truth = sidecar.get("truth_camera")
     if truth:
@@ -755,8 +757,15 @@ def _plot_quantities(report: AcceptanceReport, path: Path) -> None:
             ax.axhline(-mpe, color="k", ls="--", lw=1)
             ax.axhline(0.0, color="0.7", lw=0.5)
         ax.set_xticks(range(len(labels)), labels, rotation=60, fontsize=7)
-    axes[0, 0].legend(fontsize=7)
-    fig.subplots_adjust(left=0.07, right=0.98, top=0.95, bottom=0.14, hspace=0.55, wspace=0.2)
+    seen: dict[str, Any] = {}
+    for ax in axes.ravel():
+        for handle, name in zip(*ax.get_legend_handles_labels(), strict=True):
+            seen.setdefault(name, handle)
+    if seen:
+        fig.legend(
+            list(seen.values()), list(seen), loc="upper center", ncol=min(len(seen), 8), fontsize=7
+        )
+    fig.subplots_adjust(left=0.07, right=0.98, top=0.9, bottom=0.14, hspace=0.55, wspace=0.2)
     fig.savefig(path, dpi=80)
     plt.close(fig)
 
@@ -979,12 +988,11 @@ def _plan(size: tuple[int, int], glossy: bool, file: Path | None) -> tuple[Any, 
     return plan, _artefacts(file, plan)
 
 
-def _chosen(plan: Any, positions: str | None, artefacts: Artefacts) -> list[Any]:
-    counts = {
-        "sphere": len(plan.spheres),
-        "ball_bar": len(plan.ball_bars),
-        "plane": len(plan.planes),
-    }
+def _wanted(
+    positions: str | None, counts: Mapping[str, int], artefacts: Artefacts
+) -> list[tuple[str, int]]:
+    """The positions to run: ``--positions``, or every position of the artefacts the file
+    calibrates; a kind named that the file lacks is refused."""
     wanted = parse_positions(positions, counts)
     if positions is None or positions.strip() in ("", "all"):
         wanted = [(k, i) for k, i in wanted if artefacts.has(k)]
@@ -996,8 +1004,17 @@ def _chosen(plan: Any, positions: str | None, artefacts: Artefacts) -> list[Any]
             )
     if not wanted:
         raise InputError(f"no positions to run: {artefacts.source} calibrates no artefact")
+    return wanted
+
+
+def _chosen(plan: Any, positions: str | None, artefacts: Artefacts) -> list[Any]:
+    counts = {
+        "sphere": len(plan.spheres),
+        "ball_bar": len(plan.ball_bars),
+        "plane": len(plan.planes),
+    }
     by = {(p.kind, p.index): p for p in plan.positions}
-    return [by[w] for w in wanted]
+    return [by[w] for w in _wanted(positions, counts, artefacts)]
 
 
 def acceptance_sim(
@@ -1316,3 +1333,267 @@ positions (acceptance FOLDER... --calibration CAL --file acceptance.toml -o OUT)
     with staged_output_dir(checked, force=force) as tmp:
         _write_report(tmp, report)
     return report
+
+
+# --------------------------------------------------------------------------------- live
+
+
+#: The guideline's positions per artefact (the virtual rig's plan has the same counts).
+GUIDELINE_COUNTS = {"sphere": 10, "ball_bar": 7, "plane": 6}
+
+
+def _acceptance_rig(rig_config: Path | None, given: Collection[str], **options: Any) -> Any:
+    """The (not yet open) hardware rig and its resolved configuration: the one place this
+    task builds it (:func:`~hdrfringe.tasks.capture.hardware_rig`)."""
+    from hdrfringe.tasks.capture import hardware_rig
+
+    return hardware_rig(rig_config, given, **options)
+
+
+@dataclass
+class _Live:
+    """A live run's state: the positions written, and why it stopped early."""
+
+    outcomes: list[PositionOutcome] = field(default_factory=list)
+    stopped: str | None = None
+    code: int = 0
+    failure: HdrFringeError | None = None
+    dropped: bool = True
+
+
+def acceptance_hardware(
+    output: Path,
+    rig_config: Path | None,
+    hardware: Mapping[str, Any],
+    *,
+    wait: Callable[[int, int, str], bool],
+    calibration: Path | None,
+    file: Path | None,
+    given: Collection[str] = (),
+    strategy: str = "conventional",
+    positions: str | None = None,
+    force: bool = False,
+    say: Say = silent,
+) -> AcceptanceReport:
+    """The acceptance test on a hardware rig: the user places the artefact at each position.
+
+    Before each position ``wait(number, total, label)`` returns once the artefact is in place
+    (False finishes); the strategy captures vertical fringe sets (pitches as ``capture-poses``
+    takes them, :func:`~hdrfringe.tasks.capture_poses.board_pitches`), the position's capture
+    folder is written with :data:`POSITION_FILE` under ``OUT/captures/STRATEGY/POSITION`` and
+    evaluated (no nominal centres: the artefact is searched in the whole cloud). Ctrl-C,
+    SIGTERM, SIGHUP or an error mid-run keeps the complete positions (their report written)
+    and raises :class:`~hdrfringe.errors.StoppedError`; before the first position nothing is
+    written.
+
+    Parameters
+    ----------
+    output : Path
+        The result folder.
+    rig_config : Path or None
+        The rig configuration file.
+    hardware : mapping
+        Hardware options by Python name (:data:`~hdrfringe.tasks.capture.RIG_OPTION_KEYS`).
+    wait : callable
+        ``wait(number, total, label)``.
+    calibration : Path
+        The stereo calibration of this camera and projector (required).
+    file : Path
+        The acceptance file (required).
+    given : collection of str
+        The hardware options given explicitly.
+    strategy : str
+        One :data:`~hdrfringe.tasks.compare.METHODS` name.
+    positions : str, optional
+        :func:`parse_positions` over the guideline's 10/7/6 (default: every position of the
+        artefacts the file calibrates).
+    force : bool
+        Replace an existing output folder.
+    say : callable
+        Called with the line saying the rig is open and one line per position.
+
+    Returns
+    -------
+    AcceptanceReport
+
+    Examples
+    --------
+    >>> acceptance_hardware(Path("out"), None, {}, wait=lambda n, t, s: True,
+    ...                     calibration=None, file=None)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: --rig hardware needs --calibration CAL and --file acceptance.toml
+    """
+    from hdrfringe.io.results import check_output_against_inputs, check_output_dir
+
+    if calibration is None or file is None:
+        raise InputError("--rig hardware needs --calibration CAL and --file acceptance.toml")
+    (method,) = _methods([strategy])
+    artefacts = _artefacts(file, None)
+    wanted = _wanted(positions, GUIDELINE_COUNTS, artefacts)
+    cal = _load_stereo(calibration)
+    rig, config = _acceptance_rig(rig_config, given, **hardware)
+    check_output_against_inputs(output, [rig_config, config.gamma_file, calibration, file])
+    checked = check_output_dir(output, force)
+    info = {"rig": "hardware", "calibration": str(calibration), "strategy": method.name}
+    return _run_live(checked, force, (rig, config, cal), method, wanted, artefacts, wait, say, info)
+
+
+def _run_live(
+    checked: Any,
+    force: bool,
+    devices: tuple[Any, Any, StereoCalibration],
+    method: Any,
+    wanted: Sequence[tuple[str, int]],
+    artefacts: Artefacts,
+    wait: Callable[[int, int, str], bool],
+    say: Say,
+    info: dict[str, Any],
+) -> AcceptanceReport:
+    """The staged part of :func:`acceptance_hardware`."""
+    from hdrfringe.core.programs import fringe_specs
+    from hdrfringe.io.results import staged_output_dir
+    from hdrfringe.tasks.capture import announce_line
+    from hdrfringe.tasks.capture_poses import board_pitches
+
+    live = _Live()
+    rig, config, _ = devices
+    with rig, staged_output_dir(checked, force=force) as tmp:
+        pitches = board_pitches(rig.projector.width, rig.projector.height)
+        specs = fringe_specs("sinusoidal", STEPS, list(pitches))
+        say(announce_line(method.strategy, rig, config))
+        for number, (kind, index) in enumerate(wanted, 1):
+            label = f"{kind}_{index:02d}"
+            sidecar = {
+                "kind": kind,
+                "index": index,
+                "label": label,
+                "description": "",
+                "strategy": method.name,
+            }
+            if not _live_step(
+                live,
+                number,
+                len(wanted),
+                sidecar,
+                wait,
+                devices,
+                method,
+                specs,
+                artefacts,
+                tmp,
+                say,
+            ):
+                break
+        if not live.outcomes:
+            raise HdrFringeError(
+                f"acceptance {live.stopped or 'stopped'} before the first position; nothing written"
+            )
+        info.update(pitches=list(pitches), positions=len(live.outcomes))
+        info["complete"] = len(live.outcomes) == len(wanted)
+        if live.stopped:
+            info["stopped"] = live.stopped
+        report = AcceptanceReport(
+            checked, live.outcomes, _summaries(live.outcomes, artefacts), artefacts, info
+        )
+        _write_report(tmp, report)
+    _raise_if_stopped(live, checked)
+    return report
+
+
+def _live_step(
+    live: _Live,
+    number: int,
+    total: int,
+    sidecar: dict[str, Any],
+    wait: Callable[[int, int, str], bool],
+    devices: tuple[Any, Any, StereoCalibration],
+    method: Any,
+    specs: Sequence[Any],
+    artefacts: Artefacts,
+    tmp: Path,
+    say: Say,
+) -> bool:
+    """One position live; False when the run ends (q, a stop, an error after a position)."""
+    from hdrfringe.hardware.rig import Recorder
+    from hdrfringe.io.results import SignalStop, deferred_signals, signals_as_interrupt
+    from hdrfringe.pipeline import measure
+    from hdrfringe.tasks.capture import live_record, stop_reason, write_capture_output
+
+    rig, config, cal = devices
+    label = sidecar["label"]
+    try:
+        with signals_as_interrupt():
+            if not wait(number, total, label):
+                live.stopped = "finished with q"
+                return False
+            rig.rebaseline()  # the artefact moved: a new reference image of the screen
+            start = len(rig.log)
+            recorder = Recorder(rig)
+            res = measure(
+                recorder,
+                cal,
+                strategy=method.strategy,
+                params=dict(method.params),
+                specs=specs,
+                label=label,
+            )
+            images = sum(r.images_captured for r in res.strategy_results)
+            outcome = _outcome(res, sidecar, artefacts, cal, images)
+            with deferred_signals(honour=False) as held:
+                caps, state, log = live_record(
+                    recorder,
+                    rig,
+                    config,
+                    method.strategy,
+                    label,
+                    entries={"acceptance_position": label},
+                    start=start,
+                )
+                folder = tmp / "captures" / method.name / label
+                folder.mkdir(parents=True)
+                write_capture_output(folder, caps, state, log)
+                text = json.dumps({**sidecar, "images": images}, indent=1)
+                (folder / POSITION_FILE).write_text(text + "\n", encoding="utf-8")
+                live.outcomes.append(outcome)
+            say(
+                f"{label}: {images} images, "
+                + ", ".join(f"{k} {_fmt(v)} mm" for k, v in outcome.values.items())
+                + (f" ({outcome.note})" if outcome.note else "")
+            )
+            if held() == signal.SIGINT:
+                raise KeyboardInterrupt
+            if held() is not None:
+                raise SignalStop(int(held() or 0))
+    except KeyboardInterrupt as stop:
+        if not live.outcomes:
+            raise
+        live.stopped, live.code = stop_reason(stop)
+        live.dropped = live.outcomes[-1].label != label
+        return False
+    except HdrFringeError as err:
+        if not live.outcomes:
+            raise
+        live.stopped, live.failure = f"stopped by an error at {label}", err
+        return False
+    return True
+
+
+def _raise_if_stopped(live: _Live, output: Path) -> None:
+    """A run stopped by a signal or an error: its complete positions are written; say so."""
+    if live.failure is None and not live.code:
+        return
+    what = (
+        f"{len(live.outcomes)} complete positions ({live.outcomes[0].label} .. "
+        f"{live.outcomes[-1].label})"
+    )
+    why = (
+        live.stopped
+        if live.failure is None
+        else (f"{live.stopped}: {' '.join(str(live.failure).split())}")
+    )
+    raise StoppedError(
+        f"acceptance {why}; {output} holds the {what} evaluated before it"
+        + (", the position being captured was dropped" if live.dropped else ""),
+        live.code or 2,
+    )
