@@ -702,8 +702,8 @@ def acceptance_markdown(report: AcceptanceReport) -> str:
         "## Positions",
         "",
         "| strategy | position | where | images | values (mm) | predicted std (mm) | "
-        "points | outliers | note |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "points | outliers | saturated | note |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for o in report.outcomes:
         vals = ", ".join(f"{k} {_fmt(v)}" for k, v in o.values.items())
@@ -711,9 +711,14 @@ def acceptance_markdown(report: AcceptanceReport) -> str:
         lines.append(
             f"| {o.strategy} | {o.label} | {o.description} | {o.images or '—'} | {vals} | "
             f"{std or '—'} | {o.details.get('points', '—')} | "
-            f"{o.details.get('outliers', '—')} | {o.note} |"
+            f"{o.details.get('outliers', '—')} | {_percent(o.details.get('saturated_fraction'))} | "
+            f"{o.note} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _percent(value: float | None) -> str:
+    return "—" if value is None else f"{100 * value:.2f} %"
 
 
 def _mpe_text(m: acc.Mpe) -> str:
@@ -918,6 +923,8 @@ def _outcome(
     if unc is not None and unc.phase_std is not None and pitch is not None:
         std = _point_std(xyz, unc.phase_std, pitch, cal)
     values, note, details, residuals = _evaluate(xyz, sidecar, artefacts, std)
+    # pixels with a clipped shift (invalid): on the artefact, the dark base never clips
+    details["saturated_fraction"] = res.metrics.saturated_fraction
     return PositionOutcome(
         sidecar["strategy"],
         sidecar["label"],
