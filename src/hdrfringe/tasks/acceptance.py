@@ -22,7 +22,6 @@ The tasks print nothing: the front end gives ``progress``.
 
 from __future__ import annotations
 
-import json
 import math
 import signal
 import time
@@ -37,6 +36,7 @@ from numpy.typing import NDArray
 from hdrfringe.core import acceptance as acc
 from hdrfringe.core.acceptance_noise import ray_depth_std, spacing_std, sphere_fit_std
 from hdrfringe.core.stereo import StereoCalibration
+from hdrfringe.core.strict_json import dumps, loads_strict, plain
 from hdrfringe.errors import CaptureFormatError, HdrFringeError, InputError, StoppedError
 from hdrfringe.io.acceptance_file import (
     AcceptanceFile,
@@ -278,23 +278,8 @@ class Artefacts:
         out["mpe"] = {q: mpe(getattr(self.mpes, q)) for q in ("pf", "ps", "sd", "f")}
         for kind in KINDS:
             art = getattr(self, kind)
-            out[kind] = None if art is None else _plain(art.__dict__)
+            out[kind] = None if art is None else plain(art.__dict__)
         return out
-
-
-def _plain(value: Any) -> Any:
-    """Tuples, numpy scalars and arrays as JSON types (non-finite floats as None)."""
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
 
 
 def _artefacts(file: Path | None, plan: Any) -> Artefacts:
@@ -368,7 +353,7 @@ class PositionOutcome:
         -------
         dict
         """
-        return _plain(
+        return plain(
             {
                 "strategy": self.strategy,
                 "label": self.label,
@@ -627,7 +612,7 @@ class AcceptanceReport:
         -------
         dict
         """
-        return _plain(
+        return plain(
             {
                 "setup": self.setup,
                 "artefacts": self.artefacts.to_dict(),
@@ -797,7 +782,7 @@ def _write_residuals(outcome: PositionOutcome, folder: Path) -> None:
 
 def _write_report(tmp: Path, report: AcceptanceReport) -> None:
     """acceptance.json, acceptance.md and the plots into the staging folder."""
-    text = json.dumps(report.to_dict(), indent=1, allow_nan=False)
+    text = dumps(report.to_dict(), indent=1)
     (tmp / ACCEPTANCE_JSON).write_text(text + "\n", encoding="utf-8")
     (tmp / ACCEPTANCE_MD).write_text(acceptance_markdown(report), encoding="utf-8")
     _plot_quantities(report, tmp / "quantities.png")
@@ -853,7 +838,7 @@ def _sidecar(position: Any, strategy: str, rig: Any) -> dict[str, Any]:
     else:
         expected = {"centre_mm": truth.centre_mm, "normal": truth.normal}
         camera = dict(expected)
-    return _plain(
+    return plain(
         {
             "kind": position.kind,
             "index": position.index,
@@ -1200,7 +1185,7 @@ def _keep(folder: Path, captures: Any, sidecar: Mapping[str, Any]) -> None:
 
     folder.parent.mkdir(parents=True, exist_ok=True)
     write_capture_folder(folder, captures)
-    (folder / POSITION_FILE).write_text(json.dumps(sidecar, indent=1) + "\n", encoding="utf-8")
+    (folder / POSITION_FILE).write_text(dumps(sidecar, nonfinite="error") + "\n", encoding="utf-8")
 
 
 # --------------------------------------------------------------------------------- offline
@@ -1240,8 +1225,8 @@ def read_sidecar(folder: Path) -> dict[str, Any]:
     if not path.is_file():
         raise CaptureFormatError(f"{folder}: no {POSITION_FILE}; {fix}")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        data = loads_strict(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
         raise CaptureFormatError(f"{path}: not readable JSON ({err}); {fix}") from None
     if not isinstance(data, dict) or data.get("kind") not in KINDS:
         raise CaptureFormatError(f"{path}: 'kind' must be sphere, ball_bar or plane; {fix}")
@@ -1560,7 +1545,7 @@ def _live_step(
                 folder = tmp / "captures" / method.name / label
                 folder.mkdir(parents=True)
                 write_capture_output(folder, caps, state, log)
-                text = json.dumps({**sidecar, "images": images}, indent=1)
+                text = dumps({**sidecar, "images": images}, nonfinite="error")
                 (folder / POSITION_FILE).write_text(text + "\n", encoding="utf-8")
                 live.outcomes.append(outcome)
             say(
