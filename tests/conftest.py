@@ -6,6 +6,7 @@ import contextlib
 import io
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import traceback
@@ -356,3 +357,18 @@ def without_dac_override() -> list[str]:
     if int(probe.stdout.split()[-1], 16) & (1 << 1):  # bit 1: CAP_DAC_OVERRIDE
         pytest.skip("setpriv ran but CAP_DAC_OVERRIDE stayed in the effective set")
     return DROP_DAC
+
+
+@pytest.fixture
+def sigint_is_ctrl_c() -> Iterator[None]:
+    """SIGINT raises ``KeyboardInterrupt`` in this process for the test (Python's own handler).
+
+    A process started in the background by a shell (CI may be), and pytest-xdist's workers,
+    can inherit SIGINT ignored; a test that sends itself SIGINT to stand for Ctrl-C would then
+    see nothing happen.
+    """
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
