@@ -750,7 +750,9 @@ SCHEDULER_TIMEOUT_S = 10.0
 async def _scheduler_identity(address: str, timeout: float) -> Any:
     from distributed.comm import connect
 
-    comm = await connect(address, timeout=timeout)
+    # Dask's connect retries a refused connection until its own timeout: give it longer than
+    # check_scheduler's, so the caller's deadline is the one that ends the wait (and says so).
+    comm = await connect(address, timeout=timeout + 5.0)
     try:
         await comm.write({"op": "identity", "reply": True})
         return await comm.read()
