@@ -1528,10 +1528,10 @@ def _run_budget(
     return out
 
 
-def _unreached_of(
-    res: StrategyResult, region: NDArray[np.bool_], bits: int
-) -> dict[str, Any]:
-    """:func:`_unreached` from an adapted set's result."""
+def _unreached_of(res: StrategyResult, region: NDArray[np.bool_], bits: int) -> dict[str, Any]:
+    """What the budget could not reach of an adapted set, over ``region`` (the pixels the
+    mapping decoded or saw clip): still clipped, below the modulation threshold, decoded
+    without a fringe order."""
     absolute = res.absolute_phase
     assert absolute is not None
     lost = region & ~np.isfinite(absolute)
@@ -1977,6 +1977,7 @@ ADAPTIVE_METRICS = (
     "images_per_step",
     "sets_per_step",
     "seconds_per_step",
+    "budget",
 )
 
 
@@ -1992,7 +1993,9 @@ def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
     -------
     dict
         Orientation -> the :data:`ADAPTIVE_METRICS` entries of its adapted set (the mapping
-        is counted with the first adapted set); empty for the other strategies.
+        is counted with the first adapted set; ``budget`` only with ``max_images``, alone
+        where the budget's first set clipped nowhere and the conventional sets followed);
+        empty for the other strategies.
 
     Examples
     --------
@@ -2000,9 +2003,9 @@ def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
     {}
     """
     return {
-        r.spec.orientation: {k: json_safe(r.details[k]) for k in ADAPTIVE_METRICS}
+        r.spec.orientation: {k: json_safe(r.details[k]) for k in ADAPTIVE_METRICS if k in r.details}
         for r in results
-        if r.strategy == "adaptive" and "images_per_step" in r.details
+        if r.strategy == "adaptive" and ("images_per_step" in r.details or "budget" in r.details)
     }
 
 
