@@ -132,7 +132,7 @@ def test_the_budget_is_kept_and_what_it_missed_is_reported(specular: dict[str, A
     report whose counts are not the pixels actually left without a phase, and a longer
     exposure that is not reported."""
     for budget in (12, 16):
-        res, err = specular[budget]["res"], specular[budget]["err"]
+        res = specular[budget]["res"]
         b = res[-1].details["budget"]
         assert sum(r.images_captured for r in res) == b["images"] == budget
         assert b["over_budget"] == 0 and b["epipolar"]
