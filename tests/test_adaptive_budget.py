@@ -177,9 +177,7 @@ def test_the_exposure_from_the_mapping_meets_its_closed_form() -> None:
     shape = (40, 50)
     gain = np.full(shape, 0.1)  # the dim surface: modulation 10.75 DN at 255
     ambient = np.full(shape, 2.0)
-    mp = adaptive_module._Mapping(
-        {}, {}, {}, {}, {}, gain.copy(), ambient, np.zeros(shape, bool)
-    )
+    mp = adaptive_module._Mapping({}, {}, {}, {}, {}, gain.copy(), ambient, np.zeros(shape, bool))
     first = SPECS[0]
     target = default_target_modulation(4, 8)
     got = adaptive_module._exposure_from_mapping(mp, first, 8, 0.015, 10.0)
