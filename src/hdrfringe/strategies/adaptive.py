@@ -726,6 +726,9 @@ class _Run:
     seconds: dict[str, float]
     #: the image budget (``max_images``); None: none
     budget: _Budget | None = None
+    #: the exposure the top-up shortens (None: the adapted sets'); the budget's raised
+    #: exposure is not what its highlight clipped at, the mapping's is
+    topup_reference_ms: float | None = None
 
     def afford(self, step: str) -> bool:
         """Whether one more set of ``step`` fits the budget (and charge it); always without."""
@@ -1161,6 +1164,8 @@ def _topup_pass(
     if run.params.topup and worth:
         exposure_ms = run.exposure_ms
         reference = exposure_ms if exposure_ms is not None else run.rig.camera_settings.exposure_ms
+        if run.topup_reference_ms is not None:
+            reference = run.topup_reference_ms
         max_sets = TOPUP_MAX_SETS
         if run.budget is not None:
             max_sets = min(max_sets, run.budget.left // run.first.steps)
@@ -1499,6 +1504,7 @@ def _run_budget(
         t = _exposure_from_mapping(mp, first, run.bits, float(params.margin), float(reference))
         if t != reference:
             scale, run.exposure_ms = t / float(reference), t
+            run.topup_reference_ms = float(reference)
     info["exposure_ms"] = run.exposure_ms
     proj = _plan_projector_map(run, mapping, scale)
     owner = min(finest.values())
