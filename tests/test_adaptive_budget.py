@@ -128,9 +128,10 @@ def test_the_budget_is_kept_and_what_it_missed_is_reported(specular: dict[str, A
     """12 images: the probe (1024 px, full MIGL; the highlight clips in it), the 64 px set,
     one adapted set at the exposure chosen from the mapping; no top-up (it does not fit),
     which the report names, with the highlight's pixels counted as still clipped. 16 images:
-    the top-up fits and covers more. Rejects a budget that is ignored (a top-up at 12), a
-    report whose counts are not the pixels actually left without a phase, and a longer
-    exposure that is not reported."""
+    the top-up fits and covers more, at 1/16 of the mapping's exposure (where the highlight
+    clipped). Rejects a budget that is ignored (a top-up at 12), a report whose counts are not
+    the pixels actually left without a phase, a longer exposure that is not reported, and a
+    top-up that shortens the raised exposure instead."""
     for budget in (12, 16):
         res = specular[budget]["res"]
         b = res[-1].details["budget"]
@@ -148,6 +149,7 @@ def test_the_budget_is_kept_and_what_it_missed_is_reported(specular: dict[str, A
     sixteen = specular[16]["res"][-1].details
     assert "topup" in twelve["budget"]["skipped"] and twelve["images_per_step"]["topup"] == 0
     assert sixteen["images_per_step"]["topup"] == 4 and "topup" not in sixteen["budget"]["skipped"]
+    assert sixteen["topup"]["exposures_ms"] == [10.0 / 16]  # the mapping's exposure, shortened
     assert sixteen["budget"]["unreached"]["clipped"] < twelve["budget"]["unreached"]["clipped"]
 
 
