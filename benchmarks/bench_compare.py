@@ -5,7 +5,8 @@ scenes, every method of :data:`hdrfringe.tasks.compare.METHODS`; ``--resolution 
 for a quick look, ``--scenes specular_part --strategies lpa-1,adaptive`` to limit it (the
 methods still run in the table's order on one rig per scene), ``-o DIR`` to also keep the
 table, JSON and plot as ``hdrfringe compare`` writes them). It prints the markdown table of
-docs/compare.md and the wall time.
+docs/compare.md, the budget rows (issue 26) beside the best other row with full coverage
+(``budget_summary``), and the wall time.
 """
 
 from __future__ import annotations
@@ -16,9 +17,10 @@ import time
 from pathlib import Path
 
 from hdrfringe.tasks.compare import (
+    budget_summary,
     compare,
     compare_markdown,
-    fringe_specs,
+    compare_specs,
     parse_resolution,
     write_compare,
 )
@@ -59,12 +61,16 @@ def main(argv: list[str] | None = None) -> int:
     )
     settings = {
         "resolution": "648x494" if size is None else f"{size[0]}x{size[1]}",
-        "pitches_px": [s.pitch_px for s in fringe_specs(args.pitch)],
+        "pitches_px": [s.pitch_px for s in compare_specs(args.pitch)],
         "steps": 4,
         "seed": args.seed,
     }
     header = "Settings: " + ", ".join(f"{k} {v}" for k, v in settings.items())
     print(compare_markdown(rows, header=header))
+    lines = budget_summary(rows)
+    if lines:  # issue 26: the budget rows beside the best other full-coverage row
+        print("\nBudget rows (best other: lowest std in order at >= 99.9 % coverage):")
+        print("\n".join(f"- {line}" for line in lines))
     print(f"total {time.perf_counter() - t0:.1f} s")
     if args.output is not None:
         write_compare(args.output, rows, settings, force=True)

@@ -199,7 +199,8 @@ def test_the_cli_method_list_and_options_are_the_registry() -> None:
                              "--adaptive-margin", "--adaptive-iterations", "--mapping-migl",
                              "--adaptive-exposure-ms", "--adaptive-auto-exposure",
                              "--adaptive-boost", "--adaptive-topup", "--adaptive-epipolar",
-                             "--adaptive-full-mapping", "--adaptive-bias-correction"}  # fmt: skip
+                             "--adaptive-full-mapping", "--adaptive-bias-correction",
+                             "--max-images"}  # fmt: skip
     for o in cli_options():
         p = params[o.dest]
         assert o.option in p.opts and p.default == o.default and p.help.startswith(o.help)

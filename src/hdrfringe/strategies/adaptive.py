@@ -52,11 +52,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from hdrfringe.core._validation import json_safe, saturation_count
+from hdrfringe.core._validation import full_scale, json_safe, saturation_count
 from hdrfringe.core.captures import CameraSettings
 from hdrfringe.core.frames import PixelwiseFringeFrame
 from hdrfringe.core.patterns import FringeSpec
-from hdrfringe.core.phase import decode_set
+from hdrfringe.core.phase import decode_set, default_min_modulation
 from hdrfringe.core.saturation.adaptive_map import (
     boosted_map,
     epipolar_rows,
@@ -73,12 +73,14 @@ from hdrfringe.core.saturation.adaptive_map import (
     safe_migl,
     sample_map,
 )
+from hdrfringe.core.saturation.tolerant import tolerant_phase
 from hdrfringe.core.stereo import StereoCalibration
 from hdrfringe.core.unwrap import unwrap_spatial, unwrap_temporal
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.rig.base import Rig
 from hdrfringe.strategies.base import (
     CapturedSet,
+    DecoderSettings,
     FunctionStrategy,
     MetricsContext,
     RunContext,
@@ -88,7 +90,11 @@ from hdrfringe.strategies.base import (
     default_min_migl,
     register,
 )
-from hdrfringe.strategies.exposure import choose_exposure
+from hdrfringe.strategies.exposure import (
+    choose_exposure,
+    default_target_modulation,
+    detection_modulation,
+)
 
 __all__ = [
     "ADAPTIVE_METRICS",
@@ -154,6 +160,14 @@ ORDER_RING_AGREE = 0.5
 #: a scene bright all over clips far more (the checkerboard's white squares 53 % at 648 x 494,
 #: 62 % at 160 x 120; the plate under 600 lx all of it) and falls back to the low-MIGL mapping.
 FULL_MAPPING_MAX_CLIPPED = 0.05
+
+#: Budget (``max_images``): the exposure chosen from the mapping may clip at most this
+#: fraction of the mapped pixels at the lowest usable MIGL (their shifts then go to the
+#: saturation-tolerant decoder, or stay unreached).
+BUDGET_CLIP_FRACTION = 0.0005
+#: Budget: the longest exposure chosen from the mapping, as a multiple of the rig's
+#: (:func:`~hdrfringe.strategies.exposure.choose_exposure`'s default limit).
+BUDGET_MAX_EXPOSURE_RATIO = 16.0
 
 ORIENTATIONS = ("vertical", "horizontal")
 
@@ -221,6 +235,7 @@ def _measure_mapping(
     auto: bool,
     first_images: NDArray | None = None,
     trial: tuple[NDArray, float] | None = None,
+    allow_bright: bool = True,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -290,7 +305,8 @@ def _measure_mapping(
     # pass 2, only where the low ladder left much of the field dark: the full MIGL, merged
     bright: float | None = None
     dark = ~decodes & ~saturated
-    if auto and m_next < float(template.migl) and dark.mean() > BRIGHT_MIN_FRACTION:
+    wanted = auto and m_next < float(template.migl) and dark.mean() > BRIGHT_MIN_FRACTION
+    if wanted and allow_bright:
         bright = float(template.migl)
         _merge_full_migl_ladder(rig, template, pitches, images, index, response, settings)
 
@@ -463,6 +479,7 @@ def _capture_topup(
     spec: FringeSpec,
     need: NDArray[np.bool_],
     reference_ms: float | None,
+    max_sets: int = TOPUP_MAX_SETS,
 ) -> tuple[list[tuple[float, NDArray]], str | None]:
     """The top-up sets: ``spec`` at its full MIGL at exposures short enough for ``need``.
 
@@ -475,7 +492,7 @@ def _capture_topup(
     bits = rig.camera_bit_depth
     t = float(f"{reference_ms / TOPUP_FIRST_DIVISOR:.4g}")
     out: list[tuple[float, NDArray]] = []
-    for _ in range(TOPUP_MAX_SETS):
+    for _ in range(max_sets):
         try:
             imgs = rig.capture(spec.frames(), CameraSettings(exposure_ms=t))
         except HdrFringeError as exc:  # e.g. a replayed folder: its exposures are fixed
@@ -675,6 +692,24 @@ def _plan_ladders(
 
 
 @dataclass
+class _Budget:
+    """The images a run may still capture (``max_images``) and the steps it had to skip."""
+
+    limit: int
+    left: int
+    skipped: list[str] = field(default_factory=list)
+
+    def afford(self, step: str, images: int) -> bool:
+        """Charge ``images`` for one set of ``step`` if they fit; else record the skip."""
+        if images <= self.left:
+            self.left -= images
+            return True
+        if step not in self.skipped:
+            self.skipped.append(step)
+        return False
+
+
+@dataclass
 class _Run:
     """One adaptive run's settled inputs: sets, parameters, exposure and ladders (internal)."""
 
@@ -689,6 +724,15 @@ class _Run:
     finest: dict[str, int]
     pitches: dict[str, list[float]]
     seconds: dict[str, float]
+    #: the image budget (``max_images``); None: none
+    budget: _Budget | None = None
+    #: the exposure the top-up shortens (None: the adapted sets'); the budget's raised
+    #: exposure is not what its highlight clipped at, the mapping's is
+    topup_reference_ms: float | None = None
+
+    def afford(self, step: str) -> bool:
+        """Whether one more set of ``step`` fits the budget (and charge it); always without."""
+        return self.budget is None or self.budget.afford(step, self.first.steps)
 
     @property
     def first(self) -> FringeSpec:
@@ -738,9 +782,12 @@ class _MappingOutcome:
     full_clipped: float | None
 
 
-def _map_camera_to_projector(run: _Run, m0: float) -> _MappingOutcome:
+def _map_camera_to_projector(
+    run: _Run, m0: float, probe: NDArray | None = None, allow_bright: bool = True
+) -> _MappingOutcome:
     """Step 1: the mapping (at a low MIGL, or at the full one where only a highlight clips in
-    its first set): response, coordinates, fringe orders."""
+    its first set): response, coordinates, fringe orders. ``probe``: the first set already
+    captured at the full MIGL (the budget's; the full-MIGL mapping then)."""
     t0 = time.perf_counter()
     first, pitches, settings = run.first, run.pitches, run.settings
     trial: list[float] = []  # a full-MIGL first set that was not kept (counted)
@@ -748,10 +795,10 @@ def _map_camera_to_projector(run: _Run, m0: float) -> _MappingOutcome:
     full_mapped = False
     full_clipped: float | None = None
     mp: _Mapping | None = None
-    if run.params.full_mapping:
+    if run.params.full_mapping or probe is not None:
         o0 = next(iter(pitches))
         spec0 = FringeSpec(first.pattern, first.steps, pitches[o0][0], o0, first.imin, first.migl)  # type: ignore[arg-type]
-        imgs0 = _capture(run.rig, spec0.frames(), settings)
+        imgs0 = _capture(run.rig, spec0.frames(), settings) if probe is None else probe
         full_clipped = float(np.mean(saturation_count(imgs0, run.bits) > 0))
         if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
             m0, full_mapped = float(first.migl), True
@@ -769,6 +816,7 @@ def _map_camera_to_projector(run: _Run, m0: float) -> _MappingOutcome:
             settings,
             auto=run.params.mapping_migl is None,
             trial=trial_images,
+            allow_bright=allow_bright,
         )
     u = mp.coords["vertical"]
     v = mp.coords["horizontal"] if run.calib is None else epipolar_rows(run.calib, u)
@@ -827,14 +875,15 @@ class _Projection:
         return sample_map(pmap, self.uf, self.vf)
 
 
-def _plan_projector_map(run: _Run, mapping: _MappingOutcome) -> _Projection:
-    """Step 2: per camera pixel the highest safe MIGL, carried to the projector."""
+def _plan_projector_map(run: _Run, mapping: _MappingOutcome, scale: float = 1.0) -> _Projection:
+    """Step 2: per camera pixel the highest safe MIGL, carried to the projector. ``scale``:
+    the adapted sets' exposure over the mapping's (the response scales with it)."""
     t0 = time.perf_counter()
     first, mp, u, v = run.first, mapping.mp, mapping.u, mapping.v
     full_p = float(first.migl)
     base_levels = safe_migl(
-        mp.gain,
-        mp.ambient,
+        mp.gain * scale,
+        mp.ambient * scale,
         run.bits,
         margin=run.params.margin,
         imin=first.imin,
@@ -842,6 +891,8 @@ def _plan_projector_map(run: _Run, mapping: _MappingOutcome) -> _Projection:
     )
     # pixels clipped in the mapping: their response is unknown, start them half way down
     base_levels[mp.saturated] = first.imin + (mapping.m0 - first.imin) / 2.0
+    if scale > 1.0:  # a longer exposure than the mapping's: those clip at any higher level
+        base_levels[mp.saturated] = default_min_migl(first)
     mapped = np.isfinite(u) & np.isfinite(v)
     if not mapped.any():
         raise InputError(
@@ -857,7 +908,7 @@ def _plan_projector_map(run: _Run, mapping: _MappingOutcome) -> _Projection:
         vf,
         (run.rig.projector.height, run.rig.projector.width),
         footprint_px(u, v) + float(run.params.blur_px),
-        np.where(np.isfinite(mp.ambient), mp.ambient, 0.0),
+        np.where(np.isfinite(mp.ambient), mp.ambient * scale, 0.0),
         mapped,
         base_levels,
     )
@@ -981,7 +1032,7 @@ def _refit_pass(proj: _Projection, st: _AdaptedSet, full_mapped: bool) -> None:
         new_levels, _ = lowered_where_clipped(
             new_levels, st.composite, got, proj.ambient, bits, margin=margin, imin=imin
         )
-        if np.nanmax(np.abs(new_levels - st.levels)) >= 1.0:
+        if np.nanmax(np.abs(new_levels - st.levels)) >= 1.0 and run.afford("refit"):
             new_map = proj.build(new_levels)
             imgs = proj.shoot(spec, new_map)
             clip = saturation_count(imgs, bits) > 0
@@ -1011,7 +1062,11 @@ def _check_passes(proj: _Projection, st: _AdaptedSet, full_mapped: bool) -> None
     t0 = time.perf_counter()
     run, bits, full_p = proj.run, proj.run.bits, proj.full
     passes = 0
-    while st.remaining.any() and passes < (0 if full_mapped else run.params.iterations):
+    while (
+        st.remaining.any()
+        and passes < (0 if full_mapped else run.params.iterations)
+        and run.afford("check")
+    ):
         got = np.where(np.isfinite(st.received), st.received, full_p)
         lowered, _ = lowered_where_clipped(
             st.levels,
@@ -1052,7 +1107,8 @@ def _boost_pass(proj: _Projection, st: _AdaptedSet, full_mapped: bool) -> None:
     if run.params.boost and not full_mapped:
         short = (st.received - imin) < BOOST_RATIO * (st.levels - imin)
         wanted = np.isfinite(st.received) & np.isfinite(st.levels) & short & ~st.remaining
-        if wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(st.received).sum():
+        enough = wanted.sum() >= BOOST_MIN_FRACTION * np.isfinite(st.received).sum()
+        if enough and run.afford("boost"):
             bmap = boosted_map(
                 st.pmap,
                 np.where(wanted, st.levels, np.nan),
@@ -1108,7 +1164,16 @@ def _topup_pass(
     if run.params.topup and worth:
         exposure_ms = run.exposure_ms
         reference = exposure_ms if exposure_ms is not None else run.rig.camera_settings.exposure_ms
-        sets_t, why = _capture_topup(run.rig, spec, st.remaining, reference)
+        if run.topup_reference_ms is not None:
+            reference = run.topup_reference_ms
+        max_sets = TOPUP_MAX_SETS
+        if run.budget is not None:
+            max_sets = min(max_sets, run.budget.left // run.first.steps)
+            if max_sets == 0:
+                run.budget.skipped.append("topup")
+        sets_t, why = _capture_topup(run.rig, spec, st.remaining, reference, max_sets)
+        if run.budget is not None:
+            run.budget.left -= len(sets_t) * run.first.steps
         info["skipped"] = why
         full_map = np.full(proj.shape, full_p)
         for t_set, imgs in sets_t:
@@ -1154,6 +1219,13 @@ def _adapted_phase(
     # the mapping's fringe orders unwrap the adapted set: the order is the rounded
     # difference between the mapping's phase scaled to this pitch and the wrapped phase
     wrapped = decode_set(st.composite, spec, bits).wrapped_phase
+    if run.budget is not None and st.remaining.any():
+        # no budget left to capture them again: a clipped pixel's phase from its
+        # unsaturated shifts (at least 3 of them; the saturation-tolerant decoder)
+        shifts = 360.0 * np.arange(spec.steps) / spec.steps
+        phi, mod, _, _ = tolerant_phase(st.composite, shifts, bits, min_shifts=3)
+        fill = st.remaining & np.isfinite(phi) & (mod >= default_min_modulation(bits))
+        wrapped = np.where(fill, phi, wrapped)
     orient = spec.orientation
     predicted = mp.absolute[orient] * (run.pitches[orient][-1] / spec.pitch_px)
     absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
@@ -1220,7 +1292,7 @@ def _adapted_details(
         "exposure_ms": run.exposure_ms,
         "epipolar": run.calib is not None,
         "full_mapping": {"clipped_fraction": mapping.full_clipped, "kept": mapping.full_mapped}
-        if run.params.full_mapping
+        if run.params.full_mapping or run.budget is not None
         else None,
     }
 
@@ -1260,6 +1332,8 @@ def _run_adaptive(
     rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
 ) -> tuple[StrategyResult, ...]:
     """:func:`adaptive_sets` with its parameters grouped: the steps in order."""
+    if params.max_images is not None:
+        return _run_budget(rig, specs, params)
     specs, calib, m0 = _checked_inputs(rig, specs, params)
     exposure_ms, chosen, t_exposure = _choose_exposure_first(rig, specs, params)
     finest, pitches = _plan_ladders(rig, specs, calib)
@@ -1283,6 +1357,204 @@ def _run_adaptive(
     return out
 
 
+# ---------------------------------------------------------------------------------------------
+# the image budget (max_images, issue 26)
+# ---------------------------------------------------------------------------------------------
+
+
+def _exposure_from_mapping(
+    mp: _Mapping, first: FringeSpec, bits: int, margin: float, reference_ms: float
+) -> float:
+    """The adapted set's exposure from the mapping's response alone (thesis Sec. 7.3).
+
+    The darkest mapped surface (1st percentile of the modulation the response predicts at the
+    full MIGL, over the pixels that carry a fringe) is brought to the target modulation
+    (:func:`~hdrfringe.strategies.exposure.default_target_modulation`), as far as the
+    brightest mapped pixels (all but :data:`BUDGET_CLIP_FRACTION`) stay ``margin`` below
+    clipping at the lowest usable MIGL, where the per-pixel MIGL takes them; never shorter
+    than ``reference_ms`` (a shorter exposure lowers every pixel's modulation) and at most
+    :data:`BUDGET_MAX_EXPOSURE_RATIO` times it.
+    """
+    gain, ambient = mp.gain, mp.ambient
+    ok = np.isfinite(gain) & np.isfinite(ambient) & (gain > 0) & ~mp.saturated
+    if not ok.any():
+        return reference_ms
+    imin, full = float(first.imin), float(first.migl)
+    modulation = gain * (full - imin) / 2.0
+    lit = ok & (modulation >= detection_modulation(bits))
+    if not lit.any():
+        return reference_ms
+    dark = float(np.percentile(modulation[lit], 1.0))
+    want = reference_ms * default_target_modulation(first.steps, bits) / dark
+    peak = gain[ok] * default_min_migl(first) + ambient[ok]  # brightest shift at the floor
+    top = float(np.percentile(peak, 100.0 * (1.0 - BUDGET_CLIP_FRACTION)))
+    limit = reference_ms * (1.0 - margin) * full_scale(bits) / max(top, 1e-9)
+    t = min(want, limit, BUDGET_MAX_EXPOSURE_RATIO * reference_ms)
+    return reference_ms if t <= reference_ms else float(f"{t:.4g}")
+
+
+def _conventional_sets(
+    run: _Run, probe_spec: FringeSpec, probe: NDArray, info: dict[str, Any]
+) -> tuple[StrategyResult, ...]:
+    """Nothing clipped in the full-MIGL probe: every set captured as the conventional
+    measurement captures it (Requirement 4), the probe standing for its own set."""
+    rig, bits, full = run.rig, run.bits, float(run.first.migl)
+    out: list[StrategyResult] = []
+    spare = 0
+    used_probe = False
+    for spec in run.specs:
+        same = (spec.orientation, spec.pitch_px) == (probe_spec.orientation, probe_spec.pitch_px)
+        if same and not used_probe:
+            imgs, used_probe = probe, True
+        else:
+            imgs = _capture(rig, spec.frames(), run.settings)
+        unsat = saturation_count(imgs, bits) == 0
+        out.append(
+            StrategyResult(
+                images=imgs,
+                spec=spec,
+                captured=[CapturedSet(migl=full, exposure_ms=run.exposure_ms)],
+                index_map=np.full(imgs.shape[1:], full, np.float32),
+                newly_unsaturated=[int(unsat.sum())],
+                never_unsaturated=~unsat,
+                strategy="adaptive",
+            )
+        )
+    if not used_probe:  # the probe was no measurement set: counted with the first result
+        spare = 1
+        out[0].captured.insert(0, CapturedSet(migl=full, exposure_ms=run.exposure_ms))
+        out[0].newly_unsaturated.insert(0, 0)
+    clipped = sum(int(r.never_unsaturated.sum()) for r in out[-1:])
+    info |= {
+        "images": sum(r.images_captured for r in out),
+        "conventional": True,
+        "unreached": {"clipped": clipped, "low_modulation": None, "no_order": None},
+        "spare_sets": spare,
+    }
+    out[-1].details = {"budget": info}
+    return tuple(out)
+
+
+def _run_budget(
+    rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
+) -> tuple[StrategyResult, ...]:
+    """:func:`adaptive_sets` with ``max_images``: every image a measurement image, planned to
+    the budget (docs/adaptive.md, "Budget")."""
+    for flag, given in (
+        ("--adaptive-auto-exposure", params.auto_exposure),
+        ("--mapping-migl", params.mapping_migl is not None),
+    ):
+        if given:
+            raise InputError(
+                f"adaptive --max-images chooses the exposure and the mapping itself; drop {flag}"
+            )
+    if not params.topup:
+        raise InputError(
+            "adaptive --max-images leaves the pixels that clip at the full MIGL to the top-up "
+            "where the budget allows; drop --no-adaptive-topup"
+        )
+    specs, calib, m0 = _checked_inputs(rig, specs, params)
+    own = getattr(rig, "stereo_calibration", None)
+    if calib is None and callable(own) and all(s.orientation == "vertical" for s in specs):
+        calib = _epipolar_calibration(rig, specs, True, None)  # the rig's: one ladder
+    finest, pitches = _plan_ladders(rig, specs, calib)
+    # the measurement's own orientation first: its coarsest set is the conventional one
+    pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o not in finest)}
+    first = specs[0]
+    steps = first.steps
+    minimum = steps * (sum(len(p) for p in pitches.values()) + len(finest))
+    limit = params.max_images
+    if isinstance(limit, bool) or not isinstance(limit, int | np.integer) or limit < minimum:
+        raise InputError(
+            f"adaptive --max-images {limit!r}: this measurement needs at least {minimum} "
+            f"images ({minimum // steps} sets of {steps}: the mapping ladder "
+            f"{', '.join(f'{o} {p}' for o, p in pitches.items())} px and one adapted set per "
+            "orientation); raise it"
+            + ("" if calib is not None else " or give a stereo calibration (one ladder)")
+        )
+    budget = _Budget(int(limit), int(limit))
+    run = _Run(rig, specs, params, calib, params.exposure_ms, [], finest, pitches, {}, budget)
+    run.seconds["exposure"] = 0.0
+    o0 = next(iter(pitches))
+    probe_spec = _spec_at(first, o0, pitches[o0][0], float(first.migl))
+    probe = _capture(rig, probe_spec.frames(), run.settings)
+    budget.afford("mapping", steps)
+    clipped0 = saturation_count(probe, run.bits) > 0
+    info: dict[str, Any] = {
+        "max_images": int(limit),
+        "probe_clipped_fraction": round(float(clipped0.mean()), 6),
+        "epipolar": calib is not None,
+    }
+    if not clipped0.any():
+        return _conventional_sets(run, probe_spec, probe, info)
+    # the rest of the mapping: at the full MIGL where only a highlight clipped in the probe,
+    # else the low-MIGL ladder with the probe merged in (its bright repeat only if it fits)
+    ladder = sum(len(p) for p in pitches.values())
+    # (the bright repeat only follows the low ladder, itself ladder sets more)
+    allow_bright = budget.left - steps * (ladder + len(finest)) >= steps * ladder
+    mapping = _map_camera_to_projector(run, m0, probe=probe, allow_bright=allow_bright)
+    mp = mapping.mp
+    n_map = ladder * (1 if mp.bright_migl is None else 2) + len(mapping.trial)
+    budget.left = budget.limit - steps * n_map
+    results = _mapping_set_results(run, mp)
+    spare = _spare_mapping_migls(run, mp) + mapping.trial
+    reference = run.exposure_ms if run.exposure_ms is not None else rig.camera_settings.exposure_ms
+    scale = 1.0
+    if params.mapping_exposure and reference is not None and reference > 0:
+        t = _exposure_from_mapping(mp, first, run.bits, float(params.margin), float(reference))
+        if t != reference:
+            scale, run.exposure_ms = t / float(reference), t
+            run.topup_reference_ms = float(reference)
+    info["exposure_ms"] = run.exposure_ms
+    proj = _plan_projector_map(run, mapping, scale)
+    owner = min(finest.values())
+    region = proj.mapped | mp.saturated
+    budget.left -= steps * len(finest)  # the adapted sets themselves are never skipped
+    for i in finest.values():
+        counted: list[CapturedSet] = []
+        if i == owner:
+            counted = [CapturedSet(migl=m, exposure_ms=params.exposure_ms) for m in spare]
+        res = _adapt_orientation(proj, mapping, i, counted)
+        if res.never_unsaturated.any():
+            res.decoder = DecoderSettings(min_shifts=3)  # the tolerant pixels decode
+        res.details["budget"] = {
+            **info,
+            "unreached": _unreached_of(res, region, run.bits),
+        }
+        results[i] = res
+    out = tuple(r for r in results if r is not None)
+    total = sum(r.images_captured for r in out)
+    for r in out:
+        if "budget" in r.details:
+            r.details["budget"] |= {
+                "images": total,
+                "skipped": list(budget.skipped),
+                "over_budget": max(0, total - int(limit)),
+            }
+    return out
+
+
+def _unreached_of(res: StrategyResult, region: NDArray[np.bool_], bits: int) -> dict[str, Any]:
+    """What the budget could not reach of an adapted set, over ``region`` (the pixels the
+    mapping decoded or saw clip): still clipped, below the modulation threshold, decoded
+    without a fringe order."""
+    absolute = res.absolute_phase
+    assert absolute is not None
+    lost = region & ~np.isfinite(absolute)
+    clipped = lost & res.never_unsaturated
+    dec = decode_set(res.images, res.spec, bits)
+    low = lost & ~res.never_unsaturated & ~dec.valid
+    no_order = lost & ~clipped & ~low
+    n = max(int(region.sum()), 1)
+    return {
+        "pixels": int(region.sum()),
+        "clipped": int(clipped.sum()),
+        "low_modulation": int(low.sum()),
+        "no_order": int(no_order.sum()),
+        "reached_fraction": round(1.0 - float(lost.sum()) / n, 6),
+    }
+
+
 def adaptive_sets(
     rig: Rig,
     specs: Sequence[FringeSpec],
@@ -1301,6 +1573,8 @@ def adaptive_sets(
     epipolar: bool = False,
     stereo_calibration: StereoCalibration | None = None,
     full_mapping: bool = False,
+    max_images: int | None = None,
+    mapping_exposure: bool = True,
 ) -> tuple[StrategyResult, ...]:
     """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
 
@@ -1367,6 +1641,18 @@ def adaptive_sets(
         otherwise the low-MIGL mapping follows, with that set (counted with the mapping)
         merged into its first set where it did not clip. Not with ``mapping_migl`` or
         without ``topup``.
+    max_images : int, optional
+        Image budget of the measurement (docs/adaptive.md, "Budget"): the first mapping set
+        is captured at the full MIGL and the rig's exposure; where nothing clips in it every
+        set is captured as the conventional measurement does (Requirement 4, exactly).
+        Otherwise the full-MIGL mapping (the epipolar one where the rig has a calibration),
+        one adapted set, and the refit, check, boost and top-up sets only while the budget
+        allows; a clipped pixel of the adapted set is decoded from its unsaturated shifts.
+        ``details["budget"]`` says what it could not reach. None: no budget.
+    mapping_exposure : bool
+        With ``max_images``: the adapted set's exposure chosen from the mapping's response
+        (thesis Sec. 7.3: the darkest mapped surface to the target modulation, as far as the
+        brightest keeps below clipping at the lowest usable MIGL).
 
     Returns
     -------
@@ -1416,6 +1702,8 @@ def adaptive_sets(
         epipolar=epipolar,
         stereo_calibration=stereo_calibration,
         full_mapping=full_mapping,
+        max_images=max_images,
+        mapping_exposure=mapping_exposure,
     )
     return _run_adaptive(rig, specs, params)
 
@@ -1438,6 +1726,8 @@ def adaptive(
     epipolar: bool = False,
     stereo_calibration: StereoCalibration | None = None,
     full_mapping: bool = False,
+    max_images: int | None = None,
+    mapping_exposure: bool = True,
 ) -> StrategyResult:
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
@@ -1453,6 +1743,8 @@ def adaptive(
     margin, iterations, refit, boost, bias_correction, mapping_migl, blur_px, smooth_px
         As :func:`adaptive_sets`.
     exposure_ms, auto_exposure, topup, epipolar, stereo_calibration, full_mapping
+        As :func:`adaptive_sets`.
+    max_images, mapping_exposure
         As :func:`adaptive_sets`.
 
     Returns
@@ -1490,6 +1782,8 @@ def adaptive(
         epipolar=epipolar,
         stereo_calibration=stereo_calibration,
         full_mapping=full_mapping,
+        max_images=max_images,
+        mapping_exposure=mapping_exposure,
     )
     return res
 
@@ -1533,6 +1827,10 @@ class AdaptiveParams:
     full_mapping : bool
         Map at the full MIGL where only a highlight clips in the first set, leaving it to
         the top-up; no refit, check or boost then (``--adaptive-full-mapping``).
+    max_images : int, optional
+        Image budget of the measurement (``--max-images``; docs/adaptive.md, "Budget").
+    mapping_exposure : bool
+        With ``max_images``: the adapted set's exposure chosen from the mapping's response.
 
     References
     ----------
@@ -1646,6 +1944,24 @@ class AdaptiveParams:
             "cli": "--adaptive-full-mapping",
         },
     )
+    max_images: int | None = field(
+        default=None,
+        metadata={
+            "help": "image budget of the whole measurement (issue 26): the first set at the "
+            "full MIGL (nothing clipped: the conventional measurement), the mapping sets are "
+            "the measurement's coarser sets, one adapted set at an exposure chosen from the "
+            "mapping, further passes only while the budget allows; what it could not reach is "
+            "reported.",
+            "cli": "--max-images",
+        },
+    )
+    mapping_exposure: bool = field(
+        default=True,
+        metadata={
+            "help": "with max_images: the adapted set's exposure chosen from the mapping's "
+            "response (thesis Sec. 7.3); False: the rig's.",
+        },
+    )
 
 
 #: The entries of an adapted set's ``details`` that ``metrics.json`` records.
@@ -1667,6 +1983,7 @@ ADAPTIVE_METRICS = (
     "images_per_step",
     "sets_per_step",
     "seconds_per_step",
+    "budget",
 )
 
 
@@ -1682,7 +1999,9 @@ def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
     -------
     dict
         Orientation -> the :data:`ADAPTIVE_METRICS` entries of its adapted set (the mapping
-        is counted with the first adapted set); empty for the other strategies.
+        is counted with the first adapted set; ``budget`` only with ``max_images``, alone
+        where the budget's first set clipped nowhere and the conventional sets followed);
+        empty for the other strategies.
 
     Examples
     --------
@@ -1690,9 +2009,9 @@ def adaptive_summary(results: Sequence[StrategyResult]) -> dict[str, Any]:
     {}
     """
     return {
-        r.spec.orientation: {k: json_safe(r.details[k]) for k in ADAPTIVE_METRICS}
+        r.spec.orientation: {k: json_safe(r.details[k]) for k in ADAPTIVE_METRICS if k in r.details}
         for r in results
-        if r.strategy == "adaptive" and "images_per_step" in r.details
+        if r.strategy == "adaptive" and ("images_per_step" in r.details or "budget" in r.details)
     }
 
 

@@ -56,7 +56,9 @@ from hdrfringe.strategies.exposure import FixedExposureRig, choose_exposure
 from hdrfringe.tasks._progress import Progress, quiet
 
 __all__ = [
+    "BUDGET_METHODS",
     "COARSE_PITCHES",
+    "FULL_COVERAGE",
     "METHODS",
     "REFERENCE_GROUP",
     "SCENES",
@@ -64,6 +66,7 @@ __all__ = [
     "CompareRow",
     "Method",
     "ThesisRow",
+    "budget_summary",
     "compare",
     "compare_markdown",
     "compare_plot",
@@ -166,7 +169,16 @@ METHODS: tuple[Method, ...] = (
         "adaptive",
         {"epipolar": True, "full_mapping": True, "bias_correction": False},
     ),
+    Method("adaptive-12", "adaptive, budget 12", "adaptive", {"max_images": 12}),
+    Method("adaptive-16", "adaptive, budget 16", "adaptive", {"max_images": 16}),
 )
+
+#: The rows with an image budget (issue 26) that :func:`budget_summary` sets beside the rest.
+BUDGET_METHODS = ("adaptive-12", "adaptive-16")
+#: Least coverage of a row :func:`budget_summary` counts among the "other strategies" (issue
+#: 26's done-when: a std is compared at full coverage; a row covering half the field, e.g. the
+#: conventional one on the checkerboard, reads a lower std on the easier half).
+FULL_COVERAGE = 0.999
 
 #: The entry-point group through which an installed package gives the thesis's numbers
 #: (the research package ``hdrfringe-thesis``: ``hdrfringe_thesis.compare_references``). Each
@@ -568,6 +580,66 @@ def _scene_summary(rows: Sequence[CompareRow]) -> str | None:
             f"coverage {_fmt(100 * (ad.coverage or 0), '.2f')} %"
         )
     return "; ".join(parts) or None
+
+
+def budget_summary(rows: Sequence[CompareRow]) -> list[str]:
+    """Per scene and budget row: images, coverage and std in order beside the best other row's.
+
+    The best other row is the one with the lowest std in order among the rows that are not
+    budget rows (:data:`BUDGET_METHODS`) and cover at least :data:`FULL_COVERAGE` of the
+    valid pixels (issue 26's done-when).
+
+    Parameters
+    ----------
+    rows : sequence of CompareRow
+        From :func:`compare`.
+
+    Returns
+    -------
+    list of str
+        One line per (scene, budget row) that ran.
+
+    Examples
+    --------
+    >>> a = CompareRow("glossy", "adaptive-12", "adaptive, budget 12", True, images=12,
+    ...                coverage=0.9998, std_in_order_rad=0.0182)
+    >>> b = CompareRow("glossy", "multiexposure", "multi-exposure", True, images=56,
+    ...                coverage=1.0, std_in_order_rad=0.01805)
+    >>> budget_summary([b, a])[0]
+    'glossy: adaptive, budget 12: 12 images, coverage 99.98 %, std in order 18.20 mrad; \
+best other: multi-exposure 56 images, coverage 100.00 %, 18.05 mrad; ratio 1.008'
+    """
+    out = []
+    scenes = list(dict.fromkeys(r.scene for r in rows))
+    for scene in scenes:
+        here = [r for r in rows if r.scene == scene and r.available]
+        others = [
+            r
+            for r in here
+            if r.method not in BUDGET_METHODS
+            and r.std_in_order_rad is not None
+            and math.isfinite(r.std_in_order_rad)
+            and (r.coverage or 0.0) >= FULL_COVERAGE
+        ]
+        best = min(others, key=lambda r: r.std_in_order_rad or math.inf, default=None)
+        for r in here:
+            if r.method not in BUDGET_METHODS:
+                continue
+            line = (
+                f"{scene}: {r.label}: {r.images} images, coverage "
+                f"{_fmt(100 * (r.coverage or 0.0), '.2f')} %, std in order "
+                f"{_fmt(1000 * (r.std_in_order_rad or math.nan), '.2f')} mrad"
+            )
+            if best is not None:
+                ratio = (r.std_in_order_rad or math.nan) / (best.std_in_order_rad or math.nan)
+                line += (
+                    f"; best other: {best.label} {best.images} images, coverage "
+                    f"{_fmt(100 * (best.coverage or 0.0), '.2f')} %, "
+                    f"{_fmt(1000 * (best.std_in_order_rad or math.nan), '.2f')} mrad; "
+                    f"ratio {_fmt(ratio, '.3f')}"
+                )
+            out.append(line)
+    return out
 
 
 def compare_markdown(rows: Sequence[CompareRow], *, header: str = "") -> str:
