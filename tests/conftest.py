@@ -359,16 +359,30 @@ def without_dac_override() -> list[str]:
     return DROP_DAC
 
 
-@pytest.fixture
-def sigint_is_ctrl_c() -> Iterator[None]:
-    """SIGINT raises ``KeyboardInterrupt`` in this process for the test (Python's own handler).
+def default_stop_signals() -> None:
+    """SIGINT, SIGTERM and SIGHUP back to their default action (a ``preexec_fn`` for a child
+    that a test stops with them).
 
-    A process started in the background by a shell (CI may be), and pytest-xdist's workers,
-    can inherit SIGINT ignored; a test that sends itself SIGINT to stand for Ctrl-C would then
-    see nothing happen.
+    A process started in the background by a shell inherits SIGINT ignored, one started under
+    ``nohup`` SIGHUP ignored (CI may run either way); a test that stands for Ctrl-C, a kill or
+    a closed terminal would then see nothing happen.
     """
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
+@pytest.fixture
+def stop_signals_not_ignored() -> Iterator[None]:
+    """In this process, for the test: SIGINT raises ``KeyboardInterrupt`` (Python's own
+    handler), SIGTERM and SIGHUP have their default action (see :func:`default_stop_signals`;
+    pytest-xdist's workers may also inherit them ignored)."""
+    previous = {
+        signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
+        signal.SIGTERM: signal.signal(signal.SIGTERM, signal.SIG_DFL),
+        signal.SIGHUP: signal.signal(signal.SIGHUP, signal.SIG_DFL),
+    }
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -230,7 +230,7 @@ def test_capture_poses_refuses_bad_input_in_one_line(
     assert not out.exists()
 
 
-@pytest.mark.usefixtures("sigint_is_ctrl_c")
+@pytest.mark.usefixtures("stop_signals_not_ignored")
 @pytest.mark.parametrize(
     ("signum", "code", "said"),
     [

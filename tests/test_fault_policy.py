@@ -40,7 +40,7 @@ from hdrfringe.io.results import (
     staged_output_dir,
     staged_output_file,
 )
-from tests.conftest import run_cli, without_dac_override
+from tests.conftest import default_stop_signals, run_cli, without_dac_override
 
 CLI = [sys.executable, "-m", "hdrfringe.cli"]
 #: The children run in their own folders: they import the package this process imported.
@@ -174,7 +174,7 @@ def test_signal_during_calibration_save_is_honoured_after_it(
     out.parent.mkdir()
     proc = subprocess.Popen(
         [sys.executable, str(driver), "calibrate", str(series / "S"), "-o", str(out)],
-        env={**os.environ, "PYTHONPATH": _SRC},
+        env={**os.environ, "PYTHONPATH": _SRC}, preexec_fn=default_stop_signals,
         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     assert proc.stdin is not None and proc.stdout is not None and proc.stderr is not None

@@ -441,7 +441,7 @@ def _signal_in_the_rename(monkeypatch: pytest.MonkeyPatch, signum: int, name: st
     monkeypatch.setattr(owner, name, signalled)
 
 
-@pytest.mark.usefixtures("sigint_is_ctrl_c")
+@pytest.mark.usefixtures("stop_signals_not_ignored")
 @pytest.mark.parametrize(
     ("signum", "stop"), [(signal.SIGTERM, SystemExit), (signal.SIGINT, KeyboardInterrupt)]
 )
@@ -474,7 +474,7 @@ def test_signal_in_the_final_move_says_the_output_is_in_place(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging, no backup
 
 
-@pytest.mark.usefixtures("sigint_is_ctrl_c")
+@pytest.mark.usefixtures("stop_signals_not_ignored")
 @pytest.mark.parametrize(
     ("signum", "said"), [(signal.SIGTERM, "stopped by SIGTERM"), (signal.SIGINT, "interrupted")]
 )

@@ -915,9 +915,9 @@ def deferred_signals(
     ...
     SystemExit: 143
     >>> with deferred_signals(honour=False) as stopped:
-    ...     os.kill(os.getpid(), signal.SIGHUP)
+    ...     os.kill(os.getpid(), signal.SIGTERM)
     >>> signal.Signals(stopped()).name
-    'SIGHUP'
+    'SIGTERM'
     """
     hit: list[int] = []
     held = [signal.SIGINT, *_STOP_SIGNALS]
