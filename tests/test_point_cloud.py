@@ -42,7 +42,7 @@ def test_normals_of_a_tilted_plane_and_a_sphere_cap_are_the_closed_forms() -> No
 
 
 def test_coloured_ply_loads_in_trimesh_with_its_points_colours_and_normals(tmp_path: Path) -> None:
-    trimesh = pytest.importorskip("trimesh")
+    import trimesh  # a test dependency (pyproject dev extra): a missing one fails, not skips
     rng = np.random.default_rng(5)
     rows, cols = np.mgrid[0:12, 0:16].astype(float)
     x, y = 0.5 * cols, -0.5 * rows
