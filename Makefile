@@ -65,19 +65,23 @@ test: $(STAMP) system-packages
 # (marker quick_reproduction: they share one 90 s quick sweep) run here only, not in `test`'s
 # first run: their reference was made with the full dispatch, so comparing across CPUs is the
 # stronger check, and one sweep keeps `make test` short; they come first, so that
-# one worker starts the 90 s sweep while the other takes the rest. So do the strategy and
-# stereo-calibration modules (NARROW_ONLY, 50 s of the first run): pure numpy on simulated
-# captures, their decoding covered on the full dispatch and the native kernels by every other
-# module. The real-data tests (marker realdata) run in the first run only: they are integration
+# one worker starts the 90 s sweep while the other takes the rest. So do the strategy,
+# adaptive-projection, LPA-study and stereo-calibration modules (NARROW_ONLY, about 140 s of
+# test time): pure numpy on simulated captures, their decoding covered on the full dispatch and
+# the native kernels by every other module. The narrowed run's length is its sweep's (both
+# cores, 130 s): the other worker's tests fill the time the sweep leaves free, where in the
+# first run they added to its length. The real-data tests (marker realdata) run in the first run only: they are integration
 # tests of the same numerics on large images. The reproduction's tests and docstrings are the
 # research package's (research/tests, research/src).
-NARROW_ONLY := tests/test_strategies.py tests/test_stereo_calibration.py
+NARROW_ONLY := tests/test_strategies.py tests/test_stereo_calibration.py tests/test_adaptive.py \
+	tests/test_lpa_study.py
 NARROW_TESTS := research/tests/test_quick_grid_identity.py research/tests/test_reproduce.py \
 	research/tests/test_reproduce_adaptive.py research/tests/test_reproduce_broken.py \
 	research/tests/test_error_budget.py research/src/hdrfringe_thesis \
 	src/hdrfringe tests/test_phase.py tests/test_phase_blocks.py \
 	tests/test_unwrap.py tests/test_unwrap_paths.py tests/test_graycode.py \
 	tests/test_calibration.py tests/test_stereo.py tests/test_stereo_calibration.py \
+	tests/test_adaptive.py tests/test_lpa_study.py \
 	tests/test_strategies.py tests/test_tolerant.py tests/test_uncertainty.py \
 	tests/test_equations.py
 
