@@ -543,6 +543,31 @@ def _absolute_of_family(
     return None, None
 
 
+def _family_result(
+    captures: Captures,
+    fam: list[FringeSet],
+    results: Mapping[str, PhaseResult],
+    codes: Mapping[str, GrayCodeSet],
+    given: NDArray[np.float64] | None,
+    notes: list[str],
+) -> FamilyResult:
+    """One family unwrapped, made absolute where it can be, with its spatial regions."""
+    unw = _unwrap_family(captures, fam, results, codes, notes)
+    absolute, abs_method = _absolute_of_family(captures, fam, results, unw, given, notes)
+    return FamilyResult(
+        fam[0].spec.orientation,
+        fam[-1].spec.pitch_px,
+        fam,
+        unw.phase,
+        absolute,
+        unw.method,
+        abs_method,
+        unw.unwrapping,
+        _spatial_regions(fam, results, unw, notes),
+        unw.graycode_valid,
+    )
+
+
 def _spatial_regions(
     fam: Sequence[FringeSet],
     results: Mapping[str, PhaseResult],
@@ -673,44 +698,12 @@ def decode_captures(
     others = _other_gamma_families(captures, out.sets, families, out.notes)
     _check_pitch_ladders(captures, others)
     for fam in families:
-        orient = fam[0].spec.orientation
-        unw = _unwrap_family(captures, fam, results, codes, out.notes)
-        given = None if given_phases is None else given_phases.get(orient)
-        absolute, abs_method = _absolute_of_family(captures, fam, results, unw, given, out.notes)
-        out.families.append(
-            FamilyResult(
-                orient,
-                fam[-1].spec.pitch_px,
-                fam,
-                unw.phase,
-                absolute,
-                unw.method,
-                abs_method,
-                unw.unwrapping,
-                _spatial_regions(fam, results, unw, out.notes),
-                unw.graycode_valid,
-            )
-        )
+        given = None if given_phases is None else given_phases.get(fam[0].spec.orientation)
+        out.families.append(_family_result(captures, fam, results, codes, given, out.notes))
     for fam in others:  # a gamma capture's other exponents: each family on its own
         notes: list[str] = []  # the orientation's notes are said once, by its family above
-        unw = _unwrap_family(captures, fam, results, codes, notes)
-        absolute, abs_method = _absolute_of_family(captures, fam, results, unw, None, notes)
-        regions = _spatial_regions(fam, results, unw, notes)
+        out.gamma_families.append(_family_result(captures, fam, results, codes, None, notes))
         out.notes += [n for n in notes if n not in out.notes]
-        out.gamma_families.append(
-            FamilyResult(
-                fam[0].spec.orientation,
-                fam[-1].spec.pitch_px,
-                fam,
-                unw.phase,
-                absolute,
-                unw.method,
-                abs_method,
-                unw.unwrapping,
-                regions,
-                unw.graycode_valid,
-            )
-        )
     if final_only:  # the coarser sets' phases served their families: dropped as well
         finest = {f.sets[-1].label for f in [*out.families, *out.gamma_families]}
         for label, res in list(results.items()):
