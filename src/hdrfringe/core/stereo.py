@@ -984,6 +984,30 @@ class PlaneFit(NamedTuple):
         return float(np.sqrt(np.mean(self.residuals[self.inliers] ** 2)))
 
 
+def _plane_moments(pts: np.ndarray, use: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centroid, total-least-squares normal and singular values of the points ``pts[use]``.
+
+    The normal is the eigenvector of the 3 x 3 scatter matrix of the centred points with the
+    smallest eigenvalue, the singular values the square roots of its eigenvalues (descending):
+    the right singular vectors of the (N, 3) centred matrix without its SVD, which at a
+    camera's millions of points costs most of a plane fit. The points are centred on a first
+    centroid before the scatter is summed, so that a plane hundreds of mm from the origin keeps
+    its digits (the scatter of uncentred points would cancel them). The eigenvalues square the
+    singular values' ratio, so near a line (second singular value below 1e-6 of the first) the
+    SVD decides, which resolves that ratio down to the 1e-12 that :func:`fit_plane` calls
+    collinear.
+    """
+    sel = pts[use]
+    centroid = sel.mean(axis=0)
+    sel -= centroid
+    evals, evecs = np.linalg.eigh(sel.T @ sel)
+    sing = np.sqrt(np.clip(evals[::-1], 0.0, None))
+    if sing[1] <= 1e-6 * sing[0]:
+        _, sing, vt = np.linalg.svd(sel, full_matrices=False)
+        return centroid, vt[2], sing
+    return centroid, evecs[:, 0].copy(), sing
+
+
 def fit_plane(
     xyz: ArrayLike,
     *,
@@ -1046,11 +1070,9 @@ def fit_plane(
         if int(use.sum()) < 3:
             raise InputError("plane fit: fewer than 3 finite points in the initial set")
     for _ in range(int(max_rounds) if robust else 1):
-        centroid = pts[use].mean(axis=0)
-        _, sing, vt = np.linalg.svd(pts[use] - centroid, full_matrices=False)
+        centroid, normal, sing = _plane_moments(pts, use)
         if sing[1] <= 1e-12 * max(sing[0], 1e-300):
             raise InputError("plane fit: the points are collinear; no plane is defined")
-        normal = vt[2]
         offset = float(normal @ centroid)
         if offset > 0:
             normal, offset = -normal, -offset

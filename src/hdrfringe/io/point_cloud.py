@@ -22,19 +22,21 @@ def _grid_derivative(p: np.ndarray, axis: int) -> np.ndarray:
     n = p.shape[axis]
     if n < 2:
         return d
-    lo = [slice(None)] * 3
-    hi = [slice(None)] * 3
-    lo[axis], hi[axis] = slice(0, n - 1), slice(1, n)
-    step = p[tuple(hi)] - p[tuple(lo)]  # p[i + 1] - p[i], for i = 0 .. n - 2
-    pad = [(0, 0)] * 3
-    pad[axis] = (0, 1)
-    forward = np.pad(step, pad, constant_values=np.nan)  # at i: p[i + 1] - p[i]
-    pad[axis] = (1, 0)
-    backward = np.pad(step, pad, constant_values=np.nan)  # at i: p[i] - p[i - 1]
-    central = 0.5 * (forward + backward)
-    for cand in (central, forward, backward):
-        use = np.isnan(d[..., :1]) & np.isfinite(cand).all(axis=-1, keepdims=True)
-        d = np.where(use, cand, d)
+
+    def part(a: np.ndarray, lo: int, hi: int) -> np.ndarray:
+        index = [slice(None)] * a.ndim
+        index[axis] = slice(lo, hi)
+        return a[tuple(index)]
+
+    step = part(p, 1, n) - part(p, 0, n - 1)  # p[i + 1] - p[i], for i = 0 .. n - 2
+    ok = np.isfinite(step).all(axis=-1)
+    # the lowest priority first, each later choice overwriting: backward (at i: the step
+    # i - 1), forward (at i: the step i), central (both)
+    np.copyto(part(d, 1, n), step, where=ok[..., None])
+    np.copyto(part(d, 0, n - 1), step, where=ok[..., None])
+    both = part(ok, 1, n - 1) & part(ok, 0, n - 2)
+    central = 0.5 * (part(step, 1, n - 1) + part(step, 0, n - 2))
+    np.copyto(part(d, 1, n - 1), central, where=both[..., None])
     return d
 
 
