@@ -94,7 +94,11 @@ def roi_mask(roi: str, valid: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], str
         return rectangle_mask(valid.shape, x0, y0, x1, y1), "rectangle"
     from hdrfringe.io.roi_file import read_polygon
 
-    return polygon_mask(valid.shape, read_polygon(Path(roi))), "polygon"
+    vertices = read_polygon(Path(roi))
+    try:
+        return polygon_mask(valid.shape, vertices), "polygon"
+    except InputError as exc:
+        raise InputError(f"{roi}: {exc}") from None
 
 
 @dataclass(frozen=True)
