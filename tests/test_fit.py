@@ -87,7 +87,9 @@ def test_plane_fits_of_a_bowed_plate_and_a_tilted_plane_are_the_closed_forms(
     assert residual.dtype == np.float32 and residual.shape == z.shape
     assert np.isnan(residual[~bow]).all()
     np.testing.assert_allclose(residual[bow], want_res, atol=3e-5)
-    assert "flatness F 0.32 mm" in res.stdout and "RMS" in res.stdout
+    # the lines docs/fit.md shows
+    assert "normal (0, 0, 1), offset 500.12 mm\nRMS 0.0755 mm, flatness F 0.32 mm" in res.stdout
+    assert "289 points of the rectangle region (289 valid, 0 left out" in res.stdout
     assert sorted(p.name for p in out.iterdir()) == ["fit.json", "residual.png", "residual.tiff"]
     # the tilted plane, by a polygon around columns 0-19 (vertices inside the image)
     poly = tmp_path / "roi.json"

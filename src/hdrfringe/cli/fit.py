@@ -55,7 +55,7 @@ def fit(
 
 
 def _vector(v: list[float]) -> str:
-    return "(" + ", ".join(f"{c:.6g}" for c in v) + ")"
+    return "(" + ", ".join(f"{c + 0.0:.6g}" for c in v) + ")"  # + 0.0: no "-0"
 
 
 def print_fit(values: dict[str, Any], output: Path) -> None:

@@ -149,7 +149,7 @@ def grid_mesh(
     p = np.stack([np.asarray(a, dtype=np.float64) for a in (x, y, z)], axis=-1)
     if p.ndim != 3:
         raise InputError(f"a grid mesh needs (H, W) maps of one shape, got {p.shape[:-1]}")
-    valid = np.isfinite(p).all(axis=-1)
+    valid: NDArray[np.bool_] = np.asarray(np.isfinite(p).all(axis=-1))
     index = np.cumsum(valid).reshape(valid.shape) - 1  # vertex index of a valid pixel
     a, b = (slice(None, -1), slice(None, -1)), (slice(None, -1), slice(1, None))
     c, d = (slice(1, None), slice(None, -1)), (slice(1, None), slice(1, None))
