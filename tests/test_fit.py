@@ -217,6 +217,9 @@ def test_measure_mesh_and_outliers_then_fit_the_plate_at_4_mm(tmp_path: Path) ->
     res = run_cli_in_process("measure", str(plate), "-c", str(cal), "-o", str(out), "--mesh",
                              "ply", "--remove-outliers", "--no-previews")  # fmt: skip
     assert res.returncode == 0, res.stderr
+    bad = tmp_path / "m-obj"
+    res = run_cli_in_process("measure", str(plate), "-c", str(cal), "-o", str(bad), "--mesh", "obj")
+    assert res.returncode == 2 and "--mesh 'obj'" in res.stderr and not bad.exists()
     valid = np.isfinite(read_map_tiff(out / "height.tiff"))
     valid &= read_map_tiff(out / "outliers.tiff") == 0
     mesh = trimesh.load(out / "mesh.ply", process=False)
