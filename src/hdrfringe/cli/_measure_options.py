@@ -30,10 +30,12 @@ __all__ = [
     "MeasureFolderArg",
     "MeasurePitchOpt",
     "MeasureRigOpt",
+    "MeshOpt",
     "MethodOpt",
     "NoiseSigmaOpt",
     "OrderOpt",
     "OutputOpt",
+    "RemoveOutliersOpt",
     "StrategyOpt",
     "TrainAmbientOpt",
     "TrainFolderArg",
@@ -92,6 +94,23 @@ NoiseSigmaOpt = Annotated[
         help="Camera noise std in DN for the predicted std (one value for every intensity); "
         "default: the manifest's camera.read_noise_dn, else estimated from the sets with 4 or "
         "more shifts."
+    ),
+]
+MeshOpt = Annotated[
+    str,
+    typer.Option(
+        help="Also write the point cloud's surface mesh, mesh.ply (coloured, with normals) or "
+        "mesh.stl: two triangles per 2x2 block of valid pixels, none across a depth step "
+        "(docs/measurement.md, \"Point cloud and mesh\"); none: the cloud only."
+    ),
+]
+RemoveOutliersOpt = Annotated[
+    bool,
+    typer.Option(
+        "--remove-outliers/--keep-outliers",
+        help="Leave statistical outliers (mean distance to the 20 nearest points above the "
+        "mean by 2 std) out of points.ply and the mesh; outliers.tiff maps them. The maps "
+        "keep every point.",
     ),
 ]
 

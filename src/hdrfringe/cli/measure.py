@@ -20,9 +20,11 @@ from hdrfringe.cli._measure_options import (
     MeasureFolderArg,
     MeasurePitchOpt,
     MeasureRigOpt,
+    MeshOpt,
     MethodOpt,
     NoiseSigmaOpt,
     OutputOpt,
+    RemoveOutliersOpt,
     StrategyOpt,
     UncertaintyOpt,
     given_strategy_options,
@@ -146,6 +148,8 @@ def measure(
             "figures and metrics only (faster).",
         ),
     ] = True,
+    mesh: MeshOpt = "none",
+    remove_outliers: RemoveOutliersOpt = False,
     uncertainty: UncertaintyOpt = True,
     noise_sigma: NoiseSigmaOpt = None,
     harmonics: HarmonicsOpt = "off",
@@ -185,7 +189,7 @@ def measure(
     options = task.MeasureOptions(
         strategy, params, sources, given_strategy_options(ctx, strategy_options),
         stereo_directions, uncertainty, zrange, keep_saturated, saturated, min_shifts,
-        harmonics, noise_sigma, previews,
+        harmonics, noise_sigma, previews, task.CloudOptions(mesh, remove_outliers),
     )  # fmt: skip
     hardware = {
         "projector": projector, "camera": camera, "sync": sync, "settle": settle,

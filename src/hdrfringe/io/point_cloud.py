@@ -1,4 +1,4 @@
-"""Point clouds as PLY files (written with plyfile).
+"""Point clouds as PLY files (written with plyfile) and their meshes as PLY or STL.
 
 The points come from :func:`hdrfringe.core.reconstruct.points_from_height` (thesis Eq. 2.11's
 height with the camera's pinhole geometry); this module only writes them.
@@ -11,7 +11,15 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["grid_normals", "intensity_colour", "write_ply"]
+__all__ = [
+    "MESH_FORMATS",
+    "OUTLIERS_MAP",
+    "grid_normals",
+    "intensity_colour",
+    "read_result_points",
+    "write_mesh",
+    "write_ply",
+]
 
 
 def _grid_derivative(p: np.ndarray, axis: int) -> np.ndarray:
@@ -163,6 +171,20 @@ def write_ply(
     """
     from plyfile import PlyData, PlyElement
 
+    vert = _vertices(x, y, z, intensity, colour, normals)
+    PlyData([PlyElement.describe(vert, "vertex")], byte_order="<").write(str(path))
+    return int(vert.size)
+
+
+def _vertices(
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    intensity: ArrayLike | None,
+    colour: ArrayLike | None,
+    normals: bool,
+) -> np.ndarray:
+    """The PLY vertex records of the finite points, in row-major order (:func:`write_ply`)."""
     xa, ya, za = (np.asarray(a, dtype=np.float64).ravel() for a in (x, y, z))
     ok = np.isfinite(xa) & np.isfinite(ya) & np.isfinite(za)
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
@@ -191,5 +213,185 @@ def write_ply(
         vert["red"], vert["green"], vert["blue"] = rgb[ok].T
     if normal is not None:
         vert["nx"], vert["ny"], vert["nz"] = normal[ok].T
-    PlyData([PlyElement.describe(vert, "vertex")], byte_order="<").write(str(path))
-    return int(ok.sum())
+    return vert
+
+
+#: The mesh formats :func:`write_mesh` writes, by file suffix.
+MESH_FORMATS = ("ply", "stl")
+
+
+def write_mesh(
+    path: str | Path,
+    x: ArrayLike,
+    y: ArrayLike,
+    z: ArrayLike,
+    faces: ArrayLike,
+    *,
+    colour: ArrayLike | None = None,
+    normals: bool = False,
+) -> tuple[int, int]:
+    """Write a triangle mesh of an organised cloud as PLY (binary, plyfile) or STL (binary,
+    trimesh), by the file's suffix.
+
+    The vertices are the finite points in row-major order, as :func:`write_ply` writes them
+    (a mesh PLY's vertex element is ``points.ply``'s, colours and normals included); ``faces``
+    index them (:func:`hdrfringe.core.cloud.grid_mesh`). STL holds the triangles only: no
+    colours, no shared vertices; its unit is the points' (mm).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.ply`` or ``.stl`` file to write.
+    x, y, z : array_like, shape (H, W)
+        The points on the pixel grid; NaN where invalid.
+    faces : array_like of int, shape (M, 3)
+        Vertex indices of the triangles.
+    colour : array_like, optional
+        As :func:`write_ply` (PLY only).
+    normals : bool
+        As :func:`write_ply` (PLY only).
+
+    Returns
+    -------
+    (int, int)
+        Vertices and triangles written.
+
+    Raises
+    ------
+    ValueError
+        Another suffix, or a face indexing no vertex.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import trimesh
+    >>> from hdrfringe.core.cloud import grid_mesh
+    >>> x, y = np.meshgrid([0.0, 1.0, 2.0], [0.0, -1.0])
+    >>> z = np.zeros((2, 3))
+    >>> path = Path(tempfile.mkdtemp()) / "mesh.stl"
+    >>> write_mesh(path, x, y, z, grid_mesh(x, y, z))
+    (6, 4)
+    >>> len(trimesh.load(path).faces)
+    4
+    """
+    from plyfile import PlyData, PlyElement
+
+    kind = Path(path).suffix.lower().lstrip(".")
+    if kind not in MESH_FORMATS:
+        raise ValueError(f"{path}: a mesh is written as {' or '.join(MESH_FORMATS)}")
+    vert = _vertices(x, y, z, None, colour if kind == "ply" else None, normals and kind == "ply")
+    tri = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if tri.size and (tri.min() < 0 or tri.max() >= vert.size):
+        raise ValueError(f"{path}: faces index vertices outside 0..{vert.size - 1}")
+    if kind == "stl":
+        import trimesh
+
+        xyz = np.stack([vert["x"], vert["y"], vert["z"]], axis=-1)
+        trimesh.Trimesh(xyz, tri, process=False).export(str(path), file_type="stl")
+        return int(vert.size), int(tri.shape[0])
+    face = np.empty(tri.shape[0], dtype=[("vertex_indices", "i4", (3,))])
+    face["vertex_indices"] = tri
+    elements = [PlyElement.describe(vert, "vertex"), PlyElement.describe(face, "face")]
+    PlyData(elements, byte_order="<").write(str(path))
+    return int(vert.size), int(tri.shape[0])
+
+
+#: The map of the points ``measure --remove-outliers`` left out of ``points.ply`` and the mesh
+#: (uint8, 1 = left out).
+OUTLIERS_MAP = "outliers.tiff"
+
+
+def read_result_points(folder: str | Path) -> tuple[np.ndarray, str]:
+    """The organised point cloud of a ``measure`` result folder, as it was written.
+
+    A stereo result's ``xyz.tiff`` (camera frame, mm); a phase-to-height result's
+    ``points.ply`` put back on the pixel grid: its vertices are the pixels valid in
+    ``height.tiff`` in row-major order (:func:`write_ply`). Points ``outliers.tiff`` marks (a
+    ``measure --remove-outliers`` run) are invalid, as they are in ``points.ply``.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The result folder (``hdrfringe measure -o``).
+
+    Returns
+    -------
+    xyz : ndarray of float64, shape (H, W, 3)
+        The points, mm (x and y in pixels for a calibration without camera geometry); NaN
+        where invalid.
+    kind : str
+        ``stereo`` (camera frame: the camera at the origin, z away from it) or ``height``
+        (z the height over the reference plane, toward the camera).
+
+    Raises
+    ------
+    InputError
+        No such folder, or none of the files above.
+    CaptureFormatError
+        A file that cannot be read, or ``points.ply`` and ``height.tiff`` that disagree.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from hdrfringe.io.results import write_map_tiff
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> h = np.array([[1.0, np.nan], [2.0, 3.0]])
+    >>> write_map_tiff(folder / "height.tiff", h)
+    >>> _ = write_ply(folder / "points.ply", [[0, 1], [0, 1.0]], [[0, 0], [-1, -1.0]], h)
+    >>> xyz, kind = read_result_points(folder)
+    >>> kind, xyz[..., 2].tolist()
+    ('height', [[1.0, nan], [2.0, 3.0]])
+    """
+    from hdrfringe.errors import CaptureFormatError, InputError
+    from hdrfringe.io.results import read_map_tiff
+
+    root = Path(folder)
+    if not root.is_dir():
+        raise InputError(f"{root}: no such result folder; give a folder `hdrfringe measure` wrote")
+    xyz_path, height_path, ply_path = root / "xyz.tiff", root / "height.tiff", root / "points.ply"
+    if xyz_path.is_file():
+        xyz = np.asarray(read_map_tiff(xyz_path), dtype=np.float64)
+        if xyz.ndim != 3 or xyz.shape[-1] != 3:
+            raise CaptureFormatError(
+                f"{xyz_path}: shape {xyz.shape}, not (H, W, 3); regenerate it with measure"
+            )
+        valid, kind = np.isfinite(xyz).all(axis=-1), "stereo"
+    elif height_path.is_file() and ply_path.is_file():
+        height = read_map_tiff(height_path)
+        if height.ndim != 2:
+            raise CaptureFormatError(f"{height_path}: shape {height.shape}, not (H, W)")
+        valid, kind = np.isfinite(height), "height"
+    else:
+        raise InputError(
+            f"{root}: no xyz.tiff, nor height.tiff with points.ply: not the result of "
+            "`hdrfringe measure` with a calibration (-c CAL)"
+        )
+    outliers = root / OUTLIERS_MAP
+    if outliers.is_file():
+        removed = read_map_tiff(outliers)
+        if removed.shape != valid.shape:
+            raise CaptureFormatError(
+                f"{outliers}: shape {removed.shape}, the result's maps {valid.shape}"
+            )
+        valid &= removed == 0
+    if kind == "stereo":
+        xyz[~valid] = np.nan
+        return xyz, kind
+    from plyfile import PlyData
+
+    try:
+        v = PlyData.read(str(ply_path))["vertex"]
+        pts = np.stack([np.asarray(v[c], dtype=np.float64) for c in "xyz"], axis=-1)
+    except Exception as exc:  # any reader failure: truncated or not a PLY
+        raise CaptureFormatError(
+            f"{ply_path}: cannot read the point cloud ({type(exc).__name__}: {exc}); "
+            "measure again"
+        ) from None
+    if pts.shape[0] != int(valid.sum()):
+        raise CaptureFormatError(
+            f"{ply_path}: {pts.shape[0]} points for {int(valid.sum())} valid pixels of "
+            f"{height_path.name}: the folder changed after measure wrote it; measure again"
+        )
+    xyz = np.full((*valid.shape, 3), np.nan)
+    xyz[valid] = pts
+    return xyz, kind

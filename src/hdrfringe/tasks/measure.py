@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from hdrfringe._renamed import renamed_fields
 from hdrfringe.core import strict_json
 from hdrfringe.errors import InputError
+from hdrfringe.io.point_cloud import OUTLIERS_MAP
 from hdrfringe.io.results import (
     MAP_COMPRESSION,
     staged_output_dir,
@@ -51,7 +52,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CAPTURES",
+    "MESH_CHOICES",
+    "OUTLIERS_MAP",
     "PIE_SLICES",
+    "CloudOptions",
     "MeasureOptions",
     "MeasureReport",
     "check_noise_sigma",
@@ -59,6 +63,7 @@ __all__ = [
     "logged_strategy",
     "measure",
     "replayed_strategy",
+    "write_cloud",
     "write_height_outputs",
     "write_measurement",
     "write_migl_maps",
@@ -98,12 +103,13 @@ def write_height_outputs(
     *,
     previews: bool = True,
     colour: NDArray[np.uint8] | None = None,
+    cloud: CloudOptions | None = None,
 ) -> list[str]:
     """Write ``height.tiff``, ``height.png`` and ``points.ply`` into ``out``; return notes.
 
     ``points.ply`` holds x, y, z in mm, the unit normals ``nx, ny, nz`` from the pixel grid
     (toward the camera; :func:`~hdrfringe.io.point_cloud.grid_normals`) and, with ``colour``,
-    ``red, green, blue``.
+    ``red, green, blue``; ``cloud`` adds outlier removal and a mesh (:func:`write_cloud`).
 
     Parameters
     ----------
@@ -118,6 +124,8 @@ def write_height_outputs(
         Write the PNG preview of every map (default); False: ``--no-previews``.
     colour : ndarray of uint8, shape (H, W), optional
         The points' gray (the mean intensity, as ``measure`` writes it); None: no colour.
+    cloud : CloudOptions, optional
+        Outlier removal and mesh; default none of either.
 
     Returns
     -------
@@ -139,11 +147,115 @@ def write_height_outputs(
     write_map_tiff(out / "height.tiff", height_mm)
     if previews:
         write_preview_png(out / "height.png", height_mm, title="height", cmap="viridis", label="mm")
-    from hdrfringe.io.point_cloud import write_ply
     from hdrfringe.pipeline import NO_GEOMETRY, height_points
 
-    write_ply(out / "points.ply", *height_points(height_mm, geometry), colour=colour, normals=True)
+    write_cloud(out, *height_points(height_mm, geometry), colour=colour, cloud=cloud)
     return [NO_GEOMETRY] if geometry is None else []
+
+
+#: The meshes ``measure --mesh`` writes (``mesh.ply`` or ``mesh.stl``), and ``none``.
+MESH_CHOICES = ("none", "ply", "stl")
+
+
+@dataclass(frozen=True)
+class CloudOptions:
+    """What ``measure`` writes besides ``points.ply`` (:func:`write_cloud`).
+
+    Parameters
+    ----------
+    mesh : str
+        ``none`` (default), ``ply`` or ``stl``: the organised-grid mesh
+        (:func:`hdrfringe.core.cloud.grid_mesh`) as ``mesh.ply`` or ``mesh.stl``.
+    remove_outliers : bool
+        Leave the statistical outliers (:func:`hdrfringe.core.cloud.statistical_outliers`)
+        out of ``points.ply`` and the mesh and write their map, ``outliers.tiff``.
+
+    Raises
+    ------
+    InputError
+        An unknown mesh format.
+
+    Examples
+    --------
+    >>> CloudOptions(mesh="stl").mesh
+    'stl'
+    """
+
+    mesh: str = "none"
+    remove_outliers: bool = False
+
+    def __post_init__(self) -> None:
+        if self.mesh not in MESH_CHOICES:
+            raise InputError(
+                f"--mesh {self.mesh!r}: give one of {', '.join(MESH_CHOICES)} (docs/measurement.md)"
+            )
+
+
+def write_cloud(
+    out: Path,
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    z: NDArray[np.float64],
+    *,
+    intensity: NDArray[np.float64] | None = None,
+    colour: NDArray[np.uint8] | None = None,
+    cloud: CloudOptions | None = None,
+) -> list[str]:
+    """Write ``points.ply`` (with normals) and, as ``cloud`` asks, ``outliers.tiff`` and the
+    mesh; return the files written.
+
+    With ``remove_outliers`` the statistical outliers of the valid points are set invalid
+    before anything is written (the normals and the mesh then never use them) and their map
+    ``outliers.tiff`` (uint8, 1 = left out) is written; the height and coordinate maps keep
+    every point. The mesh's vertices are ``points.ply``'s, in the same order.
+
+    Parameters
+    ----------
+    out : Path
+        Output folder.
+    x, y, z : ndarray, shape (H, W)
+        The points on the camera's pixel grid, mm (NaN = invalid).
+    intensity : ndarray, shape (H, W), optional
+        A per-point value (the stereo quality).
+    colour : ndarray of uint8, shape (H, W), optional
+        The points' gray.
+    cloud : CloudOptions, optional
+        Default: ``points.ply`` only.
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> x, y = np.meshgrid(np.arange(4.0), -np.arange(3.0))
+    >>> write_cloud(Path(tempfile.mkdtemp()), x, y, np.zeros((3, 4)),
+    ...             cloud=CloudOptions(mesh="ply", remove_outliers=True))
+    ['outliers.tiff', 'points.ply', 'mesh.ply']
+    """
+    from hdrfringe.io.point_cloud import write_mesh, write_ply
+
+    cloud = cloud or CloudOptions()
+    files = []
+    if cloud.remove_outliers:
+        from hdrfringe.core.cloud import statistical_outliers
+
+        ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(z)
+        removed = np.zeros(ok.shape, dtype=bool)
+        removed[ok] = statistical_outliers(np.stack([x[ok], y[ok], z[ok]], axis=-1))
+        write_map_tiff(out / OUTLIERS_MAP, removed.astype(np.uint8))
+        files.append(OUTLIERS_MAP)
+        x, y, z = (np.where(removed, np.nan, a) for a in (x, y, z))
+    write_ply(out / "points.ply", x, y, z, intensity=intensity, colour=colour, normals=True)
+    files.append("points.ply")
+    if cloud.mesh != "none":
+        from hdrfringe.core.cloud import grid_mesh
+
+        name = f"mesh.{cloud.mesh}"
+        write_mesh(out / name, x, y, z, grid_mesh(x, y, z), colour=colour, normals=True)
+        files.append(name)
+    return files
 
 
 def _point_colour(result: MeasurementResult) -> NDArray[np.uint8] | None:
@@ -212,7 +324,12 @@ def write_uncertainty_outputs(
 
 
 def write_stereo_outputs(
-    out: Path, maps: StereoMaps, *, previews: bool = True, colour: NDArray[np.uint8] | None = None
+    out: Path,
+    maps: StereoMaps,
+    *,
+    previews: bool = True,
+    colour: NDArray[np.uint8] | None = None,
+    cloud: CloudOptions | None = None,
 ) -> list[str]:
     """The outputs of a triangulated measurement (docs/stereo.md); returns the files written.
 
@@ -233,6 +350,8 @@ def write_stereo_outputs(
         Write the PNG preview of every map (default); False: ``--no-previews``.
     colour : ndarray of uint8, shape (H, W), optional
         The points' gray (the mean intensity, as ``measure`` writes it); None: no colour.
+    cloud : CloudOptions, optional
+        Outlier removal and mesh (:func:`write_cloud`); default none of either.
 
     Returns
     -------
@@ -265,13 +384,11 @@ def write_stereo_outputs(
             out / "height.png", maps.height_mm, title="height over the reference plane",
             cmap="viridis", label="mm",
         )  # fmt: skip
-    from hdrfringe.io.point_cloud import write_ply
-
-    write_ply(
-        out / "points.ply", maps.xyz[..., 0], maps.xyz[..., 1], maps.xyz[..., 2],
-        intensity=maps.quality, colour=colour, normals=True,
+    cloud_files = write_cloud(
+        out, maps.xyz[..., 0], maps.xyz[..., 1], maps.xyz[..., 2],
+        intensity=maps.quality, colour=colour, cloud=cloud,
     )  # fmt: skip
-    files = ["xyz.tiff", "depth.tiff", "height.tiff", "height.png", "points.ply"]
+    files = ["xyz.tiff", "depth.tiff", "height.tiff", "height.png", *cloud_files]
     if not previews:
         files.remove("height.png")
     if maps.residual_mm is not None:
@@ -423,6 +540,7 @@ def write_measurement(
     phase_maps: bool = True,
     extra_files: Callable[[Path], None] | None = None,
     previews: bool = True,
+    cloud: CloudOptions | None = None,
 ) -> list[str]:
     """Write a measurement's result folder, staged: complete or not at all.
 
@@ -458,6 +576,8 @@ def write_measurement(
     previews : bool
         Write a PNG preview beside every map (default). False (``measure --no-previews``): the
         maps, point cloud, figures and metrics only.
+    cloud : CloudOptions, optional
+        ``--mesh`` and ``--remove-outliers`` (:func:`write_cloud`); default neither.
 
     Returns
     -------
@@ -504,11 +624,11 @@ def write_measurement(
             )
         if result.stereo is not None:
             colour = _point_colour(result)
-            write_stereo_outputs(tmp, result.stereo, previews=previews, colour=colour)
+            write_stereo_outputs(tmp, result.stereo, previews=previews, colour=colour, cloud=cloud)
         elif result.height_mm is not None:  # its note is in the metrics already
             write_height_outputs(
                 tmp, result.height_mm, result.geometry, previews=previews,
-                colour=_point_colour(result),
+                colour=_point_colour(result), cloud=cloud,
             )  # fmt: skip
             if unc is not None and unc.height_std_mm is not None:
                 write_uncertainty_outputs(tmp, unc.height_std_mm, previews=previews)
@@ -712,6 +832,8 @@ class MeasureOptions:
         The camera noise in DN (else estimated).
     previews : bool
         PNG previews beside the maps.
+    cloud : CloudOptions
+        Outlier removal and mesh of the point cloud (default: neither).
 
     Examples
     --------
@@ -734,6 +856,7 @@ class MeasureOptions:
     harmonics: str = "off"
     noise_sigma: float | None = None
     previews: bool = True
+    cloud: CloudOptions = field(default_factory=CloudOptions)
 
     def pipeline_kwargs(self, calibration: Path | None) -> dict[str, Any]:
         """The keyword arguments of :func:`hdrfringe.pipeline.measure`.
@@ -902,7 +1025,7 @@ def measure(
         assert folder is not None
         caps = read_capture_folder(folder, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
         result = pipeline.measure(caps, cal, label=str(folder), **kwargs)
-    write_measurement(result, output, force=force, previews=options.previews)
+    write_measurement(result, output, force=force, previews=options.previews, cloud=options.cloud)
     return MeasureReport(output, result)
 
 
@@ -940,6 +1063,7 @@ def _measure_hardware(
         write_capture_output(tmp / CAPTURES, caps, state, log)
 
     write_measurement(result, output, force=force, extra_metrics={"capture": state},
-                      extra_files=captures, previews=options.previews)  # fmt: skip
+                      extra_files=captures, previews=options.previews,
+                      cloud=options.cloud)  # fmt: skip
     rejected = sum(t.rejected for t in rig.log)
     return MeasureReport(output, result, captured=len(caps.frames), rejected=rejected)
