@@ -70,6 +70,7 @@ COMMAND_MODULES: dict[str, str] = {
     "train-correction": "train",
     "rig": "rig_check",
     "acceptance": "acceptance",
+    "run": "run",
 }
 
 
