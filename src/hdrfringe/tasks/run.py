@@ -194,7 +194,7 @@ def _stereo_stage(t: Mapping[str, Any], progress: Progress) -> Callable[[Path], 
     return call
 
 
-def _measure_options(t: Mapping[str, Any]) -> Any:
+def _measure_options(t: Mapping[str, Any], where: Path) -> Any:
     """The :class:`~hdrfringe.tasks.measure.MeasureOptions` of a ``[measure]`` table (the
     strategy's parameters checked by the registry)."""
     from hdrfringe.tasks.measure import MeasureOptions
@@ -206,7 +206,9 @@ def _measure_options(t: Mapping[str, Any]) -> Any:
         try:
             params = make_params(t["strategy"], **t["strategy_params"])
         except InputError as exc:
-            raise InputError(f"[measure] strategy: {exc}") from None
+            raise InputError(
+                f"{where}: [measure] 'strategy_params' {exc}; fix it (docs/project_file.md)"
+            ) from None
         if t["strategy"] == "tolerant":  # the strategy decodes with its own min_shifts
             min_shifts = getattr(params, "min_shifts", 3)
     return MeasureOptions(
@@ -234,9 +236,10 @@ def _measure_stage(
     return call
 
 
-def _plan(tables: Mapping[str, Mapping[str, Any]], out: Path, progress: Progress) -> list[_Stage]:
+def _plan(spec: Any, out: Path, progress: Progress) -> list[_Stage]:
     """The stages of a project, in order, with their inputs, upstream stages and calls."""
     stages: list[_Stage] = []
+    tables: Mapping[str, Mapping[str, Any]] = spec.tables
 
     def add(name: str, inputs: dict[str, Any], upstream: tuple[str, ...], call: Any) -> None:
         inputs = {k: tuple(v) if isinstance(v, tuple) else (v,) for k, v in inputs.items()}
@@ -274,7 +277,12 @@ def _plan(tables: Mapping[str, Mapping[str, Any]], out: Path, progress: Progress
             inputs["calibration"] = cal
         elif cal_stage is not None:
             up, cal = (*up, cal_stage), out / cal_stage / CALIBRATION_FILES[cal_stage]
-        add("measure", inputs, up, _measure_stage(folder, lambda: cal, _measure_options(t)))
+        add(
+            "measure",
+            inputs,
+            up,
+            _measure_stage(folder, lambda: cal, _measure_options(t, spec.source)),
+        )
     return stages
 
 
@@ -434,7 +442,7 @@ def run_project(
             f'{project}: no output folder; give -o OUT or [project] output = "..." '
             "(docs/project_file.md)"
         )
-    stages = _plan(spec.tables, out, progress)
+    stages = _plan(spec, out, progress)
     _check_output(out, stages)
     outputs: dict[str, str] = {}
     done = tuple(_run_stage(s, out, outputs, force, __version__, say) for s in stages)
