@@ -186,6 +186,12 @@ def _unknown(name: str, known: Any, where: str, table: str, what: str) -> InputE
     return InputError(f"{where}: [{name}] is not a table of a project file; {hint} ({DOC})")
 
 
+def _normal(path: Path) -> Path:
+    """``path`` with ``.`` and ``dir/..`` removed (``docs/examples/../../build`` -> ``build``),
+    as the shell reads them when the folders are not symbolic links."""
+    return Path(os.path.normpath(path))
+
+
 def _short(value: Any) -> str:
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."
@@ -208,9 +214,9 @@ class _Checker:
                     self.where, table, key, f"starts with an unknown root {value.split('/')[0]!r}",
                     f"name a root of [paths] (defined: {known})",
                 )  # fmt: skip
-            return self.roots[name] / rest.lstrip("/")
+            return _normal(self.roots[name] / rest.lstrip("/"))
         p = Path(value).expanduser()
-        return p if p.is_absolute() else self.base / p
+        return _normal(p if p.is_absolute() else self.base / p)
 
     def existing(self, value: Any, table: str, key: str, kind: str) -> Path:
         p = self.path(value, table, key)
@@ -316,7 +322,7 @@ def _roots(table: Any, where: str, base: Path) -> dict[str, Path]:
         if not isinstance(value, str) or not value.strip():
             raise _fail(where, "paths", name, f"must be a path (a string), got {_short(value)}")
         p = Path(value).expanduser()
-        roots[name] = p if p.is_absolute() else base / p
+        roots[name] = _normal(p if p.is_absolute() else base / p)
     return roots
 
 

@@ -230,7 +230,11 @@ def _measure_stage(
         if m.valid_fraction is not None:
             lines.append(f"valid {100 * m.valid_fraction:.1f} % of measurement pixels")
         if m.stereo is not None:
-            lines.append(f"triangulated {m.stereo['n_points']} points ({m.stereo['directions']})")
+            st = m.stereo
+            line = f"triangulated {st['n_points']} points ({st['directions']})"
+            if "reference_plane" in st:
+                line += f", reference plane RMS {st['reference_plane']['rms_mm']:.3f} mm"
+            lines.append(line)
         return lines + [f"note: {n}" for n in m.notes]
 
     return call
