@@ -144,8 +144,9 @@ def test_stages_give_what_the_commands_give(project: dict) -> None:
 def test_second_run_skips_and_changes_rerun_only_downstream(project: dict) -> None:
     """Nothing changed: every stage skipped, no file but the run summary rewritten. An input's
     time alone is no change (content hashes). One image of the part changed: import and what
-    reads it (phase, measure) rerun, calibrate not; one plate image: calibrate and measure; an
-    option: that stage; a deleted output file: that stage."""
+    reads it (phase, measure) rerun, calibrate not; the description's comment: import reruns and
+    writes the same folder, so nothing downstream does; one plate image: calibrate and measure;
+    an option: that stage; a deleted output file: that stage."""
     out, root = project["out"], project["root"]
     before = _snapshot(out)
     assert set(_run(project).values()) == {"skipped: inputs unchanged"}
@@ -163,6 +164,14 @@ def test_second_run_skips_and_changes_rerun_only_downstream(project: dict) -> No
         "phase": "ran: import output changed",
         "calibrate": "skipped: inputs unchanged",
         "measure": "ran: import output changed",
+    }
+
+    (root / "part.toml").write_text("# a comment changes the file, not the import\n" + DESCRIPTION)
+    assert _run(project) == {
+        "import": "ran: input description changed",
+        "phase": "skipped: inputs unchanged",  # the import wrote the same bytes
+        "calibrate": "skipped: inputs unchanged",
+        "measure": "skipped: inputs unchanged",
     }
 
     plate = next((root / "inputs" / "plates").iterdir()) / "s4_p8_v_i40_g255_0.png"
