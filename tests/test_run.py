@@ -245,3 +245,30 @@ def test_output_that_is_not_a_run_folder_is_refused(project: dict, tmp_path: Pat
     res = run_cli("run", str(project["root"] / "project.toml"), "-o", str(other))
     assert res.returncode == 2 and "is not the output of a project run" in res.stderr
     assert [p.name for p in other.iterdir()] == ["keep.txt"]
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["{r}/missing.toml"], "missing.toml"),
+        (["{r}/inputs"], "is a folder, not a project file"),
+        (["{r}/project.toml", "-o", "{r}/inputs/part/out"], "output is inside the input"),
+        (["{r}/project.toml", "-o", "{r}/part.toml"], "exists and is not a folder"),
+    ],
+    ids=["missing", "folder", "output-in-input", "output-a-file"],
+)
+def test_bad_command_line_one_line_nothing_written(
+    args: list[str], expected: str, tmp_path: Path
+) -> None:
+    """A missing project file, a folder for it, an output inside an input or on a file: exit
+    code 2, one line, nothing written."""
+    (tmp_path / "inputs" / "part").mkdir(parents=True)
+    (tmp_path / "inputs" / "plates").mkdir()
+    (tmp_path / "part.toml").write_text(DESCRIPTION)
+    (tmp_path / "project.toml").write_text(PROJECT)
+    before = {p: p.read_bytes() if p.is_file() else None for p in tmp_path.rglob("*")}
+    res = run_cli("run", *[a.format(r=tmp_path) for a in args])
+    assert res.returncode == 2, (res.stdout, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and expected in lines[0], lines
+    assert {p: p.read_bytes() if p.is_file() else None for p in tmp_path.rglob("*")} == before

@@ -182,8 +182,9 @@ def output_problem(path: str | Path, files: Mapping[str, list[Any]]) -> str | No
 def read_manifest(path: str | Path) -> dict[str, Any] | None:
     """A stage manifest, or None when there is none or it cannot be trusted.
 
-    A missing, unreadable, malformed or foreign file reads as None: the stage then runs again
-    (its output is rewritten), which is always safe.
+    A missing, unreadable, malformed or foreign file, or one without its output record
+    (``output.sha256`` and ``output.files``), reads as None: the stage then runs again (its
+    output is rewritten), which is always safe.
 
     Parameters
     ----------
@@ -207,6 +208,14 @@ def read_manifest(path: str | Path) -> dict[str, Any] | None:
     except (OSError, ValueError, HdrFringeError):  # unreadable: simply not trusted
         return None
     if not isinstance(data, dict) or any(data.get(k) != v for k, v in MANIFEST_FORMAT.items()):
+        return None
+    output = data.get("output")
+    if not isinstance(output, dict) or not isinstance(output.get("sha256"), str):
+        return None
+    files = output.get("files")
+    if not isinstance(files, dict) or not all(
+        isinstance(v, list) and len(v) == 3 for v in files.values()
+    ):
         return None
     return data
 

@@ -356,7 +356,8 @@ def _run_stage(
     manifest_path = out / MANIFESTS / f"{stage.name}.json"
     old = read_manifest(manifest_path)
     reason = "--force" if force else _why(stage, old, upstream, version)
-    if reason is None and old is not None:
+    if reason is None:
+        assert old is not None  # without a manifest the reason is "first run"
         outputs[stage.name] = old["output"]["sha256"]
         say(f"{stage.name}: skipped (inputs unchanged)")
         return StageReport(stage.name, "skipped", "inputs unchanged", stage.output,
