@@ -365,7 +365,10 @@ def _run_stage(
     try:
         notes = stage.call(stage.output)
     except HdrFringeError:
-        say(f"{stage.name}: failed ({reason})")
+        say(f"{stage.name}: failed ({reason}); the stages before it are complete")
+        raise
+    except KeyboardInterrupt:
+        say(f"{stage.name}: interrupted; the stages before it are complete")
         raise
     files = tree_files(stage.output)
     outputs[stage.name] = digest(files)
