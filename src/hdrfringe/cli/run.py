@@ -23,7 +23,9 @@ def run(
     output: Annotated[
         Path | None,
         typer.Option(
-            "-o", "--output", help="The project's output folder (default: [project] output)."
+            "-o",
+            "--output",
+            help="The project's output folder (default: the file's project output).",
         ),
     ] = None,
     force: Annotated[
