@@ -219,12 +219,12 @@ def _measure_options(t: Mapping[str, Any], where: Path) -> Any:
 
 
 def _measure_stage(
-    captures: Path, calibration: Callable[[], Path | None], options: Any
+    captures: Path, calibration: Path | None, options: Any
 ) -> Callable[[Path], list[str]]:
     def call(out: Path) -> list[str]:
         from hdrfringe.tasks.measure import measure
 
-        result = measure(out, options, folder=captures, calibration=calibration(),
+        result = measure(out, options, folder=captures, calibration=calibration,
                          force=True).result  # fmt: skip
         m, lines = result.metrics, []
         if m.valid_fraction is not None:
@@ -281,12 +281,7 @@ def _plan(spec: Any, out: Path, progress: Progress) -> list[_Stage]:
             inputs["calibration"] = cal
         elif cal_stage is not None:
             up, cal = (*up, cal_stage), out / cal_stage / CALIBRATION_FILES[cal_stage]
-        add(
-            "measure",
-            inputs,
-            up,
-            _measure_stage(folder, lambda: cal, _measure_options(t, spec.source)),
-        )
+        add("measure", inputs, up, _measure_stage(folder, cal, _measure_options(t, spec.source)))
     return stages
 
 
