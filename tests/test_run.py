@@ -19,6 +19,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
+from hdrfringe.core.strict_json import loads_strict
 from hdrfringe.io.results import read_map_tiff
 from tests.conftest import run_cli
 
@@ -122,6 +123,8 @@ def test_stages_give_what_the_commands_give(project: dict) -> None:
     assert sorted(p.name for p in (out / "manifests").iterdir()) == sorted(
         f"{s}.json" for s in STAGES
     )
+    for path in [out / "run_summary.json", *(out / "manifests").iterdir()]:
+        loads_strict(path.read_text())  # strict JSON: a bare NaN would be refused
     for f in (ref / "caps").iterdir():
         if f.suffix == ".png":
             assert (out / "import" / f.name).read_bytes() == f.read_bytes()
