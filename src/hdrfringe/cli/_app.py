@@ -71,6 +71,7 @@ COMMAND_MODULES: dict[str, str] = {
     "rig": "rig_check",
     "acceptance": "acceptance",
     "fit": "fit",
+    "run": "run",
 }
 
 
