@@ -13,6 +13,9 @@ OUT ?= hdrfringe-demo
 # apt-get (as root, or through sudo) only when Xvfb or Mesa's GLX is missing.
 X_PACKAGES := xvfb libgl1 libglx-mesa0 libgl1-mesa-dri libx11-6 libxext6 libxi6 libxinerama1 \
 	libxrandr2 libxrender1 libxxf86vm1
+# The report test (tests/test_report_browser.py) opens report.html in headless Chromium: Debian's
+# package, installed the same way when /usr/bin/chromium is missing.
+BROWSER_PACKAGES := chromium
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 NATIVE_SRC := $(wildcard src/hdrfringe/core/_native/*.c)
@@ -36,6 +39,12 @@ system-packages:
 		$(SUDO) apt-get update -qq && \
 		$(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
 			$(X_PACKAGES); \
+	fi
+	@if ! command -v chromium >/dev/null 2>&1; then \
+		echo "installing Chromium for the report's browser test: $(BROWSER_PACKAGES)"; \
+		$(SUDO) apt-get update -qq && \
+		$(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+			$(BROWSER_PACKAGES); \
 	fi
 
 install: $(STAMP) system-packages

@@ -30,9 +30,12 @@ def test_demo_runs_and_meets_its_own_numbers(tmp_path: Path) -> None:
         "mask/measurement/height.tiff",
         "mask/measurement/points.ply",
         "mask/measurement/height.png",
+        "mask/measurement/report.html",  # the browser renders it: tests/test_report.py
+        "mask/measurement/report.md",
         "checkerboard/captures/manifest.json",
     ):
         assert (out / name).is_file(), name
+    assert not list((out / "saturation").rglob("report.*"))  # the study's runs have none
     sc = summary["scenes"]
     for d in (10, 25, 40):
         plate = sc[f"white_plate_{d}mm"]

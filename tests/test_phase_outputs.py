@@ -15,6 +15,7 @@ from hdrfringe.core.patterns import FringeSpec, fringe_gray
 from hdrfringe.errors import InputError
 from hdrfringe.io.captures import write_capture_folder
 from hdrfringe.io.phase_maps import SET_MAPS, write_phase_maps
+from hdrfringe.io.report import REPORT_FILES
 from hdrfringe.io.results import read_map_tiff
 from tests.conftest import run_cli_in_process
 
@@ -76,7 +77,8 @@ def test_phase_writes_the_final_maps_unless_every_set_is_asked_for(
     assert "wrote 16 files to" in res.stdout
     res = run_cli_in_process("phase", str(folder), "-o", str(every), "--per-set-maps")
     assert res.returncode == 0, res.stderr
-    names = sorted(p.name for p in final.iterdir())
+    names = sorted(p.name for p in final.iterdir() if p.name not in REPORT_FILES)
+    assert all((final / name).is_file() for name in REPORT_FILES)  # beside the maps (not listed)
     stems = [stem for stem, *_ in SET_MAPS]
     assert names == sorted(
         [f"{m}.{e}" for m in [*stems, "phase_std", "unwrapped_phase_vertical",

@@ -21,11 +21,19 @@ def demo(
     ),
     seed: Annotated[int, typer.Option(help="Random seed.")] = 0,
     force: Annotated[bool, typer.Option(help="Replace an existing output folder.")] = False,
+    report: Annotated[
+        bool,
+        typer.Option(
+            "--report/--no-report",
+            help="Write report.html and report.md beside each scene's measurement "
+            "(docs/report.md); --no-report: skip them.",
+        ),
+    ] = True,
 ) -> None:
     """Simulate scenes on the virtual rig, decode them, write maps and plots, print a summary."""
     from hdrfringe.tasks.demo import ReportTable, demo_report, run_demo
 
-    summary = run_demo(output, seed=seed, force=force, progress=progress_stage)
+    summary = run_demo(output, seed=seed, force=force, progress=progress_stage, report=report)
     for item in demo_report(summary, output):
         if not isinstance(item, ReportTable):
             console.print(item)

@@ -64,7 +64,7 @@ from hdrfringe.cli.capture import (
     HwSyncOpt,
     HwViewCheckOpt,
 )
-from hdrfringe.cli.phase import KeepSaturatedOpt, SaturatedOpt, decoder_min_shifts
+from hdrfringe.cli.phase import KeepSaturatedOpt, ReportOpt, SaturatedOpt, decoder_min_shifts
 from hdrfringe.errors import InputError
 
 __all__ = ["HARDWARE_OPTIONS", "measure", "print_summary"]
@@ -150,6 +150,7 @@ def measure(
     ] = True,
     mesh: MeshOpt = "none",
     remove_outliers: RemoveOutliersOpt = False,
+    make_report: ReportOpt = True,
     uncertainty: UncertaintyOpt = True,
     noise_sigma: NoiseSigmaOpt = None,
     harmonics: HarmonicsOpt = "off",
@@ -190,6 +191,7 @@ def measure(
         strategy, params, sources, given_strategy_options(ctx, strategy_options),
         stereo_directions, uncertainty, zrange, keep_saturated, saturated, min_shifts,
         harmonics, noise_sigma, previews, task.CloudOptions(mesh, remove_outliers),
+        make_report,
     )  # fmt: skip
     hardware = {
         "projector": projector, "camera": camera, "sync": sync, "settle": settle,
@@ -211,7 +213,7 @@ def measure(
     )  # fmt: skip
     if report.captured is not None:
         console.print(f"captured {report.captured} images, {report.rejected} stale grabs rejected")
-    print_summary(report.result, report.output)
+    print_summary(report.result, report.output, report=options.report)
 
 
 def _pitches(live: bool, pitch: str) -> list[float]:
@@ -240,7 +242,7 @@ def _depth_range(text: str | None, calibration: Path | None) -> tuple[float, flo
     return zmin, zmax
 
 
-def print_summary(result: Any, output: Path) -> None:
+def print_summary(result: Any, output: Path, *, report: bool = False) -> None:
     """The lines ``measure`` prints: sets captured, DPA's CDF gap, height error, notes.
 
     Parameters
@@ -249,6 +251,8 @@ def print_summary(result: Any, output: Path) -> None:
         What :func:`hdrfringe.pipeline.measure` returned.
     output : Path
         The result folder written.
+    report : bool
+        The folder has ``report.html``: a last line says where.
     """
     m = result.metrics
     if m.strategy is not None:
@@ -289,6 +293,8 @@ def print_summary(result: Any, output: Path) -> None:
     for note in m.notes:
         console.print(f"note: {note}")
     console.print(f"wrote {output}")
+    if report:
+        console.print(f"report: {output / 'report.html'} (opens in a browser)")
 
 
 def _print_direction_check(check: dict[str, Any] | None) -> None:

@@ -18,6 +18,7 @@ from hdrfringe.errors import InputError
 __all__ = [
     "KeepSaturatedOpt",
     "MinShiftsOpt",
+    "ReportOpt",
     "SaturatedOpt",
     "check_saturation_options",
     "decoder_min_shifts",
@@ -26,6 +27,14 @@ __all__ = [
 
 # --- the saturation options phase and measure share, and their one validation ----------------
 
+ReportOpt = Annotated[
+    bool,
+    typer.Option(
+        "--report/--no-report",
+        help="Write report.html (settings, metrics, maps and an interactive 3D view that opens "
+        "offline from the file) and report.md (docs/report.md); --no-report: skip both.",
+    ),
+]
 KeepSaturatedOpt = Annotated[
     bool, typer.Option(help="Keep the (biased) phase of pixels with saturated shifts.")
 ]
@@ -185,6 +194,7 @@ def phase(
             "unwrapped and absolute phase (docs/phase.md).",
         ),
     ] = False,
+    make_report: ReportOpt = True,
 ) -> None:
     """Decode a capture folder: wrapped, unwrapped and absolute phase with quality maps."""
     from hdrfringe.cli._harmonics import check_harmonics
@@ -205,11 +215,13 @@ def phase(
     check_harmonics(harmonics, "--saturated exclude" if saturated == "exclude" else None)
     options = PhaseOptions(
         min_modulation, keep_saturated, saturated, min_shifts, previews, uncertainty,
-        noise_sigma, map_dtype, harmonics, per_set_maps,
+        noise_sigma, map_dtype, harmonics, per_set_maps, make_report,
     )  # fmt: skip
     report = task(folder, output, options, force=force)
     _print_summary(report.summary, report.n_pixels, uncertainty)
     console.print(f"wrote {len(report.summary['files'])} files to {report.output}")
+    if options.report:
+        console.print(f"report: {report.output / 'report.html'} (opens in a browser)")
 
 
 def _print_summary(summary: dict[str, Any], n_pixels: int, uncertainty: bool) -> None:

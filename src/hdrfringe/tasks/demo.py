@@ -25,9 +25,9 @@
    (:func:`hdrfringe.pipeline.measure` on the live rig); the composite is measured like any
    capture folder.
 4. **Outputs**: per scene a capture folder and the files of ``hdrfringe measure`` (phase maps,
-   height, PLY, metrics), height previews, a 3D view of the mask, an overview figure and a
-   table of RMSE per scene and model; per study scene and strategy the files of ``hdrfringe
-   measure --strategy`` but the phase maps
+   height, PLY, metrics, ``report.html`` and ``report.md``), height previews, a 3D view of the
+   mask, an overview figure and a table of RMSE per scene and model; per study scene and
+   strategy the files of ``hdrfringe measure --strategy`` but the phase maps and the report
    (:func:`hdrfringe.tasks.measure.write_measurement`: height, PLY, the MIGL index
    map and pie chart, for DPA its CDF figure, Fig. 6.3, and ``metrics.json`` with
    ``sets_captured``, ``images_captured``, ``migls``, plus the study's ``params`` and
@@ -337,7 +337,7 @@ def _study_run(
         "rmse_mm_saturated_kept": row["rmse_mm_saturated_kept"],
         **{k: v for k, v in row.items() if k.startswith("order_error")},
     }
-    write_measurement(res, out, extra_metrics=extra, phase_maps=False)
+    write_measurement(res, out, extra_metrics=extra, phase_maps=False, report=False)
     return row, error, results[-1].migl_index
 
 
@@ -590,9 +590,11 @@ def _measure_demo_scene(
     seed: int,
     frames: list[Frame],
     cal_set: dict[str, Calibration],
+    report: bool = True,
 ) -> tuple[dict[str, Any], list[Panel]]:
-    """Capture one scene, write its capture folder and measurement under ``tmp / name``;
-    its summary entry and its overview panels (none for the scenes not shown)."""
+    """Capture one scene, write its capture folder and measurement under ``tmp / name`` (with
+    ``report.html`` unless ``report`` is False); its summary entry and its overview panels
+    (none for the scenes not shown)."""
     rig = _rig(scene, seed + 1, black)
     caps = rig.capture_folder(frames)
     sdir = tmp / name
@@ -604,7 +606,13 @@ def _measure_demo_scene(
     # a calibrated measurement of a scene with fringes always has both
     assert best.height_mm is not None and best.decoded.primary is not None
     height, primary = best.height_mm, best.decoded.primary
-    write_measurement(best, sdir / "measurement")
+    settings = {
+        "input": label,
+        "scene": name,
+        "seed": seed + 1,
+        "calibration": f"{output}/calibration_white_plate_rational.h5 (the demo's)",
+    }
+    write_measurement(best, sdir / "measurement", report=report, settings=settings)
     n_pixels = caps.image_shape[0] * caps.image_shape[1]  # saturated_fraction: of these
     entry = {
         "aperture": "black plate" if black else "white plate",
@@ -691,7 +699,12 @@ def demo_report(summary: dict[str, Any], output: Path) -> list[ReportTable | str
 
 
 def run_demo(
-    output: Path, *, seed: int = 0, force: bool = False, progress: Progress = quiet
+    output: Path,
+    *,
+    seed: int = 0,
+    force: bool = False,
+    progress: Progress = quiet,
+    report: bool = True,
 ) -> dict[str, Any]:
     """Run the demo and write everything under ``output``; return the summary (summary.json).
 
@@ -708,6 +721,10 @@ def run_demo(
         Replace an existing output folder.
     progress : Progress
         How the long stages are shown (default: not at all).
+    report : bool
+        Write ``report.html`` and ``report.md`` beside each scene's measurement
+        (``<scene>/measurement/``, docs/report.md; the saturation study's runs have none);
+        False: ``--no-report``.
 
     Returns
     -------
@@ -747,7 +764,7 @@ def run_demo(
         with progress("measuring scenes", len(scenes)) as advance:
             for name, scene, black in scenes:
                 entry, shown = _measure_demo_scene(
-                    tmp, output, name, scene, black, seed, frames, cals["white"]
+                    tmp, output, name, scene, black, seed, frames, cals["white"], report
                 )
                 summary["scenes"][name] = entry
                 panels += shown

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,6 +30,7 @@ from hdrfringe.errors import InputError
 from hdrfringe.io.point_cloud import OUTLIERS_MAP
 from hdrfringe.io.results import (
     MAP_COMPRESSION,
+    read_map_tiff,
     staged_output_dir,
     write_map_tiff,
     write_preview_png,
@@ -47,6 +48,7 @@ from hdrfringe.tasks.capture import (
 if TYPE_CHECKING:
     from hdrfringe.core.reconstruct import CameraGeometry
     from hdrfringe.core.stereo import StereoMaps
+    from hdrfringe.io.report import ReportContent
     from hdrfringe.pipeline import MeasurementResult
     from hdrfringe.strategies.base import StrategyResult
 
@@ -541,6 +543,8 @@ def write_measurement(
     extra_files: Callable[[Path], None] | None = None,
     previews: bool = True,
     cloud: CloudOptions | None = None,
+    report: bool = True,
+    settings: Mapping[str, Any] | None = None,
 ) -> list[str]:
     """Write a measurement's result folder, staged: complete or not at all.
 
@@ -578,6 +582,11 @@ def write_measurement(
         maps, point cloud, figures and metrics only.
     cloud : CloudOptions, optional
         ``--mesh`` and ``--remove-outliers`` (:func:`write_cloud`); default neither.
+    report : bool
+        Write ``report.html`` and ``report.md`` (:func:`hdrfringe.io.report.write_report`,
+        docs/report.md) last, in the same staged folder (default); False: ``--no-report``.
+    settings : mapping, optional
+        The inputs and settings the report lists (default: the source and the calibration).
 
     Returns
     -------
@@ -612,16 +621,17 @@ def write_measurement(
     from hdrfringe.io.phase_maps import write_phase_maps
 
     unc = result.uncertainty
+    sets: list[dict[str, Any]] = []
     with staged_output_dir(out, force=force) as tmp:
         if phase_maps:
-            write_phase_maps(
+            sets = write_phase_maps(
                 tmp,
                 result.decoded,
                 result.metrics.source,
                 previews=previews,
                 uncertainty=unc,
                 std_per_set=False,
-            )
+            )["sets"]
         if result.stereo is not None:
             colour = _point_colour(result)
             write_stereo_outputs(tmp, result.stereo, previews=previews, colour=colour, cloud=cloud)
@@ -642,8 +652,85 @@ def write_measurement(
         (tmp / "metrics.json").write_text(strict_json.dumps(metrics) + "\n", encoding="utf-8")
         if extra_files is not None:
             extra_files(tmp)
+        if report:  # last: it lists and embeds what the folder holds
+            from hdrfringe.io.report import write_report
+
+            left_out = None  # --remove-outliers: the view shows the points of points.ply
+            if cloud is not None and cloud.remove_outliers and (tmp / OUTLIERS_MAP).is_file():
+                left_out = read_map_tiff(tmp / OUTLIERS_MAP).astype(bool)
+            write_report(tmp, _report_content(result, metrics, sets, settings, left_out))
         files = sorted(p.name for p in tmp.iterdir())
     return files
+
+
+def _pixel_points(height_mm: NDArray[np.float64]) -> tuple[Any, Any, NDArray[np.float64]]:
+    """:func:`hdrfringe.pipeline.height_points` without a geometry (x the column, y minus the
+    row), the pixel coordinates as broadcast views: the report takes a few of the points, and
+    a full-size copy of each coordinate would not be needed."""
+    h, w = height_mm.shape
+    cols = np.broadcast_to(np.arange(w, dtype=np.float64), (h, w))
+    rows = np.broadcast_to(-np.arange(h, dtype=np.float64)[:, None], (h, w))
+    return cols, rows, height_mm
+
+
+def _report_content(
+    result: MeasurementResult,
+    metrics: Mapping[str, Any],
+    sets: Sequence[Mapping[str, Any]],
+    settings: Mapping[str, Any] | None,
+    left_out: NDArray[np.bool_] | None = None,
+) -> ReportContent:
+    """What a measurement's report says (:func:`hdrfringe.io.report.write_report`): the
+    settings, ``metrics.json``, the sets decoded and the point cloud, coloured by height, mean
+    intensity and the predicted height std where the result has them (stereo: height over
+    the reference plane, depth and the data modulation); without a height, the phase cloud of
+    ``phase`` (:func:`hdrfringe.tasks.phase.phase_cloud`). ``left_out``: the outliers
+    ``--remove-outliers`` left out of ``points.ply``, left out of the view too."""
+    from hdrfringe.io.report import CloudView, ReportContent
+    from hdrfringe.tasks.phase import phase_cloud
+
+    if not sets:  # the demo's strategy study writes no phase maps: the sets from the result
+        sets = [
+            {"label": s.label, "pitch_px": s.spec.pitch_px, "orientation": s.spec.orientation,
+             "migl": s.spec.migl}
+            for s in result.decoded.sets
+        ]  # fmt: skip
+    if settings is None:
+        settings = {"input": result.metrics.source}
+    primary = result.decoded.primary
+    intensity = None
+    if primary is not None:
+        intensity = result.decoded.set_results[primary.sets[-1].label].mean_intensity
+    colours: dict[str, Any] = {}
+    unc = result.uncertainty
+    cloud = None
+    if result.stereo is not None:
+        st = result.stereo
+        colours = {"height over the reference plane (mm)": st.height_mm, "depth (mm)": st.depth_mm}
+        if st.quality is not None:
+            colours["data modulation (DN)"] = st.quality
+        if intensity is not None:
+            colours["mean intensity (DN)"] = intensity
+        x, y, z = result.points()
+        z = z if left_out is None else np.where(left_out, np.nan, z)
+        cloud = CloudView(x, y, z, colours, ("X (mm)", "Y (mm)", "Z (mm)"), True,
+                          "triangulated points in the camera frame")  # fmt: skip
+    elif result.height_mm is not None:
+        colours = {"height (mm)": result.height_mm}
+        if intensity is not None:
+            colours["mean intensity (DN)"] = intensity
+        if unc is not None and unc.height_std_mm is not None:
+            colours["predicted height std (mm)"] = unc.height_std_mm
+        mm = result.geometry is not None
+        x, y, z = result.points() if mm else _pixel_points(result.height_mm)
+        z = z if left_out is None else np.where(left_out, np.nan, z)
+        titles = ("x (mm)", "y (mm)", "height (mm)") if mm else ("column (px)", "-row (px)",
+                                                                  "height (mm)")  # fmt: skip
+        cloud = CloudView(x, y, z, colours, titles, mm, "the points of points.ply")
+    elif primary is not None:
+        cloud = phase_cloud(result.decoded, unc)
+    title = f"hdrfringe measure: {result.metrics.source}"
+    return ReportContent(title, settings, metrics, sets, cloud)
 
 
 # --- the command's work ------------------------------------------------------------------------
@@ -834,6 +921,8 @@ class MeasureOptions:
         PNG previews beside the maps.
     cloud : CloudOptions
         Outlier removal and mesh of the point cloud (default: neither).
+    report : bool
+        Write ``report.html`` and ``report.md`` (docs/report.md); False: ``--no-report``.
 
     Examples
     --------
@@ -857,6 +946,30 @@ class MeasureOptions:
     noise_sigma: float | None = None
     previews: bool = True
     cloud: CloudOptions = field(default_factory=CloudOptions)
+    report: bool = True
+
+    def settings(self) -> dict[str, Any]:
+        """The options as the report lists them (docs/report.md), by option name.
+
+        Returns
+        -------
+        dict
+            Each option's value; the strategy's options as given (its parameters' sources
+            with them).
+
+        Examples
+        --------
+        >>> MeasureOptions(strategy="lpa").settings()["strategy"]
+        'lpa'
+        """
+        skip = ("params", "sources", "strategy_options", "report", "cloud")
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in skip}
+        out |= {"mesh": self.cloud.mesh, "remove_outliers": self.cloud.remove_outliers}
+        if self.strategy_options:
+            out["strategy_options"] = dict(self.strategy_options)
+        if self.sources:
+            out["sources"] = dict(self.sources)
+        return out
 
     def pipeline_kwargs(self, calibration: Path | None) -> dict[str, Any]:
         """The keyword arguments of :func:`hdrfringe.pipeline.measure`.
@@ -1025,8 +1138,24 @@ def measure(
         assert folder is not None
         caps = read_capture_folder(folder, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
         result = pipeline.measure(caps, cal, label=str(folder), **kwargs)
-    write_measurement(result, output, force=force, previews=options.previews, cloud=options.cloud)
+    source: dict[str, Any] = {"input": str(folder) if sim is None else result.metrics.source}
+    if sim is not None and fringes is not None:
+        source |= {"virtual_rig": dict(sim), "fringes": asdict(fringes)}
+    write_measurement(
+        result, output, force=force, previews=options.previews, cloud=options.cloud,
+        report=options.report,
+        settings=_settings(source, calibration, output, options),
+    )  # fmt: skip
     return MeasureReport(output, result)
+
+
+def _settings(
+    source: Mapping[str, Any], calibration: Path | None, output: Path, options: MeasureOptions
+) -> dict[str, Any]:
+    """The report's inputs and settings: the source, the calibration, the output and the
+    options."""
+    cal = "none (phase maps only)" if calibration is None else str(calibration)
+    return {**source, "calibration": cal, "output": str(output), **options.settings()}
 
 
 def _measure_hardware(
@@ -1062,8 +1191,12 @@ def _measure_hardware(
     def captures(tmp: Path) -> None:
         write_capture_output(tmp / CAPTURES, caps, state, log)
 
+    settings = _settings({"input": label, "captures": f"{output}/{CAPTURES}"}, None, output,
+                         options)  # fmt: skip
+    settings["calibration"] = kwargs["calibration_source"]
     write_measurement(result, output, force=force, extra_metrics={"capture": state},
-                      extra_files=captures, previews=options.previews,
-                      cloud=options.cloud)  # fmt: skip
+                      extra_files=captures, previews=options.previews, cloud=options.cloud,
+                      report=options.report,
+                      settings=settings)  # fmt: skip
     rejected = sum(t.rejected for t in rig.log)
     return MeasureReport(output, result, captured=len(caps.frames), rejected=rejected)

@@ -4,11 +4,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hdrfringe.core import strict_json
 
-__all__ = ["PhaseOptions", "PhaseReport", "phase"]
+if TYPE_CHECKING:
+    from hdrfringe.core.decode import FolderPhase
+    from hdrfringe.core.uncertainty import Uncertainty
+    from hdrfringe.io.report import CloudView
+
+__all__ = ["PhaseOptions", "PhaseReport", "phase", "phase_cloud"]
 
 
 @dataclass(frozen=True)
@@ -39,6 +44,8 @@ class PhaseOptions:
     per_set_maps : bool
         With several sets, also every set's maps (``__<set label>`` appended); default: the
         final maps only (:func:`hdrfringe.io.phase_maps.write_phase_maps`, ``per_set``).
+    report : bool
+        Write ``report.html`` and ``report.md`` (docs/report.md); False: ``--no-report``.
 
     Examples
     --------
@@ -56,6 +63,7 @@ class PhaseOptions:
     map_dtype: str = "float32"
     harmonics: str = "off"
     per_set_maps: bool = False
+    report: bool = True
 
 
 @dataclass(frozen=True)
@@ -193,7 +201,79 @@ def phase(folder: Path, output: Path, options: PhaseOptions, *, force: bool = Fa
             summary |= {"uncertainty": unc_block, "files": files}
             text = strict_json.dumps(summary) + "\n"
             (Path(tmp) / "phase_summary.json").write_text(text, encoding="utf-8")
+        if o.report:  # last, in the same staged folder: it embeds the previews written
+            from hdrfringe.io.report import ReportContent, write_report
+
+            settings = {"input": str(folder), "output": str(output), **vars(o)}
+            del settings["report"]
+            content = ReportContent(
+                f"hdrfringe phase: {folder}", settings, summary, summary["sets"],
+                phase_cloud(decoded, unc),
+            )  # fmt: skip
+            write_report(tmp, content)
     return PhaseReport(output, summary, n_pixels)
+
+
+def phase_cloud(decoded: FolderPhase, uncertainty: Uncertainty | None) -> CloudView | None:
+    """The report's 3D view of a decoding without a calibration: the primary family's absolute
+    phase (else its unwrapped phase) over the pixel grid, coloured by the phase, the data
+    modulation and mean intensity of its finest set and the predicted phase std.
+
+    Parameters
+    ----------
+    decoded : FolderPhase
+        The decoded folder.
+    uncertainty : Uncertainty or None
+        The predicted std, if computed.
+
+    Returns
+    -------
+    CloudView or None
+        None without a fringe family.
+
+    Examples
+    --------
+    >>> from hdrfringe.core.decode import FolderPhase
+    >>> phase_cloud(FolderPhase({}, []), None) is None
+    True
+    """
+    import numpy as np
+
+    from hdrfringe.io.report import CloudView
+
+    fam = decoded.primary
+    if fam is None:
+        return None
+    phase = fam.unwrapped_phase if fam.absolute_phase is None else fam.absolute_phase
+    which = "unwrapped" if fam.absolute_phase is None else "absolute"
+    finest = decoded.set_results[fam.sets[-1].label]
+    colours = {
+        f"{which} phase (rad)": phase,
+        "data modulation (DN)": finest.data_modulation,
+        "mean intensity (DN)": finest.mean_intensity,
+    }
+    if uncertainty is not None and uncertainty.phase_std is not None:
+        colours["predicted phase std (rad)"] = uncertainty.phase_std
+    h, w = np.shape(phase)
+    cols = np.broadcast_to(np.arange(w, dtype=np.float64), (h, w))  # views: no (H, W) copies
+    rows = np.broadcast_to(-np.arange(h, dtype=np.float64)[:, None], (h, w))
+    # the phase's ramp across the projector (least squares on about 20000 pixels), taken off
+    # the view: what is left shows the surface's shape, as the height would
+    step = max(1, int(np.sqrt(phase.size / 20_000)))
+    sub = [a[::step, ::step].ravel() for a in (cols, rows, phase)]
+    keep = np.isfinite(sub[2])
+    plane = None
+    if np.count_nonzero(keep) >= 3:
+        design = np.column_stack([sub[0][keep], sub[1][keep], np.ones(np.count_nonzero(keep))])
+        a, b, c = np.linalg.lstsq(design, sub[2][keep], rcond=None)[0]
+        plane = (float(a), float(b), float(c))
+    what = (
+        f"the {fam.orientation} family's {which} phase over the pixel grid, less its best-fit "
+        "plane (the fringes' ramp); no calibration: a phase, not a height"
+    )
+    title = f"{which} phase - plane (rad)" if plane is not None else f"{which} phase (rad)"
+    return CloudView(cols, rows, phase, colours, ("column (px)", "-row (px)", title), False,
+                     what, plane)  # fmt: skip
 
 
 def _without_images(captures: Any) -> Any:
