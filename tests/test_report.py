@@ -45,7 +45,8 @@ TIMEOUT = 60.0
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """``measure --strategy lpa`` of a 64x48 mask and ``phase`` of a plate, with reports."""
+    """``measure --strategy lpa --remove-outliers`` of a 64x48 mask and ``phase`` of a plate,
+    with reports."""
     root = tmp_path_factory.mktemp("report")
     steps = [
         ("simulate", "white_plate", "--series", "0:20:10", "--pitch", "1024,64,8",
@@ -54,7 +55,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         ("simulate", "mask", "--pitch", "1024,64,8", "--resolution", "64x48", "--ambient-lux",
          "600", "--migl-sweep", "255:175:40", "-o", str(root / "sweep")),
         ("measure", str(root / "sweep"), "-c", str(root / "cal.h5"), "--strategy", "lpa", "-o",
-         str(root / "measured")),
+         str(root / "measured"), "--remove-outliers"),
         ("phase", str(root / "series" / "white_plate_010.00mm"), "-o", str(root / "phase")),
     ]  # fmt: skip
     for args in steps:
@@ -143,13 +144,15 @@ def test_the_measure_report_holds_the_run(runs: dict[str, Path]) -> None:
     embedded = {base64.b64decode(src.split(",", 1)[1]) for src in page.images}
     assert (out / "height.png").read_bytes() in embedded
     assert (out / "migl_pie.png").read_bytes() in embedded
-    # the view's points are height.tiff's valid pixels (a 64x48 cloud: all of them), in order
+    # the view's points are points.ply's: height.tiff's valid pixels but the outliers
+    # --remove-outliers left out (outliers.tiff), all of them (a 64x48 cloud), in row order
     view = [s for s in page.scripts if f'getElementById("{CLOUD_DIV_ID}")' in s]
     assert len(view) == 1  # the script drawing the view (plotly.js has a newPlot of its own)
     figure = _figure(view[0])
     trace = figure["data"][0]
     height = read_map_tiff(out / "height.tiff")
-    np.testing.assert_array_equal(_typed(trace["z"]), height[np.isfinite(height)])
+    shown = np.isfinite(height) & (read_map_tiff(out / "outliers.tiff") == 0)
+    np.testing.assert_array_equal(_typed(trace["z"]), height[shown])
     # the file: plotly.js, the previews and the points: within 0.5 MB of plotly.js alone
     from hdrfringe.io.report import _plotly_js
 
@@ -157,7 +160,7 @@ def test_the_measure_report_holds_the_run(runs: dict[str, Path]) -> None:
     assert len(page.images) == 10  # 3 saturation and strategy figures, 7 maps
     labels = [b["label"] for b in figure["layout"]["updatemenus"][0]["buttons"]]
     assert labels == ["height (mm)", "mean intensity (DN)", "predicted height std (mm)"]
-    assert f"{height[np.isfinite(height)].size} of {height[np.isfinite(height)].size} valid" in md
+    assert f"{np.count_nonzero(shown)} of {np.count_nonzero(shown)} valid" in md
 
 
 def test_a_large_cloud_is_subsampled_and_says_so() -> None:
@@ -409,7 +412,10 @@ def test_the_view_with_its_points(runs: dict[str, Path], browser: Chromium) -> N
     browser.open(runs["measure"] / "report.html")
     scene = browser.evaluate(_SCENE)
     assert scene is not None, browser.errors()
-    assert scene["canvases"] >= 1 and scene["points"] == 3072
+    height = read_map_tiff(runs["measure"] / "height.tiff")
+    outliers = read_map_tiff(runs["measure"] / "outliers.tiff")
+    assert scene["canvases"] >= 1
+    assert scene["points"] == np.count_nonzero(np.isfinite(height) & (outliers == 0)) > 2500
     assert scene["menu"] == ["height (mm)", "mean intensity (DN)", "predicted height std (mm)"]
     clip = {k: scene[k] for k in ("x", "y", "width", "height")}
     drawn = coloured_fraction(browser.screenshot(clip))
