@@ -190,8 +190,7 @@ def measure(
     options = task.MeasureOptions(
         strategy, params, sources, given_strategy_options(ctx, strategy_options),
         stereo_directions, uncertainty, zrange, keep_saturated, saturated, min_shifts,
-        harmonics, noise_sigma, previews, task.CloudOptions(mesh, remove_outliers),
-        make_report,
+        harmonics, noise_sigma, previews, task.CloudOptions(mesh, remove_outliers), make_report,
     )  # fmt: skip
     hardware = {
         "projector": projector, "camera": camera, "sync": sync, "settle": settle,
