@@ -196,6 +196,18 @@ def test_second_run_skips_and_changes_rerun_only_downstream(project: dict) -> No
     assert statuses.pop("measure") == "ran: output metrics.json is missing"
     assert set(statuses.values()) == {"skipped: inputs unchanged"}
     assert (out / "measure" / "metrics.json").is_file()
+    assert (out / "measure" / "report.html").is_file()
+    assert not (out / "measure" / "mesh.ply").exists()
+
+    text = (root / "project.toml").read_text()
+    (root / "project.toml").write_text(
+        text.replace("[measure]\n", '[measure]\nreport = false\nmesh = "ply"\n')
+    )
+    statuses = _run(project)
+    assert statuses.pop("measure").startswith("ran: options changed (")
+    assert set(statuses.values()) == {"skipped: inputs unchanged"}
+    assert (out / "measure" / "mesh.ply").is_file()  # the keys reach measure
+    assert not (out / "measure" / "report.html").exists()
 
 
 #: A bad project file: (text replaced in PROJECT, its replacement, what the error line says).

@@ -90,6 +90,7 @@ _SATURATION = {
     "uncertainty": Key("bool", True, help="write the predicted per-pixel std"),
     "noise_sigma": Key("float", minimum=0, help="camera noise std, DN (else estimated)"),
     "previews": Key("bool", True, help="a PNG preview beside every map"),
+    "report": Key("bool", True, help="report.html and report.md (docs/report.md)"),
 }
 #: Every table and its keys (docs/project_file.md is this table in prose).
 SCHEMA: dict[str, dict[str, Key]] = {
@@ -136,6 +137,8 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "strategy_params": Key("params", help="the strategy's parameters by field name"),
         "stereo_directions": Key("str", "auto", choices=("auto", "u", "v")),
         "depth_range_mm": Key("range", help="[zmin, zmax] for fringe orders from the geometry"),
+        "mesh": Key("str", "none", choices=("none", "ply", "stl"), help="the grid mesh's file"),
+        "remove_outliers": Key("bool", False, help="leave statistical outliers out of the cloud"),
         **_SATURATION,
     },
 }

@@ -152,7 +152,7 @@ def _phase_stage(captures: Path, t: Mapping[str, Any]) -> Callable[[Path], list[
         options = PhaseOptions(
             t["min_modulation"], t["keep_saturated"], t["saturated"], t["min_shifts"],
             t["previews"], t["uncertainty"], t["noise_sigma"], dtype, t["harmonics"],
-            t["per_set_maps"],
+            t["per_set_maps"], t["report"],
         )  # fmt: skip
         report = phase(captures, out, options, force=True)
         fams = [f"{f['orientation']} unwrapped by {f['unwrapping']}"
@@ -197,7 +197,7 @@ def _stereo_stage(t: Mapping[str, Any], progress: Progress) -> Callable[[Path], 
 def _measure_options(t: Mapping[str, Any], where: Path) -> Any:
     """The :class:`~hdrfringe.tasks.measure.MeasureOptions` of a ``[measure]`` table (the
     strategy's parameters checked by the registry)."""
-    from hdrfringe.tasks.measure import MeasureOptions
+    from hdrfringe.tasks.measure import CloudOptions, MeasureOptions
 
     params, min_shifts = None, t["min_shifts"]
     if t["strategy"] is not None:
@@ -214,7 +214,8 @@ def _measure_options(t: Mapping[str, Any], where: Path) -> Any:
     return MeasureOptions(
         t["strategy"], params, {}, {}, t["stereo_directions"], t["uncertainty"],
         t["depth_range_mm"], t["keep_saturated"], t["saturated"], min_shifts, t["harmonics"],
-        t["noise_sigma"], t["previews"],
+        t["noise_sigma"], t["previews"], CloudOptions(t["mesh"], t["remove_outliers"]),
+        t["report"],
     )  # fmt: skip
 
 
