@@ -166,8 +166,16 @@ FULL_MAPPING_MAX_CLIPPED = 0.05
 #: saturation-tolerant decoder, or stay unreached).
 BUDGET_CLIP_FRACTION = 0.0005
 #: Budget: the longest exposure chosen from the mapping, as a multiple of the rig's
-#: (:func:`~hdrfringe.strategies.exposure.choose_exposure`'s default limit).
+#: (:func:`~hdrfringe.strategies.exposure.choose_exposure`'s default limit), and the shortest
+#: as a fraction of it.
 BUDGET_MAX_EXPOSURE_RATIO = 16.0
+#: Budget: candidate exposures per octave (the choice's resolution, 2^(1/16) = 4.4 %).
+BUDGET_EXPOSURE_STEPS = 16
+#: Budget: the rig's exposure is kept where its predicted phase variance is within this
+#: fraction of the least.
+BUDGET_EXPOSURE_TOLERANCE = 0.02
+#: Budget: mapped pixels the exposure choice evaluates at most (evenly spread).
+BUDGET_EXPOSURE_PIXELS = 20000
 
 ORIENTATIONS = ("vertical", "horizontal")
 
@@ -783,11 +791,17 @@ class _MappingOutcome:
 
 
 def _map_camera_to_projector(
-    run: _Run, m0: float, probe: NDArray | None = None, allow_bright: bool = True
+    run: _Run,
+    m0: float,
+    probe: NDArray | None = None,
+    allow_bright: bool = True,
+    low_first: tuple[NDArray, float] | None = None,
 ) -> _MappingOutcome:
     """Step 1: the mapping (at a low MIGL, or at the full one where only a highlight clips in
     its first set): response, coordinates, fringe orders. ``probe``: the first set already
-    captured at the full MIGL (the budget's; the full-MIGL mapping then)."""
+    captured at the full MIGL (the budget's; the full-MIGL mapping then). ``low_first``: the
+    first set already captured at ``m0`` and what clipped of its first shift at the full MIGL
+    (the budget's one-shift probe; the low-MIGL mapping then)."""
     t0 = time.perf_counter()
     first, pitches, settings = run.first, run.pitches, run.settings
     trial: list[float] = []  # a full-MIGL first set that was not kept (counted)
@@ -795,7 +809,19 @@ def _map_camera_to_projector(
     full_mapped = False
     full_clipped: float | None = None
     mp: _Mapping | None = None
-    if run.params.full_mapping or probe is not None:
+    if low_first is not None:
+        full_clipped = low_first[1]
+        mp = _measure_mapping(
+            run.rig,
+            first,
+            pitches,
+            m0,
+            settings,
+            auto=run.params.mapping_migl is None,
+            first_images=low_first[0],
+            allow_bright=allow_bright,
+        )
+    elif run.params.full_mapping or probe is not None:
         o0 = next(iter(pitches))
         spec0 = FringeSpec(first.pattern, first.steps, pitches[o0][0], o0, first.imin, first.migl)  # type: ignore[arg-type]
         imgs0 = _capture(run.rig, spec0.frames(), settings) if probe is None else probe
@@ -1367,30 +1393,74 @@ def _exposure_from_mapping(
 ) -> float:
     """The adapted set's exposure from the mapping's response alone (thesis Sec. 7.3).
 
-    The darkest mapped surface (1st percentile of the modulation the response predicts at the
-    full MIGL, over the pixels that carry a fringe) is brought to the target modulation
-    (:func:`~hdrfringe.strategies.exposure.default_target_modulation`), as far as the
-    brightest mapped pixels (all but :data:`BUDGET_CLIP_FRACTION`) stay ``margin`` below
-    clipping at the lowest usable MIGL, where the per-pixel MIGL takes them; never shorter
-    than ``reference_ms`` (a shorter exposure lowers every pixel's modulation) and at most
-    :data:`BUDGET_MAX_EXPOSURE_RATIO` times it.
+    Per mapped pixel the response ``I = g a + c`` (scaled by the exposure ratio ``s``) gives
+    the modulation the per-pixel MIGL reaches at each exposure: ``s g (MIGL - imin) / 2`` at
+    the full MIGL where that stays ``margin`` below clipping, else at the MIGL that does,
+    ``(T - s (c + g imin)) / 2`` with ``T`` that level (a MIGL-limited pixel *loses*
+    modulation with a longer exposure: its ambient and the fringe's ``imin`` grow with it).
+    The exposure is the one of :data:`BUDGET_EXPOSURE_STEPS` per octave between
+    1 / :data:`BUDGET_MAX_EXPOSURE_RATIO` and :data:`BUDGET_MAX_EXPOSURE_RATIO` times
+    ``reference_ms`` that minimises the mean predicted phase variance ``1 / modulation^2``
+    over the pixels that carry a fringe at ``reference_ms`` (the noise alike for all), among
+    those that leave at most :data:`BUDGET_CLIP_FRACTION` of them clipped at the lowest
+    usable MIGL or below the detection modulation; ``reference_ms`` where it is within
+    :data:`BUDGET_EXPOSURE_TOLERANCE` of that least variance. Pixels clipped in the mapping
+    (no response) do not vote.
     """
     gain, ambient = mp.gain, mp.ambient
     ok = np.isfinite(gain) & np.isfinite(ambient) & (gain > 0) & ~mp.saturated
     if not ok.any():
         return reference_ms
     imin, full = float(first.imin), float(first.migl)
-    modulation = gain * (full - imin) / 2.0
-    lit = ok & (modulation >= detection_modulation(bits))
+    det = detection_modulation(bits)
+    lit = ok & (gain * (full - imin) / 2.0 >= det)
     if not lit.any():
         return reference_ms
-    dark = float(np.percentile(modulation[lit], 1.0))
-    want = reference_ms * default_target_modulation(first.steps, bits) / dark
-    peak = gain[ok] * default_min_migl(first) + ambient[ok]  # brightest shift at the floor
-    top = float(np.percentile(peak, 100.0 * (1.0 - BUDGET_CLIP_FRACTION)))
-    limit = reference_ms * (1.0 - margin) * full_scale(bits) / max(top, 1e-9)
-    t = min(want, limit, BUDGET_MAX_EXPOSURE_RATIO * reference_ms)
-    return reference_ms if t <= reference_ms else float(f"{t:.4g}")
+    # no longer than what brings the darkest lit surface (1st percentile) to the target
+    # modulation: beyond it the dim surface gains little, while the pixels clipped in the
+    # mapping (no response: a glint) clip at the lowest usable MIGL ever more
+    dark = float(np.percentile(gain[lit] * (full - imin) / 2.0, 1.0))
+    target = default_target_modulation(first.steps, bits)
+    longest = min(max(target / dark, 1.0), BUDGET_MAX_EXPOSURE_RATIO)
+    g, c = gain[lit], np.maximum(ambient[lit], 0.0)
+    if g.size > BUDGET_EXPOSURE_PIXELS:  # evenly spread: the objective is a mean
+        pick = np.linspace(0, g.size - 1, BUDGET_EXPOSURE_PIXELS).astype(np.intp)
+        g, c = g[pick], c[pick]
+    top = (1.0 - margin) * full_scale(bits)
+    floor = default_min_migl(first)
+    n = round(float(np.log2(BUDGET_MAX_EXPOSURE_RATIO)) * BUDGET_EXPOSURE_STEPS)
+    ratios = 2.0 ** (np.arange(-n, n + 1) / BUDGET_EXPOSURE_STEPS)
+    ratios = np.unique(np.append(ratios[ratios < longest], longest))
+    n = int(np.flatnonzero(ratios == 1.0)[0])  # the reference exposure's candidate
+    s = ratios[:, None]
+    migl = np.minimum(full, (top / s - c) / g)  # the highest safe MIGL at each exposure
+    modulation = s * g * (migl - imin) / 2.0
+    lost = (migl < floor) | (modulation < det)
+    variance = np.mean(1.0 / np.maximum(modulation, det) ** 2, axis=1)
+    feasible = np.mean(lost, axis=1) <= BUDGET_CLIP_FRACTION
+    if not feasible.any():
+        return reference_ms
+    variance = np.where(feasible, variance, np.inf)
+    best = int(np.argmin(variance))
+    if feasible[n] and variance[n] <= (1.0 + BUDGET_EXPOSURE_TOLERANCE) * variance[best]:
+        return reference_ms
+    return float(f"{reference_ms * ratios[best]:.4g}")
+
+
+def _completes_first_shift(spec: FringeSpec) -> bool:
+    """Whether a set's first shift follows from its others (:func:`_with_first_shift`)."""
+    return spec.pattern == "sinusoidal" and spec.steps == 4
+
+
+def _with_first_shift(rest: NDArray, bits: int) -> NDArray:
+    """A 4-step sinusoidal set from its shifts 1-3: ``I0 = I1 + I3 - I2`` (shifts a quarter
+    period apart: ``I0 + I2 = I1 + I3``, twice the offset), clipped to the camera's range;
+    full scale (a clipped shift) where one of the three clipped."""
+    full = full_scale(bits)
+    r = rest.astype(np.int64)
+    first = np.clip(r[0] + r[2] - r[1], 0, full - 1)
+    first = np.where((saturation_count(rest, bits) > 0), full, first)
+    return np.concatenate([first[None].astype(rest.dtype), rest])
 
 
 def _conventional_sets(
@@ -1477,11 +1547,29 @@ def _run_budget(
     run.seconds["exposure"] = 0.0
     o0 = next(iter(pitches))
     probe_spec = _spec_at(first, o0, pitches[o0][0], float(first.migl))
-    probe = _capture(rig, probe_spec.frames(), run.settings)
+    frames = probe_spec.frames()
     budget.afford("mapping", steps)
-    clipped0 = saturation_count(probe, run.bits) > 0
+    # the probe's first shift alone: where it clips on much of the field, the set's other
+    # shifts are captured at the low mapping MIGL and the first shift is completed from them
+    shot = _capture(rig, frames[:1], run.settings)
+    clipped_shot = float(np.mean(saturation_count(shot, run.bits) > 0))
+    low_first: tuple[NDArray, float] | None = None
+    ladder = sum(len(p) for p in pitches.values())
+    # a full probe that clips on much of the field is one set more than the family
+    tight = budget.limit < steps * (1 + ladder + len(finest))
+    if tight and clipped_shot > FULL_MAPPING_MAX_CLIPPED and _completes_first_shift(first):
+        low_spec = _spec_at(first, o0, pitches[o0][0], m0)
+        rest = _capture(rig, low_spec.frames()[1:], run.settings)
+        low_first = (_with_first_shift(rest, run.bits), clipped_shot)
+        probe = shot  # (not a set: reported only)
+        clipped0 = saturation_count(shot, run.bits) > 0
+    else:
+        probe = np.concatenate([shot, _capture(rig, frames[1:], run.settings)])
+        clipped0 = saturation_count(probe, run.bits) > 0
     info: dict[str, Any] = {
         "max_images": int(limit),
+        "probe_images": int(probe.shape[0]),
+        "first_shift_completed": low_first is not None,
         "probe_clipped_fraction": round(float(clipped0.mean()), 6),
         "epipolar": calib is not None,
     }
@@ -1489,10 +1577,15 @@ def _run_budget(
         return _conventional_sets(run, probe_spec, probe, info)
     # the rest of the mapping: at the full MIGL where only a highlight clipped in the probe,
     # else the low-MIGL ladder with the probe merged in (its bright repeat only if it fits)
-    ladder = sum(len(p) for p in pitches.values())
     # (the bright repeat only follows the low ladder, itself ladder sets more)
     allow_bright = budget.left - steps * (ladder + len(finest)) >= steps * ladder
-    mapping = _map_camera_to_projector(run, m0, probe=probe, allow_bright=allow_bright)
+    mapping = _map_camera_to_projector(
+        run,
+        m0,
+        probe=None if low_first is not None else probe,
+        allow_bright=allow_bright,
+        low_first=low_first,
+    )
     mp = mapping.mp
     n_map = ladder * (1 if mp.bright_migl is None else 2) + len(mapping.trial)
     budget.left = budget.limit - steps * n_map
