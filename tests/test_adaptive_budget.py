@@ -225,6 +225,26 @@ def test_the_first_shift_follows_from_the_other_three() -> None:
     assert adaptive_module._with_first_shift(rest, 8)[0, 0, 0] == 255
 
 
+def test_the_completed_coarse_phase_is_averaged_on_the_circle() -> None:
+    """The coarse phase of a set completed from three low shifts is averaged as unit vectors
+    (:data:`~hdrfringe.strategies.adaptive.BUDGET_FIRST_WINDOW`): a one-period ramp that wraps
+    inside the field comes back as itself in ``[0, 2 pi)`` (the decoder's range, which the
+    temporal unwrapping reads as absolute), noise shrinks by about the window, NaN stays NaN.
+    Rejects a plain mean (wrong next to the wrap), the ``(-pi, pi]`` range of ``arctan2``
+    (half the field one period off) and a NaN that spreads."""
+    ramp = np.mod(np.linspace(4.0, 9.0, 60)[None, :] * np.ones((40, 1)), TWO_PI)
+    noisy = np.mod(ramp + np.random.default_rng(0).normal(0.0, 0.2, ramp.shape), TWO_PI)
+    noisy[20, 30] = np.nan
+    got = adaptive_module._circular_mean(noisy, 15)
+    assert np.isnan(got[20, 30]) and np.isfinite(np.delete(got.ravel(), 20 * 60 + 30)).all()
+    ok = np.isfinite(got)
+    assert got[ok].min() >= 0.0 and got[ok].max() < TWO_PI
+    inner = np.zeros(ramp.shape, bool)
+    inner[7:-7, 7:-7] = True
+    d = np.angle(np.exp(1j * (got - ramp)))[inner & ok]
+    assert np.abs(d).max() < 0.1 and d.std() < 0.2 / 5
+
+
 @pytest.fixture(scope="module")
 def bright_plate() -> dict[str, Any]:
     """The white plate under 600 lx at 64 x 48 (the full MIGL clips it all over), budget 12."""

@@ -177,6 +177,12 @@ BUDGET_EXPOSURE_TOLERANCE = 0.02
 #: Budget: mapped pixels the exposure choice evaluates at most (evenly spread).
 BUDGET_EXPOSURE_PIXELS = 20000
 
+#: Budget: window (camera pixels) over which the coarsest phase of a set completed from
+#: three low shifts is averaged (on the circle) before it orders the next set: three shifts
+#: at the lowest MIGL slipped a 64 px order at 19 of 320112 pixels of the 600 lx plate at
+#: 648 x 494 with the 5 px median of the other mapping levels.
+BUDGET_FIRST_WINDOW = 15
+
 ORIENTATIONS = ("vertical", "horizontal")
 
 
@@ -244,6 +250,7 @@ def _measure_mapping(
     first_images: NDArray | None = None,
     trial: tuple[NDArray, float] | None = None,
     allow_bright: bool = True,
+    first_window: int | None = None,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -259,6 +266,8 @@ def _measure_mapping(
     ``migl`` (the full-MIGL mapping's trial set). ``trial``: the first set captured at a
     higher MIGL (the full-MIGL mapping's trial set where too much clipped in it), merged into
     the first set where it did not clip (Eq. 5.1) and added to the response there.
+    ``first_window``: the first orientation's coarsest phase averaged over that window
+    (:func:`_unwrap_ladder`).
     """
     bits = rig.camera_bit_depth
     imin = template.imin
@@ -320,7 +329,8 @@ def _measure_mapping(
 
     for orient, ps in pitches.items():
         sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
-        absolute[orient] = _unwrap_ladder(images[orient], sets, bits)
+        window = first_window if orient == next(iter(pitches)) else None
+        absolute[orient] = _unwrap_ladder(images[orient], sets, bits, window)
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
     gain, ambient = response.combined()
     return _Mapping(
@@ -417,21 +427,41 @@ def _merge_full_migl_ladder(
                 response.add(decode_set(imgs_b, spec, bits), bright, take)
 
 
-def _unwrap_ladder(images: list[NDArray], sets: list[FringeSpec], bits: int) -> NDArray[np.float64]:
+def _unwrap_ladder(
+    images: list[NDArray], sets: list[FringeSpec], bits: int, first_window: int | None = None
+) -> NDArray[np.float64]:
     """One orientation's mapping ladder unwrapped temporally, coarsest set first; each level
     median-smoothed: the low-MIGL phases are noisy, smoothing each level before it predicts
-    the next one's fringe order keeps the orders where a plain unwrap would slip."""
+    the next one's fringe order keeps the orders where a plain unwrap would slip.
+    ``first_window``: the coarsest level averaged on the circle over that window instead
+    (the budget's set completed from three low shifts: noisier than four)."""
     phases = []
     for imgs, spec in zip(images, sets, strict=True):
         # a merged set decodes as one: the phase does not depend on the MIGL
         d = decode_set(imgs, spec, bits)
         phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
     ps = [s.pitch_px for s in sets]
-    current = median_smooth(phases[0], MEDIAN_WINDOW)
+    if first_window is None:
+        current = median_smooth(phases[0], MEDIAN_WINDOW)
+    else:
+        current = _circular_mean(phases[0], first_window)
     for k in range(1, len(ps)):
         current = unwrap_temporal([current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True)
         current = median_smooth(current, MEDIAN_WINDOW)
     return current
+
+
+def _circular_mean(phase: NDArray[np.float64], size: int) -> NDArray[np.float64]:
+    """The wrapped ``phase`` averaged as unit vectors over a ``size`` x ``size`` window (NaN
+    ignored, stays NaN), in [0, 2 pi) as the decoder gives it: unbiased on a ramp, a
+    one-period phase's wrap kept."""
+    from scipy.ndimage import uniform_filter
+
+    ok = np.isfinite(phase)
+    z = np.where(ok, np.exp(1j * np.where(ok, phase, 0.0)), 0.0)
+    re = uniform_filter(z.real, size, mode="nearest")
+    im = uniform_filter(z.imag, size, mode="nearest")
+    return np.where(ok, np.mod(np.arctan2(im, re), 2 * np.pi), np.nan)
 
 
 def _correct_map_bias(
@@ -820,6 +850,7 @@ def _map_camera_to_projector(
             auto=run.params.mapping_migl is None,
             first_images=low_first[0],
             allow_bright=allow_bright,
+            first_window=BUDGET_FIRST_WINDOW,
         )
     elif run.params.full_mapping or probe is not None:
         o0 = next(iter(pitches))
