@@ -8,12 +8,14 @@ modulation of the finest set and the median level each pixel was projected at
 (``index_map``: the MIGL, or for multi-exposure the exposure in ms), on the dark and the
 bright side (reflectivity below / above half its maximum) in bands of camera pixels from
 the nearest pixel of the other side (issue 26: the budget row's excess std on the
-checkerboard is the dark side's first 4 pixels, starved by the map's erosion).
+checkerboard is the dark side's first 4 pixels, starved by the map's erosion). ``--set
+blur_px=0`` passes a parameter to every row.
 """
 
 from __future__ import annotations
 
 import argparse
+import ast
 import sys
 
 import numpy as np
@@ -45,7 +47,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scene", default="checkerboard", choices=sorted(SCENES))
     ap.add_argument("--strategies", default="multiexposure,adaptive-epipolar,adaptive-12")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a strategy parameter for every row (a Python literal), e.g. blur_px=0; repeatable",
+    )
     args = ap.parse_args(argv)
+    extra = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.set)}
     specs = compare_specs(8.0)
     methods = {m.name: m for m in METHODS}
     for name in args.strategies.split(","):
@@ -57,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
             "dark": (~bright, ndimage.distance_transform_edt(~bright)),
             "bright": (bright, ndimage.distance_transform_edt(bright)),
         }
-        res = measure(rig, strategy=m.strategy, params=dict(m.params), specs=specs)
+        res = measure(rig, strategy=m.strategy, params=dict(m.params) | extra, specs=specs)
         fam = res.decoded.primary
         assert fam is not None and fam.absolute_phase is not None
         err = fam.absolute_phase - 2 * np.pi * truth.u / specs[-1].pitch_px
@@ -65,7 +75,11 @@ def main(argv: list[str] | None = None) -> int:
         last = res.strategy_results[-1]
         mod = decode_set(last.images, last.spec, rig.camera_bit_depth).modulation
         images = sum(r.images_captured for r in res.strategy_results)
-        print(f"{m.label}: {images} images, std in order {1e3 * err[ok].std():.2f} mrad")
+        print(
+            f"{m.label} {extra or ''}: {images} images, coverage "
+            f"{100 * np.mean(np.isfinite(err[truth.valid])):.2f} %, std in order "
+            f"{1e3 * err[ok].std():.2f} mrad"
+        )
         for side, (where, d) in dist.items():
             for lo, hi in BANDS:
                 sel = ok & where & (d > lo) & (d <= hi)

@@ -169,6 +169,17 @@ BUDGET_CLIP_FRACTION = 0.0005
 #: (:func:`~hdrfringe.strategies.exposure.choose_exposure`'s default limit), and the shortest
 #: as a fraction of it.
 BUDGET_MAX_EXPOSURE_RATIO = 16.0
+#: Erosion beyond the camera pixel's footprint and smoothing of the map from below
+#: (projector pixels), the defaults of ``blur_px`` and ``smooth_px``.
+BLUR_PX = 2.0
+SMOOTH_PX = 3.0
+#: Budget: their defaults with ``max_images``, where no boost set follows the one adapted
+#: set: the map's step next to the footprint and softened further, which lights the dim side
+#: of a reflectivity edge and evens the radiance across it (checkerboard at 648 x 494, seed
+#: 0, ``bench_budget_regions.py``: 35.0 mrad against 46.7 with 2 and 3 and the map-bias
+#: correction).
+BUDGET_BLUR_PX = 0.0
+BUDGET_SMOOTH_PX = 4.0
 #: Budget: candidate exposures per octave (the choice's resolution, 2^(1/16) = 4.4 %).
 BUDGET_EXPOSURE_STEPS = 16
 #: Budget: the rig's exposure is kept where its predicted phase variance is within this
@@ -669,7 +680,7 @@ def _checked_inputs(
     if isinstance(iterations, bool) or int(iterations) != iterations or iterations < 0:
         raise InputError(f"adaptive iterations must be a whole number >= 0, got {iterations!r}")
     for name, value in (("blur_px", params.blur_px), ("smooth_px", params.smooth_px)):
-        if not float(value) >= 0:
+        if value is not None and not float(value) >= 0:
             raise InputError(f"adaptive {name} must be >= 0 projector pixels, got {value!r}")
     if exposure_ms is not None and not float(exposure_ms) > 0:
         raise InputError(f"adaptive exposure_ms must be > 0, got {exposure_ms!r}")
@@ -1299,7 +1310,10 @@ def _adapted_phase(
         st.seconds["topup"] += time.perf_counter() - t1
     t0 = time.perf_counter()
     blur = None
-    if run.params.bias_correction:
+    # with a budget, only after the full-MIGL mapping: the low-MIGL mapping's phase (low
+    # shifts, noisy, the reflectivity edges' own bias) is no reference to fit the blur on
+    # (checkerboard at 648 x 494, seed 0: 56.8 mrad with it, 35.0 without)
+    if run.params.bias_correction and (run.budget is None or mapping.full_mapped):
         absolute, blur = _correct_map_bias(
             absolute,
             predicted,
@@ -1389,7 +1403,14 @@ def _run_adaptive(
     rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
 ) -> tuple[StrategyResult, ...]:
     """:func:`adaptive_sets` with its parameters grouped: the steps in order."""
-    if params.max_images is not None:
+    budget = params.max_images is not None
+    defaults = (BUDGET_BLUR_PX, BUDGET_SMOOTH_PX) if budget else (BLUR_PX, SMOOTH_PX)
+    params = dataclasses.replace(
+        params,
+        blur_px=defaults[0] if params.blur_px is None else params.blur_px,
+        smooth_px=defaults[1] if params.smooth_px is None else params.smooth_px,
+    )
+    if budget:
         return _run_budget(rig, specs, params)
     specs, calib, m0 = _checked_inputs(rig, specs, params)
     exposure_ms, chosen, t_exposure = _choose_exposure_first(rig, specs, params)
@@ -1689,8 +1710,8 @@ def adaptive_sets(
     boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
-    blur_px: float = 2.0,
-    smooth_px: float = 3.0,
+    blur_px: float | None = None,
+    smooth_px: float | None = None,
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
@@ -1726,11 +1747,13 @@ def adaptive_sets(
     mapping_migl : float, optional
         MIGL of the mapping sets; default (None) ``imin + 20`` for the first and, for the
         others, the highest MIGL its response says keeps every pixel 10 % below clipping.
-    blur_px : float
+    blur_px : float, optional
         Erosion beyond the camera pixel's footprint, projector pixels: projector defocus,
-        mapping error and rounding (>= 0).
-    smooth_px : float
-        Smoothing of the map from below, projector pixels (>= 0).
+        mapping error and rounding (>= 0). None: :data:`BLUR_PX`, with ``max_images``
+        :data:`BUDGET_BLUR_PX`.
+    smooth_px : float, optional
+        Smoothing of the map from below, projector pixels (>= 0). None: :data:`SMOOTH_PX`,
+        with ``max_images`` :data:`BUDGET_SMOOTH_PX`.
     exposure_ms : float, optional
         Exposure time of every capture; None: the rig's own setting.
     auto_exposure : bool
@@ -1842,8 +1865,8 @@ def adaptive(
     boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
-    blur_px: float = 2.0,
-    smooth_px: float = 3.0,
+    blur_px: float | None = None,
+    smooth_px: float | None = None,
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
@@ -1931,10 +1954,11 @@ class AdaptiveParams:
         Subtract the phase bias of the map's steps under the blur.
     mapping_migl : float, optional
         MIGL of the mapping sets (``--mapping-migl``); default: automatic.
-    blur_px : float
-        Erosion beyond the camera pixel's footprint, projector pixels.
-    smooth_px : float
-        Smoothing of the map from below, projector pixels.
+    blur_px : float, optional
+        Erosion beyond the camera pixel's footprint, projector pixels (None: 2, with
+        ``max_images`` 0).
+    smooth_px : float, optional
+        Smoothing of the map from below, projector pixels (None: 3, with ``max_images`` 4).
     exposure_ms : float, optional
         Fixed exposure time of every capture (``--adaptive-exposure-ms``); None: the rig's.
     auto_exposure : bool
@@ -2011,12 +2035,19 @@ class AdaptiveParams:
             "cli": "--mapping-migl",
         },
     )
-    blur_px: float = field(
-        default=2.0,
-        metadata={"help": "erosion beyond the camera pixel's footprint (projector pixels)."},
+    blur_px: float | None = field(
+        default=None,
+        metadata={
+            "help": "erosion beyond the camera pixel's footprint (projector pixels; default 2, "
+            "with max_images 0)."
+        },
     )
-    smooth_px: float = field(
-        default=3.0, metadata={"help": "smoothing of the map from below (projector pixels)."}
+    smooth_px: float | None = field(
+        default=None,
+        metadata={
+            "help": "smoothing of the map from below (projector pixels; default 3, with "
+            "max_images 4)."
+        },
     )
     exposure_ms: float | None = field(
         default=None,
