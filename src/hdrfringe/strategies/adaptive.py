@@ -892,6 +892,12 @@ def _map_camera_to_projector(
     return _MappingOutcome(mp, m0, u, v, trial, full_mapped, full_clipped)
 
 
+def _resolved(width: float | None) -> float:
+    """A map width (``blur_px``, ``smooth_px``) after :func:`_run_adaptive` resolved None."""
+    assert width is not None
+    return float(width)
+
+
 @dataclass
 class _Projection:
     """Step 2's result: the camera-side levels carried to the projector (internal).
@@ -927,7 +933,7 @@ class _Projection:
             self.vf,
             self.shape,
             radius=self.radius,
-            sigma=float(self.run.params.smooth_px),
+            sigma=_resolved(self.run.params.smooth_px),
             imin=self.imin,
             projector_full=self.full,
         )
@@ -975,7 +981,7 @@ def _plan_projector_map(run: _Run, mapping: _MappingOutcome, scale: float = 1.0)
         uf,
         vf,
         (run.rig.projector.height, run.rig.projector.width),
-        footprint_px(u, v) + float(run.params.blur_px),
+        footprint_px(u, v) + _resolved(run.params.blur_px),
         np.where(np.isfinite(mp.ambient), mp.ambient * scale, 0.0),
         mapped,
         base_levels,
