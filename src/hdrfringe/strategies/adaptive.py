@@ -176,8 +176,8 @@ SMOOTH_PX = 3.0
 #: Budget: their defaults with ``max_images``, where no boost set follows the one adapted
 #: set: the map's step next to the footprint and softened further, which lights the dim side
 #: of a reflectivity edge and evens the radiance across it (checkerboard at 648 x 494, seed
-#: 0, ``bench_budget_regions.py``: 35.0 mrad against 46.7 with 2 and 3 and the map-bias
-#: correction).
+#: 0, ``bench_budget_regions.py --strategies adaptive-12``: 35.0 mrad, with ``--set
+#: blur_px=2.0 --set smooth_px=3.0`` 59.7).
 BUDGET_BLUR_PX = 0.0
 BUDGET_SMOOTH_PX = 4.0
 #: Budget: candidate exposures per octave (the choice's resolution, 2^(1/16) = 4.4 %).
@@ -189,9 +189,9 @@ BUDGET_EXPOSURE_TOLERANCE = 0.02
 BUDGET_EXPOSURE_PIXELS = 20000
 
 #: Budget: window (camera pixels) over which the coarsest phase of a set completed from
-#: three low shifts is averaged (on the circle) before it orders the next set: three shifts
-#: at the lowest MIGL slipped a 64 px order at 19 of 320112 pixels of the 600 lx plate at
-#: 648 x 494 with the 5 px median of the other mapping levels.
+#: three low shifts is averaged (on the circle) before it orders the next set: with the 5 px
+#: median of the other mapping levels three shifts at the lowest MIGL slipped a 64 px order
+#: at some pixels of the 600 lx plate at 648 x 494.
 BUDGET_FIRST_WINDOW = 15
 
 ORIENTATIONS = ("vertical", "horizontal")
@@ -1318,7 +1318,7 @@ def _adapted_phase(
     blur = None
     # with a budget, only after the full-MIGL mapping: the low-MIGL mapping's phase (low
     # shifts, noisy, the reflectivity edges' own bias) is no reference to fit the blur on
-    # (checkerboard at 648 x 494, seed 0: 56.8 mrad with it, 35.0 without)
+    # (on the checkerboard it made the std depend on the draw and raised it)
     if run.params.bias_correction and (run.budget is None or mapping.full_mapped):
         absolute, blur = _correct_map_bias(
             absolute,
