@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from scipy.optimize import minimize_scalar
 
 import hdrfringe.strategies.adaptive as adaptive_module
 from hdrfringe.core.frames import PixelwiseFringeFrame
@@ -145,6 +146,8 @@ def test_the_budget_is_kept_and_what_it_missed_is_reported(specular: dict[str, A
         lost = int((~np.isfinite(res[-1].absolute_phase)).sum())
         assert u["clipped"] + u["low_modulation"] + u["no_order"] == lost
         assert u["reached_fraction"] == pytest.approx(1 - lost / u["pixels"], abs=1e-6)
+    # the full-MIGL mapping: the map-bias blur is fitted against it
+    assert all(specular[b]["res"][-1].details["blur_sigma_px"] is not None for b in (12, 16))
     twelve = specular[12]["res"][-1].details
     sixteen = specular[16]["res"][-1].details
     assert "topup" in twelve["budget"]["skipped"] and twelve["images_per_step"]["topup"] == 0
@@ -171,24 +174,111 @@ def test_clipped_pixels_take_the_phase_of_their_unsaturated_shifts(
     assert np.abs(err[block & valid]).max() < 0.3
 
 
-def test_the_exposure_from_the_mapping_meets_its_closed_form() -> None:
-    """The darkest lit pixel's modulation at the full MIGL, ``g (255 - 40) / 2``, goes to the
-    4-step target (53 DN) unless the brightest pixel would clip at the lowest usable MIGL
-    (60): then the exposure that puts it ``margin`` below full scale. Rejects a rule on the
-    mean modulation, or one that ignores the bright limit."""
+def test_the_exposure_from_the_mapping_minimises_the_predicted_phase_variance() -> None:
+    """Per pixel the response ``I = g a + c`` gives the modulation at exposure ratio ``s``:
+    ``s g (255 - 40) / 2`` where the full MIGL stays 1.5 % below clipping, else at the MIGL
+    that does, ``(T - s (c + 40 g)) / 2``. The exposure minimises the mean ``1 / modulation^2``
+    (checked against the two-class closed form, minimised by scipy): a dim surface alone goes
+    to the exposure that brings it to the 4-step target (53 DN; no longer), a bright half
+    holds it shorter, a surface too bright for the full MIGL everywhere goes *shorter* than
+    the rig's exposure (to where the full MIGL just fits: a lower MIGL at the rig's exposure
+    keeps the ambient and the fringe's floor ``40 g``). Rejects the earlier rule (never
+    shorter than the rig's), a rule on the darkest pixel alone, and one without the cap."""
     shape = (40, 50)
     gain = np.full(shape, 0.1)  # the dim surface: modulation 10.75 DN at 255
     ambient = np.full(shape, 2.0)
     mp = adaptive_module._Mapping({}, {}, {}, {}, {}, gain.copy(), ambient, np.zeros(shape, bool))
     first = SPECS[0]
     target = default_target_modulation(4, 8)
-    got = adaptive_module._exposure_from_mapping(mp, first, 8, 0.015, 10.0)
-    assert got == pytest.approx(10.0 * target / (0.1 * 215 / 2), rel=1e-3)
-    mp.gain[:, :25] = 1.2  # a bright half: 1.2 * 60 + 2 = 74 DN at the floor, 10 ms
-    got = adaptive_module._exposure_from_mapping(mp, first, 8, 0.015, 10.0)
-    assert got == pytest.approx(10.0 * 0.985 * 255 / (1.2 * 60 + 2), rel=1e-3)
-    mp.gain[:] = 3.0  # bright everywhere: never shorter than the rig's exposure
-    assert adaptive_module._exposure_from_mapping(mp, first, 8, 0.015, 10.0) == 10.0
+    top = 0.985 * 255
+
+    def choose() -> float:
+        return adaptive_module._exposure_from_mapping(mp, first, 8, 0.015, 10.0) / 10.0
+
+    def variance(s: float, gains: tuple[float, ...]) -> float:
+        mods = [s * g * (min(255.0, (top / s - 2.0) / g) - 40.0) / 2.0 for g in gains]
+        return float(np.mean([1.0 / m**2 for m in mods]))
+
+    assert choose() == pytest.approx(target / 10.75, rel=1e-3)  # the cap: dim at the target
+    mp.gain[:, :25] = 1.2  # a bright half: 1.2 * 60 + 2 = 74 DN at the floor (60), 10 ms
+    s_max = min(top / (1.2 * 60 + 2), target / 10.75)  # the bright half above the floor
+    best = minimize_scalar(
+        lambda s: variance(s, (0.1, 1.2)), bounds=(1 / 16, s_max), method="bounded"
+    ).x
+    got = choose()
+    assert abs(np.log2(got / best)) <= 1 / 16 + 1e-3 and got <= s_max  # one candidate step
+    mp.gain[:] = 3.0  # 3 * 255 + 2 = 767 DN at 10 ms: the full MIGL fits below 3.3 ms
+    kink = top / (3.0 * 255 + 2.0)
+    assert abs(np.log2(choose() / kink)) <= 1 / 16 + 1e-3
+
+
+def test_the_first_shift_follows_from_the_other_three() -> None:
+    """``I0 = I1 + I3 - I2`` for four shifts a quarter period apart (against the sinusoid's
+    closed form), full scale where one of the three clipped. Rejects another combination
+    (``I1 + I2 - I3`` differs unless the phase is special) and a lost clip flag."""
+    phi = np.linspace(0.0, 6.0, 12).reshape(3, 4)
+    a, b = 100.0, 60.0
+    shots = np.stack([np.rint(a + b * np.cos(phi + k * np.pi / 2)) for k in range(4)])
+    got = adaptive_module._with_first_shift(shots[1:].astype(np.uint8), 8)
+    assert np.abs(got[0].astype(float) - (a + b * np.cos(phi))).max() <= 3.0  # 3 roundings
+    assert np.array_equal(got[1:], shots[1:])
+    rest = shots[1:].astype(np.uint8)
+    rest[1, 0, 0] = 255
+    assert adaptive_module._with_first_shift(rest, 8)[0, 0, 0] == 255
+
+
+def test_the_completed_coarse_phase_is_averaged_on_the_circle() -> None:
+    """The coarse phase of a set completed from three low shifts is averaged as unit vectors
+    (:data:`~hdrfringe.strategies.adaptive.BUDGET_FIRST_WINDOW`): a one-period ramp that wraps
+    inside the field comes back as itself in ``[0, 2 pi)`` (the decoder's range, which the
+    temporal unwrapping reads as absolute), noise shrinks by about the window, NaN stays NaN.
+    Rejects a plain mean (wrong next to the wrap), the ``(-pi, pi]`` range of ``arctan2``
+    (half the field one period off) and a NaN that spreads."""
+    ramp = np.mod(np.linspace(4.0, 9.0, 60)[None, :] * np.ones((40, 1)), TWO_PI)
+    noisy = np.mod(ramp + np.random.default_rng(0).normal(0.0, 0.2, ramp.shape), TWO_PI)
+    noisy[20, 30] = np.nan
+    got = adaptive_module._circular_mean(noisy, 15)
+    assert np.isnan(got[20, 30]) and np.isfinite(np.delete(got.ravel(), 20 * 60 + 30)).all()
+    ok = np.isfinite(got)
+    assert got[ok].min() >= 0.0 and got[ok].max() < TWO_PI
+    inner = np.zeros(ramp.shape, bool)
+    inner[7:-7, 7:-7] = True
+    d = np.angle(np.exp(1j * (got - ramp)))[inner & ok]
+    assert np.abs(d).max() < 0.1 and d.std() < 0.2 / 5
+
+
+@pytest.fixture(scope="module")
+def bright_plate() -> dict[str, Any]:
+    """The white plate under 600 lx at 64 x 48 (the full MIGL clips it all over), budget 12."""
+    rig = virtual_rig("white_plate", resolution=(64, 48), seed=0, ambient_lux=600.0)
+    res = adaptive_sets(rig, SPECS, max_images=12)
+    truth = rig.truth()
+    err = res[-1].absolute_phase - TWO_PI * truth.u / SPECS[-1].pitch_px
+    return {"res": res, "err": err, "valid": truth.valid}
+
+
+def test_a_field_clipped_at_the_full_migl_is_measured_in_twelve_images(
+    bright_plate: dict[str, Any],
+) -> None:
+    """The probe's first shift clips on much of the field: its other shifts come at the low
+    mapping MIGL (the first shift completed from them), so the family takes 12 images, not
+    16 (the full probe, then the low ladder); the exposure is shorter than the rig's (the
+    plate is MIGL-limited: ambient and fringe floor grow with the exposure), every valid
+    pixel but at most 0.1 % is covered, nearly all in order with a small error. Rejects the full
+    probe (16 images), a wrong completion of the first shift (wrong fringe orders), and the
+    earlier exposure rule (never shorter)."""
+    res, err, valid = (bright_plate[k] for k in ("res", "err", "valid"))
+    b = res[-1].details["budget"]
+    assert sum(r.images_captured for r in res) == b["images"] == 12 and b["over_budget"] == 0
+    assert b["probe_images"] == 1 and b["probe_clipped_fraction"] > 0.05
+    assert res[0].captured[0].migl == adaptive_module.default_min_migl(SPECS[0])
+    assert b["exposure_ms"] is not None and b["exposure_ms"] < 10.0
+    e = err[valid & np.isfinite(err)]
+    assert e.size >= 0.999 * valid.sum()
+    # the three low shifts at 64 x 48 slip an order on the field's rim (1.7 %; 160 x 120:
+    # 0.04 %); a wrong first shift slips most of them
+    in_order = np.abs(e) < np.pi
+    assert in_order.mean() > 0.97 and np.std(e[in_order]) < 0.05
 
 
 def test_a_budget_that_cannot_hold_the_family_is_refused(tmp_path: Path) -> None:
@@ -203,3 +293,23 @@ def test_a_budget_that_cannot_hold_the_family_is_refused(tmp_path: Path) -> None
     )  # fmt: skip
     assert res.returncode == 2 and not (tmp_path / "out").exists()
     assert "needs at least 12 images" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_a_checkerboard_in_twelve_images_with_the_budget_map() -> None:
+    """The checkerboard at 320 x 240 (pitches 1024, 64, 8 px) within 12 images: the one-shift
+    probe, the low-MIGL mapping, one adapted set projected with the budget's map (its step at
+    the camera pixel's footprint, smoothed 4 px from below) and no map-bias fit against the
+    low-MIGL mapping. Full coverage, every pixel in order, std 52.8 mrad. Rejects the other
+    modes' map widths (erosion 2 px beyond the footprint, smoothing 3: 102.6 mrad) and a blur
+    fitted against the low mapping."""
+    rig = virtual_rig("checkerboard", resolution=(320, 240), seed=0)
+    specs = [FringeSpec("sinusoidal", 4, p) for p in (1024.0, 64.0, 8.0)]
+    res = adaptive_sets(rig, specs, max_images=12)
+    truth = rig.truth()
+    err = res[-1].absolute_phase - TWO_PI * truth.u / 8.0
+    b = res[-1].details["budget"]
+    assert sum(r.images_captured for r in res) == 12 and b["first_shift_completed"]
+    assert res[-1].details["blur_sigma_px"] is None
+    e = err[truth.valid & np.isfinite(err)]
+    assert e.size >= 0.999 * truth.valid.sum() and np.abs(e).max() < np.pi
+    assert np.std(e) < 0.07

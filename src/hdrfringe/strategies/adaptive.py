@@ -166,8 +166,33 @@ FULL_MAPPING_MAX_CLIPPED = 0.05
 #: saturation-tolerant decoder, or stay unreached).
 BUDGET_CLIP_FRACTION = 0.0005
 #: Budget: the longest exposure chosen from the mapping, as a multiple of the rig's
-#: (:func:`~hdrfringe.strategies.exposure.choose_exposure`'s default limit).
+#: (:func:`~hdrfringe.strategies.exposure.choose_exposure`'s default limit), and the shortest
+#: as a fraction of it.
 BUDGET_MAX_EXPOSURE_RATIO = 16.0
+#: Erosion beyond the camera pixel's footprint and smoothing of the map from below
+#: (projector pixels), the defaults of ``blur_px`` and ``smooth_px``.
+BLUR_PX = 2.0
+SMOOTH_PX = 3.0
+#: Budget: their defaults with ``max_images``, where no boost set follows the one adapted
+#: set: the map's step next to the footprint and softened further, which lights the dim side
+#: of a reflectivity edge and evens the radiance across it (checkerboard at 648 x 494, seed
+#: 0, ``bench_budget_regions.py --strategies adaptive-12``: 35.0 mrad, with ``--set
+#: blur_px=2.0 --set smooth_px=3.0`` 59.7).
+BUDGET_BLUR_PX = 0.0
+BUDGET_SMOOTH_PX = 4.0
+#: Budget: candidate exposures per octave (the choice's resolution, 2^(1/16) = 4.4 %).
+BUDGET_EXPOSURE_STEPS = 16
+#: Budget: the rig's exposure is kept where its predicted phase variance is within this
+#: fraction of the least.
+BUDGET_EXPOSURE_TOLERANCE = 0.02
+#: Budget: mapped pixels the exposure choice evaluates at most (evenly spread).
+BUDGET_EXPOSURE_PIXELS = 20000
+
+#: Budget: window (camera pixels) over which the coarsest phase of a set completed from
+#: three low shifts is averaged (on the circle) before it orders the next set: with the 5 px
+#: median of the other mapping levels three shifts at the lowest MIGL slipped a 64 px order
+#: at some pixels of the 600 lx plate at 648 x 494.
+BUDGET_FIRST_WINDOW = 15
 
 ORIENTATIONS = ("vertical", "horizontal")
 
@@ -236,6 +261,7 @@ def _measure_mapping(
     first_images: NDArray | None = None,
     trial: tuple[NDArray, float] | None = None,
     allow_bright: bool = True,
+    first_window: int | None = None,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -251,6 +277,8 @@ def _measure_mapping(
     ``migl`` (the full-MIGL mapping's trial set). ``trial``: the first set captured at a
     higher MIGL (the full-MIGL mapping's trial set where too much clipped in it), merged into
     the first set where it did not clip (Eq. 5.1) and added to the response there.
+    ``first_window``: the first orientation's coarsest phase averaged over that window
+    (:func:`_unwrap_ladder`).
     """
     bits = rig.camera_bit_depth
     imin = template.imin
@@ -312,7 +340,8 @@ def _measure_mapping(
 
     for orient, ps in pitches.items():
         sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
-        absolute[orient] = _unwrap_ladder(images[orient], sets, bits)
+        window = first_window if orient == next(iter(pitches)) else None
+        absolute[orient] = _unwrap_ladder(images[orient], sets, bits, window)
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
     gain, ambient = response.combined()
     return _Mapping(
@@ -409,21 +438,41 @@ def _merge_full_migl_ladder(
                 response.add(decode_set(imgs_b, spec, bits), bright, take)
 
 
-def _unwrap_ladder(images: list[NDArray], sets: list[FringeSpec], bits: int) -> NDArray[np.float64]:
+def _unwrap_ladder(
+    images: list[NDArray], sets: list[FringeSpec], bits: int, first_window: int | None = None
+) -> NDArray[np.float64]:
     """One orientation's mapping ladder unwrapped temporally, coarsest set first; each level
     median-smoothed: the low-MIGL phases are noisy, smoothing each level before it predicts
-    the next one's fringe order keeps the orders where a plain unwrap would slip."""
+    the next one's fringe order keeps the orders where a plain unwrap would slip.
+    ``first_window``: the coarsest level averaged on the circle over that window instead
+    (the budget's set completed from three low shifts: noisier than four)."""
     phases = []
     for imgs, spec in zip(images, sets, strict=True):
         # a merged set decodes as one: the phase does not depend on the MIGL
         d = decode_set(imgs, spec, bits)
         phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
     ps = [s.pitch_px for s in sets]
-    current = median_smooth(phases[0], MEDIAN_WINDOW)
+    if first_window is None:
+        current = median_smooth(phases[0], MEDIAN_WINDOW)
+    else:
+        current = _circular_mean(phases[0], first_window)
     for k in range(1, len(ps)):
         current = unwrap_temporal([current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True)
         current = median_smooth(current, MEDIAN_WINDOW)
     return current
+
+
+def _circular_mean(phase: NDArray[np.float64], size: int) -> NDArray[np.float64]:
+    """The wrapped ``phase`` averaged as unit vectors over a ``size`` x ``size`` window (NaN
+    ignored, stays NaN), in [0, 2 pi) as the decoder gives it: unbiased on a ramp, a
+    one-period phase's wrap kept."""
+    from scipy.ndimage import uniform_filter
+
+    ok = np.isfinite(phase)
+    z = np.where(ok, np.exp(1j * np.where(ok, phase, 0.0)), 0.0)
+    re = uniform_filter(z.real, size, mode="nearest")
+    im = uniform_filter(z.imag, size, mode="nearest")
+    return np.where(ok, np.mod(np.arctan2(im, re), 2 * np.pi), np.nan)
 
 
 def _correct_map_bias(
@@ -631,7 +680,7 @@ def _checked_inputs(
     if isinstance(iterations, bool) or int(iterations) != iterations or iterations < 0:
         raise InputError(f"adaptive iterations must be a whole number >= 0, got {iterations!r}")
     for name, value in (("blur_px", params.blur_px), ("smooth_px", params.smooth_px)):
-        if not float(value) >= 0:
+        if value is not None and not float(value) >= 0:
             raise InputError(f"adaptive {name} must be >= 0 projector pixels, got {value!r}")
     if exposure_ms is not None and not float(exposure_ms) > 0:
         raise InputError(f"adaptive exposure_ms must be > 0, got {exposure_ms!r}")
@@ -783,11 +832,17 @@ class _MappingOutcome:
 
 
 def _map_camera_to_projector(
-    run: _Run, m0: float, probe: NDArray | None = None, allow_bright: bool = True
+    run: _Run,
+    m0: float,
+    probe: NDArray | None = None,
+    allow_bright: bool = True,
+    low_first: tuple[NDArray, float] | None = None,
 ) -> _MappingOutcome:
     """Step 1: the mapping (at a low MIGL, or at the full one where only a highlight clips in
     its first set): response, coordinates, fringe orders. ``probe``: the first set already
-    captured at the full MIGL (the budget's; the full-MIGL mapping then)."""
+    captured at the full MIGL (the budget's; the full-MIGL mapping then). ``low_first``: the
+    first set already captured at ``m0`` and what clipped of its first shift at the full MIGL
+    (the budget's one-shift probe; the low-MIGL mapping then)."""
     t0 = time.perf_counter()
     first, pitches, settings = run.first, run.pitches, run.settings
     trial: list[float] = []  # a full-MIGL first set that was not kept (counted)
@@ -795,7 +850,20 @@ def _map_camera_to_projector(
     full_mapped = False
     full_clipped: float | None = None
     mp: _Mapping | None = None
-    if run.params.full_mapping or probe is not None:
+    if low_first is not None:
+        full_clipped = low_first[1]
+        mp = _measure_mapping(
+            run.rig,
+            first,
+            pitches,
+            m0,
+            settings,
+            auto=run.params.mapping_migl is None,
+            first_images=low_first[0],
+            allow_bright=allow_bright,
+            first_window=BUDGET_FIRST_WINDOW,
+        )
+    elif run.params.full_mapping or probe is not None:
         o0 = next(iter(pitches))
         spec0 = FringeSpec(first.pattern, first.steps, pitches[o0][0], o0, first.imin, first.migl)  # type: ignore[arg-type]
         imgs0 = _capture(run.rig, spec0.frames(), settings) if probe is None else probe
@@ -822,6 +890,12 @@ def _map_camera_to_projector(
     v = mp.coords["horizontal"] if run.calib is None else epipolar_rows(run.calib, u)
     run.seconds["mapping"] = time.perf_counter() - t0
     return _MappingOutcome(mp, m0, u, v, trial, full_mapped, full_clipped)
+
+
+def _resolved(width: float | None) -> float:
+    """A map width (``blur_px``, ``smooth_px``) after :func:`_run_adaptive` resolved None."""
+    assert width is not None
+    return float(width)
 
 
 @dataclass
@@ -859,7 +933,7 @@ class _Projection:
             self.vf,
             self.shape,
             radius=self.radius,
-            sigma=float(self.run.params.smooth_px),
+            sigma=_resolved(self.run.params.smooth_px),
             imin=self.imin,
             projector_full=self.full,
         )
@@ -907,7 +981,7 @@ def _plan_projector_map(run: _Run, mapping: _MappingOutcome, scale: float = 1.0)
         uf,
         vf,
         (run.rig.projector.height, run.rig.projector.width),
-        footprint_px(u, v) + float(run.params.blur_px),
+        footprint_px(u, v) + _resolved(run.params.blur_px),
         np.where(np.isfinite(mp.ambient), mp.ambient * scale, 0.0),
         mapped,
         base_levels,
@@ -1242,7 +1316,10 @@ def _adapted_phase(
         st.seconds["topup"] += time.perf_counter() - t1
     t0 = time.perf_counter()
     blur = None
-    if run.params.bias_correction:
+    # with a budget, only after the full-MIGL mapping: the low-MIGL mapping's phase (low
+    # shifts, noisy, the reflectivity edges' own bias) is no reference to fit the blur on
+    # (on the checkerboard it made the std depend on the draw and raised it)
+    if run.params.bias_correction and (run.budget is None or mapping.full_mapped):
         absolute, blur = _correct_map_bias(
             absolute,
             predicted,
@@ -1332,7 +1409,14 @@ def _run_adaptive(
     rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
 ) -> tuple[StrategyResult, ...]:
     """:func:`adaptive_sets` with its parameters grouped: the steps in order."""
-    if params.max_images is not None:
+    budget = params.max_images is not None
+    defaults = (BUDGET_BLUR_PX, BUDGET_SMOOTH_PX) if budget else (BLUR_PX, SMOOTH_PX)
+    params = dataclasses.replace(
+        params,
+        blur_px=defaults[0] if params.blur_px is None else params.blur_px,
+        smooth_px=defaults[1] if params.smooth_px is None else params.smooth_px,
+    )
+    if budget:
         return _run_budget(rig, specs, params)
     specs, calib, m0 = _checked_inputs(rig, specs, params)
     exposure_ms, chosen, t_exposure = _choose_exposure_first(rig, specs, params)
@@ -1367,30 +1451,74 @@ def _exposure_from_mapping(
 ) -> float:
     """The adapted set's exposure from the mapping's response alone (thesis Sec. 7.3).
 
-    The darkest mapped surface (1st percentile of the modulation the response predicts at the
-    full MIGL, over the pixels that carry a fringe) is brought to the target modulation
-    (:func:`~hdrfringe.strategies.exposure.default_target_modulation`), as far as the
-    brightest mapped pixels (all but :data:`BUDGET_CLIP_FRACTION`) stay ``margin`` below
-    clipping at the lowest usable MIGL, where the per-pixel MIGL takes them; never shorter
-    than ``reference_ms`` (a shorter exposure lowers every pixel's modulation) and at most
-    :data:`BUDGET_MAX_EXPOSURE_RATIO` times it.
+    Per mapped pixel the response ``I = g a + c`` (scaled by the exposure ratio ``s``) gives
+    the modulation the per-pixel MIGL reaches at each exposure: ``s g (MIGL - imin) / 2`` at
+    the full MIGL where that stays ``margin`` below clipping, else at the MIGL that does,
+    ``(T - s (c + g imin)) / 2`` with ``T`` that level (a MIGL-limited pixel *loses*
+    modulation with a longer exposure: its ambient and the fringe's ``imin`` grow with it).
+    The exposure is the one of :data:`BUDGET_EXPOSURE_STEPS` per octave between
+    1 / :data:`BUDGET_MAX_EXPOSURE_RATIO` and :data:`BUDGET_MAX_EXPOSURE_RATIO` times
+    ``reference_ms`` that minimises the mean predicted phase variance ``1 / modulation^2``
+    over the pixels that carry a fringe at ``reference_ms`` (the noise alike for all), among
+    those that leave at most :data:`BUDGET_CLIP_FRACTION` of them clipped at the lowest
+    usable MIGL or below the detection modulation; ``reference_ms`` where it is within
+    :data:`BUDGET_EXPOSURE_TOLERANCE` of that least variance. Pixels clipped in the mapping
+    (no response) do not vote.
     """
     gain, ambient = mp.gain, mp.ambient
     ok = np.isfinite(gain) & np.isfinite(ambient) & (gain > 0) & ~mp.saturated
     if not ok.any():
         return reference_ms
     imin, full = float(first.imin), float(first.migl)
-    modulation = gain * (full - imin) / 2.0
-    lit = ok & (modulation >= detection_modulation(bits))
+    det = detection_modulation(bits)
+    lit = ok & (gain * (full - imin) / 2.0 >= det)
     if not lit.any():
         return reference_ms
-    dark = float(np.percentile(modulation[lit], 1.0))
-    want = reference_ms * default_target_modulation(first.steps, bits) / dark
-    peak = gain[ok] * default_min_migl(first) + ambient[ok]  # brightest shift at the floor
-    top = float(np.percentile(peak, 100.0 * (1.0 - BUDGET_CLIP_FRACTION)))
-    limit = reference_ms * (1.0 - margin) * full_scale(bits) / max(top, 1e-9)
-    t = min(want, limit, BUDGET_MAX_EXPOSURE_RATIO * reference_ms)
-    return reference_ms if t <= reference_ms else float(f"{t:.4g}")
+    # no longer than what brings the darkest lit surface (1st percentile) to the target
+    # modulation: beyond it the dim surface gains little, while the pixels clipped in the
+    # mapping (no response: a glint) clip at the lowest usable MIGL ever more
+    dark = float(np.percentile(gain[lit] * (full - imin) / 2.0, 1.0))
+    target = default_target_modulation(first.steps, bits)
+    longest = min(max(target / dark, 1.0), BUDGET_MAX_EXPOSURE_RATIO)
+    g, c = gain[lit], np.maximum(ambient[lit], 0.0)
+    if g.size > BUDGET_EXPOSURE_PIXELS:  # evenly spread: the objective is a mean
+        pick = np.linspace(0, g.size - 1, BUDGET_EXPOSURE_PIXELS).astype(np.intp)
+        g, c = g[pick], c[pick]
+    top = (1.0 - margin) * full_scale(bits)
+    floor = default_min_migl(first)
+    n = round(float(np.log2(BUDGET_MAX_EXPOSURE_RATIO)) * BUDGET_EXPOSURE_STEPS)
+    ratios = 2.0 ** (np.arange(-n, n + 1) / BUDGET_EXPOSURE_STEPS)
+    ratios = np.unique(np.append(ratios[ratios < longest], longest))
+    n = int(np.flatnonzero(ratios == 1.0)[0])  # the reference exposure's candidate
+    s = ratios[:, None]
+    migl = np.minimum(full, (top / s - c) / g)  # the highest safe MIGL at each exposure
+    modulation = s * g * (migl - imin) / 2.0
+    lost = (migl < floor) | (modulation < det)
+    variance = np.mean(1.0 / np.maximum(modulation, det) ** 2, axis=1)
+    feasible = np.mean(lost, axis=1) <= BUDGET_CLIP_FRACTION
+    if not feasible.any():
+        return reference_ms
+    variance = np.where(feasible, variance, np.inf)
+    best = int(np.argmin(variance))
+    if feasible[n] and variance[n] <= (1.0 + BUDGET_EXPOSURE_TOLERANCE) * variance[best]:
+        return reference_ms
+    return float(f"{reference_ms * ratios[best]:.4g}")
+
+
+def _completes_first_shift(spec: FringeSpec) -> bool:
+    """Whether a set's first shift follows from its others (:func:`_with_first_shift`)."""
+    return spec.pattern == "sinusoidal" and spec.steps == 4
+
+
+def _with_first_shift(rest: NDArray, bits: int) -> NDArray:
+    """A 4-step sinusoidal set from its shifts 1-3: ``I0 = I1 + I3 - I2`` (shifts a quarter
+    period apart: ``I0 + I2 = I1 + I3``, twice the offset), clipped to the camera's range;
+    full scale (a clipped shift) where one of the three clipped."""
+    full = full_scale(bits)
+    r = rest.astype(np.int64)
+    first = np.clip(r[0] + r[2] - r[1], 0, full - 1)
+    first = np.where((saturation_count(rest, bits) > 0), full, first)
+    return np.concatenate([first[None].astype(rest.dtype), rest])
 
 
 def _conventional_sets(
@@ -1477,11 +1605,29 @@ def _run_budget(
     run.seconds["exposure"] = 0.0
     o0 = next(iter(pitches))
     probe_spec = _spec_at(first, o0, pitches[o0][0], float(first.migl))
-    probe = _capture(rig, probe_spec.frames(), run.settings)
+    frames = probe_spec.frames()
     budget.afford("mapping", steps)
-    clipped0 = saturation_count(probe, run.bits) > 0
+    # the probe's first shift alone: where it clips on much of the field, the set's other
+    # shifts are captured at the low mapping MIGL and the first shift is completed from them
+    shot = _capture(rig, frames[:1], run.settings)
+    clipped_shot = float(np.mean(saturation_count(shot, run.bits) > 0))
+    low_first: tuple[NDArray, float] | None = None
+    ladder = sum(len(p) for p in pitches.values())
+    # a full probe that clips on much of the field is one set more than the family
+    tight = budget.limit < steps * (1 + ladder + len(finest))
+    if tight and clipped_shot > FULL_MAPPING_MAX_CLIPPED and _completes_first_shift(first):
+        low_spec = _spec_at(first, o0, pitches[o0][0], m0)
+        rest = _capture(rig, low_spec.frames()[1:], run.settings)
+        low_first = (_with_first_shift(rest, run.bits), clipped_shot)
+        probe = shot  # (not a set: reported only)
+        clipped0 = saturation_count(shot, run.bits) > 0
+    else:
+        probe = np.concatenate([shot, _capture(rig, frames[1:], run.settings)])
+        clipped0 = saturation_count(probe, run.bits) > 0
     info: dict[str, Any] = {
         "max_images": int(limit),
+        "probe_images": int(probe.shape[0]),
+        "first_shift_completed": low_first is not None,
         "probe_clipped_fraction": round(float(clipped0.mean()), 6),
         "epipolar": calib is not None,
     }
@@ -1489,10 +1635,15 @@ def _run_budget(
         return _conventional_sets(run, probe_spec, probe, info)
     # the rest of the mapping: at the full MIGL where only a highlight clipped in the probe,
     # else the low-MIGL ladder with the probe merged in (its bright repeat only if it fits)
-    ladder = sum(len(p) for p in pitches.values())
     # (the bright repeat only follows the low ladder, itself ladder sets more)
     allow_bright = budget.left - steps * (ladder + len(finest)) >= steps * ladder
-    mapping = _map_camera_to_projector(run, m0, probe=probe, allow_bright=allow_bright)
+    mapping = _map_camera_to_projector(
+        run,
+        m0,
+        probe=None if low_first is not None else probe,
+        allow_bright=allow_bright,
+        low_first=low_first,
+    )
     mp = mapping.mp
     n_map = ladder * (1 if mp.bright_migl is None else 2) + len(mapping.trial)
     budget.left = budget.limit - steps * n_map
@@ -1565,8 +1716,8 @@ def adaptive_sets(
     boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
-    blur_px: float = 2.0,
-    smooth_px: float = 3.0,
+    blur_px: float | None = None,
+    smooth_px: float | None = None,
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
@@ -1602,11 +1753,13 @@ def adaptive_sets(
     mapping_migl : float, optional
         MIGL of the mapping sets; default (None) ``imin + 20`` for the first and, for the
         others, the highest MIGL its response says keeps every pixel 10 % below clipping.
-    blur_px : float
+    blur_px : float, optional
         Erosion beyond the camera pixel's footprint, projector pixels: projector defocus,
-        mapping error and rounding (>= 0).
-    smooth_px : float
-        Smoothing of the map from below, projector pixels (>= 0).
+        mapping error and rounding (>= 0). None: :data:`BLUR_PX`, with ``max_images``
+        :data:`BUDGET_BLUR_PX`.
+    smooth_px : float, optional
+        Smoothing of the map from below, projector pixels (>= 0). None: :data:`SMOOTH_PX`,
+        with ``max_images`` :data:`BUDGET_SMOOTH_PX`.
     exposure_ms : float, optional
         Exposure time of every capture; None: the rig's own setting.
     auto_exposure : bool
@@ -1718,8 +1871,8 @@ def adaptive(
     boost: bool = True,
     bias_correction: bool = True,
     mapping_migl: float | None = None,
-    blur_px: float = 2.0,
-    smooth_px: float = 3.0,
+    blur_px: float | None = None,
+    smooth_px: float | None = None,
     exposure_ms: float | None = None,
     auto_exposure: bool = False,
     topup: bool = True,
@@ -1807,10 +1960,11 @@ class AdaptiveParams:
         Subtract the phase bias of the map's steps under the blur.
     mapping_migl : float, optional
         MIGL of the mapping sets (``--mapping-migl``); default: automatic.
-    blur_px : float
-        Erosion beyond the camera pixel's footprint, projector pixels.
-    smooth_px : float
-        Smoothing of the map from below, projector pixels.
+    blur_px : float, optional
+        Erosion beyond the camera pixel's footprint, projector pixels (None: 2, with
+        ``max_images`` 0).
+    smooth_px : float, optional
+        Smoothing of the map from below, projector pixels (None: 3, with ``max_images`` 4).
     exposure_ms : float, optional
         Fixed exposure time of every capture (``--adaptive-exposure-ms``); None: the rig's.
     auto_exposure : bool
@@ -1887,12 +2041,19 @@ class AdaptiveParams:
             "cli": "--mapping-migl",
         },
     )
-    blur_px: float = field(
-        default=2.0,
-        metadata={"help": "erosion beyond the camera pixel's footprint (projector pixels)."},
+    blur_px: float | None = field(
+        default=None,
+        metadata={
+            "help": "erosion beyond the camera pixel's footprint (projector pixels; default 2, "
+            "with max_images 0)."
+        },
     )
-    smooth_px: float = field(
-        default=3.0, metadata={"help": "smoothing of the map from below (projector pixels)."}
+    smooth_px: float | None = field(
+        default=None,
+        metadata={
+            "help": "smoothing of the map from below (projector pixels; default 3, with "
+            "max_images 4)."
+        },
     )
     exposure_ms: float | None = field(
         default=None,
