@@ -93,6 +93,14 @@ PLANE_SLAB_FRACTION = 0.25
 #: below what a calibration 1 % too long gives (PS +0.7, SD +1.9 mm). Our choice for this rig,
 #: not a data sheet's.
 SIM_MPES = acc.MpeSet(acc.Mpe(5.0), acc.Mpe(0.5), acc.Mpe(0.5), acc.Mpe(5.0))
+#: Edge rules of the sphere fits (docs/acceptance.md, "Edge rules"): a sphere's points seen
+#: at more than this angle between normal and line of sight are its rim, left out
+#: (:func:`hdrfringe.core.acceptance.grazing_points`).
+MAX_VIEW_DEG = 70.0
+#: A ball-bar sphere's points within this angle of the axis to the other sphere are its neck,
+#: where the rod joins it, left out (:func:`hdrfringe.core.acceptance.neck_points`): a rod up to
+#: half the ball's radius (sin 30 deg) and the blur around it.
+BALL_BAR_NECK_DEG = 30.0
 
 F64 = NDArray[np.float64]
 
@@ -389,6 +397,8 @@ def evaluate_cloud(
     *,
     expected: Mapping[str, Any] | None = None,
     point_std: F64 | None = None,
+    max_view_deg: float | None = MAX_VIEW_DEG,
+    neck_deg: float | None = BALL_BAR_NECK_DEG,
 ) -> tuple[dict[str, float | None], dict[str, Any], F64]:
     """Segment the artefact of ``kind`` from a measured cloud and compute its quantities.
 
@@ -405,6 +415,11 @@ def evaluate_cloud(
         ``centre_b_mm``) to search near; the plane needs none.
     point_std : ndarray, shape (H, W), optional
         Each point's predicted std along its camera ray, mm (the PS and SD stds).
+    max_view_deg : float, optional
+        The spheres' points seen at a larger angle are left out (the rim); None keeps them.
+    neck_deg : float, optional
+        A ball bar's points within this angle of its axis are left out (the rod's neck);
+        None keeps them.
 
     Returns
     -------
@@ -442,12 +457,15 @@ def evaluate_cloud(
     exp = expected or {}
     residuals = np.full(xyz.shape[:-1], np.nan)
     if kind == "sphere":
-        seg = acc.segment_sphere(xyz, art.diameter_mm, expected_centre=exp.get("centre_mm"))
+        seg = acc.segment_sphere(
+            xyz, art.diameter_mm, expected_centre=exp.get("centre_mm"), max_view_deg=max_view_deg
+        )
         pe = acc.probing_error(xyz[seg.mask], art.diameter_mm)
         residuals[seg.mask] = np.where(pe.sphere.kept, pe.sphere.residuals, np.nan)
         details = {
             "points": seg.n_points,
             "outliers": seg.n_outliers,
+            "edge_points": seg.n_edge,
             "dropped": pe.sphere.n_dropped,
             "centre_mm": pe.sphere.centre,
             "diameter_mm": pe.sphere.diameter_mm,
@@ -461,7 +479,12 @@ def evaluate_cloud(
     if kind == "ball_bar":
         centres = None if "centre_a_mm" not in exp else (exp["centre_a_mm"], exp["centre_b_mm"])
         sa, sb = acc.segment_ball_bar(
-            xyz, art.diameters_mm, art.distance_mm, expected_centres=centres
+            xyz,
+            art.diameters_mm,
+            art.distance_mm,
+            expected_centres=centres,
+            max_view_deg=max_view_deg,
+            neck_deg=neck_deg,
         )
         sd = acc.sphere_spacing_error(xyz[sa.mask], xyz[sb.mask], art.distance_mm)
         for seg, sph in zip((sa, sb), sd.spheres, strict=True):
@@ -469,6 +492,7 @@ def evaluate_cloud(
         details = {
             "points": [sa.n_points, sb.n_points],
             "outliers": [sa.n_outliers, sb.n_outliers],
+            "edge_points": [sa.n_edge, sb.n_edge],
             "centres_mm": [s.centre for s in sd.spheres],
             "distance_mm": sd.distance_mm,
             "diameters_mm": [s.diameter_mm for s in sd.spheres],
