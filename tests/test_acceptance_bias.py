@@ -18,8 +18,10 @@ without the neck rule): the neck rule's own effect is clearer at 640 x 480 (docs
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
+import numpy as np
 import pytest
 
 SIZE = (320, 240)
@@ -54,16 +56,23 @@ def clouds() -> dict[str, Any]:
             res.stereo.xyz, res.uncertainty.phase_std, float(res.decoded.primary.pitch_px), cal
         )
         out[pos.kind] = (res.stereo.xyz, _sidecar(pos, "conventional", rig), std)
+        out[f"{pos.kind} captures"] = (res.captures, cal)
     return out
 
 
-def _ratio(clouds: dict[str, Any], kind: str, **rules: Any) -> tuple[float, float]:
+def _evaluate(clouds: dict[str, Any], kind: str, **rules: Any) -> tuple[dict, dict]:
     from hdrfringe.tasks.acceptance import evaluate_cloud
 
     xyz, sidecar, std = clouds[kind]
     values, details, _ = evaluate_cloud(
         xyz, kind, clouds["artefacts"], expected=sidecar["expected"], point_std=std, **rules
     )
+    return values, details
+
+
+def _ratio(clouds: dict[str, Any], kind: str, **rules: Any) -> tuple[float, float]:
+    values, details = _evaluate(clouds, kind, **rules)
+    sidecar = clouds[kind][1]
     q = "PS" if kind == "sphere" else "SD"
     value, sigma = values[q], details["predicted_std_mm"][q]
     print(
@@ -87,3 +96,35 @@ def test_ball_bar_sd_within_the_predicted_std(clouds: dict[str, Any]) -> None:
     assert 0.005 < sigma < 0.05
     broken, broken_sigma = _ratio(clouds, "ball_bar", max_view_deg=None, neck_deg=None)
     assert broken < -K * broken_sigma  # the rod's neck pulls the centres together
+
+
+def test_calibration_term_is_the_spread_over_calibrations(clouds: dict[str, Any]) -> None:
+    """The calibration's part of the SD std (:func:`_calibration_term`) against a closed form:
+    a second calibration whose baseline is 0.1 % longer scales the whole reconstruction about
+    the camera centre by 1.001 (pinhole, no distortion), so SD moves by 0.001 times the
+    measured distance and the sample std of the two values is that over sqrt 2. Rejected: the
+    phase std alone (no calibration part), a sum instead of the quadrature."""
+    from hdrfringe.core.stereo import StereoCalibration
+    from hdrfringe.tasks.acceptance import PositionOutcome, _calibration_term
+
+    values, details = _evaluate(clouds, "ball_bar")
+    phase = details["predicted_std_mm"]["SD"]
+    outcome = PositionOutcome(
+        "conventional", "ball_bar_03", "ball_bar", "", values, "", 12, details
+    )
+    captures, cal = clouds["ball_bar captures"]
+    longer = StereoCalibration(
+        cal.camera, cal.projector, cal.rotation, np.asarray(cal.translation_mm) * 1.001
+    )
+    _calibration_term(outcome, captures, clouds["ball_bar"][1], clouds["artefacts"], [longer])
+    parts = outcome.details["predicted_std_parts_mm"]
+    expected = 0.001 * details["distance_mm"] / math.sqrt(2)
+    print(
+        f"[acceptance bias] calibration part {parts['calibration']['SD']:.5f} mm, closed form "
+        f"{expected:.5f} mm, phase {phase:.5f} mm"
+    )
+    assert parts["calibration"]["SD"] == pytest.approx(expected, rel=0.05)
+    assert parts["phase"]["SD"] == phase and parts["calibrations"] == 2
+    assert outcome.details["predicted_std_mm"]["SD"] == pytest.approx(
+        math.hypot(phase, expected), rel=0.05
+    )

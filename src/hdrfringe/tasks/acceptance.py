@@ -101,6 +101,10 @@ MAX_VIEW_DEG = 70.0
 #: where the rod joins it, left out (:func:`hdrfringe.core.acceptance.neck_points`): a rod up to
 #: half the ball's radius (sin 30 deg) and the blur around it.
 BALL_BAR_NECK_DEG = 30.0
+#: Calibrations besides the run's own (``calibrate-stereo --rig sim`` with the next noise
+#: seeds) whose spread of PS and SD is the calibration's part of the predicted std
+#: (docs/acceptance.md, "The calibration's part").
+CALIBRATION_REPEATS = 4
 
 F64 = NDArray[np.float64]
 
@@ -885,9 +889,15 @@ class _SimSetup:
 
 
 def _measure_position(
-    position: Any, method: Any, cal: StereoCalibration, setup: _SimSetup, artefacts: Artefacts
+    position: Any,
+    method: Any,
+    cal: StereoCalibration,
+    setup: _SimSetup,
+    artefacts: Artefacts,
+    others: Sequence[StereoCalibration] = (),
 ) -> tuple[PositionOutcome, Any, dict[str, Any]]:
-    """Capture and measure one position with one strategy on the virtual rig; evaluate it."""
+    """Capture and measure one position with one strategy on the virtual rig; evaluate it
+    (with ``others``, the calibration's part of the PS/SD std: :func:`_calibration_term`)."""
     from hdrfringe.core.programs import fringe_specs
     from hdrfringe.pipeline import measure
     from hdrfringe.rig.board_poses import calibration_rig
@@ -911,8 +921,50 @@ def _measure_position(
     images = sum(r.images_captured for r in res.strategy_results)
     sidecar = _sidecar(position, method.name, rig)
     outcome = _outcome(res, sidecar, artefacts, cal, images)
+    if others:
+        _calibration_term(outcome, res.captures, sidecar, artefacts, others)
     outcome.seconds = time.perf_counter() - t0
     return outcome, res.captures, sidecar
+
+
+def _calibration_term(
+    outcome: PositionOutcome,
+    captures: Any,
+    sidecar: Mapping[str, Any],
+    artefacts: Artefacts,
+    others: Sequence[StereoCalibration],
+) -> None:
+    """Add the calibration's part to the outcome's predicted PS/SD std: the same captures
+    triangulated with each of ``others`` (calibrations of the same rig from other noise seeds)
+    and evaluated again; the sample std of the value over them and the run's own calibration
+    is the calibration's std, combined with the phase noise's in quadrature."""
+    from hdrfringe.pipeline import measure
+
+    std = outcome.details.get("predicted_std_mm")
+    if not std or any(v is None for v in outcome.values.values()):
+        return
+    (q,) = std
+    values = [float(outcome.values[q] or 0.0)]
+    for cal in others:
+        res = measure(captures, cal, uncertainty=False)
+        if res.stereo is None:
+            continue
+        try:
+            v, _, _ = evaluate_cloud(
+                res.stereo.xyz, outcome.kind, artefacts, expected=sidecar.get("expected")
+            )
+        except InputError:  # not found with that calibration: no value to count
+            continue
+        values.append(float(v[q] or 0.0))
+    if len(values) < 2:
+        return
+    term = float(np.std(values, ddof=1))
+    outcome.details["predicted_std_parts_mm"] = {
+        "phase": {q: std[q]},
+        "calibration": {q: term},
+        "calibrations": len(values),
+    }
+    outcome.details["predicted_std_mm"] = {q: math.hypot(std[q], term)}
 
 
 def _outcome(
@@ -973,6 +1025,39 @@ def _calibrate(
         "calibration": "calibrate-stereo --rig sim (calibration.h5)",
         "calibration_errors_vs_truth": done.errors_vs_truth,
     }
+
+
+def _repeat_calibrations(
+    size: tuple[int, int],
+    board: str,
+    poses: int,
+    seeds: Sequence[int],
+    noise: float,
+    progress: Progress,
+) -> list[StereoCalibration]:
+    """``calibrate-stereo --rig sim`` again with other noise seeds (files not kept)."""
+    import tempfile
+
+    from hdrfringe.tasks.calibrate_stereo import calibrate_stereo
+
+    out = []
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        progress("calibration repeats", len(seeds)) as advance,
+    ):
+        for seed in seeds:
+            done = calibrate_stereo(
+                Path(tmp) / f"calibration_{seed}.h5",
+                rig="sim",
+                board=board,
+                pose_count=poses,
+                seed=seed,
+                noise=noise,
+                camera_size=size,
+            )
+            out.append(done.calibration)
+            advance()
+    return out
 
 
 def _plan(size: tuple[int, int], glossy: bool, file: Path | None) -> tuple[Any, Artefacts]:
@@ -1049,6 +1134,7 @@ def acceptance_sim(
     poses: int = 10,
     pitches: Sequence[float] = DEFAULT_PITCHES,
     keep_captures: bool = False,
+    calibration_repeats: int = CALIBRATION_REPEATS,
     force: bool = False,
     progress: Progress = quiet,
 ) -> AcceptanceReport:
@@ -1090,6 +1176,10 @@ def acceptance_sim(
     keep_captures : bool
         Also write each position's capture folder (``OUT/captures/<strategy>/<position>``,
         with :data:`POSITION_FILE`): what :func:`acceptance_offline` reads.
+    calibration_repeats : int
+        Without ``calibration``: calibrate this many more times (the next noise seeds) and
+        add the spread of PS and SD over the calibrations to their predicted std (0: the
+        phase noise's std only; a given calibration: always that).
     force : bool
         Replace an existing output folder.
     progress : callable
@@ -1113,6 +1203,8 @@ ball_bar or plane, e.g. sphere:1-3,ball_bar:1,plane
         raise InputError(f"--ambient-lux {ambient_lux}: give a number of lux >= 0")
     if not (math.isfinite(noise) and noise >= 0):
         raise InputError(f"--noise {noise}: give a read noise sigma >= 0 gray levels")
+    if calibration_repeats < 0:
+        raise InputError(f"--calibration-repeats {calibration_repeats}: give a count >= 0")
     methods = _methods(strategies)
     parse_positions(positions, {"sphere": 10, "ball_bar": 7, "plane": 6})  # syntax, early
     check_output_against_inputs(output, [file, calibration])
@@ -1147,6 +1239,7 @@ ball_bar or plane, e.g. sphere:1-3,ball_bar:1,plane
         (board, poses),
         keep_captures,
         progress,
+        calibration_repeats,
     )
 
 
@@ -1163,6 +1256,7 @@ def _run_sim(
     board: tuple[str, int],
     keep: bool,
     progress: Progress,
+    repeats: int = CALIBRATION_REPEATS,
 ) -> AcceptanceReport:
     """The staged part of :func:`acceptance_sim`."""
     from hdrfringe.io.results import staged_output_dir
@@ -1170,19 +1264,34 @@ def _run_sim(
     t0 = time.perf_counter()
     outcomes: list[PositionOutcome] = []
     with staged_output_dir(checked, force=force) as tmp:
+        others: list[StereoCalibration] = []
         if cal is None:
             cal, cal_info = _calibrate(
                 tmp, setup.size, board[0], board[1], setup.seed, setup.noise, progress
             )
+            seeds = [setup.seed + 1 + k for k in range(repeats)]
+            if seeds:
+                others = _repeat_calibrations(
+                    setup.size, board[0], board[1], seeds, setup.noise, progress
+                )
+                cal_info["calibration_term"] = (
+                    f"predicted std of PS/SD: phase noise and the spread over {len(seeds) + 1} "
+                    f"calibrations (noise seeds {setup.seed}, {', '.join(map(str, seeds))})"
+                )
+            else:
+                cal_info["calibration_term"] = "not computed (no repeats): phase noise only"
         else:
-            cal_info = {"calibration": str(calibration)}
+            cal_info = {
+                "calibration": str(calibration),
+                "calibration_term": "not computed (a given calibration): phase noise only",
+            }
         info.update(cal_info)
         t1 = time.perf_counter()
         with progress("acceptance positions", len(chosen) * len(methods)) as advance:
             for method in methods:
                 for position in chosen:
                     outcome, caps, sidecar = _measure_position(
-                        position, method, cal, setup, artefacts
+                        position, method, cal, setup, artefacts, others
                     )
                     outcomes.append(outcome)
                     if keep:
