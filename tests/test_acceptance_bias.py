@@ -96,6 +96,8 @@ def test_ball_bar_sd_within_the_predicted_std(clouds: dict[str, Any]) -> None:
     assert 0.005 < sigma < 0.05
     broken, broken_sigma = _ratio(clouds, "ball_bar", max_view_deg=None, neck_deg=None)
     assert broken < -K * broken_sigma  # the rod's neck pulls the centres together
+    neck, _ = _ratio(clouds, "ball_bar", neck_deg=None)  # the rim rule alone
+    assert broken < neck < value
 
 
 def test_calibration_term_is_the_spread_over_calibrations(clouds: dict[str, Any]) -> None:
