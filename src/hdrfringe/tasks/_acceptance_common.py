@@ -22,6 +22,26 @@ from hdrfringe.io.acceptance_file import (
     load_acceptance_file,
 )
 
+__all__ = [
+    "ACCEPTANCE_JSON",
+    "ACCEPTANCE_MD",
+    "BALL_BAR_NECK_DEG",
+    "CALIBRATION_REPEATS",
+    "DEFAULT_BOARD",
+    "DEFAULT_PITCHES",
+    "DEFAULT_SIZE",
+    "KINDS",
+    "MAX_VIEW_DEG",
+    "PLANE_BAND_FRACTION",
+    "PLANE_SLAB_FRACTION",
+    "POSITION_FILE",
+    "SIM_MPES",
+    "STEPS",
+    "Artefacts",
+    "parse_positions",
+    "parse_size",
+]
+
 #: The sidecar of a position's capture folder: kind, index, label, nominal centres.
 POSITION_FILE = "acceptance_position.json"
 ACCEPTANCE_JSON = "acceptance.json"
@@ -45,9 +65,9 @@ PLANE_BAND_FRACTION = 0.05
 PLANE_SLAB_FRACTION = 0.25
 #: The MPEs of a run on the virtual rig without an acceptance file (mm; docs/acceptance.md,
 #: "The acceptance command"): above the largest values the 640 x 480 virtual rig measures on
-#: the matte artefacts with its own board calibration (PF 4.4, PS 0.29, SD 0.22, F 3.8 mm),
-#: below what a calibration 1 % too long gives (PS +0.7, SD +1.9 mm). Our choice for this rig,
-#: not a data sheet's.
+#: the matte artefacts with its own board calibration (PF 1.8, PS 0.02, SD 0.03, F 3.8 mm with
+#: the edge rules; PF 4.4, PS 0.29, SD 0.22 mm before them), below what a calibration 1 % too
+#: long gives (PS +0.7, SD +1.9 mm). Our choice for this rig, not a data sheet's.
 SIM_MPES = acc.MpeSet(acc.Mpe(5.0), acc.Mpe(0.5), acc.Mpe(0.5), acc.Mpe(5.0))
 #: Edge rules of the sphere fits (docs/acceptance.md, "Edge rules"): a sphere's points seen
 #: at more than this angle between normal and line of sight are its rim, left out

@@ -27,6 +27,11 @@ from hdrfringe.tasks._acceptance_common import (
     Artefacts,
 )
 
+__all__ = [
+    "PositionOutcome",
+    "evaluate_cloud",
+]
+
 # --------------------------------------------------------------------------------- evaluation
 
 

@@ -23,6 +23,11 @@ from hdrfringe.tasks._acceptance_eval import (
     _rows,
 )
 
+__all__ = [
+    "AcceptanceReport",
+    "acceptance_markdown",
+]
+
 # --------------------------------------------------------------------------------- the report
 
 
