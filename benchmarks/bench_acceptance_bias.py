@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from hdrfringe.tasks.acceptance import parse_size
+from hdrfringe.tasks.acceptance import DEFAULT_BOARD, parse_size
 
 
 def _calibrations(spec: str, size: tuple[int, int], rig: Any) -> list[tuple[str, Any]]:
@@ -45,7 +45,11 @@ def _calibrations(spec: str, size: tuple[int, int], rig: Any) -> list[tuple[str,
     with tempfile.TemporaryDirectory() as tmp:
         for seed in (int(s) for s in spec[6:].split(",")):
             done = calibrate_stereo(
-                Path(tmp) / f"cal_{seed}.h5", rig="sim", seed=seed, camera_size=size
+                Path(tmp) / f"cal_{seed}.h5",
+                rig="sim",
+                board=DEFAULT_BOARD,
+                seed=seed,
+                camera_size=size,
             )
             out.append((f"seed {seed}", done.calibration))
     return out
