@@ -7,8 +7,9 @@ Run ``.venv/bin/python benchmarks/bench_acceptance.py -o DIR`` (or ``make bench-
    640 x 480), the rig calibrated first by ``calibrate-stereo --rig sim`` (kept as
    ``DIR/matte/calibration.h5``). Prints the wall time, each position's values, and PS and SD
    against the ground truth (the calibrated values are the virtual artefacts' own sizes, so
-   PS and SD *are* the errors) beside the std predicted from the phase noise
-   (:mod:`hdrfringe.core.acceptance_noise`).
+   PS and SD *are* the errors) beside the predicted std: the phase noise's
+   (:mod:`hdrfringe.core.acceptance_noise`) and the calibration's (the spread over the run's
+   calibration and :data:`~hdrfringe.tasks.acceptance.CALIBRATION_REPEATS` more), combined.
 2. ``DIR/glossy``: the glossy sphere at its 10 positions measured by every strategy of
    ``--strategies`` with that calibration: the HDR table (PF, PS, images; pass/fail against
    the MPEs of :data:`hdrfringe.tasks.acceptance.SIM_MPES`).
@@ -32,18 +33,26 @@ STRATEGIES = "conventional,uniform,lpa-5,dpa-bound,multiexposure,tolerant,adapti
 def _matte_table(report: AcceptanceReport) -> list[str]:
     """PS and SD against the predicted std, per position."""
     lines = [
-        "| position | value (mm) | predicted std (mm) | value / std | centre error (mm) |",
-        "|---|---|---|---|---|",
+        "| position | value (mm) | predicted std (mm) | phase part | calibration part "
+        "| value / std | centre error (mm) |",
+        "|---|---|---|---|---|---|---|",
     ]
     for o in report.outcomes:
         std = o.details.get("predicted_std_mm", {})
+        parts = o.details.get("predicted_std_parts_mm", {})
         for q in ("PS", "SD"):
             v, s = o.values.get(q), std.get(q)
             if v is None or s is None:
                 continue
             centre = o.details.get("error_vs_truth_mm", {}).get("centre_mm")
             c = "—" if centre is None else f"{centre:.3f}"
-            lines.append(f"| {o.label} {q} | {v:+.3f} | {s:.3f} | {v / s:+.1f} | {c} |")
+            ph, ca = (parts.get(k, {}).get(q) for k in ("phase", "calibration"))
+            ph_text = f"{s:.4f}" if ph is None else f"{ph:.4f}"
+            ca_text = "—" if ca is None else f"{ca:.4f}"
+            lines.append(
+                f"| {o.label} {q} | {v:+.4f} | {s:.4f} | {ph_text} | {ca_text} | {v / s:+.1f} "
+                f"| {c} |"
+            )
     return lines
 
 

@@ -100,6 +100,15 @@ KeepOpt = Annotated[
         rich_help_panel=LIVE,
     ),
 ]
+RepeatsOpt = Annotated[
+    int,
+    typer.Option(
+        help="With --rig sim and no --calibration: calibrate N more times (the next noise "
+        "seeds) and add the spread of PS and SD over the calibrations to their predicted std "
+        "(0: the phase noise's only).",
+        rich_help_panel=LIVE,
+    ),
+]
 IntervalOpt = Annotated[
     float | None,
     typer.Option(
@@ -126,6 +135,7 @@ def acceptance(
     seed: LiveSeedOpt = 0,
     noise: LiveNoiseOpt = 1.0,
     keep_captures: KeepOpt = False,
+    calibration_repeats: RepeatsOpt = 4,
     interval: IntervalOpt = None,
     rig_config: HwRigConfigOpt = None,
     projector: HwProjectorOpt = None,
@@ -171,7 +181,7 @@ def acceptance(
             output, file=file, calibration=calibration, strategies=strategy or ["conventional"],
             positions=positions, glossy=glossy, ambient_lux=ambient_lux, size=task.parse_size(size),
             seed=seed, noise=noise, keep_captures=keep_captures, force=force,
-            progress=progress_stage,
+            calibration_repeats=calibration_repeats, progress=progress_stage,
         )  # fmt: skip
     elif rig == "hardware":
         hardware = {

@@ -24,6 +24,7 @@ per-position table that turns into JSON without NaN. All lengths are in millimet
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from collections.abc import Callable, Sequence
@@ -53,7 +54,9 @@ __all__ = [
     "body_diagonal",
     "check_position",
     "flatness_error",
+    "grazing_points",
     "measure_sphere",
+    "neck_points",
     "probing_error",
     "segment_ball_bar",
     "segment_plane",
@@ -707,12 +710,15 @@ class SphereSegment:
     n_outliers : int
         Points near the sphere (within ``radius + 3 band``, not on the background plane) left
         out by the band: errors the quantities do not see; report them.
+    n_edge : int
+        Points within the band left out by the edge rules (:func:`grazing_points`,
+        :func:`neck_points`): the sphere's rim seen at a grazing angle, a ball bar's neck.
 
     Examples
     --------
     >>> seg = SphereSegment(np.ones(5, bool), np.zeros(3), 25.0, 1.25, 0)
-    >>> seg.n_points
-    5
+    >>> seg.n_points, seg.n_edge
+    (5, 0)
     """
 
     mask: Mask
@@ -720,6 +726,7 @@ class SphereSegment:
     diameter_mm: float
     band_mm: float
     n_outliers: int
+    n_edge: int = 0
 
     @property
     def n_points(self) -> int:
@@ -748,6 +755,102 @@ def _background(pts: F64, use: Mask, band: float, seed: int) -> Mask:
     return use & (np.abs(plane.residuals) <= band)
 
 
+def _unit(v: F64) -> F64:
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.asarray(v / np.linalg.norm(v, axis=-1, keepdims=True), dtype=np.float64)
+
+
+def grazing_points(
+    xyz: ArrayLike,
+    centre: ArrayLike,
+    max_view_deg: float,
+    viewpoint: ArrayLike = (0.0, 0.0, 0.0),
+) -> Mask:
+    """The points of a sphere seen at a grazing angle: its rim as the camera sees it.
+
+    Parameters
+    ----------
+    xyz : array_like, shape (..., 3)
+        The sphere's points, mm.
+    centre : array_like, shape (3,)
+        The sphere's centre, mm (a fit through the points).
+    max_view_deg : float
+        The largest angle, degrees, between a point's outward normal ``x - centre`` and its
+        line of sight to ``viewpoint`` that is not grazing.
+    viewpoint : array_like, shape (3,)
+        The camera centre, mm (the origin of a camera-frame cloud).
+
+    Returns
+    -------
+    ndarray of bool, shape (...)
+        True where the angle exceeds ``max_view_deg`` (False for non-finite points).
+
+    Notes
+    -----
+    Why: near the rim a camera ray meets the surface almost tangentially. A displacement
+    ``e`` along the ray then moves the point mostly along the surface, and its distance
+    from the centre grows by about ``e^2 (1 - cos^2 a) / 2R`` whatever the sign of ``e``: the
+    rim's phase noise (large there: the projector lights it at a grazing angle too) and the
+    blur that mixes the sphere with the background behind its rim push the fitted radius
+    outwards. docs/acceptance.md ("Edge rules") has the measurements.
+
+    Examples
+    --------
+    A sphere of radius 10 around (0, 0, 100) seen from the origin: the point facing the
+    camera is kept, the one on the silhouette (90 degrees) is grazing.
+
+    >>> pts = [[0.0, 0.0, 90.0], [10.0, 0.0, 100.0]]
+    >>> grazing_points(pts, [0.0, 0.0, 100.0], 70.0).tolist()
+    [False, True]
+    """
+    pts = np.asarray(xyz, dtype=np.float64)
+    normal = _unit(pts - np.asarray(centre, dtype=np.float64))
+    sight = _unit(np.asarray(viewpoint, dtype=np.float64) - pts)
+    cos = np.einsum("...i,...i->...", normal, sight)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(cos < math.cos(math.radians(max_view_deg)))
+
+
+def neck_points(xyz: ArrayLike, centre: ArrayLike, towards: ArrayLike, neck_deg: float) -> Mask:
+    """The points of a ball-bar sphere around its rod: within ``neck_deg`` of the axis.
+
+    Parameters
+    ----------
+    xyz : array_like, shape (..., 3)
+        The sphere's points, mm.
+    centre : array_like, shape (3,)
+        The sphere's centre, mm.
+    towards : array_like, shape (3,)
+        The other sphere's centre, mm: the rod leaves along this direction.
+    neck_deg : float
+        Half-angle of the cone around the axis, degrees; a rod of radius ``rho`` on a ball
+        of radius ``R`` meets it at ``asin(rho / R)``.
+
+    Returns
+    -------
+    ndarray of bool, shape (...)
+        True within the cone (False for non-finite points).
+
+    Notes
+    -----
+    The rod's surface where it joins the ball lies just outside the ball, within the
+    segmentation band, on the side of the other sphere: fitted with the ball it pulls the
+    two centres towards each other and SD negative (docs/acceptance.md, "Edge rules").
+
+    Examples
+    --------
+    >>> pts = [[9.0, 1.0, 0.0], [0.0, 10.0, 0.0]]
+    >>> neck_points(pts, [0.0, 0.0, 0.0], [100.0, 0.0, 0.0], 30.0).tolist()
+    [True, False]
+    """
+    pts = np.asarray(xyz, dtype=np.float64)
+    c = np.asarray(centre, dtype=np.float64)
+    axis = _unit(np.asarray(towards, dtype=np.float64) - c)
+    cos = np.einsum("...i,i->...", _unit(pts - c), axis)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(cos > math.cos(math.radians(neck_deg)))
+
+
 def segment_sphere(
     xyz: ArrayLike,
     nominal_diameter_mm: float,
@@ -759,6 +862,7 @@ def segment_sphere(
     exclude: ArrayLike | None = None,
     min_points: int = MIN_ARTEFACT_POINTS,
     seed: int = 0,
+    max_view_deg: float | None = None,
 ) -> SphereSegment:
     """Find the points of a sphere of known nominal diameter in a measured cloud.
 
@@ -784,6 +888,10 @@ def segment_sphere(
         Fewer points on the sphere: not found.
     seed : int
         Seed of the random samples (the result is deterministic).
+    max_view_deg : float, optional
+        Leave out the points seen at a grazing angle (:func:`grazing_points` from the camera
+        centre, the cloud's origin, against the final fit's normals; counted in
+        ``n_edge``). None keeps them (the cloud need not be in a camera frame).
 
     Returns
     -------
@@ -803,6 +911,7 @@ def segment_sphere(
        points) on up to :data:`SEGMENT_SAMPLE` candidates, hypotheses off the nominal radius
        by more than ``radius_tolerance`` rejected, inlier threshold ``band_mm``.
     3. Twice: the candidates within ``band_mm`` of the sphere, refitted.
+    4. With ``max_view_deg``: the grazing points of that fit left out.
 
     Examples
     --------
@@ -894,7 +1003,17 @@ def segment_sphere(
         )
     with np.errstate(invalid="ignore"):
         near = use & (np.linalg.norm(pts - centre, axis=-1) <= r + 3 * band)
-    return SphereSegment(mask, np.asarray(centre), 2 * r, band, int((near & ~mask).sum()))
+    outliers = int((near & ~mask).sum())
+    edge = np.zeros(mask.shape, dtype=bool)
+    if max_view_deg is not None:
+        edge = mask & grazing_points(pts, centre, max_view_deg)
+        mask = mask & ~edge
+        if int(mask.sum()) < min_points:
+            raise ArtefactNotFoundError(
+                f"{what} not found{where}: {int(mask.sum())} points seen within "
+                f"{max_view_deg:g} degrees of their normal, at least {min_points} needed; {fix}"
+            )
+    return SphereSegment(mask, np.asarray(centre), 2 * r, band, outliers, int(edge.sum()))
 
 
 def segment_ball_bar(
@@ -907,6 +1026,8 @@ def segment_ball_bar(
     distance_tolerance: float = 0.1,
     min_points: int = MIN_ARTEFACT_POINTS,
     seed: int = 0,
+    max_view_deg: float | None = None,
+    neck_deg: float | None = None,
 ) -> tuple[SphereSegment, SphereSegment]:
     """Find the two spheres of a ball bar in a measured cloud.
 
@@ -928,6 +1049,11 @@ def segment_ball_bar(
         Fewer points on a sphere: not found.
     seed : int
         Seed of the random samples.
+    max_view_deg : float, optional
+        Leave out each sphere's grazing points (:func:`segment_sphere`).
+    neck_deg : float, optional
+        Leave out each sphere's points within this angle of the axis to the other centre
+        (:func:`neck_points`: where the rod joins it; counted in ``n_edge``). None keeps them.
 
     Returns
     -------
@@ -959,7 +1085,12 @@ def segment_ball_bar(
     length = _positive(nominal_distance_mm, "nominal centre distance")
     d_a, d_b = (_positive(d, "nominal sphere diameter") for d in nominal_diameters_mm)
     e_a, e_b = expected_centres if expected_centres is not None else (None, None)
-    kw: dict[str, Any] = {"band_mm": band_mm, "min_points": min_points, "seed": seed}
+    kw: dict[str, Any] = {
+        "band_mm": band_mm,
+        "min_points": min_points,
+        "seed": seed,
+        "max_view_deg": max_view_deg,
+    }
     a = segment_sphere(xyz, d_a, expected_centre=e_a, **kw)
     pts = np.asarray(xyz, dtype=np.float64)
     with np.errstate(invalid="ignore"):
@@ -975,7 +1106,15 @@ def segment_ball_bar(
             f"nominal distance is {length:g} mm; check the ball bar's distance in the "
             "acceptance file and that both spheres are measured"
         )
-    return a, b
+    if neck_deg is None:
+        return a, b
+    return _without_neck(pts, a, b.centre, neck_deg), _without_neck(pts, b, a.centre, neck_deg)
+
+
+def _without_neck(pts: F64, seg: SphereSegment, towards: F64, neck_deg: float) -> SphereSegment:
+    """``seg`` without its points around the rod towards the other centre."""
+    neck = seg.mask & neck_points(pts, seg.centre, towards, neck_deg)
+    return dataclasses.replace(seg, mask=seg.mask & ~neck, n_edge=seg.n_edge + int(neck.sum()))
 
 
 @dataclass(frozen=True, eq=False)

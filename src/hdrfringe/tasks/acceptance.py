@@ -31,28 +31,56 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
-from hdrfringe.core import acceptance as acc
-from hdrfringe.core.acceptance_noise import ray_depth_std, spacing_std, sphere_fit_std
 from hdrfringe.core.stereo import StereoCalibration
 from hdrfringe.core.strict_json import dumps, loads_strict, plain
 from hdrfringe.errors import CaptureFormatError, HdrFringeError, InputError, StoppedError
 from hdrfringe.io.acceptance_file import (
-    AcceptanceFile,
-    BallBarArtefact,
-    PlaneArtefact,
-    SphereArtefact,
     load_acceptance_file,
+)
+from hdrfringe.tasks._acceptance_common import (
+    ACCEPTANCE_JSON,
+    ACCEPTANCE_MD,
+    BALL_BAR_NECK_DEG,
+    CALIBRATION_REPEATS,
+    DEFAULT_BOARD,
+    DEFAULT_PITCHES,
+    DEFAULT_SIZE,
+    KINDS,
+    MAX_VIEW_DEG,
+    POSITION_FILE,
+    SIM_MPES,
+    STEPS,
+    Artefacts,
+    _artefacts,
+    _methods,
+    parse_positions,
+    parse_size,
+)
+from hdrfringe.tasks._acceptance_eval import (
+    PositionOutcome,
+    _evaluate,
+    _point_std,
+    evaluate_cloud,
+)
+from hdrfringe.tasks._acceptance_report import (
+    AcceptanceReport,
+    _fmt,
+    _summaries,
+    _write_report,
+    acceptance_markdown,
 )
 from hdrfringe.tasks._progress import Progress, Say, quiet, silent
 
 __all__ = [
     "ACCEPTANCE_JSON",
     "ACCEPTANCE_MD",
+    "BALL_BAR_NECK_DEG",
+    "CALIBRATION_REPEATS",
     "DEFAULT_PITCHES",
     "DEFAULT_SIZE",
     "KINDS",
+    "MAX_VIEW_DEG",
     "POSITION_FILE",
     "SIM_MPES",
     "AcceptanceReport",
@@ -65,740 +93,6 @@ __all__ = [
     "parse_positions",
     "parse_size",
 ]
-
-#: The sidecar of a position's capture folder: kind, index, label, nominal centres.
-POSITION_FILE = "acceptance_position.json"
-ACCEPTANCE_JSON = "acceptance.json"
-ACCEPTANCE_MD = "acceptance.md"
-#: The camera of the virtual rig unless ``--size`` says otherwise (the calibration rig's).
-DEFAULT_SIZE = (640, 480)
-#: The fringes every position is measured with: vertical sinusoidal 4-step sets, the coarsest
-#: spanning the projector (absolute phase), the board poses' ladder.
-DEFAULT_PITCHES = (1024.0, 96.0, 16.0)
-STEPS = 4
-#: The board of the virtual calibration (``calibrate-stereo --rig sim --board``).
-DEFAULT_BOARD = "checkerboard:9x6:25"
-#: The artefact kinds, in the order positions run and ``--positions`` names them.
-KINDS = ("sphere", "ball_bar", "plane")
-#: The selection band of a plane, a share of its width (a sphere's is 5 % of its diameter,
-#: :func:`hdrfringe.core.acceptance.segment_sphere`): wide enough not to clip the noise of a
-#: 640 x 480 virtual camera (F about 2 mm), narrow enough to leave the base out.
-PLANE_BAND_FRACTION = 0.05
-#: With a nominal plane (the virtual rig's positions, a sidecar's ``expected``), the plane is
-#: searched among the points within this share of its width of the nominal plane.
-PLANE_SLAB_FRACTION = 0.25
-#: The MPEs of a run on the virtual rig without an acceptance file (mm; docs/acceptance.md,
-#: "The acceptance command"): above the largest values the 640 x 480 virtual rig measures on
-#: the matte artefacts with its own board calibration (PF 4.4, PS 0.29, SD 0.22, F 3.8 mm),
-#: below what a calibration 1 % too long gives (PS +0.7, SD +1.9 mm). Our choice for this rig,
-#: not a data sheet's.
-SIM_MPES = acc.MpeSet(acc.Mpe(5.0), acc.Mpe(0.5), acc.Mpe(0.5), acc.Mpe(5.0))
-
-F64 = NDArray[np.float64]
-
-
-# --------------------------------------------------------------------------------- options
-
-
-def parse_size(text: str | None) -> tuple[int, int]:
-    """``--size WIDTHxHEIGHT`` (None: :data:`DEFAULT_SIZE`).
-
-    Parameters
-    ----------
-    text : str or None
-        E.g. ``"320x240"``.
-
-    Returns
-    -------
-    tuple of int
-        ``(width, height)``, each 16..4096.
-
-    Raises
-    ------
-    InputError
-        Anything else.
-
-    Examples
-    --------
-    >>> parse_size("96x72"), parse_size(None)
-    ((96, 72), (640, 480))
-    """
-    if text is None:
-        return DEFAULT_SIZE
-    parts = [p.strip() for p in text.lower().split("x")]
-    if len(parts) == 2 and all(p.isdigit() and len(p) <= 5 for p in parts):
-        w, h = int(parts[0]), int(parts[1])
-        if 16 <= w <= 4096 and 16 <= h <= 4096:
-            return w, h
-    raise InputError(f"--size must be WIDTHxHEIGHT with each 16..4096 (e.g. 320x240), got {text!r}")
-
-
-def parse_positions(text: str | None, counts: Mapping[str, int]) -> list[tuple[str, int]]:
-    """``--positions``: which positions to run, as ``(kind, index)`` with ``index`` from 1.
-
-    Parameters
-    ----------
-    text : str or None
-        Comma-separated ``KIND`` (all of its positions), ``KIND:N`` or ``KIND:N-M``, kinds
-        ``sphere``, ``ball_bar``, ``plane``; None or ``"all"``: every position.
-    counts : mapping
-        Positions per kind in the plan (``{"sphere": 10, ...}``).
-
-    Returns
-    -------
-    list of tuple
-        In plan order (spheres, ball bars, planes; by index), without repeats.
-
-    Raises
-    ------
-    InputError
-        An unknown kind, a number that is no position of the plan.
-
-    Examples
-    --------
-    >>> counts = {"sphere": 10, "ball_bar": 7, "plane": 6}
-    >>> parse_positions("plane:2,sphere:1-2", counts)
-    [('sphere', 1), ('sphere', 2), ('plane', 2)]
-    >>> parse_positions("sphere:11", counts)
-    Traceback (most recent call last):
-    ...
-    hdrfringe.errors.InputError: --positions 'sphere:11': the plan has sphere positions 1..10; \
-give numbers in that range
-    """
-    if text is None or text.strip() in ("", "all"):
-        return [(k, i) for k in KINDS for i in range(1, counts.get(k, 0) + 1)]
-    wanted: set[tuple[str, int]] = set()
-    for raw in text.split(","):
-        item = raw.strip()
-        kind, _, numbers = item.partition(":")
-        if kind not in KINDS:
-            raise InputError(
-                f"--positions {item!r}: unknown artefact {kind!r}; use sphere, ball_bar or "
-                "plane, e.g. sphere:1-3,ball_bar:1,plane"
-            )
-        n = counts.get(kind, 0)
-        lo_text, _, hi_text = numbers.partition("-")
-        try:
-            lo = int(lo_text) if numbers else 1
-            hi = int(hi_text) if hi_text else (lo if numbers else n)
-        except ValueError:
-            raise InputError(
-                f"--positions {item!r}: give KIND, KIND:N or KIND:N-M with whole numbers"
-            ) from None
-        if not 1 <= lo <= hi <= n:
-            raise InputError(
-                f"--positions {item!r}: the plan has {kind} positions 1..{n}; give numbers in "
-                "that range"
-            )
-        wanted.update((kind, i) for i in range(lo, hi + 1))
-    return sorted(wanted, key=lambda p: (KINDS.index(p[0]), p[1]))
-
-
-def _methods(names: Sequence[str]) -> list[Any]:
-    """The strategies by their :data:`~hdrfringe.tasks.compare.METHODS` names."""
-    from hdrfringe.strategies import available_strategies
-    from hdrfringe.tasks.compare import METHODS
-
-    known = {m.name: m for m in METHODS}
-    out = []
-    for name in names or ["conventional"]:
-        if name not in known:
-            raise InputError(
-                f"--strategy {name!r}: unknown; use one of {', '.join(known)} (docs/compare.md)"
-            )
-        if known[name].strategy not in available_strategies():
-            raise InputError(
-                f"--strategy {name!r}: strategy {known[name].strategy!r} is not "
-                "registered in this installation"
-            )
-        if known[name] not in out:
-            out.append(known[name])
-    return out
-
-
-# --------------------------------------------------------------------------------- artefacts
-
-
-@dataclass(frozen=True)
-class Artefacts:
-    """The calibrated artefacts and the MPEs a run compares with.
-
-    Parameters
-    ----------
-    mpes : MpeSet
-        The MPEs.
-    sphere : SphereArtefact or None
-        The sphere.
-    ball_bar : BallBarArtefact or None
-        The ball bar.
-    plane : PlaneArtefact or None
-        The plane.
-    source : str
-        Where they came from (the file, or the plan's guideline sizes).
-
-    Examples
-    --------
-    >>> a = Artefacts(SIM_MPES, SphereArtefact(50.0), None, None, "doc")
-    >>> a.has("sphere"), a.has("plane")
-    (True, False)
-    """
-
-    mpes: acc.MpeSet
-    sphere: SphereArtefact | None
-    ball_bar: BallBarArtefact | None
-    plane: PlaneArtefact | None
-    source: str
-
-    def has(self, kind: str) -> bool:
-        """Whether the artefact of ``kind`` is calibrated.
-
-        Parameters
-        ----------
-        kind : str
-            One of :data:`KINDS`.
-
-        Returns
-        -------
-        bool
-        """
-        return getattr(self, kind) is not None
-
-    def to_dict(self) -> dict[str, Any]:
-        """The MPEs and artefacts as JSON types.
-
-        Returns
-        -------
-        dict
-        """
-
-        def mpe(m: acc.Mpe) -> dict[str, Any]:
-            return {"a_mm": m.a_mm, "k": m.k}
-
-        out: dict[str, Any] = {"source": self.source}
-        out["mpe"] = {q: mpe(getattr(self.mpes, q)) for q in ("pf", "ps", "sd", "f")}
-        for kind in KINDS:
-            art = getattr(self, kind)
-            out[kind] = None if art is None else plain(art.__dict__)
-        return out
-
-
-def _artefacts(file: Path | None, plan: Any) -> Artefacts:
-    """From the acceptance file, else the plan's sizes with :data:`SIM_MPES`."""
-    if file is not None:
-        f: AcceptanceFile = load_acceptance_file(file)
-        return Artefacts(f.mpe, f.sphere, f.ball_bar, f.plane, str(file))
-    return Artefacts(
-        SIM_MPES,
-        SphereArtefact(plan.sphere_diameter_mm),
-        BallBarArtefact(plan.ball_distance_mm, (plan.ball_diameter_mm, plan.ball_diameter_mm)),
-        PlaneArtefact(plan.plane_length_mm, plan.plane_width_mm),
-        "the plan's guideline sizes, MPEs of the virtual rig (hdrfringe.tasks.acceptance.SIM_MPES)",
-    )
-
-
-# --------------------------------------------------------------------------------- evaluation
-
-
-@dataclass
-class PositionOutcome:
-    """One position measured by one strategy, evaluated.
-
-    Parameters
-    ----------
-    strategy : str
-        The strategy's row name (or the captures' record offline).
-    label : str
-        ``sphere_01``, ...
-    kind : str
-        One of :data:`KINDS`.
-    description : str
-        Where the artefact stood.
-    values : dict
-        ``PF``/``PS`` (sphere), ``SD`` (ball bar) or ``F`` (plane): mm, None when not
-        evaluated.
-    note : str
-        Why not evaluated ("" when evaluated).
-    images : int or None
-        Images captured for the position.
-    details : dict
-        Points, outliers, fitted sizes, the predicted std of PS/SD, errors against the
-        virtual rig's truth (JSON types).
-    residual_map : ndarray or None
-        Residuals of the artefact's points on the camera grid (NaN elsewhere), mm.
-    seconds : float
-        Wall time (capture and evaluation).
-
-    Examples
-    --------
-    >>> o = PositionOutcome("conventional", "plane_01", "plane", "level", {"F": 1.9}, "", 12)
-    >>> o.to_dict()["values"]
-    {'F': 1.9}
-    """
-
-    strategy: str
-    label: str
-    kind: str
-    description: str
-    values: dict[str, float | None]
-    note: str = ""
-    images: int | None = None
-    details: dict[str, Any] = field(default_factory=dict)
-    residual_map: F64 | None = None
-    seconds: float = 0.0
-
-    def to_dict(self) -> dict[str, Any]:
-        """The outcome as strict JSON types (no NaN).
-
-        Returns
-        -------
-        dict
-        """
-        return plain(
-            {
-                "strategy": self.strategy,
-                "label": self.label,
-                "kind": self.kind,
-                "description": self.description,
-                "values": self.values,
-                "note": self.note,
-                "images": self.images,
-                "details": self.details,
-                "seconds": round(self.seconds, 2),
-            }
-        )
-
-
-def _quantities(kind: str) -> tuple[str, ...]:
-    return {"sphere": ("PF", "PS"), "ball_bar": ("SD",), "plane": ("F",)}[kind]
-
-
-def _point_std(
-    xyz: F64, phase_std: F64 | None, pitch: float, calibration: StereoCalibration
-) -> F64 | None:
-    """Each point's predicted std along its camera ray (None without a phase std)."""
-    if phase_std is None:
-        return None
-    coordinate_std = phase_std * pitch / (2 * math.pi)
-    return ray_depth_std(xyz, coordinate_std, calibration, axis=0)
-
-
-def evaluate_cloud(
-    xyz: F64,
-    kind: str,
-    artefacts: Artefacts,
-    *,
-    expected: Mapping[str, Any] | None = None,
-    point_std: F64 | None = None,
-) -> tuple[dict[str, float | None], dict[str, Any], F64]:
-    """Segment the artefact of ``kind`` from a measured cloud and compute its quantities.
-
-    Parameters
-    ----------
-    xyz : ndarray, shape (H, W, 3)
-        The triangulated points in the camera frame (NaN = invalid), mm.
-    kind : str
-        One of :data:`KINDS`.
-    artefacts : Artefacts
-        The calibrated artefacts and MPEs.
-    expected : mapping, optional
-        Nominal centres in the camera frame (``centre_mm``; ``centre_a_mm`` and
-        ``centre_b_mm``) to search near; the plane needs none.
-    point_std : ndarray, shape (H, W), optional
-        Each point's predicted std along its camera ray, mm (the PS and SD stds).
-
-    Returns
-    -------
-    values : dict
-        The quantities, mm.
-    details : dict
-        Points, outliers, fitted sizes, predicted stds (JSON types).
-    residuals : ndarray, shape (H, W)
-        The artefact's residuals on the camera grid, NaN elsewhere, mm.
-
-    Raises
-    ------
-    ArtefactNotFoundError
-        The artefact is not in the cloud.
-    InputError
-        The artefact is not in the acceptance file.
-
-    Examples
-    --------
-    A flat 90 x 90 mm plate 600 mm away, one point 0.5 mm off (left out by the 0.3 % rule):
-
-    >>> yy, xx = np.mgrid[-40:41:4.0, -40:41:4.0]
-    >>> xyz = np.dstack([xx, yy, np.full_like(xx, 600.0)])
-    >>> xyz[0, 0, 2] += 0.5
-    >>> arts = Artefacts(SIM_MPES, None, None, PlaneArtefact(90.0, 90.0), "doc")
-    >>> values, details, residuals = evaluate_cloud(xyz, "plane", arts)
-    >>> round(values["F"], 9), details["points"], details["dropped"]
-    (0.0, 441, 1)
-    """
-    art = getattr(artefacts, kind)
-    if art is None:
-        raise InputError(
-            f"the acceptance file has no [{kind}]; add it to evaluate {kind} positions"
-        )
-    exp = expected or {}
-    residuals = np.full(xyz.shape[:-1], np.nan)
-    if kind == "sphere":
-        seg = acc.segment_sphere(xyz, art.diameter_mm, expected_centre=exp.get("centre_mm"))
-        pe = acc.probing_error(xyz[seg.mask], art.diameter_mm)
-        residuals[seg.mask] = np.where(pe.sphere.kept, pe.sphere.residuals, np.nan)
-        details = {
-            "points": seg.n_points,
-            "outliers": seg.n_outliers,
-            "dropped": pe.sphere.n_dropped,
-            "centre_mm": pe.sphere.centre,
-            "diameter_mm": pe.sphere.diameter_mm,
-        }
-        if point_std is not None:
-            std = sphere_fit_std(
-                xyz[seg.mask][pe.sphere.kept], pe.sphere.centre, point_std[seg.mask][pe.sphere.kept]
-            )
-            details["predicted_std_mm"] = {"PS": std.diameter_std_mm}
-        return {"PF": pe.form_mm, "PS": pe.size_mm}, details, residuals
-    if kind == "ball_bar":
-        centres = None if "centre_a_mm" not in exp else (exp["centre_a_mm"], exp["centre_b_mm"])
-        sa, sb = acc.segment_ball_bar(
-            xyz, art.diameters_mm, art.distance_mm, expected_centres=centres
-        )
-        sd = acc.sphere_spacing_error(xyz[sa.mask], xyz[sb.mask], art.distance_mm)
-        for seg, sph in zip((sa, sb), sd.spheres, strict=True):
-            residuals[seg.mask] = np.where(sph.kept, sph.residuals, np.nan)
-        details = {
-            "points": [sa.n_points, sb.n_points],
-            "outliers": [sa.n_outliers, sb.n_outliers],
-            "centres_mm": [s.centre for s in sd.spheres],
-            "distance_mm": sd.distance_mm,
-            "diameters_mm": [s.diameter_mm for s in sd.spheres],
-        }
-        if point_std is not None:
-            stds = [
-                sphere_fit_std(xyz[seg.mask][s.kept], s.centre, point_std[seg.mask][s.kept])
-                for seg, s in zip((sa, sb), sd.spheres, strict=True)
-            ]
-            sigma = spacing_std(sd.spheres[0].centre, sd.spheres[1].centre, *stds)
-            details["predicted_std_mm"] = {"SD": sigma}
-        return {"SD": sd.spacing_mm}, details, residuals
-    band = PLANE_BAND_FRACTION * art.width_mm
-    if "centre_mm" in exp and "normal" in exp:
-        xyz = _near_plane(xyz, exp["centre_mm"], exp["normal"], art)
-    ps = acc.segment_plane(xyz, size_mm=(art.length_mm, art.width_mm), band_mm=band)
-    fe = acc.flatness_error(xyz[ps.mask])
-    residuals[ps.mask] = np.where(fe.kept, fe.residuals, np.nan)
-    details = {
-        "points": int(ps.mask.sum()),
-        "outliers": ps.n_outliers,
-        "dropped": fe.n_dropped,
-        "band_mm": band,
-    }
-    return {"F": fe.flatness_mm}, details, residuals
-
-
-def _near_plane(xyz: F64, centre: Any, normal: Any, art: PlaneArtefact) -> F64:
-    """The points of a slab around the nominal plane (+-:data:`PLANE_SLAB_FRACTION` of its
-    width), within its half diagonal of the nominal centre; the rest NaN. The dominant plane of
-    the whole cloud can be the base under the artefact (larger, but darker and noisier)."""
-    c = np.asarray(centre, dtype=float)
-    n = np.asarray(normal, dtype=float)
-    n = n / np.linalg.norm(n)
-    off = xyz - c
-    with np.errstate(invalid="ignore"):
-        near = np.abs(off @ n) <= PLANE_SLAB_FRACTION * art.width_mm
-        near &= np.linalg.norm(off, axis=-1) <= math.hypot(art.length_mm, art.width_mm) / 2
-    return np.where(near[..., None], xyz, np.nan)
-
-
-def _truth_errors(
-    kind: str, details: Mapping[str, Any], truth: Mapping[str, Any]
-) -> dict[str, Any]:
-    """The fitted sizes and centres against the virtual rig's truth (camera frame)."""
-    if kind == "sphere":
-        return {
-            "diameter_mm": details["diameter_mm"] - truth["diameter_mm"],
-            "centre_mm": float(
-                np.linalg.norm(np.subtract(details["centre_mm"], truth["centre_mm"]))
-            ),
-        }
-    if kind == "ball_bar":
-        return {"distance_mm": details["distance_mm"] - truth["distance_mm"]}
-    return {}
-
-
-def _evaluate(
-    xyz: F64,
-    sidecar: Mapping[str, Any],
-    artefacts: Artefacts,
-    point_std: F64 | None,
-) -> tuple[dict[str, float | None], str, dict[str, Any], F64 | None]:
-    """:func:`evaluate_cloud`, an artefact not found as a row without values and its note."""
-    kind = sidecar["kind"]
-    try:
-        values, details, residuals = evaluate_cloud(
-            xyz, kind, artefacts, expected=sidecar.get("expected"), point_std=point_std
-        )
-    except InputError as err:  # not found, too few points: a row without values
-        return dict.fromkeys(_quantities(kind)), str(err), {}, None
-    truth = sidecar.get("truth_camera")
-    if truth:
-        details["error_vs_truth_mm"] = _truth_errors(kind, details, truth)
-    return values, "", details, residuals
-
-
-def _rows(outcome: PositionOutcome, artefacts: Artefacts) -> list[acc.PositionResult]:
-    """The outcome's rows of the acceptance table."""
-    art = getattr(artefacts, outcome.kind)
-    length = None
-    if outcome.kind == "ball_bar":
-        length = art.distance_mm
-    elif outcome.kind == "plane":
-        length = art.length_mm
-    return [
-        acc.check_position(
-            outcome.label,
-            q,
-            outcome.values.get(q),
-            artefacts.mpes,
-            length_mm=length,
-            note=outcome.note,
-        )
-        for q in _quantities(outcome.kind)
-    ]
-
-
-# --------------------------------------------------------------------------------- the report
-
-
-@dataclass(frozen=True)
-class AcceptanceReport:
-    """What ``acceptance`` wrote.
-
-    Parameters
-    ----------
-    output : Path
-        The folder.
-    outcomes : list of PositionOutcome
-        Every position and strategy.
-    summaries : dict
-        Per strategy: its :class:`~hdrfringe.core.acceptance.AcceptanceSummary`.
-    artefacts : Artefacts
-        The artefacts and MPEs.
-    setup : dict
-        How the run was made (rig, size, calibration, volume, timings).
-
-    Examples
-    --------
-    >>> r = AcceptanceReport(Path("out"), [], {}, Artefacts(SIM_MPES, None, None, None, ""), {})
-    >>> r.all_passed
-    False
-    """
-
-    output: Path
-    outcomes: list[PositionOutcome]
-    summaries: dict[str, acc.AcceptanceSummary]
-    artefacts: Artefacts
-    setup: dict[str, Any]
-
-    @property
-    def all_passed(self) -> bool:
-        """Whether every strategy passed every position."""
-        return bool(self.summaries) and all(s.all_passed for s in self.summaries.values())
-
-    def to_dict(self) -> dict[str, Any]:
-        """``acceptance.json``: strict JSON types.
-
-        Returns
-        -------
-        dict
-        """
-        return plain(
-            {
-                "setup": self.setup,
-                "artefacts": self.artefacts.to_dict(),
-                "strategies": {
-                    name: {**s.to_dict(), "images": _images(self.outcomes, name)}
-                    for name, s in self.summaries.items()
-                },
-                "positions": [o.to_dict() for o in self.outcomes],
-            }
-        )
-
-
-def _images(outcomes: Sequence[PositionOutcome], strategy: str) -> dict[str, Any]:
-    """Images captured by a strategy: per position (min, max) and in all."""
-    counts = [o.images for o in outcomes if o.strategy == strategy and o.images is not None]
-    if not counts:
-        return {"total": None, "per_position_min": None, "per_position_max": None}
-    return {"total": sum(counts), "per_position_min": min(counts), "per_position_max": max(counts)}
-
-
-def _fmt(value: float | None, digits: int = 3) -> str:
-    return "—" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
-
-
-def acceptance_markdown(report: AcceptanceReport) -> str:
-    """``acceptance.md``: the verdict per strategy, the strategies side by side, every position.
-
-    Parameters
-    ----------
-    report : AcceptanceReport
-        The run.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> arts = Artefacts(SIM_MPES, None, None, None, "doc")
-    >>> acceptance_markdown(AcceptanceReport(Path("out"), [], {}, arts, {})).splitlines()[0]
-    '# Acceptance test (VDI/VDE 2634 Part 2)'
-    """
-    s, mp = report.setup, report.artefacts.mpes
-    lines = ["# Acceptance test (VDI/VDE 2634 Part 2)", ""]
-    lines += [f"- {k}: {v}" for k, v in s.items() if not isinstance(v, (dict, list))]
-    lines += [
-        f"- artefacts and MPEs: {report.artefacts.source}",
-        f"- MPE: PF {mp.pf.a_mm:g} mm, PS {mp.ps.a_mm:g} mm, SD {_mpe_text(mp.sd)}, "
-        f"F {_mpe_text(mp.f)}",
-        "",
-        "## Strategies side by side (largest |value| over the positions; passed/positions)",
-        "",
-        "| strategy | images (total) | PF mm | PS mm | SD mm | F mm | verdict |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for name, summ in report.summaries.items():
-        q = summ.to_dict()["quantities"]
-        cells = []
-        for key in ("PF", "PS", "SD", "F"):
-            c = q.get(key)
-            cells.append(
-                "—" if c is None else f"{_fmt(c['max_abs_mm'])} ({c['passed']}/{c['positions']})"
-            )
-        images = _images(report.outcomes, name)["total"]
-        verdict = "pass" if summ.all_passed else "FAIL"
-        lines.append(
-            f"| {name} | {images if images is not None else '—'} | "
-            f"{' | '.join(cells)} | {verdict} |"
-        )
-    lines += [
-        "",
-        "## Positions",
-        "",
-        "| strategy | position | where | images | values (mm) | predicted std (mm) | "
-        "points | outliers | saturated | note |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for o in report.outcomes:
-        vals = ", ".join(f"{k} {_fmt(v)}" for k, v in o.values.items())
-        std = ", ".join(f"{k} {_fmt(v)}" for k, v in o.details.get("predicted_std_mm", {}).items())
-        lines.append(
-            f"| {o.strategy} | {o.label} | {o.description} | {o.images or '—'} | {vals} | "
-            f"{std or '—'} | {o.details.get('points', '—')} | "
-            f"{o.details.get('outliers', '—')} | {_percent(o.details.get('saturated_fraction'))} | "
-            f"{o.note} |"
-        )
-    return "\n".join(lines) + "\n"
-
-
-def _percent(value: float | None) -> str:
-    return "—" if value is None else f"{100 * value:.2f} %"
-
-
-def _mpe_text(m: acc.Mpe) -> str:
-    return f"{m.a_mm:g} mm" if m.k is None else f"{m.a_mm:g} mm + L/{m.k:g}"
-
-
-def _plot_quantities(report: AcceptanceReport, path: Path) -> None:
-    """PF, PS, SD and F per position, one series per strategy, against the MPE (+-MPE for
-    the signed PS and SD)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), squeeze=False)
-    names = list(report.summaries)
-    for ax, q in zip(axes.ravel(), ("PF", "PS", "SD", "F"), strict=True):
-        labels = list(dict.fromkeys(o.label for o in report.outcomes if q in o.values))
-        ax.set_title(q)
-        ax.set_ylabel("mm")
-        if not labels:
-            ax.text(0.5, 0.5, "no positions", ha="center", transform=ax.transAxes)
-            continue
-        for k, name in enumerate(names):
-            here = {o.label: o for o in report.outcomes if o.strategy == name and q in o.values}
-            xs = [
-                i + 0.08 * (k - (len(names) - 1) / 2)
-                for i, lab in enumerate(labels)
-                if lab in here and here[lab].values[q] is not None
-            ]
-            ys = [
-                here[lab].values[q]
-                for lab in labels
-                if lab in here and here[lab].values[q] is not None
-            ]
-            ax.plot(xs, ys, "o", label=name, color=plt.get_cmap("tab10")(k % 10))
-        rows = [r for s in report.summaries.values() for r in s.records if r.quantity == q]
-        mpe = max(r.mpe_mm for r in rows)
-        ax.axhline(mpe, color="k", ls="--", lw=1, label="MPE")
-        if q in ("PS", "SD"):
-            ax.axhline(-mpe, color="k", ls="--", lw=1)
-            ax.axhline(0.0, color="0.7", lw=0.5)
-        ax.set_xticks(range(len(labels)), labels, rotation=60, fontsize=7)
-    seen: dict[str, Any] = {}
-    for ax in axes.ravel():
-        for handle, name in zip(*ax.get_legend_handles_labels(), strict=True):
-            seen.setdefault(name, handle)
-    if seen:
-        fig.legend(
-            list(seen.values()), list(seen), loc="upper center", ncol=min(len(seen), 8), fontsize=7
-        )
-    fig.subplots_adjust(left=0.07, right=0.98, top=0.9, bottom=0.14, hspace=0.55, wspace=0.2)
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
-
-
-def _write_residuals(outcome: PositionOutcome, folder: Path) -> None:
-    """The residual map of one position: float32 TIFF (NaN off the artefact) and its preview
-    (symmetric colour range)."""
-    from hdrfringe.io.results import write_map_tiff, write_preview_png
-
-    res = outcome.residual_map
-    assert res is not None
-    write_map_tiff(folder / f"{outcome.label}.tiff", res.astype(np.float32))
-    lim = float(np.nanmax(np.abs(res))) if np.isfinite(res).any() else 1.0
-    vals = ", ".join(f"{k} {_fmt(v)}" for k, v in outcome.values.items())
-    write_preview_png(
-        folder / f"{outcome.label}.png",
-        res,
-        title=f"{outcome.strategy}: {outcome.label} ({vals})",
-        label="residual (mm)",
-        vmin=-lim,
-        vmax=lim,
-    )
-
-
-def _write_report(tmp: Path, report: AcceptanceReport) -> None:
-    """acceptance.json, acceptance.md and the plots into the staging folder."""
-    text = dumps(report.to_dict(), indent=1)
-    (tmp / ACCEPTANCE_JSON).write_text(text + "\n", encoding="utf-8")
-    (tmp / ACCEPTANCE_MD).write_text(acceptance_markdown(report), encoding="utf-8")
-    _plot_quantities(report, tmp / "quantities.png")
-    for o in report.outcomes:
-        if o.residual_map is not None:
-            folder = tmp / "residuals" / o.strategy
-            folder.mkdir(parents=True, exist_ok=True)
-            _write_residuals(o, folder)
-
-
-def _summaries(outcomes: Sequence[PositionOutcome], artefacts: Artefacts) -> dict[str, Any]:
-    out: dict[str, acc.AcceptanceSummary] = {}
-    for name in dict.fromkeys(o.strategy for o in outcomes):
-        rows = [r for o in outcomes if o.strategy == name for r in _rows(o, artefacts)]
-        out[name] = acc.summarize(rows)
-    return out
 
 
 # --------------------------------------------------------------------------------- the sim run
@@ -861,9 +155,15 @@ class _SimSetup:
 
 
 def _measure_position(
-    position: Any, method: Any, cal: StereoCalibration, setup: _SimSetup, artefacts: Artefacts
+    position: Any,
+    method: Any,
+    cal: StereoCalibration,
+    setup: _SimSetup,
+    artefacts: Artefacts,
+    others: Sequence[StereoCalibration] = (),
 ) -> tuple[PositionOutcome, Any, dict[str, Any]]:
-    """Capture and measure one position with one strategy on the virtual rig; evaluate it."""
+    """Capture and measure one position with one strategy on the virtual rig; evaluate it
+    (with ``others``, the calibration's part of the PS/SD std: :func:`_calibration_term`)."""
     from hdrfringe.core.programs import fringe_specs
     from hdrfringe.pipeline import measure
     from hdrfringe.rig.board_poses import calibration_rig
@@ -887,8 +187,50 @@ def _measure_position(
     images = sum(r.images_captured for r in res.strategy_results)
     sidecar = _sidecar(position, method.name, rig)
     outcome = _outcome(res, sidecar, artefacts, cal, images)
+    if others:
+        _calibration_term(outcome, res.captures, sidecar, artefacts, others)
     outcome.seconds = time.perf_counter() - t0
     return outcome, res.captures, sidecar
+
+
+def _calibration_term(
+    outcome: PositionOutcome,
+    captures: Any,
+    sidecar: Mapping[str, Any],
+    artefacts: Artefacts,
+    others: Sequence[StereoCalibration],
+) -> None:
+    """Add the calibration's part to the outcome's predicted PS/SD std: the same captures
+    triangulated with each of ``others`` (calibrations of the same rig from other noise seeds)
+    and evaluated again; the sample std of the value over them and the run's own calibration
+    is the calibration's std, combined with the phase noise's in quadrature."""
+    from hdrfringe.pipeline import measure
+
+    std = outcome.details.get("predicted_std_mm")
+    if not std or any(v is None for v in outcome.values.values()):
+        return
+    (q,) = std
+    values = [float(outcome.values[q] or 0.0)]
+    for cal in others:
+        res = measure(captures, cal, uncertainty=False)
+        if res.stereo is None:
+            continue
+        try:
+            v, _, _ = evaluate_cloud(
+                res.stereo.xyz, outcome.kind, artefacts, expected=sidecar.get("expected")
+            )
+        except InputError:  # not found with that calibration: no value to count
+            continue
+        values.append(float(v[q] or 0.0))
+    if len(values) < 2:
+        return
+    term = float(np.std(values, ddof=1))
+    outcome.details["predicted_std_parts_mm"] = {
+        "phase": {q: std[q]},
+        "calibration": {q: term},
+        "calibrations": len(values),
+    }
+    outcome.details["predicted_std_mm"] = {q: math.hypot(std[q], term)}
 
 
 def _outcome(
@@ -949,6 +291,39 @@ def _calibrate(
         "calibration": "calibrate-stereo --rig sim (calibration.h5)",
         "calibration_errors_vs_truth": done.errors_vs_truth,
     }
+
+
+def _repeat_calibrations(
+    size: tuple[int, int],
+    board: str,
+    poses: int,
+    seeds: Sequence[int],
+    noise: float,
+    progress: Progress,
+) -> list[StereoCalibration]:
+    """``calibrate-stereo --rig sim`` again with other noise seeds (files not kept)."""
+    import tempfile
+
+    from hdrfringe.tasks.calibrate_stereo import calibrate_stereo
+
+    out = []
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        progress("calibration repeats", len(seeds)) as advance,
+    ):
+        for seed in seeds:
+            done = calibrate_stereo(
+                Path(tmp) / f"calibration_{seed}.h5",
+                rig="sim",
+                board=board,
+                pose_count=poses,
+                seed=seed,
+                noise=noise,
+                camera_size=size,
+            )
+            out.append(done.calibration)
+            advance()
+    return out
 
 
 def _plan(size: tuple[int, int], glossy: bool, file: Path | None) -> tuple[Any, Artefacts]:
@@ -1025,6 +400,7 @@ def acceptance_sim(
     poses: int = 10,
     pitches: Sequence[float] = DEFAULT_PITCHES,
     keep_captures: bool = False,
+    calibration_repeats: int = CALIBRATION_REPEATS,
     force: bool = False,
     progress: Progress = quiet,
 ) -> AcceptanceReport:
@@ -1066,6 +442,10 @@ def acceptance_sim(
     keep_captures : bool
         Also write each position's capture folder (``OUT/captures/<strategy>/<position>``,
         with :data:`POSITION_FILE`): what :func:`acceptance_offline` reads.
+    calibration_repeats : int
+        Without ``calibration``: calibrate this many more times (the next noise seeds) and
+        add the spread of PS and SD over the calibrations to their predicted std (0: the
+        phase noise's std only; a given calibration: always that).
     force : bool
         Replace an existing output folder.
     progress : callable
@@ -1089,6 +469,8 @@ ball_bar or plane, e.g. sphere:1-3,ball_bar:1,plane
         raise InputError(f"--ambient-lux {ambient_lux}: give a number of lux >= 0")
     if not (math.isfinite(noise) and noise >= 0):
         raise InputError(f"--noise {noise}: give a read noise sigma >= 0 gray levels")
+    if calibration_repeats < 0:
+        raise InputError(f"--calibration-repeats {calibration_repeats}: give a count >= 0")
     methods = _methods(strategies)
     parse_positions(positions, {"sphere": 10, "ball_bar": 7, "plane": 6})  # syntax, early
     check_output_against_inputs(output, [file, calibration])
@@ -1123,6 +505,7 @@ ball_bar or plane, e.g. sphere:1-3,ball_bar:1,plane
         (board, poses),
         keep_captures,
         progress,
+        calibration_repeats,
     )
 
 
@@ -1139,6 +522,7 @@ def _run_sim(
     board: tuple[str, int],
     keep: bool,
     progress: Progress,
+    repeats: int = CALIBRATION_REPEATS,
 ) -> AcceptanceReport:
     """The staged part of :func:`acceptance_sim`."""
     from hdrfringe.io.results import staged_output_dir
@@ -1146,19 +530,34 @@ def _run_sim(
     t0 = time.perf_counter()
     outcomes: list[PositionOutcome] = []
     with staged_output_dir(checked, force=force) as tmp:
+        others: list[StereoCalibration] = []
         if cal is None:
             cal, cal_info = _calibrate(
                 tmp, setup.size, board[0], board[1], setup.seed, setup.noise, progress
             )
+            seeds = [setup.seed + 1 + k for k in range(repeats)]
+            if seeds:
+                others = _repeat_calibrations(
+                    setup.size, board[0], board[1], seeds, setup.noise, progress
+                )
+                cal_info["calibration_term"] = (
+                    f"predicted std of PS/SD: phase noise and the spread over {len(seeds) + 1} "
+                    f"calibrations (noise seeds {setup.seed}, {', '.join(map(str, seeds))})"
+                )
+            else:
+                cal_info["calibration_term"] = "not computed (no repeats): phase noise only"
         else:
-            cal_info = {"calibration": str(calibration)}
+            cal_info = {
+                "calibration": str(calibration),
+                "calibration_term": "not computed (a given calibration): phase noise only",
+            }
         info.update(cal_info)
         t1 = time.perf_counter()
         with progress("acceptance positions", len(chosen) * len(methods)) as advance:
             for method in methods:
                 for position in chosen:
                     outcome, caps, sidecar = _measure_position(
-                        position, method, cal, setup, artefacts
+                        position, method, cal, setup, artefacts, others
                     )
                     outcomes.append(outcome)
                     if keep:
