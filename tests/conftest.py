@@ -212,11 +212,13 @@ def kimthyung_stereo(tmp_path_factory: pytest.TempPathFactory) -> dict:
 @pytest.fixture(scope="session")
 def kimthyung_rows(kimthyung_stereo: dict) -> dict:
     """``measure --stereo-directions v`` of the kimthyung sphere (the rows carry its depth),
-    once: the measurement the sphere, harmonics and direction-check tests compare with."""
+    once: the measurement the sphere, harmonics and direction-check tests compare with. No PNG
+    previews and no report (none of them reads one; tests/test_report.py tests the report): at
+    the sphere's 2.8 Mpx they cost about 2 s of the run."""
     out = kimthyung_stereo["tmp"] / "rows"
     res = run_cli(
         "measure", str(kimthyung_stereo["caps"]), "-c", str(kimthyung_stereo["cal"]),
-        "--stereo-directions", "v", "-o", str(out), timeout=600,
+        "--stereo-directions", "v", "--no-previews", "--no-report", "-o", str(out), timeout=600,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
     return {**kimthyung_stereo, "out": out, "stdout": res.stdout}
