@@ -637,7 +637,7 @@ def as_image_frame(frame: Frame, width: int, height: int) -> ImageFrame:
     if isinstance(frame, ImageFrame):
         return frame
     u, v = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
-    return ImageFrame(frame.gray_at(u, v), frame.default_name())
+    return ImageFrame(frame.gray_at(u, v).astype(np.float32), frame.default_name())
 
 
 def frame_axis(frame: Frame) -> Orientation:
