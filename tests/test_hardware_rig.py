@@ -453,7 +453,8 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(
 
     out = tmp_path / "out"
     camera = f"loop:checkerboard?display={xdisplay}&latency=1&{LOOP_CAMERA}"
-    limit = ["--max-images", str(budget)] if budget else []
+    # the budget plans its exposure relative to the rig's: the virtual rig's 10 ms given
+    limit = ["--max-images", str(budget), "--exposure-ms", "10"] if budget else []
     r = cli("measure", "--rig", "hardware", "--projector", f"screen:0@{xdisplay}", "--camera",
             camera, "--settle", "0", "--strategy", "adaptive", "--pitch", "1024,64,16", *limit,
             "-o", str(out))  # fmt: skip
@@ -468,10 +469,7 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(
         specs, line = LiveFringes("sinusoidal", 4, [1024, 64, 16], 40.0, 255.0, True).build(
             rig.projector
         )
-        # the budget chooses its exposure relative to the rig's, which this hardware rig is
-        # not told (no --exposure-ms), so it keeps it: the virtual rig's 10 ms kept too
-        limited = {"max_images": budget, "mapping_exposure": False} if budget else {}
-        params = make_params("adaptive", **limited)
+        params = make_params("adaptive", **({"max_images": budget} if budget else {}))
         res = pipeline.measure(rig, None, strategy="adaptive", params=params, specs=specs,
                                centerline=line)  # fmt: skip
         assert res.decoded.primary is not None and res.metrics.strategy is not None
@@ -481,6 +479,8 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(
     assert metrics["images_captured"] == images
     if budget:
         assert images == budget
+        # the exposure chosen from the mapping: the replay needs the rig's recorded 10 ms
+        assert metrics["adaptive"]["vertical"]["budget"]["exposure_ms"] not in (None, 10.0)
         manifest = json.loads((out / "captures" / "manifest.json").read_text())
         lone = [f for f in manifest["frames"] if f["kind"] == "image"]
         # the probe: shift 0 at the full MIGL, shifts 1..3 at the low mapping MIGL

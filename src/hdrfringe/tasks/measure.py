@@ -62,6 +62,7 @@ __all__ = [
     "MeasureReport",
     "check_noise_sigma",
     "load_measure_calibration",
+    "logged_camera_settings",
     "logged_fringes",
     "logged_strategy",
     "measure",
@@ -867,6 +868,44 @@ def logged_fringes(folder: Path) -> LiveFringes | None:
     return LiveFringes.from_record(log["fringes"], str(path))
 
 
+def logged_camera_settings(folder: Path) -> Any:
+    """The live rig's own camera settings a folder's ``capture_log.json`` records (its
+    ``rig.camera`` exposure and gain), which a replayed strategy starts from.
+
+    Parameters
+    ----------
+    folder : Path
+        The capture folder measured.
+
+    Returns
+    -------
+    CameraSettings
+        Exposure and gain, each None where not recorded (or no ``rig.camera`` entry).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / CAPTURE_LOG).write_text('{"rig": {"camera": {"exposure_ms": 10}}}')
+    >>> logged_camera_settings(folder)
+    CameraSettings(exposure_ms=10.0, gain_db=None)
+    """
+    from hdrfringe.core.captures import CameraSettings
+
+    path = Path(folder) / CAPTURE_LOG
+    try:
+        camera = json.loads(path.read_text(encoding="utf-8")).get("rig", {}).get("camera", {})
+        exposure, gain = camera.get("exposure_ms"), camera.get("gain_db")
+        return CameraSettings(
+            exposure_ms=None if exposure is None else float(exposure),
+            gain_db=None if gain is None else float(gain),
+        )
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError):
+        raise InputError(
+            f"{path}: rig.camera is not a record of the camera settings; fix or remove it"
+        ) from None
+
+
 def replayed_strategy(
     folder: Path | None, strategy: str | None
 ) -> tuple[str | None, dict[str, Any] | None, str]:
@@ -1187,6 +1226,7 @@ def measure(
             from hdrfringe.core.captures import ProjectorInfo
 
             kwargs["specs"] = logged.build(caps.projector or ProjectorInfo())[0]
+            kwargs["replay_settings"] = logged_camera_settings(folder)
         result = pipeline.measure(caps, cal, label=str(folder), **kwargs)
     source: dict[str, Any] = {"input": str(folder) if sim is None else result.metrics.source}
     if sim is not None and fringes is not None:
