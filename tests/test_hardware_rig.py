@@ -26,7 +26,7 @@ from hdrfringe.hardware.camera import CameraBase
 from hdrfringe.hardware.projector import _ProjectorBase
 from hdrfringe.hardware.rig import HardwareRig, SyncError, SyncSettings, change_ratio
 from hdrfringe.rig.base import Rig
-from tests.conftest import xvfb_display
+from tests.conftest import run_cli, xvfb_display
 
 W, H = 64, 48
 
@@ -426,13 +426,25 @@ def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
     assert p99 <= 2 * noise_p99 + 1e-3, (p99, noise_p99)
 
 
-def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize("budget", [None, 20])
+def test_adaptive_projection_runs_live_on_the_loop_rig(
+    budget: int | None, xdisplay: str, tmp_path: Path
+) -> None:
     """Issue 14: `--strategy adaptive` on the loop rig (per-pixel frames through a real window and
     the X display) measures as the virtual rig's own adaptive run of the same scene and
     resolution: same images captured, full coverage, absolute phase within noise (two virtual
     runs with different seeds set the noise). Rejects a per-pixel frame shown wrongly (scaled,
     shifted or at a uniform MIGL: the phase or the clipping would differ) or a stale frame
-    accepted (the mapping, and so the map, would be wrong)."""
+    accepted (the mapping, and so the map, would be wrong). ``measure`` of the recorded folder
+    replays to the live maps exactly (rejects a replay on the folder's every set: the mapping
+    ladders at a low MIGL are refused or measured instead).
+
+    Issue 26: with ``--max-images 20`` (the least this run allows: no calibration, so both
+    orientations are mapped) the budget's one-shift probe is recorded as the projector images
+    it showed (no incomplete set in the folder). Rejects a record with an incomplete set
+    (refused when written: the command fails), the probe left out or the completed shift
+    recorded in its place (the replay would stop at the missing frame or decode other
+    images)."""
     from hdrfringe import pipeline
     from hdrfringe.io.results import read_map_tiff
     from hdrfringe.rig.factory import virtual_rig
@@ -441,8 +453,10 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: 
 
     out = tmp_path / "out"
     camera = f"loop:checkerboard?display={xdisplay}&latency=1&{LOOP_CAMERA}"
+    # the budget plans its exposure relative to the rig's: the virtual rig's 10 ms given
+    limit = ["--max-images", str(budget), "--exposure-ms", "10"] if budget else []
     r = cli("measure", "--rig", "hardware", "--projector", f"screen:0@{xdisplay}", "--camera",
-            camera, "--settle", "0", "--strategy", "adaptive", "--pitch", "1024,64,16",
+            camera, "--settle", "0", "--strategy", "adaptive", "--pitch", "1024,64,16", *limit,
             "-o", str(out))  # fmt: skip
     assert r.returncode == 0, r.stderr
     metrics = json.loads((out / "metrics.json").read_text())
@@ -455,13 +469,35 @@ def test_adaptive_projection_runs_live_on_the_loop_rig(xdisplay: str, tmp_path: 
         specs, line = LiveFringes("sinusoidal", 4, [1024, 64, 16], 40.0, 255.0, True).build(
             rig.projector
         )
-        res = pipeline.measure(rig, None, strategy="adaptive", params=make_params("adaptive"),
-                               specs=specs, centerline=line)  # fmt: skip
+        params = make_params("adaptive", **({"max_images": budget} if budget else {}))
+        res = pipeline.measure(rig, None, strategy="adaptive", params=params, specs=specs,
+                               centerline=line)  # fmt: skip
         assert res.decoded.primary is not None and res.metrics.strategy is not None
         return np.asarray(res.decoded.primary.absolute_phase), res.metrics.strategy.images_captured
 
     (ref, images), (other, _) = sim(0), sim(1)
     assert metrics["images_captured"] == images
+    if budget:
+        assert images == budget
+        # the exposure chosen from the mapping: the replay needs the rig's recorded 10 ms
+        assert metrics["adaptive"]["vertical"]["budget"]["exposure_ms"] not in (None, 10.0)
+        manifest = json.loads((out / "captures" / "manifest.json").read_text())
+        lone = [f for f in manifest["frames"] if f["kind"] == "image"]
+        # the probe: shift 0 at the full MIGL, shifts 1..3 at the low mapping MIGL
+        assert [f["name"][-1] for f in lone] == ["0", "1", "2", "3"], lone
+        assert len(manifest["frames"]) == len(log["frames"]) == images + 1  # + the centerline
+    # the folder replays to the live maps: the strategy on the sets the run measured (the
+    # record's fringes), not on every set the folder holds (the mapping ladders at a low MIGL)
+    replay = tmp_path / "replay"
+    r = run_cli("measure", str(out / "captures"), "--no-previews", "-o", str(replay))
+    assert r.returncode == 0, r.stderr
+    assert "captured with --strategy adaptive (capture_log.json), replayed" in r.stdout
+    maps = sorted(p.name for p in out.glob("*.tiff"))
+    assert "absolute_phase_vertical.tiff" in maps
+    for name in maps:
+        np.testing.assert_array_equal(
+            read_map_tiff(replay / name), read_map_tiff(out / name), err_msg=name
+        )
     assert np.isfinite(measured).mean() == np.isfinite(ref).mean() == 1.0
     noise_median, noise_p99 = phase_difference(ref, other)
     median, p99 = phase_difference(measured, ref)

@@ -36,7 +36,7 @@ from hdrfringe._renamed import renamed_fields, renamed_keyword
 from hdrfringe.core._validation import json_safe
 from hdrfringe.core.calibration import NO_GEOMETRY, Calibration, MeasurementCalibration
 from hdrfringe.core.calibration import calibrate as fit_calibration
-from hdrfringe.core.captures import Captures
+from hdrfringe.core.captures import CameraSettings, Captures
 from hdrfringe.core.decode import (
     FolderPhase,
     decode_captures,
@@ -1122,6 +1122,7 @@ def _replay(
     specs: Sequence[FringeSpec] | None,
     centerline: Frame | None,
     calibration_source: str | None,
+    settings: CameraSettings | None = None,
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
     """A strategy on a :class:`ReplayRig` over a MIGL sweep: every family's pitches at the top
     MIGL (or ``specs``), then the folder's other frames (:func:`_replay_frames`)."""
@@ -1137,6 +1138,8 @@ def _replay(
             finest, captures.image_shape, captures.camera_bit_depth, source=calibration_source
         )
     rig = ReplayRig(captures)
+    if settings is not None:  # the live rig's own settings, which its strategy started from
+        rig.camera_settings = settings
     context = RunContext(available_migls=rig.available_migls())
     params = prepare_params(get_strategy(strategy), params, context)
     return composite_captures(
@@ -1180,6 +1183,7 @@ def measure(
     saturated: str = "flag",
     min_shifts: int = 3,
     method: str | None = None,
+    replay_settings: CameraSettings | None = None,
 ) -> MeasurementResult:
     """Measure captures, a MIGL sweep replayed by a strategy, or a live rig.
 
@@ -1260,6 +1264,10 @@ def measure(
         With ``saturated="exclude"``: the least unsaturated shifts per pixel.
     method : str, optional
         Deprecated spelling of ``strategy`` (a :class:`DeprecationWarning`).
+    replay_settings : CameraSettings, optional
+        A replay's rig settings (None: none known): the live rig's default exposure and gain
+        when the captures record a live run (a strategy may plan relative to them, e.g.
+        adaptive ``max_images``'s exposure).
 
     Returns
     -------
@@ -1298,8 +1306,9 @@ def measure(
     if isinstance(source, Rig) and strategy is None:
         strategy = DEFAULT_STRATEGY
     caps, results, p, replay, description = _acquire(
-        source, calibration, strategy, params, specs, centerline, calibration_source, sources
-    )
+        source, calibration, strategy, params, specs, centerline, calibration_source, sources,
+        replay_settings,
+    )  # fmt: skip
     decoded, height, fields, stereo = _measure_captures(
         caps,
         calibration,
@@ -1424,6 +1433,7 @@ def _acquire(
     centerline: Frame | None,
     calibration_source: str | None,
     sources: Mapping[str, str],
+    replay_settings: CameraSettings | None = None,
 ) -> tuple[Captures, tuple[StrategyResult, ...], Any, Captures | None, RigDescription | None]:
     """What :func:`measure` measures: the captures (as given, replayed by the strategy, or
     captured live), the strategy's results and parameters, the replayed sweep and the rig's
@@ -1443,8 +1453,9 @@ def _acquire(
             return source, (), None, None, None
         p = _strategy_params(strategy, params)
         caps, results = _replay(
-            source, calibration, strategy, p, specs, centerline, calibration_source
-        )
+            source, calibration, strategy, p, specs, centerline, calibration_source,
+            replay_settings,
+        )  # fmt: skip
         return caps, results, p, source, None
     if isinstance(source, Rig):
         strategy = DEFAULT_STRATEGY if strategy is None else strategy

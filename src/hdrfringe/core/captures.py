@@ -52,6 +52,7 @@ __all__ = [
     "frames_format_version",
     "group_fringe_sets",
     "group_graycode_sets",
+    "partial_set_frames",
 ]
 
 #: The capture manifest's ``format`` field (docs/capture_format.md).
@@ -333,6 +334,27 @@ def group_fringe_sets(
     gammas = _per_frame(gamma_precompensation, n, "gamma_precompensation", "fringe sets")
     gains = _per_frame(gain_db, n, "gain_db", "fringe sets")
     frame_names = [f"frame {i}" for i in range(n)] if names is None else list(names)
+    groups = _set_groups(frames, labels, exposures, gammas, gains)
+    sets: list[FringeSet] = []
+    problems: list[str] = []
+    for key, idx in groups.items():
+        try:
+            sets.append(_one_set(key, idx, frames, frame_names, exposures, gammas, gains))
+        except CaptureFormatError as exc:  # every set's problem, reported together
+            problems.extend(exc.problems)
+    if problems:
+        raise CaptureFormatError.from_problems(problems)
+    return sets
+
+
+def _set_groups(
+    frames: Sequence[Frame],
+    labels: tuple[Any, ...],
+    exposures: tuple[Any, ...],
+    gammas: tuple[Any, ...],
+    gains: tuple[Any, ...],
+) -> dict[tuple[Any, ...], list[int]]:
+    """The fringe frames' indices per set key (the contract's grouping rule), in frame order."""
     groups: dict[tuple[Any, ...], list[int]] = {}
     for i, frame in enumerate(frames):
         if not isinstance(frame, FringeFrame | PixelwiseFringeFrame):
@@ -346,16 +368,56 @@ def group_fringe_sets(
         else:
             key = ("map", frame.spec, frame.content_sha256, exposures[i], gammas[i], gains[i])
         groups.setdefault(key, []).append(i)
-    sets: list[FringeSet] = []
-    problems: list[str] = []
-    for key, idx in groups.items():
-        try:
-            sets.append(_one_set(key, idx, frames, frame_names, exposures, gammas, gains))
-        except CaptureFormatError as exc:  # every set's problem, reported together
-            problems.extend(exc.problems)
-    if problems:
-        raise CaptureFormatError.from_problems(problems)
-    return sets
+    return groups
+
+
+def partial_set_frames(
+    frames: Sequence[Frame],
+    *,
+    exposure_ms: Sequence[float | None] | None = None,
+    gamma_precompensation: Sequence[float | None] | None = None,
+    gain_db: Sequence[float | None] | None = None,
+) -> list[int]:
+    """The fringe frames that belong to no complete set: their set misses a shift.
+
+    Grouped as :func:`group_fringe_sets` groups unlabelled frames. A set that repeats a shift
+    is not partial (it is malformed, and :func:`group_fringe_sets` refuses it).
+
+    Parameters
+    ----------
+    frames : sequence of Frame
+        The frames, e.g. everything a live run captured.
+    exposure_ms, gamma_precompensation, gain_db : sequence, optional
+        Per-frame values (None where not given); default: all None.
+
+    Returns
+    -------
+    list of int
+        Indices into ``frames``, ascending.
+
+    Examples
+    --------
+    >>> frames = FringeSpec("sinusoidal", 4, 8.0).frames()
+    >>> partial_set_frames(frames[:1] + FringeSpec("sinusoidal", 4, 8.0, migl=60).frames()[1:])
+    [0, 1, 2, 3]
+    >>> partial_set_frames(frames[:1] + frames[1:])
+    []
+    """
+    n = len(frames)
+    groups = _set_groups(
+        frames,
+        (None,) * n,
+        _per_frame(exposure_ms, n, "exposure_ms", "fringe sets"),
+        _per_frame(gamma_precompensation, n, "gamma_precompensation", "fringe sets"),
+        _per_frame(gain_db, n, "gain_db", "fringe sets"),
+    )
+    out: list[int] = []
+    for idx in groups.values():
+        members = [f for i in idx if isinstance(f := frames[i], FringeFrame | PixelwiseFringeFrame)]
+        shifts = {f.shift for f in members}
+        if len(shifts) == len(members) < members[0].spec.steps:
+            out.extend(idx)
+    return sorted(out)
 
 
 def _one_set(

@@ -54,6 +54,7 @@ __all__ = [
     "LineFrame",
     "PixelwiseFringeFrame",
     "UniformFrame",
+    "as_image_frame",
     "frame_axis",
     "frame_from_manifest",
     "opencv_graycode_frames",
@@ -599,6 +600,44 @@ class ImageFrame:
         """
         safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in self.name)
         return f"image_{safe}"
+
+
+def as_image_frame(frame: Frame, width: int, height: int) -> ImageFrame:
+    """The projector image a frame shows, as an :class:`ImageFrame` named after the frame.
+
+    Its image is the frame's linear gray level at every projector pixel centre
+    (:meth:`gray_at`), held as float32 like every image frame; it renders to the frame's own
+    projector input image (up to a rounding tie of that float32 precision). A live run's record
+    stores a fringe frame that belongs to no complete set so (docs/capture_format.md,
+    "Fringe frames outside a set"), and :class:`~hdrfringe.rig.replay.ReplayRig` finds it again
+    by its content.
+
+    Parameters
+    ----------
+    frame : Frame
+        Any frame.
+    width, height : int
+        Projector resolution in pixels.
+
+    Returns
+    -------
+    ImageFrame
+        Named ``frame.default_name()`` (an image frame keeps its own).
+
+    Examples
+    --------
+    >>> from hdrfringe.core.patterns import FringeSpec
+    >>> frame = FringeSpec(steps=4, pitch_px=4.0, imin=0.0, migl=200.0).frames()[1]
+    >>> image = as_image_frame(frame, 4, 2)
+    >>> image.name, image.image.tolist()
+    ('s4_p4_v_i0_g200_1', [[100.0, 0.0, 100.0, 200.0], [100.0, 0.0, 100.0, 200.0]])
+    >>> bool((image.render(4, 2) == frame.render(4, 2)).all())
+    True
+    """
+    if isinstance(frame, ImageFrame):
+        return frame
+    u, v = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+    return ImageFrame(frame.gray_at(u, v).astype(np.float32), frame.default_name())
 
 
 def frame_axis(frame: Frame) -> Orientation:

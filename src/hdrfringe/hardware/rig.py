@@ -718,6 +718,9 @@ class Recorder(RigBase):
     >>> caps = rec.captures()
     >>> isinstance(rec, Rig), len(caps.frames), len(caps.sets)
     (True, 3, 1)
+    >>> _ = rec.capture(FringeSpec(steps=3, migl=60.0).frames()[1:])  # no complete set
+    >>> [f.kind for f in rec.captures().frames], len(rec.captures().sets)
+    (['fringe', 'fringe', 'fringe', 'image', 'image'], 1)
     """
 
     def __init__(self, rig: Any) -> None:
@@ -768,6 +771,12 @@ class Recorder(RigBase):
     def captures(self, name: str = "<memory>", camera: dict[str, Any] | None = None) -> Any:
         """Everything recorded, in capture order, as :class:`~hdrfringe.core.captures.Captures`.
 
+        A fringe frame whose set the run did not capture whole (adaptive ``--max-images``
+        projects the first shift of its probe alone, docs/adaptive.md "Budget") is recorded as
+        the projector image it showed (:func:`~hdrfringe.core.frames.as_image_frame`, kind
+        ``image``: capture format version 2), not as a fringe frame of an incomplete set;
+        :class:`~hdrfringe.rig.replay.ReplayRig` answers the fringe frame with it.
+
         Parameters
         ----------
         name : str
@@ -779,7 +788,8 @@ class Recorder(RigBase):
         -------
         Captures
         """
-        from hdrfringe.core.captures import Captures
+        from hdrfringe.core.captures import Captures, partial_set_frames
+        from hdrfringe.core.frames import as_image_frame
 
         frames = [f for fr, _, _ in self.calls for f in fr]
         images = np.concatenate([im for _, im, _ in self.calls])
@@ -789,6 +799,16 @@ class Recorder(RigBase):
         base = self.projector.gamma_precompensation if self.projector is not None else None
         own = [None if g is None or g == base else g for g in self.gammas]
         per_frame = [g for (fr, _, _), g in zip(self.calls, own, strict=True) for _ in fr]
+        # a fringe frame of no complete set (adaptive --max-images's one-shift probe) is
+        # recorded as the projector image it showed, a frame kind outside the sets
+        partial = partial_set_frames(
+            frames, exposure_ms=exposure, gamma_precompensation=per_frame, gain_db=gain
+        )
+        if partial and self.projector is not None:
+            width, height = self.projector.width, self.projector.height
+            for i in partial:
+                if per_frame[i] is None:  # (an image frame records no pre-compensation)
+                    frames[i] = as_image_frame(frames[i], width, height)
         return Captures(
             frames,
             images,

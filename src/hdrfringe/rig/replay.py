@@ -5,7 +5,9 @@ The thesis captured every MIGL from 255 to 60 in steps of 1 and ran its strategi
 capture folder, which ``hdrfringe simulate --migl-sweep`` writes, or made in memory).
 ``capture(frames)`` returns, for each frame, the image the captures hold for exactly that frame
 (same pattern, steps, shift, pitch, orientation, imin and MIGL; or the same centerline or
-uniform frame), and refuses frames they do not hold.
+uniform frame), and refuses frames they do not hold. A frame the captures hold as the projector
+image it showed (an ``image`` frame of the same content: how a live run records a fringe frame of
+no complete set) is answered with that image.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hdrfringe.core.captures import CameraSettings, Captures, ProjectorInfo
-from hdrfringe.core.frames import Frame, FringeFrame
+from hdrfringe.core.frames import Frame, FringeFrame, ImageFrame, as_image_frame
 from hdrfringe.errors import CaptureFormatError
 from hdrfringe.rig.base import RigBase
 
@@ -70,6 +72,15 @@ class ReplayRig(RigBase):
     >>> rig = ReplayRig(Captures(frames, np.arange(3).reshape(3, 1, 1).astype(np.uint8), 8))
     >>> rig.capture(frames[::-1])[:, 0, 0].tolist()
     [2, 1, 0]
+
+    A frame held as the projector image it showed (how a live run records a frame of no
+    complete set) is answered with that image:
+
+    >>> from hdrfringe.core.frames import as_image_frame
+    >>> shown = [as_image_frame(frames[0], 16, 2)]
+    >>> held = Captures(shown, np.full((1, 1, 1), 7, np.uint8), 8, projector=ProjectorInfo(16, 2))
+    >>> ReplayRig(held).capture(frames[:1])[:, 0, 0].tolist()
+    [7]
     """
 
     def __init__(self, captures: Captures) -> None:
@@ -89,6 +100,12 @@ class ReplayRig(RigBase):
         self.image_shape = captures.image_shape
         self.projector = captures.projector or ProjectorInfo()
         self._index = {_key(f): i for i, f in enumerate(captures.frames)}
+        # image frames by content: a live run's record holds a fringe frame of no complete
+        # set as the projector image it showed (Recorder.captures)
+        self._images: dict[str, list[int]] = {}
+        for i, f in enumerate(captures.frames):
+            if isinstance(f, ImageFrame):
+                self._images.setdefault(f.content_sha256, []).append(i)
         self.captured = 0
 
     def capture(
@@ -116,6 +133,8 @@ class ReplayRig(RigBase):
         idx = []
         for f in frames:
             i = self._index.get(_key(f))
+            if i is None and (shown := self._shown(f)):
+                i = shown[-1]
             if i is not None and settings.exposure_ms is not None:
                 i = self._at_exposure(f, settings.exposure_ms)
             if i is not None and settings.gain_db is not None:
@@ -133,7 +152,16 @@ class ReplayRig(RigBase):
 
     def _held(self, frame: Frame) -> list[int]:
         key = _key(frame)
-        return [i for i, f in enumerate(self.captures.frames) if _key(f) == key]
+        return [i for i, f in enumerate(self.captures.frames) if _key(f) == key] or self._shown(
+            frame
+        )
+
+    def _shown(self, frame: Frame) -> list[int]:
+        """The image frames holding exactly the projector image ``frame`` shows."""
+        if not self._images or isinstance(frame, ImageFrame):
+            return []
+        image = as_image_frame(frame, self.projector.width, self.projector.height)
+        return self._images.get(image.content_sha256, [])
 
     def _at_exposure(self, frame: Frame, exposure_ms: float) -> int:
         """Index of ``frame`` captured at ``exposure_ms``; refuses an exposure not held."""

@@ -457,6 +457,71 @@ class LiveFringes:
         specs = fringe_specs(self.pattern, self.steps, pitches, "vertical", self.imin, self.migl)
         return specs, centerline_frame(projector) if self.centerline else None
 
+    def to_record(self) -> dict[str, Any]:
+        """The capture record's ``fringes`` entry: what the run measured, so that ``measure
+        FOLDER`` replays the strategy on these sets (not on the folder's other sets, e.g. an
+        adaptive run's mapping ladders at a low MIGL).
+
+        Returns
+        -------
+        dict
+            ``{"fringes": {pattern, steps, pitches, imin, migl, centerline}}``.
+
+        Examples
+        --------
+        >>> rec = LiveFringes("sinusoidal", 4, [8, 1024], 40.0, 255.0, True).to_record()
+        >>> rec["fringes"]["pitches"], LiveFringes.from_record(rec["fringes"], "log").pitches
+        ([8.0, 1024.0], [8.0, 1024.0])
+        """
+        return {
+            "fringes": {
+                "pattern": self.pattern,
+                "steps": int(self.steps),
+                "pitches": [float(p) for p in self.pitches],
+                "imin": float(self.imin),
+                "migl": float(self.migl),
+                "centerline": bool(self.centerline),
+            }
+        }
+
+    @classmethod
+    def from_record(cls, entry: Any, where: str) -> LiveFringes:
+        """The fringes a capture record's ``fringes`` entry names (:meth:`to_record`).
+
+        Parameters
+        ----------
+        entry : Any
+            The entry as read.
+        where : str
+            The file it was read from, for the message.
+
+        Returns
+        -------
+        LiveFringes
+
+        Raises
+        ------
+        InputError
+            An entry that is not what :meth:`to_record` writes.
+        """
+        keys = ("pattern", "steps", "pitches", "imin", "migl", "centerline")
+        try:
+            assert isinstance(entry, dict) and set(entry) == set(keys)
+            pitches = [float(p) for p in entry["pitches"]]
+            assert pitches and entry["pattern"] in ("sinusoidal", "triangular")
+            return cls(
+                str(entry["pattern"]),
+                int(entry["steps"]),
+                pitches,
+                float(entry["imin"]),
+                float(entry["migl"]),
+                bool(entry["centerline"]),
+            )
+        except (AssertionError, TypeError, ValueError):
+            raise InputError(
+                f"{where}: fringes is not a record of {', '.join(keys)}; fix or remove it"
+            ) from None
+
 
 @dataclass(frozen=True)
 class CaptureReport:
@@ -604,7 +669,7 @@ def capture(
             stopped, code = stop_reason(stop)
     caps, state, log = live_record(
         recorder, rig, config, strategy, output.name, stopped,
-        entries=strategy_record(strategy_options or {}),
+        entries=strategy_record(strategy_options or {}) | fringes.to_record(),
     )  # fmt: skip
     with staged_output_dir(checked, force=force) as tmp:
         write_capture_output(tmp, caps, state, log)

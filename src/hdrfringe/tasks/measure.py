@@ -62,6 +62,8 @@ __all__ = [
     "MeasureReport",
     "check_noise_sigma",
     "load_measure_calibration",
+    "logged_camera_settings",
+    "logged_fringes",
     "logged_strategy",
     "measure",
     "replayed_strategy",
@@ -822,6 +824,88 @@ def logged_strategy(
     return logged, options
 
 
+def logged_fringes(folder: Path) -> LiveFringes | None:
+    """The fringe sets a folder written by a live run measured (its ``capture_log.json``'s
+    ``fringes``, :meth:`~hdrfringe.tasks.capture.LiveFringes.to_record`).
+
+    Parameters
+    ----------
+    folder : Path
+        The capture folder measured.
+
+    Returns
+    -------
+    LiveFringes or None
+        None without a log or without the entry (a folder from before it was recorded: the
+        replay takes the folder's sets).
+
+    Raises
+    ------
+    InputError
+        An unreadable log or entry.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> logged_fringes(folder) is None
+    True
+    >>> _ = (folder / CAPTURE_LOG).write_text('{"fringes": {"pattern": "sinusoidal"}}')
+    >>> logged_fringes(folder)
+    Traceback (most recent call last):
+    ...
+    hdrfringe.errors.InputError: .../capture_log.json: fringes is not a record of pattern, ...
+    """
+    path = Path(folder) / CAPTURE_LOG
+    if not path.is_file():
+        return None
+    try:
+        log = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{path}: not a readable capture log ({exc}); fix or remove it") from None
+    if not isinstance(log, dict) or "fringes" not in log:
+        return None
+    return LiveFringes.from_record(log["fringes"], str(path))
+
+
+def logged_camera_settings(folder: Path) -> Any:
+    """The live rig's own camera settings a folder's ``capture_log.json`` records (its
+    ``rig.camera`` exposure and gain), which a replayed strategy starts from.
+
+    Parameters
+    ----------
+    folder : Path
+        The capture folder measured.
+
+    Returns
+    -------
+    CameraSettings
+        Exposure and gain, each None where not recorded (or no ``rig.camera`` entry).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / CAPTURE_LOG).write_text('{"rig": {"camera": {"exposure_ms": 10}}}')
+    >>> logged_camera_settings(folder)
+    CameraSettings(exposure_ms=10.0, gain_db=None)
+    """
+    from hdrfringe.core.captures import CameraSettings
+
+    path = Path(folder) / CAPTURE_LOG
+    try:
+        camera = json.loads(path.read_text(encoding="utf-8")).get("rig", {}).get("camera", {})
+        exposure, gain = camera.get("exposure_ms"), camera.get("gain_db")
+        return CameraSettings(
+            exposure_ms=None if exposure is None else float(exposure),
+            gain_db=None if gain is None else float(gain),
+        )
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError):
+        raise InputError(
+            f"{path}: rig.camera is not a record of the camera settings; fix or remove it"
+        ) from None
+
+
 def replayed_strategy(
     folder: Path | None, strategy: str | None
 ) -> tuple[str | None, dict[str, Any] | None, str]:
@@ -1137,6 +1221,12 @@ def measure(
     else:
         assert folder is not None
         caps = read_capture_folder(folder, work_bytes_per_pixel=DECODE_BYTES_PER_PIXEL)
+        logged = logged_fringes(folder) if options.strategy is not None else None
+        if logged is not None:  # the sets the run measured, not every set the folder holds
+            from hdrfringe.core.captures import ProjectorInfo
+
+            kwargs["specs"] = logged.build(caps.projector or ProjectorInfo())[0]
+            kwargs["replay_settings"] = logged_camera_settings(folder)
         result = pipeline.measure(caps, cal, label=str(folder), **kwargs)
     source: dict[str, Any] = {"input": str(folder) if sim is None else result.metrics.source}
     if sim is not None and fringes is not None:
@@ -1185,7 +1275,7 @@ def _measure_hardware(
         result = pipeline.measure(
             recorder, cal, specs=specs, centerline=line, label=label, **kwargs
         )
-    record = strategy_record(options.strategy_options)
+    record = strategy_record(options.strategy_options) | fringes.to_record()
     caps, state, log = live_record(recorder, rig, config, strategy, CAPTURES, entries=record)
 
     def captures(tmp: Path) -> None:
