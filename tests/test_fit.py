@@ -234,3 +234,29 @@ def test_measure_mesh_and_outliers_then_fit_the_plate_at_4_mm(tmp_path: Path) ->
     assert f["n_points"] + f["n_dropped"] == f["roi"]["points"] == valid.sum()
     assert f["normal"][2] > 0.9999 and f["offset_mm"] == pytest.approx(4.0, abs=0.02)
     assert f["f_mm"] < 0.5
+
+
+def test_residual_png_colours_span_the_kept_points(
+    plates: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The tilted plane with its 1 mm spike: the spike is the point the 0.3 % rule leaves out,
+    so the PNG's colour range is the kept points' (|residual| < 1e-4 mm), not +-0.99 mm, which
+    would draw the whole plane in one colour (seen on the kimthyung sphere: +-241 mm from one
+    stray point). Rejects the range taken over every residual of the region."""
+    import hdrfringe.io.results as results
+
+    seen: dict[str, float] = {}
+    real = results.write_preview_png
+
+    def spy(path: Path, data: np.ndarray, **kw: object) -> None:
+        seen["vmax"] = float(kw["vmax"])  # type: ignore[arg-type]
+        real(path, data, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(results, "write_preview_png", spy)
+    poly = tmp_path / "roi.json"
+    poly.write_text(json.dumps({"polygon": [[0, 0], [19, 0], [19, 19], [0, 19]]}))
+    out = tmp_path / "tilt"
+    res = run_cli_in_process("fit", "plane", str(plates), "--roi", str(poly), "-o", str(out))
+    assert res.returncode == 0, res.stderr
+    assert 0 < seen["vmax"] < 1e-3, seen
+    assert (out / "residual.png").is_file()

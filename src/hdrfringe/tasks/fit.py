@@ -290,7 +290,9 @@ def fit(
     rows, cols = np.nonzero(mask)
     box = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
     residual_map = np.where(use, residuals, np.nan)
-    lim = float(np.nanmax(np.abs(residual_map))) or 1.0
+    # the colours span the points PF/F count: the few the 0.3 % rule leaves out are the largest
+    # residuals (a stray point hundreds of mm off would otherwise flatten the map to one colour)
+    lim = float(np.nanmax(np.abs(residuals[kept]))) or 1.0
     main = f"F {values['f_mm']:.4g} mm" if shape == "plane" else f"PF {values['pf_mm']:.4g} mm"
     with staged_output_dir(out, force=force) as tmp:
         write_map_tiff(tmp / RESIDUAL_MAP, residual_map)
