@@ -54,7 +54,7 @@ from numpy.typing import NDArray
 
 from hdrfringe.core._validation import full_scale, json_safe, saturation_count
 from hdrfringe.core.captures import CameraSettings
-from hdrfringe.core.frames import PixelwiseFringeFrame
+from hdrfringe.core.frames import ImageFrame, PixelwiseFringeFrame, as_image_frame
 from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.core.phase import decode_set, default_min_modulation
 from hdrfringe.core.saturation.adaptive_map import (
@@ -63,6 +63,7 @@ from hdrfringe.core.saturation.adaptive_map import (
     fill_holes,
     fit_blur_sigma,
     footprint_px,
+    lowered_floor,
     lowered_where_clipped,
     map_phase_bias,
     median_smooth,
@@ -194,6 +195,24 @@ BUDGET_EXPOSURE_PIXELS = 20000
 #: at some pixels of the 600 lx plate at 648 x 494.
 BUDGET_FIRST_WINDOW = 15
 
+#: Budget: where a pixel's safe MIGL falls below the lowest usable one (``imin + 20``), the
+#: fringe's floor falls with it (:func:`~hdrfringe.core.saturation.adaptive_map.lowered_floor`
+#: with this span), so that a highlight too bright for the lowest usable MIGL at the chosen
+#: exposure still carries a fringe under its peak (docs/adaptive.md, "Budget").
+BUDGET_FLOOR_SPAN = 20.0
+#: Budget: the MIGL (floor lowered to the projector's black) at which the mapping sets after
+#: the full-MIGL probe show the pixels that clipped in it, so that their response is known
+#: (the same span as the lowest usable fringe); everywhere else those sets keep the full MIGL.
+BUDGET_SAFE_MIGL = 20.0
+#: Budget: how far (projector pixels) beyond the camera pixel's footprint that dimmed region
+#: reaches: the probe's clipped pixels take their projector coordinates from their
+#: neighbours' coarse phase.
+BUDGET_SAFE_MARGIN_PX = 4.0
+#: Budget: camera pixels around those the probe clipped that the map-bias fit leaves out when
+#: the mapping was dimmed there: the dimmed sets' phase, the fit's reference, carries their
+#: own map's step (specular part, 648 x 494, seed 0: 30.4 mrad leaving out 1 px, 20.6 with 8).
+BUDGET_DIM_NEAR_PX = 8
+
 ORIENTATIONS = ("vertical", "horizontal")
 
 
@@ -245,6 +264,10 @@ class _Mapping:
     #: MIGL of the bright ladder (None: not captured) and, per set, the MIGL of each pixel
     bright_migl: float | None = None
     index: dict[str, list[NDArray[np.float32]]] = field(default_factory=dict)
+    #: the budget's dimmed map of the sets after the probe (None: none) and the probe's
+    #: clipped pixels whose response those sets measured
+    dim_map: NDArray[np.float64] | None = None
+    safe: NDArray[np.bool_] | None = None
 
 
 def _capture(rig: Rig, frames: list[Any], settings: CameraSettings | None) -> NDArray:
@@ -262,6 +285,7 @@ def _measure_mapping(
     trial: tuple[NDArray, float] | None = None,
     allow_bright: bool = True,
     first_window: int | None = None,
+    dim: StereoCalibration | None = None,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -278,7 +302,10 @@ def _measure_mapping(
     higher MIGL (the full-MIGL mapping's trial set where too much clipped in it), merged into
     the first set where it did not clip (Eq. 5.1) and added to the response there.
     ``first_window``: the first orientation's coarsest phase averaged over that window
-    (:func:`_unwrap_ladder`).
+    (:func:`_unwrap_ladder`). ``dim``: the calibration of a one-ladder (epipolar) budget
+    mapping whose first set is ``first_images`` at the full MIGL: the later sets show the
+    pixels that clipped in it at :data:`BUDGET_SAFE_MIGL` (:func:`_dimmed_map`), and their
+    response is measured there.
     """
     bits = rig.camera_bit_depth
     imin = template.imin
@@ -291,6 +318,9 @@ def _measure_mapping(
     saturated = np.zeros(rig.image_shape, bool)
     decodes = np.ones(rig.image_shape, bool)  # valid in every set
     m_next = migl
+    dim_map: NDArray[np.float64] | None = None
+    dim_levels: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+    safe: NDArray[np.bool_] | None = None
 
     # pass 1: the ladder at the low MIGL(s)
     for orient, ps in pitches.items():
@@ -301,17 +331,30 @@ def _measure_mapping(
             spec = _spec_at(template, orient, p, m)
             if first_images is not None and not response.gains and not imgs:
                 imgs.append(first_images)
+            elif dim_map is not None:
+                frames = _floored_frames(spec, dim_map)
+                imgs.append(_capture(rig, frames, settings))
             else:
                 imgs.append(_capture(rig, spec.frames(), settings))
             dec = decode_set(imgs[-1], spec, bits)
             ms.append(m)
-            saturated |= saturation_count(imgs[-1], bits) > 0
+            clipped_here = saturation_count(imgs[-1], bits) > 0
+            if k_ == 0 and dim is not None and len(pitches) == 1 and clipped_here.any():
+                dim_map, dim_levels = _dimmed_map(rig, dim, dec, spec, clipped_here)
+                safe = clipped_here.copy()
+            saturated |= clipped_here
             decodes &= dec.valid
             if len(pitches) == 1 and k_ == 1:
                 # one orientation (epipolar): its second set, at the automatic MIGL, stands in
                 # for the other orientation's one-period set in the response (its pitch, 16x
-                # the finest, loses little modulation to the blur)
-                response.add(dec, m, np.ones(dec.valid.shape, bool))
+                # the finest, loses little modulation to the blur); dimmed where the probe
+                # clipped: there the only response
+                if dim_levels is None:
+                    response.add(dec, m, np.ones(dec.valid.shape, bool))
+                else:
+                    response.add(dec, dim_levels[0], np.ones(dec.valid.shape, bool), dim_levels[1])
+                    assert safe is not None
+                    safe &= dec.valid
             if p == ps[0]:  # a one-period set: the response
                 g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
                 response.add(dec, m, np.ones(g.shape, bool))
@@ -320,6 +363,8 @@ def _measure_mapping(
         images[orient] = imgs
         migls[orient] = ms
         index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
+        if dim_levels is not None:
+            index[orient][1:] = [dim_levels[0].astype(np.float32)] * (len(ms) - 1)
 
     if trial is not None:  # a brighter capture of the first set: merged where it did not clip
         t_imgs, t_migl = trial
@@ -341,12 +386,68 @@ def _measure_mapping(
     for orient, ps in pitches.items():
         sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
         window = first_window if orient == next(iter(pitches)) else None
-        absolute[orient] = _unwrap_ladder(images[orient], sets, bits, window)
+        absolute[orient] = _unwrap_ladder(
+            images[orient], sets, bits, window, fill_first=dim_map is not None
+        )
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
     gain, ambient = response.combined()
     return _Mapping(
-        pitches, images, migls, absolute, coords, gain, ambient, saturated, bright, index
+        pitches,
+        images,
+        migls,
+        absolute,
+        coords,
+        gain,
+        ambient,
+        saturated,
+        bright,
+        index,
+        dim_map,
+        safe,
     )
+
+
+def _floored_frames(spec: FringeSpec, pmap: NDArray[np.float64]) -> list[ImageFrame]:
+    """``spec``'s shifts with the per-pixel MIGL map ``pmap`` and the floor lowered under the
+    lowest usable MIGL (:func:`~hdrfringe.core.saturation.adaptive_map.lowered_floor`), as
+    the projector images they are (a :class:`PixelwiseFringeFrame` has one floor, ``imin``)."""
+    h, w = pmap.shape
+    floor = lowered_floor(pmap, spec.imin, BUDGET_FLOOR_SPAN)
+    span = np.maximum(pmap, floor) - floor
+    unit = FringeSpec(spec.pattern, spec.steps, spec.pitch_px, spec.orientation, 0.0, 1.0)
+    out = []
+    for frame, named in zip(unit.frames(), spec.frames(), strict=True):
+        profile = as_image_frame(frame, w, h).image.astype(np.float64)  # (1 + P) / 2
+        out.append(ImageFrame(floor + span * profile, f"{named.default_name()}_floored"))
+    return out
+
+
+def _dimmed_map(
+    rig: Rig,
+    calib: StereoCalibration,
+    first: Any,
+    first_spec: FringeSpec,
+    clipped: NDArray[np.bool_],
+) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The budget's map for the mapping sets after the full-MIGL probe (decoded as ``first``):
+    the full MIGL, but :data:`BUDGET_SAFE_MIGL` (floor at black) where the probe ``clipped``,
+    so that those pixels' response is measured. Their projector columns come from their
+    neighbours' one-period phase, their rows from the epipolar constraint; the region reaches
+    the footprint plus :data:`BUDGET_SAFE_MARGIN_PX` beyond them. Returns the projector map
+    and, per camera pixel, the MIGL and floor it received."""
+    full = float(first_spec.migl)
+    phase = np.where(first.valid, first.wrapped_phase, np.nan)
+    u = projector_coordinates(phase, first_spec.pitch_px)
+    u = fill_holes(u)
+    v = epipolar_rows(calib, u)
+    levels = np.where(clipped, BUDGET_SAFE_MIGL, full)
+    shape = (rig.projector.height, rig.projector.width)
+    radius = footprint_px(u, v) + BUDGET_SAFE_MARGIN_PX
+    pmap = projector_migl_map(
+        levels, u, v, shape, radius=radius, sigma=0.0, imin=0.0, projector_full=full
+    )
+    received = sample_map(pmap, u, v)
+    return pmap, (received, lowered_floor(received, first_spec.imin, BUDGET_FLOOR_SPAN))
 
 
 def _spec_at(template: FringeSpec, orient: str, pitch: float, migl: float) -> FringeSpec:
@@ -363,9 +464,16 @@ class _Response:
     ambients: list[NDArray[np.float64]] = field(default_factory=list)
     weights: list[NDArray[np.float64]] = field(default_factory=list)
 
-    def add(self, dec: Any, m: float | NDArray, where: NDArray[np.bool_]) -> None:
-        """The response of a set decoded as ``dec``, projected at ``m``, at ``where``."""
-        imin = self.imin
+    def add(
+        self,
+        dec: Any,
+        m: float | NDArray,
+        where: NDArray[np.bool_],
+        floor: NDArray[np.float64] | None = None,
+    ) -> None:
+        """The response of a set decoded as ``dec``, projected at ``m`` (with ``floor``, per
+        pixel, where not ``imin``), at ``where``."""
+        imin: float | NDArray[np.float64] = self.imin if floor is None else floor
         mm = np.broadcast_to(np.asarray(m, np.float64), where.shape)
         with np.errstate(divide="ignore", invalid="ignore"):
             g = 2.0 * dec.modulation / (mm - imin)
@@ -439,13 +547,19 @@ def _merge_full_migl_ladder(
 
 
 def _unwrap_ladder(
-    images: list[NDArray], sets: list[FringeSpec], bits: int, first_window: int | None = None
+    images: list[NDArray],
+    sets: list[FringeSpec],
+    bits: int,
+    first_window: int | None = None,
+    fill_first: bool = False,
 ) -> NDArray[np.float64]:
     """One orientation's mapping ladder unwrapped temporally, coarsest set first; each level
     median-smoothed: the low-MIGL phases are noisy, smoothing each level before it predicts
     the next one's fringe order keeps the orders where a plain unwrap would slip.
     ``first_window``: the coarsest level averaged on the circle over that window instead
-    (the budget's set completed from three low shifts: noisier than four)."""
+    (the budget's set completed from three low shifts: noisier than four). ``fill_first``:
+    the coarsest level's holes filled from their neighbours (the budget's probe clipped where
+    the dimmed later sets decode: a one-period phase is smooth enough to order them)."""
     phases = []
     for imgs, spec in zip(images, sets, strict=True):
         # a merged set decodes as one: the phase does not depend on the MIGL
@@ -456,6 +570,8 @@ def _unwrap_ladder(
         current = median_smooth(phases[0], MEDIAN_WINDOW)
     else:
         current = _circular_mean(phases[0], first_window)
+    if fill_first:
+        current = fill_holes(current)
     for k in range(1, len(ps)):
         current = unwrap_temporal([current, phases[k]], ps[k - 1 : k + 1], coarse_unwrapped=True)
         current = median_smooth(current, MEDIAN_WINDOW)
@@ -485,8 +601,10 @@ def _correct_map_bias(
     spec: FringeSpec,
     imin: float,
     radius: float,
+    floor_span: float | None = None,
 ) -> tuple[NDArray[np.float64], float]:
-    """Subtract the phase bias of the projected maps, with the blur fitted to the mapping.
+    """Subtract the phase bias of the projected maps, with the blur fitted to the mapping
+    (``floor_span``: the maps' floor falls below ``imin + floor_span``, the budget's).
 
     The mapping sets were projected at one MIGL: their phase carries the surface's own bias
     but not the map's, so the residual of the adapted phase against it is the map's bias plus
@@ -513,6 +631,7 @@ def _correct_map_bias(
                     orientation=spec.orientation,
                     sigma_px=sigma,
                     imin=imin,
+                    floor_span=floor_span,
                 )[0]
         return out
 
@@ -870,8 +989,10 @@ def _map_camera_to_projector(
         full_clipped = float(np.mean(saturation_count(imgs0, run.bits) > 0))
         if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
             m0, full_mapped = float(first.migl), True
+            # the budget's one ladder: the pixels the probe clipped measured, dimmed, after it
+            dim = run.calib if run.budget is not None and probe is not None else None
             mp = _measure_mapping(
-                run.rig, first, pitches, m0, settings, auto=False, first_images=imgs0
+                run.rig, first, pitches, m0, settings, auto=False, first_images=imgs0, dim=dim
             )
         else:
             trial, trial_images = [float(first.migl)], (imgs0, float(first.migl))
@@ -916,6 +1037,9 @@ class _Projection:
     mapped: NDArray[np.bool_]
     base_levels: NDArray[np.float64]
     first_map: NDArray[np.float64] | None = None
+    #: the budget's maps: below the lowest usable MIGL the floor falls with the map
+    #: (:func:`_floored_frames`), else every level below it shows ``imin``
+    low_floor: bool = False
 
     @property
     def imin(self) -> float:
@@ -926,7 +1050,8 @@ class _Projection:
         return float(self.run.first.migl)
 
     def build(self, cam_levels: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The projector MIGL map of camera-side levels (eroded, smoothed from below)."""
+        """The projector MIGL map of camera-side levels (eroded, smoothed from below); the
+        budget's may fall below ``imin`` (:func:`_floored_frames` projects them)."""
         return projector_migl_map(
             cam_levels,
             self.uf,
@@ -934,14 +1059,18 @@ class _Projection:
             self.shape,
             radius=self.radius,
             sigma=_resolved(self.run.params.smooth_px),
-            imin=self.imin,
+            imin=0.0 if self.low_floor else self.imin,
             projector_full=self.full,
         )
 
     def shoot(self, spec: FringeSpec, pmap: NDArray[np.float64]) -> NDArray:
         """Capture ``spec`` projected with the per-pixel MIGL map ``pmap``."""
-        steps = self.run.first.steps
-        frames = [PixelwiseFringeFrame(spec, k, pmap.astype(np.float32)) for k in range(steps)]
+        frames: list[Any]
+        if self.low_floor and bool((pmap < self.imin + BUDGET_FLOOR_SPAN).any()):
+            frames = _floored_frames(spec, pmap)
+        else:
+            steps = self.run.first.steps
+            frames = [PixelwiseFringeFrame(spec, k, pmap.astype(np.float32)) for k in range(steps)]
         return _capture(self.run.rig, frames, self.run.settings)
 
     def sample(self, pmap: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -955,18 +1084,21 @@ def _plan_projector_map(run: _Run, mapping: _MappingOutcome, scale: float = 1.0)
     t0 = time.perf_counter()
     first, mp, u, v = run.first, mapping.mp, mapping.u, mapping.v
     full_p = float(first.migl)
+    low_floor = run.budget is not None  # the budget's maps may fall below imin
     base_levels = safe_migl(
         mp.gain * scale,
         mp.ambient * scale,
         run.bits,
         margin=run.params.margin,
-        imin=first.imin,
+        imin=0.0 if low_floor else first.imin,
         projector_full=full_p,
     )
-    # pixels clipped in the mapping: their response is unknown, start them half way down
-    base_levels[mp.saturated] = first.imin + (mapping.m0 - first.imin) / 2.0
+    # pixels clipped in the mapping: their response is unknown (but where the budget's dimmed
+    # sets measured it), start them half way down
+    unknown = mp.saturated if mp.safe is None else mp.saturated & ~mp.safe
+    base_levels[unknown] = first.imin + (mapping.m0 - first.imin) / 2.0
     if scale > 1.0:  # a longer exposure than the mapping's: those clip at any higher level
-        base_levels[mp.saturated] = default_min_migl(first)
+        base_levels[unknown] = default_min_migl(first)
     mapped = np.isfinite(u) & np.isfinite(v)
     if not mapped.any():
         raise InputError(
@@ -985,6 +1117,7 @@ def _plan_projector_map(run: _Run, mapping: _MappingOutcome, scale: float = 1.0)
         np.where(np.isfinite(mp.ambient), mp.ambient * scale, 0.0),
         mapped,
         base_levels,
+        low_floor=low_floor,
     )
     proj.first_map = proj.build(base_levels)
     run.seconds["map"] = time.perf_counter() - t0
@@ -1000,7 +1133,8 @@ def _mapping_set_results(run: _Run, mp: _Mapping) -> list[StrategyResult | None]
         k = run.pitches[spec.orientation].index(spec.pitch_px)
         imgs, m_set = mp.images[spec.orientation][k], mp.migls[spec.orientation][k]
         sat = saturation_count(imgs, run.bits) > 0
-        sets = [CapturedSet(migl=m_set, exposure_ms=run.exposure_ms)]
+        dimmed = mp.dim_map if k > 0 else None  # the budget's: dimmed where the probe clipped
+        sets = [CapturedSet(migl=m_set, exposure_ms=run.exposure_ms, migl_map=dimmed)]
         if mp.bright_migl is not None:
             sets.append(CapturedSet(migl=mp.bright_migl, exposure_ms=run.exposure_ms))
         results[i] = StrategyResult(
@@ -1308,6 +1442,8 @@ def _adapted_phase(
     seeds = took if took is not None and st.passes["topup"] else np.zeros(mapping.u.shape, bool)
     if mapping.full_mapped:
         seeds = seeds | mp.saturated
+    if mp.dim_map is not None:  # the budget's dimmed sets left some without a mapping phase
+        seeds = seeds | ~np.isfinite(predicted)
     if seeds.any():
         t1 = time.perf_counter()
         final = decode_set(st.composite, spec, bits)
@@ -1320,9 +1456,16 @@ def _adapted_phase(
     # shifts, noisy, the reflectivity edges' own bias) is no reference to fit the blur on
     # (on the checkerboard it made the std depend on the draw and raised it)
     if run.params.bias_correction and (run.budget is None or mapping.full_mapped):
+        reference = predicted
+        if mp.dim_map is not None:
+            # not where the dimmed mapping sets' own map step biased the reference
+            from scipy import ndimage
+
+            near = ndimage.binary_dilation(mp.saturated, iterations=BUDGET_DIM_NEAR_PX)
+            reference = np.where(near, np.nan, predicted)
         absolute, blur = _correct_map_bias(
             absolute,
-            predicted,
+            reference,
             st.used,
             st.source,
             proj.uf,
@@ -1330,6 +1473,7 @@ def _adapted_phase(
             spec,
             proj.imin,
             proj.radius,
+            BUDGET_FLOOR_SPAN if proj.low_floor else None,
         )
     st.seconds["bias"] = time.perf_counter() - t0
     return absolute, blur

@@ -47,6 +47,7 @@ __all__ = [
     "fill_holes",
     "fit_blur_sigma",
     "footprint_px",
+    "lowered_floor",
     "lowered_where_clipped",
     "map_phase_bias",
     "median_smooth",
@@ -281,6 +282,45 @@ def median_smooth(image: ArrayLike, size: int) -> F64:
         out = np.nanmedian(windows.reshape(*img.shape, -1), axis=-1)
     out[~np.isfinite(img)] = np.nan
     return np.asarray(out, np.float64)
+
+
+def lowered_floor(migl: ArrayLike, imin: float, span: float) -> F64:
+    """Per projector pixel the fringe's floor when its MIGL falls below ``imin + span``.
+
+    A fringe shows ``floor + (m - floor) (1 + P) / 2``. At or above the lowest usable MIGL
+    ``imin + span`` the floor is the set's ``imin`` (thesis Eq. 3.8-3.9); below it the floor
+    falls with the MIGL, ``m - span``, keeping the span of the lowest usable fringe, down to
+    the projector's black (0), under which the fringe spans ``[0, m]``. A pixel too bright
+    for the lowest usable MIGL then still carries a fringe: its brightest shift is ``m``, and
+    the phase does not depend on the offset.
+
+    Parameters
+    ----------
+    migl : array_like
+        MIGL per projector pixel (the map), >= 0.
+    imin : float
+        The set's minimum gray.
+    span : float
+        The lowest usable fringe's span, ``lowest usable MIGL - imin`` (> 0).
+
+    Returns
+    -------
+    ndarray of float64
+        ``clip(m - span, 0, imin)``, the shape of ``migl``.
+
+    References
+    ----------
+    Thesis Eq. 3.8-3.9 (the fringe's offset and amplitude from imin and the MIGL).
+
+    Examples
+    --------
+    >>> lowered_floor([255.0, 60.0, 50.0, 12.0], imin=40.0, span=20.0).tolist()
+    [40.0, 40.0, 30.0, 0.0]
+    """
+    m = np.asarray(migl, dtype=np.float64)
+    if not float(span) > 0:
+        raise InputError(f"the lowest usable fringe's span must be > 0 gray levels, got {span!r}")
+    return np.clip(m - float(span), 0.0, float(imin))
 
 
 def epipolar_rows(calibration: StereoCalibration, u: ArrayLike) -> F64:
@@ -888,6 +928,7 @@ def map_phase_bias(
     orientation: str,
     sigma_px: float,
     imin: float,
+    floor_span: float | None = None,
 ) -> F64:
     """Phase bias a camera pixel sees from a MIGL map that varies under its blur.
 
@@ -913,6 +954,9 @@ def map_phase_bias(
         Blur standard deviation in projector pixels along that axis (>= 0).
     imin : float
         The set's minimum gray.
+    floor_span : float, optional
+        The map's floor falls below the lowest usable MIGL ``imin + floor_span``
+        (:func:`lowered_floor`): the amplitude is ``m - lowered_floor(m)``. None: ``m - imin``.
 
     Returns
     -------
@@ -947,7 +991,14 @@ def map_phase_bias(
         raise InputError(f"pitch must be > 0 and sigma >= 0, got {pitch_px!r}, {sigma_px!r}")
     if orientation == "horizontal":  # the same along rows: transpose the problem
         return map_phase_bias(
-            pm.T, vv, uu, pitch_px=pitch_px, orientation="vertical", sigma_px=sigma_px, imin=imin
+            pm.T,
+            vv,
+            uu,
+            pitch_px=pitch_px,
+            orientation="vertical",
+            sigma_px=sigma_px,
+            imin=imin,
+            floor_span=floor_span,
         )
     out = np.full(uu.shape, np.nan)
     ok = np.isfinite(uu) & np.isfinite(vv)
@@ -962,7 +1013,9 @@ def map_phase_bias(
     cols = np.floor(x0)[:, None].astype(np.intp) + np.arange(-reach, reach + 1)[None, :]
     s = cols - x0[:, None]
     k = np.exp(-0.5 * (s / float(sigma_px)) ** 2)
-    amp = np.maximum(pm[row[:, None], np.clip(cols, 0, w - 1)] - float(imin), 0.0)
+    seen = pm[row[:, None], np.clip(cols, 0, w - 1)]
+    floor = float(imin) if floor_span is None else lowered_floor(seen, imin, floor_span)
+    amp = np.maximum(seen - floor, 0.0)
     z = np.sum(k * amp * np.exp(2j * np.pi * s / float(pitch_px)), axis=1)
     out[ok] = np.angle(z)
     return out
