@@ -268,6 +268,8 @@ class _Mapping:
     #: clipped pixels whose response those sets measured
     dim_map: NDArray[np.float64] | None = None
     safe: NDArray[np.bool_] | None = None
+    #: pixels decoded in at least one mapping set
+    decoded: NDArray[np.bool_] | None = None
 
 
 def _capture(rig: Rig, frames: list[Any], settings: CameraSettings | None) -> NDArray:
@@ -317,6 +319,7 @@ def _measure_mapping(
     response = _Response(imin)
     saturated = np.zeros(rig.image_shape, bool)
     decodes = np.ones(rig.image_shape, bool)  # valid in every set
+    decoded = np.zeros(rig.image_shape, bool)  # valid in one
     m_next = migl
     dim_map: NDArray[np.float64] | None = None
     dim_levels: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
@@ -344,6 +347,7 @@ def _measure_mapping(
                 safe = clipped_here.copy()
             saturated |= clipped_here
             decodes &= dec.valid
+            decoded |= dec.valid
             if len(pitches) == 1 and k_ == 1:
                 # one orientation (epipolar): its second set, at the automatic MIGL, stands in
                 # for the other orientation's one-period set in the response (its pitch, 16x
@@ -404,6 +408,7 @@ def _measure_mapping(
         index,
         dim_map,
         safe,
+        decoded,
     )
 
 
@@ -418,7 +423,8 @@ def _floored_frames(spec: FringeSpec, pmap: NDArray[np.float64]) -> list[ImageFr
     out = []
     for frame, named in zip(unit.frames(), spec.frames(), strict=True):
         profile = as_image_frame(frame, w, h).image.astype(np.float64)  # (1 + P) / 2
-        out.append(ImageFrame(floor + span * profile, f"{named.default_name()}_floored"))
+        image = (floor + span * profile).astype(np.float32)
+        out.append(ImageFrame(image, f"{named.default_name()}_floored"))
     return out
 
 
@@ -1804,6 +1810,8 @@ def _run_budget(
     proj = _plan_projector_map(run, mapping, scale)
     owner = min(finest.values())
     region = proj.mapped | mp.saturated
+    if mp.decoded is not None:  # and those a dimmed set left without a mapping phase
+        region |= mp.decoded
     budget.left -= steps * len(finest)  # the adapted sets themselves are never skipped
     for i in finest.values():
         counted: list[CapturedSet] = []
