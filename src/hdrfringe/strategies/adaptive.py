@@ -208,10 +208,19 @@ BUDGET_SAFE_MIGL = 20.0
 #: reaches: the probe's clipped pixels take their projector coordinates from their
 #: neighbours' coarse phase.
 BUDGET_SAFE_MARGIN_PX = 4.0
-#: Budget: camera pixels around those the probe clipped that the map-bias fit leaves out when
-#: the mapping was dimmed there: the dimmed sets' phase, the fit's reference, carries their
-#: own map's step (specular part, 648 x 494, seed 0: 30.4 mrad leaving out 1 px, 20.6 with 8).
+#: Budget: camera pixels around those the probe clipped over which the map-bias blur is
+#: fitted to the phase's smoothness when the mapping was dimmed there (the dimmed sets'
+#: phase, the usual reference, carries their own map's step; the adapted map's largest step
+#: is there).
 BUDGET_DIM_NEAR_PX = 8
+#: Budget: the map-bias blur where the mapping was dimmed is the one (in steps of this many
+#: projector pixels) that leaves the phase smoothest around the highlight, from at least
+#: this many pixels there. The fit against the mapping's phase (its pixels near the
+#: highlight left out) came out 0.69-0.98 px over seeds 0-3 on the specular part at 648 x
+#: 494, and the error against the rig's truth went from 20.6 to 23.8 mrad with it; the
+#: smoothness gives 0.56-0.61 px on all four (docs/adaptive.md, "Budget").
+BUDGET_BLUR_STEP_PX = 0.05
+BUDGET_SMOOTH_MIN_PIXELS = 200
 
 ORIENTATIONS = ("vertical", "horizontal")
 
@@ -608,13 +617,19 @@ def _correct_map_bias(
     imin: float,
     radius: float,
     floor_span: float | None = None,
+    smooth_region: NDArray[np.bool_] | None = None,
+    footprint: float = 0.0,
 ) -> tuple[NDArray[np.float64], float]:
     """Subtract the phase bias of the projected maps, with the blur fitted to the mapping
     (``floor_span``: the maps' floor falls below ``imin + floor_span``, the budget's).
 
     The mapping sets were projected at one MIGL: their phase carries the surface's own bias
     but not the map's, so the residual of the adapted phase against it is the map's bias plus
-    noise (:func:`~hdrfringe.core.saturation.adaptive_map.fit_blur_sigma`).
+    noise (:func:`~hdrfringe.core.saturation.adaptive_map.fit_blur_sigma`). With
+    ``smooth_region`` (the budget's, where the mapping was dimmed around a highlight: no
+    reference there, and the map's largest step) the blur is instead the one that leaves the
+    corrected phase smoothest there (:func:`_blur_from_smoothness`; ``footprint``: the
+    camera pixel's, in projector pixels).
     """
 
     residual = (absolute - reference).ravel()
@@ -641,11 +656,55 @@ def _correct_map_bias(
                 )[0]
         return out
 
-    sigma = fit_blur_sigma(residual[fit_on], lambda s: bias_of(s, fit_on), max(1.0, radius))
+    if smooth_region is not None and smooth_region.sum() >= BUDGET_SMOOTH_MIN_PIXELS:
+        sigma = _blur_from_smoothness(
+            absolute, smooth_region, bias_of, footprint / np.sqrt(12.0), max(1.0, radius)
+        )
+    else:
+        sigma = fit_blur_sigma(residual[fit_on], lambda s: bias_of(s, fit_on), max(1.0, radius))
     bias = bias_of(sigma, np.arange(residual.size)).reshape(absolute.shape)
     # a predicted bias below BIAS_MIN_RAD is within the model's own error: left alone
     apply = np.isfinite(bias) & (np.abs(bias) >= BIAS_MIN_RAD)
     return absolute - np.where(apply, bias, 0.0), sigma
+
+
+def _blur_from_smoothness(
+    absolute: NDArray[np.float64],
+    region: NDArray[np.bool_],
+    bias_of: Any,
+    min_sigma: float,
+    max_sigma: float,
+) -> float:
+    """The blur (``min_sigma`` to ``max_sigma`` in steps of :data:`BUDGET_BLUR_STEP_PX`) whose
+    map bias, subtracted, leaves ``absolute`` smoothest over ``region``: the least mean
+    squared Laplacian, over the pixels whose 3 x 3 neighbourhood has a phase. The surface's
+    phase is smooth; a bias under- or over-corrected at a map step is not. ``bias_of(sigma,
+    flat indices)`` is the bias model. ``min_sigma``: the camera pixel's footprint as a box
+    (``footprint / sqrt(12)``), the least blur there is; the model sampled at a finer blur
+    than the pixels' own is rougher than the phase left uncorrected, which is not smoother
+    for it (specular part, 648 x 494: uncorrected the smoothest, while a 0.7 px correction
+    halves the error against the rig's truth)."""
+    from scipy import ndimage
+
+    rows = np.flatnonzero(region.any(axis=1))
+    cols = np.flatnonzero(region.any(axis=0))
+    h, w = absolute.shape
+    r0, r1 = max(rows[0] - 2, 0), min(rows[-1] + 3, h)
+    c0, c1 = max(cols[0] - 2, 0), min(cols[-1] + 3, w)
+    box = absolute[r0:r1, c0:c1]
+    finite = np.isfinite(box)
+    inner = region[r0:r1, c0:c1] & ndimage.minimum_filter(finite, 3, mode="constant")
+    rr, cc = np.nonzero(finite)
+    where = (rr + r0) * w + (cc + c0)
+    best, best_score = float(min_sigma), np.inf
+    for sigma in np.arange(float(min_sigma), float(max_sigma) + 1e-9, BUDGET_BLUR_STEP_PX):
+        corrected = np.zeros(box.shape)
+        b = bias_of(float(sigma), where)
+        corrected[rr, cc] = box[rr, cc] - np.where(np.isfinite(b), b, 0.0)
+        score = float(np.mean(ndimage.laplace(corrected)[inner] ** 2))
+        if score < best_score:
+            best, best_score = float(sigma), score
+    return best
 
 
 def _capture_topup(
@@ -1058,7 +1117,7 @@ class _Projection:
     def build(self, cam_levels: NDArray[np.float64]) -> NDArray[np.float64]:
         """The projector MIGL map of camera-side levels (eroded, smoothed from below); the
         budget's may fall below ``imin`` (:func:`_floored_frames` projects them)."""
-        return projector_migl_map(
+        pm = projector_migl_map(
             cam_levels,
             self.uf,
             self.vf,
@@ -1068,6 +1127,7 @@ class _Projection:
             imin=0.0 if self.low_floor else self.imin,
             projector_full=self.full,
         )
+        return pm
 
     def shoot(self, spec: FringeSpec, pmap: NDArray[np.float64]) -> NDArray:
         """Capture ``spec`` projected with the per-pixel MIGL map ``pmap``."""
@@ -1105,6 +1165,10 @@ def _plan_projector_map(run: _Run, mapping: _MappingOutcome, scale: float = 1.0)
     base_levels[unknown] = first.imin + (mapping.m0 - first.imin) / 2.0
     if scale > 1.0:  # a longer exposure than the mapping's: those clip at any higher level
         base_levels[unknown] = default_min_migl(first)
+    if mp.dim_map is not None:
+        # clipped in the dimmed sets too: brighter than BUDGET_SAFE_MIGL clips at the
+        # mapping's exposure, so below it scaled to the chosen one (less the margin)
+        base_levels[unknown] = BUDGET_SAFE_MIGL / scale * (1.0 - run.params.margin)
     mapped = np.isfinite(u) & np.isfinite(v)
     if not mapped.any():
         raise InputError(
@@ -1462,13 +1526,15 @@ def _adapted_phase(
     # shifts, noisy, the reflectivity edges' own bias) is no reference to fit the blur on
     # (on the checkerboard it made the std depend on the draw and raised it)
     if run.params.bias_correction and (run.budget is None or mapping.full_mapped):
-        reference = predicted
+        reference, smooth_region = predicted, None
         if mp.dim_map is not None:
-            # not where the dimmed mapping sets' own map step biased the reference
+            # not where the dimmed mapping sets' own map step biased the reference; there the
+            # blur is fitted to the phase's smoothness
             from scipy import ndimage
 
             near = ndimage.binary_dilation(mp.saturated, iterations=BUDGET_DIM_NEAR_PX)
-            reference = np.where(near, np.nan, predicted)
+            reference = np.where(near, np.nan, reference)
+            smooth_region = near & np.isfinite(absolute)
         absolute, blur = _correct_map_bias(
             absolute,
             reference,
@@ -1480,6 +1546,8 @@ def _adapted_phase(
             proj.imin,
             proj.radius,
             BUDGET_FLOOR_SPAN if proj.low_floor else None,
+            smooth_region,
+            proj.radius - _resolved(run.params.blur_px),
         )
     st.seconds["bias"] = time.perf_counter() - t0
     return absolute, blur
