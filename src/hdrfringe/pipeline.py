@@ -1140,7 +1140,10 @@ def _replay(
     rig = ReplayRig(captures)
     if settings is not None:  # the live rig's own settings, which its strategy started from
         rig.camera_settings = settings
-    context = RunContext(available_migls=rig.available_migls())
+    # the calibration's projector-camera geometry, as a live run offers it (an adaptive
+    # epipolar run recorded with --calibration replays with it)
+    geometry = None if calibration is None else calibration.projector_geometry()
+    context = RunContext(available_migls=rig.available_migls(), projector_geometry=geometry)
     params = prepare_params(get_strategy(strategy), params, context)
     return composite_captures(
         rig, specs, strategy, params, centerline=centerline, extra_frames=extra
