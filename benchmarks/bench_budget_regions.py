@@ -9,7 +9,12 @@ modulation of the finest set and the median level each pixel was projected at
 bright side (reflectivity below / above half its maximum) in bands of camera pixels from
 the nearest pixel of the other side (issue 26: the budget row's excess std on the
 checkerboard is the dark side's first 4 pixels, starved by the map's erosion). ``--set
-blur_px=0`` passes a parameter to every row.
+blur_px=0`` passes a parameter to every row; ``--ablate NAME=VALUE`` sets a constant of
+:mod:`hdrfringe.strategies.adaptive` for the run (e.g. ``BUDGET_SMOOTH_MIN_PIXELS=10**9``:
+the map-bias blur fitted against the mapping's phase even where the budget dimmed it). With
+``--near-probe`` the bands are instead the distance to the pixels that clipped in the
+probe (the first set at the full MIGL: the specular part's highlight). Each row also prints
+its fitted map-bias blur.
 """
 
 from __future__ import annotations
@@ -21,6 +26,8 @@ import sys
 import numpy as np
 from scipy import ndimage
 
+import hdrfringe.strategies.adaptive as adaptive_module
+from hdrfringe.core._validation import saturation_count
 from hdrfringe.core.phase import decode_set
 from hdrfringe.pipeline import measure
 from hdrfringe.rig.factory import virtual_rig
@@ -54,8 +61,25 @@ def main(argv: list[str] | None = None) -> int:
         metavar="NAME=VALUE",
         help="a strategy parameter for every row (a Python literal), e.g. blur_px=0; repeatable",
     )
+    ap.add_argument(
+        "--ablate",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a constant of hdrfringe.strategies.adaptive for the run; repeatable",
+    )
+    ap.add_argument(
+        "--near-probe",
+        action="store_true",
+        help="bands by distance to the pixels that clipped in the first (probe) set",
+    )
     args = ap.parse_args(argv)
     extra = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.set)}
+    for item in args.ablate:
+        name, value = item.split("=", 1)
+        if not hasattr(adaptive_module, name):
+            ap.error(f"--ablate {name}: no such constant in hdrfringe.strategies.adaptive")
+        setattr(adaptive_module, name, type(getattr(adaptive_module, name))(eval(value)))
     specs = compare_specs(8.0)
     methods = {m.name: m for m in METHODS}
     for name in args.strategies.split(","):
@@ -68,6 +92,12 @@ def main(argv: list[str] | None = None) -> int:
             "bright": (bright, ndimage.distance_transform_edt(bright)),
         }
         res = measure(rig, strategy=m.strategy, params=dict(m.params) | extra, specs=specs)
+        if args.near_probe:
+            first = res.strategy_results[0]
+            probe = saturation_count(first.images, rig.camera_bit_depth) > 0
+            # the clipped pixels themselves in the first band
+            near = np.where(probe, 0.5, ndimage.distance_transform_edt(~probe))
+            dist = {"probe": (np.ones(probe.shape, bool), near)}
         fam = res.decoded.primary
         assert fam is not None and fam.absolute_phase is not None
         err = fam.absolute_phase - 2 * np.pi * truth.u / specs[-1].pitch_px
@@ -75,10 +105,12 @@ def main(argv: list[str] | None = None) -> int:
         last = res.strategy_results[-1]
         mod = decode_set(last.images, last.spec, rig.camera_bit_depth).modulation
         images = sum(r.images_captured for r in res.strategy_results)
+        blur = last.details.get("blur_sigma_px")
         print(
-            f"{m.label} {extra or ''}: {images} images, coverage "
-            f"{100 * np.mean(np.isfinite(err[truth.valid])):.2f} %, std in order "
-            f"{1e3 * err[ok].std():.2f} mrad"
+            f"{m.label} {extra or ''}{' ' + ' '.join(args.ablate) if args.ablate else ''}: "
+            f"{images} images, coverage {100 * np.mean(np.isfinite(err[truth.valid])):.2f} %, "
+            f"std in order {1e3 * err[ok].std():.2f} mrad, blur "
+            f"{'-' if blur is None else f'{blur:.2f}'} px"
         )
         for side, (where, d) in dist.items():
             for lo, hi in BANDS:
@@ -89,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
                     f"  {side:6s} ({lo}, {hi if hi < 1_000_000 else 'inf'}] px: "
                     f"{100 * sel.sum() / ok.sum():5.1f} % of pixels, "
                     f"std {1e3 * err[sel].std():6.1f} mrad, modulation {np.median(mod[sel]):5.1f}, "
-                    f"level {np.median(last.index_map[sel]):6.1f}"
+                    f"level {np.nanmedian(last.index_map[sel]):6.1f}"
                 )
     return 0
 
