@@ -422,7 +422,10 @@ def test_object1_spatial_only_reports_islands(object1_graycode: dict, tmp_path: 
     from tests.conftest import run_cli
 
     folder = _object1_folder(object1_graycode["root"], tmp_path / "caps", graycode=False)
-    res = run_cli("phase", str(folder), "-o", str(tmp_path / "phase"), timeout=300)
+    # no previews nor report: nothing here reads them (tests/test_replay_realdata.py's runs of
+    # object1 write reports)
+    quiet = ("--no-previews", "--no-report")
+    res = run_cli("phase", str(folder), *quiet, "-o", str(tmp_path / "phase"), timeout=300)
     assert res.returncode == 0, res.stderr
     assert "vertical fringes: the valid area falls into 2 separate regions" in res.stdout
     summary = json.loads((tmp_path / "phase" / "phase_summary.json").read_text())
@@ -446,7 +449,7 @@ def test_object1_spatial_only_reports_islands(object1_graycode: dict, tmp_path: 
         "object1 spatial - Gray code x per region (px)", {k: round(v) for k, v in off.items()}
     )
     assert abs(off["block"] - off["wall"]) > 50  # measured about 600 px
-    res = run_cli("measure", str(folder), "-o", str(tmp_path / "measure"), timeout=300)
+    res = run_cli("measure", str(folder), *quiet, "-o", str(tmp_path / "measure"), timeout=300)
     assert res.returncode == 0, res.stderr
     assert "separate regions" in res.stdout
     metrics = json.loads((tmp_path / "measure" / "metrics.json").read_text())
