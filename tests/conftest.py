@@ -243,6 +243,34 @@ def kimthyung_sphere(kimthyung_rows: dict) -> dict:
 
 
 @pytest.fixture(scope="session")
+def kamino410_object1(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """kamino410 object1 imported (``import`` with docs/examples/import/kamino410_object1.toml),
+    once for the whole run: under xdist the first worker to need it imports it into the run's
+    shared temporary folder, holding a file lock, and the other worker waits for it and reuses it
+    (pytest-xdist's documented pattern). Read-only for the tests: they measure and decode it into
+    folders of their own (copy it before changing anything). tests/test_import_realdata.py imports
+    it itself: that test is of the import."""
+    import fcntl
+
+    root = realdata_path("kamino410", "object1")
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):  # the workers' temporary folders share a parent
+        base = base.parent
+    shared = base / "kamino410_object1"
+    caps, done = shared / "caps", shared / "imported"
+    shared.mkdir(exist_ok=True)
+    with open(shared / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file is closed
+        if not done.exists():
+            description = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
+            res = run_cli("import", str(root), "-d", str(description / "kamino410_object1.toml"),
+                          "-o", str(caps), "--force")  # fmt: skip
+            assert res.returncode == 0, res.stderr
+            done.touch()
+    return caps
+
+
+@pytest.fixture(scope="session")
 def thomriiii_geometric(tmp_path_factory: pytest.TempPathFactory) -> dict:
     """The thomriiii checkerboard through the command line, the fringe order from the geometry
     (``import`` -> ``calibrate-stereo --from`` -> ``measure -c --depth-range 550:800

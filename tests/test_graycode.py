@@ -339,19 +339,48 @@ def _object1_folder(root: Path, out: Path, graycode: bool = True) -> Path:
     return out
 
 
+def _read_only(obj: object) -> None:
+    """Every array reachable from ``obj`` (dataclasses, mappings, sequences) made read-only."""
+    import dataclasses
+
+    if isinstance(obj, np.ndarray):
+        obj.setflags(write=False)
+    elif dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        for f in dataclasses.fields(obj):
+            _read_only(getattr(obj, f.name))
+    elif isinstance(obj, dict):
+        for v in obj.values():
+            _read_only(v)
+    elif isinstance(obj, list | tuple):
+        for v in obj:
+            _read_only(v)
+
+
+@pytest.fixture(scope="module")
+def object1_graycode(tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """object1's version-3 folder (:func:`_object1_folder`, with the Gray code), read and
+    decoded once for the module's two object1 tests (``caps``, ``decoded``; read-only arrays)."""
+    from hdrfringe.core.decode import decode_captures
+    from tests.conftest import realdata_path
+
+    root = realdata_path(*OBJECT1)
+    caps = read_capture_folder(_object1_folder(root, tmp_path_factory.mktemp("object1") / "caps"))
+    decoded = decode_captures(caps)
+    _read_only(caps)
+    _read_only(decoded)
+    return {"root": root, "caps": caps, "decoded": decoded}
+
+
 @pytest.mark.realdata
-def test_object1_graycode_gives_sponge_block_and_wall_their_own_orders(tmp_path: Path) -> None:
+def test_object1_graycode_gives_sponge_block_and_wall_their_own_orders(
+    object1_graycode: dict,
+) -> None:
     """Gray code + phase: every surface gets the fringe order of the Gray code alone and the
     projector coordinate of kamino410's own decode (vizualized.png holds it modulo 256:
     blue = x, green = y, red = 128 where decoded)."""
     import cv2
 
-    from hdrfringe.core.decode import decode_captures
-    from tests.conftest import realdata_path
-
-    root = realdata_path(*OBJECT1)
-    caps = read_capture_folder(_object1_folder(root, tmp_path / "caps"))
-    decoded = decode_captures(caps)
+    root, caps, decoded = (object1_graycode[k] for k in ("root", "caps", "decoded"))
     viz = cv2.imread(str(root / "vizualized.png"), cv2.IMREAD_UNCHANGED)
     theirs_ok = viz[..., 2] == 128
     codes = {g.orientation: g for g in caps.graycode_sets()}
@@ -384,17 +413,19 @@ def test_object1_graycode_gives_sponge_block_and_wall_their_own_orders(tmp_path:
 
 
 @pytest.mark.realdata
-def test_object1_spatial_only_reports_islands(tmp_path: Path) -> None:
+def test_object1_spatial_only_reports_islands(object1_graycode: dict, tmp_path: Path) -> None:
     """Without the Gray code the same images unwrap spatially: the block's fringe order is off
     the wall's (measured 600 px) and the decode says the relative order is unknown, in the
     terminal (phase, measure), phase_summary.json, metrics.json and regions.tiff."""
     import tifffile
 
-    from tests.conftest import realdata_path, run_cli
+    from tests.conftest import run_cli
 
-    root = realdata_path(*OBJECT1)
-    folder = _object1_folder(root, tmp_path / "caps", graycode=False)
-    res = run_cli("phase", str(folder), "-o", str(tmp_path / "phase"), timeout=300)
+    folder = _object1_folder(object1_graycode["root"], tmp_path / "caps", graycode=False)
+    # no previews nor report: nothing here reads them (tests/test_replay_realdata.py's runs of
+    # object1 write reports)
+    quiet = ("--no-previews", "--no-report")
+    res = run_cli("phase", str(folder), *quiet, "-o", str(tmp_path / "phase"), timeout=300)
     assert res.returncode == 0, res.stderr
     assert "vertical fringes: the valid area falls into 2 separate regions" in res.stdout
     summary = json.loads((tmp_path / "phase" / "phase_summary.json").read_text())
@@ -411,16 +442,14 @@ def test_object1_spatial_only_reports_islands(tmp_path: Path) -> None:
     _measured("object1 spatial regions (wall, sponge, block)", (int(wall), int(sponge), int(block)))
     # the spatial orders are wrong (compared with the Gray code decode of the full folder)
     unwrapped = tifffile.imread(tmp_path / "phase" / vert["unwrapped_phase"]) * (200 / 3) / TWO_PI
-    from hdrfringe.core.decode import decode_captures
-
-    full = decode_captures(read_capture_folder(_object1_folder(root, tmp_path / "full")))
+    full = object1_graycode["decoded"]  # the folder with the Gray code
     x = full.primary.absolute_phase * full.primary.pitch_px / TWO_PI
     off = {name: float(np.nanmedian((unwrapped - x)[box])) for name, box in OBJECT1_REGIONS.items()}
     _measured(
         "object1 spatial - Gray code x per region (px)", {k: round(v) for k, v in off.items()}
     )
     assert abs(off["block"] - off["wall"]) > 50  # measured about 600 px
-    res = run_cli("measure", str(folder), "-o", str(tmp_path / "measure"), timeout=300)
+    res = run_cli("measure", str(folder), *quiet, "-o", str(tmp_path / "measure"), timeout=300)
     assert res.returncode == 0, res.stderr
     assert "separate regions" in res.stdout
     metrics = json.loads((tmp_path / "measure" / "metrics.json").read_text())

@@ -413,8 +413,9 @@ def test_live_capture_on_the_loop_rig_measures_as_the_virtual_rig(
     assert manifest["capture"]["complete"] is True
     assert len(manifest["frames"]) == len(log["frames"])
 
-    out = tmp_path / "measured"
-    r = cli("measure", str(caps), "--strategy", method, *STRATEGY[method], "-o", str(out))
+    out = tmp_path / "measured"  # the folder measured in this process (no window: run_cli)
+    r = run_cli("measure", str(caps), "--strategy", method, *STRATEGY[method], "--no-previews",
+                "-o", str(out))  # fmt: skip
     assert r.returncode == 0, r.stderr
     measured = read_map_tiff(out / "absolute_phase_vertical.tiff")
     sim, other_seed = sim_phase(method, 0), sim_phase(method, 1)

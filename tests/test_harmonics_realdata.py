@@ -30,14 +30,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import realdata_path, run_cli
+from tests.conftest import run_cli
 from tests.test_sphere_realdata import sphere_fit
 
 # the kimthyung measurements are shared with the sphere tests (conftest): one worker
 pytestmark = [pytest.mark.realdata, pytest.mark.xdist_group("sphere-realdata")]
 
-ROOT = Path(__file__).resolve().parents[1]
-EXAMPLES = ROOT / "docs" / "examples" / "import"
 TWO_PI = 2 * np.pi
 
 
@@ -52,7 +50,7 @@ def kimthyung(kimthyung_rows: dict) -> dict:
     tmp = kimthyung_rows["tmp"]
     res = run_cli(
         "measure", str(kimthyung_rows["caps"]), "-c", str(kimthyung_rows["cal"]),
-        "--stereo-directions", "v", "--harmonics", "auto", "--no-previews", "-o",
+        "--stereo-directions", "v", "--harmonics", "auto", "--no-previews", "--no-report", "-o",
         str(tmp / "harmonics_auto"), timeout=600,
     )  # fmt: skip
     assert res.returncode == 0, res.stderr
@@ -122,7 +120,7 @@ def test_kimthyung_sphere_and_wall(kimthyung: dict) -> None:
     assert by_region["front"] < 1.3 * by_region["wall"] < 0  # measured -0.173, -0.118
 
 
-def test_kamino410_object1_pitches_agree_after_compensation(tmp_path: Path) -> None:
+def test_kamino410_object1_pitches_agree_after_compensation(kamino410_object1: Path) -> None:
     """The projector coordinate from the 100 px set (its order from the 66.67 px set's
     absolute phase) against the 66.67 px set's: robust spread (1.4826 MAD) 5.44 -> 0.93 px
     (columns) and 5.34 -> 1.14 px (rows) with ``auto``. The four sets' estimates agree (the
@@ -130,12 +128,7 @@ def test_kamino410_object1_pitches_agree_after_compensation(tmp_path: Path) -> N
     from hdrfringe.core.decode import decode_captures
     from hdrfringe.io.captures import read_capture_folder
 
-    root = realdata_path("kamino410", "object1")
-    caps_dir = tmp_path / "caps"
-    desc = EXAMPLES / "kamino410_object1.toml"
-    res = run_cli("import", str(root), "-d", str(desc), "-o", str(caps_dir))
-    assert res.returncode == 0, res.stderr
-    caps = read_capture_folder(caps_dir)
+    caps = read_capture_folder(kamino410_object1)  # imported once (conftest)
     spread = {}
     for mode in ("off", "auto"):
         dec = decode_captures(caps, harmonics=mode)

@@ -40,13 +40,16 @@ def wrapped_diff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def import_and_phase(name: str, images: Path, tmp_path: Path) -> tuple[dict, Path, Path]:
     """``hdrfringe import`` (one call, the kept description), then the ``next:`` command it
-    printed, which must be ``hdrfringe phase`` (tests/test_next_hints.py)."""
+    printed, which must be ``hdrfringe phase`` (tests/test_next_hints.py): with every set's maps,
+    and without the PNG previews and the report, which no test here reads (at these 1-5 Mpx
+    they were a third of the command's time; tests/test_previews.py and tests/test_report.py
+    test them)."""
     from tests.test_next_hints import run_hint
 
     caps, out = tmp_path / "caps", tmp_path / "phase"
     res = run_cli("import", str(images), "-d", str(EXAMPLES / f"{name}.toml"), "-o", str(caps))
     assert res.returncode == 0, res.stderr
-    command, res = run_hint(res.stdout, out, "--per-set-maps")  # set_map reads every set's
+    command, res = run_hint(res.stdout, out, "--per-set-maps", "--no-previews", "--no-report")
     assert command == "phase" and res.returncode == 0, res.stderr
     return json.loads((out / "phase_summary.json").read_text()), caps, out
 

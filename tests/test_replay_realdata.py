@@ -12,19 +12,15 @@ import numpy as np
 import pytest
 
 from hdrfringe.io.results import read_map_tiff
-from tests.conftest import realdata_path, run_cli
+from tests.conftest import run_cli
 
 pytestmark = pytest.mark.realdata
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
 
-
-def test_tolerant_replay_of_object1_keeps_both_families_and_the_gray_code(tmp_path: Path) -> None:
-    root = realdata_path("kamino410", "object1")
-    caps, out, ref = tmp_path / "caps", tmp_path / "out", tmp_path / "phase"
-    desc = EXAMPLES / "kamino410_object1.toml"
-    r = run_cli("import", str(root), "-d", str(desc), "-o", str(caps))
-    assert r.returncode == 0, r.stderr
+def test_tolerant_replay_of_object1_keeps_both_families_and_the_gray_code(
+    kamino410_object1: Path, tmp_path: Path
+) -> None:
+    caps, out, ref = kamino410_object1, tmp_path / "out", tmp_path / "phase"  # caps: conftest's
     r = run_cli("measure", str(caps), "--strategy", "tolerant", "--no-previews", "-o", str(out),
                 timeout=600)  # fmt: skip
     assert r.returncode == 0, r.stderr

@@ -17,6 +17,7 @@ install`` installs it where missing, as it installs Xvfb for the projector windo
 from __future__ import annotations
 
 import base64
+import gzip
 import io
 import json
 import os
@@ -35,7 +36,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from hdrfringe.io.report import CLOUD_DIV_ID, CloudView, cloud_figure
+from hdrfringe.io.report import CLOUD_DIV_ID, PLOTLY_SCRIPT_ID, CloudView, cloud_figure
 from hdrfringe.io.results import read_map_tiff
 from tests.conftest import run_cli
 
@@ -73,6 +74,7 @@ class _Page(HTMLParser):
     def __init__(self) -> None:
         super().__init__()
         self.scripts: list[str] = []
+        self.script_ids: list[str | None] = []  # each script's id attribute
         self.images: list[str] = []
         self.ids: list[str] = []
         self.open: list[str] = []
@@ -87,6 +89,7 @@ class _Page(HTMLParser):
         elif tag == "script":
             self._in_script = True
             self.scripts.append("")
+            self.script_ids.append(a.get("id"))
         if tag not in ("img", "meta", "br"):
             self.open.append(tag)
 
@@ -135,9 +138,16 @@ def test_the_measure_report_holds_the_run(runs: dict[str, Path]) -> None:
     page.feed((out / "report.html").read_text(encoding="utf-8"))
     page.close()
     assert not page.open  # every element closed
-    # plotly.js itself is in the file (no src= to load), and the figure is drawn into the div
+    # plotly.js itself is in the file (no src= to load): gzip, base64, the plotly package's
+    # plotly.js byte for byte once inflated; and the figure is drawn into the div
     assert CLOUD_DIV_ID in page.ids
-    assert any(s.startswith("/**\n* plotly.js v") and len(s) > 3_000_000 for s in page.scripts)
+    (loader,) = [s for s, i in zip(page.scripts, page.script_ids, strict=True)
+                 if i == PLOTLY_SCRIPT_ID]  # fmt: skip
+    packed = re.fullmatch(r'.*atob\("([A-Za-z0-9+/=]+)"\).*', loader, flags=re.DOTALL)
+    assert packed is not None and 'DecompressionStream("gzip")' in loader
+    from plotly.offline import get_plotlyjs
+
+    assert gzip.decompress(base64.b64decode(packed[1])) == get_plotlyjs().encode("utf-8")
     # every image is embedded, and is the folder's PNG byte for byte
     for src in page.images:
         assert src.startswith("data:image/png;base64,")
@@ -381,9 +391,10 @@ def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Chromium]:
     chromium.close()
 
 
-#: After two animation frames: where the plot's 3D scene lies on the page, the colourings its
-#: menu offers, the number of points drawn. Null when the plot was not made.
-_SCENE = """new Promise(done => {
+#: Once plotly.js is inflated and run (``window.plotlyLoaded``: the page's loader) and after two
+#: animation frames: where the plot's 3D scene lies on the page, the colourings its menu offers,
+#: the number of points drawn. Null when the plot was not made.
+_SCENE = """Promise.resolve(window.plotlyLoaded).catch(() => null).then(() => new Promise(done => {
   const gd = document.getElementById('CLOUD');
   if (!gd || !window.Plotly || !gd._fullLayout) { done(null); return; }
   requestAnimationFrame(() => requestAnimationFrame(() => {
@@ -397,7 +408,7 @@ _SCENE = """new Promise(done => {
           menu: gd.layout.updatemenus[0].buttons.map(b => b.label),
           points: gd._fullData[0].x.length});
   }));
-})""".replace("CLOUD", CLOUD_DIV_ID)
+}))""".replace("CLOUD", CLOUD_DIV_ID)
 
 
 def coloured_fraction(pixels: np.ndarray) -> float:
@@ -443,7 +454,7 @@ def test_a_report_without_its_plotly_js_fails(runs: dict[str, Path], browser: Ch
     plotly.js does not load, the page logs the failed load and ``Plotly is not defined``, and no
     scene is drawn: the checks of the test above reject it."""
     text = (runs["measure"] / "report.html").read_text(encoding="utf-8")
-    start = text.rindex("<script", 0, text.index("* plotly.js v"))
+    start = text.index(f'<script id="{PLOTLY_SCRIPT_ID}"')
     end = text.index("</script>", start) + len("</script>")
     variant = runs["root"] / "report_cdn.html"
     variant.write_text(

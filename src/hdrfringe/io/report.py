@@ -14,18 +14,21 @@
   browser with no server and no network. The cloud is subsampled to at most
   :data:`MAX_POINTS` points (every k-th valid pixel), and the report says how many it shows.
 
-The HTML is one self-contained file: plotly.js (4.8 MB for plotly 7.1), the previews and the
-points (5.3 bytes per coordinate and colouring); docs/report.md says why plotly, how to open the
-file and what sets its size.
+The HTML is one self-contained file: plotly.js (4.8 MB for plotly 7.1; embedded
+gzip-compressed, 2.0 MB, and inflated by the browser), the previews and the points (5.3 bytes
+per coordinate and colouring); docs/report.md says why plotly, how to open the file and what
+sets its size.
 """
 
 from __future__ import annotations
 
 import base64
 import functools
+import gzip
 import html
 import json
 import math
+import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = [
     "CLOUD_DIV_ID",
     "MAX_POINTS",
+    "PLOTLY_SCRIPT_ID",
     "REPORT_FILES",
     "CloudView",
     "ReportContent",
@@ -548,23 +552,66 @@ def _md_block(kind: str, data: Any) -> str:
 _SCRIPT_MARK = "<!-- plotly.js -->"
 
 
+#: The ``id`` of the ``<script>`` element that holds plotly.js (gzip-compressed, base64).
+PLOTLY_SCRIPT_ID = "plotly-js"
+
+#: The loader: plotly.js inflated by the browser's own gzip decoder (``DecompressionStream``:
+#: Chromium 80, Firefox 113, Safari 16.4) and run as an inline script; ``window.plotlyLoaded``
+#: settles when it has run. The view's script waits for it (:func:`_cloud_html`).
+_LOADER = (
+    "window.plotlyLoaded = new Response(new Blob([Uint8Array.from(atob(\"{packed}\"), "
+    "c => c.charCodeAt(0))]).stream().pipeThrough(new DecompressionStream(\"gzip\"))).text()"
+    ".then(js => {{ const s = document.createElement(\"script\"); s.text = js; "
+    "document.head.appendChild(s); }});"
+)
+
+
 @functools.cache
 def _plotly_js() -> bytes:
-    """The ``<script>`` elements ``plotly.io.to_html(include_plotlyjs=True)`` writes: plotly.js
-    as the plotly package bundles it (:func:`plotly.offline.get_plotlyjs`), read and encoded
-    once per process rather than once per report (4.8 MB for plotly 7.1: reading and
-    re-encoding it was most of a report's cost)."""
+    """The ``<script>`` elements that put plotly.js in the page: the ``PlotlyConfig`` that
+    ``plotly.io.to_html(include_plotlyjs=True)`` writes, and plotly.js as the plotly package
+    bundles it (:func:`plotly.offline.get_plotlyjs`, 4.8 MB for plotly 7.1) gzip-compressed
+    and base64-encoded (2.0 MB), inflated by the browser (:data:`_LOADER`). Made once per
+    process (compressing takes about 0.1 s), not once per report."""
     from plotly.offline import get_plotlyjs
 
+    packed = gzip.compress(get_plotlyjs().encode("utf-8"), compresslevel=6, mtime=0)
+    loader = _LOADER.format(packed=base64.b64encode(packed).decode("ascii"))
     return (
         "<script type=\"text/javascript\">window.PlotlyConfig = {MathJaxConfig: 'local'};"
-        f"</script>\n<script charset=\"utf-8\" type=\"text/javascript\">{get_plotlyjs()}</script>"
-    ).encode()
+        f'</script>\n<script id="{PLOTLY_SCRIPT_ID}" type="text/javascript">{loader}</script>'
+    ).encode("ascii")
+
+
+#: A typed array's base64 data in the figure given to plotly.io.to_html: the index of the string
+#: it stands for (:func:`_cloud_html` puts the strings back).
+_BDATA_STUB = "hdrfringe-bdata-{}"
+_BDATA_STUB_RE = re.compile(r'"hdrfringe-bdata-(\d+)"')
+
+
+def _stub_bdata(obj: Any, arrays: list[str]) -> Any:
+    """``obj`` (a figure of dicts and lists) with every typed array's ``bdata`` replaced by a
+    :data:`_BDATA_STUB`, the strings appended to ``arrays``."""
+    if isinstance(obj, dict):
+        if isinstance(obj.get("bdata"), str):
+            arrays.append(obj["bdata"])
+            return {**obj, "bdata": _BDATA_STUB.format(len(arrays) - 1)}
+        return {k: _stub_bdata(v, arrays) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_stub_bdata(v, arrays) for v in obj]
+    return obj
 
 
 def _cloud_html(view: CloudView | None, max_points: int) -> tuple[str, str]:
     """The 3D view's element and the script drawing it (after :data:`_SCRIPT_MARK`, where
-    plotly.js goes), and its line for both reports."""
+    plotly.js goes), and its line for both reports.
+
+    The figure goes through ``plotly.io.to_html`` with its typed arrays' base64 strings stubbed
+    out, and the strings are put back into its JSON after: plotly's JSON writer encodes, parses
+    and encodes the figure again and escapes it, which for the megabytes of base64 of a
+    200 000-point view was most of a report's time (benchmarks/bench_report.py); base64 needs no
+    escaping in JSON or in a script element. The script waits for plotly.js to be inflated
+    (``window.plotlyLoaded``; run at once where a page loads plotly.js as a plain script)."""
     if view is None:
         return "", "The run has no point cloud to show."
     import plotly.io
@@ -572,15 +619,20 @@ def _cloud_html(view: CloudView | None, max_points: int) -> tuple[str, str]:
     figure, line = cloud_figure(view, max_points)
     if view.what:
         line = f"The points: {view.what}. {line}"
+    arrays: list[str] = []
     div = plotly.io.to_html(
-        figure,
+        _stub_bdata(figure, arrays),
         include_plotlyjs=False,  # embedded by write_report (_plotly_js): opens offline
         full_html=False,
         validate=False,  # the figure is built here from plain types; no graph_objects needed
         div_id=CLOUD_DIV_ID,
         config={"displaylogo": False, "responsive": True},
     )
-    return _SCRIPT_MARK + div, line
+    head, body = div.split("<script>", 1)
+    body, tail = body.rsplit("</script>", 1)
+    body = _BDATA_STUB_RE.sub(lambda m: f'"{arrays[int(m[1])]}"', body)
+    script = f"<script>Promise.resolve(window.plotlyLoaded).then(() => {{{body}}});</script>"
+    return _SCRIPT_MARK + head + script + tail, line
 
 
 def write_report(
