@@ -26,20 +26,16 @@ NATIVE_SRC := $(wildcard src/hdrfringe/core/_native/*.c)
 # pip installs uv into the environment and uv installs the rest: the same packages and versions
 # as pip (the lower bounds in pyproject.toml), resolved and unpacked in parallel, about 20 s on a
 # fresh machine instead of about 70 s (both measured on this project, 2 cores), and the install
-# counts against the test run's 10 minutes. uv, unlike pip, leaves the packages' bytecode to be
-# written at first import, and where PYTHONDONTWRITEBYTECODE is set (this machine sets it) it
-# would never be written, so every new interpreter compiled numpy, scipy and matplotlib again:
-# `import hdrfringe.cli._app, numpy, scipy.ndimage, matplotlib.pyplot` took 2.0-2.3 s instead
-# of 0.8 s, in every test that starts a process (measured on a clean clone). So the commands
-# below run with PYTHONDONTWRITEBYTECODE empty (unset for Python): the first import of a module
-# writes its bytecode into the environment and later interpreters read it. Compiling every
-# installed package instead (uv --compile-bytecode) took the install from 6.5 to 22.1 s here;
-# the modules the tests import compile in about 3 s, once.
-export PYTHONDONTWRITEBYTECODE :=
+# counts against the test run's 10 minutes. --compile-bytecode: uv, unlike pip, leaves the
+# packages' bytecode to be written at first import, and where PYTHONDONTWRITEBYTECODE is set
+# (this machine sets it) it is never written, so every new interpreter compiled numpy, scipy and
+# matplotlib again: `import hdrfringe.cli._app, numpy, scipy.ndimage, matplotlib.pyplot` took
+# 2.0-2.3 s instead of 0.8 s, in every test that starts a process (measured on a clean clone).
 $(STAMP): pyproject.toml setup.py $(NATIVE_SRC) research/pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --disable-pip-version-check "uv>=0.5"
-	$(VENV)/bin/uv pip install --quiet --python $(VENV)/bin/python -e ".[dev]" -e research
+	$(VENV)/bin/uv pip install --quiet --python $(VENV)/bin/python --compile-bytecode \
+		-e ".[dev]" -e research
 	touch $(STAMP)
 
 system-packages:
