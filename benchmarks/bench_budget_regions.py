@@ -10,7 +10,7 @@ bright side (reflectivity below / above half its maximum) in bands of camera pix
 the nearest pixel of the other side (issue 26: the budget row's excess std on the
 checkerboard is the dark side's first 4 pixels, starved by the map's erosion). ``--set
 blur_px=0`` passes a parameter to every row; ``--ablate NAME=VALUE`` sets a constant of
-:mod:`hdrfringe.strategies.adaptive` for the run (e.g. ``BUDGET_SMOOTH_MIN_PIXELS=10**9``:
+:mod:`hdrfringe.strategies.adaptive` for the run (e.g. ``BUDGET_SMOOTH_MIN_PIXELS=1000000000``:
 the map-bias blur fitted against the mapping's phase even where the budget dimmed it). With
 ``--near-probe`` the bands are instead the distance to the pixels that clipped in the
 probe (the first set at the full MIGL: the specular part's highlight). Each row also prints
@@ -76,10 +76,15 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     extra = {k: ast.literal_eval(v) for k, v in (item.split("=", 1) for item in args.set)}
     for item in args.ablate:
-        name, value = item.split("=", 1)
-        if not hasattr(adaptive_module, name):
-            ap.error(f"--ablate {name}: no such constant in hdrfringe.strategies.adaptive")
-        setattr(adaptive_module, name, type(getattr(adaptive_module, name))(eval(value)))
+        name, sep, value = item.partition("=")
+        if not sep or not hasattr(adaptive_module, name):
+            ap.error(f"--ablate {item!r}: give NAME=VALUE, NAME a constant of "
+                     "hdrfringe.strategies.adaptive")  # fmt: skip
+        try:
+            number = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            ap.error(f"--ablate {item!r}: the value must be a number, e.g. 1000000000")
+        setattr(adaptive_module, name, type(getattr(adaptive_module, name))(number))
     specs = compare_specs(8.0)
     methods = {m.name: m for m in METHODS}
     for name in args.strategies.split(","):

@@ -32,8 +32,8 @@ def test_a_highlight_in_twelve_images_on_the_loop_rig(xdisplay: str, tmp_path: P
     """The live run captures what the virtual rig's own budget run captures (12 images: the
     probe as a fringe set, the dimmed 64 px set and the floored adapted set as 8 ``image``
     frames), reaches the highlight (it clips in the probe; at least 99 % of the pixels the
-    run saw have a phase, against 98.6 % for the budget without the dimmed set and the lowered
-    floor at this size), agrees with the virtual rig within noise (two virtual runs with
+    run saw have a phase, where the budget without the dimmed set and the lowered floor
+    reached 98.6 % at 160 x 120), agrees with the virtual rig within noise (two virtual runs with
     different noise seeds set it), and ``measure`` of the recorded folder with the same
     calibration replays to the live maps exactly. Rejects a floored or dimmed frame shown
     wrongly (the phase would differ beyond noise), one recorded as a fringe set (refused or

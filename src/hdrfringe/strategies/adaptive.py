@@ -216,9 +216,9 @@ BUDGET_DIM_NEAR_PX = 8
 #: Budget: the map-bias blur where the mapping was dimmed is the one (in steps of this many
 #: projector pixels) that leaves the phase smoothest around the highlight, from at least
 #: this many pixels there. The fit against the mapping's phase (its pixels near the
-#: highlight left out) came out 0.69-0.98 px over seeds 0-3 on the specular part at 648 x
-#: 494, and the error against the rig's truth went from 20.6 to 23.8 mrad with it; the
-#: smoothness gives 0.56-0.61 px on all four (docs/adaptive.md, "Budget").
+#: highlight left out) came out 0.68-0.98 px over seeds 0-3 on the specular part at 648 x
+#: 494 (20.64-24.99 mrad against the rig's truth), the smoothness 0.56-0.61 px on all four
+#: (20.82-21.11 mrad; docs/adaptive.md, "Budget").
 BUDGET_BLUR_STEP_PX = 0.05
 BUDGET_SMOOTH_MIN_PIXELS = 200
 
