@@ -1123,14 +1123,14 @@ def _replay(
     centerline: Frame | None,
     calibration_source: str | None,
     settings: CameraSettings | None = None,
+    depth_range_mm: tuple[float, float] | None = None,
 ) -> tuple[Captures, tuple[StrategyResult, ...]]:
     """A strategy on a :class:`ReplayRig` over a MIGL sweep: every family's pitches at the top
     MIGL (or ``specs``), then the folder's other frames (:func:`_replay_frames`)."""
-    if not captures.sets:
-        raise CaptureFormatError(f"{captures.name}: no fringe sets to run a strategy on")
-    families = group_families(captures.sets)
-    if specs is None:
-        specs = [s.spec for fam in families for s in fam]
+    if specs is None:  # (a recorded live run names its sets: its shots may form none)
+        if not captures.sets:
+            raise CaptureFormatError(f"{captures.name}: no fringe sets to run a strategy on")
+        specs = [s.spec for fam in group_families(captures.sets) for s in fam]
     extra = _replay_frames(captures, {s.orientation for s in specs}, centerline is None)
     if calibration is not None:  # refused before the strategy runs
         finest = min(specs, key=lambda s: s.pitch_px)
@@ -1143,7 +1143,11 @@ def _replay(
     # the calibration's projector-camera geometry, as a live run offers it (an adaptive
     # epipolar run recorded with --calibration replays with it)
     geometry = None if calibration is None else calibration.projector_geometry()
-    context = RunContext(available_migls=rig.available_migls(), projector_geometry=geometry)
+    context = RunContext(
+        available_migls=rig.available_migls(),
+        projector_geometry=geometry,
+        depth_range_mm=depth_range_mm,
+    )
     params = prepare_params(get_strategy(strategy), params, context)
     return composite_captures(
         rig, specs, strategy, params, centerline=centerline, extra_frames=extra
@@ -1310,7 +1314,7 @@ def measure(
         strategy = DEFAULT_STRATEGY
     caps, results, p, replay, description = _acquire(
         source, calibration, strategy, params, specs, centerline, calibration_source, sources,
-        replay_settings,
+        replay_settings, depth_range_mm,
     )  # fmt: skip
     decoded, height, fields, stereo = _measure_captures(
         caps,
@@ -1402,6 +1406,7 @@ def _run_live(
     specs: Sequence[FringeSpec] | None,
     centerline: Frame | None,
     calibration_source: str | None,
+    depth_range_mm: tuple[float, float] | None = None,
 ) -> tuple[Captures, tuple[StrategyResult, ...], Any, RigDescription]:
     """The strategy run live on ``rig``: the composite captures, the strategy's results, its
     parameters (prepared with what the measurement offers) and the rig's description."""
@@ -1419,7 +1424,8 @@ def _run_live(
     # calibration (the adaptive projection's epipolar mapping takes the projector row
     # from it when given none, docs/adaptive.md)
     geometry = None if calibration is None else calibration.projector_geometry()
-    p = prepare_params(get_strategy(strategy), p, RunContext(projector_geometry=geometry))
+    context = RunContext(projector_geometry=geometry, depth_range_mm=depth_range_mm)
+    p = prepare_params(get_strategy(strategy), p, context)
     description = describe_rig(rig)
     caps, results = composite_captures(
         rig, specs, strategy, p, centerline=centerline, description=description
@@ -1437,6 +1443,7 @@ def _acquire(
     calibration_source: str | None,
     sources: Mapping[str, str],
     replay_settings: CameraSettings | None = None,
+    depth_range_mm: tuple[float, float] | None = None,
 ) -> tuple[Captures, tuple[StrategyResult, ...], Any, Captures | None, RigDescription | None]:
     """What :func:`measure` measures: the captures (as given, replayed by the strategy, or
     captured live), the strategy's results and parameters, the replayed sweep and the rig's
@@ -1457,14 +1464,15 @@ def _acquire(
         p = _strategy_params(strategy, params)
         caps, results = _replay(
             source, calibration, strategy, p, specs, centerline, calibration_source,
-            replay_settings,
+            replay_settings, depth_range_mm,
         )  # fmt: skip
         return caps, results, p, source, None
     if isinstance(source, Rig):
         strategy = DEFAULT_STRATEGY if strategy is None else strategy
         caps, results, p, description = _run_live(
-            source, calibration, strategy, params, specs, centerline, calibration_source
-        )
+            source, calibration, strategy, params, specs, centerline, calibration_source,
+            depth_range_mm,
+        )  # fmt: skip
         return caps, results, p, None, description
     raise InputError(
         f"measure takes Captures or a Rig, got {type(source).__name__}; read a capture "

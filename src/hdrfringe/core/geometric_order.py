@@ -48,6 +48,7 @@ __all__ = [
     "family_geometric_order",
     "geometric_order",
     "ray_coordinate_span",
+    "ray_projector_points",
     "unambiguous_depth_mm",
 ]
 
@@ -216,6 +217,64 @@ def ray_coordinate_span(
     lo[empty] = np.nan
     hi[empty] = np.nan
     return lo.reshape(shape), hi.reshape(shape)
+
+
+def ray_projector_points(
+    calibration: StereoCalibration,
+    depth_range_mm: tuple[float, float],
+    u_cam: ArrayLike,
+    v_cam: ArrayLike,
+    *,
+    step_px: float = 1.0,
+) -> tuple[F64, F64]:
+    """Projector points a camera pixel's ray can light over a depth range: its epipolar segment.
+
+    Parameters
+    ----------
+    calibration : StereoCalibration
+        The projector-camera calibration.
+    depth_range_mm : tuple of float
+        ``(zmin, zmax)`` along the camera axis, mm.
+    u_cam, v_cam : array_like
+        Camera pixels (OpenCV convention), one shape.
+    step_px : float
+        Largest spacing of consecutive points along a segment, projector pixels (> 0).
+
+    Returns
+    -------
+    u, v : ndarray, shape (samples, n)
+        Projector column and row of each of ``n`` pixels' rays at ``samples`` depths evenly
+        spaced in ``1/z`` from ``zmin`` to ``zmax``, as many as keep the longest segment's
+        points ``step_px`` apart; NaN where a point does not project.
+
+    Examples
+    --------
+    >>> from hdrfringe.core.stereo import LensModel
+    >>> cam = LensModel([[1000, 0, 320], [0, 1000, 240], [0, 0, 1]], [], (640, 480))
+    >>> proj = LensModel([[1000, 0, 400], [0, 1000, 300], [0, 0, 1]], [], (800, 600))
+    >>> calib = StereoCalibration(cam, proj, np.eye(3), [-100.0, 0, 0])
+    >>> u, v = ray_projector_points(calib, (400, 500), [320.0], [240.0], step_px=10)
+    >>> u[:, 0].round(1).tolist(), sorted(set(v[:, 0].tolist()))  # 400 - 1000 * 100 / z
+    ([150.0, 160.0, 170.0, 180.0, 190.0, 200.0], [300.0])
+    """
+    zmin, zmax = check_depth_range(depth_range_mm)
+    if not (np.isfinite(step_px) and step_px > 0):
+        raise InputError(f"step must be a positive number of projector pixels, got {step_px}")
+    rays, _ = _camera_rays(calibration, u_cam, v_cam)
+    if rays.shape[0] == 0:
+        return np.empty((2, 0)), np.empty((2, 0))
+
+    def at(inverse_depths: F64) -> tuple[F64, F64]:
+        pts = rays[None, :, :] / inverse_depths[:, None, None]
+        world = pts.reshape(-1, 3) @ calibration.rotation.T + calibration.translation_mm
+        u, v = calibration.projector.project(world)
+        return u.reshape(inverse_depths.size, -1), v.reshape(inverse_depths.size, -1)
+
+    ends = np.array([1.0 / zmin, 1.0 / zmax])
+    u, v = at(ends)
+    length = float(np.nanmax(np.hypot(u[1] - u[0], v[1] - v[0]), initial=0.0))
+    samples = max(2, int(np.ceil(length / float(step_px))) + 1)
+    return at(np.linspace(ends[0], ends[1], samples))
 
 
 @dataclass(frozen=True, eq=False)

@@ -55,11 +55,13 @@ from numpy.typing import NDArray
 from hdrfringe.core._validation import full_scale, json_safe, saturation_count
 from hdrfringe.core.captures import CameraSettings
 from hdrfringe.core.frames import ImageFrame, PixelwiseFringeFrame, as_image_frame
+from hdrfringe.core.geometric_order import check_depth_range, geometric_order, ray_projector_points
 from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.core.phase import decode_set, default_min_modulation
 from hdrfringe.core.saturation.adaptive_map import (
     boosted_map,
     epipolar_rows,
+    erode_map,
     fill_holes,
     fit_blur_sigma,
     footprint_px,
@@ -76,6 +78,12 @@ from hdrfringe.core.saturation.adaptive_map import (
 )
 from hdrfringe.core.saturation.tolerant import tolerant_phase
 from hdrfringe.core.stereo import StereoCalibration
+from hdrfringe.core.uncertainty import (
+    NoiseModel,
+    NoiseUnknownError,
+    estimate_noise,
+    noise_from_manifest,
+)
 from hdrfringe.core.unwrap import unwrap_spatial, unwrap_temporal
 from hdrfringe.errors import HdrFringeError, InputError
 from hdrfringe.rig.base import Rig
@@ -220,6 +228,24 @@ BUDGET_DIM_NEAR_PX = 8
 #: 494 (20.64-24.99 mrad against the rig's truth), the smoothness 0.56-0.61 px on all four
 #: (20.82-21.11 mrad; docs/adaptive.md, "Budget").
 BUDGET_BLUR_STEP_PX = 0.05
+#: Budget with a depth range: spacing (projector pixels) of the points along each epipolar
+#: segment that the probe's dimmed shifts cover (half a pixel: the rounded points join).
+BUDGET_SEGMENT_STEP_PX = 0.5
+#: Budget with a depth range: clipped pixels whose segments are drawn at once (memory).
+BUDGET_SEGMENT_CHUNK = 20000
+#: Budget with a depth range: a camera pixel whose projector coordinate lies within this many
+#: projector pixels of the dimmed probe's map step straddles it (the camera pixel's footprint
+#: and the coordinate's error): its shifts are not one fringe, it gives no phase or response.
+BUDGET_STRADDLE_PX = 2
+#: Budget with a depth range: the least modulation (8-bit DN, scaled to the camera's bit
+#: depth) at which a pixel of the dimmed probe gives the mapping a phase that orders the
+#: finer set (below it the pixel still places itself in the projector). The dimmed region
+#: (the clipped pixels' epipolar segments) also covers dark surface beside the highlight,
+#: whose dimmed fringe (a few DN from the camera's black, its troughs clipped at 0) has a
+#: phase error of a period's tenths, too much to order an 8x finer set, and a pixel at its
+#: edge whose coordinate put it on the wrong side of the step mixes two levels: those pixels
+#: take their fringe orders from their neighbours (docs/adaptive.md, "Budget").
+BUDGET_DIM_MIN_MODULATION = 10.0
 BUDGET_SMOOTH_MIN_PIXELS = 200
 
 ORIENTATIONS = ("vertical", "horizontal")
@@ -279,6 +305,11 @@ class _Mapping:
     safe: NDArray[np.bool_] | None = None
     #: pixels decoded in at least one mapping set
     decoded: NDArray[np.bool_] | None = None
+    #: whether ``dim_map`` dimmed the first set's shifts 1.. too (the budget's dimmed probe)
+    dim_first: bool = False
+    #: the absolute phase that orders the finer sets where it is not ``absolute`` (the dimmed
+    #: probe's: without its weak pixels, which still place themselves in the projector)
+    ordering: dict[str, NDArray[np.float64]] | None = None
 
 
 def _capture(rig: Rig, frames: list[Any], settings: CameraSettings | None) -> NDArray:
@@ -297,6 +328,8 @@ def _measure_mapping(
     allow_bright: bool = True,
     first_window: int | None = None,
     dim: StereoCalibration | None = None,
+    first_dim: _DimmedProbe | None = None,
+    geometric: tuple[StereoCalibration, tuple[float, float]] | None = None,
 ) -> _Mapping:
     """Capture and decode the mapping sets; absolute phase, coordinates and response.
 
@@ -316,7 +349,10 @@ def _measure_mapping(
     (:func:`_unwrap_ladder`). ``dim``: the calibration of a one-ladder (epipolar) budget
     mapping whose first set is ``first_images`` at the full MIGL: the later sets show the
     pixels that clipped in it at :data:`BUDGET_SAFE_MIGL` (:func:`_dimmed_map`), and their
-    response is measured there.
+    response is measured there. ``first_dim``: ``first_images`` is the budget's dimmed probe
+    (:func:`_dimmed_probe`): its per-pixel levels give the response, its dimmed pixels that
+    clipped in the full-MIGL shot are measured. ``geometric``: the calibration and depth range
+    that order the coarsest set (:func:`_unwrap_ladder`).
     """
     bits = rig.camera_bit_depth
     imin = template.imin
@@ -349,6 +385,8 @@ def _measure_mapping(
             else:
                 imgs.append(_capture(rig, spec.frames(), settings))
             dec = decode_set(imgs[-1], spec, bits)
+            if k_ == 0 and first_dim is not None:  # straddling the dimmed probe's step: none
+                dec = dataclasses.replace(dec, valid=dec.valid & first_dim.usable)
             ms.append(m)
             clipped_here = saturation_count(imgs[-1], bits) > 0
             if k_ == 0 and dim is not None and len(pitches) == 1 and clipped_here.any():
@@ -368,7 +406,12 @@ def _measure_mapping(
                     response.add(dec, dim_levels[0], np.ones(dec.valid.shape, bool), dim_levels[1])
                     assert safe is not None
                     safe &= dec.valid
-            if p == ps[0]:  # a one-period set: the response
+            if k_ == 0 and first_dim is not None:  # the dimmed probe: its levels per pixel
+                response.add(dec, first_dim.levels, dec.valid, first_dim.floor)
+                saturated |= first_dim.clipped
+                dim_map = first_dim.pmap
+                safe = first_dim.clipped & first_dim.dimmed & dec.valid
+            elif p == ps[0]:  # a one-period set: the response
                 g, c = response_from_fringes(dec.mean_intensity, dec.modulation, m, imin)
                 response.add(dec, m, np.ones(g.shape, bool))
                 if auto and len(response.gains) == 1:
@@ -376,6 +419,8 @@ def _measure_mapping(
         images[orient] = imgs
         migls[orient] = ms
         index[orient] = [np.full(rig.image_shape, m, np.float32) for m in ms]
+        if first_dim is not None and orient == next(iter(pitches)):
+            index[orient][0] = first_dim.levels.astype(np.float32)
         if dim_levels is not None:
             index[orient][1:] = [dim_levels[0].astype(np.float32)] * (len(ms) - 1)
 
@@ -400,9 +445,30 @@ def _measure_mapping(
         sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
         window = first_window if orient == next(iter(pitches)) else None
         absolute[orient] = _unwrap_ladder(
-            images[orient], sets, bits, window, fill_first=dim_map is not None
+            images[orient],
+            sets,
+            bits,
+            window,
+            fill_first=dim_map is not None and first_dim is None,
+            geometric=geometric,
+            first_mask=None if first_dim is None else first_dim.usable,
         )
         coords[orient] = projector_coordinates(absolute[orient], ps[-1])
+    ordering: dict[str, NDArray[np.float64]] | None = None
+    if first_dim is not None:  # the dimmed probe's weak pixels order nothing
+        o0 = next(iter(pitches))
+        sets = [_spec_at(template, o0, p, m) for p, m in zip(pitches[o0], migls[o0], strict=True)]
+        ordering = {
+            o0: _unwrap_ladder(
+                images[o0],
+                sets,
+                bits,
+                first_window,
+                geometric=geometric,
+                first_mask=first_dim.usable,
+                order_mask=first_dim.ordered,
+            )
+        }
     gain, ambient = response.combined()
     return _Mapping(
         pitches,
@@ -418,6 +484,8 @@ def _measure_mapping(
         dim_map,
         safe,
         decoded,
+        first_dim is not None,
+        ordering,
     )
 
 
@@ -463,6 +531,108 @@ def _dimmed_map(
     )
     received = sample_map(pmap, u, v)
     return pmap, (received, lowered_floor(received, first_spec.imin, BUDGET_FLOOR_SPAN))
+
+
+@dataclass
+class _DimmedProbe:
+    """The budget's probe with its shifts after the first dimmed (internal, :func:`_dimmed_probe`).
+
+    ``images``: the set (the full-MIGL shifts where the map did not dim the pixel, else the
+    first shift completed from the dimmed ones); ``pmap``: the dimmed shifts' projector map;
+    per camera pixel the ``levels`` (MIGL) and ``floor`` its set was captured at; ``clipped``:
+    the pixels that clipped in the full-MIGL first shift or that, dimmed, show a response that
+    clips at the full MIGL; ``dimmed``: those the map dimmed; ``usable``: not those that
+    straddle the map's step (their shifts saw both levels: no phase, no response);
+    ``ordered``: usable, and not dimmed below :data:`BUDGET_DIM_MIN_MODULATION` (no phase).
+    """
+
+    images: NDArray
+    pmap: NDArray[np.float64]
+    levels: NDArray[np.float64]
+    floor: NDArray[np.float64]
+    clipped: NDArray[np.bool_]
+    dimmed: NDArray[np.bool_]
+    usable: NDArray[np.bool_]
+    ordered: NDArray[np.bool_]
+
+
+def _segment_map(run: _Run, clipped: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """The projector map of the dimmed probe: the full MIGL, but :data:`BUDGET_SAFE_MIGL`
+    along the epipolar segment (over the depth range) of every camera pixel in ``clipped``,
+    eroded by the camera pixel's footprint plus :data:`BUDGET_SAFE_MARGIN_PX`. Without a
+    coarser phase the segment is all that is known of where such a pixel looks."""
+    calib, zrange = run.geometric_inputs
+    proj = run.rig.projector
+    full = float(run.first.migl)
+    h, w = clipped.shape
+    # the camera pixel's footprint from a grid of every k-th pixel (its steps over k), in the
+    # middle of the range (the mean of the segments' two ends)
+    k = max(1, min(h, w) // 64)
+    rows, cols = np.mgrid[0:h:k, 0:w:k].astype(np.float64)
+    eu, ev = ray_projector_points(calib, zrange, cols, rows, step_px=np.finfo(float).max)
+    grid = rows.shape
+    footprint = footprint_px(eu.mean(axis=0).reshape(grid), ev.mean(axis=0).reshape(grid)) / k
+    pmap = np.full((proj.height, proj.width), full)
+    rr, cc = np.nonzero(clipped)
+    for start in range(0, rr.size, BUDGET_SEGMENT_CHUNK):  # bounded memory on large cameras
+        part = slice(start, start + BUDGET_SEGMENT_CHUNK)
+        pu, pv = ray_projector_points(
+            calib,
+            zrange,
+            cc[part].astype(np.float64),
+            rr[part].astype(np.float64),
+            step_px=BUDGET_SEGMENT_STEP_PX,
+        )
+        ok = np.isfinite(pu) & np.isfinite(pv)
+        ci, ri = np.rint(pu[ok]).astype(np.intp), np.rint(pv[ok]).astype(np.intp)
+        inside = (ci >= 0) & (ci < proj.width) & (ri >= 0) & (ri < proj.height)
+        pmap[ri[inside], ci[inside]] = BUDGET_SAFE_MIGL
+    return erode_map(pmap, footprint + BUDGET_SAFE_MARGIN_PX)
+
+
+def _dimmed_probe(run: _Run, spec: FringeSpec, shot: NDArray) -> _DimmedProbe:
+    """The budget's probe with a depth range, after its full-MIGL first shift ``shot`` clipped
+    somewhere: its other shifts dimmed along the clipped pixels' epipolar segments
+    (:func:`_segment_map`, floor at black), their first shift completed from them
+    (:func:`_with_first_shift`). Where each pixel looks, to know what it received: the three
+    shifts' own phase ordered from the geometry, the row from the calibration."""
+    bits, full = run.bits, float(spec.migl)
+    calib, zrange = run.geometric_inputs
+    clipped = saturation_count(shot, bits) > 0
+    pmap = _segment_map(run, clipped)
+    rest = _capture(run.rig, _floored_frames(spec, pmap)[1:], run.settings)
+    completed = _with_first_shift(rest, bits)
+    dec = decode_set(completed, spec, bits)
+    phase = np.where(dec.valid, dec.wrapped_phase, np.nan)
+    ordered = geometric_order(phase, spec.pitch_px, spec.orientation, calib, zrange)
+    absolute = _plane_mean(ordered.absolute_phase, MEDIAN_WINDOW)
+    u = fill_holes(projector_coordinates(absolute, spec.pitch_px))
+    v = epipolar_rows(calib, u)
+    # the map around where each pixel looks (its footprint and the coordinate's error): all
+    # dimmed, all full, or both (the pixel straddles the step)
+    from scipy import ndimage  # here: measure imports this module (cold start, issue 16)
+
+    size = 2 * BUDGET_STRADDLE_PX + 1
+    lo = sample_map(ndimage.minimum_filter(pmap, size, mode="nearest"), u, v)
+    hi = sample_map(ndimage.maximum_filter(pmap, size, mode="nearest"), u, v)
+    got = sample_map(pmap, u, v)
+    dimmed = (hi < full) | (~np.isfinite(got) & clipped)
+    usable = dimmed | ~(lo < full)
+    levels = np.where(dimmed, np.where(np.isfinite(got), got, BUDGET_SAFE_MIGL), full)
+    levels = np.where(usable, levels, np.where(np.isfinite(got), got, full))
+    images = np.where(dimmed[None], completed, np.concatenate([shot, rest]))
+    floor = lowered_floor(levels, spec.imin, BUDGET_FLOOR_SPAN)
+    # the dimmed pixels whose response says the full-MIGL probe would have clipped them are
+    # the highlight as much as those its first shift clipped (the full probe's own set)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = 2.0 * dec.modulation / (levels - floor)
+        peak = dec.mean_intensity + g * (full - (levels + floor) / 2.0)
+    clipped = clipped | (dimmed & dec.valid & (peak >= full_scale(bits)))
+    # weak: a fringe too faint to order the finer set, dimmed or not (beside the dimmed
+    # region a coordinate off by a few pixels puts a pixel on the wrong side of the step)
+    limit = BUDGET_DIM_MIN_MODULATION * full_scale(bits) / 255.0
+    weak = ~(decode_set(images, spec, bits).modulation >= limit)
+    return _DimmedProbe(images, pmap, levels, floor, clipped, dimmed, usable, usable & ~weak)
 
 
 def _spec_at(template: FringeSpec, orient: str, pitch: float, migl: float) -> FringeSpec:
@@ -567,6 +737,9 @@ def _unwrap_ladder(
     bits: int,
     first_window: int | None = None,
     fill_first: bool = False,
+    geometric: tuple[StereoCalibration, tuple[float, float]] | None = None,
+    first_mask: NDArray[np.bool_] | None = None,
+    order_mask: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64]:
     """One orientation's mapping ladder unwrapped temporally, coarsest set first; each level
     median-smoothed: the low-MIGL phases are noisy, smoothing each level before it predicts
@@ -574,14 +747,30 @@ def _unwrap_ladder(
     ``first_window``: the coarsest level averaged on the circle over that window instead
     (the budget's set completed from three low shifts: noisier than four). ``fill_first``:
     the coarsest level's holes filled from their neighbours (the budget's probe clipped where
-    the dimmed later sets decode: a one-period phase is smooth enough to order them)."""
+    the dimmed later sets decode: a one-period phase is smooth enough to order them).
+    ``geometric``: a calibration and depth range: the coarsest set spans no projector, it is
+    ordered pixel by pixel from the geometry
+    (:func:`~hdrfringe.core.geometric_order.geometric_order`; NaN where no single
+    order fits), then averaged with a plane over that window (:func:`_plane_mean`).
+    ``first_mask``: the coarsest set's pixels that may be used. ``order_mask`` (with
+    ``geometric``): the coarsest level averaged over these pixels alone (NaN elsewhere):
+    pixels whose phase places them but is too poor to order a finer set neither order nor
+    bias their neighbours."""
     phases = []
     for imgs, spec in zip(images, sets, strict=True):
         # a merged set decodes as one: the phase does not depend on the MIGL
         d = decode_set(imgs, spec, bits)
         phases.append(np.where(d.valid, d.wrapped_phase, np.nan))
+    if first_mask is not None:
+        phases[0] = np.where(first_mask, phases[0], np.nan)
     ps = [s.pitch_px for s in sets]
-    if first_window is None:
+    if geometric is not None:
+        calib, zrange = geometric
+        window = MEDIAN_WINDOW if first_window is None else first_window
+        ordered = geometric_order(phases[0], ps[0], sets[0].orientation, calib, zrange)
+        mask = np.ones(phases[0].shape, bool) if order_mask is None else order_mask
+        current = _plane_mean(np.where(mask, ordered.absolute_phase, np.nan), window)
+    elif first_window is None:
         current = median_smooth(phases[0], MEDIAN_WINDOW)
     else:
         current = _circular_mean(phases[0], first_window)
@@ -604,6 +793,32 @@ def _circular_mean(phase: NDArray[np.float64], size: int) -> NDArray[np.float64]
     re = uniform_filter(z.real, size, mode="nearest")
     im = uniform_filter(z.imag, size, mode="nearest")
     return np.where(ok, np.mod(np.arctan2(im, re), 2 * np.pi), np.nan)
+
+
+def _plane_mean(values: NDArray[np.float64], size: int) -> NDArray[np.float64]:
+    """A continuous map (an absolute phase) averaged over a ``size`` x ``size`` window with
+    a plane: the window's mean less its local gradient times the offset of the window's
+    valid pixels' centroid from the pixel (NaN ignored, stays NaN). Unbiased on a ramp beside
+    holes and edges, where a plain mean gives the value at the centroid (a 64 px fringe turns
+    some 0.16 rad per camera pixel at 648 x 494: a centroid 3 px off is 0.5 rad, more than
+    an 8 px set's order tolerates). The gradient is the window's mean difference between
+    neighbouring valid pixels."""
+    from scipy.ndimage import uniform_filter
+
+    ok = np.isfinite(values)
+    weight = uniform_filter(ok.astype(np.float64), size, mode="nearest")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = uniform_filter(np.where(ok, values, 0.0), size, mode="nearest") / weight
+        for axis in (0, 1):
+            index = np.indices(values.shape, dtype=np.float64)[axis]
+            offset = uniform_filter(np.where(ok, index, 0.0), size, mode="nearest") / weight
+            step = np.diff(values, axis=axis, append=np.nan)  # forward difference
+            pair = np.isfinite(step)
+            gradient = uniform_filter(np.where(pair, step, 0.0), size, mode="nearest") / (
+                uniform_filter(pair.astype(np.float64), size, mode="nearest")
+            )
+            out = out - np.where(np.isfinite(gradient), gradient, 0.0) * (offset - index)
+    return np.where(ok, out, np.nan)
 
 
 def _correct_map_bias(
@@ -874,6 +1089,13 @@ def _checked_inputs(
             "(--adaptive-auto-exposure), not both"
         )
     calib = _epipolar_calibration(rig, specs, params.epipolar, params.stereo_calibration)
+    if params.depth_range_mm is not None:
+        if params.max_images is None:
+            raise InputError(
+                "adaptive depth_range_mm orders the image budget's coarsest set; give "
+                "max_images (--max-images) or drop the depth range"
+            )
+        check_depth_range(params.depth_range_mm)
     if params.full_mapping and params.mapping_migl is not None:
         raise InputError(
             "adaptive: --adaptive-full-mapping chooses the mapping MIGL itself; drop "
@@ -895,11 +1117,13 @@ def _checked_inputs(
 
 
 def _plan_ladders(
-    rig: Rig, specs: list[FringeSpec], calib: StereoCalibration | None
+    rig: Rig, specs: list[FringeSpec], calib: StereoCalibration | None, geometric: bool = False
 ) -> tuple[dict[str, int], dict[str, list[float]]]:
     """Per orientation the index of the finest set (the adapted one) and the mapping ladder,
     which includes the measurement's coarser pitches (those sets are the mapping's own
-    captures); the orientation the measurement does not unwrap first."""
+    captures); the orientation the measurement does not unwrap first. ``geometric`` (a
+    calibration and a depth range order the coarsest set): the ladder is the measurement's
+    coarser sets alone, where it has any."""
     proj = rig.projector
     finest_any = min(s.pitch_px for s in specs)
     finest: dict[str, int] = {}
@@ -913,7 +1137,11 @@ def _plan_ladders(
             key=lambda i: -specs[i].pitch_px,
         )
         target = specs[own[-1]].pitch_px if own else finest_any
-        ladder = set(mapping_pitches(extent, target)) | {specs[i].pitch_px for i in own[:-1]}
+        coarser = {specs[i].pitch_px for i in own[:-1]}
+        if geometric and coarser:
+            ladder = coarser
+        else:
+            ladder = set(mapping_pitches(extent, target)) | coarser
         pitches[orient] = sorted(ladder, reverse=True)
         if own:
             finest[orient] = own[-1]
@@ -966,6 +1194,22 @@ class _Run:
     def afford(self, step: str) -> bool:
         """Whether one more set of ``step`` fits the budget (and charge it); always without."""
         return self.budget is None or self.budget.afford(step, self.first.steps)
+
+    @property
+    def geometric(self) -> tuple[StereoCalibration, tuple[float, float]] | None:
+        """The calibration and depth range that order the coarsest set (None: a one-period
+        set does)."""
+        zrange = self.params.depth_range_mm
+        if self.calib is None or zrange is None or self.budget is None:
+            return None
+        return self.calib, check_depth_range(zrange)
+
+    @property
+    def geometric_inputs(self) -> tuple[StereoCalibration, tuple[float, float]]:
+        """:attr:`geometric`, which the caller knows is set."""
+        geo = self.geometric
+        assert geo is not None
+        return geo
 
     @property
     def first(self) -> FringeSpec:
@@ -1046,6 +1290,7 @@ def _map_camera_to_projector(
             first_images=low_first[0],
             allow_bright=allow_bright,
             first_window=BUDGET_FIRST_WINDOW,
+            geometric=run.geometric,
         )
     elif run.params.full_mapping or probe is not None:
         o0 = next(iter(pitches))
@@ -1055,9 +1300,19 @@ def _map_camera_to_projector(
         if full_clipped <= FULL_MAPPING_MAX_CLIPPED:
             m0, full_mapped = float(first.migl), True
             # the budget's one ladder: the pixels the probe clipped measured, dimmed, after it
-            dim = run.calib if run.budget is not None and probe is not None else None
+            # (with a depth range the probe was dimmed itself: _dimmed_probe)
+            budget_probe = run.budget is not None and probe is not None
+            dim = run.calib if budget_probe and run.geometric is None else None
             mp = _measure_mapping(
-                run.rig, first, pitches, m0, settings, auto=False, first_images=imgs0, dim=dim
+                run.rig,
+                first,
+                pitches,
+                m0,
+                settings,
+                auto=False,
+                first_images=imgs0,
+                dim=dim,
+                geometric=run.geometric,
             )
         else:
             trial, trial_images = [float(first.migl)], (imgs0, float(first.migl))
@@ -1071,6 +1326,7 @@ def _map_camera_to_projector(
             auto=run.params.mapping_migl is None,
             trial=trial_images,
             allow_bright=allow_bright,
+            geometric=run.geometric,
         )
     u = mp.coords["vertical"]
     v = mp.coords["horizontal"] if run.calib is None else epipolar_rows(run.calib, u)
@@ -1203,7 +1459,8 @@ def _mapping_set_results(run: _Run, mp: _Mapping) -> list[StrategyResult | None]
         k = run.pitches[spec.orientation].index(spec.pitch_px)
         imgs, m_set = mp.images[spec.orientation][k], mp.migls[spec.orientation][k]
         sat = saturation_count(imgs, run.bits) > 0
-        dimmed = mp.dim_map if k > 0 else None  # the budget's: dimmed where the probe clipped
+        # the budget's: dimmed where the probe clipped (its own shifts too with a depth range)
+        dimmed = mp.dim_map if k > 0 or mp.dim_first else None
         sets = [CapturedSet(migl=m_set, exposure_ms=run.exposure_ms, migl_map=dimmed)]
         if mp.bright_migl is not None:
             sets.append(CapturedSet(migl=mp.bright_migl, exposure_ms=run.exposure_ms))
@@ -1505,14 +1762,16 @@ def _adapted_phase(
         fill = st.remaining & np.isfinite(phi) & (mod >= default_min_modulation(bits))
         wrapped = np.where(fill, phi, wrapped)
     orient = spec.orientation
-    predicted = mp.absolute[orient] * (run.pitches[orient][-1] / spec.pitch_px)
+    ordering = mp.absolute if mp.ordering is None else mp.ordering
+    predicted = ordering[orient] * (run.pitches[orient][-1] / spec.pitch_px)
     absolute = wrapped + 2 * np.pi * np.rint((predicted - wrapped) / (2 * np.pi))
     # pixels clipped in the mapping have no orders: the top-up's, and with the full-MIGL
     # mapping any that the adapted set decoded (a glint under the half-way level)
     seeds = took if took is not None and st.passes["topup"] else np.zeros(mapping.u.shape, bool)
     if mapping.full_mapped:
         seeds = seeds | mp.saturated
-    if mp.dim_map is not None:  # the budget's dimmed sets left some without a mapping phase
+    if mp.dim_map is not None or run.geometric is not None:
+        # the budget's dimmed sets, or the geometry, left some without a mapping phase
         seeds = seeds | ~np.isfinite(predicted)
     if seeds.any():
         t1 = time.perf_counter()
@@ -1664,8 +1923,44 @@ def _run_adaptive(
 # ---------------------------------------------------------------------------------------------
 
 
+def _mapping_noise(
+    rig: Rig,
+    mp: _Mapping,
+    first: FringeSpec,
+    bits: int,
+    completed: NDArray[np.bool_] | None,
+) -> NoiseModel | None:
+    """The camera's noise estimated from the mapping sets' own residuals
+    (:func:`~hdrfringe.core.uncertainty.estimate_noise`), leaving out the pixels whose first
+    set's first shift was computed from the others (``completed``: no residual); where no
+    set allows an estimate, the noise the rig's camera description records (the virtual
+    rig's, a replayed folder's manifest); else None."""
+    describe = getattr(rig, "camera_manifest", None)
+    replayed = getattr(rig, "captures", None)
+    camera = describe() if callable(describe) else getattr(replayed, "camera", None)
+    recorded = noise_from_manifest(camera) if isinstance(camera, dict) else None
+    o0 = next(iter(mp.pitches))
+    sets: list[tuple[Any, FringeSpec]] = []
+    for orient, ps in mp.pitches.items():
+        for k, (imgs, p) in enumerate(zip(mp.images[orient], ps, strict=True)):
+            if k == 0 and orient == o0 and completed is not None:
+                if completed.all():
+                    continue
+                imgs = imgs[:, ~completed][:, None, :]
+            sets.append((imgs, _spec_at(first, orient, p, first.migl)))
+    try:
+        return estimate_noise(sets, bits) if sets else recorded
+    except NoiseUnknownError:
+        return recorded
+
+
 def _exposure_from_mapping(
-    mp: _Mapping, first: FringeSpec, bits: int, margin: float, reference_ms: float
+    mp: _Mapping,
+    first: FringeSpec,
+    bits: int,
+    margin: float,
+    reference_ms: float,
+    noise: NoiseModel | None = None,
 ) -> float:
     """The adapted set's exposure from the mapping's response alone (thesis Sec. 7.3).
 
@@ -1676,8 +1971,10 @@ def _exposure_from_mapping(
     modulation with a longer exposure: its ambient and the fringe's ``imin`` grow with it).
     The exposure is the one of :data:`BUDGET_EXPOSURE_STEPS` per octave between
     1 / :data:`BUDGET_MAX_EXPOSURE_RATIO` and :data:`BUDGET_MAX_EXPOSURE_RATIO` times
-    ``reference_ms`` that minimises the mean predicted phase variance ``1 / modulation^2``
-    over the pixels that carry a fringe at ``reference_ms`` (the noise alike for all), among
+    ``reference_ms`` that minimises the mean predicted phase variance
+    ``sigma^2(I) / modulation^2`` over the pixels that carry a fringe at ``reference_ms``
+    (``noise``: the camera's, read and shot noise at the pixel's mean intensity ``I`` at that
+    exposure; None: alike for all), among
     those that leave at most :data:`BUDGET_CLIP_FRACTION` of them clipped at the lowest
     usable MIGL or below the detection modulation; ``reference_ms`` where it is within
     :data:`BUDGET_EXPOSURE_TOLERANCE` of that least variance. Pixels clipped in the mapping
@@ -1712,7 +2009,9 @@ def _exposure_from_mapping(
     migl = np.minimum(full, (top / s - c) / g)  # the highest safe MIGL at each exposure
     modulation = s * g * (migl - imin) / 2.0
     lost = (migl < floor) | (modulation < det)
-    variance = np.mean(1.0 / np.maximum(modulation, det) ** 2, axis=1)
+    # the noise at each pixel's mean intensity at that exposure (shot noise grows with it)
+    sigma2 = 1.0 if noise is None else noise.variance(s * (c + g * (migl + imin) / 2.0))
+    variance = np.mean(sigma2 / np.maximum(modulation, det) ** 2, axis=1)
     feasible = np.mean(lost, axis=1) <= BUDGET_CLIP_FRACTION
     if not feasible.any():
         return reference_ms
@@ -1803,7 +2102,13 @@ def _run_budget(
     own = getattr(rig, "stereo_calibration", None)
     if calib is None and callable(own) and all(s.orientation == "vertical" for s in specs):
         calib = _epipolar_calibration(rig, specs, True, None)  # the rig's: one ladder
-    finest, pitches = _plan_ladders(rig, specs, calib)
+    if params.depth_range_mm is not None and calib is None:
+        raise InputError(
+            "adaptive depth_range_mm orders the coarsest set from a projector-camera "
+            "calibration; measure vertical sets with one (measure -c STEREO.h5 "
+            "--adaptive-epipolar) or drop the depth range"
+        )
+    finest, pitches = _plan_ladders(rig, specs, calib, params.depth_range_mm is not None)
     # the measurement's own orientation first: its coarsest set is the conventional one
     pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o not in finest)}
     first = specs[0]
@@ -1817,6 +2122,11 @@ def _run_budget(
             f"{', '.join(f'{o} {p}' for o, p in pitches.items())} px and one adapted set per "
             "orientation); raise it"
             + ("" if calib is not None else " or give a stereo calibration (one ladder)")
+            + (
+                ""
+                if calib is None or params.depth_range_mm is not None
+                else " or a depth range (--depth-range: no one-period set)"
+            )
         )
     budget = _Budget(int(limit), int(limit))
     run = _Run(rig, specs, params, calib, params.exposure_ms, [], finest, pitches, {}, budget)
@@ -1830,6 +2140,7 @@ def _run_budget(
     shot = _capture(rig, frames[:1], run.settings)
     clipped_shot = float(np.mean(saturation_count(shot, run.bits) > 0))
     low_first: tuple[NDArray, float] | None = None
+    dimmed: _DimmedProbe | None = None
     ladder = sum(len(p) for p in pitches.values())
     # a full probe that clips on much of the field is one set more than the family
     tight = budget.limit < steps * (1 + ladder + len(finest))
@@ -1839,6 +2150,12 @@ def _run_budget(
         low_first = (_with_first_shift(rest, run.bits), clipped_shot)
         probe = shot  # (not a set: reported only)
         clipped0 = saturation_count(shot, run.bits) > 0
+    elif run.geometric is not None and clipped_shot > 0 and _completes_first_shift(first):
+        # a highlight, and no later mapping set to measure it in: the probe's own other
+        # shifts dimmed where its first shift clipped
+        dimmed = _dimmed_probe(run, probe_spec, shot)
+        probe = dimmed.images
+        clipped0 = dimmed.clipped | (saturation_count(probe, run.bits) > 0)
     else:
         probe = np.concatenate([shot, _capture(rig, frames[1:], run.settings)])
         clipped0 = saturation_count(probe, run.bits) > 0
@@ -1848,6 +2165,8 @@ def _run_budget(
         "first_shift_completed": low_first is not None,
         "probe_clipped_fraction": round(float(clipped0.mean()), 6),
         "epipolar": calib is not None,
+        "depth_range_mm": None if run.geometric is None else list(run.geometric_inputs[1]),
+        "probe_dimmed": dimmed is not None,
     }
     if not clipped0.any():
         return _conventional_sets(run, probe_spec, probe, info)
@@ -1855,13 +2174,16 @@ def _run_budget(
     # else the low-MIGL ladder with the probe merged in (its bright repeat only if it fits)
     # (the bright repeat only follows the low ladder, itself ladder sets more)
     allow_bright = budget.left - steps * (ladder + len(finest)) >= steps * ladder
-    mapping = _map_camera_to_projector(
-        run,
-        m0,
-        probe=None if low_first is not None else probe,
-        allow_bright=allow_bright,
-        low_first=low_first,
-    )
+    if dimmed is not None:
+        mapping = _map_dimmed_probe(run, dimmed)
+    else:
+        mapping = _map_camera_to_projector(
+            run,
+            m0,
+            probe=None if low_first is not None else probe,
+            allow_bright=allow_bright,
+            low_first=low_first,
+        )
     mp = mapping.mp
     n_map = ladder * (1 if mp.bright_migl is None else 2) + len(mapping.trial)
     budget.left = budget.limit - steps * n_map
@@ -1870,7 +2192,16 @@ def _run_budget(
     reference = run.exposure_ms if run.exposure_ms is not None else rig.camera_settings.exposure_ms
     scale = 1.0
     if params.mapping_exposure and reference is not None and reference > 0:
-        t = _exposure_from_mapping(mp, first, run.bits, float(params.margin), float(reference))
+        # the pixels whose first mapping set's first shift was computed have no residual
+        completed: NDArray[np.bool_] | None = None
+        if low_first is not None:
+            completed = np.ones(rig.image_shape, bool)
+        elif dimmed is not None:
+            completed = dimmed.dimmed | ~dimmed.usable
+        noise = _mapping_noise(rig, mp, first, run.bits, completed)
+        t = _exposure_from_mapping(
+            mp, first, run.bits, float(params.margin), float(reference), noise
+        )
         if t != reference:
             scale, run.exposure_ms = t / float(reference), t
             run.topup_reference_ms = float(reference)
@@ -1903,6 +2234,30 @@ def _run_budget(
                 "over_budget": max(0, total - int(limit)),
             }
     return out
+
+
+def _map_dimmed_probe(run: _Run, dimmed: _DimmedProbe) -> _MappingOutcome:
+    """Step 1 after the dimmed probe (:func:`_dimmed_probe`): the rest of the ladder at the
+    full MIGL, the probe's response per pixel at the levels it received, the coarsest set
+    ordered from the geometry."""
+    t0 = time.perf_counter()
+    full = float(run.first.migl)
+    mp = _measure_mapping(
+        run.rig,
+        run.first,
+        run.pitches,
+        full,
+        run.settings,
+        auto=False,
+        first_images=dimmed.images,
+        first_window=BUDGET_FIRST_WINDOW,  # its dimmed pixels: three shifts at a low MIGL
+        first_dim=dimmed,
+        geometric=run.geometric,
+    )
+    u = mp.coords["vertical"]
+    v = epipolar_rows(run.geometric_inputs[0], u)
+    run.seconds["mapping"] = time.perf_counter() - t0
+    return _MappingOutcome(mp, full, u, v, [], True, float(dimmed.clipped.mean()))
 
 
 def _unreached_of(res: StrategyResult, region: NDArray[np.bool_], bits: int) -> dict[str, Any]:
@@ -1946,6 +2301,7 @@ def adaptive_sets(
     full_mapping: bool = False,
     max_images: int | None = None,
     mapping_exposure: bool = True,
+    depth_range_mm: tuple[float, float] | None = None,
 ) -> tuple[StrategyResult, ...]:
     """Per-pixel adaptive projection for the sets ``specs`` of one measurement.
 
@@ -2026,6 +2382,14 @@ def adaptive_sets(
         With ``max_images``: the adapted set's exposure chosen from the mapping's response
         (thesis Sec. 7.3: the darkest mapped surface to the target modulation, as far as the
         brightest keeps below clipping at the lowest usable MIGL).
+    depth_range_mm : tuple of float, optional
+        With ``max_images`` and a calibration (``stereo_calibration`` or the rig's own): the
+        scene's depths along the camera axis, mm. The coarsest set is then ordered from the
+        geometry (:func:`~hdrfringe.core.geometric_order.geometric_order`) and the mapping is
+        the measurement's coarser sets alone, no one-period set (two pitches in 8 images);
+        where the probe's first shift clips, its other shifts are dimmed along the clipped
+        pixels' epipolar segments and its first shift completed from them (docs/adaptive.md,
+        "Budget").
 
     Returns
     -------
@@ -2077,6 +2441,7 @@ def adaptive_sets(
         full_mapping=full_mapping,
         max_images=max_images,
         mapping_exposure=mapping_exposure,
+        depth_range_mm=depth_range_mm,
     )
     return _run_adaptive(rig, specs, params)
 
@@ -2101,6 +2466,7 @@ def adaptive(
     full_mapping: bool = False,
     max_images: int | None = None,
     mapping_exposure: bool = True,
+    depth_range_mm: tuple[float, float] | None = None,
 ) -> StrategyResult:
     """Per-pixel adaptive projection of one set (:func:`adaptive_sets` with ``[spec]``).
 
@@ -2117,7 +2483,7 @@ def adaptive(
         As :func:`adaptive_sets`.
     exposure_ms, auto_exposure, topup, epipolar, stereo_calibration, full_mapping
         As :func:`adaptive_sets`.
-    max_images, mapping_exposure
+    max_images, mapping_exposure, depth_range_mm
         As :func:`adaptive_sets`.
 
     Returns
@@ -2157,6 +2523,7 @@ def adaptive(
         full_mapping=full_mapping,
         max_images=max_images,
         mapping_exposure=mapping_exposure,
+        depth_range_mm=depth_range_mm,
     )
     return res
 
@@ -2205,6 +2572,10 @@ class AdaptiveParams:
         Image budget of the measurement (``--max-images``; docs/adaptive.md, "Budget").
     mapping_exposure : bool
         With ``max_images``: the adapted set's exposure chosen from the mapping's response.
+    depth_range_mm : tuple of float, optional
+        With ``max_images`` and a calibration: the scene's depth range (mm along the camera
+        axis) from which the coarsest set takes its fringe order, no one-period set
+        (``measure --depth-range``).
 
     References
     ----------
@@ -2343,6 +2714,13 @@ class AdaptiveParams:
             "response (thesis Sec. 7.3); False: the rig's.",
         },
     )
+    depth_range_mm: tuple[float, float] | None = field(
+        default=None,
+        metadata={
+            "help": "with max_images and a calibration: the scene's depths (mm) that order the "
+            "coarsest set (default: measure's --depth-range).",
+        },
+    )
 
 
 #: The entries of an adapted set's ``details`` that ``metrics.json`` records.
@@ -2459,14 +2837,15 @@ class Adaptive(FunctionStrategy):
 
     def prepare(self, params: AdaptiveParams, context: RunContext) -> AdaptiveParams:
         """The epipolar mapping takes the projector-camera calibration the measurement was
-        given (``measure --calibration STEREO.h5``) when the parameters name none.
+        given (``measure --calibration STEREO.h5``) when the parameters name none; an image
+        budget takes the measurement's depth range (``measure --depth-range``) likewise.
 
         Parameters
         ----------
         params : AdaptiveParams
             The parameters.
         context : RunContext
-            What the measurement offers (``projector_geometry``).
+            What the measurement offers (``projector_geometry``, ``depth_range_mm``).
 
         Returns
         -------
@@ -2475,12 +2854,18 @@ class Adaptive(FunctionStrategy):
         Examples
         --------
         >>> Adaptive().prepare(AdaptiveParams(epipolar=True), RunContext()).stereo_calibration
+        >>> Adaptive().prepare(AdaptiveParams(max_images=8),
+        ...                    RunContext(depth_range_mm=(1850.0, 1910.0))).depth_range_mm
+        (1850.0, 1910.0)
         """
-        if not params.epipolar or params.stereo_calibration is not None:
-            return params
-        if context.projector_geometry is None:
-            return params
-        return dataclasses.replace(params, stereo_calibration=context.projector_geometry)
+        given: dict[str, Any] = {}
+        if params.epipolar and params.stereo_calibration is None:
+            if context.projector_geometry is not None:
+                given["stereo_calibration"] = context.projector_geometry
+        if params.max_images is not None and params.depth_range_mm is None:
+            if context.depth_range_mm is not None:
+                given["depth_range_mm"] = tuple(context.depth_range_mm)
+        return dataclasses.replace(params, **given) if given else params
 
     def metrics(
         self, results: Sequence[StrategyResult], context: MetricsContext

@@ -397,6 +397,9 @@ class RunContext:
         The projector-camera calibration the measurement was given
         (:meth:`MeasurementCalibration.projector_geometry
         <hdrfringe.core.calibration.MeasurementCalibration.projector_geometry>`); None: none.
+    depth_range_mm : tuple of float or None
+        The scene's depth range along the camera axis the measurement was given (mm,
+        ``measure --depth-range``); None: none.
 
     Examples
     --------
@@ -406,6 +409,7 @@ class RunContext:
 
     available_migls: Sequence[float] | None = None
     projector_geometry: StereoCalibration | None = field(default=None, repr=False)
+    depth_range_mm: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)

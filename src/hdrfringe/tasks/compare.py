@@ -58,6 +58,7 @@ from hdrfringe.tasks._progress import Progress, quiet
 __all__ = [
     "BUDGET_METHODS",
     "COARSE_PITCHES",
+    "DEPTH_RANGE_MM",
     "FULL_COVERAGE",
     "METHODS",
     "REFERENCE_GROUP",
@@ -135,6 +136,10 @@ class Method:
     exposure : bool
         Choose the exposure first (:func:`hdrfringe.strategies.exposure.choose_exposure`,
         thesis Sec. 7.3) and run the strategy at it, the choice's last set reused.
+    coarse : tuple of float, optional
+        The coarser pitches this row measures beside the finest (None: all of
+        :data:`COARSE_PITCHES`); a family without the one-period set takes its fringe order
+        from elsewhere (the rig's calibration and :data:`DEPTH_RANGE_MM`).
 
     Examples
     --------
@@ -147,7 +152,37 @@ class Method:
     strategy: str
     params: Mapping[str, Any] = field(default_factory=dict)
     exposure: bool = False
+    coarse: tuple[float, ...] | None = None
 
+    def family(self, specs: list[FringeSpec]) -> list[FringeSpec]:
+        """The sets this row measures of the table's family ``specs`` (coarsest first).
+
+        Parameters
+        ----------
+        specs : list of FringeSpec
+            :func:`compare_specs`.
+
+        Returns
+        -------
+        list of FringeSpec
+            ``specs`` less the coarser sets :attr:`coarse` leaves out.
+
+        Examples
+        --------
+        >>> m = Method("a", "a", "adaptive", coarse=(64.0,))
+        >>> [s.pitch_px for s in m.family(compare_specs(8.0))]
+        [64.0, 8.0]
+        """
+        if self.coarse is None:
+            return list(specs)
+        return [s for s in specs[:-1] if s.pitch_px in self.coarse] + list(specs[-1:])
+
+
+#: The scenes' depths along the virtual rig's camera axis (mm) for the rows that take the
+#: fringe order from the geometry: the four scenes lie 1870-1900 mm from the camera, and over
+#: this range a 64 px pitch has one order at every pixel (the ray's projector column moves
+#: less than the pitch less its margins; ``tests/test_adaptive_budget.py`` asserts both).
+DEPTH_RANGE_MM = (1850.0, 1910.0)
 
 #: The rows, in run order (a strategy added later is one more line here).
 METHODS: tuple[Method, ...] = (
@@ -171,10 +206,17 @@ METHODS: tuple[Method, ...] = (
     ),
     Method("adaptive-12", "adaptive, budget 12", "adaptive", {"max_images": 12}),
     Method("adaptive-16", "adaptive, budget 16", "adaptive", {"max_images": 16}),
+    Method(
+        "adaptive-8",
+        "adaptive, budget 8, 64/8 px + depth range",
+        "adaptive",
+        {"max_images": 8, "depth_range_mm": DEPTH_RANGE_MM},
+        coarse=(64.0,),
+    ),
 )
 
 #: The rows with an image budget (issue 26) that :func:`budget_summary` sets beside the rest.
-BUDGET_METHODS = ("adaptive-12", "adaptive-16")
+BUDGET_METHODS = ("adaptive-12", "adaptive-16", "adaptive-8")
 #: Least coverage of a row :func:`budget_summary` counts among the "other strategies" (issue
 #: 26's done-when: a std is compared at full coverage; a row covering half the field, e.g. the
 #: conventional one on the checkerboard, reads a lower std on the easier half).
@@ -549,8 +591,18 @@ def compare(
                     False,
                     note=f"not available: strategy {m.strategy!r} is not registered",
                 )
+            elif m.coarse is not None and len(m.family(specs)) < 2:
+                row = CompareRow(
+                    scene,
+                    m.name,
+                    m.label,
+                    False,
+                    note="not available: no coarser pitch of "
+                    f"{', '.join(f'{p:g}' for p in m.coarse or ())} px above the finest "
+                    f"{specs[-1].pitch_px:g} px",
+                )
             else:
-                row = _measure_one(rig, m, specs)
+                row = _measure_one(rig, m, m.family(specs))
                 row.scene = scene
             if thesis_scene is not None:
                 row.thesis = references.get(m.name, {}).get(thesis_scene)
