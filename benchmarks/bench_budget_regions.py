@@ -96,7 +96,9 @@ def main(argv: list[str] | None = None) -> int:
             "dark": (~bright, ndimage.distance_transform_edt(~bright)),
             "bright": (bright, ndimage.distance_transform_edt(bright)),
         }
-        res = measure(rig, strategy=m.strategy, params=dict(m.params) | extra, specs=specs)
+        res = measure(
+            rig, strategy=m.strategy, params=dict(m.params) | extra, specs=m.family(specs)
+        )
         if args.near_probe:
             first = res.strategy_results[0]
             probe = saturation_count(first.images, rig.camera_bit_depth) > 0
@@ -114,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"{m.label} {extra or ''}{' ' + ' '.join(args.ablate) if args.ablate else ''}: "
             f"{images} images, coverage {100 * np.mean(np.isfinite(err[truth.valid])):.2f} %, "
+            f"{int((truth.valid & (np.abs(err) > np.pi)).sum())} wrong orders, "
             f"std in order {1e3 * err[ok].std():.2f} mrad, blur "
             f"{'-' if blur is None else f'{blur:.2f}'} px"
         )

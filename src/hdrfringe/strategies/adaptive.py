@@ -224,9 +224,9 @@ BUDGET_DIM_NEAR_PX = 8
 #: Budget: the map-bias blur where the mapping was dimmed is the one (in steps of this many
 #: projector pixels) that leaves the phase smoothest around the highlight, from at least
 #: this many pixels there. The fit against the mapping's phase (its pixels near the
-#: highlight left out) came out 0.68-0.98 px over seeds 0-3 on the specular part at 648 x
-#: 494 (20.64-24.99 mrad against the rig's truth), the smoothness 0.56-0.61 px on all four
-#: (20.82-21.11 mrad; docs/adaptive.md, "Budget").
+#: highlight left out) came out 0.70-1.01 px over seeds 0-3 on the specular part at 648 x
+#: 494 (20.54-25.55 mrad against the rig's truth), the smoothness 0.56-0.61 px on all four
+#: (20.63-21.07 mrad; docs/adaptive.md, "Budget").
 BUDGET_BLUR_STEP_PX = 0.05
 #: Budget with a depth range: spacing (projector pixels) of the points along each epipolar
 #: segment that the probe's dimmed shifts cover (half a pixel: the rounded points join).
@@ -543,7 +543,8 @@ class _DimmedProbe:
     the pixels that clipped in the full-MIGL first shift or that, dimmed, show a response that
     clips at the full MIGL; ``dimmed``: those the map dimmed; ``usable``: not those that
     straddle the map's step (their shifts saw both levels: no phase, no response);
-    ``ordered``: usable, and not dimmed below :data:`BUDGET_DIM_MIN_MODULATION` (no phase).
+    ``ordered``: usable, with a modulation of at least :data:`BUDGET_DIM_MIN_MODULATION` (a
+    phase that orders the finer set).
     """
 
     images: NDArray
@@ -802,20 +803,21 @@ def _plane_mean(values: NDArray[np.float64], size: int) -> NDArray[np.float64]:
     holes and edges, where a plain mean gives the value at the centroid (a 64 px fringe turns
     some 0.16 rad per camera pixel at 648 x 494: a centroid 3 px off is 0.5 rad, more than
     an 8 px set's order tolerates). The gradient is the window's mean difference between
-    neighbouring valid pixels."""
+    neighbouring valid pixels. Outside the image counts as no data (a border pixel's window
+    holds only real pixels; repeating the edge would weigh a corner pixel 64 times in 225)."""
     from scipy.ndimage import uniform_filter
 
     ok = np.isfinite(values)
-    weight = uniform_filter(ok.astype(np.float64), size, mode="nearest")
+    weight = uniform_filter(ok.astype(np.float64), size, mode="constant")
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = uniform_filter(np.where(ok, values, 0.0), size, mode="nearest") / weight
+        out = uniform_filter(np.where(ok, values, 0.0), size, mode="constant") / weight
         for axis in (0, 1):
             index = np.indices(values.shape, dtype=np.float64)[axis]
-            offset = uniform_filter(np.where(ok, index, 0.0), size, mode="nearest") / weight
+            offset = uniform_filter(np.where(ok, index, 0.0), size, mode="constant") / weight
             step = np.diff(values, axis=axis, append=np.nan)  # forward difference
             pair = np.isfinite(step)
-            gradient = uniform_filter(np.where(pair, step, 0.0), size, mode="nearest") / (
-                uniform_filter(pair.astype(np.float64), size, mode="nearest")
+            gradient = uniform_filter(np.where(pair, step, 0.0), size, mode="constant") / (
+                uniform_filter(pair.astype(np.float64), size, mode="constant")
             )
             out = out - np.where(np.isfinite(gradient), gradient, 0.0) * (offset - index)
     return np.where(ok, out, np.nan)
