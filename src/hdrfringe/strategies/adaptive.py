@@ -359,8 +359,6 @@ def _measure_mapping(
     images: dict[str, list[NDArray]] = {}
     migls: dict[str, list[float]] = {}
     index: dict[str, list[NDArray[np.float32]]] = {}
-    absolute: dict[str, NDArray[np.float64]] = {}
-    coords: dict[str, NDArray[np.float64]] = {}
     response = _Response(imin)
     saturated = np.zeros(rig.image_shape, bool)
     decodes = np.ones(rig.image_shape, bool)  # valid in every set
@@ -441,34 +439,11 @@ def _measure_mapping(
         bright = float(template.migl)
         _merge_full_migl_ladder(rig, template, pitches, images, index, response, settings)
 
-    for orient, ps in pitches.items():
-        sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
-        window = first_window if orient == next(iter(pitches)) else None
-        absolute[orient] = _unwrap_ladder(
-            images[orient],
-            sets,
-            bits,
-            window,
-            fill_first=dim_map is not None and first_dim is None,
-            geometric=geometric,
-            first_mask=None if first_dim is None else first_dim.usable,
-        )
-        coords[orient] = projector_coordinates(absolute[orient], ps[-1])
-    ordering: dict[str, NDArray[np.float64]] | None = None
-    if first_dim is not None:  # the dimmed probe's weak pixels order nothing
-        o0 = next(iter(pitches))
-        sets = [_spec_at(template, o0, p, m) for p, m in zip(pitches[o0], migls[o0], strict=True)]
-        ordering = {
-            o0: _unwrap_ladder(
-                images[o0],
-                sets,
-                bits,
-                first_window,
-                geometric=geometric,
-                first_mask=first_dim.usable,
-                order_mask=first_dim.ordered,
-            )
-        }
+    absolute, ordering = _ladder_phases(
+        template, pitches, images, migls, bits, first_window, dim_map is not None, first_dim,
+        geometric,
+    )  # fmt: skip
+    coords = {o: projector_coordinates(absolute[o], pitches[o][-1]) for o in pitches}
     gain, ambient = response.combined()
     return _Mapping(
         pitches,
@@ -487,6 +462,49 @@ def _measure_mapping(
         first_dim is not None,
         ordering,
     )
+
+
+def _ladder_phases(
+    template: FringeSpec,
+    pitches: dict[str, list[float]],
+    images: dict[str, list[NDArray]],
+    migls: dict[str, list[float]],
+    bits: int,
+    first_window: int | None,
+    dimmed_later: bool,
+    first_dim: _DimmedProbe | None,
+    geometric: tuple[StereoCalibration, tuple[float, float]] | None,
+) -> tuple[dict[str, NDArray[np.float64]], dict[str, NDArray[np.float64]] | None]:
+    """Each orientation's mapping ladder unwrapped (:func:`_unwrap_ladder`; the first
+    orientation's coarsest level over ``first_window``, its holes filled where the later sets
+    were dimmed, ``dimmed_later``); and, after the dimmed probe, the first orientation's phase
+    without its weak pixels, which orders the finer sets (None otherwise)."""
+    o0 = next(iter(pitches))
+    absolute: dict[str, NDArray[np.float64]] = {}
+    for orient, ps in pitches.items():
+        sets = [_spec_at(template, orient, p, m) for p, m in zip(ps, migls[orient], strict=True)]
+        absolute[orient] = _unwrap_ladder(
+            images[orient],
+            sets,
+            bits,
+            first_window if orient == o0 else None,
+            fill_first=dimmed_later and first_dim is None,
+            geometric=geometric,
+            first_mask=None if first_dim is None else first_dim.usable,
+        )
+    if first_dim is None:
+        return absolute, None
+    sets = [_spec_at(template, o0, p, m) for p, m in zip(pitches[o0], migls[o0], strict=True)]
+    ordering = _unwrap_ladder(
+        images[o0],
+        sets,
+        bits,
+        first_window,
+        geometric=geometric,
+        first_mask=first_dim.usable,
+        order_mask=first_dim.ordered,
+    )
+    return absolute, {o0: ordering}
 
 
 def _floored_frames(spec: FringeSpec, pmap: NDArray[np.float64]) -> list[ImageFrame]:
@@ -2082,11 +2100,11 @@ def _conventional_sets(
     return tuple(out)
 
 
-def _run_budget(
+def _budget_run(
     rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
-) -> tuple[StrategyResult, ...]:
-    """:func:`adaptive_sets` with ``max_images``: every image a measurement image, planned to
-    the budget (docs/adaptive.md, "Budget")."""
+) -> tuple[_Run, float]:
+    """The budget's settled inputs (:class:`_Run`, with its :class:`_Budget`) and the low
+    mapping MIGL; InputError for what the budget cannot do."""
     for flag, given in (
         ("--adaptive-auto-exposure", params.auto_exposure),
         ("--mapping-migl", params.mapping_migl is not None),
@@ -2113,8 +2131,7 @@ def _run_budget(
     finest, pitches = _plan_ladders(rig, specs, calib, params.depth_range_mm is not None)
     # the measurement's own orientation first: its coarsest set is the conventional one
     pitches = {o: pitches[o] for o in sorted(pitches, key=lambda o: o not in finest)}
-    first = specs[0]
-    steps = first.steps
+    steps = specs[0].steps
     minimum = steps * (sum(len(p) for p in pitches.values()) + len(finest))
     limit = params.max_images
     if isinstance(limit, bool) or not isinstance(limit, int | np.integer) or limit < minimum:
@@ -2133,80 +2150,123 @@ def _run_budget(
     budget = _Budget(int(limit), int(limit))
     run = _Run(rig, specs, params, calib, params.exposure_ms, [], finest, pitches, {}, budget)
     run.seconds["exposure"] = 0.0
-    o0 = next(iter(pitches))
-    probe_spec = _spec_at(first, o0, pitches[o0][0], float(first.migl))
-    frames = probe_spec.frames()
-    budget.afford("mapping", steps)
-    # the probe's first shift alone: where it clips on much of the field, the set's other
-    # shifts are captured at the low mapping MIGL and the first shift is completed from them
-    shot = _capture(rig, frames[:1], run.settings)
-    clipped_shot = float(np.mean(saturation_count(shot, run.bits) > 0))
+    return run, m0
+
+
+@dataclass
+class _Probe:
+    """The budget's first set (internal, :func:`_capture_probe`): its spec at the full MIGL,
+    what was captured of it, the pixels that clipped at the full MIGL, and how the set was
+    completed: ``low_first`` (its other shifts at the low MIGL, the first computed, and the
+    fraction its full-MIGL first shift clipped) or ``dimmed`` (:func:`_dimmed_probe`)."""
+
+    spec: FringeSpec
+    images: NDArray
+    clipped: NDArray[np.bool_]
     low_first: tuple[NDArray, float] | None = None
     dimmed: _DimmedProbe | None = None
+
+    @property
+    def completed(self) -> NDArray[np.bool_] | None:
+        """Pixels whose first mapping set's first shift was computed (no 4-step residual)."""
+        if self.low_first is not None:
+            return np.ones(self.clipped.shape, bool)
+        if self.dimmed is not None:
+            return self.dimmed.dimmed | ~self.dimmed.usable
+        return None
+
+
+def _capture_probe(run: _Run, m0: float) -> _Probe:
+    """Step 0: the coarsest set at the full MIGL, its first shift alone first. Where that
+    clips on much of the field (under a budget that cannot hold the full probe beside the
+    family) the set's other shifts come at the low mapping MIGL and the first is completed
+    from them; where it clips somewhere and a depth range orders the set, the other shifts
+    are dimmed along the clipped pixels' epipolar segments; else the other shifts at the
+    full MIGL."""
+    rig, first, budget, pitches = run.rig, run.first, run.budget, run.pitches
+    assert budget is not None
+    steps = first.steps
+    o0 = next(iter(pitches))
+    spec = _spec_at(first, o0, pitches[o0][0], float(first.migl))
+    frames = spec.frames()
+    budget.afford("mapping", steps)
+    shot = _capture(rig, frames[:1], run.settings)
+    clipped_shot = float(np.mean(saturation_count(shot, run.bits) > 0))
     ladder = sum(len(p) for p in pitches.values())
     # a full probe that clips on much of the field is one set more than the family
-    tight = budget.limit < steps * (1 + ladder + len(finest))
+    tight = budget.limit < steps * (1 + ladder + len(run.finest))
     if tight and clipped_shot > FULL_MAPPING_MAX_CLIPPED and _completes_first_shift(first):
-        low_spec = _spec_at(first, o0, pitches[o0][0], m0)
-        rest = _capture(rig, low_spec.frames()[1:], run.settings)
+        rest = _capture(rig, _spec_at(first, o0, pitches[o0][0], m0).frames()[1:], run.settings)
         low_first = (_with_first_shift(rest, run.bits), clipped_shot)
-        probe = shot  # (not a set: reported only)
-        clipped0 = saturation_count(shot, run.bits) > 0
-    elif run.geometric is not None and clipped_shot > 0 and _completes_first_shift(first):
+        # (the shot is not a set: reported only)
+        return _Probe(spec, shot, saturation_count(shot, run.bits) > 0, low_first=low_first)
+    if run.geometric is not None and clipped_shot > 0 and _completes_first_shift(first):
         # a highlight, and no later mapping set to measure it in: the probe's own other
         # shifts dimmed where its first shift clipped
-        dimmed = _dimmed_probe(run, probe_spec, shot)
-        probe = dimmed.images
-        clipped0 = dimmed.clipped | (saturation_count(probe, run.bits) > 0)
-    else:
-        probe = np.concatenate([shot, _capture(rig, frames[1:], run.settings)])
-        clipped0 = saturation_count(probe, run.bits) > 0
+        dimmed = _dimmed_probe(run, spec, shot)
+        clipped = dimmed.clipped | (saturation_count(dimmed.images, run.bits) > 0)
+        return _Probe(spec, dimmed.images, clipped, dimmed=dimmed)
+    probe = np.concatenate([shot, _capture(rig, frames[1:], run.settings)])
+    return _Probe(spec, probe, saturation_count(probe, run.bits) > 0)
+
+
+def _budget_exposure(run: _Run, mp: _Mapping, probe: _Probe) -> float:
+    """Step 2: the adapted set's exposure from the mapping (:func:`_exposure_from_mapping`,
+    the noise from the mapping's residuals, :func:`_mapping_noise`), set on ``run``; returns
+    its ratio to the mapping's."""
+    params, rig, first = run.params, run.rig, run.first
+    reference = run.exposure_ms if run.exposure_ms is not None else rig.camera_settings.exposure_ms
+    if not (params.mapping_exposure and reference is not None and reference > 0):
+        return 1.0
+    noise = _mapping_noise(rig, mp, first, run.bits, probe.completed)
+    t = _exposure_from_mapping(mp, first, run.bits, float(params.margin), float(reference), noise)
+    if t == reference:
+        return 1.0
+    run.exposure_ms, run.topup_reference_ms = t, float(reference)
+    return t / float(reference)
+
+
+def _run_budget(
+    rig: Rig, specs: Sequence[FringeSpec], params: AdaptiveParams
+) -> tuple[StrategyResult, ...]:
+    """:func:`adaptive_sets` with ``max_images``: every image a measurement image, planned to
+    the budget (docs/adaptive.md, "Budget")."""
+    run, m0 = _budget_run(rig, specs, params)
+    budget, finest, steps = run.budget, run.finest, run.first.steps
+    assert budget is not None
+    probe = _capture_probe(run, m0)
     info: dict[str, Any] = {
-        "max_images": int(limit),
-        "probe_images": int(probe.shape[0]),
-        "first_shift_completed": low_first is not None,
-        "probe_clipped_fraction": round(float(clipped0.mean()), 6),
-        "epipolar": calib is not None,
+        "max_images": budget.limit,
+        "probe_images": int(probe.images.shape[0]),
+        "first_shift_completed": probe.low_first is not None,
+        "probe_clipped_fraction": round(float(probe.clipped.mean()), 6),
+        "epipolar": run.calib is not None,
         "depth_range_mm": None if run.geometric is None else list(run.geometric_inputs[1]),
-        "probe_dimmed": dimmed is not None,
+        "probe_dimmed": probe.dimmed is not None,
     }
-    if not clipped0.any():
-        return _conventional_sets(run, probe_spec, probe, info)
+    if not probe.clipped.any():
+        return _conventional_sets(run, probe.spec, probe.images, info)
     # the rest of the mapping: at the full MIGL where only a highlight clipped in the probe,
     # else the low-MIGL ladder with the probe merged in (its bright repeat only if it fits)
     # (the bright repeat only follows the low ladder, itself ladder sets more)
+    ladder = sum(len(p) for p in run.pitches.values())
     allow_bright = budget.left - steps * (ladder + len(finest)) >= steps * ladder
-    if dimmed is not None:
-        mapping = _map_dimmed_probe(run, dimmed)
+    if probe.dimmed is not None:
+        mapping = _map_dimmed_probe(run, probe.dimmed)
     else:
         mapping = _map_camera_to_projector(
             run,
             m0,
-            probe=None if low_first is not None else probe,
+            probe=None if probe.low_first is not None else probe.images,
             allow_bright=allow_bright,
-            low_first=low_first,
+            low_first=probe.low_first,
         )
     mp = mapping.mp
     n_map = ladder * (1 if mp.bright_migl is None else 2) + len(mapping.trial)
     budget.left = budget.limit - steps * n_map
     results = _mapping_set_results(run, mp)
     spare = _spare_mapping_migls(run, mp) + mapping.trial
-    reference = run.exposure_ms if run.exposure_ms is not None else rig.camera_settings.exposure_ms
-    scale = 1.0
-    if params.mapping_exposure and reference is not None and reference > 0:
-        # the pixels whose first mapping set's first shift was computed have no residual
-        completed: NDArray[np.bool_] | None = None
-        if low_first is not None:
-            completed = np.ones(rig.image_shape, bool)
-        elif dimmed is not None:
-            completed = dimmed.dimmed | ~dimmed.usable
-        noise = _mapping_noise(rig, mp, first, run.bits, completed)
-        t = _exposure_from_mapping(
-            mp, first, run.bits, float(params.margin), float(reference), noise
-        )
-        if t != reference:
-            scale, run.exposure_ms = t / float(reference), t
-            run.topup_reference_ms = float(reference)
+    scale = _budget_exposure(run, mp, probe)
     info["exposure_ms"] = run.exposure_ms
     proj = _plan_projector_map(run, mapping, scale)
     owner = min(finest.values())
@@ -2233,7 +2293,7 @@ def _run_budget(
             r.details["budget"] |= {
                 "images": total,
                 "skipped": list(budget.skipped),
-                "over_budget": max(0, total - int(limit)),
+                "over_budget": max(0, total - budget.limit),
             }
     return out
 
