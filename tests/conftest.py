@@ -11,7 +11,7 @@ import subprocess
 import sys
 import traceback
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -281,32 +281,43 @@ def kimthyung_sphere(kimthyung_rows: dict) -> dict:
             "n_kept": n_kept}  # fmt: skip
 
 
-@pytest.fixture(scope="session")
-def kamino410_object1(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """kamino410 object1 imported (``import`` with docs/examples/import/kamino410_object1.toml),
-    once for the whole run: under xdist the first worker to need it imports it into the run's
-    shared temporary folder, holding a file lock, and the other worker waits for it and reuses it
-    (pytest-xdist's documented pattern). Read-only for the tests: they measure and decode it into
-    folders of their own (copy it before changing anything). tests/test_import_realdata.py imports
-    it itself: that test is of the import."""
+def shared_once(
+    tmp_path_factory: pytest.TempPathFactory, name: str, make: Callable[[Path], None]
+) -> Path:
+    """A folder ``make(folder)`` fills once for the whole run: under xdist the first worker to
+    ask fills it in the run's shared temporary folder, holding a file lock, and the other
+    worker waits for it and reuses it (pytest-xdist's documented pattern). Read-only for the
+    callers (copy it before changing anything)."""
     import fcntl
 
-    root = realdata_path("kamino410", "object1")
     base = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):  # the workers' temporary folders share a parent
         base = base.parent
-    shared = base / "kamino410_object1"
-    caps, done = shared / "caps", shared / "imported"
+    shared = base / name
     shared.mkdir(exist_ok=True)
-    with open(shared / "lock", "w") as lock:
+    with open(base / f"{name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file is closed
-        if not done.exists():
-            description = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
-            res = run_cli("import", str(root), "-d", str(description / "kamino410_object1.toml"),
-                          "-o", str(caps), "--force")  # fmt: skip
-            assert res.returncode == 0, res.stderr
-            done.touch()
-    return caps
+        if not (base / f"{name}.done").exists():
+            make(shared)
+            (base / f"{name}.done").touch()
+    return shared
+
+
+@pytest.fixture(scope="session")
+def kamino410_object1(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """kamino410 object1 imported (``import`` with docs/examples/import/kamino410_object1.toml),
+    once for the whole run (:func:`shared_once`). Read-only for the tests: they measure and
+    decode it into folders of their own (copy it before changing anything).
+    tests/test_import_realdata.py imports it itself: that test is of the import."""
+    root = realdata_path("kamino410", "object1")
+
+    def make(shared: Path) -> None:
+        description = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
+        res = run_cli("import", str(root), "-d", str(description / "kamino410_object1.toml"),
+                      "-o", str(shared / "caps"), "--force")  # fmt: skip
+        assert res.returncode == 0, res.stderr
+
+    return shared_once(tmp_path_factory, "kamino410_object1", make) / "caps"
 
 
 @pytest.fixture(scope="session")
