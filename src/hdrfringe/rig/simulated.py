@@ -1000,23 +1000,23 @@ def _tap_weights(
 
 class _PixelTaps:
     """The defocus weights (:func:`_tap_weights`) of every block of samples of
-    :func:`_sample_pixels` and the first projector pixel of each window (flat index), for fixed
+    :func:`_sample_pixels` and the first projector row and column of each window, for fixed
     sample coordinates: computed once per rig, not once per frame (they depend on ``u``, ``v``
     and the projector alone; at the loop camera's 162x123 they were a quarter of a 2-D frame's
-    sampling). About ``2 (2 ceil(7.5 sigma) + 1) + 1`` numbers per sample (23 at sigma 0.6)."""
+    sampling). About ``2 (2 ceil(7.5 sigma) + 1) + 2`` numbers per sample (24 at sigma 0.6)."""
 
     def __init__(
         self, u: NDArray[np.float64], v: NDArray[np.float64], w: int, h: int, sigma: float
     ) -> None:
-        self.shape = (h, w)
         uf, vf = u.reshape(-1), v.reshape(-1)
-        self.blocks: list[tuple[slice, NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]]
-        self.blocks = []
+        self.window = (0, 0)  # rows, columns
+        self.blocks: list[tuple[slice, NDArray[np.float64], NDArray[np.float64], Any, Any]] = []
         for first in range(0, uf.size, _TAP_CHUNK):
             part = slice(first, first + _TAP_CHUNK)
             wx, col0 = _tap_weights(uf[part], w, sigma)
             wy, row0 = _tap_weights(vf[part], h, sigma)
-            self.blocks.append((part, wx, wy, row0 * w + col0))
+            self.window = (wy.shape[1], wx.shape[1])
+            self.blocks.append((part, wx, wy, row0, col0))
 
 
 def _sample_pixels(
@@ -1037,11 +1037,12 @@ def _sample_pixels(
         return np.where(inside, light[row, col], 0.0)
     if taps is None:
         taps = _PixelTaps(u, v, w, h, sigma)
-    flat = light.reshape(-1)
+    # every window of the image as a view (no copy): a block's windows are gathered by their
+    # first row and column, 2.5x faster than through an index array of every tap
+    windows = np.lib.stride_tricks.sliding_window_view(light, taps.window)
     out = np.empty(u.size)
-    for part, wx, wy, first_pixel in taps.blocks:
-        window = np.arange(wy.shape[1])[:, None] * w + np.arange(wx.shape[1])[None, :]
-        patch = flat[first_pixel[:, None, None] + window]  # (m, rows, columns)
+    for part, wx, wy, row0, col0 in taps.blocks:
+        patch = windows[row0, col0]  # (m, rows, columns)
         out[part] = (np.matmul(patch, wx[:, :, None])[:, :, 0] * wy).sum(axis=1)
     return out.reshape(u.shape)
 
