@@ -1051,10 +1051,14 @@ def _frame_identity(frame: Frame, settings: dict[str, float] | None = None) -> d
     """What seeds a frame's noise: its manifest entry without file names (a 2-D frame's data
     enters through its ``content_sha256``), plus the camera settings when they are not the
     reference ones (so reference captures keep the seeds they always had)."""
-    entry = frame.manifest_entry("")
-    entry.pop("file", None)
     if isinstance(frame, IMAGE_FRAMES):
+        # a placeholder side file: the default's name costs a pass over the image (a whole
+        # projector image checked for integer levels), for a field dropped here
+        entry = frame.manifest_entry("", "")
         entry.pop(frame.DATA_FIELD, None)
+    else:
+        entry = frame.manifest_entry("")
+    entry.pop("file", None)
     if settings is not None:
         entry["camera_settings"] = settings
     return entry
