@@ -11,7 +11,7 @@ import subprocess
 import sys
 import traceback
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -125,6 +125,40 @@ def _child_console_width(pipe_width: int) -> int:
     return int(value) if value else pipe_width
 
 
+#: The click commands typer built from ``hdrfringe.cli.app``'s registered commands, by the
+#: registration (id -> (CommandInfo, typer's options, command)): see :func:`_built_command`.
+_BUILT_COMMANDS: dict[int, tuple[object, tuple[tuple[str, object], ...], object]] = {}
+
+
+def _built_command(build: object) -> object:
+    """``typer.main.get_command_from_info`` that builds each of the app's registered commands
+    once per test process and returns that command after.
+
+    ``app()`` (typer's ``Typer.__call__``) builds the click group and, in it, a click command
+    from every registered command's signature, on every call; a process of the CLI does it
+    once. Once a test process has imported every command's module that is about 30 ms per
+    :func:`run_cli_in_process` call (874 calls in 21 of the CLI test modules: 15 s of CPU).
+    The group is still made anew on every call (its lazily loaded commands, the plug-ins', are
+    loaded anew); only the product's registered commands are reused, click commands being
+    reusable (a context holds an invocation's state). A registration replaced or added (a
+    command module imported later) is built on first use, as before. tests/test_cli_runner.py
+    compares the output of both calls (built, reused) with a real process's."""
+
+    def get_command_from_info(command_info: object, **options: object) -> object:
+        from hdrfringe.cli import app
+
+        key = tuple(sorted(options.items()))
+        entry = _BUILT_COMMANDS.get(id(command_info))
+        if entry is not None and entry[0] is command_info and entry[1] == key:
+            return entry[2]
+        command = build(command_info, **options)  # type: ignore[operator]
+        if any(command_info is registered for registered in app.registered_commands):
+            _BUILT_COMMANDS[id(command_info)] = (command_info, key, command)
+        return command
+
+    return get_command_from_info
+
+
 def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
     """Run the command line in this process, through the entry point ``python -m hdrfringe.cli``
     calls (``hdrfringe.cli.app()``: typer's ``Typer.__call__``, click's standalone ``main``
@@ -140,11 +174,16 @@ def run_cli_in_process(*args: str) -> subprocess.CompletedProcess:
     """
     from unittest import mock
 
+    import typer.main
+
     from hdrfringe.cli import _app, app
 
     out, err = io.StringIO(), io.StringIO()
     code: int = 0
+    build = typer.main.get_command_from_info
     with (
+        # each registered command's click command built once (_built_command)
+        mock.patch.object(typer.main, "get_command_from_info", _built_command(build)),
         contextlib.redirect_stdout(out),
         contextlib.redirect_stderr(err),
         warnings.catch_warnings(record=True) as shown,
@@ -242,32 +281,43 @@ def kimthyung_sphere(kimthyung_rows: dict) -> dict:
             "n_kept": n_kept}  # fmt: skip
 
 
-@pytest.fixture(scope="session")
-def kamino410_object1(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """kamino410 object1 imported (``import`` with docs/examples/import/kamino410_object1.toml),
-    once for the whole run: under xdist the first worker to need it imports it into the run's
-    shared temporary folder, holding a file lock, and the other worker waits for it and reuses it
-    (pytest-xdist's documented pattern). Read-only for the tests: they measure and decode it into
-    folders of their own (copy it before changing anything). tests/test_import_realdata.py imports
-    it itself: that test is of the import."""
+def shared_once(
+    tmp_path_factory: pytest.TempPathFactory, name: str, make: Callable[[Path], None]
+) -> Path:
+    """A folder ``make(folder)`` fills once for the whole run: under xdist the first worker to
+    ask fills it in the run's shared temporary folder, holding a file lock, and the other
+    worker waits for it and reuses it (pytest-xdist's documented pattern). Read-only for the
+    callers (copy it before changing anything)."""
     import fcntl
 
-    root = realdata_path("kamino410", "object1")
     base = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):  # the workers' temporary folders share a parent
         base = base.parent
-    shared = base / "kamino410_object1"
-    caps, done = shared / "caps", shared / "imported"
+    shared = base / name
     shared.mkdir(exist_ok=True)
-    with open(shared / "lock", "w") as lock:
+    with open(base / f"{name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file is closed
-        if not done.exists():
-            description = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
-            res = run_cli("import", str(root), "-d", str(description / "kamino410_object1.toml"),
-                          "-o", str(caps), "--force")  # fmt: skip
-            assert res.returncode == 0, res.stderr
-            done.touch()
-    return caps
+        if not (base / f"{name}.done").exists():
+            make(shared)
+            (base / f"{name}.done").touch()
+    return shared
+
+
+@pytest.fixture(scope="session")
+def kamino410_object1(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """kamino410 object1 imported (``import`` with docs/examples/import/kamino410_object1.toml),
+    once for the whole run (:func:`shared_once`). Read-only for the tests: they measure and
+    decode it into folders of their own (copy it before changing anything).
+    tests/test_import_realdata.py imports it itself: that test is of the import."""
+    root = realdata_path("kamino410", "object1")
+
+    def make(shared: Path) -> None:
+        description = Path(__file__).resolve().parents[1] / "docs" / "examples" / "import"
+        res = run_cli("import", str(root), "-d", str(description / "kamino410_object1.toml"),
+                      "-o", str(shared / "caps"), "--force")  # fmt: skip
+        assert res.returncode == 0, res.stderr
+
+    return shared_once(tmp_path_factory, "kamino410_object1", make) / "caps"
 
 
 @pytest.fixture(scope="session")

@@ -116,6 +116,31 @@ def test_mask_invalid_pixels_and_orders_beyond_resolution() -> None:
     assert short.summary() == {"steps": 3, "reason": short.reason}
 
 
+@pytest.mark.parametrize("target", [250_000, 4_000])  # centre grid strides 1 and 3
+def test_a_small_mask_gives_the_whole_images_estimate(
+    target: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The estimator works on the bounding box of the masked pixels (a sphere's region costs
+    its box, not the 2.8 Mpx image); the equations, their order and their jackknife tiles must
+    be the whole image's. Two lone valid pixels in opposite corners make the box the whole image
+    and add no equation (no neighbour: no centre, no period): the estimate must not change, bit
+    for bit. Rejects a box whose start is off the centre grid (other centres) or tiles taken
+    from the box (other standard errors)."""
+    from hdrfringe.core import harmonics
+
+    monkeypatch.setattr(harmonics, "TARGET_EQUATIONS", target)
+    theta = _surface((300, 400))
+    phi = np.mod(theta + 0.05 * np.sin(6 * theta) + 0.02 * np.cos(3 * theta), TWO_PI)
+    yy, xx = np.mgrid[0:300, 0:400]
+    region = (yy - 171) ** 2 + ((xx - 233) / 1.4) ** 2 < 95**2  # box from row 77, column 101
+    corners = region.copy()
+    corners[0, 0] = corners[-1, -1] = True
+    boxed = estimate_harmonic_error(phi, 3, mask=region)
+    whole = estimate_harmonic_error(phi, 3, mask=corners)
+    assert boxed.reason == "" and boxed.equations > 2_000
+    assert boxed == whole
+
+
 def test_bad_arguments() -> None:
     for bad in ("on", "0", "9", "-1", "", 2.5):
         with pytest.raises(InputError, match="off, auto or a number"):

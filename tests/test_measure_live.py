@@ -27,6 +27,10 @@ from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from tests.conftest import run_cli, run_cli_in_process
 
 RULES = {"initial", "threshold", "lowest"}
+#: No PNG previews nor report in the measurements here: no test reads them (0.36 s of each
+#: live run at 648x494; tests/test_previews.py and tests/test_report.py test them). The
+#: figures (migl_pie.png, dpa_cdf.png) are written either way.
+QUIET = ("--no-previews", "--no-report")
 
 
 @pytest.fixture(scope="module")
@@ -80,8 +84,9 @@ def test_live_without_method_is_conventional(tmp_path: Path, calibration: Path) 
     pitch at MIGL 255; the white squares saturate and are lost, the black ones are measured."""
     out = tmp_path / "conv"
     res = run_cli(
-        "measure", "--rig", "sim", "--scene", "checkerboard", "-c", str(calibration), "-o", str(out)
-    )
+        "measure", "--rig", "sim", "--scene", "checkerboard", "-c", str(calibration),
+        "-o", str(out), *QUIET,
+    )  # fmt: skip
     assert res.returncode == 0, res.stderr
     m = _metrics(out)
     assert m["method"] == "conventional"
@@ -121,6 +126,7 @@ def test_live_strategies_on_white_plate_600lx(
         str(calibration),
         "-o",
         str(out),
+        *QUIET,
     )
     assert res.returncode == 0, res.stderr
     m = _metrics(out)
@@ -167,6 +173,7 @@ def test_live_temporal_unwrapping_without_centerline(tmp_path: Path, calibration
         str(calibration),
         "-o",
         str(out),
+        *QUIET,
     )
     assert res.returncode == 0, res.stderr
     m = _metrics(out)
@@ -185,7 +192,7 @@ def test_live_dpa_bound_pending_through_the_cli(tmp_path: Path) -> None:
         out = tmp_path / flag
         res = run_cli(
             "measure", "--rig", "sim", "--scene", "checkerboard", "--pitch", "8",
-            "--strategy", "dpa", flag, "-o", str(out),
+            "--strategy", "dpa", flag, "-o", str(out), *QUIET,
         )  # fmt: skip
         assert res.returncode == 0, res.stderr
         m = _metrics(out)
@@ -207,7 +214,9 @@ def test_live_dpa_without_saturation_is_one_set(tmp_path: Path) -> None:
     """Requirement 4 through the CLI: nothing saturates at 0 lx, DPA captures one set and
     reports no CDF (the figure says so instead of plotting empty curves)."""
     out = tmp_path / "dpa"
-    res = run_cli("measure", "--rig", "sim", "--pitch", "8", "--strategy", "dpa", "-o", str(out))
+    res = run_cli(
+        "measure", "--rig", "sim", "--pitch", "8", "--strategy", "dpa", "-o", str(out), *QUIET
+    )
     assert res.returncode == 0, res.stderr
     m = _metrics(out)
     assert m["migls"] == [255.0] and m["sets_captured"] == 1
@@ -227,7 +236,7 @@ def test_dpa_cdf_on_a_step1_sweep(tmp_path: Path) -> None:
     sweep = tmp_path / "sweep"
     _small_sweep(sweep, 32.0, 175)
     out = tmp_path / "dpa"
-    res = run_cli("measure", str(sweep), "--strategy", "dpa", "-o", str(out))
+    res = run_cli("measure", str(sweep), "--strategy", "dpa", "-o", str(out), *QUIET)
     assert res.returncode == 0, res.stderr
     m = _metrics(out)
     entry = m["dpa"]["sets"][0]
@@ -291,6 +300,7 @@ def test_train_correction_round_trip_into_dpa(tmp_path: Path) -> None:
         str(corr),
         "-o",
         str(out),
+        *QUIET,
     )
     assert res.returncode == 0, res.stderr
     m = _metrics(out)

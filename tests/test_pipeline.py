@@ -28,6 +28,7 @@ from hdrfringe.rig.simulated import CameraModel, Lighting, SimulatedRig
 from hdrfringe.strategies import CapturedSet, StrategyResult
 from hdrfringe.strategies.lpa import lpa
 from hdrfringe.tasks.measure import write_measurement, write_strategy_outputs
+from tests.conftest import shared_once
 
 DEPTHS = np.array(THESIS_CALIBRATION_DEPTHS_MM)
 #: Where the calibrated plate is measured: every sixth calibration depth (2, 14, 26, 38, 50 mm),
@@ -57,6 +58,24 @@ def frames_for(spec: FringeSpec) -> list[Frame]:
 def series(spec: FringeSpec, *, noise: bool, seed: int) -> list[Captures]:
     fr = frames_for(spec)
     return [captured(plate_rig(d, noise=noise, seed=seed), fr) for d in (0.0, *DEPTHS)]
+
+
+def thesis_calibration(
+    tmp_path_factory: pytest.TempPathFactory, pattern: str, steps: int
+) -> Calibration:
+    """The linear calibration of thesis Table 4.3's conditions (``pattern``, ``steps``, pitch
+    6): the noisy :func:`series` of seed 11, calibrated once for the whole run and read back
+    from its HDF5 file (:func:`tests.conftest.shared_once`): research/tests/test_tradeoff.py
+    measures with the sinusoidal 3-step one too (5 s of CPU each)."""
+    from hdrfringe.io.calibration_file import load_calibration, save_calibration
+
+    def make(folder: Path) -> None:
+        spec = FringeSpec(pattern, steps, 6.0)  # type: ignore[arg-type]
+        cal = calibrate(series(spec, noise=True, seed=11), model="linear")
+        save_calibration(folder / "cal.h5", cal)
+
+    folder = shared_once(tmp_path_factory, f"thesis_calibration_{pattern}_{steps}", make)
+    return load_calibration(folder / "cal.h5")
 
 
 def pooled_rmse(results: list[MeasurementMetrics]) -> float:
@@ -100,14 +119,16 @@ def test_linear_model_error_matches_geometry_and_rational_is_5x_lower() -> None:
 
 
 @pytest.mark.parametrize(("pattern", "steps"), list(THESIS_TABLE_4_3))
-def test_thesis_conditions_white_plate(pattern: str, steps: int, tmp_path) -> None:
+def test_thesis_conditions_white_plate(
+    pattern: str, steps: int, tmp_path: Path, tmp_path_factory: pytest.TempPathFactory
+) -> None:
     """sigma = 1 gray level, no ambient light, MIGL 255, pitch 6, linear model (as the thesis).
 
     Calibrated on one capture series (the 25 depths), measured on a second one (other noise)
     at the :data:`CHECK` depths (the thesis's table averages all 25).
     """
     spec = FringeSpec(pattern, steps, 6.0)  # type: ignore[arg-type]
-    cal = calibrate(series(spec, noise=True, seed=11), model="linear")
+    cal = thesis_calibration(tmp_path_factory, pattern, steps)
     frames = frames_for(spec)
     second = [captured(plate_rig(DEPTHS[j], noise=True, seed=12), frames) for j in CHECK]
     results = [measure(f, cal).metrics for f in second]

@@ -116,6 +116,8 @@ def test_measure_methods_on_a_checkerboard_sweep(tmp_path: Path) -> None:
             "--strategy",
             method,
             *(["--step", "15"] if method == "lpa" else []),  # --step is LPA's alone
+            "--no-previews",  # no test reads them (the pie chart is a figure: written)
+            "--no-report",
         )
         assert res.returncode == 0, res.stderr
         metrics[method] = json.loads((out / "metrics.json").read_text())

