@@ -207,3 +207,13 @@ def test_done_when_adaptive_on_the_checkerboard_at_the_tests_camera() -> None:
     assert ad.images <= dpa.images / 4
     assert ad.coverage >= 0.999
     assert ad.std_rad <= 1.05 * lpa.std_rad
+
+
+def test_a_row_without_its_coarser_pitch_is_not_available() -> None:
+    """``adaptive-8`` measures 64 px and the finest pitch: with the finest at 64 px there is no
+    coarser set of its family, and the row says so instead of running another family. At
+    16 px it runs on its two sets (8 images)."""
+    rows = cmp.compare(["white_plate_600lx"], ["adaptive-8"], resolution=(64, 48), pitch=64)
+    assert not rows[0].available and "no coarser pitch of 64 px" in rows[0].note
+    rows = cmp.compare(["white_plate_600lx"], ["adaptive-8"], resolution=(64, 48), pitch=16)
+    assert rows[0].available and rows[0].images == 8

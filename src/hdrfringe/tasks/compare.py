@@ -2,7 +2,8 @@
 
 For each scene of :data:`SCENES` one virtual rig is built and every method of :data:`METHODS`
 measures the same three vertical sinusoidal 4-step sets on it (pitches 1024, 64 and the
-finest ``pitch``, the ``measure`` command's default family) through the product's own path,
+finest ``pitch``, the ``measure`` command's default family; a row with :attr:`Method.coarse`
+fewer of them, e.g. ``adaptive-8`` the two finer ones) through the product's own path,
 :func:`hdrfringe.pipeline.measure` (the strategy, its decoder, temporal unwrapping, the fringe
 orders a strategy unwrapped itself). The finest set's absolute phase is compared with the
 rig's ground truth ``2 pi u / pitch`` (:class:`hdrfringe.rig.simulated.GroundTruth`) over the
