@@ -245,7 +245,9 @@ def test_the_noise_comes_from_the_mapping_residuals_without_the_completed_pixels
 
 def test_a_depth_range_is_refused_where_it_cannot_order() -> None:
     """A depth range without a budget, or without a calibration (horizontal sets: the budget
-    maps both ladders), is refused with one line; the budget's minimum names the option."""
+    maps both ladders), is refused with one line; the budget's minimum names the option; a
+    range that orders (almost) no pixel says so, with what went wrong (before: "no camera
+    pixel was mapped to the projector")."""
     rig = virtual_rig("white_plate", resolution=(64, 48), seed=0)
     with pytest.raises(InputError, match="give max_images"):
         adaptive_sets(rig, TWO_SMALL, depth_range_mm=DEPTH_RANGE_MM)
@@ -256,6 +258,13 @@ def test_a_depth_range_is_refused_where_it_cannot_order() -> None:
         adaptive_sets(rig, TWO_SMALL, max_images=8)
     with pytest.raises(InputError, match="depth range"):
         adaptive_sets(rig, TWO_SMALL, max_images=8, depth_range_mm=(1900.0, 1850.0))
+    # a range the plate (1900 mm) lies outside, or one too deep for a 64 px order: the range
+    # is named, not the mapping (which decoded)
+    spec = [FringeSpec("sinusoidal", 4, p) for p in (64.0, 16.0)]
+    for far, why in (((500.0, 600.0), "100 % without one"), ((1500.0, 2500.0), "ambiguous")):
+        bright = virtual_rig("white_plate", resolution=(64, 48), seed=0, ambient_lux=600.0)
+        with pytest.raises(InputError, match=f"depth range .* mm gives 0 %.*{why}"):
+            adaptive_sets(bright, spec, max_images=8, depth_range_mm=far)
 
 
 def test_a_recorded_run_without_complete_sets_needs_its_sets_named() -> None:

@@ -55,7 +55,12 @@ from numpy.typing import NDArray
 from hdrfringe.core._validation import full_scale, json_safe, saturation_count
 from hdrfringe.core.captures import CameraSettings
 from hdrfringe.core.frames import ImageFrame, PixelwiseFringeFrame, as_image_frame
-from hdrfringe.core.geometric_order import check_depth_range, geometric_order, ray_projector_points
+from hdrfringe.core.geometric_order import (
+    GeometricOrder,
+    check_depth_range,
+    geometric_order,
+    ray_projector_points,
+)
 from hdrfringe.core.patterns import FringeSpec
 from hdrfringe.core.phase import decode_set, default_min_modulation
 from hdrfringe.core.saturation.adaptive_map import (
@@ -623,7 +628,7 @@ def _dimmed_probe(run: _Run, spec: FringeSpec, shot: NDArray) -> _DimmedProbe:
     completed = _with_first_shift(rest, bits)
     dec = decode_set(completed, spec, bits)
     phase = np.where(dec.valid, dec.wrapped_phase, np.nan)
-    ordered = geometric_order(phase, spec.pitch_px, spec.orientation, calib, zrange)
+    ordered = _geometric_orders(phase, spec.pitch_px, spec.orientation, calib, zrange)
     absolute = _plane_mean(ordered.absolute_phase, MEDIAN_WINDOW)
     u = fill_holes(projector_coordinates(absolute, spec.pitch_px))
     v = epipolar_rows(calib, u)
@@ -750,6 +755,35 @@ def _merge_full_migl_ladder(
                 response.add(decode_set(imgs_b, spec, bits), bright, take)
 
 
+#: Budget with a depth range: the least fraction of the coarsest set's decoded pixels the
+#: geometry must order; below it the depth range, not the scene, is what failed.
+GEOMETRIC_MIN_ORDERED = 0.5
+
+
+def _geometric_orders(
+    phase: NDArray[np.float64],
+    pitch: float,
+    orientation: str,
+    calib: StereoCalibration,
+    zrange: tuple[float, float],
+) -> GeometricOrder:
+    """:func:`~hdrfringe.core.geometric_order.geometric_order` of the coarsest set; InputError
+    naming the depth range where it orders fewer than :data:`GEOMETRIC_MIN_ORDERED` of the
+    decoded pixels (a range too deep for the pitch, or one the scene lies outside)."""
+    ordered = geometric_order(phase, pitch, orientation, calib, zrange)
+    info = ordered.summary()
+    if info["decoded_pixels"] and info["valid_fraction"] < GEOMETRIC_MIN_ORDERED:
+        raise InputError(
+            f"adaptive: the depth range {zrange[0]:g}..{zrange[1]:g} mm gives "
+            f"{100 * info['valid_fraction']:.0f} % of the {pitch:g} px set's decoded pixels a "
+            f"fringe order ({100 * info['ambiguous_fraction']:.0f} % ambiguous: deeper than "
+            f"one order of {pitch:g} px allows; {100 * info['no_candidate_fraction']:.0f} % "
+            "without one: the scene outside it); give the measuring volume's depths along the "
+            "camera axis (--depth-range ZMIN:ZMAX, docs/stereo.md) or a coarser pitch"
+        )
+    return ordered
+
+
 def _unwrap_ladder(
     images: list[NDArray],
     sets: list[FringeSpec],
@@ -786,7 +820,7 @@ def _unwrap_ladder(
     if geometric is not None:
         calib, zrange = geometric
         window = MEDIAN_WINDOW if first_window is None else first_window
-        ordered = geometric_order(phases[0], ps[0], sets[0].orientation, calib, zrange)
+        ordered = _geometric_orders(phases[0], ps[0], sets[0].orientation, calib, zrange)
         mask = np.ones(phases[0].shape, bool) if order_mask is None else order_mask
         current = _plane_mean(np.where(mask, ordered.absolute_phase, np.nan), window)
     elif first_window is None:
